@@ -1,0 +1,112 @@
+#include "calibration/camera_model.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+
+namespace scanbench {
+namespace {
+
+std::invalid_argument FieldError(const std::string& field, double value, const std::string& rule) {
+  return std::invalid_argument("camera intrinsics: " + field + " = " + std::to_string(value) + " " + rule);
+}
+
+cv::Matx33d CameraMatrix(const CameraIntrinsics& k) {
+  return cv::Matx33d(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+}
+
+cv::Vec<double, 5> DistortionVector(const CameraIntrinsics& k) {
+  return cv::Vec<double, 5>(k.k1, k.k2, k.p1, k.p2, k.k3);
+}
+
+}  // namespace
+
+void CheckCameraIntrinsics(const CameraIntrinsics& k) {
+  if (k.width <= 0) throw FieldError("width", k.width, "must be > 0");
+  if (k.height <= 0) throw FieldError("height", k.height, "must be > 0");
+  if (!(k.fx > 0) || !std::isfinite(k.fx)) throw FieldError("fx", k.fx, "must be finite and > 0");
+  if (!(k.fy > 0) || !std::isfinite(k.fy)) throw FieldError("fy", k.fy, "must be finite and > 0");
+  if (!(k.cx >= 0 && k.cx <= k.width - 1)) throw FieldError("cx", k.cx, "must lie in [0, width - 1]");
+  if (!(k.cy >= 0 && k.cy <= k.height - 1)) throw FieldError("cy", k.cy, "must lie in [0, height - 1]");
+  for (const auto& [name, value] : {std::pair{"k1", k.k1}, {"k2", k.k2}, {"k3", k.k3}, {"p1", k.p1}, {"p2", k.p2}}) {
+    if (!std::isfinite(value)) throw FieldError(name, value, "must be finite");
+  }
+}
+
+Eigen::Vector2d ProjectToPixel(const CameraIntrinsics& k, const Eigen::Vector3d& point_in_cam) {
+  const double x = point_in_cam.x() / point_in_cam.z();
+  const double y = point_in_cam.y() / point_in_cam.z();
+  const double r2 = x * x + y * y;
+  const double radial = 1 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3));
+  const double xd = x * radial + 2 * k.p1 * x * y + k.p2 * (r2 + 2 * x * x);
+  const double yd = y * radial + k.p1 * (r2 + 2 * y * y) + 2 * k.p2 * x * y;
+  return {k.fx * xd + k.cx, k.fy * yd + k.cy};
+}
+
+ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics) {
+  CheckCameraIntrinsics(intrinsics);
+  const int width = intrinsics.width;
+  const int height = intrinsics.height;
+  ImageF rays(width, height, 3);
+  const cv::Matx33d camera_matrix = CameraMatrix(intrinsics);
+  const cv::Vec<double, 5> distortion = DistortionVector(intrinsics);
+  // Row by row bounds the temporary memory at 16 MP.
+  std::vector<cv::Point2d> distorted(width), undistorted(width);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) distorted[x] = cv::Point2d(x, y);
+    cv::undistortPoints(distorted, undistorted, camera_matrix, distortion, cv::noArray(), cv::noArray(),
+                        criteria);
+    float* row = rays.row(y);
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector3d ray = Eigen::Vector3d(undistorted[x].x, undistorted[x].y, 1.0).normalized();
+      row[3 * x + 0] = static_cast<float>(ray.x());
+      row[3 * x + 1] = static_cast<float>(ray.y());
+      row[3 * x + 2] = static_cast<float>(ray.z());
+    }
+  }
+  return rays;
+}
+
+Eigen::Vector3d CameraCentreInTable(const CameraGeometry& camera) {
+  return camera.cam_from_table.inverse().translation();
+}
+
+ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera) {
+  ImageF rays = ComputeRayDirectionsInCam(camera.intrinsics);
+  const Eigen::Matrix3f table_from_cam_rotation =
+      camera.cam_from_table.rotation().transpose().cast<float>();
+  float* data = rays.data();
+  for (size_t i = 0; i < rays.num_pixels(); ++i) {
+    Eigen::Map<Eigen::Vector3f> ray(data + 3 * i);
+    ray = table_from_cam_rotation * ray;
+  }
+  return rays;
+}
+
+ImageF ComputeTablePoints(const CameraGeometry& camera) {
+  const Eigen::Vector3d centre = CameraCentreInTable(camera);
+  if (!(centre.z() > 0)) {
+    throw std::invalid_argument("camera geometry: camera centre z = " + std::to_string(centre.z()) +
+                                " mm must be above the table (> 0)");
+  }
+  ImageF points = ComputeRayDirectionsInTable(camera);
+  float* data = points.data();
+  for (size_t i = 0; i < points.num_pixels(); ++i) {
+    Eigen::Map<Eigen::Vector3f> p(data + 3 * i);
+    const Eigen::Vector3d ray = p.cast<double>();
+    if (!(ray.z() < -1e-6)) {
+      throw std::invalid_argument("camera geometry: the ray of pixel " + std::to_string(i % points.width()) +
+                                  "," + std::to_string(i / points.width()) + " does not reach the table");
+    }
+    const double t = -centre.z() / ray.z();
+    p = (centre + t * ray).cast<float>();
+  }
+  return points;
+}
+
+}  // namespace scanbench

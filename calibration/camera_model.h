@@ -1,0 +1,31 @@
+// Pixel <-> ray mapping of the calibrated pinhole camera with lens distortion.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "calibration/rig.h"
+#include "solver/image.h"
+
+namespace scanbench {
+
+// Throws std::invalid_argument naming the field when the intrinsics are unusable
+// (non-positive size or focal length, principal point outside the image).
+void CheckCameraIntrinsics(const CameraIntrinsics& intrinsics);
+
+// Projects a camera-frame point (z > 0) to distorted pixel coordinates.
+Eigen::Vector2d ProjectToPixel(const CameraIntrinsics& intrinsics, const Eigen::Vector3d& point_in_cam);
+
+// Unit viewing ray through every pixel centre, in the camera frame: 3 channels.
+// The lens distortion is inverted iteratively (OpenCV), to well below 1e-6 px.
+ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics);
+
+// Same rays, rotated into the table frame. All start at CameraCentreInTable().
+ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera);
+
+Eigen::Vector3d CameraCentreInTable(const CameraGeometry& camera);
+
+// Where every pixel's ray meets the table plane z = 0, in mm: 3 channels.
+// Throws std::invalid_argument if the camera does not look at the table.
+ImageF ComputeTablePoints(const CameraGeometry& camera);
+
+}  // namespace scanbench
