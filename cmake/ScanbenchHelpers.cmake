@@ -34,7 +34,8 @@ function(scanbench_add_test)
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LINK_LIBS} GTest::gtest GTest::gmock GTest::gtest_main)
   target_compile_options(${ARG_NAME} PRIVATE ${SCANBENCH_WARNING_FLAGS})
   target_compile_definitions(${ARG_NAME} PRIVATE SCANBENCH_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
-  gtest_discover_tests(${ARG_NAME} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 600)
+  gtest_discover_tests(${ARG_NAME} TEST_PREFIX "${ARG_NAME}." DISCOVERY_TIMEOUT 60
+    PROPERTIES TIMEOUT 600)
 endfunction()
 
 # scanbench_add_benchmark(NAME name SRCS ... LINK_LIBS ...)

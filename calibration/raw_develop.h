@@ -1,0 +1,35 @@
+// From a RAW Bayer mosaic to a linear RGB image the solver can use.
+#pragma once
+
+#include "calibration/raw_image.h"
+#include "solver/image.h"
+
+namespace scanbench {
+
+struct RawDevelopOptions {
+  enum class Demosaic {
+    kBilinear,   // OpenCV's bilinear Bayer interpolation
+    kEdgeAware,  // OpenCV's edge-aware interpolation (less zipper at thread edges)
+  };
+  Demosaic demosaic = Demosaic::kEdgeAware;
+  // A raw sample at or above this fraction of white_level counts as clipped, (0, 1].
+  double clip_fraction = 0.98;
+
+  void Check() const;
+};
+
+struct DevelopedFrame {
+  // Linear RGB, 3 channels: (raw - dark) / (white - black) per raw colour
+  // channel. No white balance: the light intensities carry it.
+  ImageF rgb;
+  // 1 channel: 0 where a raw sample that feeds the pixel was clipped.
+  ImageU8 valid;
+  size_t num_clipped_samples = 0;  // raw samples at or above the clip level
+};
+
+// Subtracts `dark` (same size and pattern; its black level is then part of
+// it) or, when `dark` is null, the frame's own black level. Throws
+// std::invalid_argument when the frames do not fit together.
+DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const RawDevelopOptions& options);
+
+}  // namespace scanbench

@@ -1,0 +1,16 @@
+// The light field the rig description predicts before any light calibration:
+// every LED a point source, every pixel's surface point on the table plane.
+#pragma once
+
+#include <memory>
+
+#include "calibration/rig.h"
+#include "solver/light_field.h"
+
+namespace scanbench {
+
+// Lights in the order of rig.leds. Throws std::invalid_argument naming the LED
+// or camera field that is unusable.
+std::unique_ptr<PointLightField> MakeRigLightField(const RigDescription& rig);
+
+}  // namespace scanbench

@@ -1,0 +1,91 @@
+#include "solver/light_field.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace scanbench {
+namespace {
+
+bool AllFinite(const Eigen::Vector3d& v) { return v.allFinite(); }
+
+std::invalid_argument LightError(int index, const std::string& field, const std::string& rule) {
+  return std::invalid_argument("light " + std::to_string(index) + ": " + field + " " + rule);
+}
+
+}  // namespace
+
+DirectionalLightField::DirectionalLightField(int width, int height, std::vector<Eigen::Vector3d> light_dirs,
+                                             std::vector<Eigen::Vector3d> rgb_intensities)
+    : width_(width), height_(height), light_dirs_(std::move(light_dirs)),
+      rgb_intensities_(std::move(rgb_intensities)) {
+  if (light_dirs_.size() != rgb_intensities_.size()) {
+    throw std::invalid_argument("directional light field: " + std::to_string(light_dirs_.size()) +
+                                " directions but " + std::to_string(rgb_intensities_.size()) +
+                                " intensities; they must match");
+  }
+  for (size_t k = 0; k < light_dirs_.size(); ++k) {
+    if (!AllFinite(light_dirs_[k]) || light_dirs_[k].norm() < 1e-12) {
+      throw LightError(static_cast<int>(k), "direction", "must be finite and non-zero");
+    }
+    if (!AllFinite(rgb_intensities_[k]) || (rgb_intensities_[k].array() < 0).any()) {
+      throw LightError(static_cast<int>(k), "rgb_intensity", "must be finite and >= 0");
+    }
+    light_dirs_[k].normalize();
+  }
+}
+
+void DirectionalLightField::Evaluate(int /*x*/, int /*y*/, float* light_dirs, float* rgb_intensities) const {
+  for (size_t k = 0; k < light_dirs_.size(); ++k) {
+    for (int c = 0; c < 3; ++c) {
+      light_dirs[3 * k + c] = static_cast<float>(light_dirs_[k][c]);
+      rgb_intensities[3 * k + c] = static_cast<float>(rgb_intensities_[k][c]);
+    }
+  }
+}
+
+PointLightField::PointLightField(std::vector<PointLight> lights, ImageF surface_points)
+    : lights_(std::move(lights)), surface_points_(std::move(surface_points)) {
+  if (surface_points_.channels() != 3) {
+    throw std::invalid_argument("point light field: surface points have " +
+                                std::to_string(surface_points_.channels()) + " channels; 3 required");
+  }
+  for (size_t k = 0; k < lights_.size(); ++k) {
+    PointLight& light = lights_[k];
+    const int index = static_cast<int>(k);
+    if (!AllFinite(light.position)) throw LightError(index, "position", "must be finite");
+    if (!AllFinite(light.axis) || light.axis.norm() < 1e-12) {
+      throw LightError(index, "axis", "must be finite and non-zero");
+    }
+    if (!(light.mu >= 0) || !std::isfinite(light.mu)) {
+      throw LightError(index, "mu = " + std::to_string(light.mu), "must be finite and >= 0");
+    }
+    if (!AllFinite(light.rgb_intensity) || (light.rgb_intensity.array() < 0).any()) {
+      throw LightError(index, "rgb_intensity", "must be finite and >= 0");
+    }
+    if (!(light.reference_distance > 0)) {
+      throw LightError(index, "reference_distance = " + std::to_string(light.reference_distance), "must be > 0");
+    }
+    light.axis.normalize();
+  }
+}
+
+void PointLightField::Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const {
+  const Eigen::Vector3d point(surface_points_(x, y, 0), surface_points_(x, y, 1), surface_points_(x, y, 2));
+  for (size_t k = 0; k < lights_.size(); ++k) {
+    const PointLight& light = lights_[k];
+    const Eigen::Vector3d to_light = light.position - point;
+    const double distance = to_light.norm();
+    const Eigen::Vector3d light_dir = to_light / distance;
+    // Angle off the LED's axis is measured from the LED towards the point.
+    const double cos_off_axis = std::max(0.0, -light_dir.dot(light.axis));
+    const double falloff = std::pow(cos_off_axis, light.mu) *
+                           (light.reference_distance * light.reference_distance) / (distance * distance);
+    for (int c = 0; c < 3; ++c) {
+      light_dirs[3 * k + c] = static_cast<float>(light_dir[c]);
+      rgb_intensities[3 * k + c] = static_cast<float>(light.rgb_intensity[c] * falloff);
+    }
+  }
+}
+
+}  // namespace scanbench

@@ -1,0 +1,73 @@
+// The light each LED casts on each pixel: direction and RGB intensity.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "solver/image.h"
+
+namespace scanbench {
+
+// Per-pixel lighting in the frame the normals are solved in (the table frame).
+class LightField {
+ public:
+  virtual ~LightField() = default;
+  virtual int num_lights() const = 0;
+  virtual int width() const = 0;
+  virtual int height() const = 0;
+  // Writes, for every light k, the unit direction from the pixel's surface
+  // point towards the light (light_dirs[3k..3k+2]) and the RGB intensity that
+  // a white Lambertian surface facing the light would read there
+  // (rgb_intensities[3k..3k+2]).
+  virtual void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const = 0;
+};
+
+// Distant lights: the same direction and intensity at every pixel.
+class DirectionalLightField final : public LightField {
+ public:
+  // Directions need not be unit length; they are normalised. Throws
+  // std::invalid_argument on a zero or non-finite direction or intensity.
+  DirectionalLightField(int width, int height, std::vector<Eigen::Vector3d> light_dirs,
+                        std::vector<Eigen::Vector3d> rgb_intensities);
+  int num_lights() const override { return static_cast<int>(light_dirs_.size()); }
+  int width() const override { return width_; }
+  int height() const override { return height_; }
+  void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override;
+
+ private:
+  int width_, height_;
+  std::vector<Eigen::Vector3d> light_dirs_;
+  std::vector<Eigen::Vector3d> rgb_intensities_;
+};
+
+// A near-field point source with angular falloff cos(angle off axis)^mu and
+// inverse-square falloff.
+struct PointLight {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();      // same frame and unit as the surface points
+  Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();        // unit, where the LED points
+  double mu = 0;                                           // angular falloff exponent, >= 0
+  Eigen::Vector3d rgb_intensity = Eigen::Vector3d::Ones(); // reading on axis at reference_distance
+  double reference_distance = 1;                           // > 0, unit of the positions
+};
+
+// Point lights shining on a known surface point per pixel (e.g. where each
+// pixel's ray meets the table).
+class PointLightField final : public LightField {
+ public:
+  // surface_points: 3 channels, one point per pixel. Throws
+  // std::invalid_argument on invalid light parameters.
+  PointLightField(std::vector<PointLight> lights, ImageF surface_points);
+  int num_lights() const override { return static_cast<int>(lights_.size()); }
+  int width() const override { return surface_points_.width(); }
+  int height() const override { return surface_points_.height(); }
+  void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override;
+
+  const std::vector<PointLight>& lights() const { return lights_; }
+
+ private:
+  std::vector<PointLight> lights_;
+  ImageF surface_points_;
+};
+
+}  // namespace scanbench

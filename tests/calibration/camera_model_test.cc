@@ -1,0 +1,58 @@
+#include "calibration/camera_model.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tests/calibration/test_rig.h"
+#include "tests/util/eigen_matchers.h"
+
+namespace scanbench {
+namespace {
+
+TEST(CameraModelTest, RaysReprojectToTheirPixelsThroughDistortion) {
+  const CameraGeometry camera = testing::DownLookingCamera(64, 48, 600, /*distorted=*/true);
+  const ImageF rays = ComputeRayDirectionsInCam(camera.intrinsics);
+  double worst = 0;
+  for (int y = 0; y < 48; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      const Eigen::Vector3d ray(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
+      ASSERT_NEAR(ray.norm(), 1.0, 1e-6);
+      worst = std::max(worst, (ProjectToPixel(camera.intrinsics, ray) - Eigen::Vector2d(x, y)).norm());
+    }
+  }
+  // Float storage of the ray limits the round trip, not the undistortion.
+  EXPECT_LT(worst, 1e-3);
+}
+
+TEST(CameraModelTest, TablePointsOfADownLookingCamera) {
+  const CameraGeometry camera = testing::DownLookingCamera(64, 48, 600, /*distorted=*/false);
+  EXPECT_THAT(CameraCentreInTable(camera), testing::EigenNear(Eigen::Vector3d(0, 0, 600), 1e-12));
+  const ImageF points = ComputeTablePoints(camera);
+  // The principal point sees the foot of the camera; image right is table +x,
+  // image up is table +y.
+  const double fx = camera.intrinsics.fx;
+  const int x = 10, y = 5;
+  const Eigen::Vector3f expected((x - camera.intrinsics.cx) / fx * 600, -(y - camera.intrinsics.cy) / fx * 600, 0);
+  EXPECT_THAT(Eigen::Vector3f(points(x, y, 0), points(x, y, 1), points(x, y, 2)),
+              testing::EigenNear(expected, 1e-3));
+}
+
+TEST(CameraModelTest, InvalidIntrinsicsNameTheField) {
+  CameraIntrinsics intrinsics = testing::DownLookingCamera(64, 48, 600, false).intrinsics;
+  intrinsics.fx = -1;
+  EXPECT_THAT([&] { CheckCameraIntrinsics(intrinsics); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("fx = -1")));
+  intrinsics = testing::DownLookingCamera(64, 48, 600, false).intrinsics;
+  intrinsics.cx = 100;
+  EXPECT_THAT([&] { CheckCameraIntrinsics(intrinsics); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("cx = 100")));
+}
+
+TEST(CameraModelTest, CameraBelowTheTableIsRejected) {
+  const CameraGeometry camera = testing::DownLookingCamera(16, 16, -10, false);
+  EXPECT_THAT([&] { ComputeTablePoints(camera); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("above the table")));
+}
+
+}  // namespace
+}  // namespace scanbench

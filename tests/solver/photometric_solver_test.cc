@@ -1,0 +1,255 @@
+#include "solver/photometric_solver.h"
+
+#include <cmath>
+#include <limits>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "solver/angular_error.h"
+#include "solver/synthetic_scene.h"
+#include "tests/util/eigen_matchers.h"
+
+namespace scanbench {
+namespace {
+
+using ::testing::HasSubstr;
+
+PhotometricSolverInput InputFor(const SyntheticScene& scene) {
+  PhotometricSolverInput input;
+  input.images = scene.ImagePointers();
+  input.light_field = scene.light_field.get();
+  return input;
+}
+
+// Pixels where the noise-free Lambertian model holds exactly for every light.
+ImageU8 ExactPixels(const SyntheticScene& scene) {
+  ImageU8 mask = scene.fully_lit;
+  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] &= scene.object.data()[i];
+  return mask;
+}
+
+void ExpectNoNonFinite(const PhotometricSolution& solution) {
+  for (const ImageF* image : {&solution.normal_in_table, &solution.albedo, &solution.condition_number,
+                              &solution.residual}) {
+    for (size_t i = 0; i < image->size(); ++i) ASSERT_TRUE(std::isfinite(image->data()[i])) << "at index " << i;
+  }
+}
+
+struct AnalyticCase {
+  SyntheticSceneOptions::Shape shape;
+  SyntheticSceneOptions::Lights lights;
+};
+
+class AnalyticSceneTest : public ::testing::TestWithParam<AnalyticCase> {};
+
+TEST_P(AnalyticSceneTest, NoiseFreeSolveRecoversNormalAndAlbedoExactly) {
+  SyntheticSceneOptions scene_options;
+  scene_options.shape = GetParam().shape;
+  scene_options.lights = GetParam().lights;
+  const SyntheticScene scene = MakeSyntheticScene(scene_options);
+  const ImageU8 exact = ExactPixels(scene);
+
+  PhotometricSolution solution;
+  const PhotometricSolverSummary summary =
+      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  ASSERT_EQ(summary.termination, PhotometricSolverSummary::Termination::kSuccess) << summary.BriefReport();
+
+  const ErrorStatistics angular = AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, exact);
+  ASSERT_GT(angular.num_pixels, 1000u) << "the scene must have many exactly modelled pixels";
+  EXPECT_LE(angular.max, 0.01) << "mean " << angular.mean;
+  const ErrorStatistics albedo = AbsoluteError(solution.albedo, scene.albedo, exact);
+  EXPECT_LE(albedo.max, 1e-5);
+  for (size_t i = 0; i < exact.num_pixels(); ++i) {
+    if (exact.data()[i]) {
+      ASSERT_EQ(solution.status.data()[i], static_cast<uint8_t>(PixelStatus::kSolved));
+      ASSERT_EQ(solution.lights_used.data()[i], scene_options.num_lights);
+      ASSERT_LT(solution.residual.data()[i], 1e-5);
+    }
+  }
+  ExpectNoNonFinite(solution);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    SphereAndTiltedPlane, AnalyticSceneTest,
+    ::testing::Values(AnalyticCase{SyntheticSceneOptions::Shape::kSphere, SyntheticSceneOptions::Lights::kDistant},
+                      AnalyticCase{SyntheticSceneOptions::Shape::kSphere, SyntheticSceneOptions::Lights::kNearField},
+                      AnalyticCase{SyntheticSceneOptions::Shape::kTiltedPlane,
+                                   SyntheticSceneOptions::Lights::kDistant},
+                      AnalyticCase{SyntheticSceneOptions::Shape::kTiltedPlane,
+                                   SyntheticSceneOptions::Lights::kNearField}),
+    [](const ::testing::TestParamInfo<AnalyticCase>& param_info) {
+      return std::string(param_info.param.shape == SyntheticSceneOptions::Shape::kSphere ? "Sphere" : "TiltedPlane") +
+             (param_info.param.lights == SyntheticSceneOptions::Lights::kDistant ? "DistantLights" : "NearFieldLights");
+    });
+
+TEST(PhotometricSolverTest, TiltedPlaneNormalMatchesTheTilt) {
+  SyntheticSceneOptions scene_options;
+  scene_options.shape = SyntheticSceneOptions::Shape::kTiltedPlane;
+  scene_options.tilt_degrees = 25;  // below the low ring elevation: no attached shadow
+  const SyntheticScene scene = MakeSyntheticScene(scene_options);
+  PhotometricSolution solution;
+  SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  const double tilt = 25 * M_PI / 180;
+  const Eigen::Vector3f normal(solution.normal_in_table(64, 64, 0), solution.normal_in_table(64, 64, 1),
+                               solution.normal_in_table(64, 64, 2));
+  EXPECT_THAT(normal, testing::EigenNear(Eigen::Vector3f(0, -std::sin(tilt), std::cos(tilt)), 1e-6));
+}
+
+TEST(PhotometricSolverTest, NoisySolveStaysCloseAndFinite) {
+  SyntheticSceneOptions scene_options;
+  scene_options.noise_stddev = 0.002;  // about 0.5 % of a mid-grey sample
+  const SyntheticScene scene = MakeSyntheticScene(scene_options);
+  PhotometricSolution solution;
+  SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  const ErrorStatistics angular =
+      AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, ExactPixels(scene));
+  EXPECT_LT(angular.mean, 0.5);
+  EXPECT_GT(angular.mean, 0.001) << "noise must show in the error";
+  ExpectNoNonFinite(solution);
+}
+
+TEST(PhotometricSolverTest, RegionLimitsTheWork) {
+  const SyntheticScene scene = MakeSyntheticScene(SyntheticSceneOptions());
+  PhotometricSolverInput input = InputFor(scene);
+  ImageU8 region(128, 128, 1, 0);
+  for (int y = 10; y < 20; ++y) {
+    for (int x = 30; x < 50; ++x) region(x, y) = 1;
+  }
+  input.region = &region;
+  PhotometricSolution solution;
+  const PhotometricSolverSummary summary = SolvePhotometricStereo(PhotometricSolverOptions(), input, &solution);
+  EXPECT_EQ(summary.num_solved() + summary.pixels_by_status[static_cast<int>(PixelStatus::kFacingAway)] +
+                summary.pixels_by_status[static_cast<int>(PixelStatus::kNoSignal)],
+            200u);
+  EXPECT_EQ(summary.pixels_by_status[static_cast<int>(PixelStatus::kOutsideRegion)], 128u * 128u - 200u);
+  EXPECT_EQ(solution.status(0, 0), static_cast<uint8_t>(PixelStatus::kOutsideRegion));
+  EXPECT_EQ(solution.normal_in_table(0, 0, 2), 1.0f);
+}
+
+TEST(PhotometricSolverTest, TooFewValidSamplesIsFlaggedNotNaN) {
+  const SyntheticScene scene = MakeSyntheticScene(SyntheticSceneOptions());
+  PhotometricSolverInput input = InputFor(scene);
+  // Only two lights usable at pixel (64, 64): clipped everywhere else.
+  std::vector<ImageU8> valid(scene.images.size(), ImageU8(128, 128, 1, 1));
+  for (size_t k = 2; k < valid.size(); ++k) valid[k](64, 64) = 0;
+  for (const ImageU8& mask : valid) input.sample_valid.push_back(&mask);
+  PhotometricSolution solution;
+  SolvePhotometricStereo(PhotometricSolverOptions(), input, &solution);
+  EXPECT_EQ(solution.status(64, 64), static_cast<uint8_t>(PixelStatus::kTooFewLights));
+  EXPECT_EQ(solution.lights_used(64, 64), 2);
+  EXPECT_EQ(solution.status(63, 64), static_cast<uint8_t>(PixelStatus::kSolved));
+  ExpectNoNonFinite(solution);
+}
+
+TEST(PhotometricSolverTest, NonFiniteSamplesAreLeftOut) {
+  const SyntheticScene scene = MakeSyntheticScene(SyntheticSceneOptions());
+  SyntheticScene corrupted = MakeSyntheticScene(SyntheticSceneOptions());
+  corrupted.images[0](64, 64, 0) = std::numeric_limits<float>::quiet_NaN();
+  corrupted.images[1](64, 64, 1) = std::numeric_limits<float>::infinity();
+  PhotometricSolution solution;
+  SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(corrupted), &solution);
+  EXPECT_EQ(solution.status(64, 64), static_cast<uint8_t>(PixelStatus::kSolved));
+  EXPECT_EQ(solution.lights_used(64, 64), 8);
+  const Eigen::Vector3f normal(solution.normal_in_table(64, 64, 0), solution.normal_in_table(64, 64, 1),
+                               solution.normal_in_table(64, 64, 2));
+  const Eigen::Vector3f truth(scene.normal_in_table(64, 64, 0), scene.normal_in_table(64, 64, 1),
+                              scene.normal_in_table(64, 64, 2));
+  EXPECT_THAT(normal, testing::EigenNear(truth, 1e-5));
+  ExpectNoNonFinite(solution);
+}
+
+TEST(PhotometricSolverTest, CoincidentLightsAreIllConditioned) {
+  SyntheticSceneOptions scene_options;
+  scene_options.num_lights = 4;
+  scene_options.min_elevation_deg = 45;
+  scene_options.max_elevation_deg = 45;
+  SyntheticScene scene = MakeSyntheticScene(scene_options);
+  // All four lights from one direction: the system has rank 1.
+  const Eigen::Vector3d dir(0.5, 0.5, std::sqrt(0.5));
+  scene.light_field = std::make_unique<DirectionalLightField>(
+      128, 128, std::vector<Eigen::Vector3d>(4, dir), std::vector<Eigen::Vector3d>(4, Eigen::Vector3d::Ones()));
+  PhotometricSolution solution;
+  const PhotometricSolverSummary summary =
+      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  EXPECT_EQ(summary.pixels_by_status[static_cast<int>(PixelStatus::kIllConditioned)], 128u * 128u);
+  ExpectNoNonFinite(solution);
+}
+
+TEST(PhotometricSolverTest, BlackSurfaceHasNoSignal) {
+  SyntheticSceneOptions scene_options;
+  scene_options.albedo = Eigen::Vector3d::Zero();
+  const SyntheticScene scene = MakeSyntheticScene(scene_options);
+  PhotometricSolution solution;
+  const PhotometricSolverSummary summary =
+      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  EXPECT_EQ(summary.pixels_by_status[static_cast<int>(PixelStatus::kNoSignal)], 128u * 128u);
+  EXPECT_EQ(summary.num_solved(), 0u);
+  ExpectNoNonFinite(solution);
+}
+
+TEST(PhotometricSolverTest, ProgressReachesOneAndCancelStops) {
+  SyntheticSceneOptions scene_options;
+  scene_options.width = 256;
+  scene_options.height = 256;
+  const SyntheticScene scene = MakeSyntheticScene(scene_options);
+  double last = -1;
+  PhotometricSolution solution;
+  SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution, [&](double fraction) {
+    EXPECT_GE(fraction, last);
+    last = fraction;
+    return true;
+  });
+  EXPECT_EQ(last, 1.0);
+
+  const PhotometricSolverSummary cancelled =
+      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution, [](double) { return false; });
+  EXPECT_EQ(cancelled.termination, PhotometricSolverSummary::Termination::kCancelled);
+  EXPECT_LT(cancelled.num_solved(), 256u * 256u);
+  EXPECT_THAT(cancelled.message, HasSubstr("cancelled"));
+}
+
+TEST(PhotometricSolverTest, SingleAndManyThreadsAgree) {
+  const SyntheticScene scene = MakeSyntheticScene(SyntheticSceneOptions());
+  PhotometricSolverOptions options;
+  options.num_threads = 1;
+  PhotometricSolution one, many;
+  SolvePhotometricStereo(options, InputFor(scene), &one);
+  options.num_threads = 4;
+  const PhotometricSolverSummary summary = SolvePhotometricStereo(options, InputFor(scene), &many);
+  EXPECT_EQ(summary.num_threads, 4);
+  for (size_t i = 0; i < one.normal_in_table.size(); ++i) {
+    ASSERT_EQ(one.normal_in_table.data()[i], many.normal_in_table.data()[i]);
+  }
+}
+
+TEST(PhotometricSolverTest, OptionsCheckNamesTheField) {
+  PhotometricSolverOptions options;
+  options.min_lights = 2;
+  EXPECT_THAT([&] { options.Check(); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("min_lights = 2 must lie in [3, 1000]")));
+  options = PhotometricSolverOptions();
+  options.max_condition_number = 0.5;
+  EXPECT_THAT([&] { options.Check(); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("max_condition_number")));
+  options = PhotometricSolverOptions();
+  options.luminance_weights = {0, 0, 0};
+  EXPECT_THAT([&] { options.Check(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("sum to > 0")));
+}
+
+TEST(PhotometricSolverTest, MismatchedInputIsRejectedBeforeWork) {
+  const SyntheticScene scene = MakeSyntheticScene(SyntheticSceneOptions());
+  PhotometricSolverInput input = InputFor(scene);
+  input.images.pop_back();
+  PhotometricSolution solution;
+  EXPECT_THAT([&] { SolvePhotometricStereo(PhotometricSolverOptions(), input, &solution); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("9 images but the light field has 10")));
+  ImageF wrong_size(64, 64, 3);
+  input = InputFor(scene);
+  input.images[3] = &wrong_size;
+  EXPECT_THAT([&] { SolvePhotometricStereo(PhotometricSolverOptions(), input, &solution); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("image 3 is 64x64")));
+}
+
+}  // namespace
+}  // namespace scanbench
