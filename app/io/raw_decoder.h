@@ -1,0 +1,52 @@
+// Reads camera RAW files (Nikon NEF, the rig's DNG, anything LibRaw reads)
+// into a RawImage: the visible Bayer mosaic exactly as stored, its CFA
+// layout and its black and white levels. No processing of any kind.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+
+#include "calibration/raw_image.h"
+
+namespace scanbench {
+
+struct DecodedRaw {
+  RawImage image;
+  std::string make;
+  std::string model;
+  std::string serial;        // empty if the file records none
+  std::string software;
+  std::string capture_time;  // "YYYY:MM:DD HH:MM:SS" in local time; empty if unknown
+  double exposure_time_s = 0;  // 0 if unknown
+  double iso = 0;
+  double f_number = 0;
+};
+
+// Decodes a RAW file held in memory. `name_for_errors` (usually the path)
+// starts every error message. Throws std::runtime_error when:
+//  - LibRaw does not recognise the bytes (garbage, JPEG, empty file);
+//  - the file is truncated (checked against the TIFF directories, LibRaw's
+//    data offset and size, and the size an uncompressed strip must have,
+//    because LibRaw silently pads a short final row);
+//  - there is no pixel data;
+//  - the image is not a 2x2 Bayer mosaic (LinearRaw/3-channel DNG,
+//    X-Trans, 4-colour or other CFAs, floating-point data);
+//  - the black levels do not repeat every 2x2 tile, or white <= black.
+// The mosaic is LibRaw's visible area (its margins removed); the black
+// level is black + per-channel cblack + the cblack pattern, per 2x2 tile
+// position of that visible area; the white level is LibRaw's color.maximum
+// (the DNG WhiteLevel, or the camera's saturation for other formats).
+DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& name_for_errors);
+RawImage DecodeRaw(std::span<const uint8_t> bytes, const std::string& name_for_errors);
+
+// Reads and decodes `path`; errors start with the path.
+DecodedRaw DecodeRawFileWithInfo(const std::filesystem::path& path);
+RawImage DecodeRawFile(const std::filesystem::path& path);
+
+// Throws std::runtime_error such as
+// "frames/led_03.dng: image is 1000x800 but the session records 1232x816".
+void CheckRawSize(const RawImage& image, int width, int height, const std::string& name);
+
+}  // namespace scanbench

@@ -1,0 +1,129 @@
+// A scan session on disk: the unit every user deals with.
+//
+//   <root>/session.json       manifest: sample, rig, camera, frames (+ checksums)
+//   <root>/frames/            RAW files, one dark frame and one per LED; never overwritten
+//   <root>/results/<run-id>/  maps and report.json of one solver run
+//
+// session.json is also the capture journal: every AddFrame rewrites it
+// atomically, so an interrupted capture can be resumed from what it lists.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "app/session/rig_json.h"
+#include "app/session/session_error.h"
+#include "calibration/rig.h"
+
+namespace scanbench {
+
+// Bump when the layout of session.json changes; the loader refuses any other.
+inline constexpr int kSessionSchemaVersion = 1;
+
+enum class FrameKind { kDark, kLed };
+
+struct FrameRecord {
+  FrameKind kind = FrameKind::kLed;
+  int led_index = -1;        // index into RigDescription::leds; -1 for the dark frame
+  std::string file;          // relative to the session folder, e.g. "frames/led_03.dng"
+  std::string sha256;        // lower-case hex of the file's bytes
+  std::string capture_time;  // ISO 8601 UTC, e.g. "2024-05-01T12:34:56.789Z"
+  double exposure_time_s = 0;
+  int width = 0;             // RAW image size, pixels
+  int height = 0;
+};
+
+// What took the frames, as the camera reported it. 0 means unknown for iso,
+// exposure_time_s and f_number; width and height are the RAW image size.
+struct CameraInfo {
+  std::string make, model, serial, lens;
+  double iso = 0;
+  double exposure_time_s = 0;
+  double f_number = 0;
+  int width = 0;
+  int height = 0;
+};
+
+// Reference maps of a simulated session; paths relative to the session folder.
+struct GroundTruthFiles {
+  std::string normal_file, normal_sha256;
+  std::string albedo_file, albedo_sha256;
+  std::string height_file, height_sha256;
+  std::string mask_file, mask_sha256;
+  double mm_per_pixel = 0;
+};
+
+struct Session {
+  int schema_version = kSessionSchemaVersion;
+  std::string sample_name;
+  std::string notes;
+  std::string created;           // ISO 8601 UTC
+  std::string software_version;
+  RigDescription rig;
+  CameraInfo camera;
+  std::vector<FrameRecord> frames;
+  std::optional<GroundTruthFiles> ground_truth;
+  // False while capturing. Only a complete session must have a dark frame and
+  // a frame for every LED of the rig.
+  bool capture_complete = false;
+};
+
+struct SessionLoadOptions {
+  // Hashing every RAW file costs a full read; tools that only list sessions
+  // may skip it. File existence is always checked.
+  bool verify_checksums = true;
+};
+
+// Reads and checks <root>/session.json and the files it lists. Every error
+// names the file and the field. Throws SessionError.
+Session LoadSession(const std::filesystem::path& root, const SessionLoadOptions& options = {});
+
+// Checks the session (CheckSession) and atomically replaces <root>/session.json.
+// A manifest that LoadSession would reject is never written.
+void WriteSessionManifest(const std::filesystem::path& root, const Session& session);
+
+// Makes <root>, <root>/frames and <root>/results. Refuses if <root>/session.json
+// exists, so that an existing session is never mixed with a new one. The caller
+// writes the first manifest with WriteSessionManifest. Returns <root> made absolute.
+std::filesystem::path CreateSessionFolder(const std::filesystem::path& root);
+
+// Stores one captured frame: writes `bytes` to <root>/<record.file> (which must
+// lie in frames/), fills record.sha256, appends the record to `session` and
+// rewrites session.json. An existing file is never overwritten; one with exactly
+// these bytes (left by a crash before the manifest was written) is adopted.
+// The record is checked against the session before anything is written; on
+// error `session` is unchanged.
+void AddFrame(const std::filesystem::path& root, Session& session, FrameRecord record,
+              std::span<const uint8_t> bytes);
+
+// Makes and returns a new, empty <root>/results/<UTC timestamp>-<run_label>[-N]
+// (e.g. "20240501T123456Z-default"); an existing folder is never reused.
+// `run_label` is 1-64 characters of [A-Za-z0-9._-].
+std::filesystem::path CreateResultFolder(
+    const std::filesystem::path& root, const std::string& run_label,
+    std::chrono::system_clock::time_point now = std::chrono::system_clock::now());
+
+// nullptr if absent.
+const FrameRecord* FindDarkFrame(const Session& session);
+const FrameRecord* FindLedFrame(const Session& session, int led_index);
+
+// Throws SessionError naming the field when the session is inconsistent on its
+// own (no files are read): schema version, required strings, timestamps, rig,
+// camera settings, frame kinds, duplicate or out-of-range LED frames, dark frame
+// count, frame sizes against camera settings, file paths leaving the session
+// folder, checksum format, and completeness when capture_complete is true.
+void CheckSession(const Session& session, const std::string& name_for_errors);
+
+// session.json text, and back (parse + CheckSession, no files read).
+std::string SessionToJson(const Session& session);
+Session SessionFromJson(const std::string& text, const std::string& name_for_errors);
+
+// "2024-05-01T12:34:56.789Z", for Session::created and FrameRecord::capture_time.
+std::string FormatUtcTimestamp(std::chrono::system_clock::time_point time);
+
+}  // namespace scanbench

@@ -1,0 +1,201 @@
+#include "app/io/image_io.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <limits>
+#include <random>
+
+#include "tests/app/io/test_dng_util.h"
+
+namespace scanbench {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+using testing::TempDir;
+
+template <typename T>
+Image<T> RandomImage(int width, int height, int channels, uint32_t seed) {
+  std::mt19937 rng(seed);
+  Image<T> image(width, height, channels);
+  for (size_t i = 0; i < image.size(); ++i) {
+    if constexpr (std::is_floating_point_v<T>) {
+      image.data()[i] = std::uniform_real_distribution<float>(-10.f, 10.f)(rng);
+    } else {
+      image.data()[i] = static_cast<T>(rng());
+    }
+  }
+  return image;
+}
+
+template <typename T>
+void ExpectSameImage(const Image<T>& expected, const Image<T>& actual) {
+  ASSERT_EQ(actual.width(), expected.width());
+  ASSERT_EQ(actual.height(), expected.height());
+  ASSERT_EQ(actual.channels(), expected.channels());
+  size_t mismatches = 0;
+  for (size_t i = 0; i < expected.size(); ++i) {
+    // Bitwise for floats: exact storage, not approximate.
+    if (std::memcmp(&expected.data()[i], &actual.data()[i], sizeof(T)) != 0 && ++mismatches <= 5) {
+      ADD_FAILURE() << "sample " << i << ": " << +actual.data()[i] << " != " << +expected.data()[i];
+    }
+  }
+  EXPECT_EQ(mismatches, 0u);
+}
+
+std::string ErrorOf(const std::function<void()>& action) {
+  try {
+    action();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "<no error>";
+}
+
+TEST(ImageIoTest, ExrFloatRoundTripIsExact) {
+  TempDir dir;
+  for (int channels : {1, 3, 4}) {
+    SCOPED_TRACE(channels);
+    ImageF image = RandomImage<float>(37, 21, channels, 10 + channels);
+    image(0, 0, 0) = 1e-30f;  // tiny, huge and negative values stay as they are
+    image(1, 0, 0) = 3.4e38f;
+    image(2, 0, 0) = -0.0f;
+    const auto path = dir / ("normals_" + std::to_string(channels) + ".exr");
+    WriteExr(path, image, OverwritePolicy::kRefuse);
+    ExpectSameImage(image, ReadImageFloat(path));
+  }
+}
+
+TEST(ImageIoTest, ExrKeepsChannelNames) {
+  TempDir dir;
+  const ImageF image = RandomImage<float>(8, 8, 3, 3);
+  WriteExr(dir / "n.exr", image, OverwritePolicy::kRefuse, {"N.x", "N.y", "N.z"});
+  std::vector<std::string> names;
+  ExpectSameImage(image, ReadImageFloat(dir / "n.exr", &names));
+  EXPECT_THAT(names, ElementsAre("N.x", "N.y", "N.z"));
+
+  std::vector<std::string> default_names;
+  WriteExr(dir / "gray.exr", RandomImage<float>(4, 4, 1, 1), OverwritePolicy::kRefuse);
+  ReadImageFloat(dir / "gray.exr", &default_names);
+  EXPECT_THAT(default_names, ElementsAre("Y"));
+
+  EXPECT_THAT(ErrorOf([&] { WriteExr(dir / "bad.exr", image, OverwritePolicy::kRefuse, {"R", "G"}); }),
+              HasSubstr("2 channel names given for an image with 3 channels"));
+}
+
+TEST(ImageIoTest, Png16RoundTripIsExact) {
+  TempDir dir;
+  for (int channels : {1, 2, 3, 4}) {
+    SCOPED_TRACE(channels);
+    ImageU16 image = RandomImage<uint16_t>(33, 17, channels, 20 + channels);
+    image(0, 0, 0) = 0;
+    image(1, 0, 0) = 65535;
+    if (channels == 4) image(2, 0, 3) = 0;  // colour under zero alpha survives
+    const auto path = dir / ("mask_" + std::to_string(channels) + ".png");
+    WritePng(path, image, OverwritePolicy::kRefuse);
+    ExpectSameImage(image, ReadImageU16(path));
+  }
+}
+
+TEST(ImageIoTest, Png8RoundTripIsExact) {
+  TempDir dir;
+  for (int channels : {1, 3, 4}) {
+    SCOPED_TRACE(channels);
+    ImageU8 image = RandomImage<uint8_t>(19, 23, channels, 30 + channels);
+    if (channels == 4) image(0, 0, 3) = 0;
+    const auto path = dir / ("preview_" + std::to_string(channels) + ".png");
+    WritePng(path, image, OverwritePolicy::kRefuse);
+    ExpectSameImage(image, ReadImageU8(path));
+  }
+}
+
+TEST(ImageIoTest, IntegerFilesReadAsNormalisedFloat) {
+  TempDir dir;
+  ImageU16 image(3, 1, 1);
+  image(0, 0) = 0;
+  image(1, 0) = 65535;
+  image(2, 0) = 32768;
+  WritePng(dir / "a.png", image, OverwritePolicy::kRefuse);
+  const ImageF read = ReadImageFloat(dir / "a.png");
+  EXPECT_EQ(read(0, 0), 0.0f);
+  EXPECT_EQ(read(1, 0), 1.0f);
+  EXPECT_NEAR(read(2, 0), 32768.0f / 65535.0f, 1e-6f);
+
+  ImageU8 small(2, 1, 1);
+  small(0, 0) = 255;
+  small(1, 0) = 1;
+  WritePng(dir / "b.png", small, OverwritePolicy::kRefuse);
+  const ImageU16 widened = ReadImageU16(dir / "b.png");
+  EXPECT_EQ(widened(0, 0), 65535);
+  EXPECT_EQ(widened(1, 0), 257);
+}
+
+TEST(ImageIoTest, TiffRoundTripIsExact) {
+  TempDir dir;
+  const ImageU16 image16 = RandomImage<uint16_t>(41, 29, 3, 40);
+  WriteTiff(dir / "frame16.tif", image16, OverwritePolicy::kRefuse);
+  ExpectSameImage(image16, ReadImageU16(dir / "frame16.tif"));
+
+  const ImageF image32 = RandomImage<float>(41, 29, 1, 41);
+  WriteTiff(dir / "albedo.tiff", image32, OverwritePolicy::kRefuse);
+  ExpectSameImage(image32, ReadImageFloat(dir / "albedo.tiff"));
+}
+
+TEST(ImageIoTest, RefuseAndReplacePolicies) {
+  TempDir dir;
+  const auto path = dir / "out.png";
+  ImageU8 first(4, 4, 1, 10);
+  ImageU8 second(4, 4, 1, 20);
+  WritePng(path, first, OverwritePolicy::kRefuse);
+  const std::string error = ErrorOf([&] { WritePng(path, second, OverwritePolicy::kRefuse); });
+  EXPECT_THAT(error, HasSubstr(path.string()));
+  EXPECT_THAT(error, HasSubstr("already exists"));
+  EXPECT_EQ(ReadImageU8(path)(0, 0), 10);
+  WritePng(path, second, OverwritePolicy::kReplace);
+  EXPECT_EQ(ReadImageU8(path)(0, 0), 20);
+  EXPECT_THAT(dir.List(), ElementsAre("out.png"));
+}
+
+TEST(ImageIoTest, UnreadableFileErrorNamesThePath) {
+  TempDir dir;
+  const auto garbage = dir / "broken.png";
+  WriteFileAtomic(garbage, std::string_view("not an image at all"), OverwritePolicy::kRefuse);
+  const std::string error = ErrorOf([&] { ReadImageFloat(garbage); });
+  EXPECT_THAT(error, HasSubstr(garbage.string() + ": "));
+  EXPECT_THAT(error, HasSubstr("cannot be read as an image"));
+
+  const auto missing = dir / "missing.exr";
+  EXPECT_EQ(ErrorOf([&] { ReadImageU16(missing); }), missing.string() + ": does not exist");
+}
+
+TEST(ImageIoTest, ReadersRejectLossyConversions) {
+  TempDir dir;
+  WriteExr(dir / "f.exr", RandomImage<float>(4, 4, 1, 5), OverwritePolicy::kRefuse);
+  EXPECT_THAT(ErrorOf([&] { ReadImageU16(dir / "f.exr"); }), HasSubstr("holds float samples"));
+  WritePng(dir / "deep.png", ImageU16(4, 4, 1, 7), OverwritePolicy::kRefuse);
+  EXPECT_THAT(ErrorOf([&] { ReadImageU8(dir / "deep.png"); }), HasSubstr("holds uint16 samples"));
+}
+
+TEST(ImageIoTest, InvalidImagesAreRejectedBeforeWriting) {
+  TempDir dir;
+  EXPECT_THAT(ErrorOf([&] { WriteExr(dir / "e.exr", ImageF(), OverwritePolicy::kRefuse); }),
+              HasSubstr("cannot write an empty"));
+  EXPECT_THAT(ErrorOf([&] { WritePng(dir / "five.png", ImageU8(2, 2, 5), OverwritePolicy::kRefuse); }),
+              HasSubstr("PNG holds at most 4 channels, the image has 5"));
+  EXPECT_TRUE(dir.List().empty());
+}
+
+TEST(ImageIoTest, WriteIntoMissingFolderFailsCleanly) {
+  TempDir dir;
+  const std::string error =
+      ErrorOf([&] { WriteExr(dir / "nope" / "x.exr", ImageF(2, 2, 1), OverwritePolicy::kReplace); });
+  EXPECT_THAT(error, HasSubstr("x.exr"));
+  EXPECT_TRUE(dir.List().empty());
+}
+
+}  // namespace
+}  // namespace scanbench

@@ -1,0 +1,49 @@
+// Test-only: unusual DNG files written directly with libtiff, and small
+// helpers shared by the app/io tests.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace scanbench::testing {
+
+struct TestDngOptions {
+  int width = 40;
+  int height = 30;
+  int samples_per_pixel = 1;
+  uint16_t photometric = 32803;  // CFA; 34892 = LinearRaw
+  uint16_t cfa_rows = 2;
+  uint16_t cfa_cols = 2;
+  std::vector<uint8_t> cfa_pattern = {0, 1, 1, 2};  // RGGB; empty = no CFA tags
+  uint16_t black_rows = 1;
+  uint16_t black_cols = 1;
+  std::vector<float> black_levels = {64};
+  uint32_t white_level = 4095;
+};
+
+// A DNG 1.4 with the given layout and pixel values (x + y) % white_level.
+std::vector<uint8_t> MakeTestDng(const TestDngOptions& options);
+
+// Little-endian TIFF IFD0 access for patching test files.
+uint32_t ReadIfd0Value(const std::vector<uint8_t>& bytes, uint16_t tag);
+void PatchIfd0Value(std::vector<uint8_t>& bytes, uint16_t tag, uint32_t value);
+
+// A fresh, empty folder removed when the object goes away.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+  // File names in the folder, sorted.
+  std::vector<std::string> List() const;
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace scanbench::testing
