@@ -109,6 +109,10 @@ PixelResult SolvePixel(const PhotometricSolverOptions& options, const Photometri
         intensity[2] <= 0) {
       continue;
     }
+    if (options.min_sample_value > 0 &&
+        w[0] * sample[0] + w[1] * sample[1] + w[2] * sample[2] <= options.min_sample_value) {
+      continue;  // in shadow
+    }
     double luminance = 0;
     for (int c = 0; c < 3; ++c) {
       const double divided = sample[c] / double(intensity[c]);
@@ -197,6 +201,9 @@ void PhotometricSolverOptions::Check() const {
   }
   if (!(max_condition_number > 1)) {
     throw OptionError("max_condition_number", std::to_string(max_condition_number), "must be > 1");
+  }
+  if (!(min_sample_value >= 0) || !std::isfinite(min_sample_value)) {
+    throw OptionError("min_sample_value", std::to_string(min_sample_value), "must be finite and >= 0");
   }
   if (!(min_light_intensity >= 0) || !std::isfinite(min_light_intensity)) {
     throw OptionError("min_light_intensity", std::to_string(min_light_intensity), "must be finite and >= 0");

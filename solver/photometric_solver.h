@@ -46,6 +46,13 @@ struct PhotometricSolverOptions {
   // Largest accepted ratio of the light matrix's singular values, > 1.
   double max_condition_number = 100.0;
 
+  // A sample whose luminance (before dividing by the light) is at or below
+  // this is taken as shadowed (attached or cast: the Lambertian model does not
+  // hold there) and left out, >= 0 in linear pixel units. 0 keeps every
+  // sample (plain least squares). The default is about 20 sigma of the dark
+  // noise of a 14-bit sensor.
+  double min_sample_value = 0.002;
+
   // A light whose luminance-weighted intensity at a pixel is below this is not
   // used there (it cannot be divided out), >= 0, in linear pixel units.
   double min_light_intensity = 1e-6;

@@ -50,24 +50,28 @@ TEST_P(AnalyticSceneTest, NoiseFreeSolveRecoversNormalAndAlbedoExactly) {
   const SyntheticScene scene = MakeSyntheticScene(scene_options);
   const ImageU8 exact = ExactPixels(scene);
 
-  PhotometricSolution solution;
-  const PhotometricSolverSummary summary =
-      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
-  ASSERT_EQ(summary.termination, PhotometricSolverSummary::Termination::kSuccess) << summary.BriefReport();
+  // Plain least squares and the default (grazing samples left out) are both exact.
+  PhotometricSolverOptions plain;
+  plain.min_sample_value = 0;
+  for (const PhotometricSolverOptions& options : {plain, PhotometricSolverOptions()}) {
+    PhotometricSolution solution;
+    const PhotometricSolverSummary summary = SolvePhotometricStereo(options, InputFor(scene), &solution);
+    ASSERT_EQ(summary.termination, PhotometricSolverSummary::Termination::kSuccess) << summary.BriefReport();
 
-  const ErrorStatistics angular = AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, exact);
-  ASSERT_GT(angular.num_pixels, 1000u) << "the scene must have many exactly modelled pixels";
-  EXPECT_LE(angular.max, 0.01) << "mean " << angular.mean;
-  const ErrorStatistics albedo = AbsoluteError(solution.albedo, scene.albedo, exact);
-  EXPECT_LE(albedo.max, 1e-5);
-  for (size_t i = 0; i < exact.num_pixels(); ++i) {
-    if (exact.data()[i]) {
-      ASSERT_EQ(solution.status.data()[i], static_cast<uint8_t>(PixelStatus::kSolved));
-      ASSERT_EQ(solution.lights_used.data()[i], scene_options.num_lights);
-      ASSERT_LT(solution.residual.data()[i], 1e-5);
+    const ErrorStatistics angular = AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, exact);
+    ASSERT_GT(angular.num_pixels, 1000u) << "the scene must have many exactly modelled pixels";
+    EXPECT_LE(angular.max, 0.01) << "mean " << angular.mean;
+    const ErrorStatistics albedo = AbsoluteError(solution.albedo, scene.albedo, exact);
+    EXPECT_LE(albedo.max, 1e-5);
+    for (size_t i = 0; i < exact.num_pixels(); ++i) {
+      if (exact.data()[i]) {
+        ASSERT_EQ(solution.status.data()[i], static_cast<uint8_t>(PixelStatus::kSolved));
+        if (options.min_sample_value == 0) ASSERT_EQ(solution.lights_used.data()[i], scene_options.num_lights);
+        ASSERT_LT(solution.residual.data()[i], 1e-5);
+      }
     }
+    ExpectNoNonFinite(solution);
   }
-  ExpectNoNonFinite(solution);
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -82,6 +86,36 @@ INSTANTIATE_TEST_SUITE_P(
       return std::string(param_info.param.shape == SyntheticSceneOptions::Shape::kSphere ? "Sphere" : "TiltedPlane") +
              (param_info.param.lights == SyntheticSceneOptions::Lights::kDistant ? "DistantLights" : "NearFieldLights");
     });
+
+TEST(PhotometricSolverTest, ShadowedSamplesAreLeftOutUnlessAsked) {
+  // A plane tilted beyond the low ring's elevation: some lights graze it from
+  // behind and read exactly 0 there (attached shadow).
+  SyntheticSceneOptions scene_options;
+  scene_options.shape = SyntheticSceneOptions::Shape::kTiltedPlane;
+  scene_options.tilt_degrees = 45;
+  const SyntheticScene scene = MakeSyntheticScene(scene_options);
+  ASSERT_EQ(scene.fully_lit(64, 64), 0) << "the test needs shadowed samples";
+  const Eigen::Vector3f truth(scene.normal_in_table(64, 64, 0), scene.normal_in_table(64, 64, 1),
+                              scene.normal_in_table(64, 64, 2));
+  auto normal_at_centre = [&](const PhotometricSolverOptions& options, int* lights_used) {
+    PhotometricSolution solution;
+    SolvePhotometricStereo(options, InputFor(scene), &solution);
+    *lights_used = solution.lights_used(64, 64);
+    return Eigen::Vector3f(solution.normal_in_table(64, 64, 0), solution.normal_in_table(64, 64, 1),
+                           solution.normal_in_table(64, 64, 2));
+  };
+  int lights_used = 0;
+  EXPECT_THAT(normal_at_centre(PhotometricSolverOptions(), &lights_used), testing::EigenNear(truth, 1e-5));
+  EXPECT_LT(lights_used, 10);
+  EXPECT_GE(lights_used, 3);
+
+  // Plain least squares keeps the zeros and is pulled away from the truth.
+  PhotometricSolverOptions plain;
+  plain.min_sample_value = 0;
+  const Eigen::Vector3f biased = normal_at_centre(plain, &lights_used);
+  EXPECT_EQ(lights_used, 10);
+  EXPECT_GT(std::acos(std::min(1.0f, biased.dot(truth))) * 180 / M_PI, 1.0);
+}
 
 TEST(PhotometricSolverTest, TiltedPlaneNormalMatchesTheTilt) {
   SyntheticSceneOptions scene_options;
@@ -169,9 +203,10 @@ TEST(PhotometricSolverTest, CoincidentLightsAreIllConditioned) {
   const Eigen::Vector3d dir(0.5, 0.5, std::sqrt(0.5));
   scene.light_field = std::make_unique<DirectionalLightField>(
       128, 128, std::vector<Eigen::Vector3d>(4, dir), std::vector<Eigen::Vector3d>(4, Eigen::Vector3d::Ones()));
+  PhotometricSolverOptions options;
+  options.min_sample_value = 0;  // keep the dim samples: the rank is what is tested
   PhotometricSolution solution;
-  const PhotometricSolverSummary summary =
-      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  const PhotometricSolverSummary summary = SolvePhotometricStereo(options, InputFor(scene), &solution);
   EXPECT_EQ(summary.pixels_by_status[static_cast<int>(PixelStatus::kIllConditioned)], 128u * 128u);
   ExpectNoNonFinite(solution);
 }
@@ -180,11 +215,17 @@ TEST(PhotometricSolverTest, BlackSurfaceHasNoSignal) {
   SyntheticSceneOptions scene_options;
   scene_options.albedo = Eigen::Vector3d::Zero();
   const SyntheticScene scene = MakeSyntheticScene(scene_options);
+  PhotometricSolverOptions plain;
+  plain.min_sample_value = 0;
   PhotometricSolution solution;
-  const PhotometricSolverSummary summary =
-      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  const PhotometricSolverSummary summary = SolvePhotometricStereo(plain, InputFor(scene), &solution);
   EXPECT_EQ(summary.pixels_by_status[static_cast<int>(PixelStatus::kNoSignal)], 128u * 128u);
   EXPECT_EQ(summary.num_solved(), 0u);
+  ExpectNoNonFinite(solution);
+  // By default every sample of a black surface reads as shadow.
+  const PhotometricSolverSummary by_default =
+      SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution);
+  EXPECT_EQ(by_default.pixels_by_status[static_cast<int>(PixelStatus::kTooFewLights)], 128u * 128u);
   ExpectNoNonFinite(solution);
 }
 

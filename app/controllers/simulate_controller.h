@@ -1,0 +1,47 @@
+// Renders a capture session on the simulated rig and writes it to disk exactly
+// as the capture sequencer would: DNG frames, a journalled session.json, plus
+// the ground truth a real bench cannot give.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "app/controllers/base_controller.h"
+#include "app/sim/simulated_rig.h"
+#include "app/sim/textile_scene.h"
+
+namespace scanbench {
+
+struct SimulateOptions {
+  SimulatedRigOptions rig;                 // sensor, size, noise, seed
+  TextileSceneOptions scene;               // the sample
+  std::string sample_name = "simulated twill";
+  std::string notes = "rendered by the scanbench simulated rig";
+  bool write_ground_truth = true;          // normal, albedo, height, mask beside the frames
+
+  void Check() const;
+};
+
+struct SimulateSummary {
+  std::filesystem::path session_dir;
+  int frames_written = 0;   // this run
+  int frames_resumed = 0;   // found already on disk from an interrupted run
+  double seconds = 0;
+};
+
+class SimulateController : public BaseController {
+ public:
+  SimulateController(std::filesystem::path session_dir, SimulateOptions options);
+
+  // Writes a new session, or completes an interrupted one in the same folder
+  // (same options: frames are deterministic). A complete session is refused.
+  void Run() override;
+  const SimulateSummary& summary() const { return summary_; }
+
+ private:
+  std::filesystem::path session_dir_;
+  SimulateOptions options_;
+  SimulateSummary summary_;
+};
+
+}  // namespace scanbench

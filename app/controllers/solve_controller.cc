@@ -1,0 +1,274 @@
+#include "app/controllers/solve_controller.h"
+
+#include <chrono>
+#include <iomanip>
+#include <regex>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "app/controllers/map_writer.h"
+#include "app/io/file_util.h"
+#include "app/io/image_io.h"
+#include "app/io/raw_decoder.h"
+#include "app/session/session.h"
+#include "calibration/rig_light_field.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+const char* MethodName(PhotometricSolverOptions::Method method) {
+  switch (method) {
+    case PhotometricSolverOptions::Method::kJacobiSvd: return "jacobi_svd";
+  }
+  return "unknown";
+}
+
+const char* DemosaicName(RawDevelopOptions::Demosaic demosaic) {
+  return demosaic == RawDevelopOptions::Demosaic::kBilinear ? "bilinear" : "edge_aware";
+}
+
+nlohmann::json StatisticsJson(const ErrorStatistics& stats) {
+  return {{"pixels", stats.num_pixels}, {"mean", stats.mean}, {"median", stats.median},
+          {"p95", stats.percentile_95}, {"max", stats.max}};
+}
+
+// Everything is written into a hidden staging folder that replaces the
+// reserved, empty result folder at the very end: a result folder is either
+// complete or absent.
+class StagedResultFolder {
+ public:
+  explicit StagedResultFolder(fs::path final_dir)
+      : final_dir_(std::move(final_dir)),
+        staging_dir_(final_dir_.parent_path() / ("." + final_dir_.filename().string() + ".partial")) {
+    fs::create_directory(staging_dir_);
+  }
+  ~StagedResultFolder() {
+    if (committed_) return;
+    std::error_code ignored;
+    fs::remove_all(staging_dir_, ignored);
+    fs::remove(final_dir_, ignored);  // still the empty reservation
+  }
+  const fs::path& staging() const { return staging_dir_; }
+  void Commit() {
+    fs::rename(staging_dir_, final_dir_);  // replaces the empty reserved folder
+    committed_ = true;
+  }
+
+ private:
+  fs::path final_dir_;
+  fs::path staging_dir_;
+  bool committed_ = false;
+};
+
+ImageU8 SampleMaskFromGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth) {
+  const ImageU8 stored = ReadImageU8(session_dir / truth.mask_file);
+  ImageU8 mask(stored.width(), stored.height(), 1);
+  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = stored.data()[i * stored.channels()] > 127;
+  return mask;
+}
+
+}  // namespace
+
+void SolveOptions::Check() const {
+  solver.Check();
+  develop.Check();
+  static const std::regex kLabel("[A-Za-z0-9._-]+");
+  if (!std::regex_match(run_label, kLabel)) {
+    throw std::invalid_argument("SolveOptions.run_label = '" + run_label +
+                                "' must be letters, digits, '.', '_' or '-' only");
+  }
+}
+
+double SolveSummary::TotalSeconds() const {
+  double total = 0;
+  for (const StageTiming& timing : timings) total += timing.seconds;
+  return total;
+}
+
+std::string SolveSummary::FullReport() const {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3);
+  out << "scanbench solve report\n"
+      << "  sample:       " << sample_name << "\n"
+      << "  result:       " << result_dir.string() << "\n"
+      << "  frames:       " << num_lights << " LEDs + dark, " << width << "x" << height << "\n"
+      << "  light model:  " << light_model << "\n"
+      << "  clipped raw samples: " << clipped_samples << "\n"
+      << "  " << solver.BriefReport() << "\n";
+  if (normal_error_deg) {
+    out << "  normal angular error vs ground truth on the sample (deg): mean " << normal_error_deg->mean
+        << ", median " << normal_error_deg->median << ", p95 " << normal_error_deg->percentile_95 << ", max "
+        << normal_error_deg->max << " over " << normal_error_deg->num_pixels << " px\n";
+  }
+  if (albedo_error) {
+    out << "  albedo absolute error on the sample: mean " << albedo_error->mean << ", median "
+        << albedo_error->median << ", p95 " << albedo_error->percentile_95 << "\n";
+  }
+  if (normal_error_deg) out << "  unsolved pixels on the sample: " << unsolved_on_sample << "\n";
+  out << "  time per stage (s):";
+  for (const StageTiming& timing : timings) out << " " << timing.stage << " " << timing.seconds << ";";
+  out << " total " << TotalSeconds() << "\n";
+  return out.str();
+}
+
+SolveController::SolveController(fs::path session_dir, SolveOptions options)
+    : session_dir_(std::move(session_dir)), options_(std::move(options)) {}
+
+void SolveController::Run() {
+  options_.Check();
+  summary_ = SolveSummary();
+  auto stage_start = Clock::now();
+  auto end_stage = [&](const std::string& stage) {
+    const auto now = Clock::now();
+    summary_.timings.push_back({stage, std::chrono::duration<double>(now - stage_start).count()});
+    stage_start = now;
+  };
+
+  // Load: the manifest is checked, every frame re-hashed.
+  ReportProgress("load session", 0);
+  SessionLoadOptions load_options;
+  load_options.verify_checksums = options_.verify_checksums;
+  const Session session = LoadSession(session_dir_, load_options);
+  if (!session.capture_complete) {
+    throw SessionError((session_dir_ / "session.json").string() +
+                       ": capture_complete: false; resume the capture before solving");
+  }
+  summary_.sample_name = session.sample_name;
+  summary_.width = session.camera.width;
+  summary_.height = session.camera.height;
+  summary_.num_lights = static_cast<int>(session.rig.leds.size());
+  end_stage("load");
+  ThrowIfStopRequested("load session");
+
+  // Decode and develop: one RGB image per LED, dark frame subtracted.
+  auto decode = [&](const FrameRecord& record) {
+    const fs::path path = session_dir_ / record.file;
+    RawImage raw = DecodeRawFile(path);
+    CheckRawSize(raw, session.camera.width, session.camera.height, path.string());
+    return raw;
+  };
+  const FrameRecord* dark_record = FindDarkFrame(session);
+  const RawImage dark = decode(*dark_record);
+  std::vector<ImageF> images;
+  std::vector<ImageU8> sample_valid;
+  for (int k = 0; k < summary_.num_lights; ++k) {
+    ReportProgress("decode RAW", double(k) / summary_.num_lights);
+    ThrowIfStopRequested("decode RAW");
+    const FrameRecord* record = FindLedFrame(session, k);
+    const RawImage raw = decode(*record);
+    if (raw.cfa != dark.cfa) {
+      throw std::runtime_error((session_dir_ / record->file).string() + ": CFA pattern " + CfaPatternName(raw.cfa) +
+                               " differs from the dark frame's " + CfaPatternName(dark.cfa));
+    }
+    DevelopedFrame developed = DevelopRaw(raw, &dark, options_.develop);
+    summary_.clipped_samples += developed.num_clipped_samples;
+    images.push_back(std::move(developed.rgb));
+    sample_valid.push_back(std::move(developed.valid));
+  }
+  ReportProgress("decode RAW", 1);
+  end_stage("decode_develop");
+
+  // Lights from the rig description until a light calibration replaces it.
+  const auto light_field = MakeRigLightField(session.rig);
+  summary_.light_model = "rig description: point LEDs (position, axis, mu, RGB intensity), surface on the table plane";
+  end_stage("light_field");
+
+  PhotometricSolverInput input;
+  for (size_t k = 0; k < images.size(); ++k) {
+    input.images.push_back(&images[k]);
+    input.sample_valid.push_back(&sample_valid[k]);
+  }
+  input.light_field = light_field.get();
+  PhotometricSolution solution;
+  summary_.solver = SolvePhotometricStereo(options_.solver, input, &solution, StageCallback("solve"));
+  if (summary_.solver.termination == PhotometricSolverSummary::Termination::kCancelled) throw JobCancelled("solve");
+  end_stage("solve");
+  images.clear();
+  sample_valid.clear();
+
+  // Ground truth, when the session has it (simulated rig).
+  ImageF error_map;
+  if (session.ground_truth) {
+    const ImageF truth_normals = ReadImageFloat(session_dir_ / session.ground_truth->normal_file);
+    const ImageF truth_albedo = ReadImageFloat(session_dir_ / session.ground_truth->albedo_file);
+    const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir_, *session.ground_truth);
+    ImageU8 solved_on_sample = on_sample;
+    for (size_t i = 0; i < on_sample.num_pixels(); ++i) {
+      const bool solved = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+      solved_on_sample.data()[i] = on_sample.data()[i] && solved;
+      summary_.unsolved_on_sample += on_sample.data()[i] && !solved;
+    }
+    summary_.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+    summary_.albedo_error = AbsoluteError(solution.albedo, truth_albedo, solved_on_sample);
+    error_map = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+    end_stage("evaluate");
+  }
+
+  // Write: maps, error map, report; the folder appears complete or not at all.
+  ReportProgress("write maps", 0);
+  const fs::path result_dir = CreateResultFolder(session_dir_, options_.run_label);
+  StagedResultFolder staged(result_dir);
+  std::map<std::string, std::string> outputs = WriteSolutionMaps(staged.staging(), solution);
+  if (!error_map.empty()) {
+    WriteExr(staged.staging() / "angular_error_deg.exr", error_map, OverwritePolicy::kRefuse, {"Y"});
+    outputs["angular_error_deg"] = "angular_error_deg.exr";
+  }
+  end_stage("write_maps");
+  summary_.result_dir = result_dir;
+
+  nlohmann::json report;
+  report["schema"] = "scanbench.solve_report/1";
+  report["software_version"] = "scanbench " SCANBENCH_VERSION;
+  report["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
+  report["run_id"] = result_dir.filename().string();
+  report["session"] = {{"path", fs::absolute(session_dir_).string()},
+                       {"sample_name", session.sample_name},
+                       {"width", summary_.width},
+                       {"height", summary_.height},
+                       {"leds", summary_.num_lights}};
+  const PhotometricSolverOptions& solver = options_.solver;
+  report["solver"] = {{"method", MethodName(solver.method)},
+                      {"luminance_weights", solver.luminance_weights},
+                      {"min_lights", solver.min_lights},
+                      {"max_condition_number", solver.max_condition_number},
+                      {"min_light_intensity", solver.min_light_intensity},
+                      {"min_albedo", solver.min_albedo},
+                      {"num_threads", summary_.solver.num_threads}};
+  report["develop"] = {{"demosaic", DemosaicName(options_.develop.demosaic)},
+                       {"clip_fraction", options_.develop.clip_fraction},
+                       {"dark_frame", dark_record->file},
+                       {"clipped_raw_samples", summary_.clipped_samples}};
+  report["calibration"] = {{"used", nullptr}, {"light_model", summary_.light_model}};
+  nlohmann::json by_status;
+  for (int s = 0; s < kNumPixelStatuses; ++s) {
+    by_status[PixelStatusName(static_cast<PixelStatus>(s))] = summary_.solver.pixels_by_status[s];
+  }
+  report["result"] = {{"termination", "success"},
+                      {"message", summary_.solver.BriefReport()},
+                      {"pixels", summary_.solver.num_pixels},
+                      {"pixels_by_status", by_status}};
+  if (summary_.normal_error_deg) {
+    report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*summary_.normal_error_deg)},
+                              {"albedo_abs_error", StatisticsJson(*summary_.albedo_error)},
+                              {"unsolved_on_sample", summary_.unsolved_on_sample},
+                              {"evaluated_on", "sample mask, solved pixels"}};
+  }
+  nlohmann::json timings;
+  for (const StageTiming& timing : summary_.timings) timings[timing.stage] = timing.seconds;
+  report["timings_s"] = timings;
+  outputs["report"] = "report.json";
+  outputs["summary"] = "summary.txt";
+  report["outputs"] = outputs;
+  WriteFileAtomic(staged.staging() / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
+  WriteFileAtomic(staged.staging() / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
+  ThrowIfStopRequested("write maps");
+  staged.Commit();
+  ReportProgress("write maps", 1);
+}
+
+}  // namespace scanbench

@@ -1,0 +1,61 @@
+// Solves a session on disk: decode its RAW frames, develop them, predict the
+// light at every pixel, solve normals and albedo, write maps and a report into
+// a new results/<run-id>/ folder beside any earlier results.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "app/controllers/base_controller.h"
+#include "calibration/raw_develop.h"
+#include "solver/angular_error.h"
+#include "solver/photometric_solver.h"
+
+namespace scanbench {
+
+struct SolveOptions {
+  PhotometricSolverOptions solver;
+  RawDevelopOptions develop;
+  std::string run_label = "lsq-jacobi";  // part of the result folder name: [A-Za-z0-9._-]+
+  bool verify_checksums = true;          // re-hash every frame against session.json
+
+  void Check() const;
+};
+
+struct StageTiming {
+  std::string stage;
+  double seconds = 0;
+};
+
+struct SolveSummary {
+  std::filesystem::path result_dir;
+  std::string sample_name;
+  int width = 0, height = 0, num_lights = 0;
+  std::string light_model;                      // what the light field came from
+  size_t clipped_samples = 0;                   // raw samples at the clip level, all frames
+  PhotometricSolverSummary solver;
+  std::vector<StageTiming> timings;
+  // Against the session's ground truth, on the sample, when it has one.
+  std::optional<ErrorStatistics> normal_error_deg;
+  std::optional<ErrorStatistics> albedo_error;
+  size_t unsolved_on_sample = 0;
+
+  double TotalSeconds() const;
+  std::string FullReport() const;               // the human-readable summary.txt
+};
+
+class SolveController : public BaseController {
+ public:
+  SolveController(std::filesystem::path session_dir, SolveOptions options);
+  void Run() override;
+  const SolveSummary& summary() const { return summary_; }
+
+ private:
+  std::filesystem::path session_dir_;
+  SolveOptions options_;
+  SolveSummary summary_;
+};
+
+}  // namespace scanbench

@@ -1,0 +1,667 @@
+#include "app/sim/simulated_rig.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <mutex>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <utility>
+
+#include <Eigen/Geometry>
+
+#include "calibration/camera_model.h"
+
+namespace scanbench {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+template <typename T>
+std::invalid_argument FieldError(const std::string& where, const std::string& field, T value,
+                                 const std::string& rule) {
+  std::ostringstream text;
+  text << where << ": " << field << " = " << value << " " << rule;
+  return std::invalid_argument(text.str());
+}
+
+// ---------------------------------------------------------------------------
+// Noise. SplitMix64 as the generator: tiny state, so one per image row costs
+// nothing, and its output depends only on the seed (not on the standard
+// library's distributions, which differ between implementations).
+uint64_t Mix64(uint64_t z) {
+  z += 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+class RowRng {
+ public:
+  explicit RowRng(uint64_t seed) : state_(seed) {}
+
+  // Uniform in (0, 1): never 0, so log() is safe.
+  double Uniform() {
+    state_ += 0x9E3779B97F4A7C15ULL;
+    uint64_t z = state_;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    return (static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53;
+  }
+
+  // Standard normal, Box-Muller, both values of a pair used.
+  double Gaussian() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    const double radius = std::sqrt(-2.0 * std::log(Uniform()));
+    const double angle = 2.0 * kPi * Uniform();
+    spare_ = radius * std::sin(angle);
+    has_spare_ = true;
+    return radius * std::cos(angle);
+  }
+
+  // Poisson count. Exact (Knuth) for small means, where the Gaussian
+  // approximation would be visibly skewed; Gaussian above.
+  double Poisson(double mean) {
+    if (mean <= 0) return 0;
+    if (mean < kExactPoissonBelow) {
+      const double limit = std::exp(-mean);
+      double product = Uniform();
+      int count = 0;
+      while (product > limit) {
+        ++count;
+        product *= Uniform();
+      }
+      return count;
+    }
+    return mean + std::sqrt(mean) * Gaussian();
+  }
+
+ private:
+  static constexpr double kExactPoissonBelow = 30.0;
+  uint64_t state_;
+  double spare_ = 0;
+  bool has_spare_ = false;
+};
+
+uint64_t RowSeed(uint64_t seed, uint64_t frame_index, int row) {
+  return Mix64(Mix64(Mix64(seed) ^ frame_index) ^ static_cast<uint64_t>(row));
+}
+
+// ---------------------------------------------------------------------------
+// Runs body(row) for every row on `num_threads` threads (the caller is one of
+// them). Rows are handed out in small chunks from a shared counter, so the
+// result never depends on the thread count. Only the calling thread calls
+// `progress` (mapped onto [begin, end]); false from it stops the workers and
+// throws RenderCancelled. An exception in `body` is rethrown here.
+template <typename Body>
+void ParallelRows(int rows, int num_threads, const RenderProgressCallback& progress, double begin, double end,
+                  const Body& body) {
+  std::atomic<int> next_row{0};
+  std::atomic<int> rows_done{0};
+  std::atomic<bool> stop{false};
+  bool cancelled = false;  // written by the calling thread only
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  const int chunk = std::clamp(rows / (8 * std::max(1, num_threads)), 1, 16);
+
+  auto work = [&](bool is_caller) {
+    while (!stop.load(std::memory_order_relaxed)) {
+      const int first = next_row.fetch_add(chunk);
+      if (first >= rows) break;
+      const int last = std::min(rows, first + chunk);
+      try {
+        for (int row = first; row < last; ++row) body(row);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        stop = true;
+        break;
+      }
+      const int done = rows_done.fetch_add(last - first) + (last - first);
+      if (is_caller && progress && !progress(begin + (end - begin) * done / rows)) {
+        cancelled = true;
+        stop = true;
+      }
+    }
+  };
+
+  std::vector<std::thread> helpers;
+  for (int t = 1; t < num_threads; ++t) helpers.emplace_back(work, false);
+  work(true);
+  for (std::thread& helper : helpers) helper.join();
+  if (error) std::rethrow_exception(error);
+  if (cancelled) throw RenderCancelled();
+  if (progress && !progress(end)) throw RenderCancelled();
+}
+
+// Where `ray_in_table` from `origin` meets the plane z = 0.
+Eigen::Vector3d TablePlanePoint(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray_in_table) {
+  return origin + (-origin.z() / ray_in_table.z()) * ray_in_table;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+void SimulatedRigOptions::Check() const {
+  const std::string where = "SimulatedRigOptions";
+  if (width <= 0) throw FieldError(where, "width", width, "must be > 0");
+  if (height <= 0) throw FieldError(where, "height", height, "must be > 0");
+  if (cfa != CfaPattern::kRGGB && cfa != CfaPattern::kBGGR && cfa != CfaPattern::kGRBG &&
+      cfa != CfaPattern::kGBRG) {
+    throw FieldError(where, "cfa", static_cast<int>(cfa), "must be one of RGGB, BGGR, GRBG, GBRG");
+  }
+  if (white_level <= 0 || white_level > 65535) {
+    throw FieldError(where, "white_level", white_level, "must lie in (0, 65535]");
+  }
+  if (black_level < 0 || black_level >= white_level) {
+    throw FieldError(where, "black_level", black_level,
+                     "must lie in [0, white_level = " + std::to_string(white_level) + ")");
+  }
+  if (!(gain_e_per_dn > 0) || !std::isfinite(gain_e_per_dn)) {
+    throw FieldError(where, "gain_e_per_dn", gain_e_per_dn, "must be finite and > 0");
+  }
+  if (!(read_noise_dn >= 0) || !std::isfinite(read_noise_dn)) {
+    throw FieldError(where, "read_noise_dn", read_noise_dn, "must be finite and >= 0");
+  }
+  if (!(ambient >= 0 && ambient <= 1)) throw FieldError(where, "ambient", ambient, "must lie in [0, 1]");
+  if (!(shadow_grid_mm > 0 && shadow_grid_mm <= 1)) {
+    throw FieldError(where, "shadow_grid_mm", shadow_grid_mm, "must lie in (0, 1]");
+  }
+  if (!(shadow_bias_mm >= 0 && shadow_bias_mm <= 1)) {
+    throw FieldError(where, "shadow_bias_mm", shadow_bias_mm, "must lie in [0, 1]");
+  }
+  if (num_threads < 0 || num_threads > 256) {
+    throw FieldError(where, "num_threads", num_threads, "must lie in [0, 256] (0 = hardware concurrency)");
+  }
+}
+
+// ---------------------------------------------------------------------------
+RigDescription MakeDefaultSimulatedRig(int width, int height) {
+  if (width <= 0) throw FieldError("MakeDefaultSimulatedRig", "width", width, "must be > 0");
+  if (height <= 0) throw FieldError("MakeDefaultSimulatedRig", "height", height, "must be > 0");
+
+  RigDescription rig;
+  rig.name = "simulated D5100 + 85 mm, 10 x D65 LED";
+
+  // Camera. An 85 mm lens focused at 600 mm has its image plane at
+  // f * s / (s - f) = 99 mm: that is the pinhole focal length. Binning keeps
+  // the sensor's physical size, so the pixel pitch scales with 1 / size.
+  constexpr double kLensFocalMm = 85.0;
+  constexpr double kWorkingDistanceMm = 600.0;
+  const double image_distance_mm = kLensFocalMm * kWorkingDistanceMm / (kWorkingDistanceMm - kLensFocalMm);
+  CameraIntrinsics& k = rig.camera.intrinsics;
+  k.width = width;
+  k.height = height;
+  k.fx = image_distance_mm / (kD5100SensorWidthMm / width);
+  k.fy = image_distance_mm / (kD5100SensorHeightMm / height);
+  // Principal point a little off centre, as a real lens mount has it.
+  k.cx = 0.5 * (width - 1) + 0.004 * width;
+  k.cy = 0.5 * (height - 1) - 0.003 * height;
+  // Mild barrel distortion with a little decentring: about 1 px full-res
+  // displacement in the corners, typical of a short-tele prime.
+  k.k1 = -0.06;
+  k.k2 = 0.35;
+  k.k3 = 0.0;
+  k.p1 = 4e-4;
+  k.p2 = -3e-4;
+
+  // Pose: looking straight down (the 180 deg turn about x makes image x =
+  // table +x and image up = table +y), then tilted 1 deg about table x and
+  // turned 0.4 deg about z, as mounting leaves it; the optical axis still
+  // passes through the sample centre 600 mm away.
+  const Eigen::Matrix3d table_from_cam_rotation =
+      (Eigen::AngleAxisd(0.4 * kPi / 180.0, Eigen::Vector3d::UnitZ()) *
+       Eigen::AngleAxisd(1.0 * kPi / 180.0, Eigen::Vector3d::UnitX()) *
+       Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  const Eigen::Vector3d optical_axis_in_table = table_from_cam_rotation.col(2);
+  const Eigen::Vector3d camera_centre_in_table = -kWorkingDistanceMm * optical_axis_in_table;
+  Eigen::Isometry3d table_from_cam = Eigen::Isometry3d::Identity();
+  table_from_cam.linear() = table_from_cam_rotation;
+  table_from_cam.translation() = camera_centre_in_table;
+  rig.camera.cam_from_table = table_from_cam.inverse();
+
+  // LEDs: 5 at 30 deg elevation and 5 at 60 deg, azimuths interleaved by 36
+  // deg, ~500 mm from the centre; small per-LED placement errors, falloff
+  // exponents and brightnesses as a hand-built bench has them.
+  struct LedBuild {
+    double elevation_deg, azimuth_deg, radius_mm, mu, brightness, tint_r, tint_b;
+  };
+  constexpr LedBuild kLeds[10] = {
+      {30.0, 0.0, 503.0, 1.2, 1.00, 1.01, 0.98},    {30.4, 72.5, 497.0, 2.1, 0.93, 0.99, 1.02},
+      {29.7, 143.6, 501.0, 1.6, 1.06, 1.02, 1.00},  {30.2, 216.3, 495.0, 2.8, 0.95, 0.98, 0.99},
+      {29.8, 288.1, 506.0, 1.4, 0.91, 1.00, 1.03},  {60.3, 36.2, 499.0, 1.9, 1.03, 0.97, 1.01},
+      {59.6, 108.0, 504.0, 2.5, 0.97, 1.03, 0.98},  {60.1, 179.4, 498.0, 1.1, 1.09, 1.00, 0.97},
+      {59.9, 252.2, 502.0, 2.3, 0.92, 1.01, 1.02},  {60.2, 323.7, 496.0, 1.7, 0.99, 0.99, 1.00},
+  };
+  // Raw response of the sensor to D65 white relative to green (the inverse of
+  // the camera's daylight white-balance multipliers).
+  const Eigen::Vector3d kRawWhite(0.48, 1.0, 0.70);
+  // Brightest LED: an albedo-1 patch facing it at the centre reads 0.72 of the raw range.
+  constexpr double kBrightestFraction = 0.72;
+
+  double brightest = 0;
+  for (int i = 0; i < 10; ++i) {
+    const LedBuild& b = kLeds[i];
+    const double el = b.elevation_deg * kPi / 180.0;
+    const double az = b.azimuth_deg * kPi / 180.0;
+    LedDescription led;
+    led.id = i;
+    led.position_in_table_mm =
+        b.radius_mm * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    led.axis_in_table = -led.position_in_table_mm.normalized();
+    led.mu = b.mu;
+    led.rgb_intensity = b.brightness * kRawWhite.cwiseProduct(Eigen::Vector3d(b.tint_r, 1.0, b.tint_b));
+    const double at_centre = std::pow(kLedReferenceDistanceMm / b.radius_mm, 2);
+    brightest = std::max(brightest, led.rgb_intensity.maxCoeff() * at_centre);
+    rig.leds.push_back(led);
+  }
+  for (LedDescription& led : rig.leds) led.rgb_intensity *= kBrightestFraction / brightest;
+  return rig;
+}
+
+// ---------------------------------------------------------------------------
+SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scene, RigDescription rig,
+                           const RenderProgressCallback& progress)
+    : options_(options), scene_(std::move(scene)), rig_(std::move(rig)) {
+  options_.Check();
+  const CameraIntrinsics& k = rig_.camera.intrinsics;
+  if (k.width != options_.width || k.height != options_.height) {
+    throw std::invalid_argument("SimulatedRig: rig camera is " + std::to_string(k.width) + "x" +
+                                std::to_string(k.height) + " but SimulatedRigOptions width x height = " +
+                                std::to_string(options_.width) + "x" + std::to_string(options_.height) +
+                                "; they must match");
+  }
+  CheckCameraIntrinsics(k);
+  const Eigen::Vector3d camera_centre = CameraCentreInTable(rig_.camera);
+  if (!(camera_centre.z() > scene_.MaxHeightMm())) {
+    throw FieldError("SimulatedRig", "camera centre z", camera_centre.z(),
+                     "mm must be above the highest point of the scene (" + std::to_string(scene_.MaxHeightMm()) +
+                         " mm)");
+  }
+  for (size_t i = 0; i < rig_.leds.size(); ++i) {
+    const LedDescription& led = rig_.leds[i];
+    const std::string name = "leds[" + std::to_string(i) + "]";
+    if (!led.position_in_table_mm.allFinite()) {
+      throw FieldError("SimulatedRig", name + ".position_in_table_mm.z", led.position_in_table_mm.z(),
+                       "(all components) must be finite");
+    }
+    if (!(std::abs(led.axis_in_table.norm() - 1.0) < 1e-6)) {
+      throw FieldError("SimulatedRig", name + ".axis_in_table norm", led.axis_in_table.norm(), "must be 1");
+    }
+    if (!(led.mu >= 0) || !std::isfinite(led.mu)) {
+      throw FieldError("SimulatedRig", name + ".mu", led.mu, "must be finite and >= 0");
+    }
+    for (int c = 0; c < 3; ++c) {
+      if (!(led.rgb_intensity[c] >= 0) || !std::isfinite(led.rgb_intensity[c])) {
+        throw FieldError("SimulatedRig", name + ".rgb_intensity[" + std::to_string(c) + "]", led.rgb_intensity[c],
+                         "must be finite and >= 0");
+      }
+    }
+  }
+
+  // Progress: the shadow grid is ~10 % of the work, the ray tracing the rest
+  // (undistorting the rays in the calibration library reports nothing).
+  BuildShadowGrid(progress ? RenderProgressCallback([&](double f) { return progress(0.1 * f); })
+                           : RenderProgressCallback());
+  const ImageF rays = ComputeRayDirectionsInTable(rig_.camera);
+
+  // Footprint of a pixel on the table plane at the image centre.
+  {
+    const int cx = options_.width / 2, cy = options_.height / 2;
+    auto ray = [&](int x, int y) {
+      return Eigen::Vector3d(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
+    };
+    const Eigen::Vector3d centre = TablePlanePoint(camera_centre, ray(cx, cy));
+    double sum = 0;
+    int count = 0;
+    if (cx + 1 < options_.width) {
+      sum += (TablePlanePoint(camera_centre, ray(cx + 1, cy)) - centre).norm();
+      ++count;
+    }
+    if (cy + 1 < options_.height) {
+      sum += (TablePlanePoint(camera_centre, ray(cx, cy + 1)) - centre).norm();
+      ++count;
+    }
+    mm_per_pixel_ = count > 0 ? sum / count : 0.0;
+  }
+
+  const size_t num_pixels = static_cast<size_t>(options_.width) * options_.height;
+  point_in_table_.resize(3 * num_pixels);
+  normal_xy_in_table_.resize(2 * num_pixels);
+  albedo_.resize(3 * num_pixels);
+
+  // Ray / height-field intersection: fixed-point iteration on z over the
+  // shadow grid (cheap, to ~1e-4 mm), then Newton on the analytic field to
+  // well below 1e-6 mm (1-2 steps + 1 final evaluation). With the camera's half field of view (tan
+  // ~0.17) and slopes below ~2.5 the ray meets the surface exactly once.
+  constexpr double kConvergedMm = 1e-7;
+  constexpr double kNewtonFinalStepMm = 1e-4;
+  constexpr int kMaxIterations = 200;
+  const double max_height = scene_.MaxHeightMm();
+  auto trace_row = [&](int y) {
+    for (int x = 0; x < options_.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * options_.width + x;
+      const Eigen::Vector3d ray(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
+      if (!(ray.z() < -1e-9)) {
+        throw std::invalid_argument("SimulatedRig: the ray of pixel " + std::to_string(x) + "," +
+                                    std::to_string(y) + " does not reach the table");
+      }
+      auto point_at_height = [&](double z) {
+        return Eigen::Vector3d(camera_centre + ((camera_centre.z() - z) / -ray.z()) * ray);
+      };
+      // Coarse: on the grid (cheap) to ~1e-4 mm.
+      double z = 0;
+      for (int it = 0; it < 50; ++it) {
+        const Eigen::Vector3d p = point_at_height(z);
+        const double z_next = GridHeight(p.x(), p.y());
+        const bool done = std::abs(z_next - z) < 1e-4;
+        z = z_next;
+        if (done) break;
+      }
+      // Exact: Newton on g(z) = z - H(ray point at height z), whose slope
+      // g' = 1 - grad H . (ray_xy / ray_z) stays near 1 at this field of view;
+      // where it does not, a plain fixed-point step (z <- H) instead.
+      const Eigen::Vector2d ray_xy_per_z = ray.head<2>() / ray.z();
+      bool converged = false;
+      for (int it = 0; it < kMaxIterations; ++it) {
+        const Eigen::Vector3d p = point_at_height(z);
+        const SurfaceSample s = scene_.Sample(p.x(), p.y(), false);
+        const double g = z - s.height_mm;
+        const double g_slope = 1.0 - s.gradient.dot(ray_xy_per_z);
+        const bool newton = g_slope > 0.1;
+        const double step = newton ? g / g_slope : g;
+        z -= step;
+        // Newton's error after a step is ~ (g'' / 2 g') step^2 with g'' <~ 2 /mm
+        // here, so a step below 1e-4 mm leaves < 1e-8 mm; the fixed-point
+        // step only shrinks linearly, so it must itself be tiny.
+        if (std::abs(step) < (newton ? kNewtonFinalStepMm : kConvergedMm)) {
+          converged = true;
+          break;
+        }
+      }
+      if (!converged) {
+        // Steep spot where the iteration does not contract: bracket the first
+        // crossing from above, then bisect. f(z) = ray height - surface height.
+        auto f = [&](double zz) {
+          const Eigen::Vector3d p = point_at_height(zz);
+          return zz - scene_.HeightMm(p.x(), p.y());
+        };
+        double z_above = max_height + 1e-3;  // ray above the surface: f > 0
+        double z_below = z_above;
+        constexpr double kBracketStepMm = 0.01;
+        while (z_above > 0) {  // f(0) <= 0 always, so this finds a bracket
+          z_below = std::max(0.0, z_above - kBracketStepMm);
+          if (f(z_below) <= 0) break;
+          z_above = z_below;
+        }
+        for (int it = 0; it < 60 && z_above - z_below > 1e-9; ++it) {
+          const double mid = 0.5 * (z_below + z_above);
+          (f(mid) > 0 ? z_above : z_below) = mid;
+        }
+        z = 0.5 * (z_below + z_above);
+      }
+      Eigen::Vector3d point = point_at_height(z);
+      const SurfaceSample s = scene_.Sample(point.x(), point.y(), true);
+      point.z() = s.height_mm;
+      const Eigen::Vector3d normal = Eigen::Vector3d(-s.gradient.x(), -s.gradient.y(), 1.0).normalized();
+      for (int c = 0; c < 3; ++c) {
+        point_in_table_[3 * i + c] = static_cast<float>(point[c]);
+        albedo_[3 * i + c] = static_cast<float>(s.albedo[c]);
+      }
+      normal_xy_in_table_[2 * i + 0] = static_cast<float>(normal.x());
+      normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
+    }
+  };
+  ParallelRows(options_.height, NumThreads(), progress, 0.1, 1.0, trace_row);
+}
+
+int SimulatedRig::NumThreads() const {
+  if (options_.num_threads > 0) return options_.num_threads;
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+void SimulatedRig::BuildShadowGrid(const RenderProgressCallback& progress) {
+  // The height is 0 off the sample, so the grid covers the sample only.
+  const TextileSceneOptions& so = scene_.options();
+  ShadowGrid& g = grid_;
+  g.spacing = options_.shadow_grid_mm;
+  g.origin_x = -0.5 * so.sample_width_mm;
+  g.origin_y = -0.5 * so.sample_height_mm;
+  g.nx = static_cast<int>(std::ceil(so.sample_width_mm / g.spacing)) + 1;
+  g.ny = static_cast<int>(std::ceil(so.sample_height_mm / g.spacing)) + 1;
+  g.height.assign(static_cast<size_t>(g.nx) * g.ny, 0.0f);
+  ParallelRows(g.ny, NumThreads(), progress, 0.0, 0.9, [&](int j) {
+    for (int i = 0; i < g.nx; ++i) {
+      g.height[static_cast<size_t>(j) * g.nx + i] =
+          static_cast<float>(scene_.HeightMm(g.origin_x + i * g.spacing, g.origin_y + j * g.spacing));
+    }
+  });
+  // Tile maxima over the samples that the bilinear cells of each tile read.
+  g.tiles_x = std::max(1, (g.nx - 1 + kTileCells - 1) / kTileCells);
+  g.tiles_y = std::max(1, (g.ny - 1 + kTileCells - 1) / kTileCells);
+  g.tile_max.assign(static_cast<size_t>(g.tiles_x) * g.tiles_y, 0.0f);
+  g.max_height = 0;
+  for (int tj = 0; tj < g.tiles_y; ++tj) {
+    for (int ti = 0; ti < g.tiles_x; ++ti) {
+      float m = 0;
+      for (int j = tj * kTileCells; j <= std::min(g.ny - 1, (tj + 1) * kTileCells); ++j) {
+        for (int i = ti * kTileCells; i <= std::min(g.nx - 1, (ti + 1) * kTileCells); ++i) {
+          m = std::max(m, g.height[static_cast<size_t>(j) * g.nx + i]);
+        }
+      }
+      g.tile_max[static_cast<size_t>(tj) * g.tiles_x + ti] = m;
+      g.max_height = std::max(g.max_height, m);
+    }
+  }
+  if (progress && !progress(1.0)) throw RenderCancelled();
+}
+
+double SimulatedRig::GridHeight(double x_mm, double y_mm) const {
+  const ShadowGrid& g = grid_;
+  const double gx = (x_mm - g.origin_x) / g.spacing;
+  const double gy = (y_mm - g.origin_y) / g.spacing;
+  if (!(gx >= 0 && gy >= 0 && gx <= g.nx - 1 && gy <= g.ny - 1)) return 0.0;
+  const int ci = std::min(static_cast<int>(gx), g.nx - 2);
+  const int cj = std::min(static_cast<int>(gy), g.ny - 2);
+  const double fx = gx - ci, fy = gy - cj;
+  const float* h0 = g.height.data() + static_cast<size_t>(cj) * g.nx + ci;
+  const float* h1 = h0 + g.nx;
+  return (1 - fy) * ((1 - fx) * h0[0] + fx * h0[1]) + fy * ((1 - fx) * h1[0] + fx * h1[1]);
+}
+
+bool SimulatedRig::Occluded(const Eigen::Vector3d& p, const Eigen::Vector3d& l, double distance_mm) const {
+  const ShadowGrid& g = grid_;
+  const double bias = options_.shadow_bias_mm;
+  const double horizontal = std::hypot(l.x(), l.y());
+  if (horizontal < 1e-12) return false;  // straight up: nothing above the surface point
+  const double fine_step = 0.75 * g.spacing / horizontal;
+
+  double s_end = distance_mm;
+  const bool rising = l.z() > 0;
+  if (rising) {
+    const double top = g.max_height + bias;
+    if (p.z() >= top) return false;
+    s_end = std::min(s_end, (top - p.z()) / l.z());
+  }
+  // Clip to the grid's rectangle: off it the surface is the table (z = 0),
+  // which a ray starting on or above it never dips under.
+  double s_begin = 0;
+  const double lo[2] = {g.origin_x, g.origin_y};
+  const double hi[2] = {g.origin_x + (g.nx - 1) * g.spacing, g.origin_y + (g.ny - 1) * g.spacing};
+  for (int a = 0; a < 2; ++a) {
+    if (std::abs(l[a]) < 1e-15) {
+      if (p[a] < lo[a] || p[a] > hi[a]) return false;
+      continue;
+    }
+    const double t1 = (lo[a] - p[a]) / l[a];
+    const double t2 = (hi[a] - p[a]) / l[a];
+    s_begin = std::max(s_begin, std::min(t1, t2));
+    s_end = std::min(s_end, std::max(t1, t2));
+  }
+  if (s_begin >= s_end) return false;
+
+  const double tile_size = kTileCells * g.spacing;
+  double s = std::max(s_begin, fine_step);  // the first step leaves the point's own cell
+  while (s <= s_end) {
+    const Eigen::Vector3d q = p + s * l;
+    const double gx = (q.x() - g.origin_x) / g.spacing;
+    const double gy = (q.y() - g.origin_y) / g.spacing;
+    const int ci = std::clamp(static_cast<int>(gx), 0, g.nx - 2);
+    const int cj = std::clamp(static_cast<int>(gy), 0, g.ny - 2);
+    const int ti = ci / kTileCells;
+    const int tj = cj / kTileCells;
+    if (rising && q.z() - bias > g.tile_max[static_cast<size_t>(tj) * g.tiles_x + ti]) {
+      // Above everything in this tile and still climbing: jump to its exit.
+      const double x0 = g.origin_x + ti * tile_size, y0 = g.origin_y + tj * tile_size;
+      double exit = std::numeric_limits<double>::infinity();
+      if (l.x() > 0) exit = std::min(exit, (x0 + tile_size - q.x()) / l.x());
+      if (l.x() < 0) exit = std::min(exit, (x0 - q.x()) / l.x());
+      if (l.y() > 0) exit = std::min(exit, (y0 + tile_size - q.y()) / l.y());
+      if (l.y() < 0) exit = std::min(exit, (y0 - q.y()) / l.y());
+      s += std::max(exit, 0.0) + 1e-6;
+      continue;
+    }
+    const double fx = gx - ci, fy = gy - cj;
+    const float* h0 = g.height.data() + static_cast<size_t>(cj) * g.nx + ci;
+    const float* h1 = h0 + g.nx;
+    const double h = (1 - fy) * ((1 - fx) * h0[0] + fx * h0[1]) + fy * ((1 - fx) * h1[0] + fx * h1[1]);
+    if (h > q.z() + bias) return true;
+    s += fine_step;
+  }
+  return false;
+}
+
+Eigen::Vector3d SimulatedRig::PointAt(size_t i) const {
+  return Eigen::Vector3d(point_in_table_[3 * i], point_in_table_[3 * i + 1], point_in_table_[3 * i + 2]);
+}
+
+Eigen::Vector3d SimulatedRig::NormalAt(size_t i) const {
+  const double nx = normal_xy_in_table_[2 * i], ny = normal_xy_in_table_[2 * i + 1];
+  return Eigen::Vector3d(nx, ny, std::sqrt(std::max(0.0, 1.0 - nx * nx - ny * ny)));
+}
+
+double SimulatedRig::DirectFactor(size_t i, const LedDescription& led, bool cast_shadows) const {
+  const Eigen::Vector3d point_in_table = PointAt(i);
+  const Eigen::Vector3d to_led = led.position_in_table_mm - point_in_table;
+  const double distance2 = to_led.squaredNorm();
+  const double distance = std::sqrt(distance2);
+  const Eigen::Vector3d light_dir_in_table = to_led / distance;
+  const double n_dot_l = NormalAt(i).dot(light_dir_in_table);
+  if (!(n_dot_l > 0)) return 0.0;
+  const double cos_off_axis = -led.axis_in_table.dot(light_dir_in_table);
+  if (!(cos_off_axis > 0)) return 0.0;
+  const double falloff = led.mu == 0 ? 1.0 : std::pow(cos_off_axis, led.mu);
+  const double factor =
+      n_dot_l * falloff * (kLedReferenceDistanceMm * kLedReferenceDistanceMm / distance2);
+  if (cast_shadows && Occluded(point_in_table, light_dir_in_table, distance)) return 0.0;
+  return factor;
+}
+
+ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const RenderProgressCallback& progress) const {
+  if (lit_led_index && (*lit_led_index < 0 || *lit_led_index >= num_leds())) {
+    throw std::out_of_range("SimulatedRig: LED index " + std::to_string(*lit_led_index) + " is not in [0, " +
+                            std::to_string(num_leds()) + ")");
+  }
+  const LedDescription* led = lit_led_index ? &rig_.leds[*lit_led_index] : nullptr;
+  ImageF out(options_.width, options_.height, 3);
+  ParallelRows(options_.height, NumThreads(), progress, 0.0, 1.0, [&](int y) {
+    float* row = out.row(y);
+    for (int x = 0; x < options_.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * options_.width + x;
+      const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const double irradiance = direct * (led ? led->rgb_intensity[c] : 0.0) + options_.ambient;
+        row[3 * x + c] = static_cast<float>(albedo_[3 * i + c] * irradiance);
+      }
+    }
+  });
+  return out;
+}
+
+RawImage SimulatedRig::RenderFrame(std::optional<int> lit_led_index, uint64_t frame_index,
+                                   const RenderProgressCallback& progress) const {
+  if (lit_led_index && (*lit_led_index < 0 || *lit_led_index >= num_leds())) {
+    throw std::out_of_range("SimulatedRig: LED index " + std::to_string(*lit_led_index) + " is not in [0, " +
+                            std::to_string(num_leds()) + ")");
+  }
+  const LedDescription* led = lit_led_index ? &rig_.leds[*lit_led_index] : nullptr;
+  RawImage raw;
+  raw.cfa = options_.cfa;
+  raw.black_level.fill(static_cast<uint16_t>(options_.black_level));
+  raw.white_level = static_cast<uint16_t>(options_.white_level);
+  raw.mosaic = ImageU16(options_.width, options_.height, 1);
+
+  const double range_dn = options_.white_level - options_.black_level;
+  const double gain = options_.gain_e_per_dn;
+  ParallelRows(options_.height, NumThreads(), progress, 0.0, 1.0, [&](int y) {
+    RowRng rng(RowSeed(options_.seed, frame_index, y));
+    uint16_t* row = raw.mosaic.row(y);
+    for (int x = 0; x < options_.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * options_.width + x;
+      const int c = CfaColorAt(options_.cfa, x, y);
+      const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
+      const double irradiance = direct * (led ? led->rgb_intensity[c] : 0.0) + options_.ambient;
+      const double value = albedo_[3 * i + c] * irradiance;
+      double signal_dn = value * range_dn;
+      if (options_.add_noise) {
+        const double electrons = rng.Poisson(signal_dn * gain);
+        signal_dn = electrons / gain + options_.read_noise_dn * rng.Gaussian();
+      }
+      const double dn = std::nearbyint(signal_dn + options_.black_level);
+      row[x] = static_cast<uint16_t>(std::clamp(dn, 0.0, static_cast<double>(options_.white_level)));
+    }
+  });
+  return raw;
+}
+
+ImageU8 SimulatedRig::RenderShadowMask(int led_index) const {
+  if (led_index < 0 || led_index >= num_leds()) {
+    throw std::out_of_range("SimulatedRig: LED index " + std::to_string(led_index) + " is not in [0, " +
+                            std::to_string(num_leds()) + ")");
+  }
+  const LedDescription& led = rig_.leds[led_index];
+  ImageU8 mask(options_.width, options_.height, 1);
+  ParallelRows(options_.height, NumThreads(), {}, 0.0, 1.0, [&](int y) {
+    for (int x = 0; x < options_.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * options_.width + x;
+      mask(x, y) = DirectFactor(i, led, true) > 0 ? 0 : 1;
+    }
+  });
+  return mask;
+}
+
+GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
+  GroundTruthMaps maps;
+  const int w = options_.width, h = options_.height;
+  maps.point_in_table = ImageF(w, h, 3);
+  maps.normal_in_table = ImageF(w, h, 3);
+  maps.albedo = ImageF(w, h, 3);
+  maps.height_mm = ImageF(w, h, 1);
+  maps.sample_mask = ImageU8(w, h, 1);
+  maps.mm_per_pixel = mm_per_pixel_;
+  ParallelRows(h, NumThreads(), {}, 0.0, 1.0, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      const Eigen::Vector3d normal = NormalAt(i);
+      for (int c = 0; c < 3; ++c) {
+        maps.point_in_table(x, y, c) = point_in_table_[3 * i + c];
+        maps.normal_in_table(x, y, c) = static_cast<float>(normal[c]);
+        maps.albedo(x, y, c) = albedo_[3 * i + c];
+      }
+      maps.height_mm(x, y) = point_in_table_[3 * i + 2];
+      maps.sample_mask(x, y) = scene_.OnSample(point_in_table_[3 * i], point_in_table_[3 * i + 1]) ? 1 : 0;
+    }
+  });
+  return maps;
+}
+
+}  // namespace scanbench

@@ -1,0 +1,151 @@
+// The simulated scan bench: renders the RAW frames that the real rig would
+// capture of a TextileScene, plus the ground truth to score a solve against.
+//
+// Light model (must match calibration/rig.h exactly, the solver inverts it):
+// LED k adds to raw colour channel c, as a fraction of the raw range above
+// black,
+//   albedo_c * max(0, n.l) * rgb_intensity_c * cos(angle off axis)^mu * (1000 / d_mm)^2
+// with l the unit vector from the surface point to the LED, d its distance and
+// the angle off axis between the LED's axis and (point - LED); zero where the
+// height field casts a shadow. Ambient light adds albedo_c * ambient to every
+// frame, the dark frame included.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "app/sim/textile_scene.h"
+#include "calibration/raw_image.h"
+#include "calibration/rig.h"
+#include "solver/image.h"
+
+namespace scanbench {
+
+// Nikon D5100 sensor (APS-C, 4.78 um pixels) at native resolution.
+inline constexpr int kD5100Width = 4928;            // pixels
+inline constexpr int kD5100Height = 3264;           // pixels
+inline constexpr double kD5100SensorWidthMm = 23.6;
+inline constexpr double kD5100SensorHeightMm = 15.6;
+
+// The bench as built, the truth the calibration should recover: a D5100 with an
+// 85 mm prime focused at 600 mm looking straight down (1 deg tilt), 10 LEDs on
+// two rings (30 and 60 deg elevation, 500 mm from the sample centre), each aimed
+// at the centre. `width` x `height` keep the field of view of the full sensor
+// (a smaller size is a binned sensor). Throws std::invalid_argument if either
+// size is not positive.
+RigDescription MakeDefaultSimulatedRig(int width = 1232, int height = 816);
+
+struct SimulatedRigOptions {
+  int width = kD5100Width / 4;       // pixels; must equal the rig camera's intrinsics.width
+  int height = kD5100Height / 4;     // pixels; must equal the rig camera's intrinsics.height
+  uint64_t seed = 0x5CA9BE9C;        // sensor noise seed; with the frame index it fixes every noise value
+  CfaPattern cfa = CfaPattern::kRGGB;  // Bayer layout of the mosaic (D5100: RGGB)
+  int black_level = 600;             // DN added to every pixel, [0, white_level)
+  int white_level = 16383;           // DN saturation (14-bit), (black_level, 65535]
+  double gain_e_per_dn = 2.5;        // electrons per DN (D5100 at ISO 100), > 0
+  double read_noise_dn = 1.2;        // Gaussian read noise, DN rms, >= 0
+  bool add_noise = true;             // false: shot and read noise off (values are still rounded and clipped)
+  double ambient = 0.006;            // fraction of the raw range an albedo-1 surface reads from stray light, [0, 1]
+  bool cast_shadows = true;          // march towards the LED over the height field
+  double shadow_grid_mm = 0.05;      // spacing of the height grid that shadow rays march over, (0, 1]
+  double shadow_bias_mm = 0.01;      // a ray is occluded only if the surface is this much above it, [0, 1]
+  int num_threads = 0;               // worker threads; 0 = std::thread::hardware_concurrency(), [0, 256]
+
+  // Throws std::invalid_argument naming the field, its value and the rule.
+  void Check() const;
+};
+
+// Fraction done in [0, 1], called from the calling thread only; return false
+// to cancel, which makes the call throw RenderCancelled.
+using RenderProgressCallback = std::function<bool(double fraction)>;
+
+class RenderCancelled : public std::runtime_error {
+ public:
+  RenderCancelled() : std::runtime_error("simulated rig: render cancelled by the progress callback") {}
+};
+
+struct GroundTruthMaps {
+  ImageF point_in_table;   // 3 channels, mm: where each pixel's ray meets the surface
+  ImageF normal_in_table;  // 3 channels, unit, z > 0
+  ImageF albedo;           // 3 channels, linear RGB in [0, 1]
+  ImageF height_mm;        // 1 channel, surface height above the table
+  ImageU8 sample_mask;     // 1 channel: 1 on the sample, 0 on the table
+  double mm_per_pixel = 0; // footprint on the table plane of one pixel at the image centre
+};
+
+// Immutable once built: the Render* calls are const and may run concurrently.
+class SimulatedRig {
+ public:
+  // Traces every pixel's ray to the surface once (the heavy part at 16 MP).
+  // Throws std::invalid_argument for bad options or a rig that does not match
+  // them, RenderCancelled if `progress` returns false.
+  SimulatedRig(const SimulatedRigOptions& options, TextileScene scene, RigDescription rig,
+               const RenderProgressCallback& progress = {});
+
+  const SimulatedRigOptions& options() const { return options_; }
+  const TextileScene& scene() const { return scene_; }
+  const RigDescription& rig() const { return rig_; }
+  int width() const { return options_.width; }
+  int height() const { return options_.height; }
+  int num_leds() const { return static_cast<int>(rig_.leds.size()); }
+  // Footprint on the table plane of one pixel at the image centre, mm.
+  double mm_per_pixel() const { return mm_per_pixel_; }
+
+  // One RAW capture: LED `lit_led_index` (index into rig().leds) on, or all off
+  // (std::nullopt = the dark frame). The noise is a pure function of
+  // (options.seed, frame_index, pixel): give every capture of a session its own
+  // frame_index. Throws std::out_of_range for a bad LED index.
+  RawImage RenderFrame(std::optional<int> lit_led_index, uint64_t frame_index,
+                       const RenderProgressCallback& progress = {}) const;
+
+  // The same frame noise-free and unclipped, all three colour channels: linear
+  // value as a fraction of the raw range above black (what the sensor's
+  // expected DN - black divided by white - black would be).
+  ImageF RenderLinear(std::optional<int> lit_led_index, const RenderProgressCallback& progress = {}) const;
+
+  // 1 where LED `led_index` is hidden by the surface (cast or attached shadow,
+  // or behind the LED), 0 where it lights the pixel. Ignores cast_shadows = false.
+  ImageU8 RenderShadowMask(int led_index) const;
+
+  GroundTruthMaps RenderGroundTruth() const;
+
+ private:
+  struct ShadowGrid {
+    double origin_x = 0, origin_y = 0;  // table mm of sample (0, 0)
+    double spacing = 1;                 // mm
+    int nx = 0, ny = 0;                 // samples
+    int tiles_x = 0, tiles_y = 0;
+    std::vector<float> height;          // nx * ny, row-major
+    std::vector<float> tile_max;        // max over each tile's samples, borders included
+    float max_height = 0;
+  };
+  static constexpr int kTileCells = 16;
+
+  int NumThreads() const;
+  void BuildShadowGrid(const RenderProgressCallback& progress);
+  double GridHeight(double x_mm, double y_mm) const;
+  bool Occluded(const Eigen::Vector3d& point_in_table, const Eigen::Vector3d& light_dir_in_table,
+                double distance_mm) const;
+  // LED irradiance factor n.l * cos^mu * (1000/d)^2 (times 0 in shadow) at pixel index i.
+  double DirectFactor(size_t i, const LedDescription& led, bool cast_shadows) const;
+  Eigen::Vector3d PointAt(size_t i) const;
+  Eigen::Vector3d NormalAt(size_t i) const;
+
+  SimulatedRigOptions options_;
+  TextileScene scene_;
+  RigDescription rig_;
+  ShadowGrid grid_;
+  double mm_per_pixel_ = 0;
+  // Per pixel, compact (32 bytes): surface point xyz, normal xy (z > 0 is
+  // implied), albedo rgb.
+  std::vector<float> point_in_table_;
+  std::vector<float> normal_xy_in_table_;
+  std::vector<float> albedo_;
+};
+
+}  // namespace scanbench

@@ -1,0 +1,303 @@
+#include "app/sim/textile_scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace scanbench {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+std::invalid_argument FieldError(const std::string& field, double value, const std::string& rule) {
+  std::ostringstream text;
+  text << "TextileSceneOptions: " << field << " = " << value << " " << rule;
+  return std::invalid_argument(text.str());
+}
+
+void CheckRgb(const std::string& field, const Eigen::Vector3d& rgb) {
+  for (int c = 0; c < 3; ++c) {
+    if (!(rgb[c] >= 0.0 && rgb[c] <= 1.0)) {
+      throw FieldError(field + "[" + std::to_string(c) + "]", rgb[c], "must lie in [0, 1]");
+    }
+  }
+}
+
+// SplitMix64 finaliser: a well-mixed 64-bit hash, so that per-thread
+// variation is a pure function of (seed, stream, index) and needs no tables.
+uint64_t Mix64(uint64_t z) {
+  z += 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+// Uniform in [-1, 1), reproducible from its arguments.
+double HashSigned(uint64_t seed, uint64_t stream, int64_t index) {
+  const uint64_t h = Mix64(Mix64(Mix64(seed) ^ stream) ^ static_cast<uint64_t>(index));
+  return static_cast<double>(h >> 11) * 0x1.0p-52 - 1.0;
+}
+
+// Streams of HashSigned, one per kind of variation.
+enum Stream : uint64_t {
+  kWarpCrown = 1,
+  kWeftCrown,
+  kWarpShade,
+  kWeftShade,
+  kWarpTint,   // + channel
+  kWeftTint = kWarpTint + 3,
+  kWarpSlubPhase = kWeftTint + 3,
+  kWeftSlubPhase,
+  kFolds,
+};
+
+// 0 -> 0, 1 -> 1 with zero first and second derivatives at both ends (C2).
+double SmootherStep(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t * t * t * (t * (6.0 * t - 15.0) + 10.0);
+}
+double SmootherStepDerivative(double t) {
+  if (t <= 0.0 || t >= 1.0) return 0.0;
+  return 30.0 * t * t * (1.0 - t) * (1.0 - t);
+}
+
+// Slub (thickness/colour irregularity) period along a thread, mm.
+constexpr double kWarpSlubPeriodMm = 9.7;
+constexpr double kWeftSlubPeriodMm = 7.3;
+
+}  // namespace
+
+void TextileSceneOptions::Check() const {
+  if (!(sample_width_mm > 0) || !std::isfinite(sample_width_mm)) {
+    throw FieldError("sample_width_mm", sample_width_mm, "must be finite and > 0");
+  }
+  if (!(sample_height_mm > 0) || !std::isfinite(sample_height_mm)) {
+    throw FieldError("sample_height_mm", sample_height_mm, "must be finite and > 0");
+  }
+  const double half_smaller = 0.5 * std::min(sample_width_mm, sample_height_mm);
+  if (!(edge_blend_mm > 0 && edge_blend_mm <= half_smaller)) {
+    throw FieldError("edge_blend_mm", edge_blend_mm,
+                     "must lie in (0, " + std::to_string(half_smaller) + "] (half the smaller sample extent)");
+  }
+  if (weave != WeavePattern::kPlain && weave != WeavePattern::kTwill) {
+    throw FieldError("weave", static_cast<int>(weave), "must be kPlain or kTwill");
+  }
+  if (!(warp_pitch_mm > 0) || !std::isfinite(warp_pitch_mm)) {
+    throw FieldError("warp_pitch_mm", warp_pitch_mm, "must be finite and > 0");
+  }
+  if (!(weft_pitch_mm > 0) || !std::isfinite(weft_pitch_mm)) {
+    throw FieldError("weft_pitch_mm", weft_pitch_mm, "must be finite and > 0");
+  }
+  if (!(thread_height_mm >= 0) || !std::isfinite(thread_height_mm)) {
+    throw FieldError("thread_height_mm", thread_height_mm, "must be finite and >= 0");
+  }
+  if (!(crossing_amplitude_mm >= 0) || !std::isfinite(crossing_amplitude_mm)) {
+    throw FieldError("crossing_amplitude_mm", crossing_amplitude_mm, "must be finite and >= 0");
+  }
+  if (!(thread_height_variation >= 0 && thread_height_variation < 1)) {
+    throw FieldError("thread_height_variation", thread_height_variation, "must lie in [0, 1)");
+  }
+  if (!(smoothing_mm > 0) || !std::isfinite(smoothing_mm)) {
+    throw FieldError("smoothing_mm", smoothing_mm, "must be finite and > 0");
+  }
+  if (!(base_thickness_mm >= 0) || !std::isfinite(base_thickness_mm)) {
+    throw FieldError("base_thickness_mm", base_thickness_mm, "must be finite and >= 0");
+  }
+  if (!(fold_amplitude_mm >= 0) || !std::isfinite(fold_amplitude_mm)) {
+    throw FieldError("fold_amplitude_mm", fold_amplitude_mm, "must be finite and >= 0");
+  }
+  if (num_fold_waves < 0 || num_fold_waves > 64) {
+    throw FieldError("num_fold_waves", num_fold_waves, "must lie in [0, 64]");
+  }
+  if (!(fold_min_wavelength_mm > 0) || !std::isfinite(fold_min_wavelength_mm)) {
+    throw FieldError("fold_min_wavelength_mm", fold_min_wavelength_mm, "must be finite and > 0");
+  }
+  if (!(fold_max_wavelength_mm >= fold_min_wavelength_mm) || !std::isfinite(fold_max_wavelength_mm)) {
+    throw FieldError("fold_max_wavelength_mm", fold_max_wavelength_mm,
+                     "must be finite and >= fold_min_wavelength_mm (" + std::to_string(fold_min_wavelength_mm) +
+                         ")");
+  }
+  CheckRgb("warp_rgb", warp_rgb);
+  CheckRgb("weft_rgb", weft_rgb);
+  CheckRgb("table_rgb", table_rgb);
+  if (!(color_variation >= 0 && color_variation <= 0.5)) {
+    throw FieldError("color_variation", color_variation, "must lie in [0, 0.5]");
+  }
+  if (!(gap_darkening >= 0 && gap_darkening <= 1)) {
+    throw FieldError("gap_darkening", gap_darkening, "must lie in [0, 1]");
+  }
+}
+
+TextileScene::TextileScene(const TextileSceneOptions& options) : options_(options) {
+  options_.Check();
+  // Fold waves: random directions, log-uniform wavelengths, random phases and
+  // weights normalised to 1 so the folds span exactly 0 .. 2 * amplitude at most.
+  double weight_sum = 0;
+  for (int k = 0; k < options_.num_fold_waves; ++k) {
+    const double direction_rad = kPi * 0.5 * (1.0 + HashSigned(options_.seed, kFolds, 4 * k + 0));
+    const double mix = 0.5 * (1.0 + HashSigned(options_.seed, kFolds, 4 * k + 1));
+    const double wavelength_mm =
+        options_.fold_min_wavelength_mm *
+        std::pow(options_.fold_max_wavelength_mm / options_.fold_min_wavelength_mm, mix);
+    FoldWave wave;
+    wave.wave_vector = (2.0 * kPi / wavelength_mm) * Eigen::Vector2d(std::cos(direction_rad), std::sin(direction_rad));
+    wave.phase = kPi * (1.0 + HashSigned(options_.seed, kFolds, 4 * k + 2));
+    wave.weight = 0.7 + 0.3 * HashSigned(options_.seed, kFolds, 4 * k + 3);
+    weight_sum += wave.weight;
+    folds_.push_back(wave);
+  }
+  for (FoldWave& wave : folds_) wave.weight /= weight_sum;
+
+  // Each thread's crown is at most (1 + variation) * height + amplitude; the
+  // soft maximum adds at most smoothing * ln 2; the folds at most 2 * amplitude.
+  max_height_mm_ = options_.base_thickness_mm +
+                   options_.thread_height_mm * (1.0 + options_.thread_height_variation) +
+                   options_.crossing_amplitude_mm + options_.smoothing_mm * std::numbers::ln2 +
+                   (folds_.empty() ? 0.0 : 2.0 * options_.fold_amplitude_mm);
+}
+
+bool TextileScene::OnSample(double x_mm, double y_mm) const {
+  return std::abs(x_mm) <= 0.5 * options_.sample_width_mm && std::abs(y_mm) <= 0.5 * options_.sample_height_mm;
+}
+
+SurfaceSample TextileScene::Sample(double x_mm, double y_mm, bool with_albedo) const {
+  return Evaluate(x_mm, y_mm, true, with_albedo);
+}
+
+SurfaceSample TextileScene::Evaluate(double x_mm, double y_mm, bool with_gradient, bool with_albedo) const {
+  const TextileSceneOptions& o = options_;
+  SurfaceSample out;
+  if (!OnSample(x_mm, y_mm)) {
+    out.albedo = o.table_rgb;
+    return out;
+  }
+
+  // --- Weave relief. Warp thread i covers x in [i, i+1) * warp pitch, weft j
+  // covers y in [j, j+1) * weft pitch; fu, fv in [-0.5, 0.5) across a thread.
+  const double u = x_mm / o.warp_pitch_mm;
+  const double v = y_mm / o.weft_pitch_mm;
+  const double iu = std::floor(u);
+  const double jv = std::floor(v);
+  const auto warp_index = static_cast<int64_t>(iu);
+  const auto weft_index = static_cast<int64_t>(jv);
+  const double fu = u - iu - 0.5;
+  const double fv = v - jv - 0.5;
+
+  // Over/under pattern: the crown of warp i follows cos(phase) along y with a
+  // period of `period` wefts, shifted one weft per warp; weft j is the mirror
+  // image, so at every crossing one thread is up where the other is down.
+  const double period = o.weave == WeavePattern::kPlain ? 2.0 : 4.0;
+  const double offset = o.weave == WeavePattern::kPlain ? 0.0 : 0.5;  // twill: crossings at +-45 deg
+  const double warp_phase = 2.0 * kPi * (v - 0.5 - iu - offset) / period;
+  const double weft_phase = 2.0 * kPi * (jv - (u - 0.5) - offset) / period;
+  const double amplitude = o.crossing_amplitude_mm;
+  const double warp_crown =
+      o.thread_height_mm * (1.0 + o.thread_height_variation * HashSigned(o.seed, kWarpCrown, warp_index)) +
+      amplitude * std::cos(warp_phase);
+  const double weft_crown =
+      o.thread_height_mm * (1.0 + o.thread_height_variation * HashSigned(o.seed, kWeftCrown, weft_index)) -
+      amplitude * std::cos(weft_phase);
+
+  // Rounded cross-section cos^2: zero height and slope at a thread's borders,
+  // so neighbouring threads with different crowns still meet continuously.
+  const double cos_u = std::cos(kPi * fu);
+  const double cos_v = std::cos(kPi * fv);
+  const double profile_u = cos_u * cos_u;
+  const double profile_v = cos_v * cos_v;
+  const double warp_z = profile_u * warp_crown;
+  const double weft_z = profile_v * weft_crown;
+
+  // Visible relief: soft maximum (log-sum-exp) of the two thread surfaces, so
+  // the normal stays continuous where one thread dives under the other.
+  const double k = o.smoothing_mm;
+  const double top = std::max(warp_z, weft_z);
+  const double e_other = std::exp(-std::abs(warp_z - weft_z) / k);  // the lower thread's term; the upper's is 1
+  const double e_sum = 1.0 + e_other;
+  const double w_warp = (warp_z >= weft_z ? 1.0 : e_other) / e_sum;
+  const double w_weft = 1.0 - w_warp;
+  const double relief = top + k * std::log1p(e_other);
+
+  // --- Folds.
+  double fold = 0;
+  Eigen::Vector2d fold_grad = Eigen::Vector2d::Zero();
+  if (!folds_.empty()) {
+    double sum = 0;
+    for (const FoldWave& wave : folds_) {
+      const double arg = wave.wave_vector.x() * x_mm + wave.wave_vector.y() * y_mm + wave.phase;
+      sum += wave.weight * std::sin(arg);
+      if (with_gradient) fold_grad += (o.fold_amplitude_mm * wave.weight * std::cos(arg)) * wave.wave_vector;
+    }
+    fold = o.fold_amplitude_mm * (1.0 + sum);
+  }
+
+  const double inner = o.base_thickness_mm + relief + fold;
+
+  // --- Edge blend: inner height times a C2 ramp in each direction.
+  const double tx = (0.5 * o.sample_width_mm - std::abs(x_mm)) / o.edge_blend_mm;
+  const double ty = (0.5 * o.sample_height_mm - std::abs(y_mm)) / o.edge_blend_mm;
+  const double sx = SmootherStep(tx);
+  const double sy = SmootherStep(ty);
+  const double blend = sx * sy;
+  out.height_mm = blend * inner;
+
+  if (with_gradient) {
+    const double profile_u_dx = -kPi * std::sin(2.0 * kPi * fu) / o.warp_pitch_mm;
+    const double profile_v_dy = -kPi * std::sin(2.0 * kPi * fv) / o.weft_pitch_mm;
+    const Eigen::Vector2d warp_grad(profile_u_dx * warp_crown,
+                                    profile_u * (-amplitude * std::sin(warp_phase)) * 2.0 * kPi /
+                                        (period * o.weft_pitch_mm));
+    const Eigen::Vector2d weft_grad(profile_v * (amplitude * std::sin(weft_phase)) * (-2.0 * kPi) /
+                                        (period * o.warp_pitch_mm),
+                                    profile_v_dy * weft_crown);
+    const Eigen::Vector2d inner_grad = w_warp * warp_grad + w_weft * weft_grad + fold_grad;
+    const double sx_dx = SmootherStepDerivative(tx) * (x_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
+    const double sy_dy = SmootherStepDerivative(ty) * (y_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
+    out.gradient = blend * inner_grad + inner * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
+  }
+
+  if (with_albedo) {
+    const double cv = o.color_variation;
+    Eigen::Vector3d warp_rgb = o.warp_rgb;
+    Eigen::Vector3d weft_rgb = o.weft_rgb;
+    const double warp_shade = 1.0 + cv * HashSigned(o.seed, kWarpShade, warp_index);
+    const double weft_shade = 1.0 + cv * HashSigned(o.seed, kWeftShade, weft_index);
+    // Slubs: slow brightness variation along each thread.
+    const double warp_slub =
+        1.0 + 0.5 * cv *
+                  std::sin(2.0 * kPi * y_mm / kWarpSlubPeriodMm + kPi * HashSigned(o.seed, kWarpSlubPhase, warp_index));
+    const double weft_slub =
+        1.0 + 0.5 * cv *
+                  std::sin(2.0 * kPi * x_mm / kWeftSlubPeriodMm + kPi * HashSigned(o.seed, kWeftSlubPhase, weft_index));
+    for (int c = 0; c < 3; ++c) {
+      warp_rgb[c] *= warp_shade * warp_slub * (1.0 + 0.3 * cv * HashSigned(o.seed, kWarpTint + c, warp_index));
+      weft_rgb[c] *= weft_shade * weft_slub * (1.0 + 0.3 * cv * HashSigned(o.seed, kWeftTint + c, weft_index));
+    }
+    // The thread on top shows its colour; the gaps between threads are darker.
+    const double cover = o.thread_height_mm > 0 ? std::min(1.0, relief / o.thread_height_mm) : 1.0;
+    const double gap_factor = 1.0 - o.gap_darkening * (1.0 - cover);
+    out.albedo = ((w_warp * warp_rgb + w_weft * weft_rgb) * gap_factor).cwiseMax(0.0).cwiseMin(1.0);
+  }
+  return out;
+}
+
+double TextileScene::HeightMm(double x_mm, double y_mm) const {
+  return Evaluate(x_mm, y_mm, false, false).height_mm;
+}
+
+Eigen::Vector2d TextileScene::HeightGradient(double x_mm, double y_mm) const {
+  return Sample(x_mm, y_mm, false).gradient;
+}
+
+Eigen::Vector3d TextileScene::NormalInTable(double x_mm, double y_mm) const {
+  const Eigen::Vector2d g = HeightGradient(x_mm, y_mm);
+  return Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
+}
+
+Eigen::Vector3d TextileScene::Albedo(double x_mm, double y_mm) const {
+  return Evaluate(x_mm, y_mm, false, true).albedo;
+}
+
+}  // namespace scanbench
