@@ -1,0 +1,13 @@
+// Each group of subcommands registers itself on the CLI11 app. A command's
+// callback stores its exit code in *exit_code; its options live in state the
+// callback owns.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace scanbench {
+
+// demo, simulate, solve
+void RegisterScanCommands(CLI::App& app, int* exit_code);
+
+}  // namespace scanbench

@@ -1,0 +1,145 @@
+// demo, simulate and solve: the simulated scan end to end and its parts.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "app/cli/commands.h"
+#include "app/cli/run_controller.h"
+#include "app/controllers/simulate_controller.h"
+#include "app/controllers/solve_controller.h"
+#include "app/session/session.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
+  command.add_option("--width", options.rig.width, "Image width in pixels (4928 = full Nikon D5100)")
+      ->capture_default_str();
+  command.add_option("--height", options.rig.height, "Image height in pixels (3264 = full Nikon D5100)")
+      ->capture_default_str();
+  command.add_option("--seed", options.rig.seed, "Sensor noise seed")->capture_default_str();
+  command.add_option("--scene-seed", options.scene.seed, "Textile variation seed")->capture_default_str();
+  command.add_option("--warp-pitch", options.scene.warp_pitch_mm, "Warp thread spacing, mm")->capture_default_str();
+  command.add_option("--weft-pitch", options.scene.weft_pitch_mm, "Weft thread spacing, mm")->capture_default_str();
+  command.add_option("--sample-name", options.sample_name, "Sample name recorded in session.json")
+      ->capture_default_str();
+  command.add_flag("--no-noise", [&options](std::int64_t) { options.rig.add_noise = false; },
+                   "Render without sensor noise");
+  command.add_flag("--no-shadows", [&options](std::int64_t) { options.rig.cast_shadows = false; },
+                   "Render without cast shadows");
+  command.add_option("--render-threads", options.rig.num_threads, "Render threads (0 = all cores)")
+      ->capture_default_str();
+}
+
+void AddSolveOptions(CLI::App& command, SolveOptions& options) {
+  command.add_option("--threads", options.solver.num_threads, "Solver threads (0 = all cores)")
+      ->capture_default_str();
+  command.add_option("--label", options.run_label, "Label in the result folder name")->capture_default_str();
+  command.add_option("--max-condition", options.solver.max_condition_number,
+                     "Flag pixels whose light matrix is worse conditioned than this")
+      ->capture_default_str();
+  command.add_option("--shadow-level", options.solver.min_sample_value,
+                     "Samples at or below this linear value count as shadow and are left out (0 = keep all)")
+      ->capture_default_str();
+  command
+      .add_option_function<std::string>(
+          "--demosaic",
+          [&options](const std::string& name) {
+            options.develop.demosaic =
+                name == "bilinear" ? RawDevelopOptions::Demosaic::kBilinear : RawDevelopOptions::Demosaic::kEdgeAware;
+          },
+          "Bayer interpolation: edge_aware (default) or bilinear")
+      ->check(CLI::IsMember({"edge_aware", "bilinear"}));
+  command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
+                   "Skip re-hashing the frames against session.json");
+}
+
+int Solve(const fs::path& session_dir, const SolveOptions& options) {
+  SolveController solve(session_dir, options);
+  const int code = RunController(solve);
+  if (code == kExitSuccess) std::cout << solve.summary().FullReport();
+  return code;
+}
+
+int Simulate(const fs::path& session_dir, const SimulateOptions& options) {
+  SimulateController controller(session_dir, options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) {
+    std::cout << "Session written to " << fs::absolute(session_dir).string() << " ("
+              << controller.summary().frames_written << " frames rendered, " << controller.summary().frames_resumed
+              << " already there)\n";
+  }
+  return code;
+}
+
+struct DemoState {
+  fs::path output = "scanbench-demo";
+  SimulateOptions simulate;
+  SolveOptions solve;
+};
+
+int Demo(const DemoState& state) {
+  const fs::path session_dir = state.output / "session";
+  if (fs::exists(session_dir / "session.json") && LoadSession(session_dir).capture_complete) {
+    std::cout << "Re-solving the existing demo session " << fs::absolute(session_dir).string()
+              << " into a new result folder\n";
+  } else {
+    fs::create_directories(state.output);
+    const int code = Simulate(session_dir, state.simulate);
+    if (code != kExitSuccess) return code;
+  }
+  return Solve(session_dir, state.solve);
+}
+
+// Errors outside a controller (bad folder, unreadable session) still end in
+// a message and an exit code, never an uncaught exception.
+template <typename Function>
+void Guarded(int* exit_code, Function&& function) {
+  try {
+    *exit_code = function();
+  } catch (const std::exception& error) {
+    std::cerr << "scanbench: error: " << error.what() << "\n";
+    *exit_code = kExitFailure;
+  }
+}
+
+}  // namespace
+
+void RegisterScanCommands(CLI::App& app, int* exit_code) {
+  auto demo = std::make_shared<DemoState>();
+  CLI::App* demo_command = app.add_subcommand(
+      "demo", "Simulate a capture on the simulated rig, solve it and write maps and a report. "
+              "Run again to re-solve the same session into a new result folder.");
+  demo_command->add_option("--output", demo->output, "Folder for the demo session")->capture_default_str();
+  AddSimulateOptions(*demo_command, demo->simulate);
+  demo_command->add_option("--threads", demo->solve.solver.num_threads, "Solver threads (0 = all cores)")
+      ->capture_default_str();
+  demo_command->callback([demo, exit_code] { Guarded(exit_code, [&] { return Demo(*demo); }); });
+
+  auto simulate_dir = std::make_shared<fs::path>();
+  auto simulate = std::make_shared<SimulateOptions>();
+  CLI::App* simulate_command = app.add_subcommand(
+      "simulate", "Render a capture session (DNG frames, session.json, ground truth) on the simulated rig. "
+                  "An interrupted run resumes when started again with the same options.");
+  simulate_command->add_option("session", *simulate_dir, "Session folder to write")->required();
+  AddSimulateOptions(*simulate_command, *simulate);
+  simulate_command->callback([simulate_dir, simulate, exit_code] {
+    Guarded(exit_code, [&] { return Simulate(*simulate_dir, *simulate); });
+  });
+
+  auto solve_dir = std::make_shared<fs::path>();
+  auto solve = std::make_shared<SolveOptions>();
+  CLI::App* solve_command = app.add_subcommand(
+      "solve", "Solve a session's normal and albedo maps into a new results/<run-id>/ folder beside earlier ones");
+  solve_command->add_option("session", *solve_dir, "Session folder (holding session.json)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  AddSolveOptions(*solve_command, *solve);
+  solve_command->callback([solve_dir, solve, exit_code] {
+    Guarded(exit_code, [&] { return Solve(*solve_dir, *solve); });
+  });
+}
+
+}  // namespace scanbench
