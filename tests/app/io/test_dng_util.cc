@@ -85,24 +85,4 @@ void PatchIfd0Value(std::vector<uint8_t>& bytes, uint16_t tag, uint32_t value) {
   for (int i = 0; i < size; ++i) bytes[entry + 8 + i] = static_cast<uint8_t>(value >> (8 * i));
 }
 
-TempDir::TempDir() {
-  static std::atomic<int> counter{0};
-  path_ = fs::temp_directory_path() /
-          ("scanbench_io_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-  fs::remove_all(path_);
-  fs::create_directories(path_);
-}
-
-TempDir::~TempDir() {
-  std::error_code ignored;
-  fs::remove_all(path_, ignored);
-}
-
-std::vector<std::string> TempDir::List() const {
-  std::vector<std::string> names;
-  for (const auto& entry : fs::directory_iterator(path_)) names.push_back(entry.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
-
 }  // namespace scanbench::testing

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/util/temporary_folder.h"
+
 namespace scanbench::testing {
 
 struct TestDngOptions {
@@ -30,20 +32,6 @@ std::vector<uint8_t> MakeTestDng(const TestDngOptions& options);
 uint32_t ReadIfd0Value(const std::vector<uint8_t>& bytes, uint16_t tag);
 void PatchIfd0Value(std::vector<uint8_t>& bytes, uint16_t tag, uint32_t value);
 
-// A fresh, empty folder removed when the object goes away.
-class TempDir {
- public:
-  TempDir();
-  ~TempDir();
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
-  // File names in the folder, sorted.
-  std::vector<std::string> List() const;
-
- private:
-  std::filesystem::path path_;
-};
+using TempDir = TemporaryFolder;
 
 }  // namespace scanbench::testing

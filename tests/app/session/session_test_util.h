@@ -18,8 +18,11 @@
 #include <gtest/gtest.h>
 
 #include "app/session/session.h"
+#include "tests/util/temporary_folder.h"
 
 namespace scanbench::testing_util {
+
+using ::scanbench::testing::TemporaryFolder;
 
 inline RigDescription MakeTestRig(int num_leds = 3) {
   RigDescription rig;
@@ -112,29 +115,6 @@ inline void WriteText(const std::filesystem::path& path, const std::string& text
   out << text;
 }
 
-// A fresh folder under the system temp dir, removed with the test.
-class TemporaryFolder {
- public:
-  TemporaryFolder() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::random_device random;
-    path_ = std::filesystem::temp_directory_path() /
-            ("scanbench_session_" + std::string(info->test_suite_name()) + "_" + info->name() + "_" +
-             std::to_string(random()));
-    std::filesystem::create_directories(path_);
-  }
-  ~TemporaryFolder() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  TemporaryFolder(const TemporaryFolder&) = delete;
-  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
-
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
 
 inline void ExpectSameBits(double expected, double actual, const std::string& what) {
   EXPECT_EQ(std::bit_cast<uint64_t>(expected), std::bit_cast<uint64_t>(actual))

@@ -1,0 +1,145 @@
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <fstream>
+#include <iterator>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "app/session/session.h"
+#include "tests/util/temporary_folder.h"
+
+namespace scanbench {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+CommandResult RunShell(const std::string& command) {
+  CommandResult result;
+  std::FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer;
+  size_t read = 0;
+  while ((read = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), read);
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+std::string CliCommand(const std::string& arguments) {
+  std::string command = "'";
+  command += SCANBENCH_CLI;
+  command += "' ";
+  command += arguments;
+  return command;
+}
+
+CommandResult RunScanbench(const std::string& arguments) { return RunShell(CliCommand(arguments)); }
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+std::string Quoted(const fs::path& path) {
+  std::string quoted = path.string();
+  quoted.insert(quoted.begin(), '\'');
+  quoted.push_back('\'');
+  return quoted;
+}
+
+size_t CountResults(const fs::path& session_dir) {
+  size_t count = 0;
+  for (const auto& entry : fs::directory_iterator(session_dir / "results")) count += entry.is_directory();
+  return count;
+}
+
+TEST(ScanbenchCliTest, HelpListsTheCommands) {
+  const CommandResult result = RunScanbench("--help");
+  EXPECT_EQ(result.exit_code, 0);
+  for (const char* command : {"demo", "simulate", "solve"}) EXPECT_THAT(result.output, HasSubstr(command));
+  EXPECT_EQ(RunScanbench("solve --help").exit_code, 0);
+  EXPECT_NE(RunScanbench("").exit_code, 0) << "a command is required";
+}
+
+TEST(ScanbenchCliTest, DemoScansThenResolvesBesideTheFirstResult) {
+  testing::TemporaryFolder folder;
+  const std::string arguments = "demo --width 320 --height 212 --output " + Quoted(folder / "demo");
+  const CommandResult first = RunScanbench(arguments);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  EXPECT_THAT(first.output, HasSubstr("normal angular error vs ground truth"));
+  EXPECT_THAT(first.output, HasSubstr("solve            100%")) << "progress is shown";
+  const fs::path session_dir = folder / "demo" / "session";
+  EXPECT_TRUE(LoadSession(session_dir).capture_complete);
+  EXPECT_EQ(CountResults(session_dir), 1u);
+
+  const CommandResult second = RunScanbench(arguments);
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  EXPECT_THAT(second.output, HasSubstr("Re-solving the existing demo session"));
+  EXPECT_EQ(CountResults(session_dir), 2u);
+}
+
+TEST(ScanbenchCliTest, FailuresExitNonZeroNamingTheProblem) {
+  testing::TemporaryFolder folder;
+  const CommandResult not_a_session = RunScanbench("solve " + Quoted(folder.path()));
+  EXPECT_EQ(not_a_session.exit_code, 1);
+  EXPECT_THAT(not_a_session.output, HasSubstr("session.json"));
+
+  const CommandResult bad_width = RunScanbench("simulate " + Quoted(folder / "s") + " --width 1");
+  EXPECT_EQ(bad_width.exit_code, 1);
+  EXPECT_THAT(bad_width.output, HasSubstr("width"));
+
+  EXPECT_NE(RunScanbench("solve /nonexistent/session").exit_code, 0);
+}
+
+TEST(ScanbenchCliTest, InterruptCancelsAndTheRerunResumes) {
+  testing::TemporaryFolder folder;
+  const fs::path session_dir = folder / "s";
+  const fs::path log = folder / "log.txt";
+  // Ctrl-C as soon as the first frame is on disk.
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::execl(SCANBENCH_CLI, SCANBENCH_CLI, "simulate", session_dir.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  for (int i = 0; i < 6000 && !fs::exists(session_dir / "frames" / "dark.dng"); ++i) ::usleep(10000);
+  ::kill(pid, SIGINT);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  const std::string output = ReadText(log);
+  ASSERT_TRUE(WIFEXITED(status)) << output;
+  ASSERT_EQ(WEXITSTATUS(status), 130) << output;
+  EXPECT_THAT(output, HasSubstr("cancelled"));
+  EXPECT_THAT(output, Not(HasSubstr("error")));
+  const Session partial = LoadSession(session_dir);
+  EXPECT_FALSE(partial.capture_complete);
+  EXPECT_GE(partial.frames.size(), 1u);
+  EXPECT_LT(partial.frames.size(), 11u);
+
+  const CommandResult resumed = RunScanbench("simulate " + Quoted(session_dir));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_THAT(resumed.output, HasSubstr(std::to_string(partial.frames.size()) + " already there"));
+  EXPECT_TRUE(LoadSession(session_dir).capture_complete);
+}
+
+}  // namespace
+}  // namespace scanbench

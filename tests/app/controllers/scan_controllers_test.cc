@@ -1,0 +1,202 @@
+// The simulated scan end to end through the controllers the CLI and GUI use:
+// simulate -> DNG on disk -> decode -> develop -> solve -> maps and report.
+#include <fstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "app/controllers/simulate_controller.h"
+#include "app/controllers/solve_controller.h"
+#include "app/io/file_util.h"
+#include "app/io/image_io.h"
+#include "app/session/session.h"
+#include "tests/util/temporary_folder.h"
+
+namespace scanbench {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using testing::TemporaryFolder;
+
+SimulateOptions SmallSimulation() {
+  SimulateOptions options;
+  options.rig.width = 400;
+  options.rig.height = 264;
+  return options;
+}
+
+std::vector<fs::path> ResultFolders(const fs::path& session_dir) {
+  std::vector<fs::path> folders;
+  for (const auto& entry : fs::directory_iterator(session_dir / "results")) folders.push_back(entry.path());
+  std::sort(folders.begin(), folders.end());
+  return folders;
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+// The accuracy target, at the default size and scene of the main job.
+TEST(ScanControllersTest, DefaultSceneSolvesWithinOneDegree) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateController simulate(session_dir, SimulateOptions());
+  simulate.Run();
+  EXPECT_EQ(simulate.summary().frames_written, 11);
+
+  SolveController solve(session_dir, SolveOptions());
+  solve.Run();
+  const SolveSummary& summary = solve.summary();
+  ASSERT_TRUE(summary.normal_error_deg.has_value());
+  EXPECT_LE(summary.normal_error_deg->mean, 1.0);
+  EXPECT_LE(summary.normal_error_deg->median, 0.6);
+  EXPECT_LE(summary.albedo_error->mean, 0.02);
+  EXPECT_GT(summary.normal_error_deg->num_pixels, 500000u) << "most of the sample must be evaluated";
+  EXPECT_EQ(summary.unsolved_on_sample, 0u);
+  EXPECT_EQ(summary.clipped_samples, 0u);
+}
+
+TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateController(session_dir, SmallSimulation()).Run();
+  SolveController solve(session_dir, SolveOptions());
+  solve.Run();
+
+  const fs::path result = solve.summary().result_dir;
+  ASSERT_EQ(ResultFolders(session_dir), std::vector<fs::path>{result});
+  for (const char* name : {"normal.exr", "normal.png", "albedo.exr", "albedo_srgb.png", "status.png",
+                           "solved_mask.png", "confidence.exr", "angular_error_deg.exr", "report.json",
+                           "summary.txt"}) {
+    EXPECT_TRUE(fs::is_regular_file(result / name)) << name;
+  }
+  const ImageF normals = ReadImageFloat(result / "normal.exr");
+  EXPECT_EQ(normals.width(), 400);
+  EXPECT_EQ(normals.channels(), 3);
+  // The 16-bit PNG encodes the same normals: (n + 1) / 2.
+  const ImageU16 encoded = ReadImageU16(result / "normal.png");
+  EXPECT_NEAR(encoded(200, 132, 2) / 65535.0 * 2 - 1, normals(200, 132, 2), 1e-4);
+
+  const nlohmann::json report = ReadJson(result / "report.json");
+  EXPECT_EQ(report["solver"]["method"], "jacobi_svd");
+  EXPECT_EQ(report["session"]["leds"], 10);
+  EXPECT_GT(report["timings_s"]["solve"].get<double>(), 0.0);
+  for (const char* stage : {"load", "decode_develop", "light_field", "solve", "evaluate", "write_maps"}) {
+    EXPECT_TRUE(report["timings_s"].contains(stage)) << stage;
+  }
+  const double mean = report["ground_truth"]["normal_angular_error_deg"]["mean"];
+  EXPECT_DOUBLE_EQ(mean, solve.summary().normal_error_deg->mean);
+  // A small capture has fewer pixels per thread: looser than the main job, still close.
+  EXPECT_LT(mean, 3.0);
+  EXPECT_THAT(report["result"]["message"].get<std::string>(), HasSubstr("success"));
+}
+
+TEST(ScanControllersTest, ResolveWritesANewResultBesideTheOld) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateController(session_dir, SmallSimulation()).Run();
+  SolveController first(session_dir, SolveOptions());
+  first.Run();
+  const std::string first_report = Sha256HexOfFile(first.summary().result_dir / "report.json");
+  SolveOptions bilinear;
+  bilinear.develop.demosaic = RawDevelopOptions::Demosaic::kBilinear;
+  bilinear.run_label = "bilinear";
+  SolveController second(session_dir, bilinear);
+  second.Run();
+  EXPECT_NE(first.summary().result_dir, second.summary().result_dir);
+  EXPECT_EQ(ResultFolders(session_dir).size(), 2u);
+  EXPECT_EQ(Sha256HexOfFile(first.summary().result_dir / "report.json"), first_report) << "old result untouched";
+  EXPECT_THAT(second.summary().result_dir.filename().string(), HasSubstr("bilinear"));
+}
+
+TEST(ScanControllersTest, InterruptedSimulationResumesWhereItStopped) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateController interrupted(session_dir, SmallSimulation());
+  // Stop once the fourth frame starts rendering: three frames are on disk.
+  interrupted.SetProgressCallback([&](const std::string& stage, double fraction) {
+    if (stage == "simulate" && fraction > 3.2 / 11) interrupted.RequestStop();
+  });
+  EXPECT_THROW(interrupted.Run(), JobCancelled);
+  const Session partial = LoadSession(session_dir);
+  EXPECT_FALSE(partial.capture_complete);
+  ASSERT_EQ(partial.frames.size(), 3u);
+  const std::string dark_sha = partial.frames[0].sha256;
+
+  SimulateController resumed(session_dir, SmallSimulation());
+  resumed.Run();
+  EXPECT_EQ(resumed.summary().frames_resumed, 3);
+  EXPECT_EQ(resumed.summary().frames_written, 8);
+  const Session complete = LoadSession(session_dir);
+  EXPECT_TRUE(complete.capture_complete);
+  EXPECT_EQ(complete.frames.size(), 11u);
+  EXPECT_EQ(complete.frames[0].sha256, dark_sha) << "frames on disk are never rewritten";
+
+  // A complete session is never simulated over.
+  SimulateController again(session_dir, SmallSimulation());
+  EXPECT_THAT([&] { again.Run(); }, ::testing::ThrowsMessage<SessionError>(HasSubstr("complete")));
+}
+
+TEST(ScanControllersTest, CancelledSolveLeavesNoResultFolder) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateController(session_dir, SmallSimulation()).Run();
+  SolveController solve(session_dir, SolveOptions());
+  solve.SetProgressCallback([&](const std::string& stage, double) {
+    if (stage == "solve") solve.RequestStop();
+  });
+  EXPECT_THROW(solve.Run(), JobCancelled);
+  EXPECT_TRUE(ResultFolders(session_dir).empty());
+}
+
+TEST(ScanControllersTest, CorruptFrameIsReportedByName) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateController(session_dir, SmallSimulation()).Run();
+  // Cut the fourth LED frame short, as a failed copy would.
+  const fs::path frame = session_dir / "frames" / "led_03.dng";
+  std::vector<uint8_t> bytes = ReadFileBytes(frame);
+  bytes.resize(bytes.size() / 2);
+  fs::remove(frame);
+  WriteFileAtomic(frame, bytes, OverwritePolicy::kRefuse);
+
+  // The checksum catches it first ...
+  EXPECT_THAT([&] { SolveController(session_dir, SolveOptions()).Run(); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("led_03.dng")));
+  // ... and the RAW validation when checksums are skipped.
+  SolveOptions unverified;
+  unverified.verify_checksums = false;
+  EXPECT_THAT([&] { SolveController(session_dir, unverified).Run(); },
+              ::testing::ThrowsMessage<std::runtime_error>(AllOf(HasSubstr("led_03.dng"), HasSubstr("truncated"))));
+  EXPECT_TRUE(ResultFolders(session_dir).empty());
+}
+
+TEST(ScanControllersTest, IncompleteSessionIsNotSolved) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateController interrupted(session_dir, SmallSimulation());
+  interrupted.SetProgressCallback([&](const std::string& stage, double) {
+    if (stage == "simulate") interrupted.RequestStop();
+  });
+  EXPECT_THROW(interrupted.Run(), JobCancelled);
+  EXPECT_THAT([&] { SolveController(session_dir, SolveOptions()).Run(); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("capture_complete")));
+}
+
+TEST(ScanControllersTest, BadOptionsAreRejectedBeforeWork) {
+  TemporaryFolder folder;
+  SolveOptions options;
+  options.run_label = "../escape";
+  EXPECT_THAT([&] { SolveController(folder.path(), options).Run(); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("run_label")));
+  SimulateOptions simulate = SmallSimulation();
+  simulate.rig.width = -5;
+  EXPECT_THROW(SimulateController(folder / "s", simulate).Run(), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(folder / "s"));
+}
+
+}  // namespace
+}  // namespace scanbench
