@@ -15,6 +15,7 @@ packages=(
   libcli11-dev
   libgtest-dev libgmock-dev
   libbenchmark-dev
+  gcc-avr binutils-avr avr-libc arduino-core-avr libsimavr-dev libelf-dev libserialport-dev clang libclang-rt-14-dev  # LED board: firmware (avr-gcc, Arduino core), simavr firmware-in-the-loop, serial port listing, libFuzzer
 )
 
 missing=()

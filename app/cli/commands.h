@@ -9,5 +9,6 @@ namespace scanbench {
 
 // demo, simulate, solve
 void RegisterScanCommands(CLI::App& app, int* exit_code);
+void RegisterDeviceCommands(CLI::App& app, int* exit_code);  // devices, led
 
 }  // namespace scanbench

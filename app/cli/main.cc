@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "scanbench " SCANBENCH_VERSION);
   int exit_code = scanbench::kExitSuccess;
   scanbench::RegisterScanCommands(app, &exit_code);
+  scanbench::RegisterDeviceCommands(app, &exit_code);
   CLI11_PARSE(app, argc, argv);
   return exit_code;
 }

@@ -27,6 +27,13 @@ SimulateOptions SmallSimulation() {
   return options;
 }
 
+// A small simulated session in folder/session.
+fs::path SimulateSmallSession(const TemporaryFolder& folder) {
+  const fs::path session_dir = folder / "session";
+  SimulateController(session_dir, SmallSimulation()).Run();
+  return session_dir;
+}
+
 std::vector<fs::path> ResultFolders(const fs::path& session_dir) {
   std::vector<fs::path> folders;
   for (const auto& entry : fs::directory_iterator(session_dir / "results")) folders.push_back(entry.path());
@@ -61,8 +68,7 @@ TEST(ScanControllersTest, DefaultSceneSolvesWithinOneDegree) {
 
 TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
   TemporaryFolder folder;
-  const fs::path session_dir = folder / "session";
-  SimulateController(session_dir, SmallSimulation()).Run();
+  const fs::path session_dir = SimulateSmallSession(folder);
   SolveController solve(session_dir, SolveOptions());
   solve.Run();
 
@@ -96,8 +102,7 @@ TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
 
 TEST(ScanControllersTest, ResolveWritesANewResultBesideTheOld) {
   TemporaryFolder folder;
-  const fs::path session_dir = folder / "session";
-  SimulateController(session_dir, SmallSimulation()).Run();
+  const fs::path session_dir = SimulateSmallSession(folder);
   SolveController first(session_dir, SolveOptions());
   first.Run();
   const std::string first_report = Sha256HexOfFile(first.summary().result_dir / "report.json");
@@ -142,8 +147,7 @@ TEST(ScanControllersTest, InterruptedSimulationResumesWhereItStopped) {
 
 TEST(ScanControllersTest, CancelledSolveLeavesNoResultFolder) {
   TemporaryFolder folder;
-  const fs::path session_dir = folder / "session";
-  SimulateController(session_dir, SmallSimulation()).Run();
+  const fs::path session_dir = SimulateSmallSession(folder);
   SolveController solve(session_dir, SolveOptions());
   solve.SetProgressCallback([&](const std::string& stage, double) {
     if (stage == "solve") solve.RequestStop();
@@ -154,8 +158,7 @@ TEST(ScanControllersTest, CancelledSolveLeavesNoResultFolder) {
 
 TEST(ScanControllersTest, CorruptFrameIsReportedByName) {
   TemporaryFolder folder;
-  const fs::path session_dir = folder / "session";
-  SimulateController(session_dir, SmallSimulation()).Run();
+  const fs::path session_dir = SimulateSmallSession(folder);
   // Cut the fourth LED frame short, as a failed copy would.
   const fs::path frame = session_dir / "frames" / "led_03.dng";
   std::vector<uint8_t> bytes = ReadFileBytes(frame);
