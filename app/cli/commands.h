@@ -10,5 +10,7 @@ namespace scanbench {
 // demo, simulate, solve
 void RegisterScanCommands(CLI::App& app, int* exit_code);
 void RegisterDeviceCommands(CLI::App& app, int* exit_code);  // devices, led
+void RegisterCaptureCommands(CLI::App& app, int* exit_code);  // capture
+void RegisterCameraCommands(CLI::App& app, int* exit_code);  // camera list|info|capture|preview
 
 }  // namespace scanbench

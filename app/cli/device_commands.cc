@@ -15,6 +15,7 @@
 
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
+#include "app/devices/camera/device_discovery.h"
 #include "app/devices/serial_light_controller.h"
 #include "app/devices/serial_port_list.h"
 #include "app/devices/simulated_led_board.h"
@@ -42,24 +43,6 @@ std::string UsbIdText(const SerialPortInfo& port) {
   return FormatUsbId(*port.usb_vendor_id, *port.usb_product_id);
 }
 
-// The one serial port that looks like an Arduino; throws listing the
-// candidates when there is none or more than one.
-std::string FindBoardPort() {
-  std::vector<SerialPortInfo> boards;
-  for (const SerialPortInfo& port : ListSerialPorts()) {
-    if (!port.board.empty()) boards.push_back(port);
-  }
-  if (boards.size() == 1) return boards.front().path;
-  if (boards.empty()) {
-    throw std::runtime_error(
-        "no Arduino board found among the serial ports (`scanbench devices` lists them): plug the LED board in, "
-        "or name its port with --port, or use --simulated");
-  }
-  std::string list;
-  for (const SerialPortInfo& port : boards) list += " " + port.path + " (" + port.board + ")";
-  throw std::runtime_error("several Arduino-like boards found:" + list + "; choose one with --port");
-}
-
 // The board to talk to: real or simulated, which the caller keeps alive
 // for as long as it uses the controller.
 struct Connection {
@@ -77,7 +60,7 @@ Connection Connect(const LedCommandState& state, bool all_off_on_close) {
     port = connection.simulated_board->port_path();
     std::cout << "Simulated LED board (firmware in simavr) on " << port << "\n";
   } else if (port.empty()) {
-    port = FindBoardPort();
+    port = FindArduinoPort();
   }
   SerialLightControllerOptions options;
   options.all_off_on_close = all_off_on_close;
@@ -194,7 +177,14 @@ int ListDevices() {
               << std::setw(9) << UsbIdText(port) << " "
               << (port.board.empty() ? "-" : port.board) << "  [" << port.description << "]\n";
   }
-  std::cout << "Cameras: not probed yet (camera support is still to come)\n";
+  std::cout << "Cameras (libgphoto2):\n";
+  try {
+    const std::vector<DetectedCamera> cameras = DetectCameras();
+    if (cameras.empty()) std::cout << "  (none)\n";
+    for (const DetectedCamera& camera : cameras) std::cout << "  " << camera.model << " on " << camera.port << "\n";
+  } catch (const std::exception& error) {
+    std::cout << "  (not probed: " << error.what() << ")\n";
+  }
   return kExitSuccess;
 }
 

@@ -12,6 +12,8 @@ int main(int argc, char** argv) {
   int exit_code = scanbench::kExitSuccess;
   scanbench::RegisterScanCommands(app, &exit_code);
   scanbench::RegisterDeviceCommands(app, &exit_code);
+  scanbench::RegisterCaptureCommands(app, &exit_code);
+  scanbench::RegisterCameraCommands(app, &exit_code);
   CLI11_PARSE(app, argc, argv);
   return exit_code;
 }

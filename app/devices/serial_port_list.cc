@@ -104,4 +104,20 @@ std::vector<SerialPortInfo> ListSerialPorts() {
   return ports;
 }
 
+std::string FindArduinoPort() {
+  std::vector<SerialPortInfo> boards;
+  for (const SerialPortInfo& port : ListSerialPorts()) {
+    if (!port.board.empty()) boards.push_back(port);
+  }
+  if (boards.size() == 1) return boards.front().path;
+  if (boards.empty()) {
+    throw std::runtime_error(
+        "no Arduino board found among the serial ports (`scanbench devices` lists them): plug the LED board in, "
+        "or name its port with --port, or use the simulated rig");
+  }
+  std::string list;
+  for (const SerialPortInfo& port : boards) list += " " + port.path + " (" + port.board + ")";
+  throw std::runtime_error("several Arduino-like boards found:" + list + "; choose one with --port");
+}
+
 }  // namespace scanbench

@@ -27,6 +27,11 @@ struct SerialPortInfo {
 // std::runtime_error with libserialport's message if listing fails.
 std::vector<SerialPortInfo> ListSerialPorts();
 
+// The one serial port that looks like an Arduino board; throws
+// std::runtime_error listing the candidates when there is none or more than
+// one (the user then names the port).
+std::string FindArduinoPort();
+
 // "Arduino Uno" for 2341:0043 etc.; clones' USB-serial chips (CH340, FTDI,
 // CP210x) are named as such ("USB-serial CH340 (Arduino clone?)"); "" when
 // the ids mean nothing to us.

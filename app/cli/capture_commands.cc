@@ -1,0 +1,120 @@
+// capture: a scan session from the bench, or from the simulated rig with the
+// LED firmware running in simavr (the same sequencer either way).
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "app/cli/commands.h"
+#include "app/cli/run_controller.h"
+#include "app/controllers/capture_controller.h"
+#include "app/devices/camera/gphoto2_camera.h"
+#include "app/devices/camera/simulated_camera.h"
+#include "app/devices/serial_light_controller.h"
+#include "app/devices/serial_port_list.h"
+#include "app/devices/simulated_led_board.h"
+#include "app/io/file_util.h"
+#include "app/session/rig_json.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CaptureState {
+  fs::path session_dir;
+  std::string rig_kind = "sim";
+  // sim
+  int width = 1232;
+  int height = 816;
+  // hardware
+  std::string port;
+  fs::path rig_file;
+  std::string camera_model;
+  std::string camera_port;
+  CaptureOptions options;
+};
+
+int RunCapture(CaptureState& state, const RigDescription& rig, Camera& camera, LightController& lights) {
+  CaptureController capture(state.session_dir, rig, &camera, &lights, state.options);
+  const int code = RunController(capture);
+  if (code != kExitSuccess) return code;
+  const CaptureSummary& summary = capture.summary();
+  std::cout << "Session " << fs::absolute(state.session_dir).string() << ": " << summary.frames_captured
+            << " frames captured, " << summary.frames_resumed << " already there, " << summary.retries
+            << " retried, in " << summary.seconds << " s\n";
+  for (const std::string& reason : summary.retry_reasons) std::cout << "  retried " << reason << "\n";
+  return code;
+}
+
+int CaptureSimulated(CaptureState& state) {
+  SimulatedRigOptions rig_options;
+  rig_options.width = state.width;
+  rig_options.height = state.height;
+  const auto rig = std::make_shared<SimulatedRig>(rig_options, TextileScene(),
+                                                  MakeDefaultSimulatedRig(state.width, state.height));
+  SimulatedLedBoard board;
+  std::cout << "Simulated bench: LED firmware in simavr on " << board.port_path() << ", simulated camera "
+            << state.width << "x" << state.height << "\n";
+  SerialLightController lights(board.port_path());
+  SimulatedCamera camera(rig, [&board]() -> std::optional<int> {
+    const std::vector<int> lit = board.LitLedIndices();
+    return lit.size() == 1 ? std::optional<int>(lit.front()) : std::nullopt;
+  });
+  return RunCapture(state, rig->rig(), camera, lights);
+}
+
+int CaptureHardware(CaptureState& state) {
+  if (state.rig_file.empty()) {
+    throw std::invalid_argument("capture --rig hardware needs --rig-file: the bench's rig description (JSON)");
+  }
+  const std::vector<uint8_t> bytes = ReadFileBytes(state.rig_file);
+  const RigDescription rig =
+      RigDescriptionFromJson(std::string(bytes.begin(), bytes.end()), state.rig_file.string());
+  SerialLightController lights(state.port.empty() ? FindArduinoPort() : state.port);
+  GPhotoCameraOptions camera_options;
+  camera_options.model = state.camera_model;
+  camera_options.port = state.camera_port;
+  GPhotoCamera camera(camera_options);
+  std::cout << "Bench: " << lights.description() << ", " << camera.description() << "\n";
+  return RunCapture(state, rig, camera, lights);
+}
+
+}  // namespace
+
+void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
+  auto state = std::make_shared<CaptureState>();
+  CLI::App* command = app.add_subcommand(
+      "capture",
+      "Capture a session: exposure check, dark frame, one RAW frame per LED, verified against the LED board. "
+      "An interrupted capture resumes when started again on the same folder.");
+  command->add_option("session", state->session_dir, "Session folder to write or resume")->required();
+  command->add_option("--rig", state->rig_kind, "sim: simulated camera + LED firmware in simavr; hardware: the bench")
+      ->check(CLI::IsMember({"sim", "hardware"}))
+      ->capture_default_str();
+  command->add_option("--sample-name", state->options.sample_name, "Sample name recorded in session.json")
+      ->required();
+  command->add_option("--notes", state->options.notes, "Free text recorded in session.json");
+  command->add_option("--width", state->width, "sim: image width in pixels")->capture_default_str();
+  command->add_option("--height", state->height, "sim: image height in pixels")->capture_default_str();
+  command->add_option("--port", state->port, "hardware: LED board serial port (default: the one Arduino found)");
+  command->add_option("--rig-file", state->rig_file, "hardware: rig description JSON (LED positions, camera)");
+  command->add_option("--camera-model", state->camera_model, "hardware: camera model as libgphoto2 names it");
+  command->add_option("--camera-port", state->camera_port, "hardware: camera port, e.g. usb:001,004");
+  command->add_option("--iso", state->options.exposure.iso, "ISO to set (default: leave the camera's)");
+  command->add_option("--exposure-time", state->options.exposure.exposure_time_s,
+                      "Exposure time in seconds to set (default: leave the camera's)");
+  command->add_option("--f-number", state->options.exposure.f_number, "Aperture to set (default: leave the camera's)");
+  command->add_flag("--no-exposure-check", [state](std::int64_t) { state->options.check_exposure = false; },
+                    "Skip the test frame per LED before a new capture");
+  command->add_option("--attempts", state->options.max_attempts, "Attempts per frame")->capture_default_str();
+  command->callback([state, exit_code] {
+    try {
+      *exit_code = state->rig_kind == "sim" ? CaptureSimulated(*state) : CaptureHardware(*state);
+    } catch (const std::exception& error) {
+      std::cerr << "scanbench: error: " << error.what() << "\n";
+      *exit_code = kExitFailure;
+    }
+  });
+}
+
+}  // namespace scanbench

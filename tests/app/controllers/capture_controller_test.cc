@@ -1,0 +1,290 @@
+// The capture sequencer with the firmware running in simavr, the host LED
+// controller talking to it over a pty exactly as to a real Uno, and the
+// simulated camera rendering whichever LED the simulated pins light.
+#include "app/controllers/capture_controller.h"
+
+#include <sys/resource.h>
+
+#include <csignal>
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "app/devices/camera/simulated_camera.h"
+#include "app/devices/serial_light_controller.h"
+#include "app/devices/simulated_led_board.h"
+#include "app/io/raw_decoder.h"
+#include "app/session/session.h"
+#include "calibration/raw_develop.h"
+#include "tests/util/temporary_folder.h"
+
+namespace scanbench {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using testing::TemporaryFolder;
+
+constexpr int kWidth = 320;
+constexpr int kHeight = 212;
+
+// Forwards to a real camera; `before_capture(n)` runs before capture n (from
+// 0) and may throw or stall, as a real camera or cable would.
+class FaultyCamera : public Camera {
+ public:
+  FaultyCamera(Camera* inner, std::function<void(int)> before_capture)
+      : inner_(inner), before_capture_(std::move(before_capture)) {}
+  std::string description() const override { return inner_->description(); }
+  CameraDeviceInfo Info() override { return inner_->Info(); }
+  CameraSettingState GetSetting(CameraSetting setting) override { return inner_->GetSetting(setting); }
+  void SetSetting(CameraSetting setting, const std::string& value) override { inner_->SetSetting(setting, value); }
+  std::vector<std::string> CheckReady() override { return inner_->CheckReady(); }
+  CapturedFrame Capture() override {
+    before_capture_(captures_++);
+    return inner_->Capture();
+  }
+  PreviewFrame CapturePreview() override { return inner_->CapturePreview(); }
+  void StopPreview() override { inner_->StopPreview(); }
+  std::vector<CameraEvent> DrainEvents(std::chrono::milliseconds wait) override { return inner_->DrainEvents(wait); }
+  void Reconnect() override { inner_->Reconnect(); }
+
+ private:
+  Camera* inner_;
+  std::function<void(int)> before_capture_;
+  int captures_ = 0;
+};
+
+class CaptureControllerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SimulatedRigOptions rig_options;
+    rig_options.width = kWidth;
+    rig_options.height = kHeight;
+    rig_ = std::make_shared<SimulatedRig>(rig_options, TextileScene(), MakeDefaultSimulatedRig(kWidth, kHeight));
+    board_ = std::make_unique<SimulatedLedBoard>();
+    lights_ = std::make_unique<SerialLightController>(board_->port_path());
+    camera_ = std::make_unique<SimulatedCamera>(rig_, [this]() -> std::optional<int> {
+      const std::vector<int> lit = board_->LitLedIndices();
+      if (lit.size() > 1) ADD_FAILURE() << "two LEDs lit at once";
+      return lit.empty() ? std::nullopt : std::optional<int>(lit.front());
+    });
+  }
+
+  CaptureOptions Options() const {
+    CaptureOptions options;
+    options.sample_name = "sim twill";
+    options.check_exposure = false;
+    options.led_settle = std::chrono::milliseconds(0);
+    return options;
+  }
+
+  CaptureController Controller(Camera* camera, CaptureOptions options) {
+    return CaptureController(session_dir(), rig_->rig(), camera, lights_.get(), std::move(options));
+  }
+
+  fs::path session_dir() const { return folder_ / "session"; }
+
+  // Which LED lit a frame, judged from its pixels alone: the noise-free
+  // rendering of each LED is correlated with the dark-subtracted frame.
+  std::optional<int> LedSeenInFrame(const Session& session, const FrameRecord& record) const {
+    const RawImage dark = DecodeRawFile(session_dir() / FindDarkFrame(session)->file);
+    const RawImage raw = DecodeRawFile(session_dir() / record.file);
+    const ImageF developed = DevelopRaw(raw, &dark, RawDevelopOptions()).rgb;
+    double brightest = 0;
+    for (size_t i = 1; i < developed.size(); i += 3) brightest = std::max(brightest, double(developed.data()[i]));
+    if (brightest < 0.02) return std::nullopt;  // dark: nothing lit
+    const ImageF ambient = rig_->RenderLinear(std::nullopt);
+    std::optional<int> best;
+    double best_score = -2;
+    for (int k = 0; k < rig_->num_leds(); ++k) {
+      const ImageF expected = rig_->RenderLinear(k);
+      double sum_xy = 0, sum_xx = 0, sum_yy = 0;
+      for (size_t i = 1; i < expected.size(); i += 3 * 5) {  // green, every fifth pixel
+        const double x = expected.data()[i] - ambient.data()[i];
+        const double y = developed.data()[i];
+        sum_xy += x * y;
+        sum_xx += x * x;
+        sum_yy += y * y;
+      }
+      const double score = sum_xy / std::sqrt(sum_xx * sum_yy);
+      if (score > best_score) {
+        best_score = score;
+        best = k;
+      }
+    }
+    return best;
+  }
+
+  void ExpectEveryFrameShowsItsLed() const {
+    const Session session = LoadSession(session_dir());
+    ASSERT_TRUE(session.capture_complete);
+    ASSERT_EQ(session.frames.size(), 11u);
+    for (const FrameRecord& record : session.frames) {
+      const std::optional<int> expected =
+          record.kind == FrameKind::kLed ? std::optional<int>(record.led_index) : std::nullopt;
+      EXPECT_EQ(LedSeenInFrame(session, record), expected) << record.file;
+    }
+  }
+
+  TemporaryFolder folder_;
+  std::shared_ptr<SimulatedRig> rig_;
+  std::unique_ptr<SimulatedLedBoard> board_;
+  std::unique_ptr<SerialLightController> lights_;
+  std::unique_ptr<SimulatedCamera> camera_;
+};
+
+TEST_F(CaptureControllerTest, FullCaptureWithFirmwareInTheLoop) {
+  CaptureOptions options = Options();
+  options.check_exposure = true;
+  CaptureController capture = Controller(camera_.get(), options);
+  capture.Run();
+  EXPECT_EQ(capture.summary().frames_captured, 11);
+  EXPECT_EQ(capture.summary().retries, 0);
+  ASSERT_EQ(capture.summary().exposure_check.size(), 10u);
+  for (const FrameExposure& exposure : capture.summary().exposure_check) {
+    EXPECT_EQ(exposure.clipped_fraction, 0.0) << exposure.frame;
+    EXPECT_GT(exposure.signal_p99, 0.05) << exposure.frame;
+  }
+  ExpectEveryFrameShowsItsLed();
+  EXPECT_EQ(board_->lit_leds(), 0u) << "all LEDs off at the end";
+  EXPECT_EQ(board_->max_lit_at_once(), 1);
+}
+
+TEST_F(CaptureControllerTest, CameraErrorMidCaptureStopsDarkAndResumes) {
+  FaultyCamera unplugged(camera_.get(), [](int capture) {
+    if (capture == 5) throw CameraError(CameraErrorKind::kClaimed, "camera", "USB interface claimed by gvfs");
+  });
+  CaptureController first = Controller(&unplugged, Options());
+  EXPECT_THAT([&] { first.Run(); }, ::testing::ThrowsMessage<CameraError>(HasSubstr("claimed")));
+  EXPECT_EQ(board_->lit_leds(), 0u) << "all LEDs off on failure";
+  const Session partial = LoadSession(session_dir());
+  EXPECT_FALSE(partial.capture_complete);
+  EXPECT_EQ(partial.frames.size(), 5u);
+
+  CaptureController second = Controller(camera_.get(), Options());
+  second.Run();
+  EXPECT_EQ(second.summary().frames_resumed, 5);
+  EXPECT_EQ(second.summary().frames_captured, 6);
+  ExpectEveryFrameShowsItsLed();
+}
+
+TEST_F(CaptureControllerTest, TransientCameraErrorIsRetried) {
+  FaultyCamera busy(camera_.get(), [](int capture) {
+    if (capture == 2) throw CameraError(CameraErrorKind::kBusy, "camera", "busy writing to the card");
+  });
+  CaptureController capture = Controller(&busy, Options());
+  capture.Run();
+  EXPECT_EQ(capture.summary().retries, 1);
+  EXPECT_THAT(capture.summary().retry_reasons.at(0), HasSubstr("busy"));
+  ExpectEveryFrameShowsItsLed();
+}
+
+TEST_F(CaptureControllerTest, FirmwareResetMidCaptureIsCaughtAndTheFrameRetaken) {
+  FaultyCamera resetting(camera_.get(), [this](int capture) {
+    if (capture == 4) board_->Reset();  // e.g. a brown-out during the exposure
+  });
+  CaptureController capture = Controller(&resetting, Options());
+  capture.Run();
+  EXPECT_GE(capture.summary().retries, 1);
+  EXPECT_THAT(capture.summary().retry_reasons.at(0), HasSubstr("led_03"));
+  ExpectEveryFrameShowsItsLed();
+}
+
+TEST_F(CaptureControllerTest, WatchdogDuringALongExposureSpoilsOnlyThatAttempt) {
+  CaptureOptions options = Options();
+  options.watchdog_ms = 200;
+  FaultyCamera slow(camera_.get(), [](int capture) {
+    if (capture == 3) std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  });
+  CaptureController capture = Controller(&slow, options);
+  capture.Run();
+  ASSERT_EQ(capture.summary().retries, 1);
+  EXPECT_THAT(capture.summary().retry_reasons.at(0), HasSubstr("after the exposure"));
+  ExpectEveryFrameShowsItsLed();
+}
+
+TEST_F(CaptureControllerTest, SerialGarbageMidCaptureDoesNotLoseSync) {
+  FaultyCamera noisy(camera_.get(), [this](int capture) {
+    if (capture == 2) board_->InjectNoiseToHost("\x01\x7f garbage \r\nOK ON 9\r\n");
+  });
+  CaptureController capture = Controller(&noisy, Options());
+  capture.Run();
+  ExpectEveryFrameShowsItsLed();
+}
+
+TEST_F(CaptureControllerTest, DiskWriteFailureIsReportedAndNothingIsLost) {
+  // A full disk, as the writer sees it: from the fifth frame on, any file
+  // larger than 64 KiB fails to write (EFBIG instead of ENOSPC).
+  rlimit original{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &original), 0);
+  std::signal(SIGXFSZ, SIG_IGN);
+  FaultyCamera full_disk(camera_.get(), [&](int capture) {
+    if (capture == 4) {
+      rlimit limited = original;
+      limited.rlim_cur = 64 * 1024;
+      ::setrlimit(RLIMIT_FSIZE, &limited);
+    }
+  });
+  CaptureController first = Controller(&full_disk, Options());
+  EXPECT_THAT([&] { first.Run(); },
+              ::testing::ThrowsMessage<SessionError>(AllOf(HasSubstr("led_03.dng"), HasSubstr("write failed"))));
+  ::setrlimit(RLIMIT_FSIZE, &original);
+  EXPECT_EQ(board_->lit_leds(), 0u);
+  const Session partial = LoadSession(session_dir());  // intact: checksums verified
+  EXPECT_EQ(partial.frames.size(), 4u);
+  for (const auto& entry : fs::directory_iterator(session_dir() / "frames")) {
+    EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp"))) << "no temporary left";
+  }
+
+  CaptureController second = Controller(camera_.get(), Options());
+  second.Run();
+  EXPECT_EQ(second.summary().frames_resumed, 4);
+  ExpectEveryFrameShowsItsLed();
+}
+
+TEST_F(CaptureControllerTest, ExposureCheckRefusesClippedAndDarkFramesBeforeKeepingAny) {
+  CaptureOptions too_bright = Options();
+  too_bright.check_exposure = true;
+  too_bright.exposure.exposure_time_s = 1.0 / 2;  // 30x the simulated rig's reference
+  CaptureController bright = Controller(camera_.get(), too_bright);
+  EXPECT_THAT([&] { bright.Run(); },
+              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("shorten the exposure")));
+  EXPECT_FALSE(fs::exists(session_dir() / "session.json"));
+
+  CaptureOptions too_dark = Options();
+  too_dark.check_exposure = true;
+  too_dark.exposure.exposure_time_s = 1.0 / 4000;
+  CaptureController dark = Controller(camera_.get(), too_dark);
+  EXPECT_THAT([&] { dark.Run(); }, ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("lengthen the exposure")));
+  EXPECT_FALSE(fs::exists(session_dir() / "session.json"));
+  EXPECT_EQ(board_->lit_leds(), 0u);
+}
+
+TEST_F(CaptureControllerTest, CancelLeavesAResumableSessionAndLedsOff) {
+  CaptureController capture = Controller(camera_.get(), Options());
+  capture.SetProgressCallback([&](const std::string& stage, double fraction) {
+    if (stage == "capture" && fraction > 0.3) capture.RequestStop();
+  });
+  EXPECT_THROW(capture.Run(), JobCancelled);
+  EXPECT_EQ(board_->lit_leds(), 0u);
+  EXPECT_FALSE(LoadSession(session_dir()).capture_complete);
+  Controller(camera_.get(), Options()).Run();
+  ExpectEveryFrameShowsItsLed();
+}
+
+TEST(CaptureOptionsTest, CheckNamesTheField) {
+  CaptureOptions options;
+  EXPECT_THAT([&] { options.Check(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("sample_name")));
+  options.sample_name = "x";
+  options.max_attempts = 0;
+  EXPECT_THAT([&] { options.Check(); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("max_attempts = 0")));
+}
+
+}  // namespace
+}  // namespace scanbench
