@@ -21,6 +21,9 @@ class LightField {
   // a white Lambertian surface facing the light would read there
   // (rgb_intensities[3k..3k+2]).
   virtual void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const = 0;
+  // True when Evaluate gives the same values at every pixel (distant lights):
+  // the solver then shares one light matrix between all pixels.
+  virtual bool IsUniform() const { return false; }
 };
 
 // Distant lights: the same direction and intensity at every pixel.
@@ -34,6 +37,7 @@ class DirectionalLightField final : public LightField {
   int width() const override { return width_; }
   int height() const override { return height_; }
   void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override;
+  bool IsUniform() const override { return true; }
 
  private:
   int width_, height_;

@@ -4,6 +4,23 @@
 // I' = N . l with N = k_d n (the scaled normal). One least-squares solve on
 // luminance gives the normal; one per colour channel gives the albedo as the
 // length of that channel's scaled normal.
+//
+// One options struct selects the method (docs/solver.md compares them):
+//   adaptive (default)  shared light matrix where the light field is uniform
+//                       over a tile, per-pixel 3x3 normal equations elsewhere
+//                       (lights interpolated over the tile within
+//                       light_tolerance), a robust re-solve only on pixels
+//                       whose residual calls for it;
+//   jacobi_svd          reference: per-pixel two-sided Jacobi SVD;
+//   normal_equations    per-pixel 3x3 normal equations, closed form;
+//   qr                  per-pixel Householder QR;
+//   uniform_pinv        one shared pseudo-inverse (distant lights only);
+//   robust_irls         per-pixel iteratively reweighted least squares
+//                       (Tukey or Cauchy) after shadow / clip rejection;
+//   sparse_bayesian     per-pixel sparse Bayesian learning of the non-
+//                       Lambertian errors (shadows, highlights).
+// The work runs in tiles on a thread pool; the inner loops run over
+// structure-of-arrays spans that the compiler vectorises.
 #pragma once
 
 #include <array>
@@ -25,16 +42,37 @@ enum class PixelStatus : uint8_t {
   kIllConditioned = 3,   // light matrix condition number above the limit
   kNoSignal = 4,         // scaled normal too short: black or unlit
   kFacingAway = 5,       // solved normal points away from the camera side
-  kInvalidInput = 6,     // non-finite sample or light value
+  kInvalidInput = 6,     // non-finite light value
 };
 inline constexpr int kNumPixelStatuses = 7;
 const char* PixelStatusName(PixelStatus status);
 
+// Which path solved a pixel. Stored per pixel in PhotometricSolution::solve_path.
+enum class SolvePath : uint8_t {
+  kNone = 0,                // not solved by any path (outside the region, or unsolvable)
+  kSharedLights = 1,        // light field uniform over the tile: one light matrix shared
+  kInterpolatedLights = 2,  // per-pixel solve, lights interpolated over the tile
+  kExactLights = 3,         // per-pixel solve, lights evaluated at the pixel
+  kRobust = 4,              // robust re-solve (IRLS or sparse Bayesian) gave the result
+};
+inline constexpr int kNumSolvePaths = 5;
+const char* SolvePathName(SolvePath path);
+
 struct PhotometricSolverOptions {
   enum class Method {
-    kJacobiSvd,  // reference: per-pixel two-sided Jacobi SVD (Eigen::JacobiSVD)
+    kAdaptive,              // default: see the file comment
+    kJacobiSvd,             // reference: per-pixel two-sided Jacobi SVD (Eigen::JacobiSVD)
+    kNormalEquations,       // per-pixel 3x3 normal equations, closed-form inverse
+    kQr,                    // per-pixel Householder QR (Eigen::HouseholderQR)
+    kUniformPseudoInverse,  // one pseudo-inverse shared by all pixels; needs a uniform light field
+    kRobustIrls,            // per-pixel iteratively reweighted least squares (robust_loss)
+    kSparseBayesian,        // per-pixel sparse Bayesian learning of outlier samples
   };
-  Method method = Method::kJacobiSvd;
+  enum class RobustLoss {
+    kTukey,   // biweight: samples beyond the width get weight 0 (hard rejection)
+    kCauchy,  // weight 1 / (1 + (r / width)^2): soft, never exactly 0
+  };
+  Method method = Method::kAdaptive;
 
   // Weights that turn intensity-divided RGB into luminance for the normal
   // solve; MATLAB rgb2gray by default. Each >= 0, sum > 0.
@@ -63,12 +101,57 @@ struct PhotometricSolverOptions {
   // Worker threads; 0 = all hardware threads, in [0, 256].
   int num_threads = 0;
 
-  // Solve the three colour channels for the albedo (else only the normal).
+  // Solve the three colour channels for the albedo (else only the normal;
+  // the albedo map is then left empty).
   bool compute_albedo = true;
+
+  // Fill the condition-number and residual maps (else they are left empty;
+  // status, lights_used and solve_path are always filled).
+  bool compute_confidence = true;
+
+  // Side of the square tiles the image is solved in, pixels, in [8, 4096].
+  // Bounds the scratch memory per thread and is the unit of the light-field
+  // checks below.
+  int tile_size = 128;
+
+  // adaptive: a tile whose lights differ from those at its centre by at most
+  // this (direction in radians, intensity relative) shares one light matrix;
+  // otherwise its lights are interpolated bilinearly from its corners when
+  // that is within this tolerance at the checked points, else evaluated per
+  // pixel. Also the tolerance uniform_pinv checks the whole image against.
+  // In [0, 0.1]; 0 = exact only.
+  double light_tolerance = 1e-4;
+
+  // --- robust_irls, sparse_bayesian and the robust pass of adaptive ---
+  RobustLoss robust_loss = RobustLoss::kTukey;
+  // Loss width in units of the robust residual scale (1.4826 x median
+  // absolute residual); 0 = the loss's standard 95 %-efficiency width
+  // (Tukey 4.685, Cauchy 2.385). >= 0.
+  double robust_loss_width = 0;
+  // Floor of the residual scale, relative to the pixel's albedo, > 0:
+  // residuals below it are noise, never outliers.
+  double robust_min_scale = 0.01;
+  // Iteration limit of IRLS and sparse Bayesian learning, in [1, 10000].
+  int robust_max_iterations = 50;
+  // A sample whose intensity-divided luminance is below this fraction of
+  // the pixel's brightest one is left out before the robust solve (the dark
+  // rim of attached and cast shadows that a threshold on the value misses),
+  // in [0, 1). 0 = off.
+  double robust_dark_fraction = 0.0;
+  // adaptive: re-solve robustly where the least-squares RMS residual,
+  // relative to the albedo, is above this, >= 0. A pixel whose samples were
+  // clipped (sample_valid) is always re-solved.
+  double adaptive_robust_residual = 0.02;
 
   // Throws std::invalid_argument naming the field, its value and the rule.
   void Check() const;
 };
+
+// "adaptive", "jacobi_svd", ... (the names the CLI and reports use).
+const char* PhotometricMethodName(PhotometricSolverOptions::Method method);
+// The inverse; throws std::invalid_argument listing the valid names.
+PhotometricSolverOptions::Method PhotometricMethodFromName(const std::string& name);
+std::vector<PhotometricSolverOptions::Method> AllPhotometricMethods();
 
 struct PhotometricSolverInput {
   // One linear RGB image per light (3 channels, dark frame subtracted), in the
@@ -77,27 +160,49 @@ struct PhotometricSolverInput {
   // Optional, one per light (1 channel): 0 marks an unusable sample (clipped).
   std::vector<const ImageU8*> sample_valid;
   const LightField* light_field = nullptr;
-  // Optional (1 channel): pixels to solve are non-zero; the rest get kOutsideRegion.
+  // Optional (1 channel): pixels to solve are non-zero; the rest get
+  // kOutsideRegion. Only the tiles that meet the region are worked on.
   const ImageU8* region = nullptr;
+};
+
+// Bayer-domain input: the normal is solved at every raw pixel from its own
+// CFA channel, and only the albedo is demosaiced (bilinearly) at the end.
+struct BayerSolverInput {
+  // One mosaic per light (1 channel): linear, dark subtracted, in the units of
+  // the light field's intensities for that pixel's colour channel (white
+  // balance is applied per CFA channel by dividing by that intensity).
+  std::vector<const ImageF*> mosaics;
+  // Colour channel (0 = R, 1 = G, 2 = B) at the four positions of the 2x2 CFA
+  // tile, row-major: (0,0), (1,0), (0,1), (1,1). RGGB = {0, 1, 1, 2}.
+  std::array<int, 4> cfa_channels = {0, 1, 1, 2};
+  std::vector<const ImageU8*> sample_valid;  // optional, as PhotometricSolverInput
+  const LightField* light_field = nullptr;
+  const ImageU8* region = nullptr;           // optional, as PhotometricSolverInput
 };
 
 struct PhotometricSolution {
   ImageF normal_in_table;   // 3 channels, unit; (0, 0, 1) where not solved
   ImageF albedo;            // 3 channels, linear; 0 where not solved
   ImageU8 status;           // PixelStatus per pixel
-  ImageU8 lights_used;      // samples in the solve
+  ImageU8 lights_used;      // samples in the solve (robust: with non-zero weight)
   ImageF condition_number;  // of the light matrix; 0 where not computed
   ImageF residual;          // RMS luminance residual relative to the albedo
+  ImageU8 solve_path;       // SolvePath per pixel
 };
 
 struct PhotometricSolverSummary {
   enum class Termination { kSuccess, kCancelled, kFailure };
   Termination termination = Termination::kFailure;
   std::string message;
+  std::string method;                 // PhotometricMethodName of the method that ran
+  bool bayer_domain = false;          // solved per raw pixel (SolvePhotometricStereoBayer)
   int num_lights = 0;
   int num_threads = 0;
   size_t num_pixels = 0;
+  size_t num_tiles = 0;               // tiles of the image
+  size_t tiles_skipped = 0;           // tiles with no pixel in the region: not touched
   std::array<size_t, kNumPixelStatuses> pixels_by_status{};
+  std::array<size_t, kNumSolvePaths> pixels_by_path{};
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }
@@ -115,5 +220,11 @@ PhotometricSolverSummary SolvePhotometricStereo(const PhotometricSolverOptions& 
                                                 const PhotometricSolverInput& input,
                                                 PhotometricSolution* solution,
                                                 const ProgressCallback& progress = {});
+
+// The same on raw Bayer mosaics (see BayerSolverInput).
+PhotometricSolverSummary SolvePhotometricStereoBayer(const PhotometricSolverOptions& options,
+                                                     const BayerSolverInput& input,
+                                                     PhotometricSolution* solution,
+                                                     const ProgressCallback& progress = {});
 
 }  // namespace scanbench

@@ -36,6 +36,8 @@ void SyntheticSceneOptions::Check() const {
   if (!(light_distance > 0)) throw OptionError("light_distance", light_distance, "must be > 0");
   if (!(pixel_pitch > 0)) throw OptionError("pixel_pitch", pixel_pitch, "must be > 0");
   if (!(noise_stddev >= 0)) throw OptionError("noise_stddev", noise_stddev, "must be >= 0");
+  if (!(specular >= 0 && specular <= 10)) throw OptionError("specular", specular, "must lie in [0, 10]");
+  if (!(shininess >= 1 && shininess <= 10000)) throw OptionError("shininess", shininess, "must lie in [1, 10000]");
 }
 
 std::vector<Eigen::Vector3d> RingLightDirections(int num_lights, double low_elevation_deg,
@@ -141,8 +143,13 @@ SyntheticScene MakeSyntheticScene(const SyntheticSceneOptions& options) {
         const Eigen::Vector3d light_dir(light_dirs[3 * k], light_dirs[3 * k + 1], light_dirs[3 * k + 2]);
         const double shading = normal.dot(light_dir);
         all_lit = all_lit && shading > 0;
+        double sheen = 0;
+        if (options.specular > 0 && shading > 0) {
+          const Eigen::Vector3d half = (light_dir + Eigen::Vector3d::UnitZ()).normalized();
+          sheen = options.specular * std::pow(std::max(0.0, normal.dot(half)), options.shininess);
+        }
         for (int c = 0; c < 3; ++c) {
-          double value = options.albedo[c] * std::max(0.0, shading) * rgb_intensities[3 * k + c];
+          double value = (options.albedo[c] * std::max(0.0, shading) + sheen) * rgb_intensities[3 * k + c];
           if (options.noise_stddev > 0) value += noise(rng);
           scene.images[k](x, y, c) = static_cast<float>(value);
         }

@@ -34,6 +34,10 @@ struct SyntheticSceneOptions {
   double light_distance = 500;      // near field: LED distance from the centre, pixel_pitch units
   double pixel_pitch = 0.1;         // near field: table units per pixel, > 0
   double noise_stddev = 0;          // additive Gaussian noise per sample, >= 0
+  // Specular sheen (Blinn-Phong, white, viewer along +z): adds
+  // specular * (n . h)^shininess * light intensity to every channel, [0, 10].
+  double specular = 0;
+  double shininess = 40;            // Blinn-Phong exponent, [1, 10000]
   uint64_t seed = 1;
 
   void Check() const;

@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/cli/command_util.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/devices/camera/camera.h"
@@ -231,16 +232,6 @@ int CapturePreview(const CameraCommandState& state) {
   std::cout << camera->description() << ": wrote " << path.string() << " (" << preview.mime_type << ", "
             << preview.bytes.size() << " bytes)\n";
   return kExitSuccess;
-}
-
-template <typename Function>
-void Guarded(int* exit_code, Function&& function) {
-  try {
-    *exit_code = function();
-  } catch (const std::exception& error) {
-    std::cerr << "scanbench: error: " << error.what() << "\n";
-    *exit_code = kExitFailure;
-  }
 }
 
 void AddSourceOptions(CLI::App& command, CameraCommandState& state) {

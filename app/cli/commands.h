@@ -12,5 +12,6 @@ void RegisterScanCommands(CLI::App& app, int* exit_code);
 void RegisterDeviceCommands(CLI::App& app, int* exit_code);  // devices, led
 void RegisterCaptureCommands(CLI::App& app, int* exit_code);  // capture
 void RegisterCameraCommands(CLI::App& app, int* exit_code);  // camera list|info|capture|preview
+void RegisterDatasetCommands(CLI::App& app, int* exit_code);  // solve-dataset, solver-report
 
 }  // namespace scanbench

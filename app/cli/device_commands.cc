@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/cli/command_util.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/devices/camera/device_discovery.h"
@@ -186,17 +187,6 @@ int ListDevices() {
     std::cout << "  (not probed: " << error.what() << ")\n";
   }
   return kExitSuccess;
-}
-
-// Errors become a message and an exit code, never an uncaught exception.
-template <typename Function>
-void Guarded(int* exit_code, Function&& function) {
-  try {
-    *exit_code = function();
-  } catch (const std::exception& error) {
-    std::cerr << "scanbench: error: " << error.what() << "\n";
-    *exit_code = kExitFailure;
-  }
 }
 
 void AddConnectionOptions(CLI::App& command, LedCommandState& state) {

@@ -3,6 +3,7 @@
 #include <iostream>
 #include <memory>
 
+#include "app/cli/command_util.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/simulate_controller.h"
@@ -34,15 +35,8 @@ void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
 }
 
 void AddSolveOptions(CLI::App& command, SolveOptions& options) {
-  command.add_option("--threads", options.solver.num_threads, "Solver threads (0 = all cores)")
-      ->capture_default_str();
+  AddPhotometricSolverOptions(command, options.solver);
   command.add_option("--label", options.run_label, "Label in the result folder name")->capture_default_str();
-  command.add_option("--max-condition", options.solver.max_condition_number,
-                     "Flag pixels whose light matrix is worse conditioned than this")
-      ->capture_default_str();
-  command.add_option("--shadow-level", options.solver.min_sample_value,
-                     "Samples at or below this linear value count as shadow and are left out (0 = keep all)")
-      ->capture_default_str();
   command
       .add_option_function<std::string>(
           "--demosaic",
@@ -91,18 +85,6 @@ int Demo(const DemoState& state) {
     if (code != kExitSuccess) return code;
   }
   return Solve(session_dir, state.solve);
-}
-
-// Errors outside a controller (bad folder, unreadable session) still end in
-// a message and an exit code, never an uncaught exception.
-template <typename Function>
-void Guarded(int* exit_code, Function&& function) {
-  try {
-    *exit_code = function();
-  } catch (const std::exception& error) {
-    std::cerr << "scanbench: error: " << error.what() << "\n";
-    *exit_code = kExitFailure;
-  }
 }
 
 }  // namespace

@@ -21,13 +21,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-const char* MethodName(PhotometricSolverOptions::Method method) {
-  switch (method) {
-    case PhotometricSolverOptions::Method::kJacobiSvd: return "jacobi_svd";
-  }
-  return "unknown";
-}
-
 const char* DemosaicName(RawDevelopOptions::Demosaic demosaic) {
   return demosaic == RawDevelopOptions::Demosaic::kBilinear ? "bilinear" : "edge_aware";
 }
@@ -78,7 +71,7 @@ void SolveOptions::Check() const {
   solver.Check();
   develop.Check();
   static const std::regex kLabel("[A-Za-z0-9._-]+");
-  if (!std::regex_match(run_label, kLabel)) {
+  if (!run_label.empty() && !std::regex_match(run_label, kLabel)) {
     throw std::invalid_argument("SolveOptions.run_label = '" + run_label +
                                 "' must be letters, digits, '.', '_' or '-' only");
   }
@@ -211,7 +204,8 @@ void SolveController::Run() {
 
   // Write: maps, error map, report; the folder appears complete or not at all.
   ReportProgress("write maps", 0);
-  const fs::path result_dir = CreateResultFolder(session_dir_, options_.run_label);
+  const fs::path result_dir = CreateResultFolder(
+      session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label);
   StagedResultFolder staged(result_dir);
   std::map<std::string, std::string> outputs = WriteSolutionMaps(staged.staging(), solution);
   if (!error_map.empty()) {
@@ -232,7 +226,7 @@ void SolveController::Run() {
                        {"height", summary_.height},
                        {"leds", summary_.num_lights}};
   const PhotometricSolverOptions& solver = options_.solver;
-  report["solver"] = {{"method", MethodName(solver.method)},
+  report["solver"] = {{"method", PhotometricMethodName(solver.method)},
                       {"luminance_weights", solver.luminance_weights},
                       {"min_lights", solver.min_lights},
                       {"max_condition_number", solver.max_condition_number},

@@ -18,7 +18,7 @@ namespace scanbench {
 struct SolveOptions {
   PhotometricSolverOptions solver;
   RawDevelopOptions develop;
-  std::string run_label = "lsq-jacobi";  // part of the result folder name: [A-Za-z0-9._-]+
+  std::string run_label;                 // part of the result folder name: [A-Za-z0-9._-]*; "" = the method name
   bool verify_checksums = true;          // re-hash every frame against session.json
 
   void Check() const;

@@ -87,7 +87,7 @@ TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
   EXPECT_NEAR(encoded(200, 132, 2) / 65535.0 * 2 - 1, normals(200, 132, 2), 1e-4);
 
   const nlohmann::json report = ReadJson(result / "report.json");
-  EXPECT_EQ(report["solver"]["method"], "jacobi_svd");
+  EXPECT_EQ(report["solver"]["method"], "adaptive");
   EXPECT_EQ(report["session"]["leds"], 10);
   EXPECT_GT(report["timings_s"]["solve"].get<double>(), 0.0);
   for (const char* stage : {"load", "decode_develop", "light_field", "solve", "evaluate", "write_maps"}) {

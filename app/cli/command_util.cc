@@ -1,0 +1,50 @@
+#include "app/cli/command_util.h"
+
+#include <string>
+
+namespace scanbench {
+
+void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& options) {
+  command
+      .add_option_function<std::string>(
+          "--method", [&options](const std::string& name) { options.method = PhotometricMethodFromName(name); },
+          "Solver: adaptive (default), jacobi_svd, normal_equations, qr, uniform_pinv, robust_irls, sparse_bayesian")
+      ->check([](const std::string& name) {
+        try {
+          PhotometricMethodFromName(name);
+          return std::string();
+        } catch (const std::exception& error) {
+          return std::string(error.what());
+        }
+      });
+  command.add_option("--threads", options.num_threads, "Solver threads (0 = all cores)")->capture_default_str();
+  command.add_option("--shadow-level", options.min_sample_value,
+                     "Samples at or below this linear value count as shadow and are left out (0 = keep all)")
+      ->capture_default_str();
+  command.add_option("--max-condition", options.max_condition_number,
+                     "Flag pixels whose light matrix is worse conditioned than this")
+      ->capture_default_str();
+  command
+      .add_option_function<std::string>(
+          "--robust-loss",
+          [&options](const std::string& name) {
+            options.robust_loss = name == "cauchy" ? PhotometricSolverOptions::RobustLoss::kCauchy
+                                                   : PhotometricSolverOptions::RobustLoss::kTukey;
+          },
+          "Loss of the robust fits: tukey (default) or cauchy")
+      ->check(CLI::IsMember({"tukey", "cauchy"}));
+  command.add_option("--tile-size", options.tile_size, "Tile side in pixels")->capture_default_str();
+  command.add_option("--robust-iterations", options.robust_max_iterations, "Iteration limit of the robust fits")
+      ->capture_default_str();
+  command.add_option("--robust-dark-fraction", options.robust_dark_fraction,
+                     "Robust fits leave out samples darker than this fraction of the pixel's brightest")
+      ->capture_default_str();
+  command.add_option("--robust-min-scale", options.robust_min_scale,
+                     "Floor of the robust residual scale, relative to the albedo")
+      ->capture_default_str();
+  command.add_option("--robust-trigger", options.adaptive_robust_residual,
+                     "adaptive: re-solve robustly where the relative RMS residual is above this")
+      ->capture_default_str();
+}
+
+}  // namespace scanbench

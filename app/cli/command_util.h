@@ -1,0 +1,30 @@
+// Pieces every command group shares.
+#pragma once
+
+#include <exception>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "app/cli/run_controller.h"
+#include "solver/photometric_solver.h"
+
+namespace scanbench {
+
+// Runs a command; an error becomes a message and an exit code, never an
+// uncaught exception.
+template <typename Function>
+void Guarded(int* exit_code, Function&& function) {
+  try {
+    *exit_code = function();
+  } catch (const std::exception& error) {
+    std::cerr << "scanbench: error: " << error.what() << "\n";
+    *exit_code = kExitFailure;
+  }
+}
+
+// --method, --threads, --shadow-level and the other solver options, for every
+// command that solves.
+void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& options);
+
+}  // namespace scanbench

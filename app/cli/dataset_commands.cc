@@ -1,0 +1,90 @@
+// solve-dataset: public photometric-stereo datasets (DiLiGenT, LUCES-style).
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "app/cli/command_util.h"
+#include "app/cli/commands.h"
+#include "app/cli/run_controller.h"
+#include "app/controllers/dataset_controller.h"
+#include "app/controllers/solver_report_controller.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+
+
+struct SolveDatasetState {
+  fs::path dataset_dir;
+  DatasetSolveOptions options;
+  bool lsq_baseline = false;
+};
+
+int SolveDatasetCommand(SolveDatasetState state) {
+  if (state.lsq_baseline) {
+    // The benchmark's least-squares baseline: every sample, plain pseudo-inverse.
+    state.options.solver.method = PhotometricSolverOptions::Method::kJacobiSvd;
+    state.options.solver.min_sample_value = 0;
+  }
+  if (state.options.output_dir.empty()) {
+    state.options.output_dir = fs::path("scanbench-datasets") /
+                               (fs::absolute(state.dataset_dir).lexically_normal().filename().string() + "-" +
+                                PhotometricMethodName(state.options.solver.method));
+    fs::create_directories(state.options.output_dir.parent_path());
+  }
+  DatasetController controller(state.dataset_dir, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) std::cout << controller.summary().FullReport();
+  return code;
+}
+
+int SolverReportCommand(const SolverReportOptions& options) {
+  SolverReportController controller(options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) {
+    std::cout << controller.summary().MarkdownTable() << "\nWritten: "
+              << (options.output_dir / "report.md").string() << ", report.csv, error_vs_time.svg\n";
+  }
+  return code;
+}
+
+}  // namespace
+
+void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
+  auto state = std::make_shared<SolveDatasetState>();
+  CLI::App* command = app.add_subcommand(
+      "solve-dataset",
+      "Solve a DiLiGenT-format or LUCES-style near-field dataset folder: normals (EXR + 16-bit PNG), albedo, "
+      "confidence and, with Normal_gt.mat, the angular error over the mask");
+  command->add_option("dataset", state->dataset_dir, "Dataset folder")->required()->check(CLI::ExistingDirectory);
+  command->add_option("--output", state->options.output_dir,
+                      "Output folder (default scanbench-datasets/<name>-<method>)");
+  command->add_flag("--overwrite", state->options.overwrite, "Replace an existing output folder");
+  command->add_flag("--lsq-baseline", state->lsq_baseline,
+                    "The benchmark's least-squares baseline (jacobi_svd, every sample kept)");
+  AddPhotometricSolverOptions(*command, state->options.solver);
+  command->callback([state, exit_code] { Guarded(exit_code, [&] { return SolveDatasetCommand(*state); }); });
+
+  auto report = std::make_shared<SolverReportOptions>();
+  report->output_dir = "docs/solver-report";
+  report->diligent_dir = "../shared/data/diligent";
+  CLI::App* report_command = app.add_subcommand(
+      "solver-report",
+      "Run every solver method on simulated scenes (Lambertian, cast shadows, specular sheen, noise levels, the "
+      "RAW path, 16 MP with 10 lights) and the DiLiGenT objects; write the error-against-run-time table "
+      "(report.md, report.csv) and plot (error_vs_time.svg)");
+  report_command->add_option("--output", report->output_dir, "Folder for report.md, report.csv, error_vs_time.svg")
+      ->capture_default_str();
+  report_command->add_option("--diligent", report->diligent_dir, "Folder holding ballPNG and bearPNG")
+      ->capture_default_str();
+  report_command->add_option("--threads", report->num_threads, "Solver threads (0 = all cores)")->capture_default_str();
+  report_command->add_option("--analytic-size", report->analytic_size, "Side of the analytic sphere scenes, pixels")
+      ->capture_default_str();
+  report_command->add_flag("--no-16mp", [report](std::int64_t) { report->include_16mp = false; },
+                           "Leave out the 16 MP scene (minutes, about 2 GB)");
+  report_command->callback([report, exit_code] { Guarded(exit_code, [&] { return SolverReportCommand(*report); }); });
+}
+
+}  // namespace scanbench

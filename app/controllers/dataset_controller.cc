@@ -1,0 +1,186 @@
+#include "app/controllers/dataset_controller.h"
+
+#include <chrono>
+#include <iomanip>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "app/controllers/map_writer.h"
+#include "app/io/file_util.h"
+#include "app/io/image_io.h"
+#include "app/session/session.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+nlohmann::json StatisticsJson(const ErrorStatistics& stats) {
+  return {{"pixels", stats.num_pixels}, {"mean", stats.mean}, {"median", stats.median},
+          {"p95", stats.percentile_95}, {"max", stats.max}};
+}
+
+const char* KindName(PhotometricDataset::Kind kind) {
+  return kind == PhotometricDataset::Kind::kDistantLights ? "distant_lights (DiLiGenT)" : "near_field (LUCES-style)";
+}
+
+}  // namespace
+
+void DatasetSolveOptions::Check() const {
+  solver.Check();
+  if (!output_dir.empty() && fs::exists(output_dir) && !overwrite) {
+    throw std::invalid_argument("DatasetSolveOptions.output_dir = " + output_dir.string() +
+                                " already exists; choose a new folder or allow overwrite");
+  }
+}
+
+DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
+                                const ProgressCallback& progress) {
+  if (dataset.images.empty()) {
+    throw std::invalid_argument("SolveDataset: dataset " + dataset.folder.string() + " was loaded without images");
+  }
+  DatasetSolveResult result;
+  const std::unique_ptr<LightField> field = dataset.MakeLightField();
+  PhotometricSolverInput input;
+  input.images = dataset.ImagePointers();
+  input.light_field = field.get();
+  input.region = &dataset.mask;
+  result.solver = SolvePhotometricStereo(options, input, &result.solution, progress);
+  for (size_t i = 0; i < dataset.mask.num_pixels(); ++i) {
+    result.unsolved_in_mask += dataset.mask.data()[i] != 0 &&
+                               result.solution.status.data()[i] != static_cast<uint8_t>(PixelStatus::kSolved);
+  }
+  if (dataset.normal_ground_truth) {
+    result.normal_error_deg = AngularErrorDegrees(result.solution.normal_in_table, *dataset.normal_ground_truth,
+                                                  dataset.mask);
+    result.error_map_deg = AngularErrorMapDegrees(result.solution.normal_in_table, *dataset.normal_ground_truth,
+                                                  dataset.mask);
+  }
+  return result;
+}
+
+std::string DatasetSolveSummary::FullReport() const {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3);
+  out << "scanbench solve-dataset report\n"
+      << "  dataset:      " << dataset_name << " (" << kind << ")\n"
+      << "  images:       " << num_lights << " lights, " << width << "x" << height << ", " << mask_pixels
+      << " mask pixels\n"
+      << "  " << solver.BriefReport() << "\n";
+  if (normal_error_deg) {
+    out << "  normal angular error vs Normal_gt over the mask (deg): mean " << normal_error_deg->mean << ", median "
+        << normal_error_deg->median << ", p95 " << normal_error_deg->percentile_95 << ", max "
+        << normal_error_deg->max << " over " << normal_error_deg->num_pixels << " px ("
+        << unsolved_in_mask << " unsolved, counted)\n";
+  } else {
+    out << "  no Normal_gt.mat: no error report\n";
+  }
+  out << "  time (s): load " << load_seconds << "; solve " << solve_seconds << "; write " << write_seconds << "\n";
+  if (!output_dir.empty()) out << "  written to:   " << output_dir.string() << "\n";
+  return out.str();
+}
+
+DatasetController::DatasetController(fs::path dataset_dir, DatasetSolveOptions options)
+    : dataset_dir_(std::move(dataset_dir)), options_(std::move(options)) {}
+
+void DatasetController::Run() {
+  options_.Check();
+  summary_ = DatasetSolveSummary();
+  auto start = Clock::now();
+  ReportProgress("load dataset", 0);
+  const PhotometricDataset dataset = LoadPhotometricDataset(dataset_dir_);
+  summary_.dataset_name = dataset.name;
+  summary_.kind = KindName(dataset.kind);
+  summary_.width = dataset.width;
+  summary_.height = dataset.height;
+  summary_.num_lights = dataset.num_lights();
+  for (size_t i = 0; i < dataset.mask.num_pixels(); ++i) summary_.mask_pixels += dataset.mask.data()[i] != 0;
+  summary_.load_seconds = SecondsSince(start);
+  ReportProgress("load dataset", 1);
+  ThrowIfStopRequested("load dataset");
+
+  start = Clock::now();
+  const DatasetSolveResult result = SolveDataset(dataset, options_.solver, StageCallback("solve"));
+  if (result.solver.termination == PhotometricSolverSummary::Termination::kCancelled) throw JobCancelled("solve");
+  summary_.solver = result.solver;
+  summary_.normal_error_deg = result.normal_error_deg;
+  summary_.unsolved_in_mask = result.unsolved_in_mask;
+  summary_.solve_seconds = SecondsSince(start);
+  if (options_.output_dir.empty()) return;
+
+  start = Clock::now();
+  ReportProgress("write maps", 0);
+  const fs::path out = options_.output_dir;
+  if (fs::exists(out)) fs::remove_all(out);  // Check() allowed it: overwrite
+  const fs::path staging = out.parent_path() / ("." + out.filename().string() + ".partial");
+  fs::remove_all(staging);
+  fs::create_directories(staging);
+  // The output folder appears complete or not at all.
+  struct StagingGuard {
+    fs::path path;
+    bool committed = false;
+    ~StagingGuard() {
+      std::error_code ignored;
+      if (!committed) fs::remove_all(path, ignored);
+    }
+  } guard{staging};
+  std::map<std::string, std::string> outputs = WriteSolutionMaps(staging, result.solution);
+  if (!result.error_map_deg.empty()) {
+    WriteExr(staging / "angular_error_deg.exr", result.error_map_deg, OverwritePolicy::kRefuse, {"Y"});
+    outputs["angular_error_deg"] = "angular_error_deg.exr";
+  }
+  summary_.output_dir = out;
+  summary_.write_seconds = SecondsSince(start);
+
+  const PhotometricSolverOptions& solver = options_.solver;
+  nlohmann::json report;
+  report["schema"] = "scanbench.dataset_report/1";
+  report["software_version"] = "scanbench " SCANBENCH_VERSION;
+  report["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
+  report["dataset"] = {{"path", fs::absolute(dataset_dir_).string()},
+                       {"name", dataset.name},
+                       {"kind", summary_.kind},
+                       {"width", dataset.width},
+                       {"height", dataset.height},
+                       {"lights", dataset.num_lights()},
+                       {"mask_pixels", summary_.mask_pixels}};
+  report["solver"] = {{"method", PhotometricMethodName(solver.method)},
+                      {"min_sample_value", solver.min_sample_value},
+                      {"max_condition_number", solver.max_condition_number},
+                      {"robust_loss", solver.robust_loss == PhotometricSolverOptions::RobustLoss::kTukey ? "tukey"
+                                                                                                          : "cauchy"},
+                      {"num_threads", result.solver.num_threads}};
+  nlohmann::json by_status, by_path;
+  for (int s = 0; s < kNumPixelStatuses; ++s) {
+    by_status[PixelStatusName(static_cast<PixelStatus>(s))] = result.solver.pixels_by_status[s];
+  }
+  for (int p = 0; p < kNumSolvePaths; ++p) {
+    by_path[SolvePathName(static_cast<SolvePath>(p))] = result.solver.pixels_by_path[p];
+  }
+  report["result"] = {{"message", result.solver.BriefReport()},
+                      {"pixels_by_status", by_status},
+                      {"pixels_by_path", by_path},
+                      {"unsolved_in_mask", result.unsolved_in_mask}};
+  if (result.normal_error_deg) {
+    report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*result.normal_error_deg)},
+                              {"evaluated_on", "mask.png, every pixel (unsolved ones as (0, 0, 1))"}};
+  }
+  report["timings_s"] = {{"load", summary_.load_seconds}, {"solve", summary_.solve_seconds},
+                         {"write_maps", summary_.write_seconds}};
+  outputs["report"] = "report.json";
+  outputs["summary"] = "summary.txt";
+  report["outputs"] = outputs;
+  WriteFileAtomic(staging / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
+  WriteFileAtomic(staging / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
+  ThrowIfStopRequested("write maps");
+  fs::rename(staging, out);
+  guard.committed = true;
+  ReportProgress("write maps", 1);
+}
+
+}  // namespace scanbench

@@ -1,0 +1,70 @@
+// Solves a public photometric-stereo dataset folder (DiLiGenT, or the
+// LUCES-style near-field layout; see app/io/dataset_io.h) and writes normals,
+// albedo, confidence and, with ground truth, an error report.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "app/controllers/base_controller.h"
+#include "app/io/dataset_io.h"
+#include "solver/angular_error.h"
+#include "solver/photometric_solver.h"
+
+namespace scanbench {
+
+struct DatasetSolveOptions {
+  PhotometricSolverOptions solver;
+  // Folder the maps and report go to; created, must not exist unless
+  // `overwrite`. Empty = no files written (figures only).
+  std::filesystem::path output_dir;
+  bool overwrite = false;  // replace an existing output_dir
+
+  void Check() const;
+};
+
+// Everything a solve of a loaded dataset gives, without files.
+struct DatasetSolveResult {
+  PhotometricSolution solution;
+  PhotometricSolverSummary solver;
+  // Against Normal_gt over the mask, every mask pixel (unsolved ones with
+  // their (0, 0, 1) placeholder, as the benchmark counts them).
+  std::optional<ErrorStatistics> normal_error_deg;
+  ImageF error_map_deg;  // 1 channel, 0 off the mask; empty without ground truth
+  size_t unsolved_in_mask = 0;
+};
+
+// Solves `dataset` (images loaded) on its mask. Throws std::invalid_argument
+// for bad options; a cancelled solve returns with solver.termination kCancelled.
+DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
+                                const ProgressCallback& progress = {});
+
+struct DatasetSolveSummary {
+  std::string dataset_name;
+  std::string kind;  // "distant_lights (DiLiGenT)" or "near_field (LUCES-style)"
+  int width = 0, height = 0, num_lights = 0;
+  size_t mask_pixels = 0;
+  PhotometricSolverSummary solver;
+  std::optional<ErrorStatistics> normal_error_deg;
+  size_t unsolved_in_mask = 0;
+  double load_seconds = 0, solve_seconds = 0, write_seconds = 0;
+  std::filesystem::path output_dir;
+
+  std::string FullReport() const;
+};
+
+class DatasetController : public BaseController {
+ public:
+  DatasetController(std::filesystem::path dataset_dir, DatasetSolveOptions options);
+  void Run() override;
+  const DatasetSolveSummary& summary() const { return summary_; }
+
+ private:
+  std::filesystem::path dataset_dir_;
+  DatasetSolveOptions options_;
+  DatasetSolveSummary summary_;
+};
+
+}  // namespace scanbench

@@ -1,0 +1,377 @@
+#include "app/io/dataset_io.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+#include <matio.h>
+
+#include "app/io/image_io.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::runtime_error DatasetError(const fs::path& file, const std::string& what) {
+  return std::runtime_error(file.string() + ": " + what);
+}
+
+// Non-empty, non-comment lines of a text file, with their line numbers.
+std::vector<std::pair<int, std::string>> ReadLines(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw DatasetError(path, "cannot be opened");
+  std::vector<std::pair<int, std::string>> lines;
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const size_t first = line.find_first_not_of(" \t,");
+    if (first == std::string::npos || line[first] == '#') continue;
+    lines.emplace_back(number, line);
+  }
+  return lines;
+}
+
+// Every line holds exactly `columns` finite numbers (spaces, tabs or commas between).
+std::vector<std::vector<double>> ReadNumberRows(const fs::path& path, int columns) {
+  std::vector<std::vector<double>> rows;
+  for (const auto& [number, text] : ReadLines(path)) {
+    std::string cleaned = text;
+    std::replace(cleaned.begin(), cleaned.end(), ',', ' ');
+    std::istringstream in(cleaned);
+    std::vector<double> row;
+    std::string token;
+    while (in >> token) {
+      size_t used = 0;
+      double value = 0;
+      try {
+        value = std::stod(token, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != token.size() || !std::isfinite(value)) {
+        throw DatasetError(path, "line " + std::to_string(number) + ": '" + token + "' is not a finite number");
+      }
+      row.push_back(value);
+    }
+    if (static_cast<int>(row.size()) != columns) {
+      throw DatasetError(path, "line " + std::to_string(number) + " has " + std::to_string(row.size()) +
+                                   " numbers; " + std::to_string(columns) + " required");
+    }
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+std::vector<Eigen::Vector3d> ReadVectors(const fs::path& path, size_t expected_count) {
+  const auto rows = ReadNumberRows(path, 3);
+  if (expected_count > 0 && rows.size() != expected_count) {
+    throw DatasetError(path, std::to_string(rows.size()) + " lines for " + std::to_string(expected_count) +
+                                 " images; one line per image required");
+  }
+  std::vector<Eigen::Vector3d> vectors;
+  for (const auto& row : rows) vectors.emplace_back(row[0], row[1], row[2]);
+  return vectors;
+}
+
+std::vector<std::string> ImageFileNames(const fs::path& folder) {
+  const fs::path list = folder / "filenames.txt";
+  std::vector<std::string> names;
+  if (fs::exists(list)) {
+    for (const auto& [number, text] : ReadLines(list)) {
+      std::string name = text;
+      name.erase(0, name.find_first_not_of(" \t"));
+      name.erase(name.find_last_not_of(" \t") + 1);
+      if (name.find('/') != std::string::npos || name == "..") {
+        throw DatasetError(list, "line " + std::to_string(number) + ": '" + name +
+                                     "' must be a file name in the dataset folder, not a path");
+      }
+      names.push_back(name);
+    }
+    if (names.empty()) throw DatasetError(list, "lists no image");
+    return names;
+  }
+  // No list: the numbered images NN.png / NNN.png in name order.
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() != ".png") continue;
+    const std::string stem = entry.path().stem().string();
+    if (!stem.empty() && std::all_of(stem.begin(), stem.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      names.push_back(name);
+    }
+  }
+  std::sort(names.begin(), names.end());
+  if (names.empty()) throw DatasetError(folder, "has neither filenames.txt nor numbered .png images");
+  return names;
+}
+
+ImageU8 ReadMask(const fs::path& path, int width, int height) {
+  const ImageF stored = ReadImageFloat(path);
+  if (!stored.SameSize(width, height)) {
+    throw DatasetError(path, "is " + std::to_string(stored.width()) + "x" + std::to_string(stored.height()) +
+                                 " but the images are " + std::to_string(width) + "x" + std::to_string(height));
+  }
+  ImageU8 mask(width, height, 1, 0);
+  for (size_t i = 0; i < mask.num_pixels(); ++i) {
+    float value = 0;
+    for (int c = 0; c < std::min(3, stored.channels()); ++c) value = std::max(value, stored.data()[i * stored.channels() + c]);
+    mask.data()[i] = value > 0.5f ? 1 : 0;
+  }
+  return mask;
+}
+
+struct MatCloser {
+  void operator()(mat_t* mat) const { Mat_Close(mat); }
+};
+struct MatVarFreer {
+  void operator()(matvar_t* var) const { Mat_VarFree(var); }
+};
+
+}  // namespace
+
+ImageF ReadMatImage3(const fs::path& path, const std::string& variable) {
+  std::unique_ptr<mat_t, MatCloser> mat(Mat_Open(path.string().c_str(), MAT_ACC_RDONLY));
+  if (!mat) throw DatasetError(path, "is not a readable MAT file");
+  std::unique_ptr<matvar_t, MatVarFreer> var(Mat_VarRead(mat.get(), variable.c_str()));
+  if (!var) throw DatasetError(path, "has no variable '" + variable + "'");
+  if (var->rank != 3 || var->dims[2] != 3) {
+    std::ostringstream dims;
+    for (int d = 0; d < var->rank; ++d) dims << (d ? "x" : "") << var->dims[d];
+    throw DatasetError(path, "variable '" + variable + "' is " + dims.str() + "; height x width x 3 required");
+  }
+  if (var->isComplex || var->data == nullptr) {
+    throw DatasetError(path, "variable '" + variable + "' must be a real numeric array");
+  }
+  const size_t height = var->dims[0], width = var->dims[1];
+  const size_t count = height * width * 3;
+  std::vector<double> values(count);
+  switch (var->class_type) {
+    case MAT_C_DOUBLE: {
+      const double* data = static_cast<const double*>(var->data);
+      std::copy(data, data + count, values.begin());
+      break;
+    }
+    case MAT_C_SINGLE: {
+      const float* data = static_cast<const float*>(var->data);
+      std::copy(data, data + count, values.begin());
+      break;
+    }
+    default:
+      throw DatasetError(path, "variable '" + variable + "' must be double or single precision");
+  }
+  ImageF image(static_cast<int>(width), static_cast<int>(height), 3);
+  for (size_t c = 0; c < 3; ++c) {
+    for (size_t x = 0; x < width; ++x) {
+      for (size_t y = 0; y < height; ++y) {
+        const double value = values[y + height * (x + width * c)];
+        image(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
+            std::isfinite(value) ? static_cast<float>(value) : 0.0f;
+      }
+    }
+  }
+  return image;
+}
+
+void WriteMatImage(const fs::path& path, const std::string& variable, const ImageF& image) {
+  const size_t height = image.height(), width = image.width(), channels = image.channels();
+  std::vector<double> values(height * width * channels);
+  for (size_t c = 0; c < channels; ++c) {
+    for (size_t x = 0; x < width; ++x) {
+      for (size_t y = 0; y < height; ++y) {
+        values[y + height * (x + width * c)] = image(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c));
+      }
+    }
+  }
+  std::unique_ptr<mat_t, MatCloser> mat(Mat_CreateVer(path.string().c_str(), nullptr, MAT_FT_MAT5));
+  if (!mat) throw DatasetError(path, "cannot be created");
+  size_t dims[3] = {height, width, channels};
+  std::unique_ptr<matvar_t, MatVarFreer> var(
+      Mat_VarCreate(variable.c_str(), MAT_C_DOUBLE, MAT_T_DOUBLE, 3, dims, values.data(), MAT_F_DONT_COPY_DATA));
+  if (!var || Mat_VarWrite(mat.get(), var.get(), MAT_COMPRESSION_ZLIB) != 0) {
+    throw DatasetError(path, "writing variable '" + variable + "' failed");
+  }
+}
+
+bool IsPhotometricDatasetFolder(const fs::path& folder) {
+  return fs::is_directory(folder) && fs::exists(folder / "light_intensities.txt") &&
+         (fs::exists(folder / "light_directions.txt") || fs::exists(folder / "light_positions.txt"));
+}
+
+PhotometricDataset LoadPhotometricDataset(const fs::path& folder, const DatasetLoadOptions& options) {
+  if (!fs::is_directory(folder)) throw DatasetError(folder, "is not a folder");
+  PhotometricDataset dataset;
+  dataset.folder = folder;
+  dataset.name = fs::absolute(folder).lexically_normal().filename().string();
+  if (dataset.name.empty()) dataset.name = fs::absolute(folder).lexically_normal().parent_path().filename().string();
+  const bool near_field = fs::exists(folder / "light_positions.txt");
+  dataset.kind = near_field ? PhotometricDataset::Kind::kNearField : PhotometricDataset::Kind::kDistantLights;
+  dataset.image_files = ImageFileNames(folder);
+  const size_t num_lights = dataset.image_files.size();
+
+  const fs::path intensities_file = folder / "light_intensities.txt";
+  if (!fs::exists(intensities_file)) throw DatasetError(intensities_file, "is missing");
+  dataset.light_intensities = ReadVectors(intensities_file, num_lights);
+  for (size_t k = 0; k < num_lights; ++k) {
+    if ((dataset.light_intensities[k].array() <= 0).any()) {
+      throw DatasetError(intensities_file, "light " + std::to_string(k + 1) + ": every intensity must be > 0");
+    }
+  }
+
+  // The image size: from the first image (also when the images are not loaded).
+  if (options.load_images) {
+    for (size_t k = 0; k < num_lights; ++k) {
+      const fs::path file = folder / dataset.image_files[k];
+      ImageF image = ReadImageFloat(file);
+      if (image.channels() == 1) {
+        ImageF rgb(image.width(), image.height(), 3);
+        for (size_t i = 0; i < image.num_pixels(); ++i) {
+          for (int c = 0; c < 3; ++c) rgb.data()[3 * i + c] = image.data()[i];
+        }
+        image = std::move(rgb);
+      } else if (image.channels() != 3) {
+        throw DatasetError(file, "has " + std::to_string(image.channels()) + " channels; 1 or 3 required");
+      }
+      if (k == 0) {
+        dataset.width = image.width();
+        dataset.height = image.height();
+      } else if (!image.SameSize(dataset.width, dataset.height)) {
+        throw DatasetError(file, "is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
+                                     " but " + dataset.image_files[0] + " is " + std::to_string(dataset.width) +
+                                     "x" + std::to_string(dataset.height));
+      }
+      for (size_t i = 0; i < image.size(); ++i) image.data()[i] = std::max(0.0f, image.data()[i]);
+      dataset.images.push_back(std::move(image));
+    }
+  } else {
+    const ImageF first = ReadImageFloat(folder / dataset.image_files[0]);
+    dataset.width = first.width();
+    dataset.height = first.height();
+  }
+
+  const fs::path mask_file = folder / "mask.png";
+  dataset.mask = fs::exists(mask_file) ? ReadMask(mask_file, dataset.width, dataset.height)
+                                       : ImageU8(dataset.width, dataset.height, 1, 1);
+
+  const fs::path directions_file = folder / "light_directions.txt";
+  if (!near_field) {
+    if (!fs::exists(directions_file)) throw DatasetError(directions_file, "is missing");
+    dataset.light_directions = ReadVectors(directions_file, num_lights);
+    for (size_t k = 0; k < num_lights; ++k) {
+      const double norm = dataset.light_directions[k].norm();
+      if (!(norm > 1e-9)) throw DatasetError(directions_file, "light " + std::to_string(k + 1) + " is a zero vector");
+      dataset.light_directions[k] /= norm;
+    }
+  } else {
+    const fs::path positions_file = folder / "light_positions.txt";
+    const fs::path camera_file = folder / "K.txt";
+    const auto camera_rows = ReadNumberRows(camera_file, 3);
+    if (camera_rows.size() != 3) throw DatasetError(camera_file, "must hold 3 rows of 3 numbers (the camera matrix)");
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) dataset.camera_matrix(r, c) = camera_rows[r][c];
+    }
+    if (!(dataset.camera_matrix(0, 0) > 0 && dataset.camera_matrix(1, 1) > 0)) {
+      throw DatasetError(camera_file, "focal lengths K(0,0) and K(1,1) must be > 0");
+    }
+    const Eigen::Vector3d flip(1, -1, -1);  // OpenCV camera frame -> solver frame
+    const auto positions_in_cam = ReadVectors(positions_file, num_lights);
+    double mean_z = 0;
+    for (const Eigen::Vector3d& p : positions_in_cam) {
+      dataset.light_positions_mm.push_back(p.cwiseProduct(flip));
+      mean_z += p.z() / num_lights;
+    }
+    const fs::path distance_file = folder / "mean_distance.txt";
+    dataset.surface_distance_mm = mean_z;
+    if (fs::exists(distance_file)) {
+      const auto rows = ReadNumberRows(distance_file, 1);
+      if (rows.size() != 1) throw DatasetError(distance_file, "must hold one number (mm)");
+      dataset.surface_distance_mm = rows[0][0];
+    } else {
+      // LEDs sit around the camera; without a distance use the LEDs' spread as a scale.
+      double spread = 0;
+      for (const Eigen::Vector3d& p : positions_in_cam) spread = std::max(spread, p.head<2>().norm());
+      dataset.surface_distance_mm = std::max(mean_z, 0.0) + 2 * spread;
+    }
+    if (!(dataset.surface_distance_mm > 0)) {
+      throw DatasetError(distance_file, "surface distance " + std::to_string(dataset.surface_distance_mm) +
+                                            " mm must be > 0");
+    }
+    if (fs::exists(directions_file)) {
+      for (const Eigen::Vector3d& axis : ReadVectors(directions_file, num_lights)) {
+        if (!(axis.norm() > 1e-9)) throw DatasetError(directions_file, "an LED axis is a zero vector");
+        dataset.led_axes.push_back(axis.cwiseProduct(flip).normalized());
+      }
+    } else {
+      const Eigen::Vector3d centre(0, 0, -dataset.surface_distance_mm);
+      for (const Eigen::Vector3d& p : dataset.light_positions_mm) dataset.led_axes.push_back((centre - p).normalized());
+    }
+    dataset.led_mu.assign(num_lights, 0.0);
+    const fs::path mu_file = folder / "light_mu.txt";
+    if (fs::exists(mu_file)) {
+      const auto rows = ReadNumberRows(mu_file, 1);
+      if (rows.size() != 1 && rows.size() != num_lights) {
+        throw DatasetError(mu_file, std::to_string(rows.size()) + " values; 1 or one per light (" +
+                                        std::to_string(num_lights) + ") required");
+      }
+      for (size_t k = 0; k < num_lights; ++k) {
+        const double mu = rows.size() == 1 ? rows[0][0] : rows[k][0];
+        if (!(mu >= 0)) throw DatasetError(mu_file, "mu = " + std::to_string(mu) + " must be >= 0");
+        dataset.led_mu[k] = mu;
+      }
+    }
+  }
+
+  const fs::path truth_file = folder / "Normal_gt.mat";
+  if (options.load_ground_truth && fs::exists(truth_file)) {
+    ImageF truth = ReadMatImage3(truth_file, "Normal_gt");
+    if (!truth.SameSize(dataset.width, dataset.height)) {
+      throw DatasetError(truth_file, "is " + std::to_string(truth.width()) + "x" + std::to_string(truth.height()) +
+                                         " but the images are " + std::to_string(dataset.width) + "x" +
+                                         std::to_string(dataset.height));
+    }
+    dataset.normal_ground_truth = std::move(truth);
+  }
+  return dataset;
+}
+
+std::unique_ptr<LightField> PhotometricDataset::MakeLightField() const {
+  if (kind == Kind::kDistantLights) {
+    return std::make_unique<DirectionalLightField>(width, height, light_directions, light_intensities);
+  }
+  // Surface points: each pixel's ray meets the plane at surface_distance_mm.
+  const Eigen::Matrix3d inverse_k = camera_matrix.inverse();
+  ImageF points(width, height, 3);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector3d ray = inverse_k * Eigen::Vector3d(x, y, 1);
+      const Eigen::Vector3d point_in_cam = ray * (surface_distance_mm / ray.z());
+      points(x, y, 0) = static_cast<float>(point_in_cam.x());
+      points(x, y, 1) = static_cast<float>(-point_in_cam.y());
+      points(x, y, 2) = static_cast<float>(-point_in_cam.z());
+    }
+  }
+  std::vector<PointLight> lights;
+  for (size_t k = 0; k < light_positions_mm.size(); ++k) {
+    PointLight light;
+    light.position = light_positions_mm[k];
+    light.axis = led_axes[k];
+    light.mu = led_mu[k];
+    light.rgb_intensity = light_intensities[k];
+    light.reference_distance = 1.0;
+    lights.push_back(light);
+  }
+  return std::make_unique<PointLightField>(std::move(lights), std::move(points));
+}
+
+std::vector<const ImageF*> PhotometricDataset::ImagePointers() const {
+  std::vector<const ImageF*> pointers;
+  for (const ImageF& image : images) pointers.push_back(&image);
+  return pointers;
+}
+
+}  // namespace scanbench

@@ -1,0 +1,90 @@
+// Dense solves of one pixel's samples: the building blocks the photometric
+// solver runs per pixel (least squares three ways, and two robust fits).
+// Public so that they can be tested and benchmarked on their own.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "solver/photometric_solver.h"
+
+namespace scanbench {
+
+// One pixel's usable samples, light intensity already divided out.
+class PixelSamples {
+ public:
+  explicit PixelSamples(int capacity = 0) { Reserve(capacity); }
+  void Reserve(int capacity);
+  void Clear() { count_ = 0; }
+  // dir: unit light direction; values: luminance, R, G, B (intensity divided).
+  void Add(double dir_x, double dir_y, double dir_z, double luminance, double red, double green, double blue);
+
+  int count() const { return count_; }
+  auto lights() const { return lights_.topRows(count_); }   // count x 3
+  auto values() const { return values_.topRows(count_); }   // count x 4: luminance, R, G, B
+  const double* light_data() const { return lights_.data(); }  // row-major, 3 per sample
+  const double* value_data() const { return values_.data(); }  // row-major, 4 per sample
+
+ private:
+  int count_ = 0;
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> lights_;
+  Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> values_;
+};
+
+// What makes a pixel solvable (the fields of PhotometricSolverOptions).
+struct PixelFitLimits {
+  int min_lights = 3;                 // [3, 1000]
+  double max_condition_number = 100;  // > 1
+  double min_albedo = 1e-4;           // >= 0, albedo units
+};
+
+struct PixelFit {
+  PixelStatus status = PixelStatus::kSolved;
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit; (0, 0, 1) unless solved
+  Eigen::Vector3d albedo = Eigen::Vector3d::Zero();   // RGB; 0 unless solved (and asked for)
+  double luminance_albedo = 0;                        // length of the luminance scaled normal
+  int lights_used = 0;                                // samples in the fit (robust: weight > 0.01)
+  double condition_number = 0;                        // of the (weighted) light matrix
+  double residual = 0;                                // (weighted) RMS luminance residual / albedo
+};
+
+enum class DenseMethod {
+  kJacobiSvd,        // Eigen::JacobiSVD, thin U and V
+  kQr,               // Eigen::HouseholderQR
+  kNormalEquations,  // L^T L x = L^T b, closed-form 3x3 inverse
+};
+
+// Condition number (ratio of the singular values) of a light matrix L from
+// its Gram matrix G = L^T L: sqrt(largest / smallest eigenvalue); infinity
+// when G is singular, never NaN.
+double ConditionNumberFromGram(const Eigen::Matrix3d& gram);
+// The same from the six distinct entries of the symmetric Gram matrix.
+double ConditionNumberFromGram(double g00, double g01, double g02, double g11, double g12, double g22);
+
+// Least squares on all samples; with_albedo solves R, G, B too.
+PixelFit FitLeastSquares(DenseMethod method, const PixelSamples& samples, bool with_albedo,
+                         const PixelFitLimits& limits);
+
+struct RobustFitOptions {
+  PhotometricSolverOptions::RobustLoss loss = PhotometricSolverOptions::RobustLoss::kTukey;
+  double width = 0;            // in residual scales; 0 = the loss's standard width
+  double min_scale = 0.01;     // residual scale floor relative to the albedo, > 0
+  int max_iterations = 50;     // >= 1
+  double dark_fraction = 0.0;  // samples below this fraction of the brightest are left out, [0, 1)
+};
+
+// Iteratively reweighted least squares from the least-squares start; samples
+// with l . n <= 0 at the current estimate (attached shadow) get weight 0.
+PixelFit FitRobustIrls(const PixelSamples& samples, bool with_albedo, const PixelFitLimits& limits,
+                       const RobustFitOptions& options);
+
+// Sparse Bayesian learning: each sample's non-Lambertian error e_k has its own
+// variance gamma_k, learned by expectation-maximisation with the scaled normal
+// marginalised (closed form through the 3x3 weighted Gram matrix, so O(lights)
+// per iteration); dense noise of standard deviation min_scale x albedo.
+// Outliers end with large gamma_k and so near-zero weight.
+PixelFit FitSparseBayesian(const PixelSamples& samples, bool with_albedo, const PixelFitLimits& limits,
+                           const RobustFitOptions& options);
+
+}  // namespace scanbench
