@@ -937,6 +937,9 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, Job j
       stop = true;
     }
   };
+  // Asked once before any work, so that a stop already requested is honoured
+  // however fast the solve would be.
+  if (progress && !progress(0.0)) stop = true;
   std::vector<std::thread> threads;
   for (int t = 1; t < summary.num_threads; ++t) threads.emplace_back(worker);
   if (progress) {

@@ -1,0 +1,71 @@
+#include "app/gui/bench.h"
+
+#include <optional>
+#include <stdexcept>
+#include <vector>
+
+#include "app/devices/camera/gphoto2_camera.h"
+#include "app/devices/camera/simulated_camera.h"
+#include "app/devices/serial_light_controller.h"
+#include "app/devices/serial_port_list.h"
+#include "app/devices/simulated_led_board.h"
+#include "app/io/file_util.h"
+#include "app/session/rig_json.h"
+#include "app/sim/simulated_rig.h"
+#include "app/sim/textile_scene.h"
+
+namespace scanbench {
+
+Bench::Bench(const BenchOptions& options) : options_(options) {
+  if (options.simulated_lights) {
+    board_ = std::make_unique<SimulatedLedBoard>();
+    lights_ = std::make_unique<SerialLightController>(board_->port_path());
+  } else {
+    lights_ = std::make_unique<SerialLightController>(options.serial_port.empty() ? FindArduinoPort()
+                                                                                  : options.serial_port);
+  }
+  firmware_ = lights_->Version();
+
+  if (options.simulated_camera) {
+    SimulatedRigOptions rig_options;
+    rig_options.width = options.sim_width;
+    rig_options.height = options.sim_height;
+    sim_rig_ = std::make_shared<SimulatedRig>(rig_options, TextileScene(),
+                                              MakeDefaultSimulatedRig(options.sim_width, options.sim_height));
+    rig_ = sim_rig_->rig();
+    // The simulated camera renders whichever LED is lit: the simulated
+    // board's pins when there is one, else what the real board reports
+    // (asked on the capture thread, the lights' one owner during a run).
+    SimulatedCamera::LitLedCallback lit;
+    if (board_) {
+      lit = [board = board_.get()]() -> std::optional<int> {
+        const std::vector<int> on = board->LitLedIndices();
+        return on.size() == 1 ? std::optional<int>(on.front()) : std::nullopt;
+      };
+    } else {
+      lit = [lights = lights_.get()]() { return lights->Status().lit_led; };
+    }
+    camera_ = std::make_unique<SimulatedCamera>(sim_rig_, lit);
+  } else {
+    if (options.rig_file.empty()) {
+      throw std::invalid_argument(
+          "a real camera needs the bench's rig description: choose its JSON file (LED positions, camera) "
+          "on the Devices page");
+    }
+    const std::vector<uint8_t> bytes = ReadFileBytes(options.rig_file);
+    rig_ = RigDescriptionFromJson(std::string(bytes.begin(), bytes.end()), options.rig_file.string());
+    GPhotoCameraOptions camera_options;
+    camera_options.model = options.camera_model;
+    camera_options.port = options.camera_port;
+    camera_ = std::make_unique<GPhotoCamera>(camera_options);
+  }
+  camera_info_ = camera_->Info();
+}
+
+// Lights and camera go before the board and rig they talk to.
+Bench::~Bench() {
+  camera_.reset();
+  lights_.reset();
+}
+
+}  // namespace scanbench

@@ -1,0 +1,346 @@
+#include "app/gui/capture_page.h"
+
+#include <QApplication>
+#include <QCheckBox>
+#include <QDir>
+#include <QFileDialog>
+#include <QFormLayout>
+#include <QGridLayout>
+#include <QGroupBox>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QLineEdit>
+#include <QPlainTextEdit>
+#include <QPointer>
+#include <QProgressBar>
+#include <QPushButton>
+#include <QScrollArea>
+#include <QSettings>
+#include <QThreadPool>
+#include <QTimer>
+#include <QVBoxLayout>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "app/controllers/capture_controller.h"
+#include "app/controllers/solve_controller.h"
+#include "app/gui/bench.h"
+#include "app/gui/controller_runner.h"
+#include "app/gui/devices_page.h"
+#include "app/gui/result_images.h"
+#include "app/session/session.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+constexpr int kThumbnailWidth = 200;
+constexpr int kThumbnailColumns = 4;
+
+// The manifest as last journalled; nullopt while it is absent or being replaced.
+std::optional<Session> ReadManifest(const fs::path& session_dir) {
+  std::ifstream file(session_dir / "session.json");
+  if (!file) return std::nullopt;
+  std::stringstream text;
+  text << file.rdbuf();
+  try {
+    return SessionFromJson(text.str(), (session_dir / "session.json").string());
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+}  // namespace
+
+CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget* parent)
+    : QWidget(parent), runner_(runner), devices_(devices) {
+  auto* session_box = new QGroupBox(tr("Session"), this);
+  auto* form = new QFormLayout(session_box);
+  folder_ = new QLineEdit(session_box);
+  folder_->setObjectName("sessionFolder");
+  folder_->setPlaceholderText(tr("a new, empty folder (or an interrupted session to resume)"));
+  auto* browse = new QPushButton(tr("Browse…"), session_box);
+  auto* folder_row = new QHBoxLayout;
+  folder_row->addWidget(folder_, 1);
+  folder_row->addWidget(browse);
+  form->addRow(tr("Folder"), folder_row);
+  sample_name_ = new QLineEdit(session_box);
+  sample_name_->setObjectName("sampleName");
+  form->addRow(tr("Sample name"), sample_name_);
+  notes_ = new QPlainTextEdit(session_box);
+  notes_->setObjectName("notes");
+  notes_->setMaximumHeight(60);
+  form->addRow(tr("Notes"), notes_);
+  check_exposure_ = new QCheckBox(tr("Check the exposure first (one test frame per LED)"), session_box);
+  check_exposure_->setObjectName("checkExposure");
+  check_exposure_->setChecked(true);
+  form->addRow(QString(), check_exposure_);
+
+  start_ = new QPushButton(tr("Start capture"), this);
+  start_->setObjectName("startCapture");
+  resume_ = new QPushButton(tr("Resume"), this);
+  resume_->setObjectName("resumeCapture");
+  cancel_ = new QPushButton(tr("Cancel"), this);
+  cancel_->setObjectName("cancelCapture");
+  solve_ = new QPushButton(tr("Solve"), this);
+  solve_->setObjectName("solveCaptured");
+  auto* buttons = new QHBoxLayout;
+  for (QPushButton* button : {start_, resume_, cancel_, solve_}) buttons->addWidget(button);
+  buttons->addStretch();
+
+  progress_ = new QProgressBar(this);
+  progress_->setObjectName("captureProgress");
+  progress_->setRange(0, 1000);
+  progress_->setTextVisible(false);
+  stage_ = new QLabel(this);
+  status_ = new QLabel(this);
+  status_->setObjectName("captureStatus");
+  status_->setWordWrap(true);
+  status_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+
+  auto* thumbs_widget = new QWidget(this);
+  thumbnails_ = new QGridLayout(thumbs_widget);
+  auto* scroll = new QScrollArea(this);
+  scroll->setWidget(thumbs_widget);
+  scroll->setWidgetResizable(true);
+
+  auto* layout = new QVBoxLayout(this);
+  layout->addWidget(session_box);
+  layout->addLayout(buttons);
+  layout->addWidget(progress_);
+  layout->addWidget(stage_);
+  layout->addWidget(status_);
+  layout->addWidget(scroll, 1);
+
+  poll_ = new QTimer(this);
+  poll_->setInterval(200);
+  connect(poll_, &QTimer::timeout, this, &CapturePage::PollFrames);
+  connect(browse, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Session folder"), folder_->text());
+    if (!dir.isEmpty()) SetSessionFolder(dir);
+  });
+  connect(start_, &QPushButton::clicked, this, &CapturePage::StartNew);
+  connect(resume_, &QPushButton::clicked, this, &CapturePage::Resume);
+  connect(cancel_, &QPushButton::clicked, runner_, &ControllerRunner::Cancel);
+  connect(solve_, &QPushButton::clicked, this, &CapturePage::Solve);
+  connect(folder_, &QLineEdit::textChanged, this, &CapturePage::UpdateButtons);
+  connect(devices_, &DevicesPage::BenchChanged, this, &CapturePage::UpdateButtons);
+  connect(runner_, &ControllerRunner::Progress, this, [this](const QString& stage, double fraction) {
+    if (!capturing_ && !solving_) return;
+    progress_->setValue(int(fraction * 1000));
+    stage_->setText(tr("%1: %2 %").arg(stage).arg(int(fraction * 100)));
+  });
+  connect(runner_, &ControllerRunner::Started, this, &CapturePage::UpdateButtons);
+  connect(runner_, &ControllerRunner::Finished, this, &CapturePage::UpdateButtons);
+  UpdateButtons();
+}
+
+fs::path CapturePage::SessionDir() const { return fs::path(folder_->text().trimmed().toStdString()); }
+
+void CapturePage::SetSessionFolder(const QString& folder) {
+  folder_->setText(folder);
+  ResetThumbnails();
+  PollFrames();  // show what an interrupted session already has
+}
+
+void CapturePage::SetStatus(const QString& text, bool error) {
+  status_->setText(text);
+  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+}
+
+void CapturePage::UpdateButtons() {
+  const bool busy = runner_->busy();
+  const bool has_bench = devices_->bench() != nullptr;
+  const fs::path dir = SessionDir();
+  std::error_code ignored;
+  const bool has_manifest = !dir.empty() && fs::exists(dir / "session.json", ignored);
+  const std::optional<Session> session = has_manifest ? ReadManifest(dir) : std::nullopt;
+  start_->setEnabled(!busy && has_bench && !dir.empty() && !has_manifest);
+  resume_->setEnabled(!busy && has_bench && session && !session->capture_complete);
+  cancel_->setEnabled(busy && (capturing_ || solving_));
+  solve_->setEnabled(!busy && session && session->capture_complete);
+}
+
+void CapturePage::ResetThumbnails() {
+  while (QLayoutItem* item = thumbnails_->takeAt(0)) {
+    delete item->widget();
+    delete item;
+  }
+  shown_frames_.clear();
+}
+
+void CapturePage::StartNew() { StartCapture(false); }
+void CapturePage::Resume() { StartCapture(true); }
+
+void CapturePage::StartCapture(bool resume) {
+  Bench* bench = devices_->bench();
+  if (!bench) {
+    SetStatus(tr("No bench connected: connect the LED board and camera on the Devices page first."), true);
+    return;
+  }
+  const fs::path dir = SessionDir();
+  if (dir.empty()) {
+    SetStatus(tr("Choose a session folder first."), true);
+    return;
+  }
+  CaptureOptions options;
+  options.sample_name = sample_name_->text().trimmed().toStdString();
+  options.notes = notes_->toPlainText().toStdString();
+  options.check_exposure = check_exposure_->isChecked() && !resume;
+  if (!resume && options.sample_name.empty()) {
+    SetStatus(tr("Enter the sample name: it is recorded in session.json."), true);
+    return;
+  }
+  if (resume) {
+    // The journal has the sample; the controller checks it is the same bench.
+    const std::optional<Session> session = ReadManifest(dir);
+    if (!session) {
+      SetStatus(tr("%1 has no readable session.json to resume").arg(QString::fromStdString(dir.string())), true);
+      return;
+    }
+    options.sample_name = session->sample_name;
+    options.notes = session->notes;
+  }
+  if (!resume) ResetThumbnails();
+  auto controller =
+      std::make_shared<CaptureController>(dir, bench->rig(), &bench->camera(), &bench->lights(), options);
+  capturing_ = true;
+  progress_->setValue(0);
+  SetStatus(resume ? tr("Resuming %1…").arg(folder_->text()) : tr("Capturing into %1…").arg(folder_->text()));
+  const bool started = runner_->Start(
+      controller, tr("Capture"), [this, controller](ControllerRunner::Outcome outcome, const QString& message) {
+        capturing_ = false;
+        poll_->stop();
+        PollFrames();
+        switch (outcome) {
+          case ControllerRunner::Outcome::kSucceeded: {
+            const CaptureSummary& summary = controller->summary();
+            SetStatus(tr("Captured %1 frames (%2 already there, %3 retried) in %4 s. Solve it next.")
+                          .arg(summary.frames_captured)
+                          .arg(summary.frames_resumed)
+                          .arg(summary.retries)
+                          .arg(summary.seconds, 0, 'f', 1));
+            if (!summary.exposure_check.empty()) {
+              // The check's worst figures: what to fix first if a frame is poor.
+              double clipped = 0, signal = 1;
+              for (const FrameExposure& exposure : summary.exposure_check) {
+                clipped = std::max(clipped, exposure.clipped_fraction);
+                signal = std::min(signal, exposure.signal_p99);
+              }
+              status_->setText(status_->text() +
+                               tr(" Exposure check: at most %1 % clipped, weakest LED at %2 % of the range.")
+                                   .arg(clipped * 100, 0, 'g', 2)
+                                   .arg(signal * 100, 0, 'f', 1));
+            }
+            break;
+          }
+          case ControllerRunner::Outcome::kCancelled:
+            SetStatus(tr("Capture cancelled; the frames taken are kept. Resume completes the session."), true);
+            break;
+          case ControllerRunner::Outcome::kFailed:
+            SetStatus(tr("Capture failed: %1. The frames taken are kept; fix the cause and Resume.").arg(message),
+                      true);
+            break;
+        }
+        UpdateButtons();
+      });
+  if (!started) {
+    capturing_ = false;
+    SetStatus(tr("%1 is running; start when it has finished").arg(runner_->job_name()), true);
+    return;
+  }
+  poll_->start();
+}
+
+void CapturePage::PollFrames() {
+  const fs::path dir = SessionDir();
+  if (dir.empty()) return;
+  const std::optional<Session> session = ReadManifest(dir);
+  if (!session) return;
+  for (const FrameRecord& frame : session->frames) {
+    if (!shown_frames_.insert(frame.file).second) continue;
+    const QString name = frame.kind == FrameKind::kDark ? tr("dark") : tr("LED %1").arg(frame.led_index);
+    auto* cell = new QLabel;
+    cell->setObjectName(QStringLiteral("thumbnail_%1").arg(frame.kind == FrameKind::kDark ? -1 : frame.led_index));
+    cell->setAlignment(Qt::AlignCenter);
+    cell->setToolTip(QString::fromStdString(frame.file));
+    cell->setText(tr("decoding…"));
+    // Decoding a full-size RAW takes long enough to stutter the window: it
+    // runs on the thread pool, the picture is set back on the UI thread.
+    QPointer<QLabel> target(cell);
+    const fs::path file = dir / frame.file;
+    const QString name_in_session = QString::fromStdString(frame.file);
+    QThreadPool::globalInstance()->start([target, file, name_in_session] {
+      QImage image;
+      QString problem;
+      try {
+        image = RawThumbnail(file, kThumbnailWidth);
+      } catch (const std::exception& error) {
+        problem = QString::fromUtf8(error.what());
+      }
+      QMetaObject::invokeMethod(
+          qApp,
+          [target, image, problem, name_in_session] {
+            if (!target) return;  // the thumbnails were cleared meanwhile
+            if (image.isNull()) {
+              target->setText(QObject::tr("%1 unreadable: %2").arg(name_in_session, problem));
+              target->setWordWrap(true);
+            } else {
+              target->setPixmap(QPixmap::fromImage(image));
+            }
+          },
+          Qt::QueuedConnection);
+    });
+    auto* caption = new QLabel(name);
+    caption->setAlignment(Qt::AlignCenter);
+    // Dark first, then the LEDs in order, whatever order they arrive in.
+    const int slot = frame.kind == FrameKind::kDark ? 0 : frame.led_index + 1;
+    thumbnails_->addWidget(cell, (slot / kThumbnailColumns) * 2, slot % kThumbnailColumns);
+    thumbnails_->addWidget(caption, (slot / kThumbnailColumns) * 2 + 1, slot % kThumbnailColumns);
+  }
+}
+
+void CapturePage::Solve() {
+  const fs::path dir = SessionDir();
+  SolveOptions options;
+  auto controller = std::make_shared<SolveController>(dir, options);
+  solving_ = true;
+  progress_->setValue(0);
+  SetStatus(tr("Solving %1…").arg(folder_->text()));
+  const bool started = runner_->Start(
+      controller, tr("Solve"), [this, controller](ControllerRunner::Outcome outcome, const QString& message) {
+        solving_ = false;
+        if (outcome == ControllerRunner::Outcome::kSucceeded) {
+          const QString result = QString::fromStdString(controller->summary().result_dir.string());
+          SetStatus(tr("Solved into %1").arg(result));
+          emit ResultReady(result);
+        } else if (outcome == ControllerRunner::Outcome::kCancelled) {
+          SetStatus(tr("Solve cancelled; no result folder was left."), true);
+        } else {
+          SetStatus(tr("Solve failed: %1").arg(message), true);
+        }
+        UpdateButtons();
+      });
+  if (!started) {
+    solving_ = false;
+    SetStatus(tr("%1 is running; solve when it has finished").arg(runner_->job_name()), true);
+  }
+}
+
+void CapturePage::LoadSettings() {
+  QSettings settings;
+  const QString last_root = settings.value("capture/last_parent", QDir::homePath()).toString();
+  folder_->setPlaceholderText(tr("a new, empty folder, e.g. %1/sample-01").arg(last_root));
+  check_exposure_->setChecked(settings.value("capture/check_exposure", true).toBool());
+}
+
+void CapturePage::SaveSettings() const {
+  QSettings settings;
+  if (!folder_->text().isEmpty()) {
+    settings.setValue("capture/last_parent", QString::fromStdString(SessionDir().parent_path().string()));
+  }
+  settings.setValue("capture/check_exposure", check_exposure_->isChecked());
+}
+
+}  // namespace scanbench

@@ -1,0 +1,342 @@
+#include "app/gui/devices_page.h"
+
+#include <QCheckBox>
+#include <QComboBox>
+#include <QFileDialog>
+#include <QFormLayout>
+#include <QGridLayout>
+#include <QGroupBox>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QLineEdit>
+#include <QPushButton>
+#include <QSettings>
+#include <QSpinBox>
+#include <QTimer>
+#include <QVBoxLayout>
+
+#include "app/devices/camera/device_discovery.h"
+#include "app/devices/serial_port_list.h"
+#include "app/gui/controller_runner.h"
+#include "app/gui/result_images.h"
+
+namespace scanbench {
+
+namespace {
+const QString kSimulated = QStringLiteral("simulated");
+}
+
+DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
+  auto* choose = new QGroupBox(tr("Bench"), this);
+  auto* form = new QFormLayout(choose);
+  lights_choice_ = new QComboBox(choose);
+  lights_choice_->setObjectName("lightsChoice");
+  auto* refresh = new QPushButton(tr("Refresh ports"), choose);
+  auto* lights_row = new QHBoxLayout;
+  lights_row->addWidget(lights_choice_, 1);
+  lights_row->addWidget(refresh);
+  form->addRow(tr("LED board"), lights_row);
+  camera_choice_ = new QComboBox(choose);
+  camera_choice_->setObjectName("cameraChoice");
+  camera_choice_->addItem(tr("Simulated camera"), kSimulated);
+  camera_choice_->addItem(tr("Camera over USB (libgphoto2)"), QStringLiteral("gphoto2"));
+  auto* detect = new QPushButton(tr("Detect cameras"), choose);
+  detect->setObjectName("detectCameras");
+  auto* camera_row = new QHBoxLayout;
+  camera_row->addWidget(camera_choice_, 1);
+  camera_row->addWidget(detect);
+  form->addRow(tr("Camera"), camera_row);
+  camera_model_ = new QLineEdit(choose);
+  camera_model_->setPlaceholderText(tr("autodetect, or e.g. Nikon DSC D5100 (PTP mode)"));
+  form->addRow(tr("Camera model"), camera_model_);
+  camera_port_ = new QLineEdit(choose);
+  camera_port_->setPlaceholderText(tr("autodetect, or e.g. usb:001,004"));
+  form->addRow(tr("Camera port"), camera_port_);
+  rig_file_ = new QLineEdit(choose);
+  rig_file_->setPlaceholderText(tr("real camera: the bench's rig description (JSON)"));
+  auto* rig_browse = new QPushButton(tr("Browse…"), choose);
+  auto* rig_row = new QHBoxLayout;
+  rig_row->addWidget(rig_file_, 1);
+  rig_row->addWidget(rig_browse);
+  form->addRow(tr("Rig file"), rig_row);
+  sim_width_ = new QSpinBox(choose);
+  sim_width_->setObjectName("simWidth");
+  sim_width_->setRange(64, 4928);
+  sim_width_->setValue(1232);
+  sim_height_ = new QSpinBox(choose);
+  sim_height_->setObjectName("simHeight");
+  sim_height_->setRange(64, 3264);
+  sim_height_->setValue(816);
+  auto* size_row = new QHBoxLayout;
+  size_row->addWidget(sim_width_);
+  size_row->addWidget(new QLabel(QStringLiteral("×"), choose));
+  size_row->addWidget(sim_height_);
+  size_row->addStretch();
+  form->addRow(tr("Simulated image"), size_row);
+  connect_button_ = new QPushButton(tr("Connect"), choose);
+  connect_button_->setObjectName("connectButton");
+  form->addRow(QString(), connect_button_);
+
+  auto* info = new QGroupBox(tr("Status"), this);
+  auto* info_layout = new QVBoxLayout(info);
+  lights_info_ = new QLabel(tr("LED board: not connected"), info);
+  lights_info_->setObjectName("lightsInfo");
+  camera_info_ = new QLabel(tr("Camera: not connected"), info);
+  camera_info_->setObjectName("cameraInfo");
+  status_ = new QLabel(info);
+  status_->setObjectName("devicesStatus");
+  status_->setWordWrap(true);
+  for (QLabel* label : {lights_info_, camera_info_, status_}) {
+    label->setTextInteractionFlags(Qt::TextSelectableByMouse);
+    info_layout->addWidget(label);
+  }
+
+  led_box_ = new QGroupBox(tr("LED test"), this);
+  led_grid_ = new QGridLayout(led_box_);
+  led_box_->setEnabled(false);
+
+  auto* live_box = new QGroupBox(tr("Live view"), this);
+  auto* live_layout = new QVBoxLayout(live_box);
+  live_view_ = new QCheckBox(tr("Show the camera's preview (red: clipped; histogram below)"), live_box);
+  live_view_->setObjectName("liveView");
+  live_image_ = new QLabel(live_box);
+  live_image_->setObjectName("liveImage");
+  live_image_->setMinimumSize(320, 240);
+  live_image_->setAlignment(Qt::AlignCenter);
+  live_layout->addWidget(live_view_);
+  live_layout->addWidget(live_image_, 1);
+  live_timer_ = new QTimer(this);
+  live_timer_->setInterval(500);
+
+  auto* left = new QVBoxLayout;
+  left->addWidget(choose);
+  left->addWidget(info);
+  left->addWidget(led_box_);
+  left->addStretch();
+  auto* layout = new QHBoxLayout(this);
+  layout->addLayout(left, 1);
+  layout->addWidget(live_box, 1);
+
+  connect(refresh, &QPushButton::clicked, this, &DevicesPage::RefreshPorts);
+  connect(connect_button_, &QPushButton::clicked, this, &DevicesPage::Connect);
+  connect(detect, &QPushButton::clicked, this, &DevicesPage::DetectUsbCameras);
+  // Only the fields of the chosen camera kind can be edited.
+  auto enable_camera_fields = [this] {
+    const bool simulated = camera_choice_->currentData().toString() == kSimulated;
+    for (QWidget* field : std::initializer_list<QWidget*>{camera_model_, camera_port_, rig_file_}) {
+      field->setEnabled(!simulated);
+    }
+    sim_width_->setEnabled(simulated);
+    sim_height_->setEnabled(simulated);
+  };
+  connect(camera_choice_, &QComboBox::currentIndexChanged, this, enable_camera_fields);
+  enable_camera_fields();
+  connect(rig_browse, &QPushButton::clicked, this, [this] {
+    const QString file = QFileDialog::getOpenFileName(this, tr("Rig description"), rig_file_->text(),
+                                                      tr("Rig description (*.json)"));
+    if (!file.isEmpty()) rig_file_->setText(file);
+  });
+  connect(live_view_, &QCheckBox::toggled, this, [this](bool on) {
+    if (on) {
+      live_timer_->start();
+    } else {
+      live_timer_->stop();
+    }
+  });
+  connect(live_timer_, &QTimer::timeout, this, &DevicesPage::UpdateLiveView);
+  RefreshPorts();
+}
+
+DevicesPage::~DevicesPage() = default;
+
+void DevicesPage::RefreshPorts() {
+  const QString current = lights_choice_->currentData().toString();
+  lights_choice_->clear();
+  lights_choice_->addItem(tr("Simulated LED board (firmware in simavr)"), kSimulated);
+  try {
+    for (const SerialPortInfo& port : ListSerialPorts()) {
+      QString label = QString::fromStdString(port.path);
+      if (!port.board.empty()) label += QStringLiteral(" — ") + QString::fromStdString(port.board);
+      lights_choice_->addItem(label, QString::fromStdString(port.path));
+    }
+  } catch (const std::exception& error) {
+    SetStatus(tr("Listing serial ports failed: %1").arg(error.what()), true);
+  }
+  const int index = lights_choice_->findData(current);
+  if (index >= 0) lights_choice_->setCurrentIndex(index);
+}
+
+void DevicesPage::DetectUsbCameras() {
+  // libgphoto2's autodetect can take seconds: it runs as a job.
+  auto found = std::make_shared<std::vector<DetectedCamera>>();
+  const bool started = runner_->Start(
+      std::make_shared<FunctionController>([found] { *found = DetectCameras(); }), tr("Detect cameras"),
+      [this, found](ControllerRunner::Outcome outcome, const QString& message) {
+        if (outcome != ControllerRunner::Outcome::kSucceeded) {
+          SetStatus(tr("Camera autodetect failed: %1").arg(message), true);
+          return;
+        }
+        if (found->empty()) {
+          SetStatus(tr("No camera found over USB: check the cable, that the camera is on, and that no other "
+                       "program (gvfs, a file manager) holds it."),
+                    true);
+          return;
+        }
+        QStringList names;
+        for (const DetectedCamera& camera : *found) {
+          names << QStringLiteral("%1 on %2").arg(QString::fromStdString(camera.model),
+                                                  QString::fromStdString(camera.port));
+        }
+        camera_choice_->setCurrentIndex(camera_choice_->findData(QStringLiteral("gphoto2")));
+        camera_model_->setText(QString::fromStdString(found->front().model));
+        camera_port_->setText(QString::fromStdString(found->front().port));
+        SetStatus(tr("Cameras found: %1. The first is chosen; Connect to use it.").arg(names.join(", ")));
+      });
+  if (!started) SetStatus(tr("%1 is running; detect when it has finished").arg(runner_->job_name()), true);
+}
+
+BenchOptions DevicesPage::OptionsFromWidgets() const {
+  BenchOptions options;
+  options.simulated_lights = lights_choice_->currentData().toString() == kSimulated;
+  if (!options.simulated_lights) options.serial_port = lights_choice_->currentData().toString().toStdString();
+  options.simulated_camera = camera_choice_->currentData().toString() == kSimulated;
+  options.camera_model = camera_model_->text().toStdString();
+  options.camera_port = camera_port_->text().toStdString();
+  options.rig_file = rig_file_->text().toStdString();
+  options.sim_width = sim_width_->value();
+  options.sim_height = sim_height_->value();
+  return options;
+}
+
+void DevicesPage::SetStatus(const QString& text, bool error) {
+  status_->setText(text);
+  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+}
+
+void DevicesPage::Connect() {
+  if (runner_->busy()) {
+    SetStatus(tr("%1 is running; connect when it has finished").arg(runner_->job_name()), true);
+    return;
+  }
+  // The old devices go first: a real board's port can be opened only once.
+  live_view_->setChecked(false);
+  bench_.reset();
+  emit BenchChanged();
+  RebuildLedButtons();
+  const BenchOptions options = OptionsFromWidgets();
+  auto made = std::make_shared<std::unique_ptr<Bench>>();
+  connect_button_->setEnabled(false);
+  SetStatus(tr("Connecting…"));
+  runner_->Start(std::make_shared<FunctionController>([made, options] { *made = std::make_unique<Bench>(options); }),
+                 tr("Connect"), [this, made](ControllerRunner::Outcome outcome, const QString& message) {
+                   connect_button_->setEnabled(true);
+                   connect_button_->setText(tr("Reconnect"));
+                   if (outcome != ControllerRunner::Outcome::kSucceeded) {
+                     SetStatus(tr("Connect failed: %1. Check the cable and the port, then Reconnect.").arg(message),
+                               true);
+                     lights_info_->setText(tr("LED board: not connected"));
+                     camera_info_->setText(tr("Camera: not connected"));
+                     return;
+                   }
+                   bench_ = std::move(*made);
+                   const LightFirmwareInfo& firmware = bench_->firmware();
+                   lights_info_->setText(tr("LED board: %1 — firmware %2 %3, %4 LEDs")
+                                             .arg(QString::fromStdString(bench_->lights().description()),
+                                                  QString::fromStdString(firmware.name),
+                                                  QString::fromStdString(firmware.version))
+                                             .arg(firmware.led_count));
+                   const CameraDeviceInfo& camera = bench_->camera_info();
+                   camera_info_->setText(tr("Camera: %1 (%2 %3, serial %4)")
+                                             .arg(QString::fromStdString(bench_->camera().description()),
+                                                  QString::fromStdString(camera.make),
+                                                  QString::fromStdString(camera.model),
+                                                  QString::fromStdString(camera.serial)));
+                   SetStatus(tr("Connected."));
+                   RebuildLedButtons();
+                   emit BenchChanged();
+                 });
+}
+
+void DevicesPage::RebuildLedButtons() {
+  while (QLayoutItem* item = led_grid_->takeAt(0)) {
+    delete item->widget();
+    delete item;
+  }
+  led_box_->setEnabled(bench_ != nullptr);
+  if (!bench_) return;
+  const int count = bench_->lights().led_count();
+  for (int k = 0; k < count; ++k) {
+    auto* button = new QPushButton(tr("LED %1").arg(k), led_box_);
+    button->setObjectName(QStringLiteral("led%1").arg(k));
+    connect(button, &QPushButton::clicked, this, [this, k] {
+      RunDeviceJob(tr("LED %1 on").arg(k), [bench = bench_.get(), k] { bench->lights().LightOnly(k); });
+    });
+    led_grid_->addWidget(button, k / 5, k % 5);
+  }
+  auto* off = new QPushButton(tr("All off"), led_box_);
+  off->setObjectName("allOff");
+  connect(off, &QPushButton::clicked, this,
+          [this] { RunDeviceJob(tr("All LEDs off"), [bench = bench_.get()] { bench->lights().AllOff(); }); });
+  led_grid_->addWidget(off, (count + 4) / 5, 0, 1, 2);
+}
+
+void DevicesPage::RunDeviceJob(const QString& name, std::function<void()> work) {
+  if (!bench_) return;
+  if (!runner_->Start(std::make_shared<FunctionController>(std::move(work)), name,
+                      [this, name](ControllerRunner::Outcome outcome, const QString& message) {
+                        if (outcome == ControllerRunner::Outcome::kSucceeded) {
+                          SetStatus(tr("%1: done.").arg(name));
+                        } else {
+                          SetStatus(tr("%1 failed: %2. Reconnect the board if it persists.").arg(name, message), true);
+                        }
+                      })) {
+    SetStatus(tr("%1 is running; try again when it has finished").arg(runner_->job_name()), true);
+  }
+}
+
+void DevicesPage::UpdateLiveView() {
+  // A preview needs the camera, which a running job (capture) owns.
+  if (!bench_ || runner_->busy() || !isVisible()) return;
+  try {
+    const PreviewFrame frame = bench_->camera().CapturePreview();
+    const QImage image = DecodePreview(frame.bytes);
+    if (image.isNull()) {
+      SetStatus(tr("The camera's preview (%1) could not be decoded").arg(QString::fromStdString(frame.mime_type)),
+                true);
+      return;
+    }
+    live_image_->setPixmap(QPixmap::fromImage(
+        image.scaled(live_image_->size(), Qt::KeepAspectRatio, Qt::SmoothTransformation)));
+  } catch (const std::exception& error) {
+    live_view_->setChecked(false);
+    SetStatus(tr("Live view stopped: %1").arg(error.what()), true);
+  }
+}
+
+void DevicesPage::LoadSettings() {
+  QSettings settings;
+  settings.beginGroup("devices");
+  const int lights = lights_choice_->findData(settings.value("lights", kSimulated));
+  if (lights >= 0) lights_choice_->setCurrentIndex(lights);
+  const int camera = camera_choice_->findData(settings.value("camera", kSimulated));
+  if (camera >= 0) camera_choice_->setCurrentIndex(camera);
+  camera_model_->setText(settings.value("camera_model").toString());
+  camera_port_->setText(settings.value("camera_port").toString());
+  rig_file_->setText(settings.value("rig_file").toString());
+  sim_width_->setValue(settings.value("sim_width", 1232).toInt());
+  sim_height_->setValue(settings.value("sim_height", 816).toInt());
+}
+
+void DevicesPage::SaveSettings() const {
+  QSettings settings;
+  settings.beginGroup("devices");
+  settings.setValue("lights", lights_choice_->currentData());
+  settings.setValue("camera", camera_choice_->currentData());
+  settings.setValue("camera_model", camera_model_->text());
+  settings.setValue("camera_port", camera_port_->text());
+  settings.setValue("rig_file", rig_file_->text());
+  settings.setValue("sim_width", sim_width_->value());
+  settings.setValue("sim_height", sim_height_->value());
+}
+
+}  // namespace scanbench

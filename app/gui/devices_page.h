@@ -1,0 +1,72 @@
+// Devices: which LED board and camera (simulated by default), connect /
+// reconnect, the firmware and camera as they report themselves, one button
+// per LED, and the live view (preview + histogram + clipping) on a timer.
+#pragma once
+
+#include <QWidget>
+
+#include <memory>
+
+#include "app/gui/bench.h"
+
+class QCheckBox;
+class QComboBox;
+class QGridLayout;
+class QLabel;
+class QLineEdit;
+class QPushButton;
+class QSpinBox;
+class QTimer;
+
+namespace scanbench {
+
+class ControllerRunner;
+
+class DevicesPage : public QWidget {
+  Q_OBJECT
+
+ public:
+  DevicesPage(ControllerRunner* runner, QWidget* parent = nullptr);
+  ~DevicesPage() override;
+
+  // nullptr until connected.
+  Bench* bench() { return bench_.get(); }
+  void LoadSettings();
+  void SaveSettings() const;
+
+ signals:
+  void BenchChanged();
+
+ public slots:
+  void Connect();
+  void RefreshPorts();
+  void DetectUsbCameras();
+
+ private:
+  BenchOptions OptionsFromWidgets() const;
+  void RebuildLedButtons();
+  void RunDeviceJob(const QString& name, std::function<void()> work);
+  void UpdateLiveView();
+  void SetStatus(const QString& text, bool error = false);
+
+  ControllerRunner* runner_;
+  std::unique_ptr<Bench> bench_;
+  QComboBox* lights_choice_;
+  QComboBox* camera_choice_;
+  QLineEdit* camera_model_;
+  QLineEdit* camera_port_;
+  QLineEdit* rig_file_;
+  QSpinBox* sim_width_;
+  QSpinBox* sim_height_;
+  QPushButton* connect_button_;
+  QLabel* lights_info_;
+  QLabel* camera_info_;
+  QLabel* status_;
+  QGridLayout* led_grid_;
+  QWidget* led_box_;
+  QCheckBox* live_view_;
+  QLabel* live_image_;
+  QTimer* live_timer_;
+};
+
+}  // namespace scanbench

@@ -1,0 +1,193 @@
+// scanbench-gui: the operator's window. With --screenshot-dir it drives
+// itself through a simulated capture and solve and saves a picture of every
+// page (scripts/gui-screenshots.sh, for docs/gui.md), then exits.
+#include <QApplication>
+#include <QBuffer>
+#include <QCheckBox>
+#include <QCommandLineParser>
+#include <QDeadlineTimer>
+#include <QDir>
+#include <QLineEdit>
+#include <QPlainTextEdit>
+#include <QPushButton>
+#include <QSettings>
+#include <QSpinBox>
+#include <QTemporaryDir>
+#include <QThread>
+#include <QThreadPool>
+#include <QTimer>
+
+#include <cstdio>
+
+#include "app/controllers/simulate_controller.h"
+#include "app/gui/capture_page.h"
+#include "app/gui/controller_runner.h"
+#include "app/gui/devices_page.h"
+#include "app/gui/image_view.h"
+#include "app/gui/main_window.h"
+#include "app/gui/results_page.h"
+#include "app/gui/sessions_page.h"
+
+namespace scanbench {
+namespace {
+
+void Pause(int ms) {
+  QDeadlineTimer deadline(ms);
+  while (!deadline.hasExpired()) {
+    QCoreApplication::processEvents(QEventLoop::AllEvents, 10);
+    QThread::msleep(5);
+  }
+}
+
+template <typename T>
+T* Find(QWidget& window, const char* name) {
+  T* widget = window.findChild<T*>(QString::fromLatin1(name));
+  if (!widget) throw std::runtime_error(std::string("screenshot tour: no widget ") + name);
+  return widget;
+}
+
+// Clicks `button` and waits for the job it starts; false if it failed or
+// took longer than `timeout_ms`.
+bool ClickAndWait(MainWindow& window, const char* button, int timeout_ms) {
+  bool ok = true;
+  auto connection = QObject::connect(window.runner(), &ControllerRunner::Finished,
+                                     [&ok](ControllerRunner::Outcome outcome, const QString& message) {
+                                       if (outcome != ControllerRunner::Outcome::kSucceeded) {
+                                         std::fprintf(stderr, "scanbench-gui: %s\n", qPrintable(message));
+                                         ok = false;
+                                       }
+                                     });
+  Find<QPushButton>(window, button)->click();
+  ok = window.runner()->Wait(timeout_ms) && ok;
+  QObject::disconnect(connection);
+  Pause(100);
+  return ok;
+}
+
+bool Save(MainWindow& window, const QDir& dir, const QString& name) {
+  Pause(150);
+  const QImage image = window.grab().toImage();
+  const QString path = dir.filePath("gui-" + name + ".png");
+  // Two thirds of the window; true colour when that stays under 300 KB,
+  // else a 256-colour palette: readable in the docs, small in the repository.
+  const QImage scaled = image.scaledToWidth(image.width() * 2 / 3, Qt::SmoothTransformation)
+                            .convertToFormat(QImage::Format_RGB888);
+  QByteArray png;
+  QBuffer buffer(&png);
+  buffer.open(QIODevice::WriteOnly);
+  scaled.save(&buffer, "PNG", 9);
+  const bool saved = png.size() < 300 * 1024
+                         ? scaled.save(path, "PNG", 9)
+                         : scaled.convertToFormat(QImage::Format_Indexed8, Qt::DiffuseDither).save(path, "PNG", 9);
+  std::printf("%s %s\n", saved ? "saved" : "FAILED to save", qPrintable(path));
+  return saved;
+}
+
+int ScreenshotTour(MainWindow& window, const QString& output_dir, QSize sim_size) {
+  QDir dir(output_dir);
+  if (!dir.mkpath(".")) {
+    std::fprintf(stderr, "scanbench-gui: cannot create %s\n", qPrintable(output_dir));
+    return 1;
+  }
+  QTemporaryDir work;
+  window.resize(1280, 820);
+  window.show();
+  Pause(200);
+
+  window.ShowPage(MainWindow::kDevicesPage);
+  Find<QSpinBox>(window, "simWidth")->setValue(sim_size.width());
+  Find<QSpinBox>(window, "simHeight")->setValue(sim_size.height());
+  if (!ClickAndWait(window, "connectButton", 60000)) return 1;
+  if (!ClickAndWait(window, "led3", 10000)) return 1;
+  Find<QCheckBox>(window, "liveView")->setChecked(true);
+  Pause(1500);
+  bool ok = Save(window, dir, "devices");
+  Find<QCheckBox>(window, "liveView")->setChecked(false);
+  if (!ClickAndWait(window, "allOff", 10000)) return 1;
+
+  window.ShowPage(MainWindow::kCapturePage);
+  Find<QLineEdit>(window, "sessionFolder")->setText(work.filePath("twill-01"));
+  Find<QLineEdit>(window, "sampleName")->setText("twill, navy");
+  Find<QPlainTextEdit>(window, "notes")->setPlainText("screenshot tour on the simulated bench");
+  if (!ClickAndWait(window, "startCapture", 300000)) return 1;
+  QThreadPool::globalInstance()->waitForDone();  // the thumbnails decode there
+  ok = Save(window, dir, "capture") && ok;
+  if (!ClickAndWait(window, "solveCaptured", 300000)) return 1;
+
+  ResultsPage* results = window.results();
+  for (auto [layer, name] : {std::pair{ResultLayer::kAlbedo, "results-albedo"},
+                             std::pair{ResultLayer::kNormal, "results-normal"},
+                             std::pair{ResultLayer::kResidual, "results-confidence"},
+                             std::pair{ResultLayer::kAngularError, "results-error"}}) {
+    if (results->ShowLayer(layer)) ok = Save(window, dir, name) && ok;
+  }
+  if (results->ShowLayer(ResultLayer::kRelight)) {
+    results->light_pad()->SetDirectionXY(QPointF(-0.6, 0.45));
+    results->view()->ZoomBy(2.0, QPointF(results->view()->width() / 2.0, results->view()->height() / 2.0));
+    ok = Save(window, dir, "results-relight") && ok;
+  }
+
+  // A session with ground truth (as `scanbench simulate` writes it), re-solved
+  // from the Sessions page, for the angular error map.
+  SimulateOptions simulate;
+  simulate.rig.width = sim_size.width();
+  simulate.rig.height = sim_size.height();
+  const QString simulated = work.filePath("simulated-twill");
+  window.runner()->Start(std::make_shared<SimulateController>(simulated.toStdString(), simulate), "Simulate");
+  if (!window.runner()->Wait(300000)) return 1;
+  window.ShowPage(MainWindow::kSessionsPage);
+  window.sessions()->Refresh();
+  if (!window.sessions()->SelectSession(simulated)) return 1;
+  if (!ClickAndWait(window, "resolveSession", 300000)) return 1;
+  if (results->ShowLayer(ResultLayer::kAngularError)) ok = Save(window, dir, "results-error") && ok;
+  window.ShowPage(MainWindow::kSessionsPage);
+  ok = Save(window, dir, "sessions") && ok;
+  return ok ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace scanbench
+
+int main(int argc, char** argv) {
+  QApplication app(argc, argv);
+  QApplication::setOrganizationName("scanbench");
+  QApplication::setApplicationName("scanbench-gui");
+  QApplication::setApplicationVersion(SCANBENCH_VERSION);
+
+  QCommandLineParser parser;
+  parser.setApplicationDescription("The scan bench operator's window (simulated bench by default).");
+  parser.addHelpOption();
+  parser.addVersionOption();
+  QCommandLineOption screenshots("screenshot-dir",
+                                 "Capture and solve on the simulated bench, save gui-*.png of every page "
+                                 "into DIR and exit.",
+                                 "DIR");
+  QCommandLineOption sim_size("screenshot-size", "Simulated image size for --screenshot-dir.", "WxH", "640x424");
+  parser.addOption(screenshots);
+  parser.addOption(sim_size);
+  parser.process(app);
+
+  if (parser.isSet(screenshots)) {
+    // Settings of the operator's own runs are neither used nor changed.
+    QSettings::setDefaultFormat(QSettings::IniFormat);
+    QTemporaryDir settings_dir;
+    QSettings::setPath(QSettings::IniFormat, QSettings::UserScope, settings_dir.path());
+    const QStringList size = parser.value(sim_size).split('x');
+    if (size.size() != 2 || size[0].toInt() < 64 || size[1].toInt() < 64) {
+      std::fprintf(stderr, "scanbench-gui: --screenshot-size must be WxH, each at least 64, not %s\n",
+                   qPrintable(parser.value(sim_size)));
+      return 1;
+    }
+    scanbench::MainWindow window;
+    try {
+      return scanbench::ScreenshotTour(window, parser.value(screenshots), QSize(size[0].toInt(), size[1].toInt()));
+    } catch (const std::exception& error) {
+      std::fprintf(stderr, "scanbench-gui: %s\n", error.what());
+      return 1;
+    }
+  }
+
+  scanbench::MainWindow window;
+  window.show();
+  return app.exec();
+}

@@ -1,0 +1,254 @@
+#include "app/gui/sessions_page.h"
+
+#include <QDir>
+#include <QFileDialog>
+#include <QFormLayout>
+#include <QHBoxLayout>
+#include <QHeaderView>
+#include <QLabel>
+#include <QLineEdit>
+#include <QListWidget>
+#include <QProgressBar>
+#include <QPushButton>
+#include <QSettings>
+#include <QSplitter>
+#include <QTreeWidget>
+#include <QVBoxLayout>
+
+#include <algorithm>
+#include <vector>
+
+#include "app/controllers/solve_controller.h"
+#include "app/gui/controller_runner.h"
+#include "app/session/session.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+enum Column { kName, kSample, kFrames, kState, kResults, kColumnCount };
+constexpr int kPathRole = Qt::UserRole;
+
+std::vector<fs::path> ResultFolders(const fs::path& session_dir) {
+  std::vector<fs::path> folders;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(session_dir / "results", error)) {
+    if (entry.is_directory()) folders.push_back(entry.path());
+  }
+  std::sort(folders.begin(), folders.end());  // run ids start with a UTC timestamp
+  return folders;
+}
+}  // namespace
+
+SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
+  root_ = new QLineEdit(this);
+  root_->setObjectName("sessionsRoot");
+  root_->setPlaceholderText(tr("a folder holding session folders"));
+  auto* browse = new QPushButton(tr("Browse…"), this);
+  auto* refresh = new QPushButton(tr("Refresh"), this);
+  refresh->setObjectName("refreshSessions");
+  auto* top = new QHBoxLayout;
+  top->addWidget(new QLabel(tr("Folder"), this));
+  top->addWidget(root_, 1);
+  top->addWidget(browse);
+  top->addWidget(refresh);
+
+  sessions_ = new QTreeWidget(this);
+  sessions_->setObjectName("sessionList");
+  sessions_->setColumnCount(kColumnCount);
+  sessions_->setHeaderLabels({tr("Folder"), tr("Sample"), tr("Frames"), tr("State"), tr("Results")});
+  sessions_->setRootIsDecorated(false);
+  sessions_->header()->setSectionResizeMode(QHeaderView::ResizeToContents);
+  results_ = new QListWidget(this);
+  results_->setObjectName("resultList");
+  auto* splitter = new QSplitter(Qt::Vertical, this);
+  splitter->addWidget(sessions_);
+  auto* results_box = new QWidget(splitter);
+  auto* results_layout = new QVBoxLayout(results_box);
+  results_layout->setContentsMargins(0, 0, 0, 0);
+  results_layout->addWidget(new QLabel(tr("Result folders of the selected session (newest last)"), results_box));
+  results_layout->addWidget(results_);
+  splitter->addWidget(results_box);
+
+  // The solve's inputs the operator may change: the calibration set (#4,
+  // SolveOptions::calibration_dir) and the solver method (#3) join this form.
+  auto* solve_form = new QFormLayout;
+
+  open_ = new QPushButton(tr("Open result"), this);
+  open_->setObjectName("openResult");
+  resolve_ = new QPushButton(tr("Re-solve"), this);
+  resolve_->setObjectName("resolveSession");
+  resume_ = new QPushButton(tr("Resume capture"), this);
+  resume_->setObjectName("resumeSession");
+  auto* cancel = new QPushButton(tr("Cancel"), this);
+  auto* buttons = new QHBoxLayout;
+  for (QPushButton* button : {open_, resolve_, resume_, cancel}) buttons->addWidget(button);
+  buttons->addStretch();
+  progress_ = new QProgressBar(this);
+  progress_->setRange(0, 1000);
+  progress_->setTextVisible(false);
+  status_ = new QLabel(this);
+  status_->setObjectName("sessionsStatus");
+  status_->setWordWrap(true);
+
+  auto* layout = new QVBoxLayout(this);
+  layout->addLayout(top);
+  layout->addWidget(splitter, 1);
+  layout->addLayout(solve_form);
+  layout->addLayout(buttons);
+  layout->addWidget(progress_);
+  layout->addWidget(status_);
+
+  connect(browse, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Sessions folder"), root_->text());
+    if (!dir.isEmpty()) SetRoot(dir);
+  });
+  connect(refresh, &QPushButton::clicked, this, &SessionsPage::Refresh);
+  connect(root_, &QLineEdit::returnPressed, this, &SessionsPage::Refresh);
+  connect(sessions_, &QTreeWidget::itemSelectionChanged, this, &SessionsPage::ShowResults);
+  connect(open_, &QPushButton::clicked, this, [this] {
+    QListWidgetItem* item = results_->currentItem();
+    if (!item && results_->count() > 0) item = results_->item(results_->count() - 1);
+    if (item) emit OpenResult(item->data(kPathRole).toString());
+  });
+  connect(results_, &QListWidget::itemDoubleClicked, this,
+          [this](QListWidgetItem* item) { emit OpenResult(item->data(kPathRole).toString()); });
+  connect(resolve_, &QPushButton::clicked, this, &SessionsPage::Resolve);
+  connect(resume_, &QPushButton::clicked, this, [this] {
+    const fs::path session = SelectedSession();
+    if (!session.empty()) emit ResumeCapture(QString::fromStdString(session.string()));
+  });
+  connect(cancel, &QPushButton::clicked, this, [this] {
+    if (solving_) runner_->Cancel();
+  });
+  connect(runner_, &ControllerRunner::Progress, this, [this](const QString&, double fraction) {
+    if (solving_) progress_->setValue(int(fraction * 1000));
+  });
+}
+
+void SessionsPage::SetStatus(const QString& text, bool error) {
+  status_->setText(text);
+  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+}
+
+void SessionsPage::SetRoot(const QString& folder) {
+  root_->setText(folder);
+  Refresh();
+}
+
+void SessionsPage::Refresh() {
+  sessions_->clear();
+  results_->clear();
+  const fs::path root(root_->text().trimmed().toStdString());
+  std::error_code error;
+  if (root.empty() || !fs::is_directory(root, error)) {
+    SetStatus(tr("%1 is not a folder: choose the folder your sessions are in.").arg(root_->text()), true);
+    return;
+  }
+  std::vector<fs::path> dirs;
+  // The root itself may be a session; otherwise its sub-folders are.
+  if (fs::exists(root / "session.json")) dirs.push_back(root);
+  for (const auto& entry : fs::directory_iterator(root, error)) {
+    if (entry.is_directory() && fs::exists(entry.path() / "session.json")) dirs.push_back(entry.path());
+  }
+  std::sort(dirs.begin(), dirs.end());
+  for (const fs::path& dir : dirs) {
+    auto* item = new QTreeWidgetItem(sessions_);
+    item->setText(kName, QString::fromStdString(dir.filename().string()));
+    item->setData(kName, kPathRole, QString::fromStdString(dir.string()));
+    try {
+      // Listing only: hashing every RAW file would make browsing slow.
+      const Session session = LoadSession(dir, SessionLoadOptions{.verify_checksums = false});
+      item->setText(kSample, QString::fromStdString(session.sample_name));
+      item->setText(kFrames, QString::number(session.frames.size()));
+      item->setText(kState, session.capture_complete ? tr("complete") : tr("interrupted"));
+    } catch (const std::exception& load_error) {
+      item->setText(kState, tr("unreadable"));
+      item->setToolTip(kState, QString::fromStdString(load_error.what()));
+    }
+    item->setText(kResults, QString::number(ResultFolders(dir).size()));
+  }
+  SetStatus(tr("%1 session(s) in %2").arg(dirs.size()).arg(root_->text()));
+}
+
+bool SessionsPage::SelectSession(const QString& session_dir) {
+  const QString wanted = QDir::cleanPath(session_dir);
+  for (int i = 0; i < sessions_->topLevelItemCount(); ++i) {
+    QTreeWidgetItem* item = sessions_->topLevelItem(i);
+    if (QDir::cleanPath(item->data(kName, kPathRole).toString()) == wanted) {
+      sessions_->setCurrentItem(item);
+      return true;
+    }
+  }
+  return false;
+}
+
+fs::path SessionsPage::SelectedSession() const {
+  const QTreeWidgetItem* item = sessions_->currentItem();
+  return item ? fs::path(item->data(kName, kPathRole).toString().toStdString()) : fs::path();
+}
+
+void SessionsPage::ShowResults() {
+  results_->clear();
+  const fs::path session = SelectedSession();
+  if (session.empty()) return;
+  for (const fs::path& folder : ResultFolders(session)) {
+    auto* item = new QListWidgetItem(QString::fromStdString(folder.filename().string()), results_);
+    item->setData(kPathRole, QString::fromStdString(folder.string()));
+  }
+  if (results_->count() > 0) results_->setCurrentRow(results_->count() - 1);
+  const QTreeWidgetItem* current = sessions_->currentItem();
+  resume_->setEnabled(current && current->text(kState) == tr("interrupted"));
+  resolve_->setEnabled(current && current->text(kState) == tr("complete"));
+}
+
+void SessionsPage::Resolve() {
+  const fs::path session = SelectedSession();
+  if (session.empty()) {
+    SetStatus(tr("Select a session first."), true);
+    return;
+  }
+  SolveOptions options;
+  try {
+    options.Check();
+  } catch (const std::exception& error) {
+    SetStatus(tr("Solve options: %1").arg(error.what()), true);
+    return;
+  }
+  auto controller = std::make_shared<SolveController>(session, options);
+  solving_ = true;
+  progress_->setValue(0);
+  SetStatus(tr("Solving %1 into a new result folder…").arg(QString::fromStdString(session.string())));
+  const bool started = runner_->Start(
+      controller, tr("Solve"), [this, controller, session](ControllerRunner::Outcome outcome, const QString& message) {
+        solving_ = false;
+        if (outcome == ControllerRunner::Outcome::kSucceeded) {
+          const QString result = QString::fromStdString(controller->summary().result_dir.string());
+          SetStatus(tr("Solved into %1").arg(result));
+          Refresh();
+          SelectSession(QString::fromStdString(session.string()));
+          emit OpenResult(result);
+        } else if (outcome == ControllerRunner::Outcome::kCancelled) {
+          SetStatus(tr("Solve cancelled; no result folder was left."), true);
+        } else {
+          SetStatus(tr("Solve failed: %1").arg(message), true);
+        }
+      });
+  if (!started) {
+    solving_ = false;
+    SetStatus(tr("%1 is running; re-solve when it has finished").arg(runner_->job_name()), true);
+  }
+}
+
+void SessionsPage::LoadSettings() {
+  QSettings settings;
+  const QString root = settings.value("sessions/root").toString();
+  if (!root.isEmpty()) SetRoot(root);
+}
+
+void SessionsPage::SaveSettings() const {
+  QSettings settings;
+  settings.setValue("sessions/root", root_->text());
+}
+
+}  // namespace scanbench

@@ -1,0 +1,58 @@
+// Sessions: the sessions in a folder (sample, frames, complete, results),
+// their result folders, open one in Results, re-solve into a new result
+// folder, or resume an interrupted capture.
+#pragma once
+
+#include <QWidget>
+
+#include <filesystem>
+
+class QLabel;
+class QLineEdit;
+class QListWidget;
+class QProgressBar;
+class QPushButton;
+class QTreeWidget;
+
+namespace scanbench {
+
+class ControllerRunner;
+
+class SessionsPage : public QWidget {
+  Q_OBJECT
+
+ public:
+  SessionsPage(ControllerRunner* runner, QWidget* parent = nullptr);
+
+  void SetRoot(const QString& folder);
+  // Selects the session in `session_dir` if listed.
+  bool SelectSession(const QString& session_dir);
+  void LoadSettings();
+  void SaveSettings() const;
+
+ signals:
+  void OpenResult(const QString& result_dir);
+  void ResumeCapture(const QString& session_dir);
+
+ public slots:
+  void Refresh();
+  void Resolve();
+
+ private:
+  std::filesystem::path SelectedSession() const;
+  void ShowResults();
+  void SetStatus(const QString& text, bool error = false);
+
+  ControllerRunner* runner_;
+  QLineEdit* root_;
+  QTreeWidget* sessions_;
+  QListWidget* results_;
+  QPushButton* open_;
+  QPushButton* resolve_;
+  QPushButton* resume_;
+  QProgressBar* progress_;
+  QLabel* status_;
+  bool solving_ = false;
+};
+
+}  // namespace scanbench
