@@ -47,6 +47,41 @@ Eigen::Vector2d ProjectToPixel(const CameraIntrinsics& k, const Eigen::Vector3d&
   return {k.fx * xd + k.cx, k.fy * yd + k.cy};
 }
 
+std::vector<Eigen::Vector3d> ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics,
+                                                       const std::vector<Eigen::Vector2d>& pixels) {
+  CheckCameraIntrinsics(intrinsics);
+  std::vector<cv::Point2d> distorted(pixels.size()), undistorted;
+  for (size_t i = 0; i < pixels.size(); ++i) distorted[i] = cv::Point2d(pixels[i].x(), pixels[i].y());
+  std::vector<Eigen::Vector3d> rays(pixels.size());
+  if (pixels.empty()) return rays;
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12);
+  cv::undistortPoints(distorted, undistorted, CameraMatrix(intrinsics), DistortionVector(intrinsics), cv::noArray(),
+                      cv::noArray(), criteria);
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    rays[i] = Eigen::Vector3d(undistorted[i].x, undistorted[i].y, 1.0).normalized();
+  }
+  return rays;
+}
+
+std::vector<Eigen::Vector3d> ComputePlanePointsInTable(const CameraGeometry& camera,
+                                                       const std::vector<Eigen::Vector2d>& pixels,
+                                                       double plane_height_mm) {
+  const Eigen::Vector3d centre = CameraCentreInTable(camera);
+  const Eigen::Matrix3d table_from_cam_rotation = camera.cam_from_table.rotation().transpose();
+  std::vector<Eigen::Vector3d> points = ComputeRayDirectionsInCam(camera.intrinsics, pixels);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d ray = table_from_cam_rotation * points[i];
+    const double t = (plane_height_mm - centre.z()) / ray.z();
+    if (!(t > 0) || !std::isfinite(t)) {
+      throw std::invalid_argument("camera geometry: the ray of pixel " + std::to_string(pixels[i].x()) + "," +
+                                  std::to_string(pixels[i].y()) + " does not reach the plane z = " +
+                                  std::to_string(plane_height_mm) + " mm in front of the camera");
+    }
+    points[i] = centre + t * ray;
+  }
+  return points;
+}
+
 ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics) {
   CheckCameraIntrinsics(intrinsics);
   const int width = intrinsics.width;

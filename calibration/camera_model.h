@@ -1,6 +1,8 @@
 // Pixel <-> ray mapping of the calibrated pinhole camera with lens distortion.
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "calibration/rig.h"
@@ -14,6 +16,18 @@ void CheckCameraIntrinsics(const CameraIntrinsics& intrinsics);
 
 // Projects a camera-frame point (z > 0) to distorted pixel coordinates.
 Eigen::Vector2d ProjectToPixel(const CameraIntrinsics& intrinsics, const Eigen::Vector3d& point_in_cam);
+
+// Unit viewing rays, in the camera frame, through arbitrary (sub)pixel
+// positions (pixel centres at integers): the lens distortion inverted as below.
+std::vector<Eigen::Vector3d> ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics,
+                                                       const std::vector<Eigen::Vector2d>& pixels);
+
+// Where the ray of each (sub)pixel position meets the horizontal plane
+// z = plane_height_mm of the table frame, in table mm. Throws
+// std::invalid_argument if a ray does not reach the plane in front of the camera.
+std::vector<Eigen::Vector3d> ComputePlanePointsInTable(const CameraGeometry& camera,
+                                                       const std::vector<Eigen::Vector2d>& pixels,
+                                                       double plane_height_mm);
 
 // Unit viewing ray through every pixel centre, in the camera frame: 3 channels.
 // The lens distortion is inverted iteratively (OpenCV), to well below 1e-6 px.

@@ -14,4 +14,6 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code);  // capture
 void RegisterCameraCommands(CLI::App& app, int* exit_code);  // camera list|info|capture|preview
 void RegisterDatasetCommands(CLI::App& app, int* exit_code);  // solve-dataset, solver-report
 
+void RegisterCalibrateCommands(CLI::App& app, int* exit_code);  // calibrate camera|white|lights|simulate-targets|edge-error|demo
+
 }  // namespace scanbench

@@ -13,8 +13,9 @@ int main(int argc, char** argv) {
   scanbench::RegisterScanCommands(app, &exit_code);
   scanbench::RegisterDeviceCommands(app, &exit_code);
   scanbench::RegisterCaptureCommands(app, &exit_code);
-  scanbench::RegisterCameraCommands(app, &exit_code);
   scanbench::RegisterDatasetCommands(app, &exit_code);
+  scanbench::RegisterCameraCommands(app, &exit_code);
+  scanbench::RegisterCalibrateCommands(app, &exit_code);
   CLI11_PARSE(app, argc, argv);
   return exit_code;
 }

@@ -32,6 +32,16 @@ void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
                    "Render without cast shadows");
   command.add_option("--render-threads", options.rig.num_threads, "Render threads (0 = all cores)")
       ->capture_default_str();
+  command  // issue #4
+      .add_option_function<std::string>(
+          "--rig-description",
+          [&options](const std::string& kind) {
+            options.rig_description = kind == "measured" ? SimulateOptions::RigDescriptionKind::kMeasured
+                                                         : SimulateOptions::RigDescriptionKind::kTrue;
+          },
+          "Rig description written into session.json: true (the simulator's, default) or measured (LED positions "
+          "a few mm off, nominal LEDs and camera: solve it with --calibration)")
+      ->check(CLI::IsMember({"true", "measured"}));
 }
 
 void AddSolveOptions(CLI::App& command, SolveOptions& options) {
@@ -48,6 +58,12 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
       ->check(CLI::IsMember({"edge_aware", "bilinear"}));
   command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
                    "Skip re-hashing the frames against session.json");
+  command.add_option("--calibration", options.calibration_dir,  // issue #4
+                     "Calibration set (scanbench calibrate ...) to take the lights and camera from")
+      ->check(CLI::ExistingDirectory);
+  command.add_option("--calibration-max-age", options.calibration_max_age_days,
+                     "Warn when the calibration set is older than this many days")
+      ->capture_default_str();
 }
 
 int Solve(const fs::path& session_dir, const SolveOptions& options) {
@@ -98,6 +114,9 @@ void RegisterScanCommands(CLI::App& app, int* exit_code) {
   AddSimulateOptions(*demo_command, demo->simulate);
   demo_command->add_option("--threads", demo->solve.solver.num_threads, "Solver threads (0 = all cores)")
       ->capture_default_str();
+  demo_command->add_option("--calibration", demo->solve.calibration_dir,  // issue #4
+                           "Calibration set to solve with (scanbench calibrate demo makes one)")
+      ->check(CLI::ExistingDirectory);
   demo_command->callback([demo, exit_code] { Guarded(exit_code, [&] { return Demo(*demo); }); });
 
   auto simulate_dir = std::make_shared<fs::path>();

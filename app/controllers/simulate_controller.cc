@@ -35,7 +35,9 @@ Session NewSession(const SimulateOptions& options, const SimulatedRig& rig) {
   session.notes = options.notes;
   session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
   session.software_version = "scanbench " SCANBENCH_VERSION;
-  session.rig = rig.rig();
+  session.rig = options.rig_description == SimulateOptions::RigDescriptionKind::kMeasured
+                    ? MakeMeasuredRigDescription(rig.rig(), options.measured)
+                    : rig.rig();
   session.camera.make = "scanbench";
   session.camera.model = "Simulated D5100";
   session.camera.serial = "SIM-" + std::to_string(options.rig.seed);
@@ -81,6 +83,7 @@ GroundTruthFiles WriteGroundTruth(const fs::path& root, const GroundTruthMaps& t
 void SimulateOptions::Check() const {
   rig.Check();
   scene.Check();
+  measured.Check();
   if (sample_name.empty()) throw std::invalid_argument("SimulateOptions.sample_name must not be empty");
 }
 

@@ -8,6 +8,7 @@
 
 #include "app/controllers/base_controller.h"
 #include "app/sim/simulated_rig.h"
+#include "app/sim/target_renderer.h"
 #include "app/sim/textile_scene.h"
 
 namespace scanbench {
@@ -18,6 +19,13 @@ struct SimulateOptions {
   std::string sample_name = "simulated twill";
   std::string notes = "rendered by the scanbench simulated rig";
   bool write_ground_truth = true;          // normal, albedo, height, mask beside the frames
+  // The rig description session.json records (issue #4): the simulator's
+  // truth (default: the solve then needs no calibration), or what an operator
+  // would have measured (MakeMeasuredRigDescription: LED positions a few mm
+  // off, nominal mu, intensity and camera), which a calibration set corrects.
+  enum class RigDescriptionKind { kTrue, kMeasured };
+  RigDescriptionKind rig_description = RigDescriptionKind::kTrue;
+  MeasuredRigOptions measured;             // how far off the measured description is
 
   void Check() const;
 };

@@ -12,6 +12,7 @@
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
 #include "app/session/session.h"
+#include "app/controllers/calibrated_lighting.h"  // issue #4
 #include "calibration/rig_light_field.h"
 
 namespace scanbench {
@@ -75,6 +76,10 @@ void SolveOptions::Check() const {
     throw std::invalid_argument("SolveOptions.run_label = '" + run_label +
                                 "' must be letters, digits, '.', '_' or '-' only");
   }
+  if (!(calibration_max_age_days > 0)) {  // issue #4
+    throw std::invalid_argument("SolveOptions.calibration_max_age_days = " + std::to_string(calibration_max_age_days) +
+                                " must be > 0");
+  }
 }
 
 double SolveSummary::TotalSeconds() const {
@@ -93,6 +98,7 @@ std::string SolveSummary::FullReport() const {
       << "  light model:  " << light_model << "\n"
       << "  clipped raw samples: " << clipped_samples << "\n"
       << "  " << solver.BriefReport() << "\n";
+  for (const std::string& warning : warnings) out << "  warning: " << warning << "\n";  // issue #4
   if (normal_error_deg) {
     out << "  normal angular error vs ground truth on the sample (deg): mean " << normal_error_deg->mean
         << ", median " << normal_error_deg->median << ", p95 " << normal_error_deg->percentile_95 << ", max "
@@ -166,9 +172,26 @@ void SolveController::Run() {
   ReportProgress("decode RAW", 1);
   end_stage("decode_develop");
 
-  // Lights from the rig description until a light calibration replaces it.
-  const auto light_field = MakeRigLightField(session.rig);
-  summary_.light_model = "rig description: point LEDs (position, axis, mu, RGB intensity), surface on the table plane";
+  // --- calibration (issue #4): the calibration set's lights when given, else the rig description ---
+  std::unique_ptr<LightField> light_field;
+  nlohmann::json calibration_report = {{"used", nullptr}};
+  if (options_.calibration_dir.empty()) {
+    light_field = MakeRigLightField(session.rig);
+    summary_.light_model =
+        "rig description: point LEDs (position, axis, mu, RGB intensity), surface on the table plane (no calibration "
+        "set given)";
+  } else {
+    CalibrationUseOptions use;
+    use.max_age_days = options_.calibration_max_age_days;
+    CalibratedLighting lighting =
+        MakeCalibratedLighting(options_.calibration_dir, session, (session_dir_ / "session.json").string(), use);
+    light_field = std::move(lighting.light_field);
+    summary_.light_model = lighting.light_model;
+    summary_.warnings = lighting.warnings;
+    calibration_report = nlohmann::json::parse(lighting.report_json);
+  }
+  calibration_report["light_model"] = summary_.light_model;
+  // --- end calibration ---
   end_stage("light_field");
 
   PhotometricSolverInput input;
@@ -237,7 +260,7 @@ void SolveController::Run() {
                        {"clip_fraction", options_.develop.clip_fraction},
                        {"dark_frame", dark_record->file},
                        {"clipped_raw_samples", summary_.clipped_samples}};
-  report["calibration"] = {{"used", nullptr}, {"light_model", summary_.light_model}};
+  report["calibration"] = calibration_report;  // issue #4: which calibration solved it, and why
   nlohmann::json by_status;
   for (int s = 0; s < kNumPixelStatuses; ++s) {
     by_status[PixelStatusName(static_cast<PixelStatus>(s))] = summary_.solver.pixels_by_status[s];

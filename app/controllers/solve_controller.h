@@ -20,6 +20,13 @@ struct SolveOptions {
   RawDevelopOptions develop;
   std::string run_label;                 // part of the result folder name: [A-Za-z0-9._-]*; "" = the method name
   bool verify_checksums = true;          // re-hash every frame against session.json
+  // --- calibration (issue #4) ---
+  // A calibration set (app/session/calibration_set.h): lights, white balance
+  // and camera rays from it instead of the session's rig description. Empty =
+  // the rig description. A set of another camera, lens or resolution is refused.
+  std::filesystem::path calibration_dir;
+  double calibration_max_age_days = 90;  // an older set warns, > 0
+  // --- end calibration ---
 
   void Check() const;
 };
@@ -34,6 +41,7 @@ struct SolveSummary {
   std::string sample_name;
   int width = 0, height = 0, num_lights = 0;
   std::string light_model;                      // what the light field came from
+  std::vector<std::string> warnings;            // e.g. a stale calibration (issue #4)
   size_t clipped_samples = 0;                   // raw samples at the clip level, all frames
   PhotometricSolverSummary solver;
   std::vector<StageTiming> timings;

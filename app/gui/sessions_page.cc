@@ -70,9 +70,14 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   results_layout->addWidget(results_);
   splitter->addWidget(results_box);
 
-  // The solve's inputs the operator may change: the calibration set (#4,
-  // SolveOptions::calibration_dir) and the solver method (#3) join this form.
+  // The solve's inputs the operator may change. Issue #4's calibration sets
+  // plug in here already (SolveOptions::calibration_dir); issue #3's solver
+  // method choice is to join this form.
   auto* solve_form = new QFormLayout;
+  calibration_ = new QLineEdit(this);
+  calibration_->setObjectName("calibrationFolder");
+  calibration_->setPlaceholderText(tr("none: the session's rig description"));
+  solve_form->addRow(tr("Calibration set"), calibration_);
 
   open_ = new QPushButton(tr("Open result"), this);
   open_->setObjectName("openResult");
@@ -209,6 +214,7 @@ void SessionsPage::Resolve() {
     return;
   }
   SolveOptions options;
+  options.calibration_dir = calibration_->text().trimmed().toStdString();
   try {
     options.Check();
   } catch (const std::exception& error) {
@@ -243,12 +249,14 @@ void SessionsPage::Resolve() {
 void SessionsPage::LoadSettings() {
   QSettings settings;
   const QString root = settings.value("sessions/root").toString();
+  calibration_->setText(settings.value("sessions/calibration").toString());
   if (!root.isEmpty()) SetRoot(root);
 }
 
 void SessionsPage::SaveSettings() const {
   QSettings settings;
   settings.setValue("sessions/root", root_->text());
+  settings.setValue("sessions/calibration", calibration_->text());
 }
 
 }  // namespace scanbench

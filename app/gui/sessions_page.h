@@ -47,6 +47,7 @@ class SessionsPage : public QWidget {
   QLineEdit* root_;
   QTreeWidget* sessions_;
   QListWidget* results_;
+  QLineEdit* calibration_;
   QPushButton* open_;
   QPushButton* resolve_;
   QPushButton* resume_;

@@ -82,4 +82,12 @@ Json RigToJson(const RigDescription& rig);
 RigDescription RigFromJson(const JsonField& field);
 void CheckRig(const RigDescription& rig, const std::string& file, const std::string& path);
 
+// Parts of the rig on their own (a calibration set stores them).
+Json CameraGeometryToJson(const CameraGeometry& camera);
+CameraGeometry CameraGeometryFromJson(const JsonField& field);
+void CheckCameraGeometry(const CameraGeometry& camera, const std::string& file, const std::string& path);
+Json LedDescriptionToJson(const LedDescription& led);
+LedDescription LedDescriptionFromJson(const JsonField& field);
+void CheckLedDescription(const LedDescription& led, const std::string& file, const std::string& path);
+
 }  // namespace scanbench::session_internal

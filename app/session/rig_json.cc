@@ -185,6 +185,29 @@ void CheckRig(const RigDescription& rig, const std::string& file, const std::str
   }
 }
 
+Json CameraGeometryToJson(const CameraGeometry& camera) {
+  return Json{{"intrinsics", IntrinsicsToJson(camera.intrinsics)}, {"cam_from_table", PoseToJson(camera.cam_from_table)}};
+}
+
+CameraGeometry CameraGeometryFromJson(const JsonField& field) {
+  field.ExpectOnlyKeys({"intrinsics", "cam_from_table"});
+  CameraGeometry camera;
+  camera.intrinsics = IntrinsicsFromJson(field.Member("intrinsics"));
+  camera.cam_from_table = PoseFromJson(field.Member("cam_from_table"));
+  return camera;
+}
+
+void CheckCameraGeometry(const CameraGeometry& camera, const std::string& file, const std::string& path) {
+  CheckIntrinsics(camera.intrinsics, file, MemberPath(path, "intrinsics"));
+  CheckPose(camera.cam_from_table, file, MemberPath(path, "cam_from_table"));
+}
+
+Json LedDescriptionToJson(const LedDescription& led) { return LedToJson(led); }
+LedDescription LedDescriptionFromJson(const JsonField& field) { return LedFromJson(field); }
+void CheckLedDescription(const LedDescription& led, const std::string& file, const std::string& path) {
+  CheckLed(led, file, path);
+}
+
 }  // namespace session_internal
 
 std::string RigDescriptionToJson(const RigDescription& rig) {

@@ -14,9 +14,12 @@
 
 #include <Eigen/Geometry>
 
+#include "app/sim/parallel_rows.h"
 #include "calibration/camera_model.h"
 
 namespace scanbench {
+using sim_internal::ParallelRows;
+
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -93,53 +96,6 @@ class RowRng {
 
 uint64_t RowSeed(uint64_t seed, uint64_t frame_index, int row) {
   return Mix64(Mix64(Mix64(seed) ^ frame_index) ^ static_cast<uint64_t>(row));
-}
-
-// ---------------------------------------------------------------------------
-// Runs body(row) for every row on `num_threads` threads (the caller is one of
-// them). Rows are handed out in small chunks from a shared counter, so the
-// result never depends on the thread count. Only the calling thread calls
-// `progress` (mapped onto [begin, end]); false from it stops the workers and
-// throws RenderCancelled. An exception in `body` is rethrown here.
-template <typename Body>
-void ParallelRows(int rows, int num_threads, const RenderProgressCallback& progress, double begin, double end,
-                  const Body& body) {
-  std::atomic<int> next_row{0};
-  std::atomic<int> rows_done{0};
-  std::atomic<bool> stop{false};
-  bool cancelled = false;  // written by the calling thread only
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  const int chunk = std::clamp(rows / (8 * std::max(1, num_threads)), 1, 16);
-
-  auto work = [&](bool is_caller) {
-    while (!stop.load(std::memory_order_relaxed)) {
-      const int first = next_row.fetch_add(chunk);
-      if (first >= rows) break;
-      const int last = std::min(rows, first + chunk);
-      try {
-        for (int row = first; row < last; ++row) body(row);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (!error) error = std::current_exception();
-        stop = true;
-        break;
-      }
-      const int done = rows_done.fetch_add(last - first) + (last - first);
-      if (is_caller && progress && !progress(begin + (end - begin) * done / rows)) {
-        cancelled = true;
-        stop = true;
-      }
-    }
-  };
-
-  std::vector<std::thread> helpers;
-  for (int t = 1; t < num_threads; ++t) helpers.emplace_back(work, false);
-  work(true);
-  for (std::thread& helper : helpers) helper.join();
-  if (error) std::rethrow_exception(error);
-  if (cancelled) throw RenderCancelled();
-  if (progress && !progress(end)) throw RenderCancelled();
 }
 
 // Where `ray_in_table` from `origin` meets the plane z = 0.
@@ -587,6 +543,37 @@ ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const Render
   return out;
 }
 
+RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_index,
+                            const SensorRowFunction& linear_row, const RenderProgressCallback& progress) {
+  options.Check();
+  RawImage raw;
+  raw.cfa = options.cfa;
+  raw.black_level.fill(static_cast<uint16_t>(options.black_level));
+  raw.white_level = static_cast<uint16_t>(options.white_level);
+  raw.mosaic = ImageU16(options.width, options.height, 1);
+
+  const double range_dn = options.white_level - options.black_level;
+  const double gain = options.gain_e_per_dn;
+  const int num_threads = options.num_threads > 0 ? options.num_threads
+                                                  : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  ParallelRows(options.height, num_threads, progress, 0.0, 1.0, [&](int y) {
+    RowRng rng(RowSeed(options.seed, frame_index, y));
+    std::vector<double> values(options.width);
+    linear_row(y, values.data());
+    uint16_t* row = raw.mosaic.row(y);
+    for (int x = 0; x < options.width; ++x) {
+      double signal_dn = values[x] * range_dn;
+      if (options.add_noise) {
+        const double electrons = rng.Poisson(signal_dn * gain);
+        signal_dn = electrons / gain + options.read_noise_dn * rng.Gaussian();
+      }
+      const double dn = std::nearbyint(signal_dn + options.black_level);
+      row[x] = static_cast<uint16_t>(std::clamp(dn, 0.0, static_cast<double>(options.white_level)));
+    }
+  });
+  return raw;
+}
+
 RawImage SimulatedRig::RenderFrame(std::optional<int> lit_led_index, uint64_t frame_index,
                                    const RenderProgressCallback& progress) const {
   if (lit_led_index && (*lit_led_index < 0 || *lit_led_index >= num_leds())) {
@@ -594,33 +581,18 @@ RawImage SimulatedRig::RenderFrame(std::optional<int> lit_led_index, uint64_t fr
                             std::to_string(num_leds()) + ")");
   }
   const LedDescription* led = lit_led_index ? &rig_.leds[*lit_led_index] : nullptr;
-  RawImage raw;
-  raw.cfa = options_.cfa;
-  raw.black_level.fill(static_cast<uint16_t>(options_.black_level));
-  raw.white_level = static_cast<uint16_t>(options_.white_level);
-  raw.mosaic = ImageU16(options_.width, options_.height, 1);
-
-  const double range_dn = options_.white_level - options_.black_level;
-  const double gain = options_.gain_e_per_dn;
-  ParallelRows(options_.height, NumThreads(), progress, 0.0, 1.0, [&](int y) {
-    RowRng rng(RowSeed(options_.seed, frame_index, y));
-    uint16_t* row = raw.mosaic.row(y);
-    for (int x = 0; x < options_.width; ++x) {
-      const size_t i = static_cast<size_t>(y) * options_.width + x;
-      const int c = CfaColorAt(options_.cfa, x, y);
-      const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
-      const double irradiance = direct * (led ? led->rgb_intensity[c] : 0.0) + options_.ambient;
-      const double value = albedo_[3 * i + c] * irradiance;
-      double signal_dn = value * range_dn;
-      if (options_.add_noise) {
-        const double electrons = rng.Poisson(signal_dn * gain);
-        signal_dn = electrons / gain + options_.read_noise_dn * rng.Gaussian();
-      }
-      const double dn = std::nearbyint(signal_dn + options_.black_level);
-      row[x] = static_cast<uint16_t>(std::clamp(dn, 0.0, static_cast<double>(options_.white_level)));
-    }
-  });
-  return raw;
+  return RenderSensorMosaic(
+      options_, frame_index,
+      [&](int y, double* values) {
+        for (int x = 0; x < options_.width; ++x) {
+          const size_t i = static_cast<size_t>(y) * options_.width + x;
+          const int c = CfaColorAt(options_.cfa, x, y);
+          const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
+          const double irradiance = direct * (led ? led->rgb_intensity[c] : 0.0) + options_.ambient;
+          values[x] = albedo_[3 * i + c] * irradiance;
+        }
+      },
+      progress);
 }
 
 ImageU8 SimulatedRig::RenderShadowMask(int led_index) const {

@@ -69,6 +69,19 @@ class RenderCancelled : public std::runtime_error {
   RenderCancelled() : std::runtime_error("simulated rig: render cancelled by the progress callback") {}
 };
 
+// Fills values[x], x in [0, width), with the noise-free linear value of row y
+// for the colour the CFA puts at (x, y), as a fraction of the raw range above
+// black. May be called from several threads at once for different rows.
+using SensorRowFunction = std::function<void(int y, double* values)>;
+
+// The sensor model alone, for anything rendered in front of the camera
+// (scenes, calibration targets): scales to DN, adds shot and read noise (a pure
+// function of options.seed, frame_index and the pixel), rounds, adds the black
+// level and clips at 0 and the white level. Throws RenderCancelled if
+// `progress` returns false.
+RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_index,
+                            const SensorRowFunction& linear_row, const RenderProgressCallback& progress = {});
+
 struct GroundTruthMaps {
   ImageF point_in_table;   // 3 channels, mm: where each pixel's ray meets the surface
   ImageF normal_in_table;  // 3 channels, unit, z > 0

@@ -54,5 +54,26 @@ TEST(CameraModelTest, CameraBelowTheTableIsRejected) {
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("above the table")));
 }
 
+TEST(CameraModelTest, SubPixelRaysMeetAnyHorizontalPlaneWhereTheyProjectBack) {
+  const CameraGeometry camera = testing::DownLookingCamera(64, 48, 600, /*distorted=*/true);
+  const std::vector<Eigen::Vector2d> pixels = {{0, 0}, {31.5, 23.25}, {63, 47}, {10.75, 40.5}};
+  for (const double height : {0.0, 40.0}) {
+    const std::vector<Eigen::Vector3d> points = ComputePlanePointsInTable(camera, pixels, height);
+    ASSERT_EQ(points.size(), pixels.size());
+    for (size_t i = 0; i < pixels.size(); ++i) {
+      EXPECT_NEAR(points[i].z(), height, 1e-9);
+      const Eigen::Vector2d back = ProjectToPixel(camera.intrinsics, camera.cam_from_table * points[i]);
+      EXPECT_LT((back - pixels[i]).norm(), 1e-6) << i;
+    }
+  }
+  // The same rays as the per-pixel-centre map.
+  const ImageF rays = ComputeRayDirectionsInCam(camera.intrinsics);
+  const Eigen::Vector3d ray = ComputeRayDirectionsInCam(camera.intrinsics, {Eigen::Vector2d(63, 47)})[0];
+  EXPECT_THAT(Eigen::Vector3f(rays(63, 47, 0), rays(63, 47, 1), rays(63, 47, 2)),
+              testing::EigenNear(ray.cast<float>(), 1e-6));
+  EXPECT_THAT([&] { ComputePlanePointsInTable(camera, pixels, 700.0); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("does not reach the plane z = 700")));
+}
+
 }  // namespace
 }  // namespace scanbench

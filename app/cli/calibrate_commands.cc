@@ -1,0 +1,312 @@
+// calibrate camera|white|lights, and on the simulated rig: simulate-targets,
+// edge-error and demo (targets -> calibration set -> a scan solved with it).
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <vector>
+
+#include "app/cli/commands.h"
+#include "app/cli/run_controller.h"
+#include "app/controllers/calibration_controllers.h"
+#include "app/controllers/edge_error_controller.h"
+#include "app/controllers/simulate_controller.h"
+#include "app/controllers/simulate_targets_controller.h"
+#include "app/controllers/solve_controller.h"
+#include "app/session/session.h"
+#include "calibration/camera_model.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+template <typename Function>
+void Guarded(int* exit_code, Function&& function) {
+  try {
+    *exit_code = function();
+  } catch (const std::exception& error) {
+    std::cerr << "scanbench: error: " << error.what() << "\n";
+    *exit_code = kExitFailure;
+  }
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(digits) << value;
+  return text.str();
+}
+
+// ---------------------------------------------------------------------------
+// Reports
+
+void PrintCamera(const CameraCalibrationSummary& s, const fs::path& set) {
+  std::cout << s.BriefReport() << "\n";
+  for (const CalibrationViewReport& v : s.views) {
+    std::cout << "  " << v.name << ": "
+              << (v.used ? "used, RMS " + Fixed(v.rms_px, 3) + " px" : "REJECTED: " + v.reason)
+              << (v.on_table ? " (on the table)" : "") << ", edge width " << Fixed(v.edge_width_px, 2) << " px\n";
+  }
+  const Eigen::Vector3d centre = CameraCentreInTable(s.camera);
+  std::cout << "  camera centre in the table frame: (" << Fixed(centre.x(), 1) << ", " << Fixed(centre.y(), 1) << ", "
+            << Fixed(centre.z(), 1) << ") mm\n"
+            << "Calibration set written to " << fs::absolute(set).string() << "\n";
+}
+
+void PrintLights(const LightCalibrationSummary& s, const fs::path& set) {
+  std::cout << s.BriefReport() << "\nLights written into the calibration set " << fs::absolute(set).string() << "\n";
+}
+
+// ---------------------------------------------------------------------------
+// Commands
+
+struct CameraState {
+  std::vector<fs::path> sessions;
+  fs::path output;
+  CameraCalibrationJobOptions options;
+};
+
+int CalibrateCameraCommand(const CameraState& state) {
+  CameraCalibrationController controller(state.sessions, state.output, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) PrintCamera(controller.summary(), state.output);
+  return code;
+}
+
+struct WhiteState {
+  fs::path session;
+  fs::path calibration;
+  WhiteBalanceJobOptions options;
+};
+
+int CalibrateWhiteCommand(const WhiteState& state) {
+  WhiteBalanceController controller(state.session, state.calibration, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) {
+    std::cout << controller.summary().BriefReport() << "\nWhite balance written into the calibration set "
+              << fs::absolute(state.calibration).string() << "\n";
+  }
+  return code;
+}
+
+struct LightsState {
+  std::vector<fs::path> sessions;
+  fs::path calibration;
+  LightCalibrationJobOptions options;
+};
+
+int CalibrateLightsCommand(const LightsState& state) {
+  LightCalibrationController controller(state.sessions, state.calibration, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) PrintLights(controller.summary(), state.calibration);
+  return code;
+}
+
+struct TargetsState {
+  fs::path output;
+  SimulateTargetsOptions options;
+};
+
+int SimulateTargetsCommand(const TargetsState& state) {
+  SimulateTargetsController controller(state.output, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) {
+    const SimulateTargetsSummary& s = controller.summary();
+    std::cout << "Target sessions in " << fs::absolute(state.output).string() << " (" << s.sessions_written
+              << " written, " << s.sessions_skipped << " already there)\n";
+  }
+  return code;
+}
+
+struct EdgeState {
+  fs::path session;
+  EdgeErrorOptions options;
+};
+
+int EdgeErrorCommand(const EdgeState& state) {
+  EdgeErrorController controller(state.session, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) std::cout << controller.summary().FullReport();
+  return code;
+}
+
+struct DemoState {
+  fs::path output = "scanbench-calibration-demo";
+  int width = kD5100Width / 4;
+  int height = kD5100Height / 4;
+  uint64_t seed = SimulatedRigOptions().seed;
+  int threads = 0;
+};
+
+// Every step a user would run, in order, on the simulated rig.
+int CalibrationDemo(const DemoState& state) {
+  SimulatedRigOptions sensor;
+  sensor.width = state.width;
+  sensor.height = state.height;
+  sensor.seed = state.seed;
+  const fs::path targets = state.output / "targets";
+  const fs::path calibration = state.output / "calibration";
+  const fs::path scan = state.output / "scan";
+
+  std::cout << "1/6 Rendering the calibration targets into " << targets.string() << "\n";
+  SimulateTargetsOptions target_options;
+  target_options.rig = sensor;
+  if (int code = SimulateTargetsCommand({targets, target_options}); code != kExitSuccess) return code;
+
+  std::cout << "2/6 Camera calibration\n";
+  std::vector<fs::path> boards;
+  for (int i = 0; i < target_options.num_board_poses; ++i) boards.push_back(targets / ("checkerboard_" + std::to_string(i)));
+  CameraState camera{boards, calibration, {}};
+  camera.options.replace = true;
+  if (int code = CalibrateCameraCommand(camera); code != kExitSuccess) return code;
+
+  std::cout << "3/6 White balance and linearity (gray chart)\n";
+  if (int code = CalibrateWhiteCommand({targets / "gray_chart", calibration, {}}); code != kExitSuccess) return code;
+
+  std::cout << "4/6 Light calibration (white sheet on the table and on a spacer)\n";
+  if (int code = CalibrateLightsCommand(
+          {{targets / "white_sheet_table", targets / "white_sheet_spacer"}, calibration, {}});
+      code != kExitSuccess) {
+    return code;
+  }
+
+  std::cout << "5/6 A scan whose session records the measured (uncalibrated) rig, solved with the calibration\n";
+  if (!fs::exists(scan / "session.json") || !LoadSession(scan).capture_complete) {
+    SimulateOptions simulate;
+    simulate.rig = sensor;
+    simulate.rig_description = SimulateOptions::RigDescriptionKind::kMeasured;
+    SimulateController controller(scan, simulate);
+    if (int code = RunController(controller); code != kExitSuccess) return code;
+  }
+  SolveOptions solve;
+  solve.solver.num_threads = state.threads;
+  solve.calibration_dir = calibration;
+  solve.run_label = "calibrated";
+  SolveController solver(scan, solve);
+  if (int code = RunController(solver); code != kExitSuccess) return code;
+  std::cout << solver.summary().FullReport();
+
+  std::cout << "6/6 Edge error: distant uniform lights against the calibration\n";
+  EdgeErrorOptions edge;
+  edge.solver.num_threads = state.threads;
+  edge.calibration_dir = calibration;
+  edge.output_dir = state.output / "edge_error";
+  return EdgeErrorCommand({scan, edge});
+}
+
+void AddVerifyFlag(CLI::App& command, bool& verify) {
+  command.add_flag("--no-verify", [&verify](std::int64_t) { verify = false; },
+                   "Skip re-hashing the frames against session.json");
+}
+
+}  // namespace
+
+void RegisterCalibrateCommands(CLI::App& app, int* exit_code) {
+  CLI::App* calibrate = app.add_subcommand(
+      "calibrate", "Calibrate the camera, the sensor's white balance and the lights from target sessions into a "
+                   "calibration set (docs/calibration.md)");
+  calibrate->require_subcommand(1);
+
+  auto camera = std::make_shared<CameraState>();
+  CLI::App* camera_command = calibrate->add_subcommand(
+      "camera", "Intrinsics, distortion and table pose from checkerboard sessions (one must have the board flat on "
+                "the table); starts a new calibration set");
+  camera_command->add_option("sessions", camera->sessions, "Checkerboard target sessions")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  camera_command->add_option("--output,-o", camera->output, "Calibration set folder to create")->required();
+  camera_command->add_flag("--replace", camera->options.replace, "Overwrite an existing calibration set there");
+  camera_command->add_option("--radial-terms", camera->options.calibration.radial_terms,
+                             "Radial distortion terms to fit: 1 (k1), 2 (k1 k2) or 3")
+      ->capture_default_str();
+  camera_command->add_flag("--fix-tangential", camera->options.calibration.fix_tangential,
+                           "Keep the tangential distortion p1, p2 at 0");
+  camera_command->add_option("--max-edge-width", camera->options.calibration.detection.max_edge_width_px,
+                             "Reject views whose square edges rise over more pixels than this (blur)")
+      ->capture_default_str();
+  AddVerifyFlag(*camera_command, camera->options.verify_checksums);
+  camera_command->callback([camera, exit_code] { Guarded(exit_code, [&] { return CalibrateCameraCommand(*camera); }); });
+
+  auto white = std::make_shared<WhiteState>();
+  CLI::App* white_command = calibrate->add_subcommand(
+      "white", "Per-LED white balance and sensor linearity from a gray chart session, into a calibration set");
+  white_command->add_option("session", white->session, "Gray chart target session")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  white_command->add_option("--calibration,-c", white->calibration, "Calibration set (made by calibrate camera)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  white_command->add_option("--linearity-tolerance", white->options.white_balance.linearity_tolerance,
+                            "Relative deviation from the linear fit that marks a patch non-linear")
+      ->capture_default_str();
+  AddVerifyFlag(*white_command, white->options.verify_checksums);
+  white_command->callback([white, exit_code] { Guarded(exit_code, [&] { return CalibrateWhiteCommand(*white); }); });
+
+  auto lights = std::make_shared<LightsState>();
+  CLI::App* lights_command = calibrate->add_subcommand(
+      "lights", "Per-pixel light intensity and direction, and the fitted LED model, from white sheet sessions (one on "
+                "the table, one on a spacer), into a calibration set");
+  lights_command->add_option("sessions", lights->sessions, "White sheet target sessions")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  lights_command->add_option("--calibration,-c", lights->calibration, "Calibration set (made by calibrate camera)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  lights_command->add_option("--cell-px", lights->options.lights.cell_px,
+                             "Side of the averaging cells in pixels, even (0 = width / 64)")
+      ->capture_default_str();
+  lights_command->add_option("--model-noise-factor", lights->options.lights.model_noise_factor,
+                             "Use the LED model when its residual is within this many times the noise")
+      ->capture_default_str();
+  AddVerifyFlag(*lights_command, lights->options.verify_checksums);
+  lights_command->callback([lights, exit_code] { Guarded(exit_code, [&] { return CalibrateLightsCommand(*lights); }); });
+
+  auto targets = std::make_shared<TargetsState>();
+  CLI::App* targets_command = calibrate->add_subcommand(
+      "simulate-targets", "Render the calibration target sessions (checkerboards, gray chart, white sheets) on the "
+                          "simulated rig from its true parameters");
+  targets_command->add_option("output", targets->output, "Folder for the target sessions")->required();
+  targets_command->add_option("--width", targets->options.rig.width, "Image width in pixels")->capture_default_str();
+  targets_command->add_option("--height", targets->options.rig.height, "Image height in pixels")->capture_default_str();
+  targets_command->add_option("--seed", targets->options.rig.seed, "Sensor noise seed (also the camera serial)")
+      ->capture_default_str();
+  targets_command->add_option("--spacer-mm", targets->options.spacer_mm, "Height of the raised white sheet")
+      ->capture_default_str();
+  targets_command->add_option("--led-error-mm", targets->options.measured.led_position_error_mm,
+                              "rms error per axis of the measured LED positions written into the sessions")
+      ->capture_default_str();
+  targets_command->callback([targets, exit_code] { Guarded(exit_code, [&] { return SimulateTargetsCommand(*targets); }); });
+
+  auto edge = std::make_shared<EdgeState>();
+  CLI::App* edge_command = calibrate->add_subcommand(
+      "edge-error", "Measure the low-frequency normal tilt toward the borders (the seed's Figure 10) of a simulated "
+                    "session: distant uniform lights against a calibration set; writes figures and images");
+  edge_command->add_option("session", edge->session, "Session with ground truth")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  edge_command->add_option("--calibration,-c", edge->options.calibration_dir, "Calibration set")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  edge_command->add_option("--output,-o", edge->options.output_dir, "Folder for the images and edge_error.json")
+      ->required();
+  edge_command->add_option("--block-px", edge->options.block_px, "Averaging block side in pixels (0 = width / 40)")
+      ->capture_default_str();
+  edge_command->add_option("--threads", edge->options.solver.num_threads, "Solver threads (0 = all cores)")
+      ->capture_default_str();
+  edge_command->callback([edge, exit_code] { Guarded(exit_code, [&] { return EdgeErrorCommand(*edge); }); });
+
+  auto demo = std::make_shared<DemoState>();
+  CLI::App* demo_command = calibrate->add_subcommand(
+      "demo", "On the simulated rig: render the targets, calibrate camera, white balance and lights, scan a sample "
+              "whose session holds only the measured rig, solve it with the calibration and measure the edge error");
+  demo_command->add_option("--output", demo->output, "Folder for everything")->capture_default_str();
+  demo_command->add_option("--width", demo->width, "Image width in pixels")->capture_default_str();
+  demo_command->add_option("--height", demo->height, "Image height in pixels")->capture_default_str();
+  demo_command->add_option("--seed", demo->seed, "Sensor noise seed")->capture_default_str();
+  demo_command->add_option("--threads", demo->threads, "Solver threads (0 = all cores)")->capture_default_str();
+  demo_command->callback([demo, exit_code] { Guarded(exit_code, [&] { return CalibrationDemo(*demo); }); });
+}
+
+}  // namespace scanbench

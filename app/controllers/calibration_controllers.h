@@ -1,0 +1,91 @@
+// The calibrations as long jobs: each reads target sessions (session.json +
+// target.json + DNG frames), runs the calibration library and writes its
+// section of a calibration set (app/session/calibration_set.h).
+//
+//   camera  checkerboard sessions -> a NEW set (intrinsics, distortion, table pose)
+//   white   one gray-chart session -> the set's white_balance section
+//   lights  white-sheet sessions   -> the set's lights section (+ per-pixel field files)
+//
+// white and lights need the set's camera section and refuse target sessions
+// of another camera, lens or resolution.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "app/controllers/base_controller.h"
+#include "app/session/calibration_set.h"
+#include "calibration/camera_calibration.h"
+#include "calibration/light_calibration.h"
+#include "calibration/raw_develop.h"
+#include "calibration/white_balance.h"
+
+namespace scanbench {
+
+struct CameraCalibrationJobOptions {
+  CameraCalibrationOptions calibration;
+  bool verify_checksums = true;  // re-hash every frame against its session.json
+  bool replace = false;          // overwrite an existing calibration set at the output folder
+
+  void Check() const;
+};
+
+class CameraCalibrationController : public BaseController {
+ public:
+  CameraCalibrationController(std::vector<std::filesystem::path> target_sessions,
+                              std::filesystem::path calibration_dir, CameraCalibrationJobOptions options);
+  // Throws with the reason when the calibration fails (no set is written then).
+  void Run() override;
+  const CameraCalibrationSummary& summary() const { return summary_; }
+
+ private:
+  std::vector<std::filesystem::path> sessions_;
+  std::filesystem::path calibration_dir_;
+  CameraCalibrationJobOptions options_;
+  CameraCalibrationSummary summary_;
+};
+
+struct WhiteBalanceJobOptions {
+  WhiteBalanceOptions white_balance;
+  bool verify_checksums = true;
+
+  void Check() const { white_balance.Check(); }
+};
+
+class WhiteBalanceController : public BaseController {
+ public:
+  WhiteBalanceController(std::filesystem::path target_session, std::filesystem::path calibration_dir,
+                         WhiteBalanceJobOptions options);
+  void Run() override;
+  const WhiteBalanceSummary& summary() const { return summary_; }
+
+ private:
+  std::filesystem::path session_;
+  std::filesystem::path calibration_dir_;
+  WhiteBalanceJobOptions options_;
+  WhiteBalanceSummary summary_;
+};
+
+struct LightCalibrationJobOptions {
+  LightCalibrationOptions lights;
+  bool verify_checksums = true;
+
+  void Check() const { lights.Check(); }
+};
+
+class LightCalibrationController : public BaseController {
+ public:
+  LightCalibrationController(std::vector<std::filesystem::path> target_sessions,
+                             std::filesystem::path calibration_dir, LightCalibrationJobOptions options);
+  void Run() override;
+  const LightCalibrationSummary& summary() const { return summary_; }
+
+ private:
+  std::vector<std::filesystem::path> sessions_;
+  std::filesystem::path calibration_dir_;
+  LightCalibrationJobOptions options_;
+  LightCalibrationSummary summary_;
+};
+
+}  // namespace scanbench

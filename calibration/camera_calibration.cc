@@ -1,0 +1,356 @@
+#include "calibration/camera_calibration.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calibration/camera_model.h"
+
+namespace scanbench {
+namespace {
+
+template <typename T>
+std::invalid_argument FieldError(const std::string& where, const std::string& field, T value,
+                                 const std::string& rule) {
+  std::ostringstream text;
+  text << where << "." << field << " = " << value << " " << rule;
+  return std::invalid_argument(text.str());
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(digits) << value;
+  return text.str();
+}
+
+// The image scaled so that its bright squares sit near 230 of 255: robust to
+// the absolute exposure. A high percentile, not the maximum, so that a few
+// hot or clipped pixels do not darken everything.
+double BrightLevel(const ImageF& gray) {
+  std::vector<float> values;
+  const size_t stride = std::max<size_t>(1, gray.num_pixels() / 200000);
+  for (size_t i = 0; i < gray.num_pixels(); i += stride) values.push_back(gray.data()[i]);
+  const size_t k = static_cast<size_t>(0.995 * (values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[k];
+}
+
+cv::Mat ToFloatMat(const ImageF& gray, double scale) {
+  cv::Mat mat(gray.height(), gray.width(), CV_32FC1);
+  for (int y = 0; y < gray.height(); ++y) {
+    const float* in = gray.row(y);
+    float* out = mat.ptr<float>(y);
+    for (int x = 0; x < gray.width(); ++x) out[x] = static_cast<float>(std::clamp(in[x] * scale, 0.0, 255.0));
+  }
+  return mat;
+}
+
+Eigen::Isometry3d PoseFromRodrigues(const cv::Mat& rvec, const cv::Mat& tvec) {
+  cv::Mat rotation;
+  cv::Rodrigues(rvec, rotation);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) pose.linear()(r, c) = rotation.at<double>(r, c);
+    pose.translation()[r] = tvec.at<double>(r);
+  }
+  return pose;
+}
+
+double ReprojectionRms(const std::vector<cv::Point3f>& object, const std::vector<cv::Point2f>& image,
+                       const cv::Mat& rvec, const cv::Mat& tvec, const cv::Mat& camera_matrix,
+                       const cv::Mat& distortion) {
+  std::vector<cv::Point2f> projected;
+  cv::projectPoints(object, rvec, tvec, camera_matrix, distortion, projected);
+  double sum = 0;
+  for (size_t i = 0; i < image.size(); ++i) {
+    const cv::Point2f d = projected[i] - image[i];
+    sum += d.x * d.x + d.y * d.y;
+  }
+  return std::sqrt(sum / std::max<size_t>(1, image.size()));
+}
+
+}  // namespace
+
+void CheckerboardDetectionOptions::Check() const {
+  const std::string where = "CheckerboardDetectionOptions";
+  if (!(max_edge_width_px > 0 && max_edge_width_px <= 100)) {
+    throw FieldError(where, "max_edge_width_px", max_edge_width_px, "must lie in (0, 100]");
+  }
+  if (!(min_contrast > 0 && min_contrast < 1)) throw FieldError(where, "min_contrast", min_contrast, "must lie in (0, 1)");
+  if (subpixel_window_px < 2 || subpixel_window_px > 50) {
+    throw FieldError(where, "subpixel_window_px", subpixel_window_px, "must lie in [2, 50]");
+  }
+}
+
+void CameraCalibrationOptions::Check() const {
+  detection.Check();
+  const std::string where = "CameraCalibrationOptions";
+  if (min_views < 3 || min_views > 1000) throw FieldError(where, "min_views", min_views, "must lie in [3, 1000]");
+  if (radial_terms < 1 || radial_terms > 3) throw FieldError(where, "radial_terms", radial_terms, "must lie in [1, 3]");
+  if (!(max_view_rms_px > 0) || !std::isfinite(max_view_rms_px)) {
+    throw FieldError(where, "max_view_rms_px", max_view_rms_px, "must be finite and > 0");
+  }
+}
+
+ImageF BalancedGray(const ImageF& rgb) {
+  if (rgb.channels() != 3) {
+    throw std::invalid_argument("BalancedGray: image has " + std::to_string(rgb.channels()) + " channels; 3 required");
+  }
+  std::array<double, 3> mean{};
+  for (size_t i = 0; i < rgb.num_pixels(); ++i) {
+    for (int c = 0; c < 3; ++c) mean[c] += rgb.data()[3 * i + c];
+  }
+  std::array<double, 3> weight{};
+  for (int c = 0; c < 3; ++c) weight[c] = mean[c] > 0 ? rgb.num_pixels() / (3.0 * mean[c]) : 0.0;
+  ImageF gray(rgb.width(), rgb.height(), 1);
+  for (size_t i = 0; i < rgb.num_pixels(); ++i) {
+    double sum = 0;
+    for (int c = 0; c < 3; ++c) sum += weight[c] * rgb.data()[3 * i + c];
+    gray.data()[i] = static_cast<float>(sum);
+  }
+  return gray;
+}
+
+CheckerboardDetection DetectCheckerboard(const ImageF& gray, const CheckerboardTarget& board,
+                                         const CheckerboardDetectionOptions& options) {
+  board.Check();
+  options.Check();
+  if (gray.empty() || gray.channels() != 1) {
+    throw std::invalid_argument("DetectCheckerboard: image " + std::to_string(gray.width()) + "x" +
+                                std::to_string(gray.height()) + "x" + std::to_string(gray.channels()) +
+                                " must be a non-empty 1-channel image");
+  }
+  CheckerboardDetection detection;
+  const double bright = BrightLevel(gray);
+  if (!(bright > 0)) {
+    detection.reason = "image is black: no checkerboard can be seen";
+    return detection;
+  }
+  const cv::Mat image_float = ToFloatMat(gray, 230.0 / bright);
+  cv::Mat image8;
+  image_float.convertTo(image8, CV_8UC1);
+
+  const cv::Size pattern(board.inner_corners_x, board.inner_corners_y);
+  std::vector<cv::Point2f> corners;
+  const bool found = cv::findChessboardCorners(image8, pattern, corners,
+                                               cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
+  if (!found || static_cast<int>(corners.size()) != board.num_corners()) {
+    detection.reason = "checkerboard of " + std::to_string(board.inner_corners_x) + "x" +
+                       std::to_string(board.inner_corners_y) + " inner corners not found";
+    return detection;
+  }
+  const int window = options.subpixel_window_px;
+  for (const cv::Point2f& corner : corners) {
+    if (corner.x < window + 1 || corner.y < window + 1 || corner.x > gray.width() - window - 2 ||
+        corner.y > gray.height() - window - 2) {
+      detection.reason = "checkerboard corner at " + Fixed(corner.x, 1) + "," + Fixed(corner.y, 1) +
+                         " lies within " + std::to_string(window + 1) + " px of the image border";
+      return detection;
+    }
+  }
+  cv::cornerSubPix(image_float, corners, cv::Size(window, window), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 100, 1e-4));
+  // Canonical orientation: the first row runs to the right in the image (a
+  // board's 180-degree turn is otherwise ambiguous).
+  if (corners[board.inner_corners_x - 1].x < corners[0].x) std::reverse(corners.begin(), corners.end());
+  detection.found = true;
+  for (const cv::Point2f& corner : corners) detection.corners.emplace_back(corner.x, corner.y);
+
+  const cv::Scalar sharpness = cv::estimateChessboardSharpness(image8, pattern, corners);
+  detection.edge_width_px = sharpness[0];
+  detection.contrast = sharpness[2] > 0 ? (sharpness[2] - sharpness[1]) / sharpness[2] : 0.0;
+  if (!(detection.edge_width_px <= options.max_edge_width_px)) {
+    detection.reason = "blurred: edge width " + Fixed(detection.edge_width_px, 2) + " px > max_edge_width_px " +
+                       Fixed(options.max_edge_width_px, 2) + " px";
+    return detection;
+  }
+  if (!(detection.contrast >= options.min_contrast)) {
+    detection.reason = "low contrast: (light - dark) / light = " + Fixed(detection.contrast, 3) + " < min_contrast " +
+                       Fixed(options.min_contrast, 3);
+    return detection;
+  }
+  detection.usable = true;
+  return detection;
+}
+
+std::string CameraCalibrationSummary::BriefReport() const {
+  std::ostringstream out;
+  out << "Camera calibration: " << (IsUsable() ? "success" : "failure");
+  if (!message.empty()) out << " (" << message << ")";
+  if (IsUsable()) {
+    const CameraIntrinsics& k = camera.intrinsics;
+    out << std::setprecision(6) << ", " << num_used_views << "/" << views.size() << " views, RMS "
+        << Fixed(reprojection_rms_px, 3) << " px, table view RMS " << Fixed(table_view_rms_px, 3) << " px; fx "
+        << k.fx << " fy " << k.fy << " cx " << k.cx << " cy " << k.cy << " k1 " << k.k1 << " k2 " << k.k2 << " p1 "
+        << k.p1 << " p2 " << k.p2 << " k3 " << k.k3;
+  }
+  return out.str();
+}
+
+CameraCalibrationSummary CalibrateCamera(const CheckerboardTarget& board, const std::vector<CalibrationView>& views,
+                                         const CameraCalibrationOptions& options,
+                                         const CalibrationProgress& progress) {
+  board.Check();
+  options.Check();
+  CameraCalibrationSummary summary;
+  if (views.empty()) {
+    summary.message = "no views given";
+    return summary;
+  }
+  const int width = views[0].gray.width(), height = views[0].gray.height();
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (!views[v].gray.SameSize(width, height)) {
+      throw std::invalid_argument("CalibrateCamera: view " + views[v].name + " is " +
+                                  std::to_string(views[v].gray.width()) + "x" + std::to_string(views[v].gray.height()) +
+                                  " but view " + views[0].name + " is " + std::to_string(width) + "x" +
+                                  std::to_string(height) + "; all views must have one size");
+    }
+    if (!(views[v].board_height_mm >= 0 && views[v].board_height_mm <= 200)) {
+      throw FieldError("CalibrationView[" + std::to_string(v) + "] (" + views[v].name + ")", "board_height_mm",
+                       views[v].board_height_mm, "must lie in [0, 200]");
+    }
+  }
+
+  // Detect.
+  std::vector<CheckerboardDetection> detections(views.size());
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (progress && !progress(0.8 * v / views.size())) {
+      summary.message = "cancelled";
+      return summary;
+    }
+    detections[v] = DetectCheckerboard(views[v].gray, board, options.detection);
+    CalibrationViewReport report;
+    report.name = views[v].name;
+    report.on_table = views[v].on_table;
+    report.used = detections[v].usable;
+    report.reason = detections[v].reason;
+    report.edge_width_px = detections[v].edge_width_px;
+    report.contrast = detections[v].contrast;
+    summary.views.push_back(report);
+  }
+
+  std::vector<cv::Point3f> object;
+  for (const Eigen::Vector3d& p : board.CornersInTarget()) object.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+  int flags = 0;
+  if (options.radial_terms < 3) flags |= cv::CALIB_FIX_K3;
+  if (options.radial_terms < 2) flags |= cv::CALIB_FIX_K2;
+  if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
+
+  cv::Mat camera_matrix, distortion;
+  std::vector<cv::Mat> rvecs, tvecs;
+  cv::Mat std_intrinsics, std_extrinsics, per_view_rms;
+  std::vector<size_t> used;
+  // Calibrate; drop the worst view while it does not fit the others.
+  while (true) {
+    used.clear();
+    std::vector<std::vector<cv::Point3f>> object_points;
+    std::vector<std::vector<cv::Point2f>> image_points;
+    for (size_t v = 0; v < views.size(); ++v) {
+      if (!summary.views[v].used) continue;
+      used.push_back(v);
+      std::vector<cv::Point2f> corners;
+      for (const Eigen::Vector2d& c : detections[v].corners) corners.emplace_back(float(c.x()), float(c.y()));
+      image_points.push_back(corners);
+      object_points.push_back(object);
+    }
+    if (static_cast<int>(used.size()) < options.min_views) {
+      summary.message = std::to_string(used.size()) + " usable views, min_views = " +
+                        std::to_string(options.min_views) + " required";
+      return summary;
+    }
+    camera_matrix = cv::Mat();
+    distortion = cv::Mat();
+    summary.reprojection_rms_px = cv::calibrateCamera(
+        object_points, image_points, cv::Size(width, height), camera_matrix, distortion, rvecs, tvecs,
+        std_intrinsics, std_extrinsics, per_view_rms, flags,
+        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, DBL_EPSILON));
+    size_t worst = 0;
+    for (size_t u = 1; u < used.size(); ++u) {
+      if (per_view_rms.at<double>(int(u)) > per_view_rms.at<double>(int(worst))) worst = u;
+    }
+    const double worst_rms = per_view_rms.at<double>(int(worst));
+    if (worst_rms <= options.max_view_rms_px) break;
+    CalibrationViewReport& report = summary.views[used[worst]];
+    report.used = false;
+    report.reason = "reprojection RMS " + Fixed(worst_rms, 3) + " px > max_view_rms_px " +
+                    Fixed(options.max_view_rms_px, 3) + " px: the view does not fit the others";
+  }
+  if (progress && !progress(0.9)) {
+    summary.message = "cancelled";
+    return summary;
+  }
+
+  CameraIntrinsics& k = summary.camera.intrinsics;
+  k.width = width;
+  k.height = height;
+  k.fx = camera_matrix.at<double>(0, 0);
+  k.fy = camera_matrix.at<double>(1, 1);
+  k.cx = camera_matrix.at<double>(0, 2);
+  k.cy = camera_matrix.at<double>(1, 2);
+  const double* d = distortion.ptr<double>();
+  k.k1 = d[0];
+  k.k2 = d[1];
+  k.p1 = d[2];
+  k.p2 = d[3];
+  k.k3 = distortion.total() > 4 ? d[4] : 0.0;
+  for (int i = 0; i < 9 && i < static_cast<int>(std_intrinsics.total()); ++i) {
+    summary.intrinsics_std[i] = std_intrinsics.at<double>(i);
+  }
+  for (size_t u = 0; u < used.size(); ++u) {
+    CalibrationViewReport& report = summary.views[used[u]];
+    report.rms_px = per_view_rms.at<double>(int(u));
+    report.cam_from_target = PoseFromRodrigues(rvecs[u], tvecs[u]);
+  }
+  summary.num_used_views = static_cast<int>(used.size());
+  try {
+    CheckCameraIntrinsics(k);
+  } catch (const std::invalid_argument& error) {
+    summary.message = std::string("calibration gave unusable intrinsics: ") + error.what();
+    return summary;
+  }
+
+  // The table pose from the (first used) view of the board lying flat.
+  size_t table_view = views.size();
+  for (size_t v : used) {
+    if (views[v].on_table) {
+      table_view = v;
+      break;
+    }
+  }
+  if (table_view == views.size()) {
+    bool any_on_table = false;
+    for (const CalibrationView& view : views) any_on_table |= view.on_table;
+    summary.message = any_on_table ? "the view of the board lying on the table was rejected; the table pose is unknown"
+                                   : "no view has the board lying flat on the table (on_table); the table pose is unknown";
+    return summary;
+  }
+  std::vector<cv::Point3f> table_points;
+  for (const Eigen::Vector3d& p : board.CornersInTarget()) {
+    table_points.emplace_back(float(p.x()), float(p.y()), float(views[table_view].board_height_mm));
+  }
+  std::vector<cv::Point2f> table_corners;
+  for (const Eigen::Vector2d& c : detections[table_view].corners) table_corners.emplace_back(float(c.x()), float(c.y()));
+  cv::Mat rvec, tvec;
+  cv::solvePnP(table_points, table_corners, camera_matrix, distortion, rvec, tvec, false, cv::SOLVEPNP_ITERATIVE);
+  summary.camera.cam_from_table = PoseFromRodrigues(rvec, tvec);
+  summary.table_view_rms_px = ReprojectionRms(table_points, table_corners, rvec, tvec, camera_matrix, distortion);
+  const Eigen::Vector3d centre = CameraCentreInTable(summary.camera);
+  if (!(centre.z() > 0)) {
+    summary.message = "the table pose puts the camera below the table (z = " + Fixed(centre.z(), 1) +
+                      " mm): is the on-table view's board upside down?";
+    return summary;
+  }
+  summary.termination = CameraCalibrationSummary::Termination::kSuccess;
+  summary.message = "";
+  if (progress) progress(1.0);
+  return summary;
+}
+
+}  // namespace scanbench
