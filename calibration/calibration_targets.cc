@@ -4,17 +4,10 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include "solver/field_error.h"
 
 namespace scanbench {
 namespace {
-
-template <typename T>
-std::invalid_argument FieldError(const std::string& where, const std::string& field, T value,
-                                 const std::string& rule) {
-  std::ostringstream text;
-  text << where << "." << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
-}
 
 void CheckHeight(const std::string& where, double height_mm) {
   if (!(height_mm >= 0 && height_mm <= 200)) throw FieldError(where, "height_mm", height_mm, "must lie in [0, 200]");

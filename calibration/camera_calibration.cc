@@ -12,17 +12,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calibration/camera_model.h"
+#include "solver/field_error.h"
 
 namespace scanbench {
 namespace {
-
-template <typename T>
-std::invalid_argument FieldError(const std::string& where, const std::string& field, T value,
-                                 const std::string& rule) {
-  std::ostringstream text;
-  text << where << "." << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
-}
 
 std::string Fixed(double value, int digits) {
   std::ostringstream text;

@@ -16,44 +16,30 @@
 
 #include "app/sim/parallel_rows.h"
 #include "calibration/camera_model.h"
+#include "app/sim/split_mix.h"
+#include "solver/field_error.h"
 
 namespace scanbench {
+using sim_internal::kSplitMixGamma;
+using sim_internal::Mix64;
 using sim_internal::ParallelRows;
 
 namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-template <typename T>
-std::invalid_argument FieldError(const std::string& where, const std::string& field, T value,
-                                 const std::string& rule) {
-  std::ostringstream text;
-  text << where << ": " << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
-}
-
 // ---------------------------------------------------------------------------
 // Noise. SplitMix64 as the generator: tiny state, so one per image row costs
 // nothing, and its output depends only on the seed (not on the standard
 // library's distributions, which differ between implementations).
-uint64_t Mix64(uint64_t z) {
-  z += 0x9E3779B97F4A7C15ULL;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
-
 class RowRng {
  public:
   explicit RowRng(uint64_t seed) : state_(seed) {}
 
   // Uniform in (0, 1): never 0, so log() is safe.
   double Uniform() {
-    state_ += 0x9E3779B97F4A7C15ULL;
-    uint64_t z = state_;
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    z ^= z >> 31;
+    const uint64_t z = Mix64(state_);
+    state_ += kSplitMixGamma;
     return (static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53;
   }
 

@@ -8,28 +8,17 @@
 
 #include "app/sim/parallel_rows.h"
 #include "calibration/camera_model.h"
+#include "app/sim/split_mix.h"
+#include "solver/field_error.h"
 
 namespace scanbench {
+using sim_internal::kSplitMixGamma;
+using sim_internal::Mix64;
 using sim_internal::ParallelRows;
 
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-
-template <typename T>
-std::invalid_argument FieldError(const std::string& where, const std::string& field, T value,
-                                 const std::string& rule) {
-  std::ostringstream text;
-  text << where << "." << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
-}
-
-uint64_t Hash64(uint64_t z) {
-  z += 0x9E3779B97F4A7C15ULL;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
 
 // Unit-variance value noise: a uniform random value per lattice point of
 // spacing `cell` (mm), bilinearly interpolated.
@@ -38,7 +27,7 @@ double ValueNoise(double u, double v, double cell, uint64_t seed) {
   const double fu = std::floor(gu), fv = std::floor(gv);
   const int64_t iu = static_cast<int64_t>(fu), iv = static_cast<int64_t>(fv);
   auto lattice = [&](int64_t a, int64_t b) {
-    const uint64_t h = Hash64(seed ^ Hash64(static_cast<uint64_t>(a) * 0x100000001B3ULL ^ static_cast<uint64_t>(b)));
+    const uint64_t h = Mix64(seed ^ Mix64(static_cast<uint64_t>(a) * 0x100000001B3ULL ^ static_cast<uint64_t>(b)));
     return (static_cast<double>(h >> 11) * 0x1.0p-53 - 0.5) * std::sqrt(12.0);
   };
   const double tu = gu - fu, tv = gv - fv;
@@ -462,7 +451,7 @@ RigDescription MakeMeasuredRigDescription(const RigDescription& truth, const Mea
   // Standard normal errors from the seed alone (Box-Muller on a hash), not
   // from <random>'s distributions, which differ between libraries.
   uint64_t counter = 0;
-  auto uniform = [&] { return (static_cast<double>(Hash64(Hash64(options.seed) ^ counter++) >> 11) + 0.5) * 0x1.0p-53; };
+  auto uniform = [&] { return (static_cast<double>(Mix64(Mix64(options.seed) ^ counter++) >> 11) + 0.5) * 0x1.0p-53; };
   auto gaussian = [&] { return std::sqrt(-2.0 * std::log(uniform())) * std::cos(2.0 * kPi * uniform()); };
   for (LedDescription& led : measured.leds) {
     const Eigen::Vector3d offset(gaussian(), gaussian(), gaussian());

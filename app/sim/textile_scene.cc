@@ -7,7 +7,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "app/sim/split_mix.h"
+
 namespace scanbench {
+using sim_internal::Mix64;
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -24,15 +27,6 @@ void CheckRgb(const std::string& field, const Eigen::Vector3d& rgb) {
       throw FieldError(field + "[" + std::to_string(c) + "]", rgb[c], "must lie in [0, 1]");
     }
   }
-}
-
-// SplitMix64 finaliser: a well-mixed 64-bit hash, so that per-thread
-// variation is a pure function of (seed, stream, index) and needs no tables.
-uint64_t Mix64(uint64_t z) {
-  z += 0x9E3779B97F4A7C15ULL;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
 }
 
 // Uniform in [-1, 1), reproducible from its arguments.
