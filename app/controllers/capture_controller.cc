@@ -1,7 +1,6 @@
 #include "app/controllers/capture_controller.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <optional>
 #include <thread>
 
@@ -34,13 +33,6 @@ class AllOffOnExit {
  private:
   LightController* lights_;
 };
-
-std::string FrameName(std::optional<int> led) {
-  if (!led) return "dark";
-  char name[16];
-  std::snprintf(name, sizeof(name), "led_%02d", *led);
-  return name;
-}
 
 FrameExposure MeasureExposure(const RawImage& raw, const std::string& name, double clip_fraction) {
   FrameExposure exposure;
@@ -193,7 +185,7 @@ void CaptureController::Run() {
   // One frame, verified before and after its exposure, retried on failures
   // that a second try can cure.
   auto take = [&](std::optional<int> led, const std::string& stage) {
-    const std::string name = FrameName(led);
+    const std::string name = FrameStem(led);
     for (int attempt = 1;; ++attempt) {
       ThrowIfStopRequested(stage);
       std::string reason;
@@ -230,7 +222,7 @@ void CaptureController::Run() {
     for (int k = 0; k < num_leds; ++k) {
       ReportProgress("exposure check", double(k) / num_leds);
       const Shot shot = take(k, "exposure check");
-      const FrameExposure exposure = MeasureExposure(shot.raw, FrameName(k), options_.clip_fraction);
+      const FrameExposure exposure = MeasureExposure(shot.raw, FrameStem(k), options_.clip_fraction);
       summary_.exposure_check.push_back(exposure);
       if (exposure.clipped_fraction > options_.max_clipped_fraction) {
         failures += " " + exposure.frame + ": " + std::to_string(100 * exposure.clipped_fraction) +
@@ -282,7 +274,7 @@ void CaptureController::Run() {
     FrameRecord record;
     record.kind = led ? FrameKind::kLed : FrameKind::kDark;
     record.led_index = led.value_or(-1);
-    record.file = "frames/" + FrameName(led) + (shot.frame.extension.empty() ? ".raw" : shot.frame.extension);
+    record.file = FrameFileName(led, shot.frame.extension.empty() ? ".raw" : shot.frame.extension);
     record.capture_time = FormatUtcTimestamp(shot.frame.capture_time);
     record.exposure_time_s = shot.frame.settings.exposure_time_s > 0 ? shot.frame.settings.exposure_time_s
                                                                      : session->camera.exposure_time_s;

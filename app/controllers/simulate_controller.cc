@@ -1,7 +1,6 @@
 #include "app/controllers/simulate_controller.h"
 
 #include <chrono>
-#include <cstdio>
 #include <optional>
 
 #include "app/io/dng_writer.h"
@@ -13,17 +12,6 @@ namespace scanbench {
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr double kExposureTimeS = 0.1;
-constexpr double kIso = 100;
-constexpr double kFNumber = 8;
-
-std::string FrameFileName(std::optional<int> led_index) {
-  if (!led_index) return "frames/dark.dng";
-  char name[32];
-  std::snprintf(name, sizeof(name), "frames/led_%02d.dng", *led_index);
-  return name;
-}
 
 bool HasFrame(const Session& session, std::optional<int> led_index) {
   return led_index ? FindLedFrame(session, *led_index) != nullptr : FindDarkFrame(session) != nullptr;
@@ -42,9 +30,9 @@ Session NewSession(const SimulateOptions& options, const SimulatedRig& rig) {
   session.camera.model = "Simulated D5100";
   session.camera.serial = "SIM-" + std::to_string(options.rig.seed);
   session.camera.lens = "simulated prime";
-  session.camera.iso = kIso;
-  session.camera.exposure_time_s = kExposureTimeS;
-  session.camera.f_number = kFNumber;
+  session.camera.iso = kSimulatedIso;
+  session.camera.exposure_time_s = kSimulatedExposureTimeS;
+  session.camera.f_number = kSimulatedFNumber;
   session.camera.width = rig.width();
   session.camera.height = rig.height();
   return session;
@@ -150,18 +138,18 @@ void SimulateController::Run() {
     FrameRecord record;
     record.kind = led ? FrameKind::kLed : FrameKind::kDark;
     record.led_index = led.value_or(-1);
-    record.file = FrameFileName(led);
+    record.file = FrameFileName(led, ".dng");
     record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
-    record.exposure_time_s = kExposureTimeS;
+    record.exposure_time_s = kSimulatedExposureTimeS;
     record.width = raw.width();
     record.height = raw.height();
     DngMetadata metadata;
     metadata.model = session.camera.model;
     metadata.serial = session.camera.serial;
     metadata.software = session.software_version;
-    metadata.exposure_time_s = kExposureTimeS;
-    metadata.iso = kIso;
-    metadata.f_number = kFNumber;
+    metadata.exposure_time_s = kSimulatedExposureTimeS;
+    metadata.iso = kSimulatedIso;
+    metadata.f_number = kSimulatedFNumber;
     AddFrame(session_dir_, session, record, EncodeDng(raw, metadata));
     ++summary_.frames_written;
   }

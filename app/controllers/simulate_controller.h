@@ -13,6 +13,11 @@
 
 namespace scanbench {
 
+// The simulated camera's capture settings, for scans and calibration targets alike.
+inline constexpr double kSimulatedExposureTimeS = 0.1;
+inline constexpr double kSimulatedIso = 100;
+inline constexpr double kSimulatedFNumber = 8;
+
 struct SimulateOptions {
   SimulatedRigOptions rig;                 // sensor, size, noise, seed
   TextileSceneOptions scene;               // the sample

@@ -1,7 +1,8 @@
 #include "app/controllers/simulate_targets_controller.h"
 
+#include "app/controllers/simulate_controller.h"
+
 #include <chrono>
-#include <cstdio>
 #include <optional>
 
 #include "app/io/dng_writer.h"
@@ -12,18 +13,6 @@ namespace scanbench {
 namespace fs = std::filesystem;
 
 namespace {
-
-// The scan's capture settings (simulate_controller.cc): the same camera.
-constexpr double kExposureTimeS = 0.1;
-constexpr double kIso = 100;
-constexpr double kFNumber = 8;
-
-std::string FrameFileName(std::optional<int> led_index) {
-  if (!led_index) return "frames/dark.dng";
-  char name[32];
-  std::snprintf(name, sizeof(name), "frames/led_%02d.dng", *led_index);
-  return name;
-}
 
 struct TargetJob {
   std::string name;
@@ -129,9 +118,9 @@ void SimulateTargetsController::Run() {
       session.camera.model = "Simulated D5100";
       session.camera.serial = "SIM-" + std::to_string(options_.rig.seed);
       session.camera.lens = "simulated prime";
-      session.camera.iso = kIso;
-      session.camera.exposure_time_s = kExposureTimeS * job.render.exposure;
-      session.camera.f_number = kFNumber;
+      session.camera.iso = kSimulatedIso;
+      session.camera.exposure_time_s = kSimulatedExposureTimeS * job.render.exposure;
+      session.camera.f_number = kSimulatedFNumber;
       session.camera.width = options_.rig.width;
       session.camera.height = options_.rig.height;
       CreateSessionFolder(dir);
@@ -151,7 +140,7 @@ void SimulateTargetsController::Run() {
       FrameRecord record;
       record.kind = led ? FrameKind::kLed : FrameKind::kDark;
       record.led_index = led.value_or(-1);
-      record.file = FrameFileName(led);
+      record.file = FrameFileName(led, ".dng");
       record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
       record.exposure_time_s = session.camera.exposure_time_s;
       record.width = raw.width();
@@ -161,8 +150,8 @@ void SimulateTargetsController::Run() {
       metadata.serial = session.camera.serial;
       metadata.software = session.software_version;
       metadata.exposure_time_s = session.camera.exposure_time_s;
-      metadata.iso = kIso;
-      metadata.f_number = kFNumber;
+      metadata.iso = kSimulatedIso;
+      metadata.f_number = kSimulatedFNumber;
       AddFrame(dir, session, record, EncodeDng(raw, metadata));
       ReportProgress("simulate targets", (j * num_frames + f + 1) / total);
     }

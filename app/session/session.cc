@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cerrno>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
 #include <ctime>
@@ -562,6 +563,17 @@ fs::path CreateResultFolder(const fs::path& root, const std::string& run_label,
   }
   throw SessionError(results.string() + ": " + std::to_string(kMaxAttempts) + " folders named " + base_name +
                      "* exist already");
+}
+
+std::string FrameStem(std::optional<int> led_index) {
+  if (!led_index) return "dark";
+  char stem[16];
+  std::snprintf(stem, sizeof(stem), "led_%02d", *led_index);
+  return stem;
+}
+
+std::string FrameFileName(std::optional<int> led_index, const std::string& extension) {
+  return std::string(kFramesFolder) + "/" + FrameStem(led_index) + extension;
 }
 
 const FrameRecord* FindDarkFrame(const Session& session) {

@@ -109,6 +109,11 @@ std::filesystem::path CreateResultFolder(
     std::chrono::system_clock::time_point now = std::chrono::system_clock::now());
 
 // nullptr if absent.
+// Frame file names inside the session: "dark" / "led_03" (also used in
+// messages), and "frames/dark.dng" with the camera's extension.
+std::string FrameStem(std::optional<int> led_index);
+std::string FrameFileName(std::optional<int> led_index, const std::string& extension);
+
 const FrameRecord* FindDarkFrame(const Session& session);
 const FrameRecord* FindLedFrame(const Session& session, int led_index);
 

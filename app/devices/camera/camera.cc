@@ -292,4 +292,16 @@ bool IsRawFileName(const std::string& name) {
   return !extension.empty() && std::find(raw.begin(), raw.end(), extension) != raw.end();
 }
 
+double ExposureValue(const ExposureSettings& settings, CameraSetting setting) {
+  switch (setting) {
+    case CameraSetting::kIso:
+      return settings.iso;
+    case CameraSetting::kShutter:
+      return settings.exposure_time_s;
+    case CameraSetting::kAperture:
+      return settings.f_number;
+  }
+  return 0;
+}
+
 }  // namespace scanbench

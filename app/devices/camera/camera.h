@@ -72,6 +72,9 @@ struct ExposureSettings {
   double f_number = 0;
 };
 
+// The field of `settings` that `setting` names.
+double ExposureValue(const ExposureSettings& settings, CameraSetting setting);
+
 // One setting as the camera states it. Values are the camera's own text
 // ("1/125", "f/5.6", "100").
 struct CameraSettingState {

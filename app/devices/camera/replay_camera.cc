@@ -35,18 +35,6 @@ std::string FormatSetting(CameraSetting setting, double value) {
   return text;
 }
 
-double SettingOf(const ExposureSettings& settings, CameraSetting setting) {
-  switch (setting) {
-    case CameraSetting::kIso:
-      return settings.iso;
-    case CameraSetting::kShutter:
-      return settings.exposure_time_s;
-    case CameraSetting::kAperture:
-      return settings.f_number;
-  }
-  return 0;
-}
-
 }  // namespace
 
 bool NaturalLess(const std::string& a, const std::string& b) {
@@ -161,7 +149,7 @@ CameraSettingState ReplayCamera::GetSetting(CameraSetting setting) {
     }
     metadata_[index] = settings;
   }
-  const double value = SettingOf(*metadata_[index], setting);
+  const double value = ExposureValue(*metadata_[index], setting);
   if (value > 0) state.current = FormatSetting(setting, value);
   return state;
 }

@@ -24,18 +24,6 @@ std::string ExifTime(std::chrono::system_clock::time_point time) {
   return text;
 }
 
-double ValueOf(const ExposureSettings& settings, CameraSetting setting) {
-  switch (setting) {
-    case CameraSetting::kIso:
-      return settings.iso;
-    case CameraSetting::kShutter:
-      return settings.exposure_time_s;
-    case CameraSetting::kAperture:
-      return settings.f_number;
-  }
-  return 0;
-}
-
 constexpr CameraSetting kSettings[] = {CameraSetting::kIso, CameraSetting::kShutter, CameraSetting::kAperture};
 
 CameraSettingState StateOf(CameraSetting setting, const std::string& current) {
@@ -83,12 +71,12 @@ const std::vector<std::string>& SimulatedCameraChoices(CameraSetting setting) {
 void SimulatedCameraOptions::Check() const {
   for (const CameraSetting setting : kSettings) {
     const std::string name = CameraSettingName(setting);
-    const double reference_value = ValueOf(reference, setting);
+    const double reference_value = ExposureValue(reference, setting);
     if (!(reference_value > 0) || !std::isfinite(reference_value)) {
       throw std::invalid_argument("SimulatedCameraOptions.reference " + name + " = " + ToText(reference_value) +
                                   " must be > 0");
     }
-    const double initial_value = ValueOf(initial, setting);
+    const double initial_value = ExposureValue(initial, setting);
     try {
       MatchSettingValue(StateOf(setting, ""), ToText(initial_value), "simulated camera");
     } catch (const CameraError& error) {
@@ -106,7 +94,7 @@ SimulatedCamera::SimulatedCamera(std::shared_ptr<const SimulatedRig> rig, LitLed
   if (!lit_led_) throw std::invalid_argument("SimulatedCamera: the lit-LED callback is empty");
   for (const CameraSetting setting : kSettings) {
     values_[static_cast<int>(setting)] =
-        MatchSettingValue(StateOf(setting, ""), ToText(ValueOf(options_.initial, setting)), description());
+        MatchSettingValue(StateOf(setting, ""), ToText(ExposureValue(options_.initial, setting)), description());
   }
 }
 
