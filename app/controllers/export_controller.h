@@ -1,0 +1,78 @@
+// Derived maps and export: reads a solve's result folder (normal.exr,
+// albedo.exr, confidence/solved mask, report.json) and its session, computes
+// the derived maps (flattened normals, height, occlusion, cavity, roughness
+// mips, optional tileable crop) and writes them in a preset a material
+// pipeline picks up, into a new folder <session>/exports/<run-id>-<preset>[-N]/
+// beside earlier exports (never overwriting, staged then renamed).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "app/controllers/base_controller.h"
+#include "maps/gloss_mips.h"
+#include "maps/height_from_normals.h"
+#include "maps/normal_flattening.h"
+#include "maps/surface_occlusion.h"
+#include "maps/tileable_crop.h"
+
+namespace scanbench {
+
+struct ExportOptions {
+  enum class Preset { kLinearExr, kPng16, kTiff16 };
+  enum class NormalConvention { kOpenGl, kDirectX };  // +Y up (OpenGL) or +Y down (DirectX)
+  Preset preset = Preset::kPng16;
+  NormalConvention normal_convention = NormalConvention::kOpenGl;
+  std::string material_name;            // file-name prefix [A-Za-z0-9._-]+; "" = from the sample name
+  std::filesystem::path output_root;    // "" = <session>/exports
+  double mm_per_pixel = 0;              // physical scale, mm, >= 0; 0 = from the session's rig at the image centre
+  bool flatten_normals = true;          // take out low-frequency slope before everything derived
+  bool tileable = false;                // also write a seamless tileable crop of every map
+  NormalFlatteningOptions flattening;
+  HeightFromNormalsOptions height;      // mm_per_pixel is overwritten with the export's scale
+  AmbientOcclusionOptions occlusion;    // ditto
+  CavityOptions cavity;                 // ditto
+  GlossMipOptions gloss;
+  TileableCropOptions tile;
+  void Check() const;
+};
+const char* ExportPresetName(ExportOptions::Preset preset);            // "exr", "png16", "tiff16"
+ExportOptions::Preset ExportPresetFromName(const std::string& name);   // throws std::invalid_argument
+const char* NormalConventionName(ExportOptions::NormalConvention convention);            // "opengl", "directx"
+ExportOptions::NormalConvention NormalConventionFromName(const std::string& name);
+
+struct ExportSummary {
+  std::filesystem::path export_dir;
+  std::string material_name;
+  double mm_per_pixel = 0;
+  std::map<std::string, std::string> files;          // map kind -> file name inside export_dir
+  NormalFlatteningSummary flattening;
+  HeightFromNormalsSummary height;
+  OcclusionSummary occlusion;
+  OcclusionSummary cavity;
+  GlossMipSummary gloss;
+  std::optional<TileableCropSummary> tile;
+  // Against the session's ground truth (simulated sessions), on solved sample pixels.
+  std::optional<double> height_rms_error_mm;         // after removing the best-fit plane
+  std::optional<double> flattened_normal_mean_error_deg;
+  std::vector<std::string> warnings;
+  double seconds = 0;
+  std::string FullReport() const;
+};
+
+class ExportController : public BaseController {
+ public:
+  ExportController(std::filesystem::path result_dir, ExportOptions options);
+  void Run() override;
+  const ExportSummary& summary() const { return summary_; }
+
+ private:
+  std::filesystem::path result_dir_;
+  ExportOptions options_;
+  ExportSummary summary_;
+};
+
+}  // namespace scanbench

@@ -1,0 +1,39 @@
+// Low-frequency flattening of a normal map (seed 000, "3D Textile Scanner"):
+// photometric stereo gets the fine detail right but carries slow slope errors
+// from imperfect light calibration. Working in slope space (dz/dx, dz/dy), the
+// valid-weighted Gaussian low-pass of the slopes is subtracted, so the mean
+// plane becomes flat and detail shorter than the cut-off is kept unchanged.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "maps/map_summary.h"
+#include "solver/image.h"
+
+namespace scanbench {
+
+struct NormalFlatteningOptions {
+  double low_pass_sigma_px = 48.0;  // Gaussian sigma of the slope field taken out, px, > 0
+  double max_slope = 10.0;          // |dz/dx|, |dz/dy| clamp where n.z is near 0 (about 84 deg), > 0
+  void Check() const;
+};
+
+struct NormalFlatteningSummary {
+  MapTermination termination = MapTermination::kFailure;
+  std::string message;
+  size_t valid_pixels = 0;              // pixels that fed the low-pass
+  double mean_removed_tilt_deg = 0;     // mean tilt of the removed low-pass normal, valid pixels
+  double max_removed_tilt_deg = 0;
+  double seconds = 0;
+};
+
+// normal_in_tangent: 3 channels, unit (x right, y up = towards image row 0,
+// z out of the sample). valid: optional, 1 channel, non-zero = use the pixel;
+// invalid pixels are left as (0, 0, 1). Returns unit normals of the same size.
+// Throws std::invalid_argument on bad shapes (naming them) before any work.
+ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid,
+                      const NormalFlatteningOptions& options, NormalFlatteningSummary* summary,
+                      const MapProgressCallback& progress = {});
+
+}  // namespace scanbench

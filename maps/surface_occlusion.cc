@@ -1,0 +1,3 @@
+#include "maps/surface_occlusion.h"
+
+// Implementation pending (issue #7 in progress).

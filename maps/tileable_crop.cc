@@ -1,0 +1,3 @@
+#include "maps/tileable_crop.h"
+
+// Implementation pending (issue #7 in progress).

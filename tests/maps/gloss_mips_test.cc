@@ -1,0 +1,3 @@
+#include "maps/gloss_mips.h"
+
+#include <gtest/gtest.h>

@@ -1,0 +1,3 @@
+#include "maps/height_from_normals.h"
+
+#include <gtest/gtest.h>

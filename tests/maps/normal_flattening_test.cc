@@ -1,0 +1,3 @@
+#include "maps/normal_flattening.h"
+
+#include <gtest/gtest.h>

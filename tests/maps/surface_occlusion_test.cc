@@ -1,0 +1,3 @@
+#include "maps/surface_occlusion.h"
+
+#include <gtest/gtest.h>

@@ -1,0 +1,3 @@
+#include "maps/tileable_crop.h"
+
+#include <gtest/gtest.h>
