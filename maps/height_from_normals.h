@@ -1,8 +1,25 @@
 // Height map from a normal map (seed 004, section 4.1-4.2): slopes
-// dz/dx = -n.x / n.z, dz/dy = -n.y / n.z integrated by least squares. The
-// reference method is the multi-resolution relaxation of seed 004 (solve a
-// half-resolution slope field first, upsample, then Jacobi/Gauss-Seidel
-// sweeps); a DCT Poisson solver (Neumann boundary) is the fast alternative.
+// dz/dx = -n.x / n.z, dz/dy = -n.y / n.z integrated by least squares over the
+// 4-neighbour edges (trapezoidal edge targets, so quadratics are exact; the
+// free boundary is the Neumann condition).
+//   relaxation: the multi-resolution relaxation of seed 004. The edge targets
+//     are restricted to half resolution down to coarsest_level_size (a coarse
+//     edge is the difference of two block means), the coarsest level relaxes
+//     from zero, each finer level starts from the bilinear upsampling of the
+//     one below; red-black Gauss-Seidel sweeps at every level. Plain sweeps
+//     (over_relaxation 1) leave wavelengths much longer than the level's
+//     pixel unconverged (0.2% height error on the tests); the default
+//     over-relaxation of 1.9 reaches the DCT's least-squares answer within
+//     ~0.01% of the relief in the same 400 sweeps.
+//   dct: the same least-squares problem solved exactly by a DCT Poisson
+//     solver (cv::dct; odd sizes through cv::dft of the mirrored image). With
+//     a mask, the holes' slopes are first filled by pull-push, then
+//     dct_hole_iterations re-solves give every edge touching a hole the
+//     difference of the current solution, so the holes stop constraining the
+//     valid pixels. Each round roughly halves the holes' pull: a 40 px hole
+//     needs ~10 rounds, scattered pixel-sized holes hardly any (measured:
+//     0.2 mm -> 0.0013 mm in 10 rounds for the first, 0.00129 -> 0.00121 mm
+//     for the second); each round costs about one more DCT solve.
 #pragma once
 
 #include <cstddef>
@@ -17,10 +34,12 @@ struct HeightFromNormalsOptions {
   enum class Method { kMultiresolutionRelaxation, kDctPoisson };
   Method method = Method::kMultiresolutionRelaxation;
   double mm_per_pixel = 0.1;         // pixel pitch on the sample, mm, > 0; heights come out in mm
-  int max_sweeps_per_level = 400;    // relaxation sweeps at each resolution level, >= 1
-  double tolerance = 1e-6;           // stop a level once the RMS update is below tolerance * mm_per_pixel, >= 0
-  int coarsest_level_size = 8;       // stop halving below this many pixels on the shorter side, >= 2
+  int max_sweeps_per_level = 400;    // relaxation: Gauss-Seidel sweeps at each resolution level, >= 1
+  double over_relaxation = 1.9;      // relaxation: SOR factor, 1 = plain Gauss-Seidel, (0, 2)
+  double tolerance = 1e-5;           // stop a level (dct: hole re-solves) at RMS update < tolerance * pixel pitch, >= 0
+  int coarsest_level_size = 8;       // relaxation: stop halving before the longer side drops below this, px, >= 2
   double max_slope = 10.0;           // |dz/dx|, |dz/dy| clamp where n.z is near 0, > 0
+  int dct_hole_iterations = 10;      // dct with holes: at most this many re-solves that free them, >= 0
   void Check() const;
 };
 const char* HeightMethodName(HeightFromNormalsOptions::Method method);
@@ -33,15 +52,21 @@ struct HeightFromNormalsSummary {
   std::string method;
   int levels = 0;                    // resolution levels solved (1 for DCT)
   int total_sweeps = 0;
-  bool converged = false;            // every level reached the tolerance
+  bool converged = false;            // every level reached the tolerance (dct: no holes, or their re-solves did)
   double rms_slope_residual = 0;     // RMS of (gradient of height - slope), valid pixels, unitless
   double seconds = 0;
 };
 
 // normal_in_tangent: 3 channels (x right, y up = towards image row 0, z out).
-// valid: optional; invalid pixels carry no slope constraint and are filled
-// smoothly from their neighbours. Returns 1 channel, mm, zero mean over the
-// valid pixels, no NaN. Throws std::invalid_argument on bad shapes.
+// valid: optional, 1 channel, non-zero = use the pixel; invalid pixels (and
+// pixels whose normal is non-finite or zero) carry no slope constraint and
+// are filled smoothly (relaxation: a harmonic membrane, edges into holes
+// weighted 1e-3; dct: the pull-push slope fill, re-integrated). Returns 1
+// channel, mm, zero mean over the valid pixels, no NaN. Throws
+// std::invalid_argument on bad options (naming the field) and bad shapes.
+// Cancelling through `progress` returns the current estimate brought to full
+// size (termination kCancelled); no valid pixel at all returns zeros with
+// termination kFailure.
 ImageF HeightFromNormals(const ImageF& normal_in_tangent, const ImageU8* valid,
                          const HeightFromNormalsOptions& options, HeightFromNormalsSummary* summary,
                          const MapProgressCallback& progress = {});

@@ -3,6 +3,12 @@
 // from imperfect light calibration. Working in slope space (dz/dx, dz/dy), the
 // valid-weighted Gaussian low-pass of the slopes is subtracted, so the mean
 // plane becomes flat and detail shorter than the cut-off is kept unchanged.
+// The low-pass is a normalised convolution, blur(w s) / blur(w), so image
+// edges and holes are averaged over the valid pixels only. A sigma of 16 px
+// or more is blurred on an area-averaged grid sigma / 8 times coarser and
+// upsampled bilinearly (against the full-size Gaussian on the tests: mean
+// 0.013 deg, at most 0.24 deg at a hole's rim), so the cost does not grow
+// with sigma.
 #pragma once
 
 #include <cstddef>
@@ -30,8 +36,11 @@ struct NormalFlatteningSummary {
 
 // normal_in_tangent: 3 channels, unit (x right, y up = towards image row 0,
 // z out of the sample). valid: optional, 1 channel, non-zero = use the pixel;
-// invalid pixels are left as (0, 0, 1). Returns unit normals of the same size.
-// Throws std::invalid_argument on bad shapes (naming them) before any work.
+// invalid pixels (and pixels whose normal is non-finite or zero) come out as
+// (0, 0, 1). Returns unit normals of the same size. Throws
+// std::invalid_argument on bad options (naming the field) and bad shapes
+// (naming them) before any work. Cancelling through `progress` returns the
+// input normals (slopes clamped, re-normalised) with termination kCancelled.
 ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid,
                       const NormalFlatteningOptions& options, NormalFlatteningSummary* summary,
                       const MapProgressCallback& progress = {});

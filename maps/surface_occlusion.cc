@@ -1,3 +1,388 @@
 #include "maps/surface_occlusion.h"
 
-// Implementation pending (issue #7 in progress).
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <mutex>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "solver/field_error.h"
+#include "solver/parallel_rows.h"
+
+namespace scanbench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string ShapeText(const ImageF& image) {
+  return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" +
+         std::to_string(image.channels());
+}
+
+// Throws naming the caller and the shape, or the first non-finite pixel.
+void CheckFiniteHeight(const ImageF& height_mm, const char* where) {
+  if (height_mm.empty() || height_mm.channels() != 1) {
+    throw std::invalid_argument(std::string(where) + ": height_mm is " + ShapeText(height_mm) +
+                                ", must be a non-empty 1 channel image");
+  }
+  for (int y = 0; y < height_mm.height(); ++y) {
+    const float* row = height_mm.row(y);
+    for (int x = 0; x < height_mm.width(); ++x) {
+      if (!std::isfinite(row[x])) {
+        std::ostringstream text;
+        text << where << ": height_mm(" << x << ", " << y << ") = " << row[x] << " is not finite";
+        throw std::invalid_argument(text.str());
+      }
+    }
+  }
+}
+
+void FillFigures(const ImageF& map, OcclusionSummary* summary) {
+  double sum = 0;
+  float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+  for (size_t i = 0; i < map.size(); ++i) {
+    const float v = map.data()[i];
+    sum += v;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  summary->mean = map.empty() ? 0 : sum / static_cast<double>(map.size());
+  summary->min = map.empty() ? 0 : lo;
+  summary->max = map.empty() ? 0 : hi;
+}
+
+// Rows on threads; a cancel is a false return. progress(0) first, so a stop
+// requested before any work is honoured.
+template <typename Body>
+bool RunRows(int rows, int num_threads, const MapProgressCallback& progress, const Body& body) {
+  if (progress && !progress(0.0)) return false;
+  return scanbench::ParallelRows(rows, num_threads, progress, 0.0, 1.0, body);
+}
+
+// One sample of a march, the same for every pixel: the pixel offset splits into
+// an integer part and fixed bilinear weights, because pixel centres are integers.
+struct MarchSample {
+  int dx = 0, dy = 0;         // floor of the offset, pixels
+  float fx = 0, fy = 0;       // fractional part, [0, 1)
+  float inv_distance_mm = 0;  // 1 / horizontal distance
+};
+
+// Distances of the samples along an azimuth, pixels: evenly spaced when the
+// radius has no more pixels than steps; otherwise at least one pixel apart and
+// growing quadratically, so the near field (where most of the cosine weight
+// is decided) is sampled densely and the far field sparsely.
+std::vector<double> MarchDistances(double radius_px, int steps) {
+  std::vector<double> distances(steps);
+  for (int i = 0; i < steps; ++i) {
+    const double t = static_cast<double>(i + 1) / steps;
+    distances[i] = radius_px <= steps ? radius_px * t : (i + 1) + (radius_px - steps) * t * t;
+  }
+  return distances;
+}
+
+// Raises max_tangent[x] to the slope at which the bilinear field leaves each
+// pixel of row y towards azimuth (cos_azimuth, sin_azimuth): the limit of the
+// rise over distance as the distance goes to 0. Within the first cell the
+// rise over distance is linear in the distance, so this and the samples
+// beyond bracket it; without it a pixel at the bottom of a sharp pit would
+// miss the walls between it and the first sample.
+void LeavingSlopeRow(const ImageF& height_mm, int y, float cos_azimuth, float sin_azimuth, double mm_per_pixel,
+                     float* max_tangent) {
+  const int width = height_mm.width(), rows = height_mm.height();
+  const float* centre = height_mm.row(y);
+  const float* next_row = height_mm.row(std::clamp(y + (sin_azimuth > 0 ? 1 : -1), 0, rows - 1));
+  const int step_x = cos_azimuth > 0 ? 1 : -1;
+  const float wx = std::abs(cos_azimuth), wy = std::abs(sin_azimuth);
+  const float inv_mm = static_cast<float>(1.0 / mm_per_pixel);
+  for (int x = 0; x < width; ++x) {
+    const int next_x = std::clamp(x + step_x, 0, width - 1);
+    const float slope = (wx * (centre[next_x] - centre[x]) + wy * (next_row[x] - centre[x])) * inv_mm;
+    max_tangent[x] = std::max(max_tangent[x], slope);
+  }
+}
+
+// Raises max_tangent[x] for one azimuth's samples to the steepest rise
+// (height difference over distance) seen from each pixel of row y.
+void MarchRow(const ImageF& height_mm, int y, const std::vector<MarchSample>& samples, float* max_tangent) {
+  const int width = height_mm.width(), rows = height_mm.height();
+  const float* centre = height_mm.row(y);
+  for (const MarchSample& s : samples) {
+    const float* r0 = height_mm.row(std::clamp(y + s.dy, 0, rows - 1));
+    const float* r1 = height_mm.row(std::clamp(y + s.dy + 1, 0, rows - 1));
+    const float fx = s.fx, fy = s.fy, inv = s.inv_distance_mm;
+    // a + f * (b - a) keeps a flat field exactly flat (no rounding rise).
+    auto rise = [&](int x, int x0, int x1) {
+      const float a = r0[x0] + fx * (r0[x1] - r0[x0]);
+      const float b = r1[x0] + fx * (r1[x1] - r1[x0]);
+      return (a + fy * (b - a) - centre[x]) * inv;
+    };
+    // Interior: x + dx and x + dx + 1 both inside the row.
+    const int begin = std::clamp(-s.dx, 0, width);
+    const int end = std::clamp(width - 1 - s.dx, begin, width);
+    for (int x = 0; x < begin; ++x) {
+      max_tangent[x] = std::max(max_tangent[x], rise(x, std::clamp(x + s.dx, 0, width - 1),
+                                                     std::clamp(x + s.dx + 1, 0, width - 1)));
+    }
+    for (int x = begin; x < end; ++x) {
+      const float* a0 = r0 + (x + s.dx);
+      const float* a1 = r1 + (x + s.dx);
+      const float a = a0[0] + fx * (a0[1] - a0[0]);
+      const float b = a1[0] + fx * (a1[1] - a1[0]);
+      max_tangent[x] = std::max(max_tangent[x], (a + fy * (b - a) - centre[x]) * inv);
+    }
+    for (int x = end; x < width; ++x) {
+      max_tangent[x] = std::max(max_tangent[x], rise(x, std::clamp(x + s.dx, 0, width - 1),
+                                                     std::clamp(x + s.dx + 1, 0, width - 1)));
+    }
+  }
+}
+
+}  // namespace
+
+void AmbientOcclusionOptions::Check() const {
+  const char* where = "AmbientOcclusionOptions";
+  if (!(mm_per_pixel > 0) || !std::isfinite(mm_per_pixel)) {
+    throw FieldError(where, "mm_per_pixel", mm_per_pixel, "must be finite and > 0");
+  }
+  if (!(radius_mm > 0) || !std::isfinite(radius_mm)) {
+    throw FieldError(where, "radius_mm", radius_mm, "must be finite and > 0");
+  }
+  if (radius_mm / mm_per_pixel > 100000) {
+    throw FieldError(where, "radius_mm", radius_mm,
+                     "must be at most 100000 pixels (mm_per_pixel = " + std::to_string(mm_per_pixel) + ")");
+  }
+  if (num_directions < 4 || num_directions > 1024) {
+    throw FieldError(where, "num_directions", num_directions, "must be in [4, 1024]");
+  }
+  if (max_steps < 1 || max_steps > 4096) throw FieldError(where, "max_steps", max_steps, "must be in [1, 4096]");
+  if (num_threads < 0 || num_threads > 256) {
+    throw FieldError(where, "num_threads", num_threads, "must be in [0, 256]");
+  }
+}
+
+void CavityOptions::Check() const {
+  const char* where = "CavityOptions";
+  if (!(mm_per_pixel > 0) || !std::isfinite(mm_per_pixel)) {
+    throw FieldError(where, "mm_per_pixel", mm_per_pixel, "must be finite and > 0");
+  }
+  if (!(radius_mm > 0) || !std::isfinite(radius_mm)) {
+    throw FieldError(where, "radius_mm", radius_mm, "must be finite and > 0");
+  }
+  if (radius_mm / mm_per_pixel > 1000) {
+    throw FieldError(where, "radius_mm", radius_mm,
+                     "must be at most 1000 pixels (mm_per_pixel = " + std::to_string(mm_per_pixel) + ")");
+  }
+  if (!(depth_scale_mm > 0) || !std::isfinite(depth_scale_mm)) {
+    throw FieldError(where, "depth_scale_mm", depth_scale_mm, "must be finite and > 0");
+  }
+}
+
+ImageF AmbientOcclusionFromHeight(const ImageF& height_mm, const AmbientOcclusionOptions& options,
+                                  OcclusionSummary* summary, const MapProgressCallback& progress) {
+  options.Check();
+  CheckFiniteHeight(height_mm, "AmbientOcclusionFromHeight");
+  const auto start = Clock::now();
+  OcclusionSummary local;
+  OcclusionSummary& out = summary ? *summary : local;
+  out = OcclusionSummary();
+
+  const double radius_px = options.radius_mm / options.mm_per_pixel;
+  const int steps = static_cast<int>(std::min<double>(options.max_steps, std::max(1.0, std::ceil(radius_px))));
+  const std::vector<double> distances = MarchDistances(radius_px, steps);
+  const int num_directions = options.num_directions;
+  std::vector<std::vector<MarchSample>> marches(num_directions);
+  std::vector<float> cos_azimuth(num_directions), sin_azimuth(num_directions);
+  for (int k = 0; k < num_directions; ++k) {
+    // Half-step offset: no azimuth runs exactly along the pixel axes, so
+    // axis-aligned structures are not over-weighted.
+    const double azimuth = 2 * std::numbers::pi * (k + 0.5) / num_directions;
+    cos_azimuth[k] = static_cast<float>(std::cos(azimuth));
+    sin_azimuth[k] = static_cast<float>(std::sin(azimuth));
+    for (double d : distances) {
+      const double ox = d * std::cos(azimuth), oy = d * std::sin(azimuth);
+      MarchSample s;
+      s.dx = static_cast<int>(std::floor(ox));
+      s.dy = static_cast<int>(std::floor(oy));
+      s.fx = static_cast<float>(ox - s.dx);
+      s.fy = static_cast<float>(oy - s.dy);
+      s.inv_distance_mm = static_cast<float>(1.0 / (d * options.mm_per_pixel));
+      marches[k].push_back(s);
+    }
+  }
+
+  const int width = height_mm.width(), rows = height_mm.height();
+  ImageF visibility(width, rows, 1);
+  const int threads = options.num_threads > 0
+                          ? options.num_threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const bool pixel_normal = options.around_pixel_normal;
+  const float half_pi = static_cast<float>(std::numbers::pi / 2);
+  const bool finished = RunRows(rows, std::min(threads, rows), progress, [&](int y) {
+    std::vector<float> max_tangent(width);
+    std::vector<float> sum(width, 0.0f);
+    // The pixel normal (x right, y down the rows, z up), from central
+    // differences of the height (one-sided at the border).
+    std::vector<float> normal_x(width, 0.0f), normal_y(width, 0.0f), normal_z(width, 1.0f);
+    if (pixel_normal) {
+      const float* up = height_mm.row(std::max(y - 1, 0));
+      const float* down = height_mm.row(std::min(y + 1, rows - 1));
+      const float* centre = height_mm.row(y);
+      const int dy_px = std::min(y + 1, rows - 1) - std::max(y - 1, 0);
+      for (int x = 0; x < width; ++x) {
+        const int left = std::max(x - 1, 0), right = std::min(x + 1, width - 1);
+        const double gx = right > left ? (centre[right] - centre[left]) / ((right - left) * options.mm_per_pixel) : 0;
+        const double gy = dy_px > 0 ? (down[x] - up[x]) / (dy_px * options.mm_per_pixel) : 0;
+        const double norm = std::sqrt(1 + gx * gx + gy * gy);
+        normal_x[x] = static_cast<float>(-gx / norm);
+        normal_y[x] = static_cast<float>(-gy / norm);
+        normal_z[x] = static_cast<float>(1 / norm);
+      }
+    }
+    for (int k = 0; k < num_directions; ++k) {
+      std::fill(max_tangent.begin(), max_tangent.end(), std::numeric_limits<float>::lowest());
+      LeavingSlopeRow(height_mm, y, cos_azimuth[k], sin_azimuth[k], options.mm_per_pixel, max_tangent.data());
+      MarchRow(height_mm, y, marches[k], max_tangent.data());
+      if (!pixel_normal) {
+        // The half-slice towards this azimuth for the normal (0, 0, 1), horizon
+        // elevation h >= 0 (the table plane bounds the hemisphere):
+        // 2 * integral over zenith angles [0, pi/2 - h] of cos * sin = cos^2(h).
+        for (int x = 0; x < width; ++x) {
+          const float t = std::max(max_tangent[x], 0.0f);
+          sum[x] += 1.0f / (1.0f + t * t);
+        }
+      } else {
+        // GTAO's slice integral for normal n, per half-slice towards azimuth
+        // d: with the horizon at zenith angle theta = pi/2 - atan(t), gamma the
+        // angle of n projected into the slice (n_p), nd = n.d and nz = n.z,
+        //   2 |n_p| * integral_0^theta cos(a - gamma) sin(a) da
+        //     = nz / (1 + t^2) + nd * (theta - t / (1 + t^2)),
+        // the horizon never below n's own hemisphere: t >= -nd / nz.
+        for (int x = 0; x < width; ++x) {
+          const float nd = normal_x[x] * cos_azimuth[k] + normal_y[x] * sin_azimuth[k];
+          const float t = std::max(max_tangent[x], -nd / normal_z[x]);
+          const float inv = 1.0f / (1.0f + t * t);
+          sum[x] += normal_z[x] * inv + nd * (half_pi - std::atan(t) - t * inv);
+        }
+      }
+    }
+    float* out_row = visibility.row(y);
+    const float scale = 1.0f / num_directions;
+    for (int x = 0; x < width; ++x) out_row[x] = std::clamp(sum[x] * scale, 0.0f, 1.0f);
+  });
+
+  out.steps_per_direction = steps;
+  out.radius_px = radius_px;
+  out.seconds = SecondsSince(start);
+  if (!finished) {
+    out.termination = MapTermination::kCancelled;
+    out.message = "ambient occlusion cancelled by the progress callback";
+    return ImageF();
+  }
+  FillFigures(visibility, &out);
+  out.termination = MapTermination::kSuccess;
+  std::ostringstream text;
+  text << "ambient occlusion of " << width << "x" << rows << " px around the "
+       << (pixel_normal ? "pixel" : "table") << " normal: " << num_directions << " directions x "
+       << steps << " steps out to " << options.radius_mm << " mm (" << radius_px << " px); visibility mean "
+       << out.mean << ", min " << out.min << ", max " << out.max << "; " << out.seconds << " s";
+  out.message = text.str();
+  return visibility;
+}
+
+ImageF CavityFromHeight(const ImageF& height_mm, const CavityOptions& options, OcclusionSummary* summary) {
+  options.Check();
+  CheckFiniteHeight(height_mm, "CavityFromHeight");
+  const auto start = Clock::now();
+  OcclusionSummary local;
+  OcclusionSummary& out = summary ? *summary : local;
+  out = OcclusionSummary();
+
+  const int width = height_mm.width(), rows = height_mm.height();
+  // Heights relative to the lowest point: a flat map becomes exactly zero and
+  // stays so through the blur, and large offsets lose no float precision.
+  const float lowest = *std::min_element(height_mm.data(), height_mm.data() + height_mm.size());
+  cv::Mat relative(rows, width, CV_32F);
+  for (int y = 0; y < rows; ++y) {
+    const float* in = height_mm.row(y);
+    float* rel = relative.ptr<float>(y);
+    for (int x = 0; x < width; ++x) rel[x] = in[x] - lowest;
+  }
+  const double sigma_px = options.radius_mm / options.mm_per_pixel;
+  cv::Mat mean;
+  cv::GaussianBlur(relative, mean, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+
+  ImageF cavity(width, rows, 1);
+  const float inv_scale = static_cast<float>(1.0 / options.depth_scale_mm);
+  for (int y = 0; y < rows; ++y) {
+    const float* rel = relative.ptr<float>(y);
+    const float* neighbourhood = mean.ptr<float>(y);
+    float* out_row = cavity.row(y);
+    for (int x = 0; x < width; ++x) {
+      const float depth = neighbourhood[x] - rel[x];
+      out_row[x] = std::clamp(1.0f - depth * inv_scale, 0.0f, 1.0f);
+    }
+  }
+  FillFigures(cavity, &out);
+  out.radius_px = sigma_px;
+  out.seconds = SecondsSince(start);
+  out.termination = MapTermination::kSuccess;
+  std::ostringstream text;
+  text << "cavity of " << width << "x" << rows << " px: Gaussian sigma " << options.radius_mm << " mm ("
+       << sigma_px << " px), 0 at " << options.depth_scale_mm << " mm deep; mean " << out.mean << ", min "
+       << out.min << ", max " << out.max << "; " << out.seconds << " s";
+  out.message = text.str();
+  return cavity;
+}
+
+ImageF AdjustOcclusionForAlbedo(const ImageF& visibility, const ImageF& albedo) {
+  const char* where = "AdjustOcclusionForAlbedo";
+  if (visibility.empty() || visibility.channels() != 1) {
+    throw std::invalid_argument(std::string(where) + ": visibility is " + ShapeText(visibility) +
+                                ", must be a non-empty 1 channel image");
+  }
+  if (!albedo.SameSize(visibility) || (albedo.channels() != 1 && albedo.channels() != 3)) {
+    throw std::invalid_argument(std::string(where) + ": albedo is " + ShapeText(albedo) + ", must be " +
+                                std::to_string(visibility.width()) + "x" + std::to_string(visibility.height()) +
+                                " with 1 or 3 channels like visibility " + ShapeText(visibility));
+  }
+  const int width = visibility.width(), rows = visibility.height();
+  ImageF adjusted(width, rows, 1);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const float a = visibility(x, y);
+      // Rec. 709 luminance of linear RGB.
+      const float rho = albedo.channels() == 3 ? 0.2126f * albedo(x, y, 0) + 0.7152f * albedo(x, y, 1) +
+                                                     0.0722f * albedo(x, y, 2)
+                                               : albedo(x, y, 0);
+      if (!std::isfinite(a) || !std::isfinite(rho)) {
+        std::ostringstream text;
+        text << where << ": visibility(" << x << ", " << y << ") = " << a << ", albedo luminance = " << rho
+             << "; both must be finite";
+        throw std::invalid_argument(text.str());
+      }
+      const float ac = std::clamp(a, 0.0f, 1.0f), rc = std::clamp(rho, 0.0f, 1.0f);
+      // denominator - A = (1 - rho)(1 - A) >= 0, so A' <= 1; it is 0 only for
+      // A = 0 and rho = 1, where a white furnace of perfect reflectors gives 1.
+      const float denominator = 1.0f - rc + rc * ac;
+      adjusted(x, y) = denominator > 0 ? std::clamp(ac / denominator, 0.0f, 1.0f) : 1.0f;
+    }
+  }
+  return adjusted;
+}
+
+}  // namespace scanbench

@@ -1,5 +1,6 @@
 #include "app/cli/command_util.h"
 
+#include <cstdint>
 #include <string>
 
 namespace scanbench {
@@ -44,6 +45,28 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
       ->capture_default_str();
   command.add_option("--robust-trigger", options.adaptive_robust_residual,
                      "adaptive: re-solve robustly where the relative RMS residual is above this")
+      ->capture_default_str();
+}
+
+void AddSolveOptions(CLI::App& command, SolveOptions& options) {
+  AddPhotometricSolverOptions(command, options.solver);
+  command.add_option("--label", options.run_label, "Label in the result folder name")->capture_default_str();
+  command
+      .add_option_function<std::string>(
+          "--demosaic",
+          [&options](const std::string& name) {
+            options.develop.demosaic =
+                name == "bilinear" ? RawDevelopOptions::Demosaic::kBilinear : RawDevelopOptions::Demosaic::kEdgeAware;
+          },
+          "Bayer interpolation: edge_aware (default) or bilinear")
+      ->check(CLI::IsMember({"edge_aware", "bilinear"}));
+  command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
+                   "Skip re-hashing the frames against session.json");
+  command.add_option("--calibration", options.calibration_dir,
+                     "Calibration set (scanbench calibrate ...) to take the lights and camera from")
+      ->check(CLI::ExistingDirectory);
+  command.add_option("--calibration-max-age", options.calibration_max_age_days,
+                     "Warn when the calibration set is older than this many days")
       ->capture_default_str();
 }
 

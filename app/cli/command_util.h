@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app/cli/run_controller.h"
+#include "app/controllers/solve_controller.h"
 #include "solver/photometric_solver.h"
 
 namespace scanbench {
@@ -26,5 +27,9 @@ void Guarded(int* exit_code, Function&& function) {
 // --method, --threads, --shadow-level and the other solver options, for every
 // command that solves.
 void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& options);
+
+// The solver options plus --label, --demosaic, --no-verify and the
+// calibration set: `solve` and `batch` take the same ones.
+void AddSolveOptions(CLI::App& command, SolveOptions& options);
 
 }  // namespace scanbench

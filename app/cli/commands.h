@@ -13,6 +13,8 @@ void RegisterDeviceCommands(CLI::App& app, int* exit_code);  // devices, led
 void RegisterCaptureCommands(CLI::App& app, int* exit_code);  // capture
 void RegisterCameraCommands(CLI::App& app, int* exit_code);  // camera list|info|capture|preview
 void RegisterDatasetCommands(CLI::App& app, int* exit_code);  // solve-dataset, solver-report
+void RegisterBatchCommands(CLI::App& app, int* exit_code);  // batch (issue #7)
+void RegisterExportCommands(CLI::App& app, int* exit_code);  // export (issue #7)
 
 void RegisterCalibrateCommands(CLI::App& app, int* exit_code);  // calibrate camera|white|lights|simulate-targets|edge-error|demo
 

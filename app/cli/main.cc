@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
   scanbench::RegisterDeviceCommands(app, &exit_code);
   scanbench::RegisterCaptureCommands(app, &exit_code);
   scanbench::RegisterDatasetCommands(app, &exit_code);
+  scanbench::RegisterBatchCommands(app, &exit_code);
+  scanbench::RegisterExportCommands(app, &exit_code);
   scanbench::RegisterCameraCommands(app, &exit_code);
   scanbench::RegisterCalibrateCommands(app, &exit_code);
   CLI11_PARSE(app, argc, argv);

@@ -10,7 +10,10 @@ ProgressBar::ProgressBar(std::FILE* stream) : stream_(stream), interactive_(::is
 
 ProgressBar::~ProgressBar() { Finish(); }
 
-void ProgressBar::Update(const std::string& stage, double fraction) {
+void ProgressBar::Update(const std::string& stage_and_detail, double fraction) {
+  const size_t bar = stage_and_detail.find('|');
+  const std::string stage = stage_and_detail.substr(0, bar);
+  const std::string detail = bar == std::string::npos ? "" : "  " + stage_and_detail.substr(bar + 1);
   std::lock_guard<std::mutex> lock(mutex_);
   fraction = std::clamp(fraction, 0.0, 1.0);
   const auto now = std::chrono::steady_clock::now();
@@ -29,14 +32,16 @@ void ProgressBar::Update(const std::string& stage, double fraction) {
     last_draw_ = now;
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth + 0.5);
-    std::fprintf(stream_, "\r%-16s [%s%s] %3d%% %6.1fs", stage.c_str(), std::string(filled, '#').c_str(),
-                 std::string(kWidth - filled, ' ').c_str(), static_cast<int>(fraction * 100 + 0.5), elapsed);
+    // "\033[K" clears what a longer detail left on the line.
+    std::fprintf(stream_, "\r%-16s [%s%s] %3d%% %6.1fs%s\033[K", stage.c_str(), std::string(filled, '#').c_str(),
+                 std::string(kWidth - filled, ' ').c_str(), static_cast<int>(fraction * 100 + 0.5), elapsed,
+                 detail.c_str());
     line_open_ = true;
   } else {
     const int quarter = static_cast<int>(fraction * 4);
     if (quarter == last_quarter_) return;
     last_quarter_ = quarter;
-    std::fprintf(stream_, "%-16s %3d%% %6.1fs\n", stage.c_str(), quarter * 25, elapsed);
+    std::fprintf(stream_, "%-16s %3d%% %6.1fs%s\n", stage.c_str(), quarter * 25, elapsed, detail.c_str());
   }
   std::fflush(stream_);
 }

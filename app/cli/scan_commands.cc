@@ -6,6 +6,7 @@
 #include "app/cli/command_util.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
+#include "app/controllers/export_controller.h"
 #include "app/controllers/simulate_controller.h"
 #include "app/controllers/solve_controller.h"
 #include "app/session/session.h"
@@ -44,28 +45,6 @@ void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
       ->check(CLI::IsMember({"true", "measured"}));
 }
 
-void AddSolveOptions(CLI::App& command, SolveOptions& options) {
-  AddPhotometricSolverOptions(command, options.solver);
-  command.add_option("--label", options.run_label, "Label in the result folder name")->capture_default_str();
-  command
-      .add_option_function<std::string>(
-          "--demosaic",
-          [&options](const std::string& name) {
-            options.develop.demosaic =
-                name == "bilinear" ? RawDevelopOptions::Demosaic::kBilinear : RawDevelopOptions::Demosaic::kEdgeAware;
-          },
-          "Bayer interpolation: edge_aware (default) or bilinear")
-      ->check(CLI::IsMember({"edge_aware", "bilinear"}));
-  command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
-                   "Skip re-hashing the frames against session.json");
-  command.add_option("--calibration", options.calibration_dir,  // issue #4
-                     "Calibration set (scanbench calibrate ...) to take the lights and camera from")
-      ->check(CLI::ExistingDirectory);
-  command.add_option("--calibration-max-age", options.calibration_max_age_days,
-                     "Warn when the calibration set is older than this many days")
-      ->capture_default_str();
-}
-
 int Solve(const fs::path& session_dir, const SolveOptions& options) {
   SolveController solve(session_dir, options);
   const int code = RunController(solve);
@@ -84,10 +63,15 @@ int Simulate(const fs::path& session_dir, const SimulateOptions& options) {
   return code;
 }
 
+// The demo's export: the export defaults (png16, OpenGL normals, DCT height).
+ExportOptions DemoExportOptions() { return ExportOptions(); }
+
 struct DemoState {
   fs::path output = "scanbench-demo";
   SimulateOptions simulate;
   SolveOptions solve;
+  bool export_maps = true;   // derived maps (issue #7), png16 with OpenGL normals
+  ExportOptions export_options = DemoExportOptions();
 };
 
 int Demo(const DemoState& state) {
@@ -100,7 +84,16 @@ int Demo(const DemoState& state) {
     const int code = Simulate(session_dir, state.simulate);
     if (code != kExitSuccess) return code;
   }
-  return Solve(session_dir, state.solve);
+  SolveController solve(session_dir, state.solve);
+  int code = RunController(solve);
+  if (code != kExitSuccess) return code;
+  std::cout << solve.summary().FullReport();
+  if (!state.export_maps) return code;
+  // The derived maps a material pipeline picks up, beside the result.
+  ExportController exporter(solve.summary().result_dir, state.export_options);
+  code = RunController(exporter);
+  if (code == kExitSuccess) std::cout << exporter.summary().FullReport();
+  return code;
 }
 
 }  // namespace
@@ -108,8 +101,9 @@ int Demo(const DemoState& state) {
 void RegisterScanCommands(CLI::App& app, int* exit_code) {
   auto demo = std::make_shared<DemoState>();
   CLI::App* demo_command = app.add_subcommand(
-      "demo", "Simulate a capture on the simulated rig, solve it and write maps and a report. "
-              "Run again to re-solve the same session into a new result folder.");
+      "demo", "Simulate a capture on the simulated rig, solve it, write maps and a report, and export the derived "
+              "maps (height, occlusion, cavity, roughness mips; png16, OpenGL normals) into session/exports/. "
+              "Run again to re-solve the same session into a new result and export folder.");
   demo_command->add_option("--output", demo->output, "Folder for the demo session")->capture_default_str();
   AddSimulateOptions(*demo_command, demo->simulate);
   demo_command->add_option("--threads", demo->solve.solver.num_threads, "Solver threads (0 = all cores)")
@@ -117,6 +111,8 @@ void RegisterScanCommands(CLI::App& app, int* exit_code) {
   demo_command->add_option("--calibration", demo->solve.calibration_dir,  // issue #4
                            "Calibration set to solve with (scanbench calibrate demo makes one)")
       ->check(CLI::ExistingDirectory);
+  demo_command->add_flag("--no-export", [demo](std::int64_t) { demo->export_maps = false; },
+                         "Stop after the solve (no derived maps)");
   demo_command->callback([demo, exit_code] { Guarded(exit_code, [&] { return Demo(*demo); }); });
 
   auto simulate_dir = std::make_shared<fs::path>();

@@ -11,6 +11,7 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
+#include "app/session/calibration_set.h"
 #include "app/session/session.h"
 #include "app/controllers/calibrated_lighting.h"  // issue #4
 #include "calibration/rig_light_field.h"
@@ -66,7 +67,67 @@ ImageU8 SampleMaskFromGroundTruth(const fs::path& session_dir, const GroundTruth
   return mask;
 }
 
+const char* RobustLossName(PhotometricSolverOptions::RobustLoss loss) {
+  return loss == PhotometricSolverOptions::RobustLoss::kCauchy ? "cauchy" : "tukey";
+}
+
 }  // namespace
+
+// A tripwire (x86-64): a new option must be sorted into what changes the
+// result (then into the text below) or not (then only this number changes).
+static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 248,
+              "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
+
+std::string SolveInputsCanonicalText(const Session& session, const SolveOptions& options) {
+  nlohmann::json frames = nlohmann::json::array();
+  for (const FrameRecord& frame : session.frames) {
+    frames.push_back({{"file", frame.file},
+                      {"kind", frame.kind == FrameKind::kDark ? "dark" : "led"},
+                      {"led_index", frame.led_index},
+                      {"sha256", frame.sha256}});
+  }
+  // The rig and camera exactly as session.json stores them.
+  const nlohmann::json manifest = nlohmann::json::parse(SessionToJson(session));
+  nlohmann::json calibration = nullptr;
+  if (!options.calibration_dir.empty()) {
+    const fs::path path = options.calibration_dir / kCalibrationManifestName;
+    calibration = {{"manifest_sha256", Sha256HexOfFile(path)}};
+  }
+  const PhotometricSolverOptions& solver = options.solver;
+  nlohmann::json text;
+  text["schema"] = "scanbench.solve_inputs/1";
+  text["software_version"] = "scanbench " SCANBENCH_VERSION;
+  text["frames"] = frames;
+  text["rig"] = manifest.at("rig");
+  text["camera"] = manifest.at("camera");
+  text["calibration"] = calibration;
+  // Every field of PhotometricSolverOptions but num_threads (same result on any count).
+  text["solver"] = {{"method", PhotometricMethodName(solver.method)},
+                    {"luminance_weights", solver.luminance_weights},
+                    {"min_lights", solver.min_lights},
+                    {"max_condition_number", solver.max_condition_number},
+                    {"min_sample_value", solver.min_sample_value},
+                    {"min_light_intensity", solver.min_light_intensity},
+                    {"min_albedo", solver.min_albedo},
+                    {"compute_albedo", solver.compute_albedo},
+                    {"compute_confidence", solver.compute_confidence},
+                    {"tile_size", solver.tile_size},
+                    {"light_tolerance", solver.light_tolerance},
+                    {"robust_loss", RobustLossName(solver.robust_loss)},
+                    {"robust_loss_width", solver.robust_loss_width},
+                    {"robust_min_scale", solver.robust_min_scale},
+                    {"robust_max_iterations", solver.robust_max_iterations},
+                    {"robust_dark_fraction", solver.robust_dark_fraction},
+                    {"adaptive_robust_residual", solver.adaptive_robust_residual}};
+  text["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
+                     {"clip_fraction", options.develop.clip_fraction}};
+  return text.dump();  // nlohmann::json sorts object keys: canonical
+}
+
+std::string SolveInputsFingerprint(const Session& session, const SolveOptions& options) {
+  const std::string text = SolveInputsCanonicalText(session, options);
+  return Sha256Hex(std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size()));
+}
 
 void SolveOptions::Check() const {
   solver.Check();
@@ -192,6 +253,8 @@ void SolveController::Run() {
   }
   calibration_report["light_model"] = summary_.light_model;
   // --- end calibration ---
+  // After the calibration set was checked, so that its errors come from its loader.
+  summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
   end_stage("light_field");
 
   PhotometricSolverInput input;
@@ -243,6 +306,7 @@ void SolveController::Run() {
   report["software_version"] = "scanbench " SCANBENCH_VERSION;
   report["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
   report["run_id"] = result_dir.filename().string();
+  report["inputs_fingerprint"] = summary_.inputs_fingerprint;  // scanbench batch: same inputs, same result
   report["session"] = {{"path", fs::absolute(session_dir_).string()},
                        {"sample_name", session.sample_name},
                        {"width", summary_.width},

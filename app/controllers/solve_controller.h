@@ -31,6 +31,8 @@ struct SolveOptions {
   void Check() const;
 };
 
+struct Session;
+
 struct StageTiming {
   std::string stage;
   double seconds = 0;
@@ -38,6 +40,7 @@ struct StageTiming {
 
 struct SolveSummary {
   std::filesystem::path result_dir;
+  std::string inputs_fingerprint;               // SolveInputsFingerprint, as in report.json
   std::string sample_name;
   int width = 0, height = 0, num_lights = 0;
   std::string light_model;                      // what the light field came from
@@ -53,6 +56,20 @@ struct SolveSummary {
   double TotalSeconds() const;
   std::string FullReport() const;               // the human-readable summary.txt
 };
+
+// What a result depends on, as canonical JSON text (sorted keys, no spaces):
+// every frame's file and SHA-256 as session.json records them, the rig and
+// camera parts of session.json, the calibration set's identity (SHA-256 of its
+// calibration.json, which lists its field files' checksums), the options that
+// change the result (method and every threshold, develop options; not the
+// thread count, run label, checksum verification or calibration age limit),
+// and the software version. Reads <calibration_dir>/calibration.json when a
+// set is used; no frame is read (the recorded checksums stand for them).
+std::string SolveInputsCanonicalText(const Session& session, const SolveOptions& options);
+// SHA-256 (lower-case hex) of SolveInputsCanonicalText: equal fingerprints =
+// the same result. Recorded as "inputs_fingerprint" in report.json; `scanbench
+// batch` skips a session that already has a result with it.
+std::string SolveInputsFingerprint(const Session& session, const SolveOptions& options);
 
 class SolveController : public BaseController {
  public:

@@ -2,6 +2,10 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <cmath>
+#include <cstdio>
+#include <regex>
+#include <sstream>
 #include <stdexcept>
 #include <system_error>
 
@@ -80,6 +84,60 @@ std::vector<std::string> DefaultChannelNames(int channels) {
   }
 }
 
+enum class FileFormat { kExr, kPng, kTiff };
+
+std::string FormatNumber(double value, int digits = 9) {
+  char text[40];
+  std::snprintf(text, sizeof(text), "%.*g", digits, value);
+  return text;
+}
+
+void CheckMetadata(const fs::path& path, const ImageMetadata& metadata) {
+  if (!std::isfinite(metadata.mm_per_pixel) || metadata.mm_per_pixel < 0) {
+    throw std::invalid_argument(path.string() + ": ImageMetadata.mm_per_pixel = " + FormatNumber(metadata.mm_per_pixel) +
+                                " must be finite and >= 0");
+  }
+  static const std::regex kName("scanbench:[A-Za-z0-9_.]+");
+  for (const auto& [name, value] : metadata.attributes) {
+    if (!std::regex_match(name, kName)) {
+      throw std::invalid_argument(path.string() + ": ImageMetadata.attributes name '" + name +
+                                  "' must be scanbench:[A-Za-z0-9_.]+");
+    }
+    if (value.find_first_of("\r\n") != std::string::npos) {
+      throw std::invalid_argument(path.string() + ": ImageMetadata.attributes[" + name + "] must be one line");
+    }
+  }
+}
+
+void AddMetadata(const fs::path& path, const ImageMetadata& metadata, FileFormat format, OIIO::ImageSpec& spec) {
+  CheckMetadata(path, metadata);
+  spec.attribute("Software", "scanbench " SCANBENCH_VERSION);
+  std::map<std::string, std::string> attributes = metadata.attributes;
+  if (metadata.mm_per_pixel > 0) {
+    // EXR stores pixels per inch; OpenImageIO 2.4 divides instead of
+    // multiplying when handed "cm" for EXR, so EXR is given inches directly.
+    const bool inch = format == FileFormat::kExr;
+    const float pixels_per_unit = static_cast<float>((inch ? 25.4 : 10.0) / metadata.mm_per_pixel);
+    spec.attribute("XResolution", pixels_per_unit);
+    spec.attribute("YResolution", pixels_per_unit);
+    spec.attribute("ResolutionUnit", inch ? "in" : "cm");
+    attributes["scanbench:mm_per_pixel"] = FormatNumber(metadata.mm_per_pixel, 17);  // round-trips exactly
+  }
+  if (!metadata.color_space.empty()) {
+    spec.attribute("oiio:ColorSpace", metadata.color_space);
+    attributes["scanbench:color_space"] = metadata.color_space;
+  }
+  std::string description = metadata.description;
+  for (const auto& [name, value] : attributes) {
+    if (format == FileFormat::kTiff) {
+      description += (description.empty() ? "" : "\n") + name + "=" + value;
+    } else {
+      spec.attribute(name, value);
+    }
+  }
+  if (!description.empty()) spec.attribute("ImageDescription", description);
+}
+
 struct OpenedInput {
   std::unique_ptr<OIIO::ImageInput> input;
   OIIO::ImageSpec spec;
@@ -127,7 +185,7 @@ void RequireInteger(const fs::path& path, const OIIO::ImageSpec& spec, int max_b
 }  // namespace
 
 void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
-              const std::vector<std::string>& channel_names) {
+              const std::vector<std::string>& channel_names, const ImageMetadata& metadata) {
   CheckWritable(path, image, "OpenEXR", 0);
   if (!channel_names.empty() && static_cast<int>(channel_names.size()) != image.channels()) {
     throw std::invalid_argument(path.string() + ": " + std::to_string(channel_names.size()) +
@@ -144,30 +202,37 @@ void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
     }
   }
   spec.attribute("compression", "zip");
+  AddMetadata(path, metadata, FileFormat::kExr, spec);
   WriteAtomically(path, "openexr", spec, image.data(), policy);
 }
 
-void WritePng(const fs::path& path, const ImageU16& image, OverwritePolicy policy) {
+void WritePng(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {
   CheckWritable(path, image, "PNG", 4);
-  WriteAtomically(path, "png", SpecFor(image, OIIO::TypeDesc::UINT16), image.data(), policy);
+  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT16);
+  AddMetadata(path, metadata, FileFormat::kPng, spec);
+  WriteAtomically(path, "png", spec, image.data(), policy);
 }
 
-void WritePng(const fs::path& path, const ImageU8& image, OverwritePolicy policy) {
+void WritePng(const fs::path& path, const ImageU8& image, OverwritePolicy policy, const ImageMetadata& metadata) {
   CheckWritable(path, image, "PNG", 4);
-  WriteAtomically(path, "png", SpecFor(image, OIIO::TypeDesc::UINT8), image.data(), policy);
+  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT8);
+  AddMetadata(path, metadata, FileFormat::kPng, spec);
+  WriteAtomically(path, "png", spec, image.data(), policy);
 }
 
-void WriteTiff(const fs::path& path, const ImageU16& image, OverwritePolicy policy) {
+void WriteTiff(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {
   CheckWritable(path, image, "TIFF", 0);
   OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT16);
   spec.attribute("compression", "zip");
+  AddMetadata(path, metadata, FileFormat::kTiff, spec);
   WriteAtomically(path, "tiff", spec, image.data(), policy);
 }
 
-void WriteTiff(const fs::path& path, const ImageF& image, OverwritePolicy policy) {
+void WriteTiff(const fs::path& path, const ImageF& image, OverwritePolicy policy, const ImageMetadata& metadata) {
   CheckWritable(path, image, "TIFF", 0);
   OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::FLOAT);
   spec.attribute("compression", "zip");
+  AddMetadata(path, metadata, FileFormat::kTiff, spec);
   WriteAtomically(path, "tiff", spec, image.data(), policy);
 }
 
@@ -188,6 +253,57 @@ ImageU8 ReadImageU8(const fs::path& path) {
   OpenedInput opened = OpenInput(path);
   RequireInteger(path, opened.spec, 8, "ReadImageU8");
   return ReadPixels<uint8_t>(path, opened, OIIO::TypeDesc::UINT8);
+}
+
+ImageFileInfo ReadImageFileInfo(const fs::path& path) {
+  const OpenedInput opened = OpenInput(path);
+  const OIIO::ImageSpec& spec = opened.spec;
+  ImageFileInfo info;
+  info.width = spec.width;
+  info.height = spec.height;
+  info.channels = spec.nchannels;
+  info.channel_names = spec.channelnames;
+  info.is_float = spec.format.is_floating_point();
+  info.bits_per_sample = spec.get_int_attribute("oiio:BitsPerSample", static_cast<int>(spec.format.size()) * 8);
+  ImageMetadata& metadata = info.metadata;
+  // Attribute lines ("scanbench:name=value", TIFF) come out of the description.
+  std::istringstream description(spec.get_string_attribute("ImageDescription"));
+  std::string line;
+  static const std::regex kAttributeLine("(scanbench:[A-Za-z0-9_.]+)=(.*)");
+  std::smatch match;
+  while (std::getline(description, line)) {
+    if (std::regex_match(line, match, kAttributeLine)) {
+      metadata.attributes[match[1]] = match[2];
+    } else {
+      metadata.description += (metadata.description.empty() ? "" : "\n") + line;
+    }
+  }
+  for (const OIIO::ParamValue& value : spec.extra_attribs) {
+    const std::string name = value.name().string();
+    if (name.rfind("scanbench:", 0) == 0 && value.type() == OIIO::TypeDesc::STRING) {
+      metadata.attributes[name] = value.get_string();
+    }
+  }
+  if (auto found = metadata.attributes.find("scanbench:color_space"); found != metadata.attributes.end()) {
+    metadata.color_space = found->second;
+    metadata.attributes.erase(found);
+  }
+  const float x_resolution = spec.get_float_attribute("XResolution", 0);
+  const std::string unit = spec.get_string_attribute("ResolutionUnit");
+  if (x_resolution > 0 && (unit == "cm" || unit == "in" || unit == "inch")) {
+    info.resolution_mm_per_pixel = (unit == "cm" ? 10.0 : 25.4) / x_resolution;
+    metadata.mm_per_pixel = info.resolution_mm_per_pixel;
+  }
+  if (auto found = metadata.attributes.find("scanbench:mm_per_pixel"); found != metadata.attributes.end()) {
+    // The string holds full precision; the resolution tag is a float (PNG: integer pixels per metre).
+    try {
+      metadata.mm_per_pixel = std::stod(found->second);
+    } catch (const std::exception&) {
+      throw PathError(path, "scanbench:mm_per_pixel = '" + found->second + "' is not a number");
+    }
+    metadata.attributes.erase(found);
+  }
+  return info;
 }
 
 }  // namespace scanbench

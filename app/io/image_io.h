@@ -7,6 +7,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -15,20 +16,45 @@
 
 namespace scanbench {
 
+// Optional metadata stored in the image file itself, so that a file taken out
+// of its folder still says how large a pixel is and what its values mean.
+struct ImageMetadata {
+  // Physical pixel pitch on the sample, mm, finite and >= 0; 0 = not recorded.
+  // PNG and TIFF get XResolution / YResolution in pixels per cm with
+  // ResolutionUnit "cm" (PNG stores pixels per metre: pHYs); OpenEXR gets
+  // pixels per inch (its xDensity; OpenImageIO 2.4 converts "cm" the wrong way
+  // for EXR). Always also the string attribute "scanbench:mm_per_pixel".
+  double mm_per_pixel = 0;
+  std::string description;   // ImageDescription; "" = none
+  // Colour space of the values: "Linear", "sRGB" or "Raw" (data, not colour,
+  // e.g. normals); "" = none. Stored as oiio:ColorSpace (PNG: gAMA / sRGB
+  // chunks) and as "scanbench:color_space".
+  std::string color_space;
+  // Further string attributes, names of the form "scanbench:name" (letters,
+  // digits, '_', '.'); values without line breaks. TIFF keeps no attributes
+  // of its own, so there they are also appended to ImageDescription as
+  // "scanbench:name=value" lines, which ReadImageMetadata reads back.
+  std::map<std::string, std::string> attributes;
+};
+
 // 32-bit float OpenEXR, zip compression. `channel_names` must be empty or
 // have one name per channel; the default is Y / Y,A / R,G,B / R,G,B,A (and
 // OpenImageIO's names for more channels). OpenEXR stores channels sorted by
 // name; they read back in the order OpenImageIO reports (R,G,B,A first).
 void WriteExr(const std::filesystem::path& path, const ImageF& image, OverwritePolicy policy,
-              const std::vector<std::string>& channel_names = {});
+              const std::vector<std::string>& channel_names = {}, const ImageMetadata& metadata = {});
 
 // PNG, 1 to 4 channels (gray, gray+alpha, RGB, RGBA), 16 or 8 bits.
-void WritePng(const std::filesystem::path& path, const ImageU16& image, OverwritePolicy policy);
-void WritePng(const std::filesystem::path& path, const ImageU8& image, OverwritePolicy policy);
+void WritePng(const std::filesystem::path& path, const ImageU16& image, OverwritePolicy policy,
+              const ImageMetadata& metadata = {});
+void WritePng(const std::filesystem::path& path, const ImageU8& image, OverwritePolicy policy,
+              const ImageMetadata& metadata = {});
 
 // TIFF, zip (deflate) compression: 16-bit unsigned or 32-bit float samples.
-void WriteTiff(const std::filesystem::path& path, const ImageU16& image, OverwritePolicy policy);
-void WriteTiff(const std::filesystem::path& path, const ImageF& image, OverwritePolicy policy);
+void WriteTiff(const std::filesystem::path& path, const ImageU16& image, OverwritePolicy policy,
+               const ImageMetadata& metadata = {});
+void WriteTiff(const std::filesystem::path& path, const ImageF& image, OverwritePolicy policy,
+               const ImageMetadata& metadata = {});
 
 // Any format OpenImageIO reads (first subimage, all channels). Float and
 // half files give their stored values; integer files are normalised to
@@ -42,5 +68,21 @@ ImageF ReadImageFloat(const std::filesystem::path& path, std::vector<std::string
 // files are rejected rather than silently quantised.
 ImageU16 ReadImageU16(const std::filesystem::path& path);
 ImageU8 ReadImageU8(const std::filesystem::path& path);
+
+// What an image file says about itself: the metadata above as read back
+// (mm_per_pixel from XResolution and ResolutionUnit, else from
+// "scanbench:mm_per_pixel"; 0 if neither), plus the stored layout.
+struct ImageFileInfo {
+  int width = 0, height = 0, channels = 0;
+  int bits_per_sample = 0;          // 8, 16, 32 (float), ...
+  bool is_float = false;
+  std::vector<std::string> channel_names;
+  // From XResolution and ResolutionUnit alone (cm or inch), 0 if absent; a
+  // float tag (PNG: whole pixels per metre), so close to but not exactly
+  // metadata.mm_per_pixel.
+  double resolution_mm_per_pixel = 0;
+  ImageMetadata metadata;
+};
+ImageFileInfo ReadImageFileInfo(const std::filesystem::path& path);
 
 }  // namespace scanbench

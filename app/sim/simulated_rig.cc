@@ -22,7 +22,7 @@
 namespace scanbench {
 using sim_internal::kSplitMixGamma;
 using sim_internal::Mix64;
-using sim_internal::ParallelRows;
+using sim_internal::RenderRows;
 
 namespace {
 
@@ -363,7 +363,7 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
       normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
     }
   };
-  ParallelRows(options_.height, NumThreads(), progress, 0.1, 1.0, trace_row);
+  RenderRows(options_.height, NumThreads(), progress, 0.1, 1.0, trace_row);
 }
 
 int SimulatedRig::NumThreads() const {
@@ -381,7 +381,7 @@ void SimulatedRig::BuildShadowGrid(const RenderProgressCallback& progress) {
   g.nx = static_cast<int>(std::ceil(so.sample_width_mm / g.spacing)) + 1;
   g.ny = static_cast<int>(std::ceil(so.sample_height_mm / g.spacing)) + 1;
   g.height.assign(static_cast<size_t>(g.nx) * g.ny, 0.0f);
-  ParallelRows(g.ny, NumThreads(), progress, 0.0, 0.9, [&](int j) {
+  RenderRows(g.ny, NumThreads(), progress, 0.0, 0.9, [&](int j) {
     for (int i = 0; i < g.nx; ++i) {
       g.height[static_cast<size_t>(j) * g.nx + i] =
           static_cast<float>(scene_.HeightMm(g.origin_x + i * g.spacing, g.origin_y + j * g.spacing));
@@ -515,7 +515,7 @@ ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const Render
   }
   const LedDescription* led = lit_led_index ? &rig_.leds[*lit_led_index] : nullptr;
   ImageF out(options_.width, options_.height, 3);
-  ParallelRows(options_.height, NumThreads(), progress, 0.0, 1.0, [&](int y) {
+  RenderRows(options_.height, NumThreads(), progress, 0.0, 1.0, [&](int y) {
     float* row = out.row(y);
     for (int x = 0; x < options_.width; ++x) {
       const size_t i = static_cast<size_t>(y) * options_.width + x;
@@ -542,7 +542,7 @@ RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_i
   const double gain = options.gain_e_per_dn;
   const int num_threads = options.num_threads > 0 ? options.num_threads
                                                   : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  ParallelRows(options.height, num_threads, progress, 0.0, 1.0, [&](int y) {
+  RenderRows(options.height, num_threads, progress, 0.0, 1.0, [&](int y) {
     RowRng rng(RowSeed(options.seed, frame_index, y));
     std::vector<double> values(options.width);
     linear_row(y, values.data());
@@ -588,7 +588,7 @@ ImageU8 SimulatedRig::RenderShadowMask(int led_index) const {
   }
   const LedDescription& led = rig_.leds[led_index];
   ImageU8 mask(options_.width, options_.height, 1);
-  ParallelRows(options_.height, NumThreads(), {}, 0.0, 1.0, [&](int y) {
+  RenderRows(options_.height, NumThreads(), {}, 0.0, 1.0, [&](int y) {
     for (int x = 0; x < options_.width; ++x) {
       const size_t i = static_cast<size_t>(y) * options_.width + x;
       mask(x, y) = DirectFactor(i, led, true) > 0 ? 0 : 1;
@@ -606,7 +606,7 @@ GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
   maps.height_mm = ImageF(w, h, 1);
   maps.sample_mask = ImageU8(w, h, 1);
   maps.mm_per_pixel = mm_per_pixel_;
-  ParallelRows(h, NumThreads(), {}, 0.0, 1.0, [&](int y) {
+  RenderRows(h, NumThreads(), {}, 0.0, 1.0, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
       const Eigen::Vector3d normal = NormalAt(i);

@@ -14,7 +14,7 @@
 namespace scanbench {
 using sim_internal::kSplitMixGamma;
 using sim_internal::Mix64;
-using sim_internal::ParallelRows;
+using sim_internal::RenderRows;
 
 namespace {
 
@@ -265,7 +265,7 @@ PreparedTarget TargetRenderer::Prepare(const SimulatedTarget& target, const Targ
   auto ray_at = [&](int x, int y) {
     return Eigen::Vector3d(rays_in_table_(x, y, 0), rays_in_table_(x, y, 1), rays_in_table_(x, y, 2));
   };
-  ParallelRows(h, num_threads, {}, 0, 1, [&](int y) {
+  RenderRows(h, num_threads, {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector3d ray = ray_at(x, y);
       const double t = RayPlaneT(camera, ray, plane.table_from_target.translation(), plane.normal_in_table);
@@ -279,7 +279,7 @@ PreparedTarget TargetRenderer::Prepare(const SimulatedTarget& target, const Targ
   prepared.reflectance = ImageF(w, h, 1);
   prepared.point_in_table = ImageF(w, h, 3);
   prepared.normal_in_table = ImageF(w, h, 3);
-  ParallelRows(h, num_threads, {}, 0, 1, [&](int y) {
+  RenderRows(h, num_threads, {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector3d ray = ray_at(x, y);
       // Jacobian of (u, v) over the pixel, from the neighbouring centres.
@@ -337,7 +337,7 @@ ImageF TargetRenderer::RenderLinear(const PreparedTarget& target, const std::vec
                                 std::to_string(w) + "x" + std::to_string(h));
   }
   ImageF out(w, h, 3);
-  ParallelRows(h, NumThreads(sensor_), {}, 0, 1, [&](int y) {
+  RenderRows(h, NumThreads(sensor_), {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector3d point(target.point_in_table(x, y, 0), target.point_in_table(x, y, 1),
                                   target.point_in_table(x, y, 2));

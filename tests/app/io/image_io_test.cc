@@ -197,5 +197,70 @@ TEST(ImageIoTest, WriteIntoMissingFolderFailsCleanly) {
   EXPECT_TRUE(dir.List().empty());
 }
 
+// Physical scale and meaning travel inside the file: read back through
+// OpenImageIO for each format the export writes.
+TEST(ImageIoTest, MetadataRoundTripsInExrPngAndTiff) {
+  TempDir dir;
+  ImageMetadata metadata;
+  metadata.mm_per_pixel = 0.116218;  // the demo rig's scale
+  metadata.description = "scanbench height map, mm";
+  metadata.color_space = "Raw";
+  metadata.attributes["scanbench:normal_convention"] = "directx";
+  metadata.attributes["scanbench:value_encoding"] = "(n + 1) / 2";
+  const ImageU16 image16 = RandomImage<uint16_t>(9, 5, 3, 41);
+  const ImageF image_float = RandomImage<float>(9, 5, 1, 42);
+  WriteExr(dir / "m.exr", image_float, OverwritePolicy::kRefuse, {}, metadata);
+  WritePng(dir / "m.png", image16, OverwritePolicy::kRefuse, metadata);
+  WriteTiff(dir / "m.tif", image16, OverwritePolicy::kRefuse, metadata);
+  WriteTiff(dir / "m_float.tif", image_float, OverwritePolicy::kRefuse, metadata);
+  for (const char* name : {"m.exr", "m.png", "m.tif", "m_float.tif"}) {
+    SCOPED_TRACE(name);
+    const ImageFileInfo info = ReadImageFileInfo(dir / name);
+    EXPECT_EQ(info.width, 9);
+    EXPECT_EQ(info.height, 5);
+    EXPECT_DOUBLE_EQ(info.metadata.mm_per_pixel, 0.116218) << "full precision from scanbench:mm_per_pixel";
+    // The standard resolution tags alone, as other tools read them: PNG
+    // rounds to whole pixels per metre (8605 px/m), the others are floats.
+    EXPECT_NEAR(info.resolution_mm_per_pixel, 0.116218, 0.116218 * 1e-4);
+    EXPECT_EQ(info.metadata.description, "scanbench height map, mm");
+    EXPECT_EQ(info.metadata.color_space, "Raw");
+    EXPECT_THAT(info.metadata.attributes,
+                ElementsAre(std::pair<const std::string, std::string>("scanbench:normal_convention", "directx"),
+                            std::pair<const std::string, std::string>("scanbench:value_encoding", "(n + 1) / 2")));
+  }
+  EXPECT_EQ(ReadImageFileInfo(dir / "m.png").bits_per_sample, 16);
+  EXPECT_FALSE(ReadImageFileInfo(dir / "m.tif").is_float);
+  EXPECT_TRUE(ReadImageFileInfo(dir / "m_float.tif").is_float);
+  EXPECT_EQ(ReadImageFileInfo(dir / "m.exr").bits_per_sample, 32);
+  // Pixels are unchanged by the metadata.
+  ExpectSameImage(image16, ReadImageU16(dir / "m.png"));
+  ExpectSameImage(image16, ReadImageU16(dir / "m.tif"));
+  ExpectSameImage(image_float, ReadImageFloat(dir / "m.exr"));
+}
+
+TEST(ImageIoTest, FilesWithoutMetadataReportNone) {
+  TempDir dir;
+  WritePng(dir / "plain.png", ImageU8(3, 2, 1, 7), OverwritePolicy::kRefuse);
+  const ImageFileInfo info = ReadImageFileInfo(dir / "plain.png");
+  EXPECT_EQ(info.metadata.mm_per_pixel, 0);
+  EXPECT_EQ(info.resolution_mm_per_pixel, 0);
+  EXPECT_TRUE(info.metadata.attributes.empty());
+  EXPECT_EQ(info.bits_per_sample, 8);
+  EXPECT_EQ(info.channels, 1);
+}
+
+TEST(ImageIoTest, BadMetadataIsRejectedBeforeWriting) {
+  TempDir dir;
+  ImageMetadata negative;
+  negative.mm_per_pixel = -0.1;
+  EXPECT_THAT(ErrorOf([&] { WritePng(dir / "n.png", ImageU8(2, 2, 1), OverwritePolicy::kRefuse, negative); }),
+              HasSubstr("ImageMetadata.mm_per_pixel = -0.1 must be finite and >= 0"));
+  ImageMetadata bad_name;
+  bad_name.attributes["Software"] = "x";
+  EXPECT_THAT(ErrorOf([&] { WriteTiff(dir / "b.tif", ImageU16(2, 2, 1), OverwritePolicy::kRefuse, bad_name); }),
+              HasSubstr("'Software' must be scanbench:"));
+  EXPECT_TRUE(dir.List().empty());
+}
+
 }  // namespace
 }  // namespace scanbench

@@ -1,0 +1,105 @@
+// export: derived maps of a solve (flattened normals, height, occlusion,
+// cavity, roughness mips, tileable crop) written for a material pipeline.
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <memory>
+
+#include "app/cli/command_util.h"
+#include "app/cli/commands.h"
+#include "app/cli/run_controller.h"
+#include "app/controllers/export_controller.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+// A CLI11 check from a FromName function that throws with a message.
+template <typename FromName>
+std::function<std::string(const std::string&)> NameCheck(FromName from_name) {
+  return [from_name](const std::string& name) {
+    try {
+      from_name(name);
+      return std::string();
+    } catch (const std::exception& error) {
+      return std::string(error.what());
+    }
+  };
+}
+
+void AddExportOptions(CLI::App& command, ExportOptions& options) {
+  command
+      .add_option_function<std::string>(
+          "--preset", [&options](const std::string& name) { options.preset = ExportPresetFromName(name); },
+          "File formats: png16 (16-bit PNG, default), tiff16 (16-bit TIFF) or exr (32-bit float OpenEXR); height is "
+          "always also float EXR")
+      ->check(NameCheck(ExportPresetFromName));
+  command
+      .add_option_function<std::string>(
+          "--normal-convention",
+          [&options](const std::string& name) { options.normal_convention = NormalConventionFromName(name); },
+          "Normal map Y: opengl (+Y up, default) or directx (Y flipped)")
+      ->check(NameCheck(NormalConventionFromName));
+  command.add_option("--material", options.material_name,
+                     "Material name, the file-name prefix ([A-Za-z0-9._-]; default: from the sample name)");
+  command.add_option("--output", options.output_root, "Folder for the export folders (default: <session>/exports)");
+  command.add_option("--mm-per-pixel", options.mm_per_pixel,
+                     "Physical pixel size on the sample, mm (default: from the session's rig at the image centre)")
+      ->check(CLI::NonNegativeNumber);
+  command.add_flag("--no-flatten", [&options](std::int64_t) { options.flatten_normals = false; },
+                   "Keep the low-frequency slope (folds, calibration tilt) in the normals and height");
+  command.add_option("--flatten-sigma", options.flattening.low_pass_sigma_px,
+                     "Gaussian sigma of the slope low-pass that flattening removes, px")
+      ->capture_default_str();
+  command.add_flag("--tileable", options.tileable, "Also write a seamless tileable crop of every map");
+  command.add_option("--tile-size", options.tile.tile_width,
+                     "Tile width and height, px (0 = the largest power of two that fits)")
+      ->capture_default_str();
+  command.add_option("--tile-blend", options.tile.blend_width_px,
+                     "Width of the cross-fade band at each seam of the tile, px (at most the tile size)")
+      ->capture_default_str();
+  command
+      .add_option_function<std::string>(
+          "--height-method",
+          [&options](const std::string& name) { options.height.method = HeightMethodFromName(name); },
+          "Height from normals: dct (Poisson, default) or relaxation (multi-resolution, seed 004; slower, same answer)")
+      ->check(NameCheck(HeightMethodFromName));
+  command
+      .add_option_function<std::string>(
+          "--gloss-model", [&options](const std::string& name) { options.gloss.model = GlossModelFromName(name); },
+          "Roughness mip model: vmf (default) or ggx (shortened normals)")
+      ->check(NameCheck(GlossModelFromName));
+  command.add_option("--base-roughness", options.gloss.base_roughness, "GGX alpha of the finest roughness mip")
+      ->capture_default_str();
+  command.add_option("--ao-radius", options.occlusion.radius_mm, "Ambient occlusion search radius, mm")
+      ->capture_default_str();
+  command.add_option("--cavity-radius", options.cavity.radius_mm, "Cavity neighbourhood sigma, mm")
+      ->capture_default_str();
+}
+
+int RunExport(const fs::path& result_dir, const ExportOptions& options) {
+  ExportController controller(result_dir, options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) std::cout << controller.summary().FullReport();
+  return code;
+}
+
+}  // namespace
+
+void RegisterExportCommands(CLI::App& app, int* exit_code) {
+  auto result_dir = std::make_shared<fs::path>();
+  auto options = std::make_shared<ExportOptions>();
+  CLI::App* command = app.add_subcommand(
+      "export", "Derive height, occlusion, cavity and roughness mips from a solve's result folder and write them with "
+                "the normals and albedo for a material pipeline, into a new <session>/exports/<run-id>-<preset>/");
+  command->add_option("result", *result_dir, "Result folder (<session>/results/<run-id>)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  AddExportOptions(*command, *options);
+  command->callback([result_dir, options, exit_code] {
+    Guarded(exit_code, [&] { return RunExport(*result_dir, *options); });
+  });
+}
+
+}  // namespace scanbench

@@ -1,0 +1,832 @@
+#include "app/controllers/export_controller.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <future>
+#include <iomanip>
+#include <memory>
+#include <regex>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
+
+#include "app/controllers/map_writer.h"
+#include "app/io/file_util.h"
+#include "app/io/image_io.h"
+#include "app/session/session.h"
+#include "calibration/camera_model.h"
+#include "solver/angular_error.h"
+#include "solver/field_error.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr char kWhere[] = "ExportOptions";
+
+std::runtime_error FileError(const fs::path& path, const std::string& problem) {
+  return std::runtime_error(path.string() + ": " + problem);
+}
+
+std::string ShapeText(const ImageF& image) {
+  return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" +
+         std::to_string(image.channels());
+}
+
+// A map of the result folder: readable, the expected channel count and size,
+// every value finite (bad input must never turn into NaN downstream).
+ImageF ReadResultMap(const fs::path& path, int channels, int width, int height) {
+  ImageF image = ReadImageFloat(path);  // names the file when missing or unreadable
+  if (image.channels() != channels) {
+    throw FileError(path, "has " + std::to_string(image.channels()) + " channels, " + std::to_string(channels) +
+                              " expected");
+  }
+  if (width > 0 && !image.SameSize(width, height)) {
+    throw FileError(path, "is " + ShapeText(image) + ", the session's images are " + std::to_string(width) + "x" +
+                              std::to_string(height));
+  }
+  for (size_t i = 0; i < image.size(); ++i) {
+    if (!std::isfinite(image.data()[i])) {
+      const size_t pixel = i / channels;
+      throw FileError(path, "pixel (" + std::to_string(pixel % image.width()) + ", " +
+                                std::to_string(pixel / image.width()) + ") holds a non-finite value");
+    }
+  }
+  return image;
+}
+
+// 1 where the stored mask is above half, 0 elsewhere.
+ImageU8 ReadMask(const fs::path& path, int width, int height) {
+  const ImageU8 stored = ReadImageU8(path);
+  if (!stored.SameSize(width, height)) {
+    throw FileError(path, "is " + std::to_string(stored.width()) + "x" + std::to_string(stored.height()) +
+                              ", the session's images are " + std::to_string(width) + "x" + std::to_string(height));
+  }
+  ImageU8 mask(width, height, 1);
+  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = stored.data()[i * stored.channels()] > 127;
+  return mask;
+}
+
+// Footprint on the table plane (z = 0) of one pixel at the image centre, mm:
+// the mean distance to the right and lower neighbours' table points, as the
+// simulated rig computes it.
+double MmPerPixelAtImageCentre(const CameraGeometry& camera) {
+  const double cx = camera.intrinsics.width / 2, cy = camera.intrinsics.height / 2;
+  const std::vector<Eigen::Vector3d> points =
+      ComputePlanePointsInTable(camera, {{cx, cy}, {cx + 1, cy}, {cx, cy + 1}}, 0.0);
+  return 0.5 * ((points[1] - points[0]).norm() + (points[2] - points[0]).norm());
+}
+
+std::string MaterialNameFromSample(const std::string& sample_name) {
+  std::string name;
+  for (char c : sample_name) {
+    const bool allowed = std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+    if (allowed) {
+      name += c;
+    } else if (!name.empty() && name.back() != '_') {
+      name += '_';
+    }
+  }
+  while (!name.empty() && (name.back() == '_' || name.back() == '.')) name.pop_back();
+  while (!name.empty() && name.front() == '.') name.erase(name.begin());
+  return name.empty() ? "material" : name;
+}
+
+void RequireSuccess(MapTermination termination, const std::string& message, const std::string& stage) {
+  if (termination == MapTermination::kCancelled) throw JobCancelled(stage);
+  if (termination != MapTermination::kSuccess) throw std::runtime_error(stage + " failed: " + message);
+}
+
+// OpenGL = the solver's tangent frame (+Y up); DirectX flips Y.
+ImageF InConvention(const ImageF& normal_in_tangent, ExportOptions::NormalConvention convention) {
+  ImageF converted = normal_in_tangent;
+  if (convention == ExportOptions::NormalConvention::kDirectX) {
+    for (size_t i = 0; i < converted.num_pixels(); ++i) converted.data()[3 * i + 1] *= -1.0f;
+  }
+  return converted;
+}
+
+// RMS of (estimate - reference) on the mask after removing the best-fit plane
+// of that difference: height from normals is defined up to a constant, and a
+// tilt is the slope error of a few pixels' worth of calibration.
+std::optional<double> RmsAfterPlane(const ImageF& estimate, const ImageF& reference, const ImageU8& mask) {
+  Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  size_t count = 0;
+  const double cx = estimate.width() / 2.0, cy = estimate.height() / 2.0;
+  for (int y = 0; y < estimate.height(); ++y) {
+    for (int x = 0; x < estimate.width(); ++x) {
+      if (!mask(x, y)) continue;
+      const Eigen::Vector3d row(1.0, x - cx, y - cy);
+      const double difference = double(estimate(x, y)) - reference(x, y);
+      normal_matrix += row * row.transpose();
+      rhs += row * difference;
+      ++count;
+    }
+  }
+  if (count < 3) return std::nullopt;
+  const Eigen::Vector3d plane = normal_matrix.ldlt().solve(rhs);
+  double sum_squares = 0;
+  for (int y = 0; y < estimate.height(); ++y) {
+    for (int x = 0; x < estimate.width(); ++x) {
+      if (!mask(x, y)) continue;
+      const double residual =
+          double(estimate(x, y)) - reference(x, y) - plane.dot(Eigen::Vector3d(1.0, x - cx, y - cy));
+      sum_squares += residual * residual;
+    }
+  }
+  return std::sqrt(sum_squares / count);
+}
+
+// --- Files of an export --------------------------------------------------
+
+// How a float map becomes 16-bit integers: clamp(value * scale + offset, 0, 1) * 65535.
+struct IntegerEncoding {
+  double scale = 1, offset = 0;
+  std::string text;  // for the manifest, e.g. "value * 65535"
+};
+
+struct ExportFile {
+  std::string kind;                       // manifest key, e.g. "normal", "roughness_mip2"
+  std::string relative_path;              // inside the export folder
+  std::string format;                     // "exr", "png", "tiff"
+  int bits_per_sample = 0;
+  bool is_float = false;
+  int width = 0, height = 0, channels = 0;
+  std::string color_space;                // "Linear", "sRGB", "Raw"
+  std::string encoding;                   // how values map to what is stored
+  double mm_per_pixel = 0;
+  std::vector<std::string> channel_names; // EXR only
+  std::shared_ptr<const ImageF> float_image;
+  std::shared_ptr<const ImageU8> u8_image;  // stored as it is (mask, sRGB preview)
+  IntegerEncoding integer;
+  ImageMetadata metadata;
+  std::string sha256;
+  uintmax_t bytes = 0;
+};
+
+ImageU16 Quantise16(const ImageF& image, const IntegerEncoding& encoding) {
+  ImageU16 quantised(image.width(), image.height(), image.channels());
+  for (size_t i = 0; i < image.size(); ++i) {
+    const double value = std::clamp(double(image.data()[i]) * encoding.scale + encoding.offset, 0.0, 1.0);
+    quantised.data()[i] = static_cast<uint16_t>(std::lround(value * 65535.0));
+  }
+  return quantised;
+}
+
+void WriteExportFile(const fs::path& path, const ExportFile& file) {
+  const auto policy = OverwritePolicy::kRefuse;
+  if (file.u8_image) {
+    WritePng(path, *file.u8_image, policy, file.metadata);
+  } else if (file.format == "exr") {
+    WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata);
+  } else if (file.format == "png") {
+    WritePng(path, Quantise16(*file.float_image, file.integer), policy, file.metadata);
+  } else {
+    WriteTiff(path, Quantise16(*file.float_image, file.integer), policy, file.metadata);
+  }
+}
+
+// Reserves <root>/<base>[-N] (mkdir fails on any existing entry, so two
+// exports never share a folder) and stages everything in a hidden sibling
+// that replaces the empty reservation at the very end: an export folder is
+// complete or absent. A root made here and left empty is removed again.
+class StagedExportFolder {
+ public:
+  StagedExportFolder(const fs::path& root, const std::string& base_name) : root_(root) {
+    std::error_code error;
+    if (!fs::is_directory(root_, error)) {
+      fs::create_directories(root_, error);
+      if (error) throw FileError(root_, "cannot be created: " + error.message());
+      created_root_ = true;
+    }
+    constexpr int kMaxAttempts = 10000;
+    for (int attempt = 1; attempt <= kMaxAttempts && final_dir_.empty(); ++attempt) {
+      const fs::path folder = root_ / (attempt == 1 ? base_name : base_name + "-" + std::to_string(attempt));
+      if (::mkdir(folder.c_str(), 0777) == 0) {
+        final_dir_ = folder;
+      } else if (errno != EEXIST) {
+        throw FileError(folder, std::string("cannot be created: ") + std::strerror(errno));
+      }
+    }
+    if (final_dir_.empty()) throw FileError(root_, "too many exports named " + base_name + "* exist already");
+    staging_dir_ = root_ / ("." + final_dir_.filename().string() + ".partial");
+    fs::create_directory(staging_dir_, error);
+    if (error) {
+      Discard();
+      throw FileError(staging_dir_, "cannot be created: " + error.message());
+    }
+  }
+  ~StagedExportFolder() {
+    if (!committed_) Discard();
+  }
+  const fs::path& final_dir() const { return final_dir_; }
+  const fs::path& staging() const { return staging_dir_; }
+  void Commit() {
+    fs::rename(staging_dir_, final_dir_);  // replaces the empty reservation
+    committed_ = true;
+  }
+
+ private:
+  void Discard() {
+    std::error_code ignored;
+    fs::remove_all(staging_dir_, ignored);
+    fs::remove(final_dir_, ignored);
+    if (created_root_) fs::remove(root_, ignored);  // only if empty
+  }
+  fs::path root_, final_dir_, staging_dir_;
+  bool created_root_ = false;
+  bool committed_ = false;
+};
+
+nlohmann::json OptionsJson(const ExportOptions& options) {
+  const auto& h = options.height;
+  const auto& a = options.occlusion;
+  const auto& c = options.cavity;
+  const auto& g = options.gloss;
+  const auto& t = options.tile;
+  return {{"preset", ExportPresetName(options.preset)},
+          {"normal_convention", NormalConventionName(options.normal_convention)},
+          {"material_name", options.material_name},
+          {"output_root", options.output_root.string()},
+          {"mm_per_pixel", options.mm_per_pixel},
+          {"flatten_normals", options.flatten_normals},
+          {"tileable", options.tileable},
+          {"flattening",
+           {{"low_pass_sigma_px", options.flattening.low_pass_sigma_px}, {"max_slope", options.flattening.max_slope}}},
+          {"height",
+           {{"method", HeightMethodName(h.method)},
+            {"max_sweeps_per_level", h.max_sweeps_per_level},
+            {"tolerance", h.tolerance},
+            {"coarsest_level_size", h.coarsest_level_size},
+            {"max_slope", h.max_slope}}},
+          {"occlusion",
+           {{"radius_mm", a.radius_mm}, {"num_directions", a.num_directions}, {"max_steps", a.max_steps}}},
+          {"cavity", {{"radius_mm", c.radius_mm}, {"depth_scale_mm", c.depth_scale_mm}}},
+          {"gloss",
+           {{"model", GlossModelName(g.model)}, {"base_roughness", g.base_roughness}, {"max_levels", g.max_levels}}},
+          {"tile",
+           {{"tile_width", t.tile_width},
+            {"tile_height", t.tile_height},
+            {"blend_width_px", t.blend_width_px},
+            {"search_position", t.search_position}}}};
+}
+
+nlohmann::json OcclusionJson(const OcclusionSummary& summary) {
+  return {{"termination", MapTerminationName(summary.termination)},
+          {"message", summary.message},
+          {"mean", summary.mean},
+          {"min", summary.min},
+          {"max", summary.max},
+          {"radius_px", summary.radius_px},
+          {"seconds", summary.seconds}};
+}
+
+nlohmann::json SummariesJson(const ExportSummary& summary) {
+  const auto& f = summary.flattening;
+  const auto& h = summary.height;
+  const auto& g = summary.gloss;
+  nlohmann::json json = {
+      {"flattening",
+       {{"termination", MapTerminationName(f.termination)},
+        {"message", f.message},
+        {"valid_pixels", f.valid_pixels},
+        {"mean_removed_tilt_deg", f.mean_removed_tilt_deg},
+        {"max_removed_tilt_deg", f.max_removed_tilt_deg},
+        {"seconds", f.seconds}}},
+      {"height",
+       {{"termination", MapTerminationName(h.termination)},
+        {"message", h.message},
+        {"method", h.method},
+        {"levels", h.levels},
+        {"total_sweeps", h.total_sweeps},
+        {"converged", h.converged},
+        {"rms_slope_residual", h.rms_slope_residual},
+        {"min_mm", summary.height_min_mm},
+        {"max_mm", summary.height_max_mm},
+        {"seconds", h.seconds}}},
+      {"occlusion", OcclusionJson(summary.occlusion)},
+      {"cavity", OcclusionJson(summary.cavity)},
+      {"gloss",
+       {{"termination", MapTerminationName(g.termination)},
+        {"message", g.message},
+        {"model", g.model},
+        {"levels", g.mean_roughness.size()},
+        {"mean_roughness", g.mean_roughness},
+        {"seconds", g.seconds}}}};
+  if (summary.tile) {
+    const TileableCropSummary& t = *summary.tile;
+    json["tile"] = {{"termination", MapTerminationName(t.termination)},
+                    {"message", t.message},
+                    {"x0", t.x0},
+                    {"y0", t.y0},
+                    {"width", t.tile_width},
+                    {"height", t.tile_height},
+                    {"seam_cost", t.seam_cost},
+                    {"seconds", t.seconds}};
+  }
+  return json;
+}
+
+}  // namespace
+
+void ExportOptions::Check() const {
+  static const std::regex kName("[A-Za-z0-9_-][A-Za-z0-9._-]*");
+  if (!material_name.empty() && !std::regex_match(material_name, kName)) {
+    throw FieldError(kWhere, "material_name", "'" + material_name + "'",
+                     "must be letters, digits, '.', '_' or '-' only, not starting with '.'");
+  }
+  if (!std::isfinite(mm_per_pixel) || mm_per_pixel < 0) {
+    throw FieldError(kWhere, "mm_per_pixel", mm_per_pixel, "must be finite and >= 0 (0 = from the session's rig)");
+  }
+  flattening.Check();
+  // Their mm_per_pixel is replaced by the export's scale: checked at that
+  // scale when it is given, else at 1 mm (the rig's scale is known only in Run).
+  HeightFromNormalsOptions height_scaled = height;
+  AmbientOcclusionOptions occlusion_scaled = occlusion;
+  CavityOptions cavity_scaled = cavity;
+  height_scaled.mm_per_pixel = occlusion_scaled.mm_per_pixel = cavity_scaled.mm_per_pixel =
+      mm_per_pixel > 0 ? mm_per_pixel : 1.0;
+  height_scaled.Check();
+  occlusion_scaled.Check();
+  cavity_scaled.Check();
+  gloss.Check();
+  tile.Check();
+}
+
+const char* ExportPresetName(ExportOptions::Preset preset) {
+  switch (preset) {
+    case ExportOptions::Preset::kLinearExr: return "exr";
+    case ExportOptions::Preset::kPng16: return "png16";
+    case ExportOptions::Preset::kTiff16: return "tiff16";
+  }
+  return "unknown";
+}
+
+ExportOptions::Preset ExportPresetFromName(const std::string& name) {
+  for (auto preset : {ExportOptions::Preset::kLinearExr, ExportOptions::Preset::kPng16, ExportOptions::Preset::kTiff16}) {
+    if (name == ExportPresetName(preset)) return preset;
+  }
+  throw std::invalid_argument("export preset '" + name + "' must be exr, png16 or tiff16");
+}
+
+const char* NormalConventionName(ExportOptions::NormalConvention convention) {
+  return convention == ExportOptions::NormalConvention::kDirectX ? "directx" : "opengl";
+}
+
+ExportOptions::NormalConvention NormalConventionFromName(const std::string& name) {
+  if (name == "opengl") return ExportOptions::NormalConvention::kOpenGl;
+  if (name == "directx") return ExportOptions::NormalConvention::kDirectX;
+  throw std::invalid_argument("normal convention '" + name + "' must be opengl or directx");
+}
+
+std::string ExportSummary::FullReport() const {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3);
+  out << "scanbench export report\n"
+      << "  material:     " << material_name << " (" << preset << ", normals " << normal_convention
+      << (normal_convention == "directx" ? " -Y" : " +Y") << "), " << image_width << "x" << image_height << "\n"
+      << "  export:       " << export_dir.string() << "\n"
+      << "  source:       " << result_dir.string() << "\n"
+      << std::setprecision(6) << "  scale:        " << mm_per_pixel << " mm per pixel (" << mm_per_pixel_source
+      << ")\n"
+      << std::setprecision(3);
+  if (flattening.termination == MapTermination::kSuccess) {
+    out << "  flattening:   removed low-frequency tilt mean " << flattening.mean_removed_tilt_deg << " deg, max "
+        << flattening.max_removed_tilt_deg << " deg over " << flattening.valid_pixels << " px\n";
+  } else {
+    out << "  flattening:   off\n";
+  }
+  out << "  height (" << height.method << "): " << height.levels << " levels, " << height.total_sweeps
+      << " sweeps, " << (height.converged ? "converged" : "not converged") << ", RMS slope residual "
+      << height.rms_slope_residual << "; range " << height_min_mm << " .. " << height_max_mm << " mm\n"
+      << "  ambient occlusion: mean " << occlusion.mean << ", min " << occlusion.min << ", max " << occlusion.max
+      << "\n"
+      << "  cavity:       mean " << cavity.mean << ", min " << cavity.min << ", max " << cavity.max << "\n"
+      << "  roughness mips (" << gloss.model << "): " << gloss.mean_roughness.size() << " levels, mean GGX alpha";
+  for (size_t k = 0; k < gloss.mean_roughness.size() && k < 4; ++k) out << " " << gloss.mean_roughness[k];
+  if (gloss.mean_roughness.size() > 4) out << " ... " << gloss.mean_roughness.back();
+  out << "\n";
+  if (tile) out << "  tileable crop: " << MapTerminationName(tile->termination) << ": " << tile->message << "\n";
+  if (height_rms_error_mm) {
+    out << "  vs ground truth on the sample: height RMS error " << std::setprecision(4) << *height_rms_error_mm
+        << (flattening.termination == MapTermination::kSuccess
+                ? " mm (vs the true normals flattened and integrated alike, best-fit plane removed)"
+                : " mm (vs the true height, best-fit plane removed)");
+    if (flattened_normal_mean_error_deg) {
+      out << ", " << (flattening.termination == MapTermination::kSuccess ? "flattened " : "")
+          << "normal mean angular error " << std::setprecision(3) << *flattened_normal_mean_error_deg << " deg";
+    }
+    out << "\n";
+  }
+  for (const std::string& warning : warnings) out << "  warning: " << warning << "\n";
+  out << std::setprecision(3) << "  files:        " << files.size() << "\n  time per stage (s):";
+  for (const auto& [stage, stage_time] : stage_seconds) out << " " << stage << " " << stage_time << ";";
+  out << " total " << seconds << "\n";
+  return out.str();
+}
+
+ExportController::ExportController(fs::path result_dir, ExportOptions options)
+    : result_dir_(std::move(result_dir)), options_(std::move(options)) {}
+
+void ExportController::Run() {
+  options_.Check();
+  summary_ = ExportSummary();
+  const auto start = Clock::now();
+  auto stage_start = start;
+  auto end_stage = [&](const std::string& stage) {
+    const auto now = Clock::now();
+    summary_.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - stage_start).count());
+    stage_start = now;
+  };
+  summary_.preset = ExportPresetName(options_.preset);
+  summary_.normal_convention = NormalConventionName(options_.normal_convention);
+
+  // --- Load: the result and the session it belongs to ----------------------
+  ReportProgress("load result", 0);
+  fs::path result_dir = fs::absolute(result_dir_).lexically_normal();
+  if (!result_dir.has_filename()) result_dir = result_dir.parent_path();  // "results/<run-id>/"
+  summary_.result_dir = result_dir;
+  std::error_code error;
+  if (!fs::is_directory(result_dir, error)) throw FileError(result_dir, "is not a result folder (does not exist)");
+  if (result_dir.parent_path().filename() != "results") {
+    throw FileError(result_dir, "is not a result folder: results live in <session>/results/<run-id>/");
+  }
+  const fs::path session_dir = result_dir.parent_path().parent_path();
+  SessionLoadOptions load_options;
+  load_options.verify_checksums = false;  // the frames are not read; the solve verified them
+  const Session session = LoadSession(session_dir, load_options);
+  const int width = session.camera.width, height = session.camera.height;
+  summary_.image_width = width;
+  summary_.image_height = height;
+
+  const fs::path report_path = result_dir / "report.json";
+  nlohmann::json result_report;
+  try {
+    result_report = nlohmann::json::parse(ReadFileBytes(report_path));
+  } catch (const nlohmann::json::exception& parse_error) {
+    throw FileError(report_path, std::string("is not valid JSON (") + parse_error.what() + ")");
+  }
+  const ImageF solved_normals = ReadResultMap(result_dir / "normal.exr", 3, width, height);
+  ReportProgress("load result", 0.3);
+  const ImageF albedo = ReadResultMap(result_dir / "albedo.exr", 3, width, height);
+  ReportProgress("load result", 0.6);
+  const ImageF confidence = ReadResultMap(result_dir / "confidence.exr", 3, width, height);
+  const ImageU8 valid = ReadMask(result_dir / "solved_mask.png", width, height);
+  ReportProgress("load result", 1);
+
+  if (options_.mm_per_pixel > 0) {
+    summary_.mm_per_pixel = options_.mm_per_pixel;
+    summary_.mm_per_pixel_source = "options";
+  } else {
+    summary_.mm_per_pixel = MmPerPixelAtImageCentre(session.rig.camera);
+    summary_.mm_per_pixel_source = "session rig at the image centre";
+    if (!std::isfinite(summary_.mm_per_pixel) || !(summary_.mm_per_pixel > 0)) {
+      throw FileError(session_dir / "session.json",
+                      "rig.camera gives a pixel footprint of " + std::to_string(summary_.mm_per_pixel) +
+                          " mm at the image centre; give --mm-per-pixel");
+    }
+  }
+  if (session.ground_truth && std::abs(session.ground_truth->mm_per_pixel / summary_.mm_per_pixel - 1) > 0.01) {
+    std::ostringstream warning;
+    warning << "scale " << summary_.mm_per_pixel << " mm/px differs from the simulated rig's "
+            << session.ground_truth->mm_per_pixel << " mm/px by more than 1 %";
+    summary_.warnings.push_back(warning.str());
+  }
+  const double mm = summary_.mm_per_pixel;
+  summary_.material_name =
+      options_.material_name.empty() ? MaterialNameFromSample(session.sample_name) : options_.material_name;
+  end_stage("load");
+  ThrowIfStopRequested("load result");
+
+  // --- Derived maps ----------------------------------------------------------
+  ImageF normals = solved_normals;
+  if (options_.flatten_normals) {
+    normals = FlattenNormals(solved_normals, &valid, options_.flattening, &summary_.flattening,
+                             StageCallback("flatten normals"));
+    RequireSuccess(summary_.flattening.termination, summary_.flattening.message, "flatten normals");
+    end_stage("flatten");
+  }
+  ThrowIfStopRequested("flatten normals");
+
+  HeightFromNormalsOptions height_options = options_.height;
+  height_options.mm_per_pixel = mm;
+  const ImageF height_mm =
+      HeightFromNormals(normals, &valid, height_options, &summary_.height, StageCallback("height from normals"));
+  RequireSuccess(summary_.height.termination, summary_.height.message, "height from normals");
+  const auto [min_height, max_height] = std::minmax_element(height_mm.data(), height_mm.data() + height_mm.size());
+  summary_.height_min_mm = *min_height;
+  summary_.height_max_mm = *max_height;
+  end_stage("height");
+  ThrowIfStopRequested("height from normals");
+
+  AmbientOcclusionOptions occlusion_options = options_.occlusion;
+  occlusion_options.mm_per_pixel = mm;
+  const ImageF occlusion = AmbientOcclusionFromHeight(height_mm, occlusion_options, &summary_.occlusion,
+                                                      StageCallback("ambient occlusion"));
+  RequireSuccess(summary_.occlusion.termination, summary_.occlusion.message, "ambient occlusion");
+  ThrowIfStopRequested("ambient occlusion");
+  CavityOptions cavity_options = options_.cavity;
+  cavity_options.mm_per_pixel = mm;
+  ReportProgress("cavity", 0);
+  const ImageF cavity = CavityFromHeight(height_mm, cavity_options, &summary_.cavity);
+  RequireSuccess(summary_.cavity.termination, summary_.cavity.message, "cavity");
+  ReportProgress("cavity", 1);
+  end_stage("occlusion_cavity");
+  ThrowIfStopRequested("cavity");
+
+  ReportProgress("roughness mips", 0);
+  const std::vector<GlossMipLevel> mips = BuildGlossMipChain(normals, nullptr, options_.gloss, &summary_.gloss, &valid);
+  RequireSuccess(summary_.gloss.termination, summary_.gloss.message, "roughness mips");
+  ReportProgress("roughness mips", 1);
+  end_stage("gloss_mips");
+  ThrowIfStopRequested("roughness mips");
+
+  std::vector<ImageF> tiles;
+  if (options_.tileable) {
+    ReportProgress("tileable crop", 0);
+    const std::vector<TileableMapInput> inputs = {{&albedo, TileMapKind::kLinear},
+                                                  {&normals, TileMapKind::kNormal},
+                                                  {&height_mm, TileMapKind::kLinear},
+                                                  {&occlusion, TileMapKind::kLinear},
+                                                  {&cavity, TileMapKind::kLinear},
+                                                  {&mips.front().roughness, TileMapKind::kLinear}};
+    summary_.tile = MakeTileableCrop(inputs, &valid, options_.tile, &tiles);
+    if (summary_.tile->termination == MapTermination::kCancelled) throw JobCancelled("tileable crop");
+    if (summary_.tile->termination != MapTermination::kSuccess || tiles.size() != inputs.size()) {
+      summary_.warnings.push_back("no tileable crop: " + summary_.tile->message);
+      tiles.clear();
+    }
+    ReportProgress("tileable crop", 1);
+    end_stage("tileable_crop");
+    ThrowIfStopRequested("tileable crop");
+  }
+
+  // --- Against the simulated rig's ground truth ------------------------------
+  if (session.ground_truth) {
+    ReportProgress("ground truth", 0);
+    const GroundTruthFiles& truth = *session.ground_truth;
+    const ImageF truth_normals = ReadResultMap(session_dir / truth.normal_file, 3, width, height);
+    const ImageF truth_height = ReadResultMap(session_dir / truth.height_file, 1, width, height);
+    const ImageU8 on_sample = ReadMask(session_dir / truth.mask_file, width, height);
+    ImageU8 evaluated(width, height, 1);
+    for (size_t i = 0; i < evaluated.num_pixels(); ++i) evaluated.data()[i] = on_sample.data()[i] && valid.data()[i];
+    // Flattening removes the low frequencies of the height on purpose, and no
+    // clean cut separates them from the weave (the folds' wavelengths are a
+    // few sigma), so the reference is the true normals through the same
+    // flattening and integration: the figure is what the solve's normal
+    // error does to the exported height. Unflattened, the reference is the
+    // true height itself.
+    ImageF reference_normals = truth_normals;
+    ImageF reference_height = truth_height;
+    if (options_.flatten_normals) {
+      NormalFlatteningSummary flattened;
+      reference_normals = FlattenNormals(truth_normals, &valid, options_.flattening, &flattened);
+      RequireSuccess(flattened.termination, flattened.message, "ground truth: flatten true normals");
+      ReportProgress("ground truth", 0.3);
+      HeightFromNormalsSummary integrated;
+      reference_height = HeightFromNormals(reference_normals, &valid, height_options, &integrated,
+                                           StageCallback("ground truth"));
+      RequireSuccess(integrated.termination, integrated.message, "ground truth: height from true normals");
+    }
+    const ErrorStatistics normal_error = AngularErrorDegrees(normals, reference_normals, evaluated);
+    if (normal_error.num_pixels > 0) summary_.flattened_normal_mean_error_deg = normal_error.mean;
+    summary_.height_rms_error_mm = RmsAfterPlane(height_mm, reference_height, evaluated);
+    ReportProgress("ground truth", 1);
+    end_stage("evaluate");
+    ThrowIfStopRequested("ground truth");
+  }
+
+  // --- Files -----------------------------------------------------------------
+  const bool exr = options_.preset == ExportOptions::Preset::kLinearExr;
+  const std::string format = exr ? "exr" : options_.preset == ExportOptions::Preset::kPng16 ? "png" : "tiff";
+  const std::string extension = exr ? ".exr" : format == "png" ? ".png" : ".tif";
+  const std::string material = summary_.material_name;
+  const std::string source = result_dir.filename().string();
+  std::vector<ExportFile> files;
+  auto metadata_for = [&](const ExportFile& file, const std::string& description) {
+    ImageMetadata metadata;
+    metadata.mm_per_pixel = file.mm_per_pixel;
+    metadata.description = "scanbench " + material + " " + file.kind + ": " + description;
+    metadata.color_space = file.color_space;
+    metadata.attributes["scanbench:map"] = file.kind;
+    metadata.attributes["scanbench:encoding"] = file.encoding;
+    metadata.attributes["scanbench:source_result"] = source;
+    return metadata;
+  };
+  // A float map in the preset's format (EXR float, else 16-bit integers).
+  auto add_map = [&](const std::string& kind, ImageF image, const std::string& color_space,
+                     const IntegerEncoding& integer, const std::string& description, double pixel_mm,
+                     bool force_exr = false) {
+    ExportFile file;
+    file.kind = kind;
+    const bool as_exr = exr || force_exr;
+    file.format = as_exr ? "exr" : format;
+    file.relative_path = material + "/" + material + "_" + kind + (as_exr ? ".exr" : extension);
+    file.is_float = as_exr;
+    file.bits_per_sample = as_exr ? 32 : 16;
+    file.width = image.width();
+    file.height = image.height();
+    file.channels = image.channels();
+    file.color_space = color_space;
+    file.encoding = as_exr ? "float, value as is" : integer.text;
+    file.mm_per_pixel = pixel_mm;
+    file.integer = integer;
+    file.float_image = std::make_shared<const ImageF>(std::move(image));
+    file.metadata = metadata_for(file, description);
+    return &files.emplace_back(std::move(file));
+  };
+  const IntegerEncoding unit_interval{1, 0, "uint16 = value * 65535, value in [0, 1]"};
+  const IntegerEncoding normal_encoding{0.5, 0.5, "uint16 = (n + 1) / 2 * 65535 per component"};
+  const double height_range = summary_.height_max_mm - summary_.height_min_mm;
+  const IntegerEncoding height_encoding{
+      height_range > 0 ? 1.0 / height_range : 0.0, height_range > 0 ? -summary_.height_min_mm / height_range : 0.0,
+      "uint16 = (height_mm - height_min_mm) / (height_max_mm - height_min_mm) * 65535"};
+  const std::string convention_text =
+      options_.normal_convention == ExportOptions::NormalConvention::kDirectX
+          ? "unit normal, tangent frame x right, y down (DirectX), z out of the sample"
+          : "unit normal, tangent frame x right, y up (OpenGL), z out of the sample";
+  auto add_normal = [&](const std::string& kind, const ImageF& normal_in_tangent, double pixel_mm) {
+    ExportFile* file = add_map(kind, InConvention(normal_in_tangent, options_.normal_convention), "Raw",
+                               normal_encoding, convention_text, pixel_mm);
+    file->metadata.attributes["scanbench:normal_convention"] = NormalConventionName(options_.normal_convention);
+  };
+  auto add_height = [&](const std::string& kind, const ImageF& heights, double pixel_mm) {
+    add_map(kind, heights, "Raw", {}, "height above the mean of the solved pixels, mm", pixel_mm, true);
+    if (!exr) {
+      ExportFile* file = add_map(kind + "_normalized", heights, "Raw", height_encoding,
+                                 "height normalised to [0, 1] over its range (see height_min_mm, height_max_mm)",
+                                 pixel_mm);
+      std::ostringstream low, high;
+      low << std::setprecision(9) << summary_.height_min_mm;
+      high << std::setprecision(9) << summary_.height_max_mm;
+      file->metadata.attributes["scanbench:height_min_mm"] = low.str();
+      file->metadata.attributes["scanbench:height_max_mm"] = high.str();
+    }
+  };
+
+  add_map("basecolor", albedo, "Linear", unit_interval,
+          "linear RGB albedo (camera raw channels, white balance from the light calibration)", mm);
+  add_normal("normal", normals, mm);
+  add_height("height", height_mm, mm);
+  add_map("ao", occlusion, "Raw", unit_interval, "ambient occlusion, cosine-weighted visibility, 1 = open", mm);
+  add_map("cavity", cavity, "Raw", unit_interval, "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
+  for (size_t k = 0; k < mips.size(); ++k) {
+    const double pixel_mm = mm * std::ldexp(1.0, static_cast<int>(k));
+    add_map("roughness_mip" + std::to_string(k), mips[k].roughness, "Raw", unit_interval,
+            "GGX alpha (" + summary_.gloss.model + " mip chain; normal variance below this level folded in)",
+            pixel_mm);
+    if (k > 0) add_normal("normal_mip" + std::to_string(k), mips[k].normal_in_tangent, pixel_mm);
+  }
+  if (!tiles.empty()) {
+    add_map("tile_basecolor", tiles[0], "Linear", unit_interval, "tileable crop of basecolor", mm);
+    add_normal("tile_normal", tiles[1], mm);
+    add_height("tile_height", tiles[2], mm);
+    add_map("tile_ao", tiles[3], "Raw", unit_interval, "tileable crop of ao", mm);
+    add_map("tile_cavity", tiles[4], "Raw", unit_interval, "tileable crop of cavity", mm);
+    add_map("tile_roughness", tiles[5], "Raw", unit_interval, "tileable crop of roughness_mip0", mm);
+  }
+  {
+    ImageF confidence_copy = confidence;
+    ExportFile* file = add_map("confidence", std::move(confidence_copy), "Raw", {},
+                               "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
+    file->channel_names = {"lights_used", "condition_number", "residual"};
+  }
+  auto add_u8 = [&](const std::string& kind, ImageU8 image, const std::string& color_space,
+                    const std::string& encoding, const std::string& description) {
+    ExportFile file;
+    file.kind = kind;
+    file.format = "png";
+    file.relative_path = material + "/" + material + "_" + kind + ".png";
+    file.bits_per_sample = 8;
+    file.width = image.width();
+    file.height = image.height();
+    file.channels = image.channels();
+    file.color_space = color_space;
+    file.encoding = encoding;
+    file.mm_per_pixel = mm;
+    file.u8_image = std::make_shared<const ImageU8>(std::move(image));
+    file.metadata = metadata_for(file, description);
+    files.push_back(std::move(file));
+  };
+  ImageU8 mask(width, height, 1);
+  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = valid.data()[i] ? 255 : 0;
+  add_u8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
+         "pixels the solver solved");
+  add_u8("basecolor_srgb_preview", EncodeSrgbPreview(albedo), "sRGB", "uint8 sRGB transfer curve",
+         "8-bit sRGB preview of the linear basecolor");
+
+  ReportProgress("write files", 0);
+  const fs::path root = options_.output_root.empty() ? session_dir / "exports" : options_.output_root;
+  StagedExportFolder staged(root, source + "-" + summary_.preset);
+  fs::create_directory(staged.staging() / material);
+  // Compression dominates; the files are independent, so they are written concurrently.
+  {
+    std::vector<std::future<void>> pending;
+    for (const ExportFile& file : files) {
+      pending.push_back(std::async(std::launch::async, WriteExportFile, staged.staging() / file.relative_path,
+                                   std::cref(file)));
+    }
+    std::exception_ptr failure;
+    for (size_t i = 0; i < pending.size(); ++i) {
+      try {
+        pending[i].get();
+      } catch (...) {
+        if (!failure) failure = std::current_exception();
+      }
+      ReportProgress("write files", 0.9 * (i + 1) / pending.size());
+    }
+    if (failure) std::rethrow_exception(failure);
+  }
+  ThrowIfStopRequested("write files");
+  for (ExportFile& file : files) {
+    const fs::path path = staged.staging() / file.relative_path;
+    file.sha256 = Sha256HexOfFile(path);
+    file.bytes = fs::file_size(path);
+    summary_.files[file.kind] = file.relative_path;
+  }
+  summary_.export_dir = staged.final_dir();
+  end_stage("write_files");
+  summary_.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+
+  nlohmann::json manifest;
+  manifest["schema"] = kMaterialManifestSchema;
+  manifest["schema_version"] = kMaterialManifestSchemaVersion;
+  manifest["software_version"] = "scanbench " SCANBENCH_VERSION;
+  manifest["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
+  manifest["material"] = material;
+  manifest["preset"] = summary_.preset;
+  manifest["normal_convention"] = summary_.normal_convention;
+  manifest["tangent_frame"] = convention_text;
+  manifest["width"] = width;
+  manifest["height"] = height;
+  manifest["mm_per_pixel"] = mm;
+  manifest["mm_per_pixel_source"] = summary_.mm_per_pixel_source;
+  manifest["source"] = {{"session", session_dir.string()},
+                        {"sample_name", session.sample_name},
+                        {"result", source},
+                        {"result_dir", result_dir.string()},
+                        {"solver_method", result_report.value("/solver/method"_json_pointer, std::string())},
+                        {"result_report_sha256", Sha256HexOfFile(report_path)}};
+  nlohmann::json file_entries = nlohmann::json::object();
+  for (const ExportFile& file : files) {
+    nlohmann::json entry = {{"path", file.relative_path},
+                            {"format", file.format},
+                            {"bits_per_sample", file.bits_per_sample},
+                            {"sample_type", file.is_float ? "float" : "uint"},
+                            {"channels", file.channels},
+                            {"width", file.width},
+                            {"height", file.height},
+                            {"color_space", file.color_space},
+                            {"encoding", file.encoding},
+                            {"mm_per_pixel", file.mm_per_pixel},
+                            {"sha256", file.sha256},
+                            {"bytes", file.bytes}};
+    if (!file.channel_names.empty()) entry["channel_names"] = file.channel_names;
+    for (const auto& [name, value] : file.metadata.attributes) {
+      if (name == "scanbench:height_min_mm" || name == "scanbench:height_max_mm") {
+        entry[name.substr(std::strlen("scanbench:"))] = std::stod(value);
+      }
+    }
+    file_entries[file.kind] = entry;
+  }
+  manifest["files"] = file_entries;
+  manifest["options"] = OptionsJson(options_);
+  manifest["summaries"] = SummariesJson(summary_);
+  if (summary_.height_rms_error_mm) {
+    manifest["ground_truth"] = {
+        {"height_rms_error_mm", *summary_.height_rms_error_mm},
+        {"height_reference", options_.flatten_normals
+                                 ? "true normals flattened and integrated with the same options"
+                                 : "true height"},
+        {"height_error_measure", "RMS of exported minus reference height after removing their best-fit plane"},
+        {"normal_mean_angular_error_deg",
+         summary_.flattened_normal_mean_error_deg ? nlohmann::json(*summary_.flattened_normal_mean_error_deg)
+                                                  : nlohmann::json(nullptr)},
+        {"evaluated_on", "sample mask, solved pixels"},
+        {"simulated_rig_mm_per_pixel", session.ground_truth->mm_per_pixel}};
+  }
+  manifest["warnings"] = summary_.warnings;
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& [stage, stage_time] : summary_.stage_seconds) stages[stage] = stage_time;
+  manifest["timings_s"] = stages;
+  summary_.files["manifest"] = "material.json";
+  summary_.files["summary"] = "summary.txt";
+  WriteFileAtomic(staged.staging() / "material.json", manifest.dump(2) + "\n", OverwritePolicy::kRefuse);
+  WriteFileAtomic(staged.staging() / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
+  ThrowIfStopRequested("write files");
+  staged.Commit();
+  ReportProgress("write files", 1);
+}
+
+}  // namespace scanbench
