@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Saves a screenshot of every main page of scanbench-gui into docs/images/
+# Saves a screenshot of every page of scanbench-gui (and its export dialog) into docs/images/
 # (gui-*.png): builds the GUI, starts it under a virtual X server (xvfb-run)
 # and lets its --screenshot-dir tour capture and solve a session on the
 # simulated bench. Usage: scripts/gui-screenshots.sh [OUTPUT_DIR] [BUILD_DIR]

@@ -71,12 +71,36 @@ const char* RobustLossName(PhotometricSolverOptions::RobustLoss loss) {
   return loss == PhotometricSolverOptions::RobustLoss::kCauchy ? "cauchy" : "tukey";
 }
 
+// Every field of PhotometricSolverOptions but num_threads (same result on any
+// count): what the inputs fingerprint hashes and what report.json records.
+nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
+  return {{"method", PhotometricMethodName(solver.method)},
+          {"luminance_weights", solver.luminance_weights},
+          {"min_lights", solver.min_lights},
+          {"max_condition_number", solver.max_condition_number},
+          {"min_sample_value", solver.min_sample_value},
+          {"min_light_intensity", solver.min_light_intensity},
+          {"min_albedo", solver.min_albedo},
+          {"compute_albedo", solver.compute_albedo},
+          {"compute_confidence", solver.compute_confidence},
+          {"tile_size", solver.tile_size},
+          {"light_tolerance", solver.light_tolerance},
+          {"robust_loss", RobustLossName(solver.robust_loss)},
+          {"robust_loss_width", solver.robust_loss_width},
+          {"robust_min_scale", solver.robust_min_scale},
+          {"robust_max_iterations", solver.robust_max_iterations},
+          {"robust_dark_fraction", solver.robust_dark_fraction},
+          {"adaptive_robust_residual", solver.adaptive_robust_residual}};
+}
+
 }  // namespace
 
-// A tripwire (x86-64): a new option must be sorted into what changes the
+// A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
+#if defined(__x86_64__) && defined(__GLIBCXX__)
 static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 248,
               "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
+#endif
 
 std::string SolveInputsCanonicalText(const Session& session, const SolveOptions& options) {
   nlohmann::json frames = nlohmann::json::array();
@@ -101,24 +125,7 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
   text["rig"] = manifest.at("rig");
   text["camera"] = manifest.at("camera");
   text["calibration"] = calibration;
-  // Every field of PhotometricSolverOptions but num_threads (same result on any count).
-  text["solver"] = {{"method", PhotometricMethodName(solver.method)},
-                    {"luminance_weights", solver.luminance_weights},
-                    {"min_lights", solver.min_lights},
-                    {"max_condition_number", solver.max_condition_number},
-                    {"min_sample_value", solver.min_sample_value},
-                    {"min_light_intensity", solver.min_light_intensity},
-                    {"min_albedo", solver.min_albedo},
-                    {"compute_albedo", solver.compute_albedo},
-                    {"compute_confidence", solver.compute_confidence},
-                    {"tile_size", solver.tile_size},
-                    {"light_tolerance", solver.light_tolerance},
-                    {"robust_loss", RobustLossName(solver.robust_loss)},
-                    {"robust_loss_width", solver.robust_loss_width},
-                    {"robust_min_scale", solver.robust_min_scale},
-                    {"robust_max_iterations", solver.robust_max_iterations},
-                    {"robust_dark_fraction", solver.robust_dark_fraction},
-                    {"adaptive_robust_residual", solver.adaptive_robust_residual}};
+  text["solver"] = SolverOptionsJson(solver);
   text["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                      {"clip_fraction", options.develop.clip_fraction}};
   return text.dump();  // nlohmann::json sorts object keys: canonical
@@ -313,13 +320,8 @@ void SolveController::Run() {
                        {"height", summary_.height},
                        {"leds", summary_.num_lights}};
   const PhotometricSolverOptions& solver = options_.solver;
-  report["solver"] = {{"method", PhotometricMethodName(solver.method)},
-                      {"luminance_weights", solver.luminance_weights},
-                      {"min_lights", solver.min_lights},
-                      {"max_condition_number", solver.max_condition_number},
-                      {"min_light_intensity", solver.min_light_intensity},
-                      {"min_albedo", solver.min_albedo},
-                      {"num_threads", summary_.solver.num_threads}};
+  report["solver"] = SolverOptionsJson(solver);
+  report["solver"]["num_threads"] = summary_.solver.num_threads;
   report["develop"] = {{"demosaic", DemosaicName(options_.develop.demosaic)},
                        {"clip_fraction", options_.develop.clip_fraction},
                        {"dark_frame", dark_record->file},

@@ -32,16 +32,20 @@ bool ControllerRunner::Start(std::shared_ptr<BaseController> controller, const Q
   // the UI thread's queue never floods.
   auto last_stage = std::make_shared<std::string>();
   auto last_fraction = std::make_shared<double>(-1);
-  controller_->SetProgressCallback([this, last_stage, last_fraction](const std::string& stage, double fraction) {
+  controller_->SetProgressCallback([this, last_stage, last_fraction, hook = worker_hook_](
+                                       const std::string& stage, double fraction) {
     if (stage == *last_stage && std::abs(fraction - *last_fraction) < 0.005 && fraction < 1) return;
     *last_stage = stage;
     *last_fraction = fraction;
     // Emitted on the worker: Qt queues it to the runner's (UI) thread.
-    emit Progress(QString::fromStdString(stage), fraction);
+    const QString stage_name = QString::fromStdString(stage);
+    emit Progress(stage_name, fraction);
+    if (hook) hook(stage_name, fraction);
   });
 
   BaseController* job = controller_.get();
-  thread_ = QThread::create([this, job] {
+  thread_ = QThread::create([this, job, devices = device_mutex_] {
+    const std::lock_guard lock(*devices);
     try {
       job->Run();
       outcome_ = Outcome::kSucceeded;

@@ -46,6 +46,17 @@ class ControllerRunner : public QObject {
   bool busy() const { return thread_ != nullptr; }
   const QString& job_name() const { return job_name_; }
   void Cancel();
+  // Held by every job for its whole run, on its worker thread. Work that must
+  // not overlap a job (the live view's preview fetch: the camera has one
+  // owner at a time) try-locks it and skips its turn when a job holds it; a
+  // job starting meanwhile waits for that work to end.
+  // Shared, so that such work may outlive the runner at shutdown.
+  std::shared_ptr<std::mutex> device_mutex() const { return device_mutex_; }
+  // Called on the worker thread right after each Progress signal was sent
+  // (same thread as the controller's progress report): a test can hold the
+  // job at an exact point until the UI has acted on that signal.
+  using WorkerProgressHook = std::function<void(const QString& stage, double fraction)>;
+  void SetWorkerProgressHook(WorkerProgressHook hook) { worker_hook_ = std::move(hook); }
   // Blocks until the running job has ended and its callbacks ran (tests,
   // shutdown); true if nothing runs any more.
   bool Wait(int timeout_ms);
@@ -63,6 +74,8 @@ class ControllerRunner : public QObject {
   std::shared_ptr<BaseController> controller_;
   QString job_name_;
   DoneCallback done_;
+  std::shared_ptr<std::mutex> device_mutex_ = std::make_shared<std::mutex>();
+  WorkerProgressHook worker_hook_;  // copied into each job at Start
   // Written by the worker before its thread ends, read after.
   Outcome outcome_ = Outcome::kSucceeded;
   QString message_;

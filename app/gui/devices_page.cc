@@ -4,6 +4,7 @@
 #include <QComboBox>
 #include <QFileDialog>
 #include <QFormLayout>
+#include <QFutureWatcher>
 #include <QGridLayout>
 #include <QGroupBox>
 #include <QHBoxLayout>
@@ -14,11 +15,12 @@
 #include <QSpinBox>
 #include <QTimer>
 #include <QVBoxLayout>
+#include <QtConcurrent/QtConcurrentRun>
 
 #include "app/devices/camera/device_discovery.h"
 #include "app/devices/serial_port_list.h"
 #include "app/gui/controller_runner.h"
-#include "app/gui/result_images.h"
+#include "calibration/raw_develop.h"
 
 namespace scanbench {
 
@@ -104,9 +106,15 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   live_image_->setMinimumSize(320, 240);
   live_image_->setAlignment(Qt::AlignCenter);
   live_layout->addWidget(live_view_);
+  live_info_ = new QLabel(live_box);
+  live_info_->setObjectName("liveInfo");
+  live_info_->setWordWrap(true);
   live_layout->addWidget(live_image_, 1);
+  live_layout->addWidget(live_info_);
   live_timer_ = new QTimer(this);
+  live_timer_->setObjectName("liveTimer");
   live_timer_->setInterval(500);
+  live_watcher_ = new QFutureWatcher<LiveFrame>(this);
 
   auto* left = new QVBoxLayout;
   left->addWidget(choose);
@@ -144,10 +152,12 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
     }
   });
   connect(live_timer_, &QTimer::timeout, this, &DevicesPage::UpdateLiveView);
+  connect(live_watcher_, &QFutureWatcher<LiveFrame>::finished, this, &DevicesPage::ShowLiveFrame);
   RefreshPorts();
 }
 
-DevicesPage::~DevicesPage() = default;
+// A preview still being fetched uses the bench: it ends first.
+DevicesPage::~DevicesPage() { live_watcher_->waitForFinished(); }
 
 void DevicesPage::RefreshPorts() {
   const QString current = lights_choice_->currentData().toString();
@@ -220,6 +230,7 @@ void DevicesPage::Connect() {
   }
   // The old devices go first: a real board's port can be opened only once.
   live_view_->setChecked(false);
+  live_watcher_->waitForFinished();
   bench_.reset();
   emit BenchChanged();
   RebuildLedButtons();
@@ -294,23 +305,57 @@ void DevicesPage::RunDeviceJob(const QString& name, std::function<void()> work) 
   }
 }
 
-void DevicesPage::UpdateLiveView() {
-  // A preview needs the camera, which a running job (capture) owns.
-  if (!bench_ || runner_->busy() || !isVisible()) return;
-  try {
-    const PreviewFrame frame = bench_->camera().CapturePreview();
-    const QImage image = DecodePreview(frame.bytes);
-    if (image.isNull()) {
-      SetStatus(tr("The camera's preview (%1) could not be decoded").arg(QString::fromStdString(frame.mime_type)),
-                true);
-      return;
-    }
-    live_image_->setPixmap(QPixmap::fromImage(
-        image.scaled(live_image_->size(), Qt::KeepAspectRatio, Qt::SmoothTransformation)));
-  } catch (const std::exception& error) {
-    live_view_->setChecked(false);
-    SetStatus(tr("Live view stopped: %1").arg(error.what()), true);
+void DevicesPage::WaitForLiveFetch() { live_watcher_->waitForFinished(); }
+
+LiveFrame DevicesPage::FetchLiveFrame(Bench& bench) {
+  if (bench.has_raw_preview()) return LiveFrameFromRaw(bench.PreviewRaw(), RawDevelopOptions{}.clip_fraction);
+  const PreviewFrame preview = bench.camera().CapturePreview();
+  LiveFrame frame = LiveFrameFromPreview(preview.bytes);
+  if (frame.image.isNull()) {
+    frame.error = QStringLiteral("the camera's preview (%1) could not be decoded")
+                      .arg(QString::fromStdString(preview.mime_type));
   }
+  return frame;
+}
+
+void DevicesPage::UpdateLiveView() {
+  // One fetch at a time, and none while a job owns the camera (a capture).
+  if (!bench_ || runner_->busy() || !isVisible() || live_watcher_->isRunning()) return;
+  LiveSource source = live_source_;
+  if (!source) source = [bench = bench_.get()] { return FetchLiveFrame(*bench); };
+  live_watcher_->setFuture(QtConcurrent::run([source, devices = runner_->device_mutex()]() -> LiveFrame {
+    // A job started since the check above: it has the camera, skip this turn.
+    const std::unique_lock lock(*devices, std::try_to_lock);
+    if (!lock.owns_lock()) return {};
+    try {
+      return source();
+    } catch (const std::exception& error) {
+      LiveFrame failed;
+      failed.error = QString::fromStdString(error.what());
+      return failed;
+    }
+  }));
+}
+
+void DevicesPage::ShowLiveFrame() {
+  const LiveFrame frame = live_watcher_->result();
+  if (!live_view_->isChecked()) return;
+  if (!frame.error.isEmpty()) {
+    live_view_->setChecked(false);
+    SetStatus(tr("Live view stopped: %1").arg(frame.error), true);
+    return;
+  }
+  if (frame.image.isNull()) return;  // skipped: a job had the camera
+  live_image_->setPixmap(QPixmap::fromImage(
+      frame.image.scaled(live_image_->size(), Qt::KeepAspectRatio, Qt::SmoothTransformation)));
+  live_info_->setText(
+      frame.from_raw
+          ? tr("Red: a RAW sample at the clip level (%1 % of the pixels). Histogram: brightest RAW sample per "
+               "pixel, 0 to the white level.")
+                .arg(frame.clipped_fraction * 100, 0, 'f', 2)
+          : tr("Red: a channel at the top of the camera's 8-bit preview (%1 % of the pixels); the RAW frame's "
+               "clip level is not known from a preview. Histogram: preview luminance.")
+                .arg(frame.clipped_fraction * 100, 0, 'f', 2));
 }
 
 void DevicesPage::LoadSettings() {

@@ -5,9 +5,14 @@
 
 #include <QWidget>
 
+#include <functional>
 #include <memory>
 
 #include "app/gui/bench.h"
+#include "app/gui/live_view.h"
+
+template <typename T>
+class QFutureWatcher;
 
 class QCheckBox;
 class QComboBox;
@@ -31,6 +36,16 @@ class DevicesPage : public QWidget {
 
   // nullptr until connected.
   Bench* bench() { return bench_.get(); }
+  // What the live view shows, called on a worker thread while no job runs.
+  // Default: FetchLiveFrame on the connected bench. Tests put a slow or
+  // scripted camera here.
+  using LiveSource = std::function<LiveFrame()>;
+  void SetLiveSource(LiveSource source) { live_source_ = std::move(source); }
+  // Blocks until a preview being fetched has arrived (tests, reconnect).
+  void WaitForLiveFetch();
+  // The RAW-based frame when the bench has one (simulated camera), else the
+  // camera's own preview.
+  static LiveFrame FetchLiveFrame(Bench& bench);
   void LoadSettings();
   void SaveSettings() const;
 
@@ -47,6 +62,7 @@ class DevicesPage : public QWidget {
   void RebuildLedButtons();
   void RunDeviceJob(const QString& name, std::function<void()> work);
   void UpdateLiveView();
+  void ShowLiveFrame();
   void SetStatus(const QString& text, bool error = false);
 
   ControllerRunner* runner_;
@@ -66,7 +82,10 @@ class DevicesPage : public QWidget {
   QWidget* led_box_;
   QCheckBox* live_view_;
   QLabel* live_image_;
+  QLabel* live_info_;
   QTimer* live_timer_;
+  QFutureWatcher<LiveFrame>* live_watcher_;
+  LiveSource live_source_;
 };
 
 }  // namespace scanbench

@@ -16,13 +16,17 @@
 #include <QThread>
 #include <QThreadPool>
 #include <QTimer>
+#include <QTreeWidget>
 
 #include <cstdio>
+#include <tuple>
 
 #include "app/controllers/simulate_controller.h"
+#include "app/gui/calibration_page.h"
 #include "app/gui/capture_page.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
+#include "app/gui/export_dialog.h"
 #include "app/gui/image_view.h"
 #include "app/gui/main_window.h"
 #include "app/gui/results_page.h"
@@ -64,13 +68,14 @@ bool ClickAndWait(MainWindow& window, const char* button, int timeout_ms) {
   return ok;
 }
 
-bool Save(MainWindow& window, const QDir& dir, const QString& name) {
+// scale: two thirds for the window; a dialog, much smaller, stays at full size.
+bool Save(QWidget& window, const QDir& dir, const QString& name, double scale = 2.0 / 3) {
   Pause(150);
   const QImage image = window.grab().toImage();
   const QString path = dir.filePath("gui-" + name + ".png");
-  // Two thirds of the window; true colour when that stays under 300 KB,
-  // else a 256-colour palette: readable in the docs, small in the repository.
-  const QImage scaled = image.scaledToWidth(image.width() * 2 / 3, Qt::SmoothTransformation)
+  // True colour when that stays under 300 KB, else a 256-colour palette:
+  // readable in the docs, small in the repository.
+  const QImage scaled = image.scaledToWidth(int(image.width() * scale), Qt::SmoothTransformation)
                             .convertToFormat(QImage::Format_RGB888);
   QByteArray png;
   QBuffer buffer(&png);
@@ -99,10 +104,17 @@ int ScreenshotTour(MainWindow& window, const QString& output_dir, QSize sim_size
   Find<QSpinBox>(window, "simHeight")->setValue(sim_size.height());
   if (!ClickAndWait(window, "connectButton", 60000)) return 1;
   if (!ClickAndWait(window, "led3", 10000)) return 1;
+  // Four times the reference exposure, so that the live view shows RAW
+  // clipping (the simulated camera's default exposure clips nothing).
+  Camera& camera = window.devices()->bench()->camera();
+  const double exposure_s = camera.CurrentExposure().exposure_time_s;
+  camera.SetExposureTime(1.0 / 15);
   Find<QCheckBox>(window, "liveView")->setChecked(true);
   Pause(1500);
   bool ok = Save(window, dir, "devices");
   Find<QCheckBox>(window, "liveView")->setChecked(false);
+  window.devices()->WaitForLiveFetch();
+  camera.SetExposureTime(exposure_s);
   if (!ClickAndWait(window, "allOff", 10000)) return 1;
 
   window.ShowPage(MainWindow::kCapturePage);
@@ -125,6 +137,12 @@ int ScreenshotTour(MainWindow& window, const QString& output_dir, QSize sim_size
     results->light_pad()->SetDirectionXY(QPointF(-0.6, 0.45));
     results->view()->ZoomBy(2.0, QPointF(results->view()->width() / 2.0, results->view()->height() / 2.0));
     ok = Save(window, dir, "results-relight") && ok;
+    RelightShading glossy;
+    glossy.specular = true;
+    glossy.roughness = 0.35;
+    results->SetRelightShading(glossy);
+    ok = Save(window, dir, "results-relight-ggx") && ok;
+    results->SetRelightShading(RelightShading());
   }
 
   // A session with ground truth (as `scanbench simulate` writes it), re-solved
@@ -139,9 +157,43 @@ int ScreenshotTour(MainWindow& window, const QString& output_dir, QSize sim_size
   window.sessions()->Refresh();
   if (!window.sessions()->SelectSession(simulated)) return 1;
   if (!ClickAndWait(window, "resolveSession", 300000)) return 1;
-  if (results->ShowLayer(ResultLayer::kAngularError)) ok = Save(window, dir, "results-error") && ok;
+  if (results->ShowLayer(ResultLayer::kAngularError)) {
+    results->view()->FitToWidget();  // the whole sample, not the relight's zoom
+    ok = Save(window, dir, "results-error") && ok;
+  }
+  // Export of that result (ground truth: the height error is reported).
+  if (ExportDialog* dialog = results->OpenExportDialog()) {
+    Find<QCheckBox>(*dialog, "tileable")->setChecked(true);
+    if (!ClickAndWait(window, "startExport", 300000)) return 1;
+    ok = Save(*dialog, dir, "export", 1.0) && ok;
+    dialog->close();
+  }
   window.ShowPage(MainWindow::kSessionsPage);
   ok = Save(window, dir, "sessions") && ok;
+
+  // Calibration: the simulated target sessions, then each step's figures.
+  window.ShowPage(MainWindow::kCalibrationPage);
+  Find<QSpinBox>(window, "targetsWidth")->setValue(sim_size.width());
+  Find<QSpinBox>(window, "targetsHeight")->setValue(sim_size.height());
+  Find<QLineEdit>(window, "targetsFolder")->setText(work.filePath("targets"));
+  window.calibration()->SetCalibrationFolder(work.filePath("calibration"));
+  if (!ClickAndWait(window, "renderTargets", 300000)) return 1;
+  for (auto [step, button, table, name] :
+       {std::tuple{CalibrationPage::kCameraStep, "cameraRun", "cameraFigures", "calibration-camera"},
+        std::tuple{CalibrationPage::kWhiteStep, "whiteRun", "whiteFigures", "calibration-white"},
+        std::tuple{CalibrationPage::kLightsStep, "lightsRun", "lightsFigures", "calibration-lights"}}) {
+    window.calibration()->ShowStep(step);
+    if (!ClickAndWait(window, button, 300000)) return 1;
+    // One view or LED unfolded, to show the figures kept per view and per LED.
+    auto* figures = Find<QTreeWidget>(window, table);
+    for (int i = 0; i < figures->topLevelItemCount(); ++i) {
+      if (figures->topLevelItem(i)->childCount() > 0) {
+        figures->topLevelItem(i)->setExpanded(true);
+        break;
+      }
+    }
+    ok = Save(window, dir, name) && ok;
+  }
   return ok ? 0 : 1;
 }
 

@@ -10,6 +10,7 @@
 
 #include <filesystem>
 
+#include "app/gui/calibration_page.h"
 #include "app/gui/capture_page.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
@@ -25,13 +26,14 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   tabs_->setObjectName("pages");
   devices_ = new DevicesPage(runner_, tabs_);
   capture_ = new CapturePage(runner_, devices_, tabs_);
-  results_ = new ResultsPage(tabs_);
+  results_ = new ResultsPage(runner_, tabs_);
   sessions_ = new SessionsPage(runner_, tabs_);
   tabs_->addTab(devices_, tr("Devices"));
   tabs_->addTab(capture_, tr("Capture"));
   tabs_->addTab(results_, tr("Results"));
   tabs_->addTab(sessions_, tr("Sessions"));
-  // Issue #4's calibration wizards are to join as a page of their own here.
+  calibration_ = new CalibrationPage(runner_, devices_, tabs_);
+  tabs_->addTab(calibration_, tr("Calibration"));
   setCentralWidget(tabs_);
 
   job_label_ = new QLabel(tr("Idle"), this);
@@ -74,6 +76,11 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     capture_->SetSessionFolder(session_dir);
     ShowPage(kCapturePage);
   });
+  // A finished calibration set becomes the solve's (the Sessions page's field).
+  connect(calibration_, &CalibrationPage::UseCalibrationSet, this, [this](const QString& calibration_dir) {
+    sessions_->SetCalibrationSet(calibration_dir);
+    ShowPage(kSessionsPage);
+  });
   LoadSettings();
 }
 
@@ -88,6 +95,7 @@ void MainWindow::LoadSettings() {
   devices_->LoadSettings();
   capture_->LoadSettings();
   sessions_->LoadSettings();
+  calibration_->LoadSettings();
 }
 
 void MainWindow::SaveSettings() const {
@@ -97,6 +105,7 @@ void MainWindow::SaveSettings() const {
   devices_->SaveSettings();
   capture_->SaveSettings();
   sessions_->SaveSettings();
+  calibration_->SaveSettings();
 }
 
 void MainWindow::closeEvent(QCloseEvent* event) {

@@ -1,4 +1,4 @@
-// The operator's window: Devices, Capture, Results and Sessions pages over
+// The operator's window: Devices, Capture, Results, Sessions and Calibration pages over
 // one ControllerRunner, so that one long job runs at a time (the bench has
 // one camera and one LED board) while the window stays responsive.
 #pragma once
@@ -11,6 +11,7 @@ class QTabWidget;
 
 namespace scanbench {
 
+class CalibrationPage;
 class CapturePage;
 class ControllerRunner;
 class DevicesPage;
@@ -21,7 +22,7 @@ class MainWindow : public QMainWindow {
   Q_OBJECT
 
  public:
-  enum Page { kDevicesPage, kCapturePage, kResultsPage, kSessionsPage };
+  enum Page { kDevicesPage, kCapturePage, kResultsPage, kSessionsPage, kCalibrationPage };
 
   explicit MainWindow(QWidget* parent = nullptr);
   ~MainWindow() override;
@@ -31,6 +32,7 @@ class MainWindow : public QMainWindow {
   CapturePage* capture() const { return capture_; }
   ResultsPage* results() const { return results_; }
   SessionsPage* sessions() const { return sessions_; }
+  CalibrationPage* calibration() const { return calibration_; }
   void ShowPage(Page page);
 
   void SaveSettings() const;
@@ -47,6 +49,7 @@ class MainWindow : public QMainWindow {
   CapturePage* capture_;
   ResultsPage* results_;
   SessionsPage* sessions_;
+  CalibrationPage* calibration_;
   QLabel* job_label_;
   QProgressBar* job_progress_;
 };

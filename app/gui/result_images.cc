@@ -1,7 +1,6 @@
 #include "app/gui/result_images.h"
 
 #include <QColor>
-#include <QPainter>
 
 #include <algorithm>
 #include <cmath>
@@ -58,6 +57,8 @@ QString ResultLayerName(ResultLayer layer) {
     case ResultLayer::kNormal: return QStringLiteral("Normal");
     case ResultLayer::kStatus: return QStringLiteral("Status");
     case ResultLayer::kResidual: return QStringLiteral("Confidence (residual)");
+    case ResultLayer::kConditionNumber: return QStringLiteral("Confidence (condition number)");
+    case ResultLayer::kLightsUsed: return QStringLiteral("Confidence (lights used)");
     case ResultLayer::kAngularError: return QStringLiteral("Angular error (deg)");
     case ResultLayer::kRelight: return QStringLiteral("Relight");
   }
@@ -69,39 +70,99 @@ QList<ResultLayer> AvailableLayers(const fs::path& dir) {
   if (fs::exists(dir / "albedo_srgb.png")) layers << ResultLayer::kAlbedo;
   if (fs::exists(dir / "normal.png")) layers << ResultLayer::kNormal;
   if (fs::exists(dir / "status.png")) layers << ResultLayer::kStatus;
-  if (fs::exists(dir / "confidence.exr")) layers << ResultLayer::kResidual;
+  if (fs::exists(dir / "confidence.exr")) {
+    layers << ResultLayer::kResidual << ResultLayer::kConditionNumber << ResultLayer::kLightsUsed;
+  }
   if (fs::exists(dir / "angular_error_deg.exr")) layers << ResultLayer::kAngularError;
   if (fs::exists(dir / "normal.exr") && fs::exists(dir / "albedo.exr")) layers << ResultLayer::kRelight;
   return layers;
 }
 
-QImage LoadResultLayer(const fs::path& dir, ResultLayer layer) {
+LayerImage LoadResultLayerImage(const fs::path& dir, ResultLayer layer) {
   switch (layer) {
-    case ResultLayer::kAlbedo: return LoadQtImage(dir / "albedo_srgb.png");
-    case ResultLayer::kNormal: return LoadQtImage(dir / "normal.png");
-    case ResultLayer::kStatus: return StatusImage(dir / "status.png");
-    case ResultLayer::kResidual: {
+    case ResultLayer::kAlbedo: return {LoadQtImage(dir / "albedo_srgb.png"), std::nullopt};
+    case ResultLayer::kNormal: return {LoadQtImage(dir / "normal.png"), std::nullopt};
+    case ResultLayer::kStatus: return {StatusImage(dir / "status.png"), std::nullopt};
+    case ResultLayer::kResidual:
+    case ResultLayer::kConditionNumber:
+    case ResultLayer::kLightsUsed: {
+      const char* channel_name = layer == ResultLayer::kResidual          ? "residual"
+                                 : layer == ResultLayer::kConditionNumber ? "condition_number"
+                                                                          : "lights_used";
       std::vector<std::string> names;
       const ImageF confidence = ReadImageFloat(dir / "confidence.exr", &names);
-      const auto found = std::find(names.begin(), names.end(), "residual");
+      const auto found = std::find(names.begin(), names.end(), channel_name);
       if (found == names.end()) {
-        throw std::runtime_error((dir / "confidence.exr").string() + ": has no channel 'residual'");
+        throw std::runtime_error((dir / "confidence.exr").string() + ": has no channel '" + channel_name + "'");
       }
       const int channel = int(found - names.begin());
-      std::vector<float> values;
-      values.reserve(confidence.num_pixels());
-      for (int y = 0; y < confidence.height(); ++y)
-        for (int x = 0; x < confidence.width(); ++x)
-          if (std::isfinite(confidence(x, y, channel))) values.push_back(confidence(x, y, channel));
-      // Scaled to the 99th percentile: the residual's size depends on the sample.
-      return Heatmap(confidence, channel, 0, std::max(Percentile(values, 0.99), 1e-6f));
+      HeatmapScale scale;
+      FillValueRange(confidence, channel, &scale);
+      if (layer == ResultLayer::kLightsUsed) {
+        // Whole counts from none to every light: the scale reads as the count.
+        scale.quantity = QStringLiteral("lights used");
+        scale.lo = 0;
+        scale.hi = std::max(3.0f, scale.max);
+      } else {
+        std::vector<float> values;
+        values.reserve(confidence.num_pixels());
+        for (int y = 0; y < confidence.height(); ++y)
+          for (int x = 0; x < confidence.width(); ++x)
+            // Unsolved pixels hold 0 in both maps: not part of the spread.
+            if (std::isfinite(confidence(x, y, channel)) && confidence(x, y, channel) > 0)
+              values.push_back(confidence(x, y, channel));
+        // Scaled to the 99th percentile: the size depends on the sample.
+        const float p99 = Percentile(values, 0.99);
+        if (layer == ResultLayer::kResidual) {
+          scale.quantity = QStringLiteral("RMS residual / albedo");
+          scale.lo = 0;
+          scale.hi = std::max(p99, 1e-6f);
+        } else {
+          scale.quantity = QStringLiteral("condition number");
+          scale.lo = 1;  // the best a light matrix can be
+          scale.hi = std::max(p99, 1.01f);
+        }
+      }
+      return {Heatmap(confidence, channel, scale.lo, scale.hi), scale};
     }
-    case ResultLayer::kAngularError:
+    case ResultLayer::kAngularError: {
+      const ImageF error = ReadImageFloat(dir / "angular_error_deg.exr");
+      HeatmapScale scale;
+      scale.quantity = QStringLiteral("angular error");
+      scale.unit = QStringLiteral("deg");
       // 0..5 degrees: the range in which the solver's errors are told apart.
-      return Heatmap(ReadImageFloat(dir / "angular_error_deg.exr"), 0, 0, 5);
+      scale.lo = 0;
+      scale.hi = 5;
+      // The file holds 0 off the sample: the range is stated over the
+      // session's sample mask (<session>/ground_truth/) when it fits.
+      const fs::path mask_file = dir.parent_path().parent_path() / "ground_truth" / "sample_mask.png";
+      std::optional<ImageU8> mask;
+      if (fs::exists(mask_file)) {
+        try {
+          mask = ReadImageU8(mask_file);
+        } catch (const std::exception&) {
+          mask.reset();  // the range is then over the whole map, as without a mask
+        }
+      }
+      if (mask && mask->width() == error.width() && mask->height() == error.height()) {
+        scale.quantity = QStringLiteral("angular error on the sample");
+        FillValueRange(error, 0, &scale, &*mask);
+      } else {
+        FillValueRange(error, 0, &scale);
+      }
+      return {Heatmap(error, 0, scale.lo, scale.hi), scale};
+    }
     case ResultLayer::kRelight: break;
   }
   throw std::logic_error("LoadResultLayer: relight is computed, not loaded");
+}
+
+QImage LoadResultLayer(const fs::path& dir, ResultLayer layer) { return LoadResultLayerImage(dir, layer).image; }
+
+QRgb HeatmapColour(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return qRgb(int(255 * std::min(1.0, 1.6 * t)), int(255 * std::max(0.0, 1.4 * t - 0.4)),
+              int(255 * std::clamp(0.35 + 1.2 * t - 2.0 * t * t, 0.0, 1.0)));
 }
 
 QImage Heatmap(const ImageF& values, int channel, float lo, float hi) {
@@ -110,17 +171,23 @@ QImage Heatmap(const ImageF& values, int channel, float lo, float hi) {
     auto* line = reinterpret_cast<QRgb*>(image.scanLine(y));
     for (int x = 0; x < values.width(); ++x) {
       const float v = values(x, y, channel);
-      if (!std::isfinite(v)) {
-        line[x] = qRgb(128, 128, 128);
-        continue;
-      }
-      const double t = std::clamp((v - lo) / double(hi - lo), 0.0, 1.0);
-      // Dark blue -> magenta -> orange -> yellow: ordered in lightness.
-      line[x] = qRgb(int(255 * std::min(1.0, 1.6 * t)), int(255 * std::max(0.0, 1.4 * t - 0.4)),
-                     int(255 * std::clamp(0.35 + 1.2 * t - 2.0 * t * t, 0.0, 1.0)));
+      line[x] = std::isfinite(v) ? HeatmapColour((v - lo) / double(hi - lo)) : qRgb(128, 128, 128);
     }
   }
   return image;
+}
+
+void FillValueRange(const ImageF& values, int channel, HeatmapScale* scale, const ImageU8* mask) {
+  scale->has_values = false;
+  for (int y = 0; y < values.height(); ++y) {
+    for (int x = 0; x < values.width(); ++x) {
+      const float v = values(x, y, channel);
+      if (!std::isfinite(v) || (mask && (*mask)(x, y, 0) == 0)) continue;
+      scale->min = scale->has_values ? std::min(scale->min, v) : v;
+      scale->max = scale->has_values ? std::max(scale->max, v) : v;
+      scale->has_values = true;
+    }
+  }
 }
 
 RelightMaps LoadRelightMaps(const fs::path& dir) {
@@ -136,15 +203,20 @@ RelightMaps LoadRelightMaps(const fs::path& dir) {
   return maps;
 }
 
-QImage Relight(const RelightMaps& maps, double lx, double ly, double lz) {
+QImage Relight(const RelightMaps& maps, double lx, double ly, double lz, const RelightShading& shading) {
+  shading.Check();
   const ImageF& n = maps.normal;
+  const Eigen::Vector3d light(lx, ly, lz);
+  const Eigen::Vector3d view(0, 0, 1);  // the camera looks straight down on the table
   QImage image(n.width(), n.height(), QImage::Format_RGB32);
   for (int y = 0; y < n.height(); ++y) {
     auto* line = reinterpret_cast<QRgb*>(image.scanLine(y));
     for (int x = 0; x < n.width(); ++x) {
-      const double shade = std::max(0.0, n(x, y, 0) * lx + n(x, y, 1) * ly + n(x, y, 2) * lz) * maps.albedo_scale;
-      line[x] = qRgb(ToSrgb8(maps.albedo(x, y, 0) * shade), ToSrgb8(maps.albedo(x, y, 1) * shade),
-                     ToSrgb8(maps.albedo(x, y, 2) * shade));
+      const Eigen::Vector3d normal(n(x, y, 0), n(x, y, 1), n(x, y, 2));
+      const Eigen::Vector3d albedo =
+          Eigen::Vector3d(maps.albedo(x, y, 0), maps.albedo(x, y, 1), maps.albedo(x, y, 2)) * maps.albedo_scale;
+      const Eigen::Vector3d rgb = ShadeRelight(albedo, normal, light, view, shading);
+      line[x] = qRgb(ToSrgb8(rgb.x()), ToSrgb8(rgb.y()), ToSrgb8(rgb.z()));
     }
   }
   return image;
@@ -175,34 +247,6 @@ QImage RawThumbnail(const fs::path& raw_file, int max_width) {
     }
   }
   return image;
-}
-
-QImage DecodePreview(const std::vector<uint8_t>& bytes) {
-  QImage frame = QImage::fromData(bytes.data(), int(bytes.size())).convertToFormat(QImage::Format_RGB32);
-  if (frame.isNull()) return frame;
-  constexpr int kHistogramHeight = 80;
-  std::vector<int> histogram(256, 0);
-  for (int y = 0; y < frame.height(); ++y) {
-    auto* line = reinterpret_cast<QRgb*>(frame.scanLine(y));
-    for (int x = 0; x < frame.width(); ++x) {
-      const QRgb p = line[x];
-      ++histogram[qGray(p)];
-      // Any channel at the top of the range: clipped, shown in red.
-      if (qRed(p) >= 254 || qGreen(p) >= 254 || qBlue(p) >= 254) line[x] = qRgb(255, 0, 0);
-    }
-  }
-  QImage out(frame.width(), frame.height() + kHistogramHeight, QImage::Format_RGB32);
-  out.fill(qRgb(25, 25, 25));
-  QPainter painter(&out);
-  painter.drawImage(0, 0, frame);
-  const int peak = std::max(1, *std::max_element(histogram.begin(), histogram.end() - 1));
-  for (int v = 0; v < 256; ++v) {
-    const int x = v * out.width() / 256;
-    const int bar = std::min(kHistogramHeight, histogram[v] * kHistogramHeight / peak);
-    painter.setPen(v >= 254 ? QColor(255, 60, 60) : QColor(200, 200, 200));
-    painter.drawLine(x, out.height() - 1, x, out.height() - bar);
-  }
-  return out;
 }
 
 }  // namespace scanbench

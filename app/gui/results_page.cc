@@ -1,8 +1,11 @@
 #include "app/gui/results_page.h"
 
+#include <QCheckBox>
 #include <QComboBox>
+#include <QDoubleSpinBox>
 #include <QFile>
 #include <QFileDialog>
+#include <QFormLayout>
 #include <QHBoxLayout>
 #include <QLabel>
 #include <QLineEdit>
@@ -11,11 +14,13 @@
 #include <QSettings>
 #include <QVBoxLayout>
 
+#include "app/gui/colour_legend.h"
+#include "app/gui/export_dialog.h"
 #include "app/gui/image_view.h"
 
 namespace scanbench {
 
-ResultsPage::ResultsPage(QWidget* parent) : QWidget(parent) {
+ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
   folder_ = new QLineEdit(this);
   folder_->setObjectName("resultFolder");
   folder_->setReadOnly(true);
@@ -28,6 +33,11 @@ ResultsPage::ResultsPage(QWidget* parent) : QWidget(parent) {
   top->addWidget(open);
   top->addWidget(new QLabel(tr("Map"), this));
   top->addWidget(layer_);
+  export_ = new QPushButton(tr("Export…"), this);
+  export_->setObjectName("exportResult");
+  export_->setToolTip(tr("Derived maps (height, occlusion, cavity, roughness) in a preset for a material pipeline"));
+  export_->setEnabled(false);
+  top->addWidget(export_);
 
   view_ = new ImageView(this);
   view_->setObjectName("resultView");
@@ -36,6 +46,32 @@ ResultsPage::ResultsPage(QWidget* parent) : QWidget(parent) {
   pad_->setFixedSize(170, 170);
   pad_label_ = new QLabel(tr("Drag the light (seen from above; centre = overhead)."), this);
   pad_label_->setWordWrap(true);
+  // UE4's specular lobe on top of the Lambertian term: how the fabric would
+  // look with a sheen; the solve itself is Lambertian only.
+  specular_box_ = new QWidget(this);
+  auto* specular_form = new QFormLayout(specular_box_);
+  specular_form->setContentsMargins(0, 0, 0, 0);
+  const RelightShading shading_defaults;
+  specular_ = new QCheckBox(tr("Specular lobe (GGX)"), specular_box_);
+  specular_->setObjectName("relightSpecular");
+  specular_->setChecked(shading_defaults.specular);
+  specular_form->addRow(specular_);
+  roughness_ = new QDoubleSpinBox(specular_box_);
+  roughness_->setObjectName("relightRoughness");
+  roughness_->setRange(0.02, 1.0);
+  roughness_->setSingleStep(0.05);
+  roughness_->setDecimals(2);
+  roughness_->setValue(shading_defaults.roughness);
+  roughness_->setToolTip(tr("Perceptual roughness: 0.02 mirror-like .. 1 matte; GGX alpha = roughness²"));
+  specular_form->addRow(tr("Roughness"), roughness_);
+  f0_ = new QDoubleSpinBox(specular_box_);
+  f0_->setObjectName("relightF0");
+  f0_->setRange(0.0, 1.0);
+  f0_->setSingleStep(0.01);
+  f0_->setDecimals(3);
+  f0_->setValue(shading_defaults.f0);
+  f0_->setToolTip(tr("Reflectance at normal incidence: about 0.04 for fibres and plastics, 0.5-1 for metal threads"));
+  specular_form->addRow(tr("F0"), f0_);
   summary_ = new QPlainTextEdit(this);
   summary_->setObjectName("resultSummary");
   summary_->setReadOnly(true);
@@ -47,13 +83,19 @@ ResultsPage::ResultsPage(QWidget* parent) : QWidget(parent) {
   auto* side = new QVBoxLayout;
   side->addWidget(pad_, 0, Qt::AlignHCenter);
   side->addWidget(pad_label_);
+  side->addWidget(specular_box_);
   side->addWidget(summary_, 1);
   auto* side_widget = new QWidget(this);
   side_widget->setLayout(side);
   side_widget->setMaximumWidth(360);
 
+  legend_ = new ColourLegend(this);
+  legend_->setObjectName("heatmapLegend");
+  auto* map_column = new QVBoxLayout;
+  map_column->addWidget(view_, 1);
+  map_column->addWidget(legend_);
   auto* middle = new QHBoxLayout;
-  middle->addWidget(view_, 1);
+  middle->addLayout(map_column, 1);
   middle->addWidget(side_widget);
   status_ = new QLabel(tr("Wheel: zoom, drag: pan, double-click: fit."), this);
   status_->setObjectName("resultStatus");
@@ -73,8 +115,59 @@ ResultsPage::ResultsPage(QWidget* parent) : QWidget(parent) {
   });
   connect(layer_, &QComboBox::currentIndexChanged, this, &ResultsPage::ShowSelectedLayer);
   connect(pad_, &LightPad::DirectionChanged, this, &ResultsPage::UpdateRelight);
+  auto rerender = [this] {
+    roughness_->setEnabled(specular_->isChecked());
+    f0_->setEnabled(specular_->isChecked());
+    const QPointF xy = pad_->direction_xy();
+    if (pad_->isVisible()) pad_->SetDirectionXY(xy);  // renders through UpdateRelight
+  };
+  connect(specular_, &QCheckBox::toggled, this, rerender);
+  connect(roughness_, &QDoubleSpinBox::valueChanged, this, rerender);
+  connect(f0_, &QDoubleSpinBox::valueChanged, this, rerender);
+  connect(export_, &QPushButton::clicked, this, &ResultsPage::OpenExportDialog);
+  roughness_->setEnabled(specular_->isChecked());
+  f0_->setEnabled(specular_->isChecked());
   pad_->setVisible(false);
   pad_label_->setVisible(false);
+  specular_box_->setVisible(false);
+  legend_->setVisible(false);
+}
+
+RelightShading ResultsPage::relight_shading() const {
+  RelightShading shading;
+  shading.specular = specular_->isChecked();
+  shading.roughness = roughness_->value();
+  shading.f0 = f0_->value();
+  return shading;
+}
+
+void ResultsPage::SetRelightShading(const RelightShading& shading) {
+  // One render for the three changes.
+  {
+    const QSignalBlocker block_specular(specular_), block_roughness(roughness_), block_f0(f0_);
+    specular_->setChecked(shading.specular);
+    roughness_->setValue(shading.roughness);
+    f0_->setValue(shading.f0);
+  }
+  roughness_->setEnabled(shading.specular);
+  f0_->setEnabled(shading.specular);
+  if (pad_->isVisible()) pad_->SetDirectionXY(pad_->direction_xy());
+}
+
+ExportDialog* ResultsPage::OpenExportDialog() {
+  if (result_dir_.empty() || layer_->count() == 0) return nullptr;
+  // One dialog per result; a new one replaces an earlier, finished one.
+  for (ExportDialog* old : findChildren<ExportDialog*>()) {
+    if (old->result_dir() == result_dir_) {
+      old->show();
+      old->raise();
+      return old;
+    }
+  }
+  auto* dialog = new ExportDialog(runner_, result_dir_, this);
+  dialog->setAttribute(Qt::WA_DeleteOnClose);
+  dialog->show();
+  return dialog;
 }
 
 bool ResultsPage::OpenResult(const QString& dir) {
@@ -90,7 +183,9 @@ bool ResultsPage::OpenResult(const QString& dir) {
   QFile summary(dir + "/summary.txt");
   summary_->setPlainText(summary.open(QIODevice::ReadOnly) ? QString::fromUtf8(summary.readAll())
                                                            : tr("(no summary.txt in this folder)"));
+  export_->setEnabled(!layers.isEmpty());
   if (layers.isEmpty()) {
+    legend_->setVisible(false);
     view_->SetImage(QImage());
     status_->setText(tr("%1 holds no maps: open a folder under <session>/results/, or solve the session first.")
                          .arg(dir));
@@ -114,13 +209,20 @@ void ResultsPage::ShowSelectedLayer() {
   const bool relight = layer == ResultLayer::kRelight;
   pad_->setVisible(relight);
   pad_label_->setVisible(relight);
+  specular_box_->setVisible(relight);
+  legend_->setVisible(false);
   try {
     if (relight) {
       if (!relight_) relight_ = LoadRelightMaps(result_dir_);
       const QPointF xy = pad_->direction_xy();
       pad_->SetDirectionXY(xy);  // renders through UpdateRelight
     } else {
-      view_->SetImage(LoadResultLayer(result_dir_, layer), true);
+      const LayerImage shown = LoadResultLayerImage(result_dir_, layer);
+      view_->SetImage(shown.image, true);
+      if (shown.scale) {
+        legend_->SetScale(*shown.scale);
+        legend_->setVisible(true);
+      }
     }
     status_->setText(tr("%1 — wheel: zoom, drag: pan, double-click: fit.").arg(ResultLayerName(layer)));
   } catch (const std::exception& error) {
@@ -130,7 +232,11 @@ void ResultsPage::ShowSelectedLayer() {
 
 void ResultsPage::UpdateRelight(double x, double y, double z) {
   if (!relight_) return;
-  view_->SetImage(Relight(*relight_, x, y, z), true);
+  try {
+    view_->SetImage(Relight(*relight_, x, y, z, relight_shading()), true);
+  } catch (const std::exception& error) {  // an exception must not leave a Qt slot
+    status_->setText(tr("Cannot relight: %1").arg(error.what()));
+  }
 }
 
 }  // namespace scanbench

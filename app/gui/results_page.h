@@ -11,13 +11,19 @@
 
 #include "app/gui/result_images.h"
 
+class QCheckBox;
 class QComboBox;
+class QDoubleSpinBox;
 class QLabel;
+class QPushButton;
 class QLineEdit;
 class QPlainTextEdit;
 
 namespace scanbench {
 
+class ColourLegend;
+class ControllerRunner;
+class ExportDialog;
 class ImageView;
 class LightPad;
 
@@ -25,7 +31,7 @@ class ResultsPage : public QWidget {
   Q_OBJECT
 
  public:
-  explicit ResultsPage(QWidget* parent = nullptr);
+  ResultsPage(ControllerRunner* runner, QWidget* parent = nullptr);
 
   // Shows `result_dir`; false (and the reason on the page) if it holds no maps.
   bool OpenResult(const QString& result_dir);
@@ -34,17 +40,31 @@ class ResultsPage : public QWidget {
   const std::filesystem::path& result_dir() const { return result_dir_; }
   ImageView* view() const { return view_; }
   LightPad* light_pad() const { return pad_; }
+  // Shown under heatmaps only.
+  ColourLegend* legend() const { return legend_; }
+  // The relight's shading as the controls set it.
+  RelightShading relight_shading() const;
+  void SetRelightShading(const RelightShading& shading);
+  // Opens the export dialog for the shown result (nullptr without one).
+  ExportDialog* OpenExportDialog();
 
  private:
   void ShowSelectedLayer();
   void UpdateRelight(double x, double y, double z);
 
+  ControllerRunner* runner_;
   std::filesystem::path result_dir_;
   QLineEdit* folder_;
   QComboBox* layer_;
   ImageView* view_;
   LightPad* pad_;
   QLabel* pad_label_;
+  QWidget* specular_box_;
+  QCheckBox* specular_;
+  QDoubleSpinBox* roughness_;
+  QDoubleSpinBox* f0_;
+  ColourLegend* legend_;
+  QPushButton* export_;
   QPlainTextEdit* summary_;
   QLabel* status_;
   std::optional<RelightMaps> relight_;

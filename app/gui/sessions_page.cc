@@ -1,6 +1,8 @@
 #include "app/gui/sessions_page.h"
 
+#include <QComboBox>
 #include <QDir>
+#include <QDoubleSpinBox>
 #include <QFileDialog>
 #include <QFormLayout>
 #include <QHBoxLayout>
@@ -14,12 +16,12 @@
 #include <QSplitter>
 #include <QTreeWidget>
 #include <QVBoxLayout>
-
 #include <algorithm>
 #include <vector>
 
 #include "app/controllers/solve_controller.h"
 #include "app/gui/controller_runner.h"
+#include "app/gui/export_dialog.h"
 #include "app/session/session.h"
 
 namespace scanbench {
@@ -37,6 +39,30 @@ std::vector<fs::path> ResultFolders(const fs::path& session_dir) {
   }
   std::sort(folders.begin(), folders.end());  // run ids start with a UTC timestamp
   return folders;
+}
+
+// One line per method for the operator (docs/solver.md has the figures).
+QString MethodDescription(PhotometricSolverOptions::Method method) {
+  using Method = PhotometricSolverOptions::Method;
+  switch (method) {
+    case Method::kAdaptive:
+      return QObject::tr(
+          "fast and accurate: shared light matrix where the light is uniform, robust re-solve only "
+          "where the residual calls for it (default)");
+    case Method::kJacobiSvd:
+      return QObject::tr("reference least squares, per-pixel SVD: slowest, most stable");
+    case Method::kNormalEquations:
+      return QObject::tr("per-pixel 3x3 normal equations, closed form: fast");
+    case Method::kQr:
+      return QObject::tr("per-pixel Householder QR least squares");
+    case Method::kUniformPseudoInverse:
+      return QObject::tr("one pseudo-inverse for all pixels: distant lights only, refused otherwise");
+    case Method::kRobustIrls:
+      return QObject::tr("robust per-pixel reweighting (Tukey): rejects shadows and highlights; slower");
+    case Method::kSparseBayesian:
+      return QObject::tr("sparse Bayesian outlier model: most robust to shadows and highlights; slowest");
+  }
+  return {};
 }
 }  // namespace
 
@@ -70,10 +96,42 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   results_layout->addWidget(results_);
   splitter->addWidget(results_box);
 
-  // The solve's inputs the operator may change. Issue #4's calibration sets
-  // plug in here already (SolveOptions::calibration_dir); issue #3's solver
-  // method choice is to join this form.
+  // The solve's inputs the operator may change: the solver method (issue #3),
+  // the shadow level, and a calibration set (issue #4).
   auto* solve_form = new QFormLayout;
+  const SolveOptions defaults;
+  method_ = new QComboBox(this);
+  method_->setObjectName("solverMethod");
+  for (PhotometricSolverOptions::Method method : AllPhotometricMethods()) {
+    method_->addItem(QString::fromLatin1(PhotometricMethodName(method)),
+                     QString::fromLatin1(PhotometricMethodName(method)));
+    method_->setItemData(method_->count() - 1, MethodDescription(method), Qt::ToolTipRole);
+  }
+  method_->setCurrentIndex(method_->findData(QString::fromLatin1(PhotometricMethodName(defaults.solver.method))));
+  method_description_ = new QLabel(this);
+  method_description_->setObjectName("solverMethodDescription");
+  method_description_->setWordWrap(true);
+  auto* method_row = new QHBoxLayout;
+  method_row->addWidget(method_);
+  method_row->addWidget(method_description_, 1);
+  solve_form->addRow(tr("Solver method"), method_row);
+  shadow_level_ = new QDoubleSpinBox(this);
+  shadow_level_->setObjectName("shadowLevel");
+  shadow_level_->setDecimals(4);
+  shadow_level_->setRange(0, 0.2);
+  shadow_level_->setSingleStep(0.001);
+  shadow_level_->setValue(defaults.solver.min_sample_value);
+  shadow_level_->setToolTip(
+      tr("A sample at or below this (linear, fraction of the sensor range) is taken as shadowed "
+         "and left out; 0 keeps every sample (plain least squares)."));
+  auto* shadow_row = new QHBoxLayout;
+  shadow_row->addWidget(shadow_level_);
+  shadow_row->addWidget(new QLabel(tr("of the sensor range; samples at or below are shadowed and left out "
+                                      "(default %1, 0 = keep all)")
+                                       .arg(defaults.solver.min_sample_value),
+                                   this),
+                        1);
+  solve_form->addRow(tr("Shadow level"), shadow_row);
   calibration_ = new QLineEdit(this);
   calibration_->setObjectName("calibrationFolder");
   calibration_->setPlaceholderText(tr("none: the session's rig description"));
@@ -85,9 +143,11 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   resolve_->setObjectName("resolveSession");
   resume_ = new QPushButton(tr("Resume capture"), this);
   resume_->setObjectName("resumeSession");
+  export_ = new QPushButton(tr("Export…"), this);
+  export_->setObjectName("exportSelectedResult");
   auto* cancel = new QPushButton(tr("Cancel"), this);
   auto* buttons = new QHBoxLayout;
-  for (QPushButton* button : {open_, resolve_, resume_, cancel}) buttons->addWidget(button);
+  for (QPushButton* button : {open_, resolve_, export_, resume_, cancel}) buttons->addWidget(button);
   buttons->addStretch();
   progress_ = new QProgressBar(this);
   progress_->setRange(0, 1000);
@@ -119,6 +179,10 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   connect(results_, &QListWidget::itemDoubleClicked, this,
           [this](QListWidgetItem* item) { emit OpenResult(item->data(kPathRole).toString()); });
   connect(resolve_, &QPushButton::clicked, this, &SessionsPage::Resolve);
+  connect(export_, &QPushButton::clicked, this, &SessionsPage::ExportSelectedResult);
+  auto describe_method = [this] { method_description_->setText(method_->currentData(Qt::ToolTipRole).toString()); };
+  connect(method_, &QComboBox::currentIndexChanged, this, describe_method);
+  describe_method();
   connect(resume_, &QPushButton::clicked, this, [this] {
     const fs::path session = SelectedSession();
     if (!session.empty()) emit ResumeCapture(QString::fromStdString(session.string()));
@@ -205,6 +269,7 @@ void SessionsPage::ShowResults() {
   const QTreeWidgetItem* current = sessions_->currentItem();
   resume_->setEnabled(current && current->text(kState) == tr("interrupted"));
   resolve_->setEnabled(current && current->text(kState) == tr("complete"));
+  export_->setEnabled(results_->count() > 0);
 }
 
 void SessionsPage::Resolve() {
@@ -213,8 +278,7 @@ void SessionsPage::Resolve() {
     SetStatus(tr("Select a session first."), true);
     return;
   }
-  SolveOptions options;
-  options.calibration_dir = calibration_->text().trimmed().toStdString();
+  const SolveOptions options = SolveOptionsFromWidgets();
   try {
     options.Check();
   } catch (const std::exception& error) {
@@ -224,7 +288,8 @@ void SessionsPage::Resolve() {
   auto controller = std::make_shared<SolveController>(session, options);
   solving_ = true;
   progress_->setValue(0);
-  SetStatus(tr("Solving %1 into a new result folder…").arg(QString::fromStdString(session.string())));
+  SetStatus(tr("Solving %1 (%2) into a new result folder…")
+                .arg(QString::fromStdString(session.string()), method_->currentText()));
   const bool started = runner_->Start(
       controller, tr("Solve"), [this, controller, session](ControllerRunner::Outcome outcome, const QString& message) {
         solving_ = false;
@@ -246,10 +311,35 @@ void SessionsPage::Resolve() {
   }
 }
 
+void SessionsPage::SetCalibrationSet(const QString& calibration_dir) { calibration_->setText(calibration_dir); }
+
+SolveOptions SessionsPage::SolveOptionsFromWidgets() const {
+  SolveOptions options;
+  options.solver.method = PhotometricMethodFromName(method_->currentData().toString().toStdString());
+  options.solver.min_sample_value = shadow_level_->value();
+  options.calibration_dir = calibration_->text().trimmed().toStdString();
+  return options;
+}
+
+ExportDialog* SessionsPage::ExportSelectedResult() {
+  const QListWidgetItem* item = results_->currentItem();
+  if (!item) {
+    SetStatus(tr("Select a session and one of its result folders to export."), true);
+    return nullptr;
+  }
+  auto* dialog = new ExportDialog(runner_, item->data(kPathRole).toString().toStdString(), this);
+  dialog->setAttribute(Qt::WA_DeleteOnClose);
+  dialog->show();
+  return dialog;
+}
+
 void SessionsPage::LoadSettings() {
   QSettings settings;
   const QString root = settings.value("sessions/root").toString();
   calibration_->setText(settings.value("sessions/calibration").toString());
+  const int method = method_->findData(settings.value("sessions/method", method_->currentData()));
+  if (method >= 0) method_->setCurrentIndex(method);
+  shadow_level_->setValue(settings.value("sessions/shadow_level", shadow_level_->value()).toDouble());
   if (!root.isEmpty()) SetRoot(root);
 }
 
@@ -257,6 +347,8 @@ void SessionsPage::SaveSettings() const {
   QSettings settings;
   settings.setValue("sessions/root", root_->text());
   settings.setValue("sessions/calibration", calibration_->text());
+  settings.setValue("sessions/method", method_->currentData());
+  settings.setValue("sessions/shadow_level", shadow_level_->value());
 }
 
 }  // namespace scanbench

@@ -4,9 +4,12 @@
 #pragma once
 
 #include <QWidget>
-
 #include <filesystem>
 
+#include "app/controllers/solve_controller.h"
+
+class QComboBox;
+class QDoubleSpinBox;
 class QLabel;
 class QLineEdit;
 class QListWidget;
@@ -17,6 +20,7 @@ class QTreeWidget;
 namespace scanbench {
 
 class ControllerRunner;
+class ExportDialog;
 
 class SessionsPage : public QWidget {
   Q_OBJECT
@@ -29,6 +33,13 @@ class SessionsPage : public QWidget {
   bool SelectSession(const QString& session_dir);
   void LoadSettings();
   void SaveSettings() const;
+  // The solve's options as the form sets them (method, shadow level,
+  // calibration set); not checked.
+  SolveOptions SolveOptionsFromWidgets() const;
+  // The calibration set the next re-solve uses ("" = the session's rig).
+  void SetCalibrationSet(const QString& calibration_dir);
+  // Opens the export dialog for the selected result folder (nullptr if none).
+  ExportDialog* ExportSelectedResult();
 
  signals:
   void OpenResult(const QString& result_dir);
@@ -48,6 +59,10 @@ class SessionsPage : public QWidget {
   QTreeWidget* sessions_;
   QListWidget* results_;
   QLineEdit* calibration_;
+  QComboBox* method_;
+  QLabel* method_description_;
+  QDoubleSpinBox* shadow_level_;
+  QPushButton* export_;
   QPushButton* open_;
   QPushButton* resolve_;
   QPushButton* resume_;

@@ -8,6 +8,8 @@
 #include <QLineEdit>
 #include <QPushButton>
 #include <QRegularExpression>
+#include <QScopeGuard>
+#include <QSemaphore>
 #include <QSettings>
 #include <QSpinBox>
 #include <QTemporaryDir>
@@ -106,20 +108,42 @@ class GuiScanTest : public QObject {
     Find<QCheckBox>("checkExposure")->setChecked(false);  // keeps the test short; the CLI tests cover it
     QVERIFY(Find<QPushButton>("startCapture")->isEnabled());
 
-    // Cancel through the button once a few frames are in.
+    // Cancel through the button once three frames are in. The capture
+    // reports "capture" i/11 before taking frame i; the worker is held right
+    // after that report until the button was clicked, so the stop lands
+    // before frame 3 however loaded the machine is.
+    constexpr int kFramesBeforeCancel = 3;
+    const double cancel_at = double(kFramesBeforeCancel) / 11;
+    QSemaphore clicked;
+    bool held = false;
+    window_->runner()->SetWorkerProgressHook([&](const QString& stage, double fraction) {
+      if (held || stage != "capture" || fraction < cancel_at - 1e-9) return;
+      held = true;
+      clicked.tryAcquire(1, 60000);
+    });
+    bool cancel_clicked = false;
     auto cancel_early = connect(window_->runner(), &ControllerRunner::Progress, this,
-                                [this](const QString& stage, double fraction) {
-                                  if (stage == "capture" && fraction >= 0.25 && fraction < 1) {
-                                    QPushButton* cancel = Find<QPushButton>("cancelCapture");
-                                    if (cancel->isEnabled()) QTest::mouseClick(cancel, Qt::LeftButton);
-                                  }
+                                [&](const QString& stage, double fraction) {
+                                  if (cancel_clicked || stage != "capture" || fraction < cancel_at - 1e-9) return;
+                                  cancel_clicked = true;
+                                  QPushButton* cancel = Find<QPushButton>("cancelCapture");
+                                  if (!cancel->isEnabled()) qWarning("cancelCapture is disabled mid-capture");
+                                  QTest::mouseClick(cancel, Qt::LeftButton);
+                                  clicked.release();
                                 });
-    QCOMPARE(ClickAndWait("startCapture"), ControllerRunner::Outcome::kCancelled);
-    disconnect(cancel_early);
+    {
+      // Dropped however this ends: both capture locals by reference.
+      const auto drop_hooks = qScopeGuard([&] {
+        disconnect(cancel_early);
+        window_->runner()->SetWorkerProgressHook({});
+      });
+      QCOMPARE(ClickAndWait("startCapture"), ControllerRunner::Outcome::kCancelled);
+    }
+    QVERIFY(cancel_clicked);
     QVERIFY(Find<QLabel>("captureStatus")->text().contains("cancelled"));
     Session partial = LoadSession(session.toStdString(), SessionLoadOptions{.verify_checksums = false});
     QVERIFY(!partial.capture_complete);
-    QVERIFY(partial.frames.size() < 11);
+    QCOMPARE(partial.frames.size(), size_t(kFramesBeforeCancel));  // the dark frame and LEDs 0, 1
     QVERIFY(Find<QPushButton>("resumeCapture")->isEnabled());
 
     // The UI thread stays free during the run: thumbnails appear while it goes on.
@@ -131,8 +155,10 @@ class GuiScanTest : public QObject {
             window_->findChildren<QLabel*>(QRegularExpression("^thumbnail_")).size());
       }
     });
-    QCOMPARE(ClickAndWait("resumeCapture"), ControllerRunner::Outcome::kSucceeded);
-    disconnect(watch);
+    {
+      const auto drop_watch = qScopeGuard([&] { disconnect(watch); });
+      QCOMPARE(ClickAndWait("resumeCapture"), ControllerRunner::Outcome::kSucceeded);
+    }
     QVERIFY2(thumbnails_while_running > int(partial.frames.size()),
              qPrintable(QString::number(thumbnails_while_running)));
     const Session complete = LoadSession(session.toStdString());
@@ -189,6 +215,26 @@ class GuiScanTest : public QObject {
     results->light_pad()->SetDirectionXY(QPointF(0.7, 0));
     const QImage from_right = results->view()->image();
     QVERIFY(from_left != from_right);
+
+    // The GGX lobe through its checkbox: only adds light, and somewhere a lot.
+    auto* specular = Find<QCheckBox>("relightSpecular");
+    QVERIFY(specular->isVisible());
+    QVERIFY(!specular->isChecked());
+    QTest::mouseClick(specular, Qt::LeftButton, {}, QPoint(8, specular->height() / 2));
+    QVERIFY(specular->isChecked());
+    QVERIFY(results->relight_shading().specular);
+    const QImage glossy = results->view()->image();
+    QCOMPARE(glossy.size(), from_right.size());
+    int darker = 0, brightest_gain = 0;
+    for (int y = 0; y < glossy.height(); ++y)
+      for (int x = 0; x < glossy.width(); ++x) {
+        const int gain = qGreen(glossy.pixel(x, y)) - qGreen(from_right.pixel(x, y));
+        darker += gain < 0;
+        brightest_gain = std::max(brightest_gain, gain);
+      }
+    QCOMPARE(darker, 0);
+    QVERIFY2(brightest_gain > 20, qPrintable(QString::number(brightest_gain)));
+    results->SetRelightShading(RelightShading());
   }
 
   void ResolvesFromTheSessionsPage() {

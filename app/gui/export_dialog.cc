@@ -1,0 +1,198 @@
+#include "app/gui/export_dialog.h"
+
+#include <QCheckBox>
+#include <QComboBox>
+#include <QDesktopServices>
+#include <QDialogButtonBox>
+#include <QFormLayout>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QLineEdit>
+#include <QPlainTextEdit>
+#include <QPointer>
+#include <QProgressBar>
+#include <QPushButton>
+#include <QSettings>
+#include <QUrl>
+#include <QVBoxLayout>
+
+#include "app/gui/controller_runner.h"
+
+namespace scanbench {
+
+ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path result_dir, QWidget* parent)
+    : QDialog(parent), runner_(runner), result_dir_(std::move(result_dir)) {
+  setObjectName("exportDialog");
+  setWindowTitle(tr("Export maps"));
+  const ExportOptions defaults;
+
+  auto* source = new QLabel(tr("Result: %1").arg(QString::fromStdString(result_dir_.string())), this);
+  source->setWordWrap(true);
+  source->setTextInteractionFlags(Qt::TextSelectableByMouse);
+
+  auto* form = new QFormLayout;
+  preset_ = new QComboBox(this);
+  preset_->setObjectName("exportPreset");
+  preset_->addItem(tr("exr — linear 32-bit float OpenEXR"), int(ExportOptions::Preset::kLinearExr));
+  preset_->addItem(tr("png16 — 16-bit PNG (linear; plus an sRGB albedo preview)"), int(ExportOptions::Preset::kPng16));
+  preset_->addItem(tr("tiff16 — 16-bit TIFF (linear; plus an sRGB albedo preview)"), int(ExportOptions::Preset::kTiff16));
+  preset_->setCurrentIndex(preset_->findData(int(defaults.preset)));
+  form->addRow(tr("Preset"), preset_);
+  convention_ = new QComboBox(this);
+  convention_->setObjectName("normalConvention");
+  convention_->addItem(tr("OpenGL (+Y up: Blender, Substance, Unity)"), int(ExportOptions::NormalConvention::kOpenGl));
+  convention_->addItem(tr("DirectX (+Y down: Unreal, 3ds Max)"), int(ExportOptions::NormalConvention::kDirectX));
+  convention_->setCurrentIndex(convention_->findData(int(defaults.normal_convention)));
+  form->addRow(tr("Normal map"), convention_);
+  flatten_ = new QCheckBox(tr("Flatten: take the sample's low-frequency slope out of the normals"), this);
+  flatten_->setObjectName("flattenNormals");
+  flatten_->setChecked(defaults.flatten_normals);
+  form->addRow(QString(), flatten_);
+  tileable_ = new QCheckBox(tr("Also write a seamless tileable crop of every map"), this);
+  tileable_->setObjectName("tileable");
+  tileable_->setChecked(defaults.tileable);
+  form->addRow(QString(), tileable_);
+  material_name_ = new QLineEdit(this);
+  material_name_->setObjectName("materialName");
+  material_name_->setPlaceholderText(tr("from the sample name"));
+  form->addRow(tr("Material name"), material_name_);
+
+  start_ = new QPushButton(tr("Export"), this);
+  start_->setObjectName("startExport");
+  start_->setDefault(true);
+  cancel_ = new QPushButton(tr("Cancel export"), this);
+  cancel_->setObjectName("cancelExport");
+  cancel_->setEnabled(false);
+  open_folder_ = new QPushButton(tr("Open export folder"), this);
+  open_folder_->setObjectName("openExportFolder");
+  open_folder_->setEnabled(false);
+  auto* close = new QPushButton(tr("Close"), this);
+  auto* buttons = new QHBoxLayout;
+  for (QPushButton* button : {start_, cancel_, open_folder_}) buttons->addWidget(button);
+  buttons->addStretch();
+  buttons->addWidget(close);
+
+  progress_ = new QProgressBar(this);
+  progress_->setRange(0, 1000);
+  progress_->setTextVisible(false);
+  stage_ = new QLabel(this);
+  status_ = new QLabel(this);
+  status_->setObjectName("exportStatus");
+  status_->setWordWrap(true);
+  status_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  summary_ = new QPlainTextEdit(this);
+  summary_->setObjectName("exportSummary");
+  summary_->setReadOnly(true);
+  QFont mono("monospace");
+  mono.setStyleHint(QFont::Monospace);
+  mono.setPointSize(8);
+  summary_->setFont(mono);
+
+  auto* layout = new QVBoxLayout(this);
+  layout->addWidget(source);
+  layout->addLayout(form);
+  layout->addLayout(buttons);
+  layout->addWidget(progress_);
+  layout->addWidget(stage_);
+  layout->addWidget(status_);
+  layout->addWidget(summary_, 1);
+  resize(640, 520);
+
+  QSettings settings;
+  settings.beginGroup("export");
+  for (auto [combo, key] : {std::pair{preset_, "preset"}, std::pair{convention_, "convention"}}) {
+    const int index = combo->findData(settings.value(key, combo->currentData()));
+    if (index >= 0) combo->setCurrentIndex(index);
+  }
+  tileable_->setChecked(settings.value("tileable", tileable_->isChecked()).toBool());
+  flatten_->setChecked(settings.value("flatten", flatten_->isChecked()).toBool());
+
+  connect(start_, &QPushButton::clicked, this, &ExportDialog::StartExport);
+  connect(cancel_, &QPushButton::clicked, this, [this] {
+    if (exporting_) runner_->Cancel();
+  });
+  connect(close, &QPushButton::clicked, this, &QDialog::close);
+  connect(open_folder_, &QPushButton::clicked, this,
+          [this] { QDesktopServices::openUrl(QUrl::fromLocalFile(QString::fromStdString(export_dir_.string()))); });
+  connect(runner_, &ControllerRunner::Progress, this, [this](const QString& stage, double fraction) {
+    if (!exporting_) return;
+    progress_->setValue(int(fraction * 1000));
+    stage_->setText(stage);
+  });
+}
+
+ExportOptions ExportDialog::OptionsFromWidgets() const {
+  ExportOptions options;
+  options.preset = ExportOptions::Preset(preset_->currentData().toInt());
+  options.normal_convention = ExportOptions::NormalConvention(convention_->currentData().toInt());
+  options.tileable = tileable_->isChecked();
+  options.flatten_normals = flatten_->isChecked();
+  options.material_name = material_name_->text().trimmed().toStdString();
+  return options;
+}
+
+void ExportDialog::SetStatus(const QString& text, bool error) {
+  status_->setText(text);
+  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+}
+
+void ExportDialog::StartExport() {
+  const ExportOptions options = OptionsFromWidgets();
+  try {
+    options.Check();
+  } catch (const std::exception& error) {
+    SetStatus(tr("Export options: %1").arg(error.what()), true);
+    return;
+  }
+  QSettings settings;
+  settings.beginGroup("export");
+  settings.setValue("preset", preset_->currentData());
+  settings.setValue("convention", convention_->currentData());
+  settings.setValue("tileable", tileable_->isChecked());
+  settings.setValue("flatten", flatten_->isChecked());
+
+  auto controller = std::make_shared<ExportController>(result_dir_, options);
+  exporting_ = true;
+  progress_->setValue(0);
+  summary_->clear();
+  SetStatus(tr("Exporting into a new folder under the session's exports/…"));
+  // The operator may close the dialog (deleting it) while the export runs;
+  // the export then finishes on its own and the status bar tells its end.
+  const QPointer<ExportDialog> alive(this);
+  const bool started = runner_->Start(
+      controller, tr("Export"), [this, alive, controller](ControllerRunner::Outcome outcome, const QString& message) {
+        if (!alive) return;
+        exporting_ = false;
+        start_->setEnabled(true);
+        cancel_->setEnabled(false);
+        if (outcome == ControllerRunner::Outcome::kSucceeded) {
+          const ExportSummary& summary = controller->summary();
+          export_dir_ = summary.export_dir;
+          progress_->setValue(1000);
+          QString text = tr("Exported %1 files into %2")
+                             .arg(summary.files.size())
+                             .arg(QString::fromStdString(export_dir_.string()));
+          if (summary.height_rms_error_mm) {
+            text += tr("; height error vs ground truth %1 mm RMS").arg(*summary.height_rms_error_mm, 0, 'f', 4);
+          }
+          SetStatus(text + '.');
+          summary_->setPlainText(QString::fromStdString(summary.FullReport()));
+          open_folder_->setEnabled(true);
+          emit Exported(QString::fromStdString(export_dir_.string()));
+        } else if (outcome == ControllerRunner::Outcome::kCancelled) {
+          progress_->setValue(0);
+          SetStatus(tr("Export cancelled; no export folder was left."), true);
+        } else {
+          SetStatus(tr("Export failed: %1").arg(message), true);
+        }
+      });
+  if (!started) {
+    exporting_ = false;
+    SetStatus(tr("%1 is running; export when it has finished").arg(runner_->job_name()), true);
+    return;
+  }
+  start_->setEnabled(false);
+  cancel_->setEnabled(true);
+}
+
+}  // namespace scanbench

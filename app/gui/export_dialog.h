@@ -1,0 +1,64 @@
+// Export of one result folder (issue #7's ExportController): the preset
+// (linear EXR, 16-bit PNG or TIFF), the normal map's convention (OpenGL +Y up
+// or DirectX +Y down), an optional tileable crop and the material name; runs
+// through the window's ControllerRunner with progress and Cancel, then shows
+// the new export folder and the export's summary (the height error against
+// ground truth for a simulated session).
+#pragma once
+
+#include <QDialog>
+#include <filesystem>
+
+#include "app/controllers/export_controller.h"
+
+class QCheckBox;
+class QComboBox;
+class QLabel;
+class QLineEdit;
+class QPlainTextEdit;
+class QProgressBar;
+class QPushButton;
+
+namespace scanbench {
+
+class ControllerRunner;
+
+class ExportDialog : public QDialog {
+  Q_OBJECT
+
+ public:
+  ExportDialog(ControllerRunner* runner, std::filesystem::path result_dir, QWidget* parent = nullptr);
+
+  const std::filesystem::path& result_dir() const { return result_dir_; }
+  ExportOptions OptionsFromWidgets() const;
+  // The folder the last export wrote; empty before one succeeded.
+  const std::filesystem::path& export_dir() const { return export_dir_; }
+
+ signals:
+  void Exported(const QString& export_dir);
+
+ public slots:
+  void StartExport();
+
+ private:
+  void SetStatus(const QString& text, bool error = false);
+
+  ControllerRunner* runner_;
+  std::filesystem::path result_dir_;
+  std::filesystem::path export_dir_;
+  QComboBox* preset_;
+  QComboBox* convention_;
+  QCheckBox* tileable_;
+  QCheckBox* flatten_;
+  QLineEdit* material_name_;
+  QPushButton* start_;
+  QPushButton* cancel_;
+  QPushButton* open_folder_;
+  QProgressBar* progress_;
+  QLabel* stage_;
+  QLabel* status_;
+  QPlainTextEdit* summary_;
+  bool exporting_ = false;
+};
+
+}  // namespace scanbench
