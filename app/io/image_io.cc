@@ -182,6 +182,10 @@ void RequireInteger(const fs::path& path, const OIIO::ImageSpec& spec, int max_b
   }
 }
 
+// zlib level 1: a 16 MP 16-bit normal map writes in 7.7 s instead of 30 s
+// at the default level, for 12 % more bytes (44 MB instead of 39 MB).
+constexpr int kPngCompressionLevel = 1;
+
 }  // namespace
 
 void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
@@ -209,6 +213,7 @@ void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
 void WritePng(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {
   CheckWritable(path, image, "PNG", 4);
   OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT16);
+  spec.attribute("png:compressionLevel", kPngCompressionLevel);
   AddMetadata(path, metadata, FileFormat::kPng, spec);
   WriteAtomically(path, "png", spec, image.data(), policy);
 }
@@ -216,6 +221,7 @@ void WritePng(const fs::path& path, const ImageU16& image, OverwritePolicy polic
 void WritePng(const fs::path& path, const ImageU8& image, OverwritePolicy policy, const ImageMetadata& metadata) {
   CheckWritable(path, image, "PNG", 4);
   OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT8);
+  spec.attribute("png:compressionLevel", kPngCompressionLevel);
   AddMetadata(path, metadata, FileFormat::kPng, spec);
   WriteAtomically(path, "png", spec, image.data(), policy);
 }
