@@ -1,7 +1,5 @@
 #include "app/gui/bench.h"
 
-#include <algorithm>
-#include <cmath>
 #include <optional>
 #include <stdexcept>
 #include <vector>
@@ -47,7 +45,6 @@ Bench::Bench(const BenchOptions& options) : options_(options) {
     } else {
       lit = [lights = lights_.get()]() { return lights->Status().lit_led; };
     }
-    lit_led_ = lit;
     auto camera = std::make_unique<SimulatedCamera>(sim_rig_, lit);
     sim_camera_ = camera.get();
     camera_ = std::move(camera);
@@ -69,20 +66,7 @@ Bench::Bench(const BenchOptions& options) : options_(options) {
 
 RawImage Bench::PreviewRaw() {
   if (!sim_camera_) throw std::logic_error("Bench::PreviewRaw: only the simulated camera gives its RAW preview");
-  // SimulatedCamera::Capture's rendering without its side effects (capture
-  // count, events): the frame index is the preview's own, far from a capture's.
-  RawImage raw = sim_rig_->RenderFrame(lit_led_(), (uint64_t(1) << 40) + preview_count_++);
-  const double scale = sim_camera_->SignalScale();
-  if (std::abs(scale - 1.0) < 1e-12) return raw;
-  for (int y = 0; y < raw.height(); ++y) {
-    uint16_t* row = raw.mosaic.row(y);
-    for (int x = 0; x < raw.width(); ++x) {
-      const double black = raw.BlackAt(x, y);
-      row[x] = static_cast<uint16_t>(
-          std::lround(std::clamp(black + (row[x] - black) * scale, 0.0, double(raw.white_level))));
-    }
-  }
-  return raw;
+  return sim_camera_->PreviewRaw();
 }
 
 // Lights and camera go before the board and rig they talk to.

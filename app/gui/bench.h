@@ -4,9 +4,7 @@
 // the pages drive it, the controllers use its lights and camera.
 #pragma once
 
-#include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -53,9 +51,9 @@ class Bench {
   // Whether PreviewRaw() can give the RAW data behind a live-view frame: the
   // simulated camera only (a DSLR's live view is a JPEG).
   bool has_raw_preview() const { return sim_camera_ != nullptr; }
-  // The RAW frame the simulated camera would take now (the lit LED, its
-  // exposure settings, clipped at the white level), for the live view's
-  // clipping. Same thread rule as camera(). Throws std::logic_error without
+  // The RAW frame the simulated camera's next capture would take now
+  // (SimulatedCamera::PreviewRaw: the lit LED, its exposure settings,
+  // clipped at the white level), for the live view's clipping. Same thread rule as camera(). Throws std::logic_error without
   // has_raw_preview().
   RawImage PreviewRaw();
 
@@ -66,8 +64,6 @@ class Bench {
   std::unique_ptr<LightController> lights_;
   std::unique_ptr<Camera> camera_;
   SimulatedCamera* sim_camera_ = nullptr;  // camera_ when simulated
-  std::function<std::optional<int>()> lit_led_;  // the simulated camera's question
-  uint64_t preview_count_ = 0;
   RigDescription rig_;
   LightFirmwareInfo firmware_;
   CameraDeviceInfo camera_info_;

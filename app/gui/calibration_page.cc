@@ -266,10 +266,11 @@ CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices,
   connect(cancel_, &QPushButton::clicked, this, [this] {
     if (running_ != kNoJob) runner_->Cancel();
   });
-  connect(runner_, &ControllerRunner::Progress, this, [this](const QString& stage, double fraction) {
+  connect(runner_, &ControllerRunner::Progress, this,
+          [this](const QString& stage, double fraction, const QString& detail) {
     if (running_ == kNoJob) return;
     progress_->setValue(int(fraction * 1000));
-    stage_->setText(tr("%1: %2 %").arg(stage).arg(int(fraction * 100)));
+    stage_->setText(ProgressText(stage, detail, fraction));
   });
   connect(runner_, &ControllerRunner::Started, this, &CalibrationPage::UpdateButtons);
   connect(runner_, &ControllerRunner::Finished, this, &CalibrationPage::UpdateButtons);

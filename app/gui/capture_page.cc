@@ -126,10 +126,11 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   connect(solve_, &QPushButton::clicked, this, &CapturePage::Solve);
   connect(folder_, &QLineEdit::textChanged, this, &CapturePage::UpdateButtons);
   connect(devices_, &DevicesPage::BenchChanged, this, &CapturePage::UpdateButtons);
-  connect(runner_, &ControllerRunner::Progress, this, [this](const QString& stage, double fraction) {
+  connect(runner_, &ControllerRunner::Progress, this,
+          [this](const QString& stage, double fraction, const QString& detail) {
     if (!capturing_ && !solving_) return;
     progress_->setValue(int(fraction * 1000));
-    stage_->setText(tr("%1: %2 %").arg(stage).arg(int(fraction * 100)));
+    stage_->setText(ProgressText(stage, detail, fraction));
   });
   connect(runner_, &ControllerRunner::Started, this, &CapturePage::UpdateButtons);
   connect(runner_, &ControllerRunner::Finished, this, &CapturePage::UpdateButtons);

@@ -4,10 +4,24 @@
 #include <QDeadlineTimer>
 #include <QThread>
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 
 namespace scanbench {
+
+StageText SplitStageText(const QString& stage_and_detail) {
+  const qsizetype bar = stage_and_detail.indexOf(u'|');
+  if (bar < 0) return {stage_and_detail, QString()};
+  return {stage_and_detail.left(bar).trimmed(), stage_and_detail.mid(bar + 1).trimmed()};
+}
+
+QString ProgressText(const QString& stage, const QString& detail, double fraction) {
+  QString text = stage;
+  if (fraction >= 0) text += QStringLiteral(": %1 %").arg(int(std::clamp(fraction, 0.0, 1.0) * 100));
+  if (!detail.isEmpty()) text += QStringLiteral(" — ") + detail;
+  return text;
+}
 
 ControllerRunner::ControllerRunner(QObject* parent) : QObject(parent) {}
 
@@ -28,8 +42,9 @@ bool ControllerRunner::Start(std::shared_ptr<BaseController> controller, const Q
   message_.clear();
 
   // Progress comes from the worker thread, often thousands of times per
-  // stage: only a new stage or a visible step (half a percent) is sent, so
-  // the UI thread's queue never floods.
+  // stage: only a new stage or detail or a visible step (half a percent) is
+  // sent, so the UI thread's queue never floods (a detail changes per item
+  // done, as the batch's "3/20 done", not per pixel).
   auto last_stage = std::make_shared<std::string>();
   auto last_fraction = std::make_shared<double>(-1);
   controller_->SetProgressCallback([this, last_stage, last_fraction, hook = worker_hook_](
@@ -38,9 +53,9 @@ bool ControllerRunner::Start(std::shared_ptr<BaseController> controller, const Q
     *last_stage = stage;
     *last_fraction = fraction;
     // Emitted on the worker: Qt queues it to the runner's (UI) thread.
-    const QString stage_name = QString::fromStdString(stage);
-    emit Progress(stage_name, fraction);
-    if (hook) hook(stage_name, fraction);
+    const StageText text = SplitStageText(QString::fromStdString(stage));
+    emit Progress(text.stage, fraction, text.detail);
+    if (hook) hook(text.stage, fraction);
   });
 
   BaseController* job = controller_.get();

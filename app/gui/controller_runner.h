@@ -29,6 +29,17 @@ class FunctionController : public BaseController {
   std::function<void()> work_;
 };
 
+// A controller's stage text may carry a detail after the first '|', as the
+// CLI's progress bar reads it: "solve sessions|3/20 done, ETA 01:12".
+struct StageText {
+  QString stage;   // "solve sessions"
+  QString detail;  // "3/20 done, ETA 01:12"; empty without a '|'
+};
+StageText SplitStageText(const QString& stage_and_detail);
+// For a label: "solve sessions: 15 % — 3/20 done, ETA 01:12"; the percentage
+// is left out for a negative fraction, the dash and detail for an empty one.
+QString ProgressText(const QString& stage, const QString& detail, double fraction = -1);
+
 class ControllerRunner : public QObject {
   Q_OBJECT
 
@@ -53,8 +64,9 @@ class ControllerRunner : public QObject {
   // Shared, so that such work may outlive the runner at shutdown.
   std::shared_ptr<std::mutex> device_mutex() const { return device_mutex_; }
   // Called on the worker thread right after each Progress signal was sent
-  // (same thread as the controller's progress report): a test can hold the
-  // job at an exact point until the UI has acted on that signal.
+  // (same thread as the controller's progress report), with the signal's
+  // stage and fraction: a test can hold the job at an exact point until the
+  // UI has acted on that signal.
   using WorkerProgressHook = std::function<void(const QString& stage, double fraction)>;
   void SetWorkerProgressHook(WorkerProgressHook hook) { worker_hook_ = std::move(hook); }
   // Blocks until the running job has ended and its callbacks ran (tests,
@@ -63,8 +75,10 @@ class ControllerRunner : public QObject {
 
  signals:
   void Started(const QString& job_name);
-  // fraction of `stage` done, [0, 1].
-  void Progress(const QString& stage, double fraction);
+  // fraction of `stage` done, [0, 1]; the controller's stage text split by
+  // SplitStageText (a slot may take the first two arguments only). Sent for
+  // a new stage or detail and for each visible step (half a percent).
+  void Progress(const QString& stage, double fraction, const QString& detail);
   void Finished(scanbench::ControllerRunner::Outcome outcome, const QString& message);
 
  private:

@@ -114,10 +114,11 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   connect(close, &QPushButton::clicked, this, &QDialog::close);
   connect(open_folder_, &QPushButton::clicked, this,
           [this] { QDesktopServices::openUrl(QUrl::fromLocalFile(QString::fromStdString(export_dir_.string()))); });
-  connect(runner_, &ControllerRunner::Progress, this, [this](const QString& stage, double fraction) {
+  connect(runner_, &ControllerRunner::Progress, this,
+          [this](const QString& stage, double fraction, const QString& detail) {
     if (!exporting_) return;
     progress_->setValue(int(fraction * 1000));
-    stage_->setText(stage);
+    stage_->setText(ProgressText(stage, detail));
   });
 }
 

@@ -135,12 +135,14 @@ int ScreenshotTour(MainWindow& window, const QString& output_dir, QSize sim_size
   }
   if (results->ShowLayer(ResultLayer::kRelight)) {
     results->light_pad()->SetDirectionXY(QPointF(-0.6, 0.45));
+    results->WaitForRelight(60000);
     results->view()->ZoomBy(2.0, QPointF(results->view()->width() / 2.0, results->view()->height() / 2.0));
     ok = Save(window, dir, "results-relight") && ok;
     RelightShading glossy;
     glossy.specular = true;
     glossy.roughness = 0.35;
     results->SetRelightShading(glossy);
+    results->WaitForRelight(60000);
     ok = Save(window, dir, "results-relight-ggx") && ok;
     results->SetRelightShading(RelightShading());
   }

@@ -47,8 +47,9 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
     job_label_->setText(tr("%1…").arg(name));
     job_progress_->setValue(0);
   });
-  connect(runner_, &ControllerRunner::Progress, this, [this](const QString& stage, double fraction) {
-    job_label_->setText(tr("%1: %2").arg(runner_->job_name(), stage));
+  connect(runner_, &ControllerRunner::Progress, this,
+          [this](const QString& stage, double fraction, const QString& detail) {
+    job_label_->setText(tr("%1: %2").arg(runner_->job_name(), ProgressText(stage, detail)));
     job_progress_->setValue(int(fraction * 1000));
   });
   connect(runner_, &ControllerRunner::Finished, this,

@@ -203,13 +203,15 @@ RelightMaps LoadRelightMaps(const fs::path& dir) {
   return maps;
 }
 
-QImage Relight(const RelightMaps& maps, double lx, double ly, double lz, const RelightShading& shading) {
+QImage Relight(const RelightMaps& maps, double lx, double ly, double lz, const RelightShading& shading,
+               const std::atomic<bool>* stop) {
   shading.Check();
   const ImageF& n = maps.normal;
   const Eigen::Vector3d light(lx, ly, lz);
   const Eigen::Vector3d view(0, 0, 1);  // the camera looks straight down on the table
   QImage image(n.width(), n.height(), QImage::Format_RGB32);
   for (int y = 0; y < n.height(); ++y) {
+    if (stop != nullptr && stop->load(std::memory_order_relaxed)) return QImage();
     auto* line = reinterpret_cast<QRgb*>(image.scanLine(y));
     for (int x = 0; x < n.width(); ++x) {
       const Eigen::Vector3d normal(n(x, y, 0), n(x, y, 1), n(x, y, 2));

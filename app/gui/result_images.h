@@ -8,6 +8,7 @@
 #include <QString>
 #include <QStringList>
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -69,7 +70,10 @@ struct RelightMaps {
 RelightMaps LoadRelightMaps(const std::filesystem::path& result_dir);
 // ShadeRelight for a distant light l (unit) seen from straight above,
 // albedo scaled by albedo_scale, sRGB-encoded. Throws if `shading` fails Check().
-QImage Relight(const RelightMaps& maps, double lx, double ly, double lz, const RelightShading& shading = {});
+// `stop` (optional) is read once per row: when it is set the render gives up
+// and returns a null image.
+QImage Relight(const RelightMaps& maps, double lx, double ly, double lz, const RelightShading& shading = {},
+               const std::atomic<bool>* stop = nullptr);
 
 // A small preview of a RAW frame: 2x2 Bayer tiles to one RGB pixel, black
 // subtracted, gamma for display, at most `max_width` wide. Throws naming the file.

@@ -17,6 +17,7 @@
 #include "app/gui/colour_legend.h"
 #include "app/gui/export_dialog.h"
 #include "app/gui/image_view.h"
+#include "app/gui/relight_renderer.h"
 
 namespace scanbench {
 
@@ -115,11 +116,20 @@ ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   });
   connect(layer_, &QComboBox::currentIndexChanged, this, &ResultsPage::ShowSelectedLayer);
   connect(pad_, &LightPad::DirectionChanged, this, &ResultsPage::UpdateRelight);
+  renderer_ = new RelightRenderer(RelightRendererOptions(), this);
+  connect(renderer_, &RelightRenderer::Rendered, this, [this](const QImage& image) {
+    // A render that ends after the operator switched maps must not cover the map shown.
+    if (layer_->currentIndex() >= 0 && ResultLayer(layer_->currentData().toInt()) == ResultLayer::kRelight) {
+      view_->SetImage(image, true);
+    }
+  });
+  connect(renderer_, &RelightRenderer::Failed, this,
+          [this](const QString& message) { status_->setText(tr("Cannot relight: %1").arg(message)); });
   auto rerender = [this] {
     roughness_->setEnabled(specular_->isChecked());
     f0_->setEnabled(specular_->isChecked());
     const QPointF xy = pad_->direction_xy();
-    if (pad_->isVisible()) pad_->SetDirectionXY(xy);  // renders through UpdateRelight
+    if (pad_->isVisible()) pad_->SetDirectionXY(xy);  // requests a render through UpdateRelight
   };
   connect(specular_, &QCheckBox::toggled, this, rerender);
   connect(roughness_, &QDoubleSpinBox::valueChanged, this, rerender);
@@ -174,6 +184,7 @@ bool ResultsPage::OpenResult(const QString& dir) {
   result_dir_ = std::filesystem::path(dir.toStdString());
   folder_->setText(dir);
   relight_.reset();
+  renderer_->SetMaps(nullptr);
   const QList<ResultLayer> layers = AvailableLayers(result_dir_);
   {
     const QSignalBlocker block(layer_);
@@ -213,9 +224,12 @@ void ResultsPage::ShowSelectedLayer() {
   legend_->setVisible(false);
   try {
     if (relight) {
-      if (!relight_) relight_ = LoadRelightMaps(result_dir_);
+      if (!relight_) {
+        relight_ = std::make_shared<const RelightMaps>(LoadRelightMaps(result_dir_));
+        renderer_->SetMaps(relight_);
+      }
       const QPointF xy = pad_->direction_xy();
-      pad_->SetDirectionXY(xy);  // renders through UpdateRelight
+      pad_->SetDirectionXY(xy);  // requests a render through UpdateRelight
     } else {
       const LayerImage shown = LoadResultLayerImage(result_dir_, layer);
       view_->SetImage(shown.image, true);
@@ -230,10 +244,12 @@ void ResultsPage::ShowSelectedLayer() {
   }
 }
 
+bool ResultsPage::WaitForRelight(int timeout_ms) { return renderer_->WaitUntilIdle(timeout_ms); }
+
 void ResultsPage::UpdateRelight(double x, double y, double z) {
   if (!relight_) return;
   try {
-    view_->SetImage(Relight(*relight_, x, y, z, relight_shading()), true);
+    renderer_->Request(x, y, z, relight_shading());
   } catch (const std::exception& error) {  // an exception must not leave a Qt slot
     status_->setText(tr("Cannot relight: %1").arg(error.what()));
   }

@@ -7,7 +7,7 @@
 #include <QWidget>
 
 #include <filesystem>
-#include <optional>
+#include <memory>
 
 #include "app/gui/result_images.h"
 
@@ -26,6 +26,7 @@ class ControllerRunner;
 class ExportDialog;
 class ImageView;
 class LightPad;
+class RelightRenderer;
 
 class ResultsPage : public QWidget {
   Q_OBJECT
@@ -47,6 +48,11 @@ class ResultsPage : public QWidget {
   void SetRelightShading(const RelightShading& shading);
   // Opens the export dialog for the shown result (nullptr without one).
   ExportDialog* OpenExportDialog();
+  // The relight is rendered on a worker (RelightRenderer) and painted when
+  // it arrives; this processes events until the last light position's image
+  // is shown (tests, the screenshot tour). True if it is.
+  bool WaitForRelight(int timeout_ms);
+  RelightRenderer* relight_renderer() const { return renderer_; }
 
  private:
   void ShowSelectedLayer();
@@ -67,7 +73,8 @@ class ResultsPage : public QWidget {
   QPushButton* export_;
   QPlainTextEdit* summary_;
   QLabel* status_;
-  std::optional<RelightMaps> relight_;
+  std::shared_ptr<const RelightMaps> relight_;  // loaded when the relight is first shown
+  RelightRenderer* renderer_;
 };
 
 }  // namespace scanbench

@@ -129,7 +129,7 @@ double SimulatedCamera::SignalScale() const {
          f_ratio * f_ratio;
 }
 
-std::optional<int> SimulatedCamera::ReadLitLed() {
+std::optional<int> SimulatedCamera::ReadLitLed() const {
   std::optional<int> led;
   try {
     led = lit_led_();
@@ -189,10 +189,13 @@ CapturedFrame SimulatedCamera::Capture() {
   return frame;
 }
 
+RawImage SimulatedCamera::PreviewRaw() const {
+  return Render(ReadLitLed(), options_.first_frame_index + capture_count_);
+}
+
 PreviewFrame SimulatedCamera::CapturePreview() {
-  const std::optional<int> led = ReadLitLed();
   PreviewFrame preview;
-  preview.bytes = EncodePreviewPpm(Render(led, options_.first_frame_index + capture_count_));
+  preview.bytes = EncodePreviewPpm(PreviewRaw());
   preview.mime_type = "image/x-portable-pixmap";
   preview.extension = ".ppm";
   preview.time = std::chrono::system_clock::now();

@@ -51,7 +51,7 @@ class SimulatedCamera : public Camera {
   // Throws CameraError: kIo when the callback fails, kNotSupported when it
   // names an LED the rig does not have.
   CapturedFrame Capture() override;
-  // The same rendering as a small PPM.
+  // PreviewRaw() as a small PPM.
   PreviewFrame CapturePreview() override;
   void StopPreview() override {}
   std::vector<CameraEvent> DrainEvents(std::chrono::milliseconds wait) override;
@@ -63,10 +63,16 @@ class SimulatedCamera : public Camera {
   std::optional<int> last_lit_led() const { return last_lit_led_; }
   // Factor applied to the rig's signal at the current settings.
   double SignalScale() const;
+  // The RAW frame the next Capture() would take now, sample for sample: the
+  // LED lit at the call, the current settings, the next capture's noise; but
+  // no capture is counted, no event queued and no exposure time waited. For
+  // a live view that judges clipping on what the capture will record. Throws
+  // CameraError as Capture() does.
+  RawImage PreviewRaw() const;
 
  private:
   RawImage Render(std::optional<int> led, uint64_t frame_index) const;
-  std::optional<int> ReadLitLed();
+  std::optional<int> ReadLitLed() const;
 
   std::shared_ptr<const SimulatedRig> rig_;
   LitLedCallback lit_led_;

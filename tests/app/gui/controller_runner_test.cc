@@ -1,9 +1,11 @@
 // The runner keeps jobs off the UI thread: progress arrives there as
-// signals, Cancel ends a job through RequestStop, failures carry the message.
+// signals (a stage's "|detail" apart), Cancel ends a job through RequestStop,
+// failures carry the message.
 #include "app/gui/controller_runner.h"
 
 #include <QCoreApplication>
 #include <QElapsedTimer>
+#include <QStringList>
 #include <QTest>
 #include <QThread>
 
@@ -30,6 +32,18 @@ class SteppingController : public BaseController {
  private:
   int steps_;
   int pause_ms_;
+};
+
+// Reports the batch controller's way: the stage, then after '|' a detail
+// that changes per item while the fraction barely moves.
+class DetailedController : public BaseController {
+ public:
+  void Run() override {
+    ReportProgress("check results|1/3", 0.001);
+    ReportProgress("check results|2/3", 0.002);
+    ReportProgress("solve sessions|3/20 done, ETA 01:12", 0.15);
+    ReportProgress("write summary", 1.0);
+  }
 };
 
 }  // namespace
@@ -67,6 +81,39 @@ class ControllerRunnerTest : public QObject {
     QVERIFY(all_on_ui_thread);
     QVERIFY(calls >= 10);
     QCOMPARE(last, 1.0);
+  }
+
+  void StageDetailArrivesApartAndIsShownAfterTheStage() {
+    ControllerRunner runner;
+    QStringList shown;
+    QStringList hooked;
+    runner.SetWorkerProgressHook([&](const QString& stage, double) { hooked << stage; });
+    connect(&runner, &ControllerRunner::Progress, this,
+            [&](const QString& stage, double fraction, const QString& detail) {
+              shown << ProgressText(stage, detail, fraction);
+            });
+    QVERIFY(runner.Start(std::make_shared<DetailedController>(), "Batch"));
+    QVERIFY(runner.Wait(5000));
+    // A new detail is sent even when the fraction moved less than the step.
+    const QStringList expected = {"check results: 0 % — 1/3", "check results: 0 % — 2/3",
+                                  "solve sessions: 15 % — 3/20 done, ETA 01:12", "write summary: 100 %"};
+    QCOMPARE(shown, expected);
+    QCOMPARE(hooked, QStringList({"check results", "check results", "solve sessions", "write summary"}));
+  }
+
+  void StageTextSplitsAtTheFirstBar() {
+    const StageText batch = SplitStageText("solve sessions|3/20 done, ETA 01:12");
+    QCOMPARE(batch.stage, QStringLiteral("solve sessions"));
+    QCOMPARE(batch.detail, QStringLiteral("3/20 done, ETA 01:12"));
+    const StageText plain = SplitStageText("frame 3");
+    QCOMPARE(plain.stage, QStringLiteral("frame 3"));
+    QVERIFY(plain.detail.isEmpty());
+    const StageText two_bars = SplitStageText("export|a|b");
+    QCOMPARE(two_bars.stage, QStringLiteral("export"));
+    QCOMPARE(two_bars.detail, QStringLiteral("a|b"));
+    QCOMPARE(ProgressText("solve", "3/20 done", -1), QStringLiteral("solve — 3/20 done"));
+    QCOMPARE(ProgressText("solve", "", 0.5), QStringLiteral("solve: 50 %"));
+    QCOMPARE(ProgressText("solve", "", 1.7), QStringLiteral("solve: 100 %"));
   }
 
   void CancelEndsTheJobWithJobCancelled() {

@@ -202,6 +202,7 @@ class GuiScanTest : public QObject {
     for (ResultLayer layer : {ResultLayer::kAlbedo, ResultLayer::kNormal, ResultLayer::kStatus,
                               ResultLayer::kResidual, ResultLayer::kRelight}) {
       QVERIFY2(results->ShowLayer(layer), qPrintable(ResultLayerName(layer)));
+      QVERIFY(results->WaitForRelight(30000));  // the relight is rendered on a worker
       QCOMPARE(results->view()->image().size(), QSize(320, 212));
     }
     const double zoom = results->view()->zoom();
@@ -211,8 +212,10 @@ class GuiScanTest : public QObject {
     // Relight: a light from the left brightens left-facing slopes only; the
     // picture changes when the light moves.
     results->light_pad()->SetDirectionXY(QPointF(-0.7, 0));
+    QVERIFY(results->WaitForRelight(30000));
     const QImage from_left = results->view()->image();
     results->light_pad()->SetDirectionXY(QPointF(0.7, 0));
+    QVERIFY(results->WaitForRelight(30000));
     const QImage from_right = results->view()->image();
     QVERIFY(from_left != from_right);
 
@@ -223,6 +226,7 @@ class GuiScanTest : public QObject {
     QTest::mouseClick(specular, Qt::LeftButton, {}, QPoint(8, specular->height() / 2));
     QVERIFY(specular->isChecked());
     QVERIFY(results->relight_shading().specular);
+    QVERIFY(results->WaitForRelight(30000));
     const QImage glossy = results->view()->image();
     QCOMPARE(glossy.size(), from_right.size());
     int darker = 0, brightest_gain = 0;

@@ -137,6 +137,50 @@ TEST(SimulatedCamera, ExposureSettingsScaleTheSignalAndAreRecorded) {
   EXPECT_EQ(camera.GetSetting(CameraSetting::kIso).current, "160");
 }
 
+// Raw samples that differ between two frames of the same size.
+int DifferingSamples(const RawImage& a, const RawImage& b) {
+  int differing = 0;
+  for (int y = 0; y < a.height(); ++y) {
+    for (int x = 0; x < a.width(); ++x) differing += a.mosaic(x, y) != b.mosaic(x, y);
+  }
+  return differing;
+}
+
+TEST(SimulatedCamera, PreviewRawIsTheNextCaptureSampleForSample) {
+  const std::shared_ptr<const SimulatedRig> rig = FlatRig();
+  const int led = RightAndLeftLeds(*rig).first;
+  std::optional<int> lit = led;
+  SimulatedCameraOptions options;
+  options.first_frame_index = 7;
+  SimulatedCamera camera(rig, [&lit] { return lit; }, options);
+  // Twice the reference exposure: the preview carries the exposure scaling
+  // and the clipping at the white level.
+  camera.SetSetting(CameraSetting::kShutter, "1/30");
+
+  const RawImage preview = camera.PreviewRaw();
+  EXPECT_EQ(camera.capture_count(), 0u);
+  EXPECT_TRUE(camera.DrainEvents(std::chrono::milliseconds(0)).empty());
+  const RawImage captured = DecodeRaw(camera.Capture().bytes, "first");
+  ASSERT_EQ(preview.width(), captured.width());
+  ASSERT_EQ(preview.height(), captured.height());
+  EXPECT_EQ(preview.white_level, captured.white_level);
+  EXPECT_EQ(preview.black_level, captured.black_level);
+  EXPECT_EQ(DifferingSamples(preview, captured), 0);
+  EXPECT_NEAR(MeanSignal(preview, 0, rig->width()) / MeanSignal(rig->RenderFrame(led, 7), 0, rig->width()), 2.0,
+              0.02);
+
+  // After a capture the preview is the following one's, with its own noise,
+  // and follows the LED lit now.
+  lit.reset();
+  const RawImage dark_preview = camera.PreviewRaw();
+  const RawImage dark = DecodeRaw(camera.Capture().bytes, "dark");
+  EXPECT_EQ(DifferingSamples(dark_preview, dark), 0);
+  EXPECT_LT(MeanSignal(dark, 0, rig->width()), MeanSignal(captured, 0, rig->width()) / 10);
+
+  lit = rig->num_leds();
+  EXPECT_THROW(camera.PreviewRaw(), CameraError);
+}
+
 TEST(SimulatedCamera, CallbackFailuresAndUnknownLedsAreCameraErrors) {
   const std::shared_ptr<const SimulatedRig> rig = FlatRig();
   SimulatedCamera failing(rig, []() -> std::optional<int> { throw std::runtime_error("board stopped"); });
