@@ -63,15 +63,12 @@ int Simulate(const fs::path& session_dir, const SimulateOptions& options) {
   return code;
 }
 
-// The demo's export: the export defaults (png16, OpenGL normals, DCT height).
-ExportOptions DemoExportOptions() { return ExportOptions(); }
-
 struct DemoState {
   fs::path output = "scanbench-demo";
   SimulateOptions simulate;
   SolveOptions solve;
   bool export_maps = true;   // derived maps (issue #7), png16 with OpenGL normals
-  ExportOptions export_options = DemoExportOptions();
+  ExportOptions export_options;  // the defaults: png16, OpenGL normals, DCT height
 };
 
 int Demo(const DemoState& state) {

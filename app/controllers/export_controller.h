@@ -33,8 +33,9 @@ struct ExportOptions {
   bool flatten_normals = true;          // take out low-frequency slope before everything derived
   bool tileable = false;                // also write a seamless tileable crop of every map
   NormalFlatteningOptions flattening;
-  // DCT: the relaxation's least-squares answer (3e-5 mm apart in the tests) at
-  // about 1/12 of its time. mm_per_pixel is overwritten with the export's scale.
+  // DCT: the relaxation's least-squares answer (1.5e-4 mm RMS apart on 5.7 mm
+  // in the tests) in a fraction of its time. mm_per_pixel is overwritten with
+  // the export's scale.
   HeightFromNormalsOptions height{HeightFromNormalsOptions::Method::kDctPoisson};
   AmbientOcclusionOptions occlusion;    // ditto
   CavityOptions cavity;                 // ditto

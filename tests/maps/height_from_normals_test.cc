@@ -15,6 +15,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "tests/util/option_check.h"
 
 namespace scanbench {
 namespace {
@@ -455,41 +456,33 @@ TEST(HeightFromNormals, HeightScalesWithThePixelPitch) {
 }
 
 TEST(HeightFromNormalsOptions, CheckNamesTheField) {
-  auto expect_rejected = [](const HeightFromNormalsOptions& options, const std::string& field) {
-    try {
-      options.Check();
-      ADD_FAILURE() << field << " accepted";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_THAT(e.what(), HasSubstr("HeightFromNormalsOptions." + field));
-    }
-  };
   HeightFromNormalsOptions options;
   EXPECT_NO_THROW(options.Check());
   options.mm_per_pixel = 0;
-  expect_rejected(options, "mm_per_pixel");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.mm_per_pixel");
   options = {};
   options.mm_per_pixel = std::nan("");
-  expect_rejected(options, "mm_per_pixel");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.mm_per_pixel");
   options = {};
   options.max_sweeps_per_level = 0;
-  expect_rejected(options, "max_sweeps_per_level");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.max_sweeps_per_level");
   options = {};
   options.tolerance = -1;
-  expect_rejected(options, "tolerance");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.tolerance");
   options = {};
   options.coarsest_level_size = 1;
-  expect_rejected(options, "coarsest_level_size");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.coarsest_level_size");
   options = {};
   options.max_slope = 0;
-  expect_rejected(options, "max_slope");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.max_slope");
   options = {};
   options.over_relaxation = 2;
-  expect_rejected(options, "over_relaxation");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.over_relaxation");
   options.over_relaxation = 0;
-  expect_rejected(options, "over_relaxation");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.over_relaxation");
   options = {};
   options.dct_hole_iterations = -1;
-  expect_rejected(options, "dct_hole_iterations");
+  testing::ExpectCheckRejects(options, "HeightFromNormalsOptions.dct_hole_iterations");
   // HeightFromNormals checks before anything else.
   options = {};
   options.tolerance = -1;

@@ -15,6 +15,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "tests/util/option_check.h"
 
 namespace scanbench {
 namespace {
@@ -317,23 +318,15 @@ TEST(FlattenNormals, NoValidPixelFails) {
 }
 
 TEST(NormalFlatteningOptions, CheckNamesTheField) {
-  auto expect_rejected = [](const NormalFlatteningOptions& options, const std::string& field) {
-    try {
-      options.Check();
-      ADD_FAILURE() << field << " accepted";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_THAT(e.what(), HasSubstr("NormalFlatteningOptions." + field));
-    }
-  };
   NormalFlatteningOptions options;
   EXPECT_NO_THROW(options.Check());
   options.low_pass_sigma_px = 0;
-  expect_rejected(options, "low_pass_sigma_px");
+  testing::ExpectCheckRejects(options, "NormalFlatteningOptions.low_pass_sigma_px");
   options.low_pass_sigma_px = std::nan("");
-  expect_rejected(options, "low_pass_sigma_px");
+  testing::ExpectCheckRejects(options, "NormalFlatteningOptions.low_pass_sigma_px");
   options = {};
   options.max_slope = -1;
-  expect_rejected(options, "max_slope");
+  testing::ExpectCheckRejects(options, "NormalFlatteningOptions.max_slope");
   EXPECT_THROW(FlattenNormals(ImageF(4, 4, 3, 0.0f), nullptr, options, nullptr), std::invalid_argument);
 }
 

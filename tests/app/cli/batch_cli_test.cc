@@ -6,8 +6,6 @@
 
 #include <csignal>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -17,6 +15,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tests/util/command_runner.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -25,28 +24,9 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-CommandResult RunShell(const std::string& command) {
-  CommandResult result;
-  std::FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer;
-  size_t read = 0;
-  while ((read = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), read);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-std::string Quoted(const fs::path& path) { return "'" + path.string() + "'"; }
-
 // Runs scanbench with `arguments` in the folder `cwd`.
 CommandResult RunScanbenchIn(const fs::path& cwd, const std::string& arguments) {
-  return RunShell("cd " + Quoted(cwd) + " && " + Quoted(SCANBENCH_CLI) + " " + arguments);
+  return RunShell("cd " + Quoted(cwd) + " && " + CliCommand(arguments));
 }
 
 std::string ReadText(const fs::path& path) {

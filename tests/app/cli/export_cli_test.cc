@@ -1,8 +1,5 @@
 // `scanbench export` and the demo's export, run as a user runs them.
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -11,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/util/command_runner.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -18,31 +16,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-std::string Quoted(const fs::path& path) {
-  std::string quoted = path.string();
-  quoted.insert(quoted.begin(), '\'');
-  quoted.push_back('\'');
-  return quoted;
-}
-
-CommandResult RunScanbench(const std::string& arguments) {
-  CommandResult result;
-  const std::string command = Quoted(SCANBENCH_CLI) + " " + arguments + " 2>&1";
-  std::FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer;
-  size_t read = 0;
-  while ((read = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), read);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
 
 std::vector<fs::path> Subfolders(const fs::path& folder) {
   std::vector<fs::path> folders;

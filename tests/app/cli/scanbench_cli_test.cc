@@ -6,8 +6,6 @@
 #include <fstream>
 #include <iterator>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <string>
 
@@ -15,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "app/session/session.h"
+#include "tests/util/command_runner.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -24,43 +23,9 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-CommandResult RunShell(const std::string& command) {
-  CommandResult result;
-  std::FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer;
-  size_t read = 0;
-  while ((read = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), read);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-std::string CliCommand(const std::string& arguments) {
-  std::string command = "'";
-  command += SCANBENCH_CLI;
-  command += "' ";
-  command += arguments;
-  return command;
-}
-
-CommandResult RunScanbench(const std::string& arguments) { return RunShell(CliCommand(arguments)); }
-
 std::string ReadText(const fs::path& path) {
   std::ifstream in(path);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-std::string Quoted(const fs::path& path) {
-  std::string quoted = path.string();
-  quoted.insert(quoted.begin(), '\'');
-  quoted.push_back('\'');
-  return quoted;
 }
 
 size_t CountResults(const fs::path& session_dir) {

@@ -52,14 +52,6 @@ std::vector<std::string> Entries(const fs::path& folder) {
   return names;
 }
 
-// The DCT height solver: the relaxation's answer in a fraction of its time,
-// so that the binary stays fast; the relaxation has its own test below.
-ExportOptions Fast() {
-  ExportOptions options;
-  options.height.method = HeightFromNormalsOptions::Method::kDctPoisson;
-  return options;
-}
-
 // One small simulated and solved session shared by every test (about 2 s);
 // tests that damage a result work on their own copy.
 class ExportControllerTest : public ::testing::Test {
@@ -108,7 +100,7 @@ fs::path ExportControllerTest::session_dir_;
 fs::path ExportControllerTest::result_dir_;
 
 TEST_F(ExportControllerTest, ScaleComesFromTheRigAndMatchesTheSimulator) {
-  const ExportSummary summary = Export(Fast());
+  const ExportSummary summary = Export({});
   const Session session = LoadSession(session_dir_, {.verify_checksums = false});
   ASSERT_TRUE(session.ground_truth.has_value());
   // Same definition as the simulator (footprint of the centre pixel on the
@@ -117,7 +109,7 @@ TEST_F(ExportControllerTest, ScaleComesFromTheRigAndMatchesTheSimulator) {
   EXPECT_EQ(summary.mm_per_pixel_source, "session rig at the image centre");
   EXPECT_TRUE(summary.warnings.empty());
 
-  ExportOptions given = Fast();
+  ExportOptions given;
   given.mm_per_pixel = 0.25;
   const ExportSummary fixed = Export(given);
   EXPECT_EQ(fixed.mm_per_pixel, 0.25);
@@ -130,7 +122,7 @@ TEST_F(ExportControllerTest, ScaleComesFromTheRigAndMatchesTheSimulator) {
 
 // Height, flattened normals, occlusion and cavity against the simulator's truth.
 TEST_F(ExportControllerTest, DerivedMapsMatchTheGroundTruth) {
-  const ExportSummary summary = Export(Fast());
+  const ExportSummary summary = Export({});
   const Session session = LoadSession(session_dir_, {.verify_checksums = false});
   const ImageF truth_height = ReadImageFloat(session_dir_ / session.ground_truth->height_file);
   const ImageU8 sample = ReadImageU8(session_dir_ / session.ground_truth->mask_file);
@@ -149,7 +141,7 @@ TEST_F(ExportControllerTest, DerivedMapsMatchTheGroundTruth) {
 
   // Unflattened: the height against the true height itself, folds included,
   // computed here independently from the files.
-  ExportOptions raw = Fast();
+  ExportOptions raw;
   raw.flatten_normals = false;
   raw.preset = ExportOptions::Preset::kLinearExr;
   const ExportSummary unflattened = Export(raw);
@@ -243,7 +235,7 @@ TEST_F(ExportControllerTest, RelaxationHeightMatchesTheDctHeight) {
   ExportOptions relaxation;
   relaxation.height.method = HeightFromNormalsOptions::Method::kMultiresolutionRelaxation;
   relaxation.preset = ExportOptions::Preset::kLinearExr;
-  ExportOptions dct = Fast();
+  ExportOptions dct;
   dct.preset = ExportOptions::Preset::kLinearExr;
   const ExportSummary a = Export(relaxation);
   const ExportSummary b = Export(dct);
@@ -261,7 +253,7 @@ TEST_F(ExportControllerTest, RelaxationHeightMatchesTheDctHeight) {
 }
 
 TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
-  const ExportSummary summary = Export(Fast());
+  const ExportSummary summary = Export({});
   const nlohmann::json manifest = ReadJson(summary.export_dir / "material.json");
   EXPECT_EQ(manifest["schema"], kMaterialManifestSchema);
   EXPECT_EQ(manifest["schema_version"], kMaterialManifestSchemaVersion);
@@ -322,8 +314,8 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
 }
 
 TEST_F(ExportControllerTest, DirectXFlipsTheGreenChannelOnly) {
-  ExportOptions opengl = Fast();
-  ExportOptions directx = Fast();
+  ExportOptions opengl;
+  ExportOptions directx;
   directx.normal_convention = ExportOptions::NormalConvention::kDirectX;
   directx.preset = ExportOptions::Preset::kTiff16;
   const ExportSummary gl = Export(opengl);
@@ -356,7 +348,7 @@ TEST_F(ExportControllerTest, DirectXFlipsTheGreenChannelOnly) {
 }
 
 TEST_F(ExportControllerTest, TileableCropRepeatsWithoutASeam) {
-  ExportOptions options = Fast();
+  ExportOptions options;
   options.tileable = true;
   options.preset = ExportOptions::Preset::kLinearExr;
   const ExportSummary summary = Export(options);
@@ -397,7 +389,7 @@ TEST_F(ExportControllerTest, TileableCropRepeatsWithoutASeam) {
 TEST_F(ExportControllerTest, ReexportWritesANewFolderBesideTheOld) {
   const fs::path result = CopyOfSession();
   auto export_to_session = [&] {  // the default root: <session>/exports
-    ExportController controller(result, Fast());
+    ExportController controller(result, ExportOptions());
     controller.Run();
     return controller.summary();
   };
@@ -415,7 +407,7 @@ TEST_F(ExportControllerTest, MissingOrCorruptInputIsNamedAndLeavesNoExport) {
   const fs::path result = CopyOfSession();
   const fs::path exports = local_ / "exports";
   fs::rename(result / "normal.exr", result / "normal.exr.moved");
-  EXPECT_THAT(ErrorOf([&] { Export(Fast(), result); }), HasSubstr("normal.exr: does not exist"));
+  EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), result); }), HasSubstr("normal.exr: does not exist"));
   EXPECT_FALSE(fs::exists(exports));
   fs::rename(result / "normal.exr.moved", result / "normal.exr");
 
@@ -423,15 +415,15 @@ TEST_F(ExportControllerTest, MissingOrCorruptInputIsNamedAndLeavesNoExport) {
     std::ofstream corrupt(result / "albedo.exr", std::ios::trunc);
     corrupt << "not an image";
   }
-  EXPECT_THAT(ErrorOf([&] { Export(Fast(), result); }), HasSubstr("albedo.exr"));
+  EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), result); }), HasSubstr("albedo.exr"));
   EXPECT_FALSE(fs::exists(exports));
 
   WriteExr(result / "other.exr", ImageF(400, 264, 1, 0.5f), OverwritePolicy::kRefuse);
   fs::remove(result / "albedo.exr");
   fs::rename(result / "other.exr", result / "albedo.exr");
-  EXPECT_THAT(ErrorOf([&] { Export(Fast(), result); }), HasSubstr("albedo.exr: has 1 channels, 3 expected"));
+  EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), result); }), HasSubstr("albedo.exr: has 1 channels, 3 expected"));
 
-  EXPECT_THAT(ErrorOf([&] { Export(Fast(), local_ / "nowhere"); }), HasSubstr("nowhere"));
+  EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), local_ / "nowhere"); }), HasSubstr("nowhere"));
   EXPECT_FALSE(fs::exists(exports));
 }
 
@@ -449,7 +441,7 @@ TEST_F(ExportControllerTest, UnsolvedPixelsAreHolesAndMarkedInTheMask) {
   }
   WritePng(result / "solved_mask.png", solved, OverwritePolicy::kReplace);
   WriteExr(result / "normal.exr", normals, OverwritePolicy::kReplace);
-  ExportOptions options = Fast();
+  ExportOptions options;
   options.preset = ExportOptions::Preset::kLinearExr;
   const ExportSummary summary = Export(options, result);
   const ImageU8 mask = ReadImageU8(summary.export_dir / summary.files.at("mask"));
@@ -474,7 +466,7 @@ TEST_F(ExportControllerTest, UnsolvedPixelsAreHolesAndMarkedInTheMask) {
 TEST_F(ExportControllerTest, CancelLeavesNothingBehind) {
   for (const std::string stop_at : {"height from normals", "write files"}) {
     SCOPED_TRACE(stop_at);
-    ExportOptions options = Fast();
+    ExportOptions options;
     options.output_root = local_ / "exports";
     ExportController controller(result_dir_, options);
     controller.SetProgressCallback([&](const std::string& stage, double fraction) {
@@ -486,10 +478,10 @@ TEST_F(ExportControllerTest, CancelLeavesNothingBehind) {
 }
 
 TEST_F(ExportControllerTest, OptionsAreCheckedAndNamed) {
-  ExportOptions bad_name = Fast();
+  ExportOptions bad_name;
   bad_name.material_name = "my/material";
   EXPECT_THAT(ErrorOf([&] { Export(bad_name); }), HasSubstr("ExportOptions.material_name = 'my/material' must be"));
-  ExportOptions bad_scale = Fast();
+  ExportOptions bad_scale;
   bad_scale.mm_per_pixel = -1;
   EXPECT_THAT(ErrorOf([&] { Export(bad_scale); }), HasSubstr("ExportOptions.mm_per_pixel = -1"));
   EXPECT_EQ(ExportPresetFromName("tiff16"), ExportOptions::Preset::kTiff16);
@@ -497,7 +489,7 @@ TEST_F(ExportControllerTest, OptionsAreCheckedAndNamed) {
   EXPECT_THAT(ErrorOf([] { ExportPresetFromName("jpeg"); }), HasSubstr("'jpeg' must be exr, png16 or tiff16"));
   EXPECT_EQ(NormalConventionFromName("directx"), ExportOptions::NormalConvention::kDirectX);
   EXPECT_THAT(ErrorOf([] { NormalConventionFromName("vulkan"); }), HasSubstr("'vulkan' must be opengl or directx"));
-  ExportOptions named = Fast();
+  ExportOptions named;
   named.material_name = "denim-01";
   const ExportSummary summary = Export(named);
   EXPECT_EQ(summary.files.at("basecolor"), "denim-01/denim-01_basecolor.png");
