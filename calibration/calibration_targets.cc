@@ -4,7 +4,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace {

@@ -11,17 +11,12 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/format.h"
 #include "calibration/camera_model.h"
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace {
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(digits) << value;
-  return text.str();
-}
 
 // The image scaled so that its bright squares sit near 230 of 255: robust to
 // the absolute exposure. A high percentile, not the maximum, so that a few
@@ -189,7 +184,7 @@ std::string CameraCalibrationSummary::BriefReport() const {
 
 CameraCalibrationSummary CalibrateCamera(const CheckerboardTarget& board, const std::vector<CalibrationView>& views,
                                          const CameraCalibrationOptions& options,
-                                         const CalibrationProgress& progress) {
+                                         const ProgressCallback& progress) {
   board.Check();
   options.Check();
   CameraCalibrationSummary summary;
@@ -340,7 +335,7 @@ CameraCalibrationSummary CalibrateCamera(const CheckerboardTarget& board, const 
                       " mm): is the on-table view's board upside down?";
     return summary;
   }
-  summary.termination = CameraCalibrationSummary::Termination::kSuccess;
+  summary.termination = Termination::kSuccess;
   summary.message = "";
   if (progress) progress(1.0);
   return summary;

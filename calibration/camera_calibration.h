@@ -15,10 +15,12 @@
 
 #include <Eigen/Geometry>
 
+#include "core/progress.h"
+#include "core/summary.h"
 #include "calibration/calibration_targets.h"
 #include "calibration/raw_develop.h"
 #include "calibration/rig.h"
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 
@@ -93,10 +95,7 @@ struct CalibrationViewReport {
   Eigen::Isometry3d cam_from_target = Eigen::Isometry3d::Identity();  // when used
 };
 
-struct CameraCalibrationSummary {
-  enum class Termination { kSuccess, kFailure };
-  Termination termination = Termination::kFailure;
-  std::string message;
+struct CameraCalibrationSummary : AlgorithmSummary {
   CameraGeometry camera;                     // intrinsics and cam_from_table
   double reprojection_rms_px = 0;            // over all corners of the used views
   double table_view_rms_px = 0;              // the on-table view's corners under cam_from_table
@@ -105,19 +104,15 @@ struct CameraCalibrationSummary {
   std::vector<CalibrationViewReport> views;  // in input order
   int num_used_views = 0;
 
-  bool IsUsable() const { return termination == Termination::kSuccess; }
   std::string BriefReport() const;
 };
 
-// Called with the fraction done in [0, 1]; returning false cancels (the
-// summary then says so with Termination::kFailure).
-using CalibrationProgress = std::function<bool(double fraction)>;
 
 // Throws std::invalid_argument for bad options or target, or views of
 // different sizes. A calibration that cannot be made (too few usable views,
 // no on-table view) returns Termination::kFailure with the reason.
 CameraCalibrationSummary CalibrateCamera(const CheckerboardTarget& board, const std::vector<CalibrationView>& views,
                                          const CameraCalibrationOptions& options = {},
-                                         const CalibrationProgress& progress = {});
+                                         const ProgressCallback& progress = {});
 
 }  // namespace scanbench

@@ -6,7 +6,7 @@
 #include <Eigen/Core>
 
 #include "calibration/rig.h"
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

@@ -12,6 +12,7 @@
 #include <unsupported/Eigen/NonLinearOptimization>
 #include <unsupported/Eigen/NumericalDiff>
 
+#include "core/format.h"
 #include "calibration/bayer_sampling.h"
 #include "calibration/camera_model.h"
 
@@ -31,12 +32,6 @@ std::invalid_argument FieldError(const std::string& field, T value, const std::s
   std::ostringstream text;
   text << "LightCalibrationOptions." << field << " = " << value << " " << rule;
   return std::invalid_argument(text.str());
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(digits) << value;
-  return text.str();
 }
 
 // ---------------------------------------------------------------------------
@@ -433,7 +428,7 @@ std::string LightCalibrationSummary::BriefReport() const {
 LightCalibrationSummary CalibrateLights(const CameraGeometry& camera, const std::vector<LedDescription>& measured_leds,
                                         const std::vector<WhiteSheetCapture>& sheets,
                                         const LightCalibrationOptions& options,
-                                        const LightCalibrationProgress& progress) {
+                                        const ProgressCallback& progress) {
   options.Check();
   CheckCameraIntrinsics(camera.intrinsics);
   LightCalibrationSummary summary;
@@ -740,7 +735,7 @@ LightCalibrationSummary CalibrateLights(const CameraGeometry& camera, const std:
     summary.selection_reason = figures + ", above model_noise_factor " + Fixed(options.model_noise_factor, 2) +
                                ": the LEDs do not follow the point-source model; the measured per-pixel field is used";
   }
-  summary.termination = LightCalibrationSummary::Termination::kSuccess;
+  summary.termination = Termination::kSuccess;
   return summary;
 }
 

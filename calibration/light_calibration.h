@@ -28,6 +28,8 @@
 
 #include <Eigen/Core>
 
+#include "core/progress.h"
+#include "core/summary.h"
 #include "calibration/calibration_targets.h"
 #include "calibration/raw_image.h"
 #include "calibration/rig.h"
@@ -100,11 +102,8 @@ struct LedPerPixelFit {
   int cells_dropped = 0;     // clipped, dark or outliers, filled from the model
 };
 
-struct LightCalibrationSummary {
-  enum class Termination { kSuccess, kFailure };
+struct LightCalibrationSummary : AlgorithmSummary {
   enum class Choice { kModel, kPerPixel };
-  Termination termination = Termination::kFailure;
-  std::string message;
   int cell_px = 0;
   std::vector<LedModelFit> model;          // per LED
   std::vector<LedPerPixelFit> per_pixel;   // per LED
@@ -114,13 +113,11 @@ struct LightCalibrationSummary {
   std::string selection_reason;
   std::vector<std::string> warnings;
 
-  bool IsUsable() const { return termination == Termination::kSuccess; }
   // The LEDs as the model fitted them, in order.
   std::vector<LedDescription> ModelLeds() const;
   std::string BriefReport() const;
 };
 
-using LightCalibrationProgress = std::function<bool(double fraction)>;
 
 // `camera`: the calibrated camera. `measured_leds`: the starting point (tape-
 // measured positions; axis, mu and intensity may be nominal). `sheets`: at
@@ -131,6 +128,6 @@ using LightCalibrationProgress = std::function<bool(double fraction)>;
 LightCalibrationSummary CalibrateLights(const CameraGeometry& camera, const std::vector<LedDescription>& measured_leds,
                                         const std::vector<WhiteSheetCapture>& sheets,
                                         const LightCalibrationOptions& options = {},
-                                        const LightCalibrationProgress& progress = {});
+                                        const ProgressCallback& progress = {});
 
 }  // namespace scanbench

@@ -2,7 +2,7 @@
 #pragma once
 
 #include "calibration/raw_image.h"
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

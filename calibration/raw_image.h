@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

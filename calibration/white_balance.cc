@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "core/format.h"
 #include "calibration/bayer_sampling.h"
 #include "calibration/camera_model.h"
 
@@ -58,12 +59,6 @@ std::vector<std::pair<int, int>> PatchPixels(const GrayPatch& patch, double heig
     }
   }
   return inside;
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(digits) << value;
-  return text.str();
 }
 
 // Least squares of log v = log s_c + gamma_c log rho + a x + b y over the used
@@ -309,7 +304,7 @@ WhiteBalanceSummary CalibrateWhiteBalance(const GrayChartTarget& chart, const Ca
     }
     summary.leds.push_back(led);
   }
-  summary.termination = WhiteBalanceSummary::Termination::kSuccess;
+  summary.termination = Termination::kSuccess;
   return summary;
 }
 

@@ -20,6 +20,8 @@
 
 #include <Eigen/Core>
 
+#include "core/progress.h"
+#include "core/summary.h"
 #include "calibration/calibration_targets.h"
 #include "calibration/raw_image.h"
 #include "calibration/rig.h"
@@ -72,13 +74,9 @@ struct LedWhiteBalance {
   std::vector<PatchMeasurement> patches;  // in chart order
 };
 
-struct WhiteBalanceSummary {
-  enum class Termination { kSuccess, kFailure };
-  Termination termination = Termination::kFailure;
-  std::string message;
+struct WhiteBalanceSummary : AlgorithmSummary {
   std::vector<LedWhiteBalance> leds;  // in the order of the frames given
 
-  bool IsUsable() const { return termination == Termination::kSuccess; }
   std::string BriefReport() const;
 };
 

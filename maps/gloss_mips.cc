@@ -11,7 +11,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace {
@@ -261,10 +261,10 @@ std::vector<GlossMipLevel> BuildGlossMipChain(const ImageF& normal_in_tangent, c
             << ", 1] clamped (non-finite: base_roughness)";
   }
   if (used == 0) {
-    s.termination = MapTermination::kFailure;
+    s.termination = Termination::kFailure;
     message << "; no valid normal in the map (all levels flat at base_roughness)";
   } else {
-    s.termination = MapTermination::kSuccess;
+    s.termination = Termination::kSuccess;
   }
   s.message = message.str();
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -19,8 +19,9 @@
 #include <utility>
 #include <vector>
 
-#include "maps/map_summary.h"
-#include "solver/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+#include "core/image.h"
 
 namespace scanbench {
 
@@ -44,9 +45,7 @@ struct GlossMipLevel {
   ImageF roughness;              // 1 channel, GGX alpha in [kMinGgxAlpha, 1]
 };
 
-struct GlossMipSummary {
-  MapTermination termination = MapTermination::kFailure;
-  std::string message;
+struct GlossMipSummary : AlgorithmSummary {
   std::string model;
   std::vector<double> mean_roughness;   // per level, over texels with at least one valid source normal
   size_t invalid_normals = 0;           // mip-0 normals that carried no weight (non-finite or zero)

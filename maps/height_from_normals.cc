@@ -12,7 +12,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "solver/field_error.h"
+#include "core/format.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace {
@@ -420,10 +421,6 @@ cv::Mat SolveNeumannPoisson(const cv::Mat& rhs) {
   return solution(cv::Rect(0, 0, w, h)).clone();
 }
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 }  // namespace
 
 void HeightFromNormalsOptions::Check() const {
@@ -470,7 +467,7 @@ HeightFromNormalsOptions::Method HeightMethodFromName(const std::string& name) {
 }
 
 ImageF HeightFromNormals(const ImageF& normal_in_tangent, const ImageU8* valid, const HeightFromNormalsOptions& options,
-                         HeightFromNormalsSummary* summary, const MapProgressCallback& progress) {
+                         HeightFromNormalsSummary* summary, const ProgressCallback& progress) {
   options.Check();
   const auto start = std::chrono::steady_clock::now();
   if (normal_in_tangent.empty() || normal_in_tangent.channels() != 3) {
@@ -520,10 +517,10 @@ ImageF HeightFromNormals(const ImageF& normal_in_tangent, const ImageU8* valid, 
     ++valid_count;
   }
   if (valid_count == 0) {
-    result.termination = MapTermination::kFailure;
+    result.termination = Termination::kFailure;
     result.message = "no valid pixel with a finite normal in the " + std::to_string(width) + "x" +
                      std::to_string(height) + " map; height is all zero";
-    result.seconds = Seconds(start);
+    result.seconds = SecondsSince(start);
     return ImageF(width, height, 1, 0.0f);
   }
   const bool all_valid = valid_count == full.num_pixels();
@@ -676,8 +673,8 @@ ImageF HeightFromNormals(const ImageF& normal_in_tangent, const ImageU8* valid, 
     }
   }
   result.rms_slope_residual = slope_edges > 0 ? std::sqrt(residual_squared / static_cast<double>(slope_edges)) : 0.0;
-  result.termination = cancelled ? MapTermination::kCancelled : MapTermination::kSuccess;
-  result.seconds = Seconds(start);
+  result.termination = cancelled ? Termination::kCancelled : Termination::kSuccess;
+  result.seconds = SecondsSince(start);
 
   char figures[256];
   std::snprintf(figures, sizeof(figures),

@@ -25,8 +25,9 @@
 #include <cstddef>
 #include <string>
 
-#include "maps/map_summary.h"
-#include "solver/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+#include "core/image.h"
 
 namespace scanbench {
 
@@ -46,9 +47,7 @@ const char* HeightMethodName(HeightFromNormalsOptions::Method method);
 // "relaxation" or "dct"; throws std::invalid_argument naming the value otherwise.
 HeightFromNormalsOptions::Method HeightMethodFromName(const std::string& name);
 
-struct HeightFromNormalsSummary {
-  MapTermination termination = MapTermination::kFailure;
-  std::string message;
+struct HeightFromNormalsSummary : AlgorithmSummary {
   std::string method;
   int levels = 0;                    // resolution levels solved (1 for DCT)
   int total_sweeps = 0;
@@ -69,6 +68,6 @@ struct HeightFromNormalsSummary {
 // termination kFailure.
 ImageF HeightFromNormals(const ImageF& normal_in_tangent, const ImageU8* valid,
                          const HeightFromNormalsOptions& options, HeightFromNormalsSummary* summary,
-                         const MapProgressCallback& progress = {});
+                         const ProgressCallback& progress = {});
 
 }  // namespace scanbench

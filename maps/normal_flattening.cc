@@ -11,7 +11,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "solver/field_error.h"
+#include "core/format.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace {
@@ -28,10 +29,6 @@ constexpr double kCoarseSigmaPx = 8.0;
 // is subtracted from the coarse sigma). Below 16 px it blurs at full size.
 int LowPassFactor(double sigma_px) { return std::max(1, static_cast<int>(std::floor(sigma_px / kCoarseSigmaPx))); }
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 }  // namespace
 
 void NormalFlatteningOptions::Check() const {
@@ -44,7 +41,7 @@ void NormalFlatteningOptions::Check() const {
 }
 
 ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid, const NormalFlatteningOptions& options,
-                      NormalFlatteningSummary* summary, const MapProgressCallback& progress) {
+                      NormalFlatteningSummary* summary, const ProgressCallback& progress) {
   options.Check();
   const auto start = std::chrono::steady_clock::now();
   if (normal_in_tangent.empty() || normal_in_tangent.channels() != 3) {
@@ -118,9 +115,9 @@ ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid, con
     result.max_removed_tilt_deg = tilt_max * kDeg;
     return out;
   };
-  auto finish = [&](MapTermination termination, const std::string& message) {
+  auto finish = [&](Termination termination, const std::string& message) {
     result.termination = termination;
-    result.seconds = Seconds(start);
+    result.seconds = SecondsSince(start);
     char figures[200];
     std::snprintf(figures, sizeof(figures),
                   "%zu of %zu pixels valid, sigma %.1f px, removed tilt mean %.3f deg, max %.3f deg, %.2f s",
@@ -131,12 +128,12 @@ ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid, con
 
   if (valid_count == 0) {
     ImageF out = write_normals(nullptr);
-    finish(MapTermination::kFailure, "no valid pixel with a finite normal, nothing flattened: ");
+    finish(Termination::kFailure, "no valid pixel with a finite normal, nothing flattened: ");
     return out;
   }
   if (progress && !progress(0.3)) {
     ImageF out = write_normals(nullptr);
-    finish(MapTermination::kCancelled, "cancelled before the low-pass, normals unchanged: ");
+    finish(Termination::kCancelled, "cancelled before the low-pass, normals unchanged: ");
     return out;
   }
 
@@ -163,11 +160,11 @@ ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid, con
   }
   if (progress && !progress(0.7)) {
     ImageF out = write_normals(nullptr);
-    finish(MapTermination::kCancelled, "cancelled after the low-pass, normals unchanged: ");
+    finish(Termination::kCancelled, "cancelled after the low-pass, normals unchanged: ");
     return out;
   }
   ImageF out = write_normals(&low_pass);
-  finish(MapTermination::kSuccess, "");
+  finish(Termination::kSuccess, "");
   if (progress) progress(1.0);
   return out;
 }

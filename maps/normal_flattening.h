@@ -14,8 +14,9 @@
 #include <cstddef>
 #include <string>
 
-#include "maps/map_summary.h"
-#include "solver/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+#include "core/image.h"
 
 namespace scanbench {
 
@@ -25,9 +26,7 @@ struct NormalFlatteningOptions {
   void Check() const;
 };
 
-struct NormalFlatteningSummary {
-  MapTermination termination = MapTermination::kFailure;
-  std::string message;
+struct NormalFlatteningSummary : AlgorithmSummary {
   size_t valid_pixels = 0;              // pixels that fed the low-pass
   double mean_removed_tilt_deg = 0;     // mean tilt of the removed low-pass normal, valid pixels
   double max_removed_tilt_deg = 0;
@@ -43,6 +42,6 @@ struct NormalFlatteningSummary {
 // input normals (slopes clamped, re-normalised) with termination kCancelled.
 ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid,
                       const NormalFlatteningOptions& options, NormalFlatteningSummary* summary,
-                      const MapProgressCallback& progress = {});
+                      const ProgressCallback& progress = {});
 
 }  // namespace scanbench

@@ -17,8 +17,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "solver/field_error.h"
-#include "solver/parallel_rows.h"
+#include "core/field_error.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 namespace {
@@ -69,7 +69,7 @@ void FillFigures(const ImageF& map, OcclusionSummary* summary) {
 // Rows on threads; a cancel is a false return. progress(0) first, so a stop
 // requested before any work is honoured.
 template <typename Body>
-bool RunRows(int rows, int num_threads, const MapProgressCallback& progress, const Body& body) {
+bool RunRows(int rows, int num_threads, const ProgressCallback& progress, const Body& body) {
   if (progress && !progress(0.0)) return false;
   return scanbench::ParallelRows(rows, num_threads, progress, 0.0, 1.0, body);
 }
@@ -193,7 +193,7 @@ void CavityOptions::Check() const {
 }
 
 ImageF AmbientOcclusionFromHeight(const ImageF& height_mm, const AmbientOcclusionOptions& options,
-                                  OcclusionSummary* summary, const MapProgressCallback& progress) {
+                                  OcclusionSummary* summary, const ProgressCallback& progress) {
   options.Check();
   CheckFiniteHeight(height_mm, "AmbientOcclusionFromHeight");
   const auto start = Clock::now();
@@ -289,12 +289,12 @@ ImageF AmbientOcclusionFromHeight(const ImageF& height_mm, const AmbientOcclusio
   out.radius_px = radius_px;
   out.seconds = SecondsSince(start);
   if (!finished) {
-    out.termination = MapTermination::kCancelled;
+    out.termination = Termination::kCancelled;
     out.message = "ambient occlusion cancelled by the progress callback";
     return ImageF();
   }
   FillFigures(visibility, &out);
-  out.termination = MapTermination::kSuccess;
+  out.termination = Termination::kSuccess;
   std::ostringstream text;
   text << "ambient occlusion of " << width << "x" << rows << " px around the "
        << (pixel_normal ? "pixel" : "table") << " normal: " << num_directions << " directions x "
@@ -340,7 +340,7 @@ ImageF CavityFromHeight(const ImageF& height_mm, const CavityOptions& options, O
   FillFigures(cavity, &out);
   out.radius_px = sigma_px;
   out.seconds = SecondsSince(start);
-  out.termination = MapTermination::kSuccess;
+  out.termination = Termination::kSuccess;
   std::ostringstream text;
   text << "cavity of " << width << "x" << rows << " px: Gaussian sigma " << options.radius_mm << " mm ("
        << sigma_px << " px), 0 at " << options.depth_scale_mm << " mm deep; mean " << out.mean << ", min "

@@ -12,8 +12,9 @@
 #include <cstddef>
 #include <string>
 
-#include "maps/map_summary.h"
-#include "solver/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+#include "core/image.h"
 
 namespace scanbench {
 
@@ -35,9 +36,7 @@ struct CavityOptions {
   void Check() const;
 };
 
-struct OcclusionSummary {
-  MapTermination termination = MapTermination::kFailure;
-  std::string message;
+struct OcclusionSummary : AlgorithmSummary {
   double mean = 0, min = 0, max = 0;   // of the output map
   double seconds = 0;
   int steps_per_direction = 0;         // ambient occlusion only: samples marched per azimuth
@@ -57,7 +56,7 @@ struct OcclusionSummary {
 // options, shapes or non-finite heights, before any work. Returns an empty
 // image with termination kCancelled if `progress` returns false.
 ImageF AmbientOcclusionFromHeight(const ImageF& height_mm, const AmbientOcclusionOptions& options,
-                                  OcclusionSummary* summary, const MapProgressCallback& progress = {});
+                                  OcclusionSummary* summary, const ProgressCallback& progress = {});
 
 // Cavity in [0, 1]: 1 where the point is at or above its neighbourhood
 // mean, falling linearly to 0 at depth_scale_mm below it. The neighbourhood

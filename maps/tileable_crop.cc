@@ -13,7 +13,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace {
@@ -166,7 +166,7 @@ TileableCropSummary MakeTileableCrop(const std::vector<TileableMapInput>& maps, 
   const int width = first.width(), height = first.height();
   const int band = options.blend_width_px;
   summary.blend_width_px = band;
-  auto finish = [&](MapTermination termination, const std::string& message) {
+  auto finish = [&](Termination termination, const std::string& message) {
     summary.termination = termination;
     summary.message = message;
     summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -222,13 +222,13 @@ TileableCropSummary MakeTileableCrop(const std::vector<TileableMapInput>& maps, 
             << band << " px blend band), needs " << SizeText(smallest + band, smallest_h + band)
             << " valid pixels in one window; the maps are " << SizeText(width, height)
             << (valid != nullptr ? " with a valid mask" : "");
-    return finish(MapTermination::kFailure, failure.str());
+    return finish(Termination::kFailure, failure.str());
   }
   if (!fits(tile_w, tile_h)) {
     failure << "a " << SizeText(tile_w, tile_h) << " tile with its " << band << " px blend band needs "
             << SizeText(tile_w + band, tile_h + band) << " valid pixels in one window; the maps are "
             << SizeText(width, height) << (valid != nullptr ? " and no such window is all valid" : "");
-    return finish(MapTermination::kFailure, failure.str());
+    return finish(Termination::kFailure, failure.str());
   }
   summary.tile_width = tile_w;
   summary.tile_height = tile_h;
@@ -329,7 +329,7 @@ TileableCropSummary MakeTileableCrop(const std::vector<TileableMapInput>& maps, 
           << (options.search_position ? ", placed by seam search" : ", centred") << "; wrap difference "
           << summary.wrap_difference << " (plain crop " << summary.naive_wrap_difference << ", interior neighbours "
           << summary.neighbour_difference << ")";
-  return finish(MapTermination::kSuccess, message.str());
+  return finish(Termination::kSuccess, message.str());
 }
 
 }  // namespace scanbench

@@ -19,8 +19,9 @@
 #include <string>
 #include <vector>
 
-#include "maps/map_summary.h"
-#include "solver/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+#include "core/image.h"
 
 namespace scanbench {
 
@@ -43,9 +44,7 @@ struct TileableMapInput {
   TileMapKind kind = TileMapKind::kLinear;
 };
 
-struct TileableCropSummary {
-  MapTermination termination = MapTermination::kFailure;
-  std::string message;
+struct TileableCropSummary : AlgorithmSummary {
   int x0 = 0, y0 = 0;            // top-left of the tile in the source, px
   int tile_width = 0, tile_height = 0;
   int blend_width_px = 0;

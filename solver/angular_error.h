@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

@@ -5,7 +5,7 @@
 
 #include <Eigen/Core>
 
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

@@ -967,11 +967,11 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, Job j
   for (int p = 1; p < kNumSolvePaths; ++p) summary.pixels_by_path[0] -= summary.pixels_by_path[p];
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (cancelled) {
-    summary.termination = PhotometricSolverSummary::Termination::kCancelled;
+    summary.termination = Termination::kCancelled;
     summary.message = "cancelled after " + std::to_string(tiles_done.load()) + " of " + std::to_string(num_tiles) +
                       " tiles";
   } else {
-    summary.termination = PhotometricSolverSummary::Termination::kSuccess;
+    summary.termination = Termination::kSuccess;
   }
   return summary;
 }

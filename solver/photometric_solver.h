@@ -29,7 +29,9 @@
 #include <string>
 #include <vector>
 
-#include "solver/image.h"
+#include "core/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
 #include "solver/light_field.h"
 
 namespace scanbench {
@@ -190,10 +192,7 @@ struct PhotometricSolution {
   ImageU8 solve_path;       // SolvePath per pixel
 };
 
-struct PhotometricSolverSummary {
-  enum class Termination { kSuccess, kCancelled, kFailure };
-  Termination termination = Termination::kFailure;
-  std::string message;
+struct PhotometricSolverSummary : AlgorithmSummary {
   std::string method;                 // PhotometricMethodName of the method that ran
   bool bayer_domain = false;          // solved per raw pixel (SolvePhotometricStereoBayer)
   int num_lights = 0;
@@ -206,12 +205,8 @@ struct PhotometricSolverSummary {
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }
-  bool IsSolutionUsable() const { return termination == Termination::kSuccess; }
   std::string BriefReport() const;
 };
-
-// Called with the fraction done in [0, 1]; returning false cancels the solve.
-using ProgressCallback = std::function<bool(double fraction_done)>;
 
 // Input shapes that do not fit together throw std::invalid_argument before any
 // work; a cancelled solve returns Termination::kCancelled and a partial

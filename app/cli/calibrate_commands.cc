@@ -8,6 +8,7 @@
 #include <sstream>
 #include <vector>
 
+#include "core/format.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/calibration_controllers.h"
@@ -31,12 +32,6 @@ void Guarded(int* exit_code, Function&& function) {
     std::cerr << "scanbench: error: " << error.what() << "\n";
     *exit_code = kExitFailure;
   }
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(digits) << value;
-  return text.str();
 }
 
 // ---------------------------------------------------------------------------

@@ -10,12 +10,11 @@ ProgressBar::ProgressBar(std::FILE* stream) : stream_(stream), interactive_(::is
 
 ProgressBar::~ProgressBar() { Finish(); }
 
-void ProgressBar::Update(const std::string& stage_and_detail, double fraction) {
-  const size_t bar = stage_and_detail.find('|');
-  const std::string stage = stage_and_detail.substr(0, bar);
-  const std::string detail = bar == std::string::npos ? "" : "  " + stage_and_detail.substr(bar + 1);
+void ProgressBar::Update(const ProgressReport& report) {
+  const std::string& stage = report.stage;
+  const std::string detail = report.detail.empty() ? "" : "  " + report.detail;
   std::lock_guard<std::mutex> lock(mutex_);
-  fraction = std::clamp(fraction, 0.0, 1.0);
+  const double fraction = std::clamp(report.fraction, 0.0, 1.0);
   const auto now = std::chrono::steady_clock::now();
   const bool new_stage = stage != stage_;
   if (new_stage) {

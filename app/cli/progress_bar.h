@@ -7,16 +7,18 @@
 #include <mutex>
 #include <string>
 
+#include "core/progress.h"
+
 namespace scanbench {
 
 class ProgressBar {
  public:
   explicit ProgressBar(std::FILE* stream = stderr);
   ~ProgressBar();
-  // Thread-safe; fraction in [0, 1] of the named stage. A stage may carry a
-  // detail after '|' ("solve sessions|7/19 done, ETA 1:20"): it is shown after
-  // the bar and changing it does not start a new stage.
-  void Update(const std::string& stage, double fraction);
+  // Thread-safe; the report's fraction in [0, 1] of its stage. A detail
+  // ("7/19 done, ETA 1:20") is shown after the bar; changing it does not start
+  // a new stage.
+  void Update(const ProgressReport& report);
   // Ends the current line (before printing anything else).
   void Finish();
 

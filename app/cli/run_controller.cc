@@ -19,7 +19,7 @@ void OnInterrupt(int) { g_interrupted = 1; }
 
 int RunController(BaseController& controller) {
   ProgressBar bar;
-  controller.SetProgressCallback([&](const std::string& stage, double fraction) { bar.Update(stage, fraction); });
+  controller.SetProgressCallback([&](const ProgressReport& report) { bar.Update(report); });
   g_interrupted = 0;
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
@@ -46,7 +46,7 @@ int RunController(BaseController& controller) {
   if (!failure) return kExitSuccess;
   try {
     std::rethrow_exception(failure);
-  } catch (const JobCancelled& cancelled) {
+  } catch (const Cancelled& cancelled) {
     std::cerr << "scanbench: " << cancelled.what() << "; nothing was lost (frames and earlier results are intact)\n";
     return kExitCancelled;
   } catch (const std::exception& error) {

@@ -1,46 +1,48 @@
-// A long job: Run() does the work; progress is reported per stage and a stop
-// flag, settable from any thread (Ctrl-C in the CLI, Cancel in the GUI),
-// ends it at the next check with JobCancelled.
+// A long job (after COLMAP's controllers): Run() does the work as a short list
+// of named steps; progress is reported per stage, with an optional detail; a
+// stop flag, settable from any thread (Ctrl-C in the CLI, Cancel in the GUI),
+// ends it at the next check by throwing Cancelled. The CLI and the GUI drive
+// the same controllers.
 #pragma once
 
 #include <atomic>
-#include <functional>
-#include <mutex>
-#include <stdexcept>
 #include <string>
+
+#include "core/cancellation.h"
+#include "core/progress.h"
 
 namespace scanbench {
 
-class JobCancelled : public std::runtime_error {
- public:
-  explicit JobCancelled(const std::string& where) : std::runtime_error("cancelled during " + where) {}
-};
-
 class BaseController {
  public:
-  // stage: short name of what runs now; fraction of that stage done, [0, 1].
-  using ProgressCallback = std::function<void(const std::string& stage, double fraction)>;
-
   virtual ~BaseController() = default;
 
   // Throws on failure with a message naming the file or field at fault, and
-  // JobCancelled after RequestStop().
+  // Cancelled after RequestStop().
   virtual void Run() = 0;
 
   void RequestStop() { stop_requested_ = true; }
   bool IsStopRequested() const { return stop_requested_.load(); }
-  void SetProgressCallback(ProgressCallback callback) { progress_ = std::move(callback); }
+  void SetProgressCallback(ProgressReportCallback callback) { progress_ = std::move(callback); }
 
  protected:
-  void ReportProgress(const std::string& stage, double fraction) const {
-    if (progress_) progress_(stage, fraction);
+  // stage: short name of what runs now; fraction of that stage done, [0, 1];
+  // detail: optional figures for people ("7/19 done, ETA 1:20").
+  void ReportProgress(const std::string& stage, double fraction, const std::string& detail = {}) const {
+    if (progress_) progress_(ProgressReport{stage, detail, fraction});
   }
   void ThrowIfStopRequested(const std::string& stage) const {
-    if (IsStopRequested()) throw JobCancelled(stage);
+    if (IsStopRequested()) throw Cancelled(stage);
   }
-  // A callback for algorithms that report a fraction and stop when it
-  // returns false.
-  std::function<bool(double)> StageCallback(const std::string& stage) const {
+  // Starts a step: reports `stage` at 0 after a stop check. Long steps then
+  // hand StageCallback(stage) to their algorithm.
+  void BeginStage(const std::string& stage) const {
+    ThrowIfStopRequested(stage);
+    ReportProgress(stage, 0);
+  }
+  // A callback for algorithms (core/progress.h): reports the fraction under
+  // `stage` and asks them to stop once a stop was requested.
+  ProgressCallback StageCallback(const std::string& stage) const {
     return [this, stage](double fraction) {
       ReportProgress(stage, fraction);
       return !IsStopRequested();
@@ -49,7 +51,7 @@ class BaseController {
 
  private:
   std::atomic<bool> stop_requested_{false};
-  ProgressCallback progress_;
+  ProgressReportCallback progress_;
 };
 
 }  // namespace scanbench

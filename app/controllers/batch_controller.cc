@@ -17,9 +17,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/format.h"
 #include "app/io/file_util.h"
 #include "app/session/session.h"
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -27,8 +28,6 @@ namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 bool IsSessionFolder(const fs::path& path) {
   std::error_code error;
@@ -93,12 +92,6 @@ std::string Trim(const std::string& text) {
   return text.substr(first, last - first + 1);
 }
 
-std::string Fixed(double value, int digits) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(digits) << value;
-  return out.str();
-}
-
 std::string CsvField(const std::string& text) {
   if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
   std::string quoted = "\"";
@@ -107,15 +100,6 @@ std::string CsvField(const std::string& text) {
     quoted += c;
   }
   return quoted + "\"";
-}
-
-std::string DurationText(double seconds) {
-  const long total = std::lround(std::max(seconds, 0.0));
-  std::ostringstream out;
-  if (total >= 3600) out << total / 3600 << "h";
-  out << std::setw(total >= 3600 ? 2 : 1) << std::setfill('0') << (total / 60) % 60 << ":" << std::setw(2)
-      << total % 60;
-  return out.str();
 }
 
 // Where a SolveController's stage lies in its whole run (rough shares of a solve's time).
@@ -358,8 +342,8 @@ void BatchController::Run() {
   // Check: which sessions already have a result for the same inputs.
   std::vector<size_t> to_solve;
   for (size_t i = 0; i < selected.size(); ++i) {
-    ReportProgress("check results|" + std::to_string(i) + "/" + std::to_string(selected.size()),
-                   double(i) / std::max<size_t>(selected.size(), 1));
+    ReportProgress("check results", double(i) / std::max<size_t>(selected.size(), 1),
+                   std::to_string(i) + "/" + std::to_string(selected.size()));
     if (IsStopRequested()) break;
     BatchSessionResult& result = results[i];
     result.session_dir = selected[i];
@@ -406,8 +390,8 @@ void BatchController::Run() {
     BatchSessionResult& result = results[index];
     const auto start = Clock::now();
     SolveController solve(result.session_dir, solve_options);
-    solve.SetProgressCallback([&, index](const std::string& stage, double fraction) {
-      const double overall = SolveFraction(stage, fraction);
+    solve.SetProgressCallback([&, index](const ProgressReport& report) {
+      const double overall = SolveFraction(report.stage, report.fraction);
       std::lock_guard<std::mutex> lock(mutex);
       if (overall >= 0) fractions[index] = overall;
     });
@@ -427,7 +411,7 @@ void BatchController::Run() {
       if (solved.normal_error_deg) result.normal_error_mean_deg = solved.normal_error_deg->mean;
       result.message = solved.solver.BriefReport();
       for (const std::string& warning : solved.warnings) result.message += "; warning: " + warning;
-    } catch (const JobCancelled& cancelled) {
+    } catch (const Cancelled& cancelled) {
       result.status = BatchSessionResult::Status::kCancelled;
       result.message = std::string(cancelled.what()) + "; no result folder was written";
     } catch (const std::exception& error) {
@@ -461,10 +445,9 @@ void BatchController::Run() {
     const double fraction = done / static_cast<double>(to_solve.size());
     const double elapsed = SecondsSince(solve_start);
     // From the work done so far: finished sessions count whole, running ones by their own progress.
-    const std::string eta = fraction > 0.01 ? DurationText(elapsed * (1 - fraction) / fraction) : "--:--";
-    ReportProgress("solve sessions|" + std::to_string(finished_now) + "/" + std::to_string(to_solve.size()) +
-                       " done, ETA " + eta,
-                   fraction);
+    const std::string eta = fraction > 0.01 ? FormatDuration(elapsed * (1 - fraction) / fraction) : "--:--";
+    ReportProgress("solve sessions", fraction,
+                   std::to_string(finished_now) + "/" + std::to_string(to_solve.size()) + " done, ETA " + eta);
     if (IsStopRequested()) {  // also one requested from the progress callback just now
       std::lock_guard<std::mutex> lock(mutex);
       for (auto& [index, solve] : running) solve->RequestStop();
@@ -492,7 +475,7 @@ void BatchController::Run() {
     summary_.csv_file = csv_file;
     summary_.json_file = json_file;
   }
-  if (summary_.cancelled > 0) throw JobCancelled("batch");
+  if (summary_.cancelled > 0) throw Cancelled("batch");
 }
 
 }  // namespace scanbench

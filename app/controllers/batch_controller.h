@@ -93,7 +93,7 @@ class BatchController : public BaseController {
 
   // A session's failure is recorded in the summary, not thrown. RequestStop()
   // stops the running solves (no partial result folder is left) and starts no
-  // new ones; the summary is written, then JobCancelled is thrown.
+  // new ones; the summary is written, then Cancelled is thrown.
   void Run() override;
   const BatchSummary& summary() const { return summary_; }
 

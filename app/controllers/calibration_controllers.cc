@@ -46,7 +46,7 @@ TargetSession LoadTargetSession(const fs::path& dir, CalibrationTargetDescriptio
   };
   t.dark = decode(*FindDarkFrame(t.session));
   for (size_t k = 0; k < t.session.rig.leds.size(); ++k) {
-    if (controller.IsStopRequested()) throw JobCancelled(stage);
+    if (controller.IsStopRequested()) throw Cancelled(stage);
     t.leds.push_back(decode(*FindLedFrame(t.session, static_cast<int>(k))));
   }
   return t;

@@ -106,7 +106,7 @@ void DatasetController::Run() {
 
   start = Clock::now();
   const DatasetSolveResult result = SolveDataset(dataset, options_.solver, StageCallback("solve"));
-  if (result.solver.termination == PhotometricSolverSummary::Termination::kCancelled) throw JobCancelled("solve");
+  if (result.solver.termination == Termination::kCancelled) throw Cancelled("solve");
   summary_.solver = result.solver;
   summary_.normal_error_deg = result.normal_error_deg;
   summary_.unsolved_in_mask = result.unsolved_in_mask;

@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/format.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
@@ -21,12 +22,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(digits) << value;
-  return text.str();
-}
 
 nlohmann::json StatisticsJson(const ErrorStatistics& s) {
   return {{"pixels", s.num_pixels}, {"mean", s.mean}, {"median", s.median}, {"p95", s.percentile_95}, {"max", s.max}};
@@ -217,7 +212,7 @@ void EdgeErrorController::Run() {
     PhotometricSolution solution;
     const PhotometricSolverSummary solved = SolvePhotometricStereo(options_.solver, input, &solution,
                                                                    StageCallback(stage));
-    if (solved.termination == PhotometricSolverSummary::Termination::kCancelled) throw JobCancelled(stage);
+    if (solved.termination == Termination::kCancelled) throw Cancelled(stage);
 
     EdgeErrorCase result;
     result.name = cases[c].name;

@@ -24,7 +24,7 @@
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
 #include "solver/angular_error.h"
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -102,9 +102,9 @@ std::string MaterialNameFromSample(const std::string& sample_name) {
   return name.empty() ? "material" : name;
 }
 
-void RequireSuccess(MapTermination termination, const std::string& message, const std::string& stage) {
-  if (termination == MapTermination::kCancelled) throw JobCancelled(stage);
-  if (termination != MapTermination::kSuccess) throw std::runtime_error(stage + " failed: " + message);
+void RequireSuccess(Termination termination, const std::string& message, const std::string& stage) {
+  if (termination == Termination::kCancelled) throw Cancelled(stage);
+  if (termination != Termination::kSuccess) throw std::runtime_error(stage + " failed: " + message);
 }
 
 // OpenGL = the solver's tangent frame (+Y up); DirectX flips Y.
@@ -283,7 +283,7 @@ nlohmann::json OptionsJson(const ExportOptions& options) {
 }
 
 nlohmann::json OcclusionJson(const OcclusionSummary& summary) {
-  return {{"termination", MapTerminationName(summary.termination)},
+  return {{"termination", TerminationName(summary.termination)},
           {"message", summary.message},
           {"mean", summary.mean},
           {"min", summary.min},
@@ -298,14 +298,14 @@ nlohmann::json SummariesJson(const ExportSummary& summary) {
   const auto& g = summary.gloss;
   nlohmann::json json = {
       {"flattening",
-       {{"termination", MapTerminationName(f.termination)},
+       {{"termination", TerminationName(f.termination)},
         {"message", f.message},
         {"valid_pixels", f.valid_pixels},
         {"mean_removed_tilt_deg", f.mean_removed_tilt_deg},
         {"max_removed_tilt_deg", f.max_removed_tilt_deg},
         {"seconds", f.seconds}}},
       {"height",
-       {{"termination", MapTerminationName(h.termination)},
+       {{"termination", TerminationName(h.termination)},
         {"message", h.message},
         {"method", h.method},
         {"levels", h.levels},
@@ -318,7 +318,7 @@ nlohmann::json SummariesJson(const ExportSummary& summary) {
       {"occlusion", OcclusionJson(summary.occlusion)},
       {"cavity", OcclusionJson(summary.cavity)},
       {"gloss",
-       {{"termination", MapTerminationName(g.termination)},
+       {{"termination", TerminationName(g.termination)},
         {"message", g.message},
         {"model", g.model},
         {"levels", g.mean_roughness.size()},
@@ -326,7 +326,7 @@ nlohmann::json SummariesJson(const ExportSummary& summary) {
         {"seconds", g.seconds}}}};
   if (summary.tile) {
     const TileableCropSummary& t = *summary.tile;
-    json["tile"] = {{"termination", MapTerminationName(t.termination)},
+    json["tile"] = {{"termination", TerminationName(t.termination)},
                     {"message", t.message},
                     {"x0", t.x0},
                     {"y0", t.y0},
@@ -401,7 +401,7 @@ std::string ExportSummary::FullReport() const {
       << std::setprecision(6) << "  scale:        " << mm_per_pixel << " mm per pixel (" << mm_per_pixel_source
       << ")\n"
       << std::setprecision(3);
-  if (flattening.termination == MapTermination::kSuccess) {
+  if (flattening.termination == Termination::kSuccess) {
     out << "  flattening:   removed low-frequency tilt mean " << flattening.mean_removed_tilt_deg << " deg, max "
         << flattening.max_removed_tilt_deg << " deg over " << flattening.valid_pixels << " px\n";
   } else {
@@ -417,14 +417,14 @@ std::string ExportSummary::FullReport() const {
   for (size_t k = 0; k < gloss.mean_roughness.size() && k < 4; ++k) out << " " << gloss.mean_roughness[k];
   if (gloss.mean_roughness.size() > 4) out << " ... " << gloss.mean_roughness.back();
   out << "\n";
-  if (tile) out << "  tileable crop: " << MapTerminationName(tile->termination) << ": " << tile->message << "\n";
+  if (tile) out << "  tileable crop: " << TerminationName(tile->termination) << ": " << tile->message << "\n";
   if (height_rms_error_mm) {
     out << "  vs ground truth on the sample: height RMS error " << std::setprecision(4) << *height_rms_error_mm
-        << (flattening.termination == MapTermination::kSuccess
+        << (flattening.termination == Termination::kSuccess
                 ? " mm (vs the true normals flattened and integrated alike, best-fit plane removed)"
                 : " mm (vs the true height, best-fit plane removed)");
     if (flattened_normal_mean_error_deg) {
-      out << ", " << (flattening.termination == MapTermination::kSuccess ? "flattened " : "")
+      out << ", " << (flattening.termination == Termination::kSuccess ? "flattened " : "")
           << "normal mean angular error " << std::setprecision(3) << *flattened_normal_mean_error_deg << " deg";
     }
     out << "\n";
@@ -562,8 +562,8 @@ void ExportController::Run() {
                                                   {&cavity, TileMapKind::kLinear},
                                                   {&mips.front().roughness, TileMapKind::kLinear}};
     summary_.tile = MakeTileableCrop(inputs, &valid, options_.tile, &tiles);
-    if (summary_.tile->termination == MapTermination::kCancelled) throw JobCancelled("tileable crop");
-    if (summary_.tile->termination != MapTermination::kSuccess || tiles.size() != inputs.size()) {
+    if (summary_.tile->termination == Termination::kCancelled) throw Cancelled("tileable crop");
+    if (summary_.tile->termination != Termination::kSuccess || tiles.size() != inputs.size()) {
       summary_.warnings.push_back("no tileable crop: " + summary_.tile->message);
       tiles.clear();
     }

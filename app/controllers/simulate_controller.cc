@@ -98,8 +98,8 @@ void SimulateController::Run() {
   try {
     rig_storage.emplace(options_.rig, TextileScene(options_.scene),
                         MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height), StageCallback("prepare scene"));
-  } catch (const RenderCancelled&) {
-    throw JobCancelled("prepare scene");
+  } catch (const Cancelled&) {
+    throw Cancelled("prepare scene");
   }
   const SimulatedRig& rig = *rig_storage;
 
@@ -131,8 +131,8 @@ void SimulateController::Run() {
         ReportProgress("simulate", (i + fraction) / total);
         return !IsStopRequested();
       });
-    } catch (const RenderCancelled&) {
-      throw JobCancelled(stage);  // frames already written stay; a rerun resumes
+    } catch (const Cancelled&) {
+      throw Cancelled(stage);  // frames already written stay; a rerun resumes
     }
 
     FrameRecord record;

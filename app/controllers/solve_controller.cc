@@ -272,7 +272,7 @@ void SolveController::Run() {
   input.light_field = light_field.get();
   PhotometricSolution solution;
   summary_.solver = SolvePhotometricStereo(options_.solver, input, &solution, StageCallback("solve"));
-  if (summary_.solver.termination == PhotometricSolverSummary::Termination::kCancelled) throw JobCancelled("solve");
+  if (summary_.solver.termination == Termination::kCancelled) throw Cancelled("solve");
   end_stage("solve");
   images.clear();
   sample_valid.clear();

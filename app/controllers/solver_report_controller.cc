@@ -7,6 +7,7 @@
 #include <memory>
 #include <sstream>
 
+#include "core/format.h"
 #include "app/io/dataset_io.h"
 #include "app/io/file_util.h"
 #include "app/sim/simulated_rig.h"
@@ -114,12 +115,6 @@ ReportScene DiligentScene(const fs::path& folder) {
   out.mask = dataset.mask;
   out.region = std::move(dataset.mask);
   return out;
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(digits) << value;
-  return out.str();
 }
 
 std::string XmlEscape(const std::string& text) {
@@ -341,7 +336,7 @@ void SolverReportController::Run() {
         input.region = scene.region.empty() ? nullptr : &scene.region;
         solver = SolvePhotometricStereo(options, input, &solution, StageCallback(stage));
       }
-      if (solver.termination == PhotometricSolverSummary::Termination::kCancelled) throw JobCancelled(stage);
+      if (solver.termination == Termination::kCancelled) throw Cancelled(stage);
       SolverReportRow row;
       row.scene = scene.name;
       row.method = label;

@@ -6,17 +6,13 @@
 #include <iomanip>
 #include <sstream>
 
+#include "core/format.h"
+
 namespace scanbench {
 namespace limits = calibration_limits;
 using Mark = QualityFigure::Mark;
 
 namespace {
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(digits) << value;
-  return text.str();
-}
 
 std::string Percent(double fraction, int digits) { return Fixed(100 * fraction, digits) + " %"; }
 

@@ -10,12 +10,6 @@
 
 namespace scanbench {
 
-StageText SplitStageText(const QString& stage_and_detail) {
-  const qsizetype bar = stage_and_detail.indexOf(u'|');
-  if (bar < 0) return {stage_and_detail, QString()};
-  return {stage_and_detail.left(bar).trimmed(), stage_and_detail.mid(bar + 1).trimmed()};
-}
-
 QString ProgressText(const QString& stage, const QString& detail, double fraction) {
   QString text = stage;
   if (fraction >= 0) text += QStringLiteral(": %1 %").arg(int(std::clamp(fraction, 0.0, 1.0) * 100));
@@ -45,17 +39,17 @@ bool ControllerRunner::Start(std::shared_ptr<BaseController> controller, const Q
   // stage: only a new stage or detail or a visible step (half a percent) is
   // sent, so the UI thread's queue never floods (a detail changes per item
   // done, as the batch's "3/20 done", not per pixel).
-  auto last_stage = std::make_shared<std::string>();
-  auto last_fraction = std::make_shared<double>(-1);
-  controller_->SetProgressCallback([this, last_stage, last_fraction, hook = worker_hook_](
-                                       const std::string& stage, double fraction) {
-    if (stage == *last_stage && std::abs(fraction - *last_fraction) < 0.005 && fraction < 1) return;
-    *last_stage = stage;
-    *last_fraction = fraction;
+  auto last = std::make_shared<ProgressReport>(ProgressReport{{}, {}, -1});
+  controller_->SetProgressCallback([this, last, hook = worker_hook_](const ProgressReport& report) {
+    if (report.stage == last->stage && report.detail == last->detail &&
+        std::abs(report.fraction - last->fraction) < 0.005 && report.fraction < 1) {
+      return;
+    }
+    *last = report;
     // Emitted on the worker: Qt queues it to the runner's (UI) thread.
-    const StageText text = SplitStageText(QString::fromStdString(stage));
-    emit Progress(text.stage, fraction, text.detail);
-    if (hook) hook(text.stage, fraction);
+    const QString stage = QString::fromStdString(report.stage);
+    emit Progress(stage, report.fraction, QString::fromStdString(report.detail));
+    if (hook) hook(stage, report.fraction);
   });
 
   BaseController* job = controller_.get();
@@ -64,7 +58,7 @@ bool ControllerRunner::Start(std::shared_ptr<BaseController> controller, const Q
     try {
       job->Run();
       outcome_ = Outcome::kSucceeded;
-    } catch (const JobCancelled& cancelled) {
+    } catch (const Cancelled& cancelled) {
       outcome_ = Outcome::kCancelled;
       message_ = QString::fromStdString(cancelled.what());
     } catch (const std::exception& error) {

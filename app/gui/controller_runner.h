@@ -1,7 +1,7 @@
 // Runs one BaseController at a time on a worker thread, so that the UI never
 // waits for a long job. Progress and the outcome arrive as signals on the
 // thread that owns the runner (the UI thread); Cancel() asks the controller
-// to stop at its next check (it then ends with JobCancelled).
+// to stop at its next check (it then ends with Cancelled).
 #pragma once
 
 #include <QObject>
@@ -29,13 +29,6 @@ class FunctionController : public BaseController {
   std::function<void()> work_;
 };
 
-// A controller's stage text may carry a detail after the first '|', as the
-// CLI's progress bar reads it: "solve sessions|3/20 done, ETA 01:12".
-struct StageText {
-  QString stage;   // "solve sessions"
-  QString detail;  // "3/20 done, ETA 01:12"; empty without a '|'
-};
-StageText SplitStageText(const QString& stage_and_detail);
 // For a label: "solve sessions: 15 % — 3/20 done, ETA 01:12"; the percentage
 // is left out for a negative fraction, the dash and detail for an empty one.
 QString ProgressText(const QString& stage, const QString& detail, double fraction = -1);

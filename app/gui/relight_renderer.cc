@@ -9,7 +9,7 @@
 #include <cmath>
 #include <exception>
 
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 

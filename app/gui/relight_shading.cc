@@ -5,7 +5,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 

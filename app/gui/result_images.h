@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "app/gui/relight_shading.h"
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

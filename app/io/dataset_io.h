@@ -37,7 +37,7 @@
 
 #include <Eigen/Core>
 
-#include "solver/image.h"
+#include "core/image.h"
 #include "solver/light_field.h"
 
 namespace scanbench {

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "app/io/file_util.h"
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

@@ -135,7 +135,7 @@ CameraCalibrationSection CameraSectionFromJson(const JsonField& field) {
   section.board.inner_corners_y = static_cast<int>(corners[1]);
   section.board.square_mm = board.Member("square_mm").Double();
   CameraCalibrationSummary& s = section.summary;
-  s.termination = CameraCalibrationSummary::Termination::kSuccess;
+  s.termination = Termination::kSuccess;
   s.camera = session_internal::CameraGeometryFromJson(field.Member("geometry"));
   s.reprojection_rms_px = field.Member("reprojection_rms_px").Double();
   s.table_view_rms_px = field.Member("table_view_rms_px").Double();
@@ -196,7 +196,7 @@ WhiteBalanceSection WhiteSectionFromJson(const JsonField& field) {
   WhiteBalanceSection section;
   section.date = field.Member("date").String();
   section.targets = TargetsFromJson(field.Member("targets"));
-  section.summary.termination = WhiteBalanceSummary::Termination::kSuccess;
+  section.summary.termination = Termination::kSuccess;
   for (const JsonField& l : field.Member("leds").Elements()) {
     l.ExpectOnlyKeys({"led_index", "id", "gains", "gains_std", "response_exponent", "linearity_rms", "linear_range",
                       "used_patches", "patches"});
@@ -306,7 +306,7 @@ LightsSection LightsSectionFromJson(const JsonField& field, std::vector<FieldFil
                         "field_grid"});
   LightsSection section;
   LightCalibrationSummary& s = section.summary;
-  s.termination = LightCalibrationSummary::Termination::kSuccess;
+  s.termination = Termination::kSuccess;
   section.date = field.Member("date").String();
   section.targets = TargetsFromJson(field.Member("targets"));
   for (const JsonField& sheet : field.Member("sheets").Elements()) {

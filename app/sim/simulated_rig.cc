@@ -14,15 +14,14 @@
 
 #include <Eigen/Geometry>
 
-#include "app/sim/parallel_rows.h"
+#include "core/parallel_for.h"
 #include "calibration/camera_model.h"
 #include "app/sim/split_mix.h"
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 using sim_internal::kSplitMixGamma;
 using sim_internal::Mix64;
-using sim_internal::RenderRows;
 
 namespace {
 
@@ -212,7 +211,7 @@ RigDescription MakeDefaultSimulatedRig(int width, int height) {
 
 // ---------------------------------------------------------------------------
 SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scene, RigDescription rig,
-                           const RenderProgressCallback& progress)
+                           const ProgressCallback& progress)
     : options_(options), scene_(std::move(scene)), rig_(std::move(rig)) {
   options_.Check();
   const CameraIntrinsics& k = rig_.camera.intrinsics;
@@ -252,8 +251,8 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
 
   // Progress: the shadow grid is ~10 % of the work, the ray tracing the rest
   // (undistorting the rays in the calibration library reports nothing).
-  BuildShadowGrid(progress ? RenderProgressCallback([&](double f) { return progress(0.1 * f); })
-                           : RenderProgressCallback());
+  BuildShadowGrid(progress ? ProgressCallback([&](double f) { return progress(0.1 * f); })
+                           : ProgressCallback());
   const ImageF rays = ComputeRayDirectionsInTable(rig_.camera);
 
   // Footprint of a pixel on the table plane at the image centre.
@@ -363,15 +362,14 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
       normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
     }
   };
-  RenderRows(options_.height, NumThreads(), progress, 0.1, 1.0, trace_row);
+  ParallelRowsOrCancel("render", options_.height, NumThreads(), progress, 0.1, 1.0, trace_row);
 }
 
 int SimulatedRig::NumThreads() const {
-  if (options_.num_threads > 0) return options_.num_threads;
-  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return ResolveThreadCount(options_.num_threads);
 }
 
-void SimulatedRig::BuildShadowGrid(const RenderProgressCallback& progress) {
+void SimulatedRig::BuildShadowGrid(const ProgressCallback& progress) {
   // The height is 0 off the sample, so the grid covers the sample only.
   const TextileSceneOptions& so = scene_.options();
   ShadowGrid& g = grid_;
@@ -381,7 +379,7 @@ void SimulatedRig::BuildShadowGrid(const RenderProgressCallback& progress) {
   g.nx = static_cast<int>(std::ceil(so.sample_width_mm / g.spacing)) + 1;
   g.ny = static_cast<int>(std::ceil(so.sample_height_mm / g.spacing)) + 1;
   g.height.assign(static_cast<size_t>(g.nx) * g.ny, 0.0f);
-  RenderRows(g.ny, NumThreads(), progress, 0.0, 0.9, [&](int j) {
+  ParallelRowsOrCancel("render", g.ny, NumThreads(), progress, 0.0, 0.9, [&](int j) {
     for (int i = 0; i < g.nx; ++i) {
       g.height[static_cast<size_t>(j) * g.nx + i] =
           static_cast<float>(scene_.HeightMm(g.origin_x + i * g.spacing, g.origin_y + j * g.spacing));
@@ -404,7 +402,7 @@ void SimulatedRig::BuildShadowGrid(const RenderProgressCallback& progress) {
       g.max_height = std::max(g.max_height, m);
     }
   }
-  if (progress && !progress(1.0)) throw RenderCancelled();
+  if (progress && !progress(1.0)) throw Cancelled("render");
 }
 
 double SimulatedRig::GridHeight(double x_mm, double y_mm) const {
@@ -508,14 +506,14 @@ double SimulatedRig::DirectFactor(size_t i, const LedDescription& led, bool cast
   return factor;
 }
 
-ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const RenderProgressCallback& progress) const {
+ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const ProgressCallback& progress) const {
   if (lit_led_index && (*lit_led_index < 0 || *lit_led_index >= num_leds())) {
     throw std::out_of_range("SimulatedRig: LED index " + std::to_string(*lit_led_index) + " is not in [0, " +
                             std::to_string(num_leds()) + ")");
   }
   const LedDescription* led = lit_led_index ? &rig_.leds[*lit_led_index] : nullptr;
   ImageF out(options_.width, options_.height, 3);
-  RenderRows(options_.height, NumThreads(), progress, 0.0, 1.0, [&](int y) {
+  ParallelRowsOrCancel("render", options_.height, NumThreads(), progress, 0.0, 1.0, [&](int y) {
     float* row = out.row(y);
     for (int x = 0; x < options_.width; ++x) {
       const size_t i = static_cast<size_t>(y) * options_.width + x;
@@ -530,7 +528,7 @@ ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const Render
 }
 
 RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_index,
-                            const SensorRowFunction& linear_row, const RenderProgressCallback& progress) {
+                            const SensorRowFunction& linear_row, const ProgressCallback& progress) {
   options.Check();
   RawImage raw;
   raw.cfa = options.cfa;
@@ -540,9 +538,7 @@ RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_i
 
   const double range_dn = options.white_level - options.black_level;
   const double gain = options.gain_e_per_dn;
-  const int num_threads = options.num_threads > 0 ? options.num_threads
-                                                  : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  RenderRows(options.height, num_threads, progress, 0.0, 1.0, [&](int y) {
+  ParallelRowsOrCancel("render", options.height, ResolveThreadCount(options.num_threads), progress, 0.0, 1.0, [&](int y) {
     RowRng rng(RowSeed(options.seed, frame_index, y));
     std::vector<double> values(options.width);
     linear_row(y, values.data());
@@ -561,7 +557,7 @@ RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_i
 }
 
 RawImage SimulatedRig::RenderFrame(std::optional<int> lit_led_index, uint64_t frame_index,
-                                   const RenderProgressCallback& progress) const {
+                                   const ProgressCallback& progress) const {
   if (lit_led_index && (*lit_led_index < 0 || *lit_led_index >= num_leds())) {
     throw std::out_of_range("SimulatedRig: LED index " + std::to_string(*lit_led_index) + " is not in [0, " +
                             std::to_string(num_leds()) + ")");
@@ -588,7 +584,7 @@ ImageU8 SimulatedRig::RenderShadowMask(int led_index) const {
   }
   const LedDescription& led = rig_.leds[led_index];
   ImageU8 mask(options_.width, options_.height, 1);
-  RenderRows(options_.height, NumThreads(), {}, 0.0, 1.0, [&](int y) {
+  ParallelRowsOrCancel("render", options_.height, NumThreads(), {}, 0.0, 1.0, [&](int y) {
     for (int x = 0; x < options_.width; ++x) {
       const size_t i = static_cast<size_t>(y) * options_.width + x;
       mask(x, y) = DirectFactor(i, led, true) > 0 ? 0 : 1;
@@ -606,7 +602,7 @@ GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
   maps.height_mm = ImageF(w, h, 1);
   maps.sample_mask = ImageU8(w, h, 1);
   maps.mm_per_pixel = mm_per_pixel_;
-  RenderRows(h, NumThreads(), {}, 0.0, 1.0, [&](int y) {
+  ParallelRowsOrCancel("render", h, NumThreads(), {}, 0.0, 1.0, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
       const Eigen::Vector3d normal = NormalAt(i);

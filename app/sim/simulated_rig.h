@@ -22,7 +22,9 @@
 #include "app/sim/textile_scene.h"
 #include "calibration/raw_image.h"
 #include "calibration/rig.h"
-#include "solver/image.h"
+#include "core/cancellation.h"
+#include "core/image.h"
+#include "core/progress.h"
 
 namespace scanbench {
 
@@ -60,14 +62,8 @@ struct SimulatedRigOptions {
   void Check() const;
 };
 
-// Fraction done in [0, 1], called from the calling thread only; return false
-// to cancel, which makes the call throw RenderCancelled.
-using RenderProgressCallback = std::function<bool(double fraction)>;
-
-class RenderCancelled : public std::runtime_error {
- public:
-  RenderCancelled() : std::runtime_error("simulated rig: render cancelled by the progress callback") {}
-};
+// Renders take a ProgressCallback (core/progress.h), called from the calling
+// thread only; false from it makes the render throw Cancelled.
 
 // Fills values[x], x in [0, width), with the noise-free linear value of row y
 // for the colour the CFA puts at (x, y), as a fraction of the raw range above
@@ -77,10 +73,10 @@ using SensorRowFunction = std::function<void(int y, double* values)>;
 // The sensor model alone, for anything rendered in front of the camera
 // (scenes, calibration targets): scales to DN, adds shot and read noise (a pure
 // function of options.seed, frame_index and the pixel), rounds, adds the black
-// level and clips at 0 and the white level. Throws RenderCancelled if
+// level and clips at 0 and the white level. Throws Cancelled if
 // `progress` returns false.
 RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_index,
-                            const SensorRowFunction& linear_row, const RenderProgressCallback& progress = {});
+                            const SensorRowFunction& linear_row, const ProgressCallback& progress = {});
 
 struct GroundTruthMaps {
   ImageF point_in_table;   // 3 channels, mm: where each pixel's ray meets the surface
@@ -96,9 +92,9 @@ class SimulatedRig {
  public:
   // Traces every pixel's ray to the surface once (the heavy part at 16 MP).
   // Throws std::invalid_argument for bad options or a rig that does not match
-  // them, RenderCancelled if `progress` returns false.
+  // them, Cancelled if `progress` returns false.
   SimulatedRig(const SimulatedRigOptions& options, TextileScene scene, RigDescription rig,
-               const RenderProgressCallback& progress = {});
+               const ProgressCallback& progress = {});
 
   const SimulatedRigOptions& options() const { return options_; }
   const TextileScene& scene() const { return scene_; }
@@ -114,12 +110,12 @@ class SimulatedRig {
   // (options.seed, frame_index, pixel): give every capture of a session its own
   // frame_index. Throws std::out_of_range for a bad LED index.
   RawImage RenderFrame(std::optional<int> lit_led_index, uint64_t frame_index,
-                       const RenderProgressCallback& progress = {}) const;
+                       const ProgressCallback& progress = {}) const;
 
   // The same frame noise-free and unclipped, all three colour channels: linear
   // value as a fraction of the raw range above black (what the sensor's
   // expected DN - black divided by white - black would be).
-  ImageF RenderLinear(std::optional<int> lit_led_index, const RenderProgressCallback& progress = {}) const;
+  ImageF RenderLinear(std::optional<int> lit_led_index, const ProgressCallback& progress = {}) const;
 
   // 1 where LED `led_index` is hidden by the surface (cast or attached shadow,
   // or behind the LED), 0 where it lights the pixel. Ignores cast_shadows = false.
@@ -140,7 +136,7 @@ class SimulatedRig {
   static constexpr int kTileCells = 16;
 
   int NumThreads() const;
-  void BuildShadowGrid(const RenderProgressCallback& progress);
+  void BuildShadowGrid(const ProgressCallback& progress);
   double GridHeight(double x_mm, double y_mm) const;
   bool Occluded(const Eigen::Vector3d& point_in_table, const Eigen::Vector3d& light_dir_in_table,
                 double distance_mm) const;

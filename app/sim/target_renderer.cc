@@ -6,15 +6,14 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "app/sim/parallel_rows.h"
+#include "core/parallel_for.h"
 #include "calibration/camera_model.h"
 #include "app/sim/split_mix.h"
-#include "solver/field_error.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 using sim_internal::kSplitMixGamma;
 using sim_internal::Mix64;
-using sim_internal::RenderRows;
 
 namespace {
 
@@ -245,8 +244,7 @@ TargetRenderer::TargetRenderer(const SimulatedRigOptions& sensor, RigDescription
 
 namespace {
 int NumThreads(const SimulatedRigOptions& sensor) {
-  return sensor.num_threads > 0 ? sensor.num_threads
-                                : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return ResolveThreadCount(sensor.num_threads);
 }
 }  // namespace
 
@@ -265,7 +263,7 @@ PreparedTarget TargetRenderer::Prepare(const SimulatedTarget& target, const Targ
   auto ray_at = [&](int x, int y) {
     return Eigen::Vector3d(rays_in_table_(x, y, 0), rays_in_table_(x, y, 1), rays_in_table_(x, y, 2));
   };
-  RenderRows(h, num_threads, {}, 0, 1, [&](int y) {
+  ParallelRowsOrCancel("render", h, num_threads, {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector3d ray = ray_at(x, y);
       const double t = RayPlaneT(camera, ray, plane.table_from_target.translation(), plane.normal_in_table);
@@ -279,7 +277,7 @@ PreparedTarget TargetRenderer::Prepare(const SimulatedTarget& target, const Targ
   prepared.reflectance = ImageF(w, h, 1);
   prepared.point_in_table = ImageF(w, h, 3);
   prepared.normal_in_table = ImageF(w, h, 3);
-  RenderRows(h, num_threads, {}, 0, 1, [&](int y) {
+  ParallelRowsOrCancel("render", h, num_threads, {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector3d ray = ray_at(x, y);
       // Jacobian of (u, v) over the pixel, from the neighbouring centres.
@@ -337,7 +335,7 @@ ImageF TargetRenderer::RenderLinear(const PreparedTarget& target, const std::vec
                                 std::to_string(w) + "x" + std::to_string(h));
   }
   ImageF out(w, h, 3);
-  RenderRows(h, NumThreads(sensor_), {}, 0, 1, [&](int y) {
+  ParallelRowsOrCancel("render", h, NumThreads(sensor_), {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector3d point(target.point_in_table(x, y, 0), target.point_in_table(x, y, 1),
                                   target.point_in_table(x, y, 2));

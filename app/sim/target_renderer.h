@@ -23,7 +23,7 @@
 #include "calibration/calibration_targets.h"
 #include "calibration/raw_image.h"
 #include "calibration/rig.h"
-#include "solver/image.h"
+#include "core/image.h"
 
 namespace scanbench {
 

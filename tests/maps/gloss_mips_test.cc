@@ -204,7 +204,7 @@ TEST(GlossMipChain, LevelSizesHalveRoundingUp) {
       EXPECT_TRUE(levels[l].roughness.SameSize(expected[l].first, expected[l].second)) << l;
     }
     EXPECT_EQ(summary.mean_roughness.size(), expected.size());
-    EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+    EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
     options.max_levels = 2;
     EXPECT_EQ(BuildGlossMipChain(normals, nullptr, options, nullptr).size(), 2u);
   }
@@ -335,7 +335,7 @@ TEST(GlossMipChain, MaskedPixelsCarryNoWeight) {
     const std::vector<GlossMipLevel> masked = BuildGlossMipChain(normals, nullptr, options, &summary, &valid);
     ExpectWellFormed(masked);
     EXPECT_EQ(summary.masked_pixels, 18u);
-    EXPECT_EQ(summary.termination, MapTermination::kSuccess);
+    EXPECT_EQ(summary.termination, Termination::kSuccess);
     for (const GlossMipLevel& level : masked) {
       // Every texel's footprint holds tilted normals or none at all.
       for (int y = 0; y < level.roughness.height(); ++y) {
@@ -411,7 +411,7 @@ TEST(GlossMipChain, DegenerateInputsGiveNoNan) {
       GlossMipSummary summary;
       const std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, nullptr, options, &summary);
       ExpectWellFormed(levels);
-      EXPECT_EQ(summary.termination, MapTermination::kSuccess);
+      EXPECT_EQ(summary.termination, Termination::kSuccess);
       EXPECT_TRUE(levels.back().roughness.SameSize(1, 1));
     }
     // Zero, NaN and opposed normals, a roughness map with NaN and out-of-range values.
@@ -443,7 +443,7 @@ TEST(GlossMipChain, DegenerateInputsGiveNoNan) {
     const ImageF zeros(5, 3, 3, 0.0f);
     const std::vector<GlossMipLevel> zero_levels = BuildGlossMipChain(zeros, nullptr, options, &summary);
     ExpectWellFormed(zero_levels);
-    EXPECT_EQ(summary.termination, MapTermination::kFailure);
+    EXPECT_EQ(summary.termination, Termination::kFailure);
     EXPECT_THAT(summary.message, ::testing::HasSubstr("no valid normal"));
     EXPECT_FLOAT_EQ(zero_levels.back().roughness(0, 0), static_cast<float>(options.base_roughness));
   }

@@ -199,7 +199,7 @@ TEST_P(HeightMethods, PlaneRisingTowardsTheTopGetsHigherTowardsRowZero) {
   ASSERT_LT(scene.normal_in_tangent(10, 10, 0), 0.0f);
   HeightFromNormalsSummary summary;
   const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_EQ(height.width(), kWidth);
   ASSERT_EQ(height.height(), kHeight);
   ASSERT_EQ(height.channels(), 1);
@@ -222,7 +222,7 @@ TEST_P(HeightMethods, SumOfSinesMatchesTheTruth) {
   const Scene scene = Render(SumOfSines(), kWidth, kHeight, kMmPerPixel);
   HeightFromNormalsSummary summary;
   const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   const double truth_rms = Rms(scene.height_mm);
   const double error = RmsDifference(height, scene.height_mm);
   RecordProperty("rms_error_mm", std::to_string(error));
@@ -239,7 +239,7 @@ TEST_P(HeightMethods, GaussianBumpsMatchTheTruth) {
   const Scene scene = Render(GaussianBumps(kWidth, kHeight), kWidth, kHeight, kMmPerPixel);
   HeightFromNormalsSummary summary;
   const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   const double truth_rms = Rms(scene.height_mm);
   const double error = RmsDifference(height, scene.height_mm);
   std::printf("  [%s] gaussian bumps: RMS error %.5f mm of %.3f mm RMS height; %s\n", HeightMethodName(GetParam()),
@@ -264,7 +264,7 @@ TEST_P(HeightMethods, HolesAreFilledWithoutNanAndTheValidAreaStaysRight) {
   }
   HeightFromNormalsSummary summary;
   const ImageF height = HeightFromNormals(scene.normal_in_tangent, &valid, Options(GetParam(), kMmPerPixel), &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_TRUE(AllFinite(height));
   const double truth_rms = Rms(scene.height_mm, &valid);
   const double error = RmsDifference(height, scene.height_mm, &valid);
@@ -300,7 +300,7 @@ TEST_P(HeightMethods, OddSizesWork) {
   const Scene scene = Render(SumOfSines(), kWidth, kHeight, kMmPerPixel);
   HeightFromNormalsSummary summary;
   const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_LT(RmsDifference(height, scene.height_mm), 0.005 * Rms(scene.height_mm));
 }
 
@@ -314,7 +314,7 @@ TEST_P(HeightMethods, CancelFromTheProgressCallbackReturnsFiniteHeights) {
         ++calls;
         return false;
       });
-  EXPECT_EQ(summary.termination, MapTermination::kCancelled);
+  EXPECT_EQ(summary.termination, Termination::kCancelled);
   EXPECT_THAT(summary.message, HasSubstr("cancelled"));
   EXPECT_FALSE(summary.converged);
   EXPECT_EQ(calls, 1);  // no more work after the cancel
@@ -333,7 +333,7 @@ TEST_P(HeightMethods, CancelMidwayWithHolesStopsAskingAndReturnsFiniteHeights) {
   HeightFromNormalsSummary summary;
   const ImageF height = HeightFromNormals(scene.normal_in_tangent, &valid, Options(GetParam(), 0.1), &summary,
                                           [&](double) { return ++calls < 3; });
-  EXPECT_EQ(summary.termination, MapTermination::kCancelled) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kCancelled) << summary.message;
   EXPECT_EQ(calls, 3);
   EXPECT_TRUE(AllFinite(height));
 }
@@ -348,7 +348,7 @@ TEST_P(HeightMethods, ProgressReachesOneWhenNotCancelled) {
     last_fraction = fraction;
     return true;
   });
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess);
+  EXPECT_EQ(summary.termination, Termination::kSuccess);
   EXPECT_TRUE(monotonic);
   EXPECT_NEAR(last_fraction, 1.0, 1e-9);
 }
@@ -367,7 +367,7 @@ TEST_P(HeightMethods, ProgressWithHolesIsThrottledAndReachesOne) {
     ++calls;
     return true;
   });
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_TRUE(summary.converged) << summary.message;
   EXPECT_NEAR(last_fraction, 1.0, 1e-9);
   EXPECT_LE(calls, 1001);  // at most every 0.1%
@@ -424,7 +424,7 @@ TEST(HeightFromNormals, TinyAndThinImagesGiveFiniteHeights) {
       const Scene scene = Render(TiltedPlane(0.01, 0.02), w, h, 0.1);
       HeightFromNormalsSummary summary;
       const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(method, 0.1), &summary);
-      EXPECT_EQ(summary.termination, MapTermination::kSuccess) << w << "x" << h << " " << summary.message;
+      EXPECT_EQ(summary.termination, Termination::kSuccess) << w << "x" << h << " " << summary.message;
       ASSERT_TRUE(AllFinite(height)) << w << "x" << h;
       if (w > 1) {
         EXPECT_NEAR(height(w - 1, 0) - height(0, 0), 0.02 * (w - 1), 1e-3) << w << "x" << h;
@@ -515,7 +515,7 @@ TEST(HeightFromNormals, NoValidPixelFailsWithZeroHeight) {
   for (const Method method : {Method::kMultiresolutionRelaxation, Method::kDctPoisson}) {
     HeightFromNormalsSummary summary;
     const ImageF height = HeightFromNormals(normals, &nothing, Options(method, 0.1), &summary);
-    EXPECT_EQ(summary.termination, MapTermination::kFailure);
+    EXPECT_EQ(summary.termination, Termination::kFailure);
     EXPECT_THAT(summary.message, HasSubstr("no valid pixel"));
     ASSERT_TRUE(AllFinite(height));
     EXPECT_EQ(Rms(height), 0.0);
@@ -611,7 +611,7 @@ TEST(HeightFromNormals, SimulatedRigGroundTruthHeightIsRecovered) {
     HeightFromNormalsSummary summary;
     const ImageF height =
         HeightFromNormals(truth.normal_in_table, &sample, Options(method, truth.mm_per_pixel), &summary);
-    EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+    EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
     ASSERT_TRUE(AllFinite(height));
     const double error = RmsDifference(height, truth.height_mm, &sample, true);
     double error_after_scale = 0;

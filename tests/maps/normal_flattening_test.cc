@@ -138,7 +138,7 @@ TEST(FlattenNormals, TiltedPlaneBecomesFlat) {
   }
   NormalFlatteningSummary summary;
   const ImageF flat = FlattenNormals(normals, nullptr, {}, &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.valid_pixels, 120u * 80u);
   for (int y = 0; y < 80; y += 7) {
     for (int x = 0; x < 120; x += 7) EXPECT_LT(AngleDeg(NormalAt(flat, x, y), {0, 0, 1}), 1e-3) << x << "," << y;
@@ -158,7 +158,7 @@ TEST(FlattenNormals, RemovesSlowTiltAndKeepsFineDetail) {
   NormalFlatteningSummary summary;
   const ImageF flat_tilted = FlattenNormals(tilted, nullptr, options, &summary);
   const ImageF flat_clean = FlattenNormals(clean, nullptr, options, nullptr);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_TRUE(AllUnitOrFlat(flat_tilted));
   const double before = MeanAngleDeg(tilted, clean), after = MeanAngleDeg(flat_tilted, flat_clean);
   const double detail_change = MeanAngleDeg(flat_clean, clean);
@@ -226,7 +226,7 @@ TEST(FlattenNormals, InvalidPixelsAreFlatAndDoNotFeedTheLowPass) {
   normals(10, 10, 2) = std::nanf("");  // a NaN inside the mask is skipped too
   NormalFlatteningSummary summary;
   const ImageF flat = FlattenNormals(normals, &valid, {}, &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.valid_pixels, 60u * kHeight - 1);
   ASSERT_TRUE(AllUnitOrFlat(flat));
   for (int y = 0; y < kHeight; ++y) {
@@ -257,7 +257,7 @@ TEST(FlattenNormals, SimulatedRigMiscalibratedLightsAreFlattenedAway) {
   NormalFlatteningSummary summary;
   const ImageF flat_corrupted = FlattenNormals(corrupted, &sample, options, &summary);
   const ImageF flat_clean = FlattenNormals(truth.normal_in_table, &sample, options, nullptr);
-  EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_TRUE(AllUnitOrFlat(flat_corrupted));
   const double before = MeanAngleDeg(corrupted, truth.normal_in_table, &sample);
   const double after = MeanAngleDeg(flat_corrupted, flat_clean, &sample);
@@ -288,7 +288,7 @@ TEST(FlattenNormals, CancelReturnsTheNormalsUnchanged) {
     ++calls;
     return false;
   });
-  EXPECT_EQ(summary.termination, MapTermination::kCancelled);
+  EXPECT_EQ(summary.termination, Termination::kCancelled);
   EXPECT_THAT(summary.message, HasSubstr("cancelled"));
   EXPECT_EQ(calls, 1);
   EXPECT_LT(MeanAngleDeg(out, tilted), 1e-4);
@@ -312,7 +312,7 @@ TEST(FlattenNormals, NoValidPixelFails) {
   const ImageU8 nothing(32, 24, 1, 0);
   NormalFlatteningSummary summary;
   const ImageF out = FlattenNormals(normals, &nothing, {}, &summary);
-  EXPECT_EQ(summary.termination, MapTermination::kFailure);
+  EXPECT_EQ(summary.termination, Termination::kFailure);
   EXPECT_THAT(summary.message, HasSubstr("no valid pixel"));
   EXPECT_TRUE(AllUnitOrFlat(out));
 }

@@ -128,7 +128,7 @@ TEST(AmbientOcclusion, FlatHeightIsExactlyOneEverywhere) {
     ASSERT_TRUE(ao.SameSize(flat));
     ASSERT_EQ(ao.channels(), 1);
     for (size_t i = 0; i < ao.size(); ++i) ASSERT_EQ(ao.data()[i], 1.0f) << i;
-    EXPECT_EQ(summary.termination, MapTermination::kSuccess);
+    EXPECT_EQ(summary.termination, Termination::kSuccess);
     EXPECT_EQ(summary.min, 1.0);
     EXPECT_EQ(summary.max, 1.0);
     EXPECT_EQ(summary.steps_per_direction, 10);
@@ -375,7 +375,7 @@ TEST(AmbientOcclusion, CancelReturnsCancelledAndAnEmptyImage) {
     OcclusionSummary summary;
     const ImageF ao = AmbientOcclusionFromHeight(flat, AoOptions(0.1, 1.0), &summary,
                                                  [&](double) { return calls++ < allowed_calls; });
-    EXPECT_EQ(summary.termination, MapTermination::kCancelled) << allowed_calls;
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
     EXPECT_TRUE(ao.empty());
   }
 }
@@ -467,7 +467,7 @@ TEST(Cavity, FlatHeightIsExactlyOneEverywhere) {
     OcclusionSummary summary;
     const ImageF cavity = CavityFromHeight(ImageF(45, 31, 1, level), CavityOptions(), &summary);
     for (size_t i = 0; i < cavity.size(); ++i) ASSERT_EQ(cavity.data()[i], 1.0f) << i;
-    EXPECT_EQ(summary.termination, MapTermination::kSuccess);
+    EXPECT_EQ(summary.termination, Termination::kSuccess);
     EXPECT_EQ(summary.mean, 1.0);
   }
 }

@@ -107,7 +107,7 @@ TEST(TileableCrop, PeriodicPatternWrapsLikeAnInteriorStep) {
   options.blend_width_px = 16;
   std::vector<ImageF> tiles;
   const TileableCropSummary summary = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, nullptr, options, &tiles);
-  ASSERT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_EQ(tiles.size(), 1u);
   ASSERT_TRUE(tiles[0].SameSize(128, 128));
   EXPECT_EQ(summary.tile_width, 128);
@@ -157,8 +157,8 @@ TEST(TileableCrop, SearchFindsALowerSeamCostThanTheCentre) {
       MakeTileableCrop({{&image, TileMapKind::kLinear}}, nullptr, options, &searched);
   options.search_position = false;
   const TileableCropSummary without = MakeTileableCrop({{&image, TileMapKind::kLinear}}, nullptr, options, &centred);
-  ASSERT_EQ(with_search.termination, MapTermination::kSuccess);
-  ASSERT_EQ(without.termination, MapTermination::kSuccess);
+  ASSERT_EQ(with_search.termination, Termination::kSuccess);
+  ASSERT_EQ(without.termination, Termination::kSuccess);
   EXPECT_EQ(without.x0, (320 - 96 - 12) / 2);
   EXPECT_EQ(without.y0, (240 - 96 - 12) / 2);
   EXPECT_LT(with_search.seam_cost, 0.8 * without.seam_cost)
@@ -176,7 +176,7 @@ TEST(TileableCrop, RequestedAndAutomaticSizes) {
     const TileableCropSummary summary =
         MakeTileableCrop({{&pattern, TileMapKind::kLinear}, {&pattern, TileMapKind::kNormal}}, nullptr, options,
                          &tiles);
-    EXPECT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+    EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
     EXPECT_EQ(tiles.size(), 2u);
     for (const ImageF& tile : tiles) {
       EXPECT_TRUE(tile.SameSize(summary.tile_width, summary.tile_height));
@@ -212,7 +212,7 @@ TEST(TileableCrop, ValidMaskBoundsTheWindow) {
   options.blend_width_px = 16;
   std::vector<ImageF> tiles;
   const TileableCropSummary summary = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, &valid, options, &tiles);
-  ASSERT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.tile_width, 128);  // 144 fits in 150 rows beside the hole, 272 does not
   for (int y = summary.y0; y < summary.y0 + summary.tile_height + 16; ++y) {
     for (int x = summary.x0; x < summary.x0 + summary.tile_width + 16; ++x) {
@@ -223,7 +223,7 @@ TEST(TileableCrop, ValidMaskBoundsTheWindow) {
   valid(185, 105) = 0;
   options.tile_width = 150 - 16;
   const TileableCropSummary failed = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, &valid, options, &tiles);
-  EXPECT_EQ(failed.termination, MapTermination::kFailure);
+  EXPECT_EQ(failed.termination, Termination::kFailure);
   EXPECT_THAT(failed.message, ::testing::HasSubstr("134x134 tile"));
   EXPECT_THAT(failed.message, ::testing::HasSubstr("150x150"));
   EXPECT_TRUE(tiles.empty());
@@ -236,7 +236,7 @@ TEST(TileableCrop, TooLargeRequestFailsNamingTheSizes) {
   options.tile_height = 100;
   std::vector<ImageF> tiles(1);
   TileableCropSummary summary = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, nullptr, options, &tiles);
-  EXPECT_EQ(summary.termination, MapTermination::kFailure);
+  EXPECT_EQ(summary.termination, Termination::kFailure);
   EXPECT_THAT(summary.message, ::testing::HasSubstr("512x100 tile"));
   EXPECT_THAT(summary.message, ::testing::HasSubstr("544x132"));
   EXPECT_THAT(summary.message, ::testing::HasSubstr("120x80"));
@@ -245,7 +245,7 @@ TEST(TileableCrop, TooLargeRequestFailsNamingTheSizes) {
   const ImageF thin = PeriodicPattern(200, 40, 2);
   options = {};
   summary = MakeTileableCrop({{&thin, TileMapKind::kLinear}}, nullptr, options, &tiles);
-  EXPECT_EQ(summary.termination, MapTermination::kFailure);
+  EXPECT_EQ(summary.termination, Termination::kFailure);
   EXPECT_THAT(summary.message, ::testing::HasSubstr("the smallest, 32x32"));
   EXPECT_THAT(summary.message, ::testing::HasSubstr("needs 64x64 valid pixels"));
   EXPECT_THAT(summary.message, ::testing::HasSubstr("200x40"));
@@ -274,7 +274,7 @@ TEST(TileableCrop, NormalsStayUnitThroughTheBand) {
   normals(x0 + 3, y0 + 40, 2) = -0.5f;                                     // facing down, in the band
   std::vector<ImageF> tiles;
   const TileableCropSummary summary = MakeTileableCrop({{&normals, TileMapKind::kNormal}}, nullptr, options, &tiles);
-  ASSERT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.x0, x0);
   EXPECT_EQ(summary.y0, y0);
   ExpectUnitNormals(tiles[0]);
@@ -297,7 +297,7 @@ TEST(TileableCrop, SimulatedTwillTilesWithoutAVisibleSeam) {
       MakeTileableCrop({{&truth.albedo, TileMapKind::kLinear}, {&truth.normal_in_table, TileMapKind::kNormal},
                         {&truth.height_mm, TileMapKind::kLinear}},
                        &truth.sample_mask, options, &tiles);
-  ASSERT_EQ(summary.termination, MapTermination::kSuccess) << summary.message;
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_EQ(tiles.size(), 3u);
   EXPECT_EQ(summary.tile_width, 256) << summary.message;
   EXPECT_EQ(summary.tile_height, 256);

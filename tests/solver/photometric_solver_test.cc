@@ -57,7 +57,7 @@ TEST_P(AnalyticSceneTest, NoiseFreeSolveRecoversNormalAndAlbedoExactly) {
   for (const PhotometricSolverOptions& options : {plain, PhotometricSolverOptions()}) {
     PhotometricSolution solution;
     const PhotometricSolverSummary summary = SolvePhotometricStereo(options, InputFor(scene), &solution);
-    ASSERT_EQ(summary.termination, PhotometricSolverSummary::Termination::kSuccess) << summary.BriefReport();
+    ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.BriefReport();
 
     const ErrorStatistics angular = AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, exact);
     ASSERT_GT(angular.num_pixels, 1000u) << "the scene must have many exactly modelled pixels";
@@ -251,7 +251,7 @@ TEST(PhotometricSolverTest, ProgressReachesOneAndCancelStops) {
 
   const PhotometricSolverSummary cancelled =
       SolvePhotometricStereo(PhotometricSolverOptions(), InputFor(scene), &solution, [](double) { return false; });
-  EXPECT_EQ(cancelled.termination, PhotometricSolverSummary::Termination::kCancelled);
+  EXPECT_EQ(cancelled.termination, Termination::kCancelled);
   EXPECT_LT(cancelled.num_solved(), 256u * 256u);
   EXPECT_THAT(cancelled.message, HasSubstr("cancelled"));
 }

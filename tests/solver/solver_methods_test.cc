@@ -52,7 +52,7 @@ TEST_P(EveryMethodTest, ExactOnNoiseFreeLambertianSphere) {
   options.method = GetParam().method;
   PhotometricSolution solution;
   const PhotometricSolverSummary summary = SolvePhotometricStereo(options, InputFor(scene), &solution);
-  ASSERT_EQ(summary.termination, PhotometricSolverSummary::Termination::kSuccess) << summary.BriefReport();
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.BriefReport();
   EXPECT_EQ(summary.method, PhotometricMethodName(options.method));
   const ImageU8 exact = ExactPixels(scene);
   const ErrorStatistics angular = AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, exact);
@@ -242,7 +242,7 @@ TEST(AdaptiveTest, CancelStopsAndReportsIt) {
   PhotometricSolution solution;
   const PhotometricSolverSummary summary =
       SolvePhotometricStereo(options, InputFor(scene), &solution, [](double) { return false; });
-  EXPECT_EQ(summary.termination, PhotometricSolverSummary::Termination::kCancelled);
+  EXPECT_EQ(summary.termination, Termination::kCancelled);
   EXPECT_THAT(summary.message, HasSubstr("tiles"));
   EXPECT_LT(summary.num_solved(), 512u * 512u);
 }

@@ -218,10 +218,10 @@ TEST_F(BatchControllerTest, CancelStopsTheBatchAndMarksTheRest) {
   options.summary_prefix = folder_ / "cancelled";
   BatchController batch(sessions, options);
   // Stop as soon as the solving shows progress: the first session is running then.
-  batch.SetProgressCallback([&batch](const std::string& stage, double fraction) {
-    if (stage.starts_with("solve sessions|") && fraction > 0) batch.RequestStop();
+  batch.SetProgressCallback([&batch](const ProgressReport& report) {
+    if (report.stage == "solve sessions" && report.fraction > 0) batch.RequestStop();
   });
-  EXPECT_THROW(batch.Run(), JobCancelled);
+  EXPECT_THROW(batch.Run(), Cancelled);
   const BatchSummary& summary = batch.summary();
   ASSERT_EQ(summary.sessions.size(), 8u);
   EXPECT_GE(summary.cancelled, 1);

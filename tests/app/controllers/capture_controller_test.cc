@@ -270,10 +270,10 @@ TEST_F(CaptureControllerTest, ExposureCheckRefusesClippedAndDarkFramesBeforeKeep
 
 TEST_F(CaptureControllerTest, CancelLeavesAResumableSessionAndLedsOff) {
   CaptureController capture = Controller(camera_.get(), Options());
-  capture.SetProgressCallback([&](const std::string& stage, double fraction) {
-    if (stage == "capture" && fraction > 0.3) capture.RequestStop();
+  capture.SetProgressCallback([&](const ProgressReport& report) {
+    if (report.stage == "capture" && report.fraction > 0.3) capture.RequestStop();
   });
-  EXPECT_THROW(capture.Run(), JobCancelled);
+  EXPECT_THROW(capture.Run(), Cancelled);
   EXPECT_EQ(board_->lit_leds(), 0u);
   EXPECT_FALSE(LoadSession(session_dir()).capture_complete);
   Controller(camera_.get(), Options()).Run();

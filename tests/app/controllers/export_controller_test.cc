@@ -353,7 +353,7 @@ TEST_F(ExportControllerTest, TileableCropRepeatsWithoutASeam) {
   options.preset = ExportOptions::Preset::kLinearExr;
   const ExportSummary summary = Export(options);
   ASSERT_TRUE(summary.tile.has_value());
-  ASSERT_EQ(summary.tile->termination, MapTermination::kSuccess) << summary.tile->message;
+  ASSERT_EQ(summary.tile->termination, Termination::kSuccess) << summary.tile->message;
   const ImageF tile = ReadImageFloat(summary.export_dir / summary.files.at("tile_height"));
   EXPECT_EQ(tile.width(), summary.tile->tile_width);
   EXPECT_EQ(tile.height(), summary.tile->tile_height);
@@ -469,10 +469,10 @@ TEST_F(ExportControllerTest, CancelLeavesNothingBehind) {
     ExportOptions options;
     options.output_root = local_ / "exports";
     ExportController controller(result_dir_, options);
-    controller.SetProgressCallback([&](const std::string& stage, double fraction) {
-      if (stage == stop_at && fraction > 0.3) controller.RequestStop();
+    controller.SetProgressCallback([&](const ProgressReport& report) {
+      if (report.stage == stop_at && report.fraction > 0.3) controller.RequestStop();
     });
-    EXPECT_THROW(controller.Run(), JobCancelled);
+    EXPECT_THROW(controller.Run(), Cancelled);
     EXPECT_THAT(Entries(local_ / "exports"), ::testing::IsEmpty());
   }
 }

@@ -122,10 +122,10 @@ TEST(ScanControllersTest, InterruptedSimulationResumesWhereItStopped) {
   const fs::path session_dir = folder / "session";
   SimulateController interrupted(session_dir, SmallSimulation());
   // Stop once the fourth frame starts rendering: three frames are on disk.
-  interrupted.SetProgressCallback([&](const std::string& stage, double fraction) {
-    if (stage == "simulate" && fraction > 3.2 / 11) interrupted.RequestStop();
+  interrupted.SetProgressCallback([&](const ProgressReport& report) {
+    if (report.stage == "simulate" && report.fraction > 3.2 / 11) interrupted.RequestStop();
   });
-  EXPECT_THROW(interrupted.Run(), JobCancelled);
+  EXPECT_THROW(interrupted.Run(), Cancelled);
   const Session partial = LoadSession(session_dir);
   EXPECT_FALSE(partial.capture_complete);
   ASSERT_EQ(partial.frames.size(), 3u);
@@ -149,10 +149,10 @@ TEST(ScanControllersTest, CancelledSolveLeavesNoResultFolder) {
   TemporaryFolder folder;
   const fs::path session_dir = SimulateSmallSession(folder);
   SolveController solve(session_dir, SolveOptions());
-  solve.SetProgressCallback([&](const std::string& stage, double) {
-    if (stage == "solve") solve.RequestStop();
+  solve.SetProgressCallback([&](const ProgressReport& report) {
+    if (report.stage == "solve") solve.RequestStop();
   });
-  EXPECT_THROW(solve.Run(), JobCancelled);
+  EXPECT_THROW(solve.Run(), Cancelled);
   EXPECT_TRUE(ResultFolders(session_dir).empty());
 }
 
@@ -181,10 +181,10 @@ TEST(ScanControllersTest, IncompleteSessionIsNotSolved) {
   TemporaryFolder folder;
   const fs::path session_dir = folder / "session";
   SimulateController interrupted(session_dir, SmallSimulation());
-  interrupted.SetProgressCallback([&](const std::string& stage, double) {
-    if (stage == "simulate") interrupted.RequestStop();
+  interrupted.SetProgressCallback([&](const ProgressReport& report) {
+    if (report.stage == "simulate") interrupted.RequestStop();
   });
-  EXPECT_THROW(interrupted.Run(), JobCancelled);
+  EXPECT_THROW(interrupted.Run(), Cancelled);
   EXPECT_THAT([&] { SolveController(session_dir, SolveOptions()).Run(); },
               ::testing::ThrowsMessage<SessionError>(HasSubstr("capture_complete")));
 }

@@ -277,7 +277,7 @@ class CalibrationPageTest : public QObject {
   // The limits and their hints, on summaries made up to break them.
   void BadFiguresFailWithTheirFix() {
     CameraCalibrationSummary camera;
-    camera.termination = CameraCalibrationSummary::Termination::kSuccess;
+    camera.termination = Termination::kSuccess;
     camera.camera.intrinsics.fx = camera.camera.intrinsics.fy = 5000;
     camera.camera.intrinsics.width = 1232;
     camera.reprojection_rms_px = 1.8;
@@ -326,7 +326,7 @@ class CalibrationPageTest : public QObject {
              patches.hint.c_str());
 
     LightCalibrationSummary lights;
-    lights.termination = LightCalibrationSummary::Termination::kSuccess;
+    lights.termination = Termination::kSuccess;
     LedModelFit fit;
     fit.usable = true;
     fit.led.id = 2;

@@ -1,5 +1,5 @@
 // The runner keeps jobs off the UI thread: progress arrives there as
-// signals (a stage's "|detail" apart), Cancel ends a job through RequestStop,
+// signals (stage and detail apart), Cancel ends a job through RequestStop,
 // failures carry the message.
 #include "app/gui/controller_runner.h"
 
@@ -34,14 +34,14 @@ class SteppingController : public BaseController {
   int pause_ms_;
 };
 
-// Reports the batch controller's way: the stage, then after '|' a detail
-// that changes per item while the fraction barely moves.
+// Reports the batch controller's way: a stage with a detail that changes per
+// item while the fraction barely moves.
 class DetailedController : public BaseController {
  public:
   void Run() override {
-    ReportProgress("check results|1/3", 0.001);
-    ReportProgress("check results|2/3", 0.002);
-    ReportProgress("solve sessions|3/20 done, ETA 01:12", 0.15);
+    ReportProgress("check results", 0.001, "1/3");
+    ReportProgress("check results", 0.002, "2/3");
+    ReportProgress("solve sessions", 0.15, "3/20 done, ETA 01:12");
     ReportProgress("write summary", 1.0);
   }
 };
@@ -101,16 +101,7 @@ class ControllerRunnerTest : public QObject {
     QCOMPARE(hooked, QStringList({"check results", "check results", "solve sessions", "write summary"}));
   }
 
-  void StageTextSplitsAtTheFirstBar() {
-    const StageText batch = SplitStageText("solve sessions|3/20 done, ETA 01:12");
-    QCOMPARE(batch.stage, QStringLiteral("solve sessions"));
-    QCOMPARE(batch.detail, QStringLiteral("3/20 done, ETA 01:12"));
-    const StageText plain = SplitStageText("frame 3");
-    QCOMPARE(plain.stage, QStringLiteral("frame 3"));
-    QVERIFY(plain.detail.isEmpty());
-    const StageText two_bars = SplitStageText("export|a|b");
-    QCOMPARE(two_bars.stage, QStringLiteral("export"));
-    QCOMPARE(two_bars.detail, QStringLiteral("a|b"));
+  void ProgressTextJoinsStageFractionAndDetail() {
     QCOMPARE(ProgressText("solve", "3/20 done", -1), QStringLiteral("solve — 3/20 done"));
     QCOMPARE(ProgressText("solve", "", 0.5), QStringLiteral("solve: 50 %"));
     QCOMPARE(ProgressText("solve", "", 1.7), QStringLiteral("solve: 100 %"));

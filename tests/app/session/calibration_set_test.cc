@@ -46,7 +46,7 @@ CalibrationSet MakeTestSet() {
   CameraCalibrationSection camera;
   camera.date = set.created;
   camera.targets = {Target("checkerboard")};
-  camera.summary.termination = CameraCalibrationSummary::Termination::kSuccess;
+  camera.summary.termination = Termination::kSuccess;
   camera.summary.camera = session.rig.camera;
   camera.summary.reprojection_rms_px = 0.0751;
   camera.summary.table_view_rms_px = 0.113;
@@ -67,7 +67,7 @@ CalibrationSet MakeTestSet() {
   WhiteBalanceSection white;
   white.date = "2024-05-01T10:05:00Z";
   white.targets = {Target("gray_chart")};
-  white.summary.termination = WhiteBalanceSummary::Termination::kSuccess;
+  white.summary.termination = Termination::kSuccess;
   for (int k = 0; k < 3; ++k) {
     LedWhiteBalance led;
     led.led_index = k;
@@ -97,7 +97,7 @@ CalibrationSet MakeTestSet() {
   raised.height_mm = 40;
   lights.sheets = {WhiteSheetTarget(), raised};
   LightCalibrationSummary& s = lights.summary;
-  s.termination = LightCalibrationSummary::Termination::kSuccess;
+  s.termination = Termination::kSuccess;
   s.cell_px = 16;
   s.selected = LightCalibrationSummary::Choice::kPerPixel;
   s.selection_reason = "test";

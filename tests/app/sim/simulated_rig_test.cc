@@ -592,11 +592,11 @@ TEST(SimulatedRig, ProgressIsReportedAndCancelStops) {
   EXPECT_EQ(fractions.back(), 1.0);
 
   int calls = 0;
-  EXPECT_THROW(sim.RenderFrame(0, 0, [&](double) { return ++calls < 2; }), RenderCancelled);
-  EXPECT_THROW(sim.RenderLinear(0, [](double) { return false; }), RenderCancelled);
+  EXPECT_THROW(sim.RenderFrame(0, 0, [&](double) { return ++calls < 2; }), Cancelled);
+  EXPECT_THROW(sim.RenderLinear(0, [](double) { return false; }), Cancelled);
   EXPECT_THROW(SimulatedRig(options, TextileScene(), MakeDefaultSimulatedRig(options.width, options.height),
                             [](double) { return false; }),
-               RenderCancelled);
+               Cancelled);
 }
 
 TEST(SimulatedRig, FullResolutionD5100FrameRenders) {

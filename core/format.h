@@ -1,0 +1,19 @@
+// Number and duration formatting shared by reports, logs and the CLI.
+#pragma once
+
+#include <chrono>
+#include <string>
+
+namespace scanbench {
+
+// `value` with `digits` digits after the point ("0.378").
+std::string Fixed(double value, int digits);
+
+// Seconds elapsed since `start` on the steady clock.
+double SecondsSince(std::chrono::steady_clock::time_point start);
+
+// A duration on a clock face, rounded to whole seconds: "0:42", "3:07",
+// "1h02:09" (negative counts as 0).
+std::string FormatDuration(double seconds);
+
+}  // namespace scanbench

@@ -1,0 +1,54 @@
+#include "core/format.h"
+
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "core/field_error.h"
+#include "core/progress.h"
+
+namespace scanbench {
+namespace {
+
+TEST(FormatTest, FixedDigits) {
+  EXPECT_EQ(Fixed(0.3776, 3), "0.378");
+  EXPECT_EQ(Fixed(2, 1), "2.0");
+  EXPECT_EQ(Fixed(-1.25, 0), "-1");
+}
+
+TEST(FormatTest, DurationOnAClockFace) {
+  EXPECT_EQ(FormatDuration(0), "0:00");
+  EXPECT_EQ(FormatDuration(42.4), "0:42");
+  EXPECT_EQ(FormatDuration(187), "3:07");
+  EXPECT_EQ(FormatDuration(3729), "1h02:09");
+  EXPECT_EQ(FormatDuration(-5), "0:00");
+  EXPECT_EQ(FormatDuration(std::numeric_limits<double>::infinity()), "0:00");
+}
+
+TEST(FormatTest, SecondsSinceIsNonNegative) {
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_GE(SecondsSince(start), 0.0);
+  EXPECT_LT(SecondsSince(start), 60.0);
+}
+
+TEST(FieldErrorTest, NamesWhereFieldValueAndRule) {
+  const std::invalid_argument error = FieldError("SolverOptions", "min_lights", 2, "must lie in [3, 1000]");
+  EXPECT_STREQ(error.what(), "SolverOptions.min_lights = 2 must lie in [3, 1000]");
+}
+
+TEST(ProgressTest, SubRangeMapsOntoTheCallersRange) {
+  double last = -1;
+  const ProgressCallback outer = [&](double fraction) {
+    last = fraction;
+    return fraction < 0.7;
+  };
+  const ProgressCallback inner = SubRange(outer, 0.5, 0.9);
+  EXPECT_TRUE(inner(0.25));
+  EXPECT_DOUBLE_EQ(last, 0.6);
+  EXPECT_FALSE(inner(1.0));
+  EXPECT_DOUBLE_EQ(last, 0.9);
+  EXPECT_FALSE(SubRange({}, 0, 1));
+}
+
+}  // namespace
+}  // namespace scanbench
