@@ -186,6 +186,23 @@ void RequireInteger(const fs::path& path, const OIIO::ImageSpec& spec, int max_b
 // at the default level, for 12 % more bytes (44 MB instead of 39 MB).
 constexpr int kPngCompressionLevel = 1;
 
+// PNG (up to 4 channels, zlib level kPngCompressionLevel) or TIFF (any
+// channel count, zip), in the sample type given.
+template <typename T>
+void WritePngOrTiff(const fs::path& path, const Image<T>& image, OIIO::TypeDesc type, FileFormat format,
+                         OverwritePolicy policy, const ImageMetadata& metadata) {
+  const bool png = format == FileFormat::kPng;
+  CheckWritable(path, image, png ? "PNG" : "TIFF", png ? 4 : 0);
+  OIIO::ImageSpec spec = SpecFor(image, type);
+  if (png) {
+    spec.attribute("png:compressionLevel", kPngCompressionLevel);
+  } else {
+    spec.attribute("compression", "zip");
+  }
+  AddMetadata(path, metadata, format, spec);
+  WriteAtomically(path, png ? "png" : "tiff", spec, image.data(), policy);
+}
+
 }  // namespace
 
 void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
@@ -211,35 +228,19 @@ void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
 }
 
 void WritePng(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {
-  CheckWritable(path, image, "PNG", 4);
-  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT16);
-  spec.attribute("png:compressionLevel", kPngCompressionLevel);
-  AddMetadata(path, metadata, FileFormat::kPng, spec);
-  WriteAtomically(path, "png", spec, image.data(), policy);
+  WritePngOrTiff(path, image, OIIO::TypeDesc::UINT16, FileFormat::kPng, policy, metadata);
 }
 
 void WritePng(const fs::path& path, const ImageU8& image, OverwritePolicy policy, const ImageMetadata& metadata) {
-  CheckWritable(path, image, "PNG", 4);
-  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT8);
-  spec.attribute("png:compressionLevel", kPngCompressionLevel);
-  AddMetadata(path, metadata, FileFormat::kPng, spec);
-  WriteAtomically(path, "png", spec, image.data(), policy);
+  WritePngOrTiff(path, image, OIIO::TypeDesc::UINT8, FileFormat::kPng, policy, metadata);
 }
 
 void WriteTiff(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {
-  CheckWritable(path, image, "TIFF", 0);
-  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT16);
-  spec.attribute("compression", "zip");
-  AddMetadata(path, metadata, FileFormat::kTiff, spec);
-  WriteAtomically(path, "tiff", spec, image.data(), policy);
+  WritePngOrTiff(path, image, OIIO::TypeDesc::UINT16, FileFormat::kTiff, policy, metadata);
 }
 
 void WriteTiff(const fs::path& path, const ImageF& image, OverwritePolicy policy, const ImageMetadata& metadata) {
-  CheckWritable(path, image, "TIFF", 0);
-  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::FLOAT);
-  spec.attribute("compression", "zip");
-  AddMetadata(path, metadata, FileFormat::kTiff, spec);
-  WriteAtomically(path, "tiff", spec, image.data(), policy);
+  WritePngOrTiff(path, image, OIIO::TypeDesc::FLOAT, FileFormat::kTiff, policy, metadata);
 }
 
 ImageF ReadImageFloat(const fs::path& path, std::vector<std::string>* channel_names) {

@@ -278,27 +278,20 @@ std::string FormatTimestamp(time_t timestamp) {
   return text;
 }
 
-}  // namespace
-
-DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& name) {
-  if (bytes.empty()) throw Fail(name, "is empty (0 bytes); not a RAW file");
-  const TiffView tiff(bytes);
-  if (tiff.is_tiff()) {
-    const std::string truncation = FindTiffTruncation(tiff);
-    if (!truncation.empty()) throw Fail(name, "is truncated: " + truncation);
-  }
-
+// Opens the buffer: a file LibRaw does not recognise, a truncated header and a
+// non-Bayer sensor are refused here, before any pixel is read.
+std::unique_ptr<LibRaw> OpenRaw(std::span<const uint8_t> bytes, const TiffView& tiff, DataErrors* errors,
+                                const std::string& name) {
   auto processor = std::make_unique<LibRaw>(LIBRAW_OPTIONS_NONE);
-  DataErrors errors;
-  processor->set_dataerror_handler(&OnDataError, &errors);
+  processor->set_dataerror_handler(&OnDataError, errors);
   processor->set_memerror_handler(&OnMemoryError, nullptr);
   // open_buffer takes a non-const pointer but only reads through it.
-  int rc = processor->open_buffer(const_cast<uint8_t*>(bytes.data()), bytes.size());
+  const int rc = processor->open_buffer(const_cast<uint8_t*>(bytes.data()), bytes.size());
   if (rc != LIBRAW_SUCCESS) {
     if (rc == LIBRAW_FILE_UNSUPPORTED) {
       throw Fail(name, "is not a RAW file LibRaw recognises (" + LibRawMessage(rc) + ")");
     }
-    if (rc == LIBRAW_IO_ERROR || errors.end_of_file > 0) {
+    if (rc == LIBRAW_IO_ERROR || errors->end_of_file > 0) {
       // Only a known container can be called truncated; a short text file is simply not a RAW file.
       if (tiff.is_tiff()) {
         throw Fail(name, "is truncated: LibRaw reached the end of the file while reading its header (" +
@@ -311,8 +304,13 @@ DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& 
   }
   CheckIsBayer(*processor, name);
   CheckPixelDataInFile(*processor, tiff, name);
+  return processor;
+}
 
-  rc = processor->unpack();
+// Decodes the pixel data; truncation and corrupt data reported by LibRaw's
+// handlers are errors, not silently wrong pixels.
+void UnpackRaw(LibRaw& processor, const DataErrors& errors, const std::string& name) {
+  const int rc = processor.unpack();
   if (rc != LIBRAW_SUCCESS) {
     if (rc == LIBRAW_IO_ERROR || errors.end_of_file > 0) {
       throw Fail(name, "is truncated: LibRaw reached the end of the file while reading pixel data (" +
@@ -323,14 +321,18 @@ DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& 
   if (errors.end_of_file > 0) {
     throw Fail(name, "is truncated: LibRaw reached the end of the file while reading pixel data");
   }
-  if (processor->error_count() > 0 || errors.corrupt > 0) {
+  if (processor.error_count() > 0 || errors.corrupt > 0) {
     throw Fail(name, "has corrupt pixel data: LibRaw reported " +
-                         Num(std::max(processor->error_count(), errors.corrupt)) + " decoding error(s)" +
+                         Num(std::max(processor.error_count(), errors.corrupt)) + " decoding error(s)" +
                          (errors.first_corrupt_offset >= 0 ? ", the first near byte " + Num(errors.first_corrupt_offset)
                                                            : std::string()));
   }
+}
 
-  const libraw_rawdata_t& rawdata = processor->imgdata.rawdata;
+// The decoded data must be one integer Bayer plane whose visible area lies
+// inside the raw frame.
+void CheckDecodedLayout(const LibRaw& processor, const std::string& name) {
+  const libraw_rawdata_t& rawdata = processor.imgdata.rawdata;
   if (rawdata.raw_image == nullptr) {
     if (rawdata.color3_image || rawdata.color4_image) {
       throw Fail(name, "decodes to a " + std::string(rawdata.color3_image ? "3" : "4") +
@@ -341,47 +343,75 @@ DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& 
     }
     throw Fail(name, "has no pixel data (LibRaw decoded no raw image)");
   }
-
-  const libraw_image_sizes_t& sizes = processor->imgdata.sizes;
+  const libraw_image_sizes_t& sizes = processor.imgdata.sizes;
   if (sizes.width == 0 || sizes.height == 0 || sizes.left_margin + sizes.width > sizes.raw_width ||
       sizes.top_margin + sizes.height > sizes.raw_height || sizes.raw_pitch < 2u * sizes.raw_width) {
     throw Fail(name, "has an inconsistent layout: visible " + Num(sizes.width) + "x" + Num(sizes.height) +
                          " at (" + Num(sizes.left_margin) + ", " + Num(sizes.top_margin) + ") in a " +
                          Num(sizes.raw_width) + "x" + Num(sizes.raw_height) + " raw frame");
   }
+}
 
-  DecodedRaw decoded;
-  RawImage& image = decoded.image;
-  image.cfa = ReadCfa(*processor, name);
-  image.black_level = ReadBlackLevels(*processor, name);
-  const unsigned maximum = processor->imgdata.color.maximum;
+// CFA, black and white levels; the white level must lie above every black level.
+void ReadLevels(LibRaw& processor, const std::string& name, RawImage* image) {
+  image->cfa = ReadCfa(processor, name);
+  image->black_level = ReadBlackLevels(processor, name);
+  const unsigned maximum = processor.imgdata.color.maximum;
   if (maximum == 0 || maximum > 0xffff) {
     throw Fail(name, "white level " + Num(maximum) + " is outside 1..65535");
   }
-  image.white_level = static_cast<uint16_t>(maximum);
+  image->white_level = static_cast<uint16_t>(maximum);
   for (int i = 0; i < 4; ++i) {
-    if (image.white_level <= image.black_level[i]) {
-      throw Fail(name, "white level " + Num(image.white_level) + " is not above the black level " +
-                           Num(image.black_level[i]) + " at tile position (" + Num(i & 1) + ", " + Num(i >> 1) +
+    if (image->white_level <= image->black_level[i]) {
+      throw Fail(name, "white level " + Num(image->white_level) + " is not above the black level " +
+                           Num(image->black_level[i]) + " at tile position (" + Num(i & 1) + ", " + Num(i >> 1) +
                            ")");
     }
   }
+}
 
-  image.mosaic = ImageU16(sizes.width, sizes.height, 1);
+// The visible area of the raw plane, margins cut off.
+ImageU16 CopyVisibleMosaic(const LibRaw& processor) {
+  const libraw_image_sizes_t& sizes = processor.imgdata.sizes;
+  ImageU16 mosaic(sizes.width, sizes.height, 1);
   const size_t pitch = sizes.raw_pitch / 2;  // raw_pitch is in bytes
   for (int y = 0; y < sizes.height; ++y) {
-    const uint16_t* source = rawdata.raw_image + (size_t(y) + sizes.top_margin) * pitch + sizes.left_margin;
-    std::copy_n(source, sizes.width, image.mosaic.row(y));
+    const uint16_t* source =
+        processor.imgdata.rawdata.raw_image + (size_t(y) + sizes.top_margin) * pitch + sizes.left_margin;
+    std::copy_n(source, sizes.width, mosaic.row(y));
   }
+  return mosaic;
+}
 
-  decoded.make = processor->imgdata.idata.make;
-  decoded.model = processor->imgdata.idata.model;
-  decoded.software = processor->imgdata.idata.software;
-  decoded.serial = processor->imgdata.shootinginfo.BodySerial;
-  decoded.capture_time = FormatTimestamp(processor->imgdata.other.timestamp);
-  decoded.exposure_time_s = processor->imgdata.other.shutter;
-  decoded.iso = processor->imgdata.other.iso_speed;
-  decoded.f_number = processor->imgdata.other.aperture;
+void ReadCaptureInfo(const LibRaw& processor, DecodedRaw* decoded) {
+  decoded->make = processor.imgdata.idata.make;
+  decoded->model = processor.imgdata.idata.model;
+  decoded->software = processor.imgdata.idata.software;
+  decoded->serial = processor.imgdata.shootinginfo.BodySerial;
+  decoded->capture_time = FormatTimestamp(processor.imgdata.other.timestamp);
+  decoded->exposure_time_s = processor.imgdata.other.shutter;
+  decoded->iso = processor.imgdata.other.iso_speed;
+  decoded->f_number = processor.imgdata.other.aperture;
+}
+
+}  // namespace
+
+DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& name) {
+  if (bytes.empty()) throw Fail(name, "is empty (0 bytes); not a RAW file");
+  const TiffView tiff(bytes);
+  if (tiff.is_tiff()) {
+    const std::string truncation = FindTiffTruncation(tiff);
+    if (!truncation.empty()) throw Fail(name, "is truncated: " + truncation);
+  }
+  DataErrors errors;
+  const std::unique_ptr<LibRaw> processor = OpenRaw(bytes, tiff, &errors, name);
+  UnpackRaw(*processor, errors, name);
+  CheckDecodedLayout(*processor, name);
+
+  DecodedRaw decoded;
+  ReadLevels(*processor, name, &decoded.image);
+  decoded.image.mosaic = CopyVisibleMosaic(*processor);
+  ReadCaptureInfo(*processor, &decoded);
   return decoded;
 }
 
