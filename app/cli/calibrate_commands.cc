@@ -1,4 +1,5 @@
-// calibrate camera|white|lights, and on the simulated rig: simulate-targets,
+// calibrate camera|white|lights, describe (real-bench captures as target
+// sessions), and on the simulated rig: simulate-targets,
 // edge-error and demo (targets -> calibration set -> a scan solved with it).
 #include <filesystem>
 #include <iomanip>
@@ -16,6 +17,7 @@
 #include "app/controllers/simulate_controller.h"
 #include "app/controllers/simulate_targets_controller.h"
 #include "app/controllers/solve_controller.h"
+#include "app/session/calibration_target.h"
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
 
@@ -97,6 +99,24 @@ int CalibrateLightsCommand(const LightsState& state) {
   const int code = RunController(controller);
   if (code == kExitSuccess) PrintLights(controller.summary(), state.calibration);
   return code;
+}
+
+struct DescribeState {
+  std::vector<fs::path> sessions;
+  std::string kind;
+  DescribeTargetsOptions options;
+};
+
+int DescribeCommand(DescribeState& state) {
+  state.options.kind = *CalibrationTargetKindFromName(state.kind);  // CLI11 checked the name
+  const std::vector<DescribedTargetSession> described = DescribeTargetSessions(state.options, state.sessions);
+  for (const DescribedTargetSession& d : described) {
+    std::cout << "  " << d.session.string() << ": "
+              << (d.written ? "target.json written: " + d.what
+                            : "kept its target.json (delete it by hand to describe again)")
+              << "\n";
+  }
+  return kExitSuccess;
 }
 
 struct TargetsState {
@@ -196,6 +216,142 @@ void AddVerifyFlag(CLI::App& command, bool& verify) {
                    "Skip re-hashing the frames against session.json");
 }
 
+void AddCalibrationOption(CLI::App& command, fs::path& calibration) {
+  command.add_option("--calibration,-c", calibration, "Calibration set (made by calibrate camera)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+}
+
+// ---------------------------------------------------------------------------
+// Subcommands
+
+void AddCameraCommand(CLI::App& calibrate, int* exit_code) {
+  auto camera = std::make_shared<CameraState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "camera", "Intrinsics, distortion and table pose from checkerboard sessions (one must have the board flat on "
+                "the table); starts a new calibration set");
+  command->add_option("sessions", camera->sessions, "Checkerboard target sessions")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command->add_option("--output,-o", camera->output, "Calibration set folder to create")->required();
+  command->add_flag("--replace", camera->options.replace, "Overwrite an existing calibration set there");
+  command->add_option("--radial-terms", camera->options.calibration.radial_terms,
+                      "Radial distortion terms to fit: 1 (k1), 2 (k1 k2) or 3")
+      ->capture_default_str();
+  command->add_flag("--fix-tangential", camera->options.calibration.fix_tangential,
+                    "Keep the tangential distortion p1, p2 at 0");
+  command->add_option("--max-edge-width", camera->options.calibration.detection.max_edge_width_px,
+                      "Reject views whose square edges rise over more pixels than this (blur)")
+      ->capture_default_str();
+  AddVerifyFlag(*command, camera->options.verify_checksums);
+  command->callback([camera, exit_code] { Guarded(exit_code, [&] { return CalibrateCameraCommand(*camera); }); });
+}
+
+void AddWhiteCommand(CLI::App& calibrate, int* exit_code) {
+  auto white = std::make_shared<WhiteState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "white", "Per-LED white balance and sensor linearity from a gray chart session, into a calibration set");
+  command->add_option("session", white->session, "Gray chart target session")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  AddCalibrationOption(*command, white->calibration);
+  command->add_option("--linearity-tolerance", white->options.white_balance.linearity_tolerance,
+                      "Relative deviation from the linear fit that marks a patch non-linear")
+      ->capture_default_str();
+  AddVerifyFlag(*command, white->options.verify_checksums);
+  command->callback([white, exit_code] { Guarded(exit_code, [&] { return CalibrateWhiteCommand(*white); }); });
+}
+
+void AddLightsCommand(CLI::App& calibrate, int* exit_code) {
+  auto lights = std::make_shared<LightsState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "lights", "Per-pixel light intensity and direction, and the fitted LED model, from white sheet sessions (one on "
+                "the table, one on a spacer), into a calibration set");
+  command->add_option("sessions", lights->sessions, "White sheet target sessions")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  AddCalibrationOption(*command, lights->calibration);
+  command->add_option("--cell-px", lights->options.lights.cell_px,
+                      "Side of the averaging cells in pixels, even (0 = width / 64)")
+      ->capture_default_str();
+  command->add_option("--model-noise-factor", lights->options.lights.model_noise_factor,
+                      "Use the LED model when its residual is within this many times the noise")
+      ->capture_default_str();
+  AddVerifyFlag(*command, lights->options.verify_checksums);
+  command->callback([lights, exit_code] { Guarded(exit_code, [&] { return CalibrateLightsCommand(*lights); }); });
+}
+
+void AddDescribeCommand(CLI::App& calibrate, int* exit_code) {
+  auto describe = std::make_shared<DescribeState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "describe", "Make captures of the standard targets taken on the real bench (sessions without target.json) "
+                  "target sessions: writes target.json into each, never replacing one");
+  command->add_option("sessions", describe->sessions,
+                      "Captured sessions, in order: the first board / sheet without a target.json becomes the table "
+                      "view unless one of them already is")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command->add_option("--as", describe->kind, "What they show: checkerboard (9 x 6 inner corners, 9 mm squares), "
+                                              "gray_chart (Munsell neutral scale) or white_sheet (99 %)")
+      ->required()
+      ->check(CLI::IsMember({"checkerboard", "gray_chart", "white_sheet"}));
+  command->add_option("--spacer-mm", describe->options.spacer_mm,
+                      "white_sheet: height of the raised sheet above the table, (0, 200] mm")
+      ->capture_default_str();
+  command->callback([describe, exit_code] { Guarded(exit_code, [&] { return DescribeCommand(*describe); }); });
+}
+
+void AddSimulateTargetsCommand(CLI::App& calibrate, int* exit_code) {
+  auto targets = std::make_shared<TargetsState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "simulate-targets", "Render the calibration target sessions (checkerboards, gray chart, white sheets) on the "
+                          "simulated rig from its true parameters");
+  command->add_option("output", targets->output, "Folder for the target sessions")->required();
+  command->add_option("--width", targets->options.rig.width, "Image width in pixels")->capture_default_str();
+  command->add_option("--height", targets->options.rig.height, "Image height in pixels")->capture_default_str();
+  command->add_option("--seed", targets->options.rig.seed, "Sensor noise seed (also the camera serial)")
+      ->capture_default_str();
+  command->add_option("--spacer-mm", targets->options.spacer_mm, "Height of the raised white sheet")
+      ->capture_default_str();
+  command->add_option("--led-error-mm", targets->options.measured.led_position_error_mm,
+                      "rms error per axis of the measured LED positions written into the sessions")
+      ->capture_default_str();
+  command->callback([targets, exit_code] { Guarded(exit_code, [&] { return SimulateTargetsCommand(*targets); }); });
+}
+
+void AddEdgeErrorCommand(CLI::App& calibrate, int* exit_code) {
+  auto edge = std::make_shared<EdgeState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "edge-error", "Measure the low-frequency normal tilt toward the borders (the seed's Figure 10) of a simulated "
+                    "session: distant uniform lights against a calibration set; writes figures and images");
+  command->add_option("session", edge->session, "Session with ground truth")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command->add_option("--calibration,-c", edge->options.calibration_dir, "Calibration set")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command->add_option("--output,-o", edge->options.output_dir, "Folder for the images and edge_error.json")
+      ->required();
+  command->add_option("--block-px", edge->options.block_px, "Averaging block side in pixels (0 = width / 40)")
+      ->capture_default_str();
+  command->add_option("--threads", edge->options.solver.num_threads, "Solver threads (0 = all cores)")
+      ->capture_default_str();
+  command->callback([edge, exit_code] { Guarded(exit_code, [&] { return EdgeErrorCommand(*edge); }); });
+}
+
+void AddDemoCommand(CLI::App& calibrate, int* exit_code) {
+  auto demo = std::make_shared<DemoState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "demo", "On the simulated rig: render the targets, calibrate camera, white balance and lights, scan a sample "
+              "whose session holds only the measured rig, solve it with the calibration and measure the edge error");
+  command->add_option("--output", demo->output, "Folder for everything")->capture_default_str();
+  command->add_option("--width", demo->width, "Image width in pixels")->capture_default_str();
+  command->add_option("--height", demo->height, "Image height in pixels")->capture_default_str();
+  command->add_option("--seed", demo->seed, "Sensor noise seed")->capture_default_str();
+  command->add_option("--threads", demo->threads, "Solver threads (0 = all cores)")->capture_default_str();
+  command->callback([demo, exit_code] { Guarded(exit_code, [&] { return CalibrationDemo(*demo); }); });
+}
+
 }  // namespace
 
 void RegisterCalibrateCommands(CLI::App& app, int* exit_code) {
@@ -203,105 +359,13 @@ void RegisterCalibrateCommands(CLI::App& app, int* exit_code) {
       "calibrate", "Calibrate the camera, the sensor's white balance and the lights from target sessions into a "
                    "calibration set (docs/calibration.md)");
   calibrate->require_subcommand(1);
-
-  auto camera = std::make_shared<CameraState>();
-  CLI::App* camera_command = calibrate->add_subcommand(
-      "camera", "Intrinsics, distortion and table pose from checkerboard sessions (one must have the board flat on "
-                "the table); starts a new calibration set");
-  camera_command->add_option("sessions", camera->sessions, "Checkerboard target sessions")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  camera_command->add_option("--output,-o", camera->output, "Calibration set folder to create")->required();
-  camera_command->add_flag("--replace", camera->options.replace, "Overwrite an existing calibration set there");
-  camera_command->add_option("--radial-terms", camera->options.calibration.radial_terms,
-                             "Radial distortion terms to fit: 1 (k1), 2 (k1 k2) or 3")
-      ->capture_default_str();
-  camera_command->add_flag("--fix-tangential", camera->options.calibration.fix_tangential,
-                           "Keep the tangential distortion p1, p2 at 0");
-  camera_command->add_option("--max-edge-width", camera->options.calibration.detection.max_edge_width_px,
-                             "Reject views whose square edges rise over more pixels than this (blur)")
-      ->capture_default_str();
-  AddVerifyFlag(*camera_command, camera->options.verify_checksums);
-  camera_command->callback([camera, exit_code] { Guarded(exit_code, [&] { return CalibrateCameraCommand(*camera); }); });
-
-  auto white = std::make_shared<WhiteState>();
-  CLI::App* white_command = calibrate->add_subcommand(
-      "white", "Per-LED white balance and sensor linearity from a gray chart session, into a calibration set");
-  white_command->add_option("session", white->session, "Gray chart target session")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  white_command->add_option("--calibration,-c", white->calibration, "Calibration set (made by calibrate camera)")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  white_command->add_option("--linearity-tolerance", white->options.white_balance.linearity_tolerance,
-                            "Relative deviation from the linear fit that marks a patch non-linear")
-      ->capture_default_str();
-  AddVerifyFlag(*white_command, white->options.verify_checksums);
-  white_command->callback([white, exit_code] { Guarded(exit_code, [&] { return CalibrateWhiteCommand(*white); }); });
-
-  auto lights = std::make_shared<LightsState>();
-  CLI::App* lights_command = calibrate->add_subcommand(
-      "lights", "Per-pixel light intensity and direction, and the fitted LED model, from white sheet sessions (one on "
-                "the table, one on a spacer), into a calibration set");
-  lights_command->add_option("sessions", lights->sessions, "White sheet target sessions")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  lights_command->add_option("--calibration,-c", lights->calibration, "Calibration set (made by calibrate camera)")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  lights_command->add_option("--cell-px", lights->options.lights.cell_px,
-                             "Side of the averaging cells in pixels, even (0 = width / 64)")
-      ->capture_default_str();
-  lights_command->add_option("--model-noise-factor", lights->options.lights.model_noise_factor,
-                             "Use the LED model when its residual is within this many times the noise")
-      ->capture_default_str();
-  AddVerifyFlag(*lights_command, lights->options.verify_checksums);
-  lights_command->callback([lights, exit_code] { Guarded(exit_code, [&] { return CalibrateLightsCommand(*lights); }); });
-
-  auto targets = std::make_shared<TargetsState>();
-  CLI::App* targets_command = calibrate->add_subcommand(
-      "simulate-targets", "Render the calibration target sessions (checkerboards, gray chart, white sheets) on the "
-                          "simulated rig from its true parameters");
-  targets_command->add_option("output", targets->output, "Folder for the target sessions")->required();
-  targets_command->add_option("--width", targets->options.rig.width, "Image width in pixels")->capture_default_str();
-  targets_command->add_option("--height", targets->options.rig.height, "Image height in pixels")->capture_default_str();
-  targets_command->add_option("--seed", targets->options.rig.seed, "Sensor noise seed (also the camera serial)")
-      ->capture_default_str();
-  targets_command->add_option("--spacer-mm", targets->options.spacer_mm, "Height of the raised white sheet")
-      ->capture_default_str();
-  targets_command->add_option("--led-error-mm", targets->options.measured.led_position_error_mm,
-                              "rms error per axis of the measured LED positions written into the sessions")
-      ->capture_default_str();
-  targets_command->callback([targets, exit_code] { Guarded(exit_code, [&] { return SimulateTargetsCommand(*targets); }); });
-
-  auto edge = std::make_shared<EdgeState>();
-  CLI::App* edge_command = calibrate->add_subcommand(
-      "edge-error", "Measure the low-frequency normal tilt toward the borders (the seed's Figure 10) of a simulated "
-                    "session: distant uniform lights against a calibration set; writes figures and images");
-  edge_command->add_option("session", edge->session, "Session with ground truth")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  edge_command->add_option("--calibration,-c", edge->options.calibration_dir, "Calibration set")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  edge_command->add_option("--output,-o", edge->options.output_dir, "Folder for the images and edge_error.json")
-      ->required();
-  edge_command->add_option("--block-px", edge->options.block_px, "Averaging block side in pixels (0 = width / 40)")
-      ->capture_default_str();
-  edge_command->add_option("--threads", edge->options.solver.num_threads, "Solver threads (0 = all cores)")
-      ->capture_default_str();
-  edge_command->callback([edge, exit_code] { Guarded(exit_code, [&] { return EdgeErrorCommand(*edge); }); });
-
-  auto demo = std::make_shared<DemoState>();
-  CLI::App* demo_command = calibrate->add_subcommand(
-      "demo", "On the simulated rig: render the targets, calibrate camera, white balance and lights, scan a sample "
-              "whose session holds only the measured rig, solve it with the calibration and measure the edge error");
-  demo_command->add_option("--output", demo->output, "Folder for everything")->capture_default_str();
-  demo_command->add_option("--width", demo->width, "Image width in pixels")->capture_default_str();
-  demo_command->add_option("--height", demo->height, "Image height in pixels")->capture_default_str();
-  demo_command->add_option("--seed", demo->seed, "Sensor noise seed")->capture_default_str();
-  demo_command->add_option("--threads", demo->threads, "Solver threads (0 = all cores)")->capture_default_str();
-  demo_command->callback([demo, exit_code] { Guarded(exit_code, [&] { return CalibrationDemo(*demo); }); });
+  AddCameraCommand(*calibrate, exit_code);
+  AddWhiteCommand(*calibrate, exit_code);
+  AddLightsCommand(*calibrate, exit_code);
+  AddDescribeCommand(*calibrate, exit_code);
+  AddSimulateTargetsCommand(*calibrate, exit_code);
+  AddEdgeErrorCommand(*calibrate, exit_code);
+  AddDemoCommand(*calibrate, exit_code);
 }
 
 }  // namespace scanbench

@@ -3,6 +3,7 @@
 #include <QBrush>
 #include <QCheckBox>
 #include <QColor>
+#include <QCoreApplication>
 #include <QDir>
 #include <QDoubleSpinBox>
 #include <QFileDialog>
@@ -25,6 +26,7 @@
 #include <algorithm>
 #include <map>
 #include <numeric>
+#include <optional>
 
 #include "app/controllers/calibration_controllers.h"
 #include "app/controllers/simulate_targets_controller.h"
@@ -46,19 +48,133 @@ enum FigureColumn { kFigureName, kFigureValue, kFigureLimit, kFigureMark, kFigur
 constexpr int kValueRole = Qt::UserRole;     // the figure's number (column kFigureValue)
 constexpr int kMarkRole = Qt::UserRole + 1;  // its QualityFigure::Mark (column kFigureMark)
 
-const char* const kStepPrefix[] = {"camera", "white", "lights"};
-const char* const kStepTitle[] = {"Camera", "White balance", "Lights"};
+// What the page needs to run a step: the target sessions, the set, and the
+// page's options.
+struct StepRunInputs {
+  std::vector<fs::path> sessions;
+  fs::path set_dir;
+  bool replace_set = false;  // camera: "Replace an existing set"
+};
 
-CalibrationTargetDescription::Kind StepKind(int step) {
-  if (step == CalibrationPage::kCameraStep) return CalibrationTargetDescription::Kind::kCheckerboard;
-  if (step == CalibrationPage::kWhiteStep) return CalibrationTargetDescription::Kind::kGrayChart;
-  return CalibrationTargetDescription::Kind::kWhiteSheet;
+// A started step: its controller and, once it has succeeded, its figures.
+struct StepRun {
+  std::shared_ptr<BaseController> controller;
+  std::function<std::vector<QualityFigure>()> figures;
+};
+
+// A step's section of the set on disk: its figures and date.
+struct StoredStep {
+  std::vector<QualityFigure> figures;
+  std::string date;
+};
+
+// The rig description a light calibration started from: the first white
+// sheet session's (empty when it cannot be read any more).
+std::vector<LedDescription> MeasuredLeds(const std::string& session_dir) {
+  try {
+    return LoadSession(session_dir, SessionLoadOptions{.verify_checksums = false}).rig.leds;
+  } catch (const std::exception&) {
+    return {};
+  }
 }
 
-CalibrationStep QualityStep(int step) {
-  if (step == CalibrationPage::kCameraStep) return CalibrationStep::kCamera;
-  if (step == CalibrationPage::kWhiteStep) return CalibrationStep::kWhiteBalance;
-  return CalibrationStep::kLights;
+// Everything that differs between the steps; the page is generic over it.
+// Texts are translated where they are shown.
+struct StepSpec {
+  const char* prefix;  // widget object names and settings keys: "cameraRun", "calibration/camera_sessions"
+  const char* title;
+  CalibrationTargetDescription::Kind kind;
+  CalibrationStep quality_step;
+  const char* instructions;
+  const char* sessions_label;
+  int list_height;      // px: room for the sessions the step takes
+  bool one_session;     // the gray chart: one session
+  bool spacer;          // the white sheets: the spacer height to describe them with
+  const char* describe_what;
+  const char* describe_tooltip;
+  const char* run_text;
+  const char* job_name;
+  const char* done_text;  // %1: the set folder
+  StepRun (*start)(const StepRunInputs& inputs);
+  std::optional<StoredStep> (*stored)(const CalibrationSet& set);
+};
+
+#define STEP_TR(text) QT_TRANSLATE_NOOP("scanbench::CalibrationPage", text)
+
+const StepSpec kSteps[CalibrationPage::kStepCount] = {
+    {"camera", STEP_TR("Camera"), CalibrationTargetDescription::Kind::kCheckerboard, CalibrationStep::kCamera,
+     STEP_TR("<b>Target:</b> the checkerboard (9 × 6 inner corners, 9 mm squares), flat: mounted on glass or stiff "
+             "card. <b>Capture</b> one session per pose, all LEDs as for a scan: first the board <b>lying flat on the "
+             "table</b>, its rows along the image's x (this view places the table); then 5 to 8 more with the board "
+             "<b>tilted 20–35°</b> in different directions, at different places in the view. The whole board must be "
+             "visible and sharp in every pose. This step starts the calibration set."),
+     STEP_TR("Target sessions"), 84, false, false, STEP_TR("board poses"),
+     STEP_TR("Writes target.json (9 × 6 inner corners, 9 mm squares) into each selected session without one; the "
+             "first becomes the board lying on the table unless a listed session already is"),
+     STEP_TR("Run camera calibration"), STEP_TR("Camera calibration"), STEP_TR("Camera calibrated: a new set in %1."),
+     [](const StepRunInputs& in) -> StepRun {
+       CameraCalibrationJobOptions options;
+       options.replace = in.replace_set;
+       auto controller = std::make_shared<CameraCalibrationController>(in.sessions, in.set_dir, options);
+       return {controller, [controller] { return CameraQuality(controller->summary()); }};
+     },
+     [](const CalibrationSet& set) -> std::optional<StoredStep> {
+       if (!set.camera_calibration) return std::nullopt;
+       return StoredStep{CameraQuality(set.camera_calibration->summary), set.camera_calibration->date};
+     }},
+    {"white", STEP_TR("White balance"), CalibrationTargetDescription::Kind::kGrayChart, CalibrationStep::kWhiteBalance,
+     STEP_TR("<b>Target:</b> the matte <b>gray chart</b> (Munsell neutral value scale, N2 to N9.5) lying flat at the "
+             "centre of the table, where its target.json puts the patches. <b>Capture</b> one session, all LEDs, at "
+             "the exposure of a scan. Keep the chart clean, without glare or shadow. Needs step 1 in this set."),
+     STEP_TR("Target session"), 30, true, false, STEP_TR("the gray chart"),
+     STEP_TR("Writes target.json (the Munsell neutral scale, centred on the table) into the selected session"),
+     STEP_TR("Run white balance"), STEP_TR("White balance"),
+     STEP_TR("White balance and linearity measured into %1."),
+     [](const StepRunInputs& in) -> StepRun {
+       auto controller =
+           std::make_shared<WhiteBalanceController>(in.sessions.front(), in.set_dir, WhiteBalanceJobOptions());
+       return {controller, [controller] { return WhiteBalanceQuality(controller->summary()); }};
+     },
+     [](const CalibrationSet& set) -> std::optional<StoredStep> {
+       if (!set.white_balance) return std::nullopt;
+       return StoredStep{WhiteBalanceQuality(set.white_balance->summary), set.white_balance->date};
+     }},
+    {"lights", STEP_TR("Lights"), CalibrationTargetDescription::Kind::kWhiteSheet, CalibrationStep::kLights,
+     STEP_TR("<b>Target:</b> a <b>99 % white sheet</b> (matte, no optical brighteners), flat and clean, filling the "
+             "view. <b>Capture</b> two sessions, all LEDs: the sheet <b>on the table</b>, then on the <b>spacer</b> "
+             "(40 mm, the height its target.json states). Nothing may clip at the scan's exposure. Needs step 1."),
+     STEP_TR("Target sessions"), 48, false, true, STEP_TR("white sheets"),
+     STEP_TR("Writes target.json (99 % sheet) into each selected session without one: the first on the table "
+             "unless a listed session already is, the others on the spacer"),
+     STEP_TR("Run light calibration"), STEP_TR("Light calibration"), STEP_TR("Lights calibrated into %1."),
+     [](const StepRunInputs& in) -> StepRun {
+       auto controller =
+           std::make_shared<LightCalibrationController>(in.sessions, in.set_dir, LightCalibrationJobOptions());
+       const std::string first = in.sessions.front().string();
+       return {controller, [controller, first] { return LightsQuality(controller->summary(), MeasuredLeds(first)); }};
+     },
+     [](const CalibrationSet& set) -> std::optional<StoredStep> {
+       if (!set.lights) return std::nullopt;
+       const std::vector<LedDescription> measured =
+           set.lights->targets.empty() ? std::vector<LedDescription>() : MeasuredLeds(set.lights->targets[0].session);
+       return StoredStep{LightsQuality(set.lights->summary, measured), set.lights->date};
+     }},
+};
+
+#undef STEP_TR
+
+QString Tr(const char* text) { return QCoreApplication::translate("scanbench::CalibrationPage", text); }
+
+QStringList ToStrings(const std::vector<fs::path>& paths) {
+  QStringList strings;
+  for (const fs::path& path : paths) strings << QString::fromStdString(path.string());
+  return strings;
+}
+
+std::vector<fs::path> ToPaths(const QStringList& strings) {
+  std::vector<fs::path> paths;
+  for (const QString& string : strings) paths.push_back(string.toStdString());
+  return paths;
 }
 
 QColor MarkBackground(Mark mark) {
@@ -90,42 +206,23 @@ void SetMark(QTreeWidgetItem* item, Mark mark) {
   }
 }
 
-// The target sessions in `folder` (itself, or its sub-folders) of each kind,
-// sorted by folder name. Unreadable target.json files are skipped here: the
-// calibration names what is wrong with them if they are chosen anyway.
-std::map<CalibrationTargetDescription::Kind, QStringList> TargetSessionsIn(const fs::path& folder) {
-  std::map<CalibrationTargetDescription::Kind, QStringList> found;
-  std::vector<fs::path> dirs;
-  std::error_code error;
-  if (fs::exists(folder / kCalibrationTargetFileName, error)) dirs.push_back(folder);
-  for (const auto& entry : fs::directory_iterator(folder, error)) {
-    if (entry.is_directory() && fs::exists(entry.path() / kCalibrationTargetFileName)) dirs.push_back(entry.path());
-  }
-  std::sort(dirs.begin(), dirs.end());
-  for (const fs::path& dir : dirs) {
-    try {
-      found[LoadCalibrationTarget(dir).kind].push_back(QString::fromStdString(dir.string()));
-    } catch (const std::exception&) {
-    }
-  }
-  return found;
-}
-
-// The rig description a light calibration started from: the first white
-// sheet session's (empty when it cannot be read any more).
-std::vector<LedDescription> MeasuredLeds(const std::string& session_dir) {
-  try {
-    return LoadSession(session_dir, SessionLoadOptions{.verify_checksums = false}).rig.leds;
-  } catch (const std::exception&) {
-    return {};
-  }
-}
-
 }  // namespace
 
 CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices, QWidget* parent)
     : QWidget(parent), runner_(runner), devices_(devices) {
-  // The set: created by step 1, completed by steps 2 and 3.
+  auto* layout = new QVBoxLayout(this);
+  layout->addWidget(MakeSetBox());
+  layout->addWidget(MakeTargetsBox());
+  layout->addWidget(MakeSteps(), 1);
+  layout->addLayout(MakeProgressRow());
+  ConnectRunner();
+  step_list_->setCurrentRow(0);
+  UpdateStepList();
+  ReloadSet();
+}
+
+// The set: created by step 1, completed by steps 2 and 3.
+QWidget* CalibrationPage::MakeSetBox() {
   auto* set_box = new QGroupBox(tr("Calibration set"), this);
   set_box_ = set_box;
   auto* set_layout = new QVBoxLayout(set_box);
@@ -152,7 +249,19 @@ CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices,
   set_layout->addLayout(set_row);
   set_layout->addLayout(state_row);
 
-  // Where the target sessions are.
+  connect(browse_set, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Calibration set folder"), set_folder_->text());
+    if (!dir.isEmpty()) SetCalibrationFolder(dir);
+  });
+  connect(set_folder_, &QLineEdit::editingFinished, this, [this] {
+    if (set_folder_->text() != loaded_folder_) SetCalibrationFolder(set_folder_->text());
+  });
+  connect(use_set_, &QPushButton::clicked, this, [this] { emit UseCalibrationSet(calibration_folder()); });
+  return set_box;
+}
+
+// Where the target sessions are.
+QWidget* CalibrationPage::MakeTargetsBox() {
   auto* targets_box = new QGroupBox(tr("Target sessions"), this);
   targets_box_ = targets_box;
   auto* targets_layout = new QVBoxLayout(targets_box);
@@ -171,14 +280,8 @@ CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices,
   render_->setObjectName("renderTargets");
   render_->setToolTip(tr("Simulated bench: writes every target session (checkerboard poses, gray chart, white "
                          "sheets) into the folder, as scanbench calibrate simulate-targets does"));
-  sim_width_ = new QSpinBox(targets_box);
-  sim_width_->setObjectName("targetsWidth");
-  sim_width_->setRange(64, 8192);
-  sim_width_->setValue(1232);
-  sim_height_ = new QSpinBox(targets_box);
-  sim_height_->setObjectName("targetsHeight");
-  sim_height_->setRange(64, 8192);
-  sim_height_->setValue(816);
+  sim_width_ = MakeSizeBox("targetsWidth", 1232, targets_box);
+  sim_height_ = MakeSizeBox("targetsHeight", 816, targets_box);
   auto* render_row = new QHBoxLayout;
   render_row->addWidget(render_);
   render_row->addWidget(sim_width_);
@@ -198,37 +301,52 @@ CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices,
   targets_layout->addLayout(render_row);
   targets_layout->addWidget(targets_status_);
 
-  // The steps.
+  connect(browse_targets, &QPushButton::clicked, this, [this] {
+    const QString dir =
+        QFileDialog::getExistingDirectory(this, tr("Folder of target sessions"), targets_folder_->text());
+    if (!dir.isEmpty()) SetTargetsFolder(dir);
+  });
+  connect(find_, &QPushButton::clicked, this, &CalibrationPage::FindTargets);
+  connect(render_, &QPushButton::clicked, this, &CalibrationPage::RenderSimulatedTargets);
+  // Simulated targets are rendered at the simulated camera's size, so that
+  // the set fits the sessions captured on this bench.
+  connect(devices_, &DevicesPage::BenchChanged, this, [this] {
+    Bench* bench = devices_->bench();
+    if (bench && bench->options().simulated_camera) {
+      sim_width_->setValue(bench->options().sim_width);
+      sim_height_->setValue(bench->options().sim_height);
+    }
+  });
+  return targets_box;
+}
+
+QSpinBox* CalibrationPage::MakeSizeBox(const char* name, int value, QWidget* parent) {
+  auto* box = new QSpinBox(parent);
+  box->setObjectName(name);
+  box->setRange(64, 8192);
+  box->setValue(value);
+  return box;
+}
+
+// The step list beside the page of the step chosen.
+QWidget* CalibrationPage::MakeSteps() {
   step_list_ = new QListWidget(this);
   step_list_->setObjectName("calibrationSteps");
   step_list_->setMaximumWidth(200);
   stack_ = new QStackedWidget(this);
-  stack_->addWidget(MakeStep(
-      kCameraStep, "camera",
-      tr("<b>Target:</b> the checkerboard (9 × 6 inner corners, 9 mm squares), flat: mounted on glass or stiff "
-         "card. <b>Capture</b> one session per pose, all LEDs as for a scan: first the board <b>lying flat on the "
-         "table</b>, its rows along the image's x (this view places the table); then 5 to 8 more with the board "
-         "<b>tilted 20–35°</b> in different directions, at different places in the view. The whole board must be "
-         "visible and sharp in every pose. This step starts the calibration set."),
-      tr("Run camera calibration")));
-  stack_->addWidget(MakeStep(
-      kWhiteStep, "white",
-      tr("<b>Target:</b> the matte <b>gray chart</b> (Munsell neutral value scale, N2 to N9.5) lying flat at the "
-         "centre of the table, where its target.json puts the patches. <b>Capture</b> one session, all LEDs, at "
-         "the exposure of a scan. Keep the chart clean, without glare or shadow. Needs step 1 in this set."),
-      tr("Run white balance")));
-  stack_->addWidget(MakeStep(
-      kLightsStep, "lights",
-      tr("<b>Target:</b> a <b>99 % white sheet</b> (matte, no optical brighteners), flat and clean, filling the "
-         "view. <b>Capture</b> two sessions, all LEDs: the sheet <b>on the table</b>, then on the <b>spacer</b> "
-         "(40 mm, the height its target.json states). Nothing may clip at the scan's exposure. Needs step 1."),
-      tr("Run light calibration")));
-  for (int step = 0; step < kStepCount; ++step) step_list_->addItem(QString());
+  for (int step = 0; step < kStepCount; ++step) {
+    stack_->addWidget(MakeStep(Step(step)));
+    step_list_->addItem(QString());
+  }
   auto* splitter = new QSplitter(Qt::Horizontal, this);
   splitter->addWidget(step_list_);
   splitter->addWidget(stack_);
   splitter->setStretchFactor(1, 1);
+  connect(step_list_, &QListWidget::currentRowChanged, stack_, &QStackedWidget::setCurrentIndex);
+  return splitter;
+}
 
+QLayout* CalibrationPage::MakeProgressRow() {
   progress_ = new QProgressBar(this);
   progress_->setObjectName("calibrationProgress");
   progress_->setRange(0, 1000);
@@ -240,32 +358,13 @@ CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices,
   progress_row->addWidget(progress_, 1);
   progress_row->addWidget(stage_);
   progress_row->addWidget(cancel_);
-
-  auto* layout = new QVBoxLayout(this);
-  layout->addWidget(set_box);
-  layout->addWidget(targets_box);
-  layout->addWidget(splitter, 1);
-  layout->addLayout(progress_row);
-
-  connect(browse_set, &QPushButton::clicked, this, [this] {
-    const QString dir = QFileDialog::getExistingDirectory(this, tr("Calibration set folder"), set_folder_->text());
-    if (!dir.isEmpty()) SetCalibrationFolder(dir);
-  });
-  connect(set_folder_, &QLineEdit::editingFinished, this, [this] {
-    if (set_folder_->text() != loaded_folder_) SetCalibrationFolder(set_folder_->text());
-  });
-  connect(use_set_, &QPushButton::clicked, this, [this] { emit UseCalibrationSet(calibration_folder()); });
-  connect(browse_targets, &QPushButton::clicked, this, [this] {
-    const QString dir =
-        QFileDialog::getExistingDirectory(this, tr("Folder of target sessions"), targets_folder_->text());
-    if (!dir.isEmpty()) SetTargetsFolder(dir);
-  });
-  connect(find_, &QPushButton::clicked, this, &CalibrationPage::FindTargets);
-  connect(render_, &QPushButton::clicked, this, &CalibrationPage::RenderSimulatedTargets);
-  connect(step_list_, &QListWidget::currentRowChanged, stack_, &QStackedWidget::setCurrentIndex);
   connect(cancel_, &QPushButton::clicked, this, [this] {
     if (running_ != kNoJob) runner_->Cancel();
   });
+  return progress_row;
+}
+
+void CalibrationPage::ConnectRunner() {
   connect(runner_, &ControllerRunner::Progress, this,
           [this](const QString& stage, double fraction, const QString& detail) {
     if (running_ == kNoJob) return;
@@ -274,32 +373,42 @@ CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices,
   });
   connect(runner_, &ControllerRunner::Started, this, &CalibrationPage::UpdateButtons);
   connect(runner_, &ControllerRunner::Finished, this, &CalibrationPage::UpdateButtons);
-  // Simulated targets are rendered at the simulated camera's size, so that
-  // the set fits the sessions captured on this bench.
-  connect(devices_, &DevicesPage::BenchChanged, this, [this] {
-    Bench* bench = devices_->bench();
-    if (bench && bench->options().simulated_camera) {
-      sim_width_->setValue(bench->options().sim_width);
-      sim_height_->setValue(bench->options().sim_height);
-    }
-  });
-  step_list_->setCurrentRow(0);
-  UpdateStepList();
-  ReloadSet();
 }
 
-QWidget* CalibrationPage::MakeStep(Step step, const QString& prefix, const QString& instructions,
-                                   const QString& run_text) {
+QWidget* CalibrationPage::MakeStep(Step step) {
+  const StepSpec& spec = kSteps[step];
+  const QString prefix = QString::fromLatin1(spec.prefix);
   auto* page = new QWidget(this);
   StepWidgets& w = steps_[step];
-  auto* text = new QLabel(instructions, page);
+  auto* text = new QLabel(Tr(spec.instructions), page);
   text->setWordWrap(true);
   text->setTextFormat(Qt::RichText);
 
+  auto* layout = new QVBoxLayout(page);
+  layout->addWidget(text);
+  layout->addWidget(new QLabel(Tr(spec.sessions_label), page));
+  layout->addLayout(MakeSessionList(step, page));
+  layout->addLayout(MakeDescribeRow(step, page));
+  layout->addLayout(MakeRunRow(step, page));
+
+  w.status = new QLabel(page);
+  w.status->setObjectName(prefix + "Status");
+  w.status->setWordWrap(true);
+  w.status->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  layout->addWidget(w.status);
+  MakeFigures(step, page);
+  layout->addWidget(w.figures, 1);
+  layout->addWidget(w.hints_area);
+  return page;
+}
+
+QLayout* CalibrationPage::MakeSessionList(Step step, QWidget* page) {
+  const QString prefix = QString::fromLatin1(kSteps[step].prefix);
+  StepWidgets& w = steps_[step];
   w.sessions = new QListWidget(page);
   w.sessions->setObjectName(prefix + "Sessions");
   w.sessions->setSelectionMode(QAbstractItemView::ExtendedSelection);
-  w.sessions->setMaximumHeight(step == kWhiteStep ? 30 : step == kLightsStep ? 48 : 84);
+  w.sessions->setMaximumHeight(kSteps[step].list_height);
   auto* add = new QPushButton(tr("Add…"), page);
   add->setObjectName(prefix + "Add");
   auto* remove = new QPushButton(tr("Remove"), page);
@@ -311,48 +420,61 @@ QWidget* CalibrationPage::MakeStep(Step step, const QString& prefix, const QStri
   auto* list_row = new QHBoxLayout;
   list_row->addWidget(w.sessions, 1);
   list_row->addLayout(list_buttons);
+  connect(add, &QPushButton::clicked, this, [this, step] { AddFromFolder(step); });
+  connect(remove, &QPushButton::clicked, this, [this, step] { qDeleteAll(steps_[step].sessions->selectedItems()); });
+  return list_row;
+}
 
-  // Real bench: a capture of the target becomes a target session.
-  auto* describe = new QPushButton(tr("Describe selected as %1").arg(step == kCameraStep ? tr("board poses")
-                                                                     : step == kWhiteStep ? tr("the gray chart")
-                                                                                          : tr("white sheets")),
-                                   page);
-  describe->setObjectName(prefix + "Describe");
-  describe->setToolTip(
-      step == kCameraStep
-          ? tr("Writes target.json (9 × 6 inner corners, 9 mm squares) into each selected session without one; the "
-               "first becomes the board lying on the table unless a listed session already is")
-      : step == kWhiteStep
-          ? tr("Writes target.json (the Munsell neutral scale, centred on the table) into the selected session")
-          : tr("Writes target.json (99 % sheet) into each selected session without one: the first on the table "
-               "unless a listed session already is, the others on the spacer"));
+// Real bench: a capture of the target becomes a target session.
+QLayout* CalibrationPage::MakeDescribeRow(Step step, QWidget* page) {
+  const StepSpec& spec = kSteps[step];
+  auto* describe = new QPushButton(tr("Describe selected as %1").arg(Tr(spec.describe_what)), page);
+  describe->setObjectName(QString::fromLatin1(spec.prefix) + "Describe");
+  describe->setToolTip(Tr(spec.describe_tooltip));
   auto* describe_row = new QHBoxLayout;
   describe_row->addWidget(new QLabel(tr("Captured on the real bench, without a target.json?"), page));
   describe_row->addWidget(describe);
-  if (step == kLightsStep) {
-    w.spacer_mm = new QDoubleSpinBox(page);
-    w.spacer_mm->setObjectName("spacerMm");
-    w.spacer_mm->setRange(1, 200);
-    w.spacer_mm->setValue(SimulateTargetsOptions().spacer_mm);
-    w.spacer_mm->setSuffix(tr(" mm"));
+  if (spec.spacer) {
+    QDoubleSpinBox*& spacer = steps_[step].spacer_mm;
+    spacer = new QDoubleSpinBox(page);
+    spacer->setObjectName("spacerMm");
+    spacer->setRange(1, 200);
+    spacer->setValue(SimulateTargetsOptions().spacer_mm);
+    spacer->setSuffix(tr(" mm"));
     describe_row->addWidget(new QLabel(tr("spacer"), page));
-    describe_row->addWidget(w.spacer_mm);
+    describe_row->addWidget(spacer);
   }
   describe_row->addStretch();
+  connect(describe, &QPushButton::clicked, this, [this, step] { DescribeSelected(step); });
+  return describe_row;
+}
 
-  w.run = new QPushButton(run_text, page);
+QLayout* CalibrationPage::MakeRunRow(Step step, QWidget* page) {
+  const QString prefix = QString::fromLatin1(kSteps[step].prefix);
+  const bool last = step + 1 == kStepCount;
+  StepWidgets& w = steps_[step];
+  w.run = new QPushButton(Tr(kSteps[step].run_text), page);
   w.run->setObjectName(prefix + "Run");
-  auto* next = new QPushButton(step == kLightsStep ? tr("Use this set for solves") : tr("Next step →"), page);
+  auto* next = new QPushButton(last ? tr("Use this set for solves") : tr("Next step →"), page);
   next->setObjectName(prefix + "Next");
   auto* run_row = new QHBoxLayout;
   run_row->addWidget(w.run);
   run_row->addStretch();
   run_row->addWidget(next);
-  w.status = new QLabel(page);
-  w.status->setObjectName(prefix + "Status");
-  w.status->setWordWrap(true);
-  w.status->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  connect(w.run, &QPushButton::clicked, this, [this, step] { RunStep(step); });
+  connect(next, &QPushButton::clicked, this, [this, step, last] {
+    if (last) {
+      if (use_set_->isEnabled()) emit UseCalibrationSet(calibration_folder());
+    } else {
+      ShowStep(Step(step + 1));
+    }
+  });
+  return run_row;
+}
 
+void CalibrationPage::MakeFigures(Step step, QWidget* page) {
+  const QString prefix = QString::fromLatin1(kSteps[step].prefix);
+  StepWidgets& w = steps_[step];
   w.figures = new QTreeWidget(page);
   w.figures->setObjectName(prefix + "Figures");
   w.figures->setColumnCount(kFigureColumns);
@@ -372,29 +494,10 @@ QWidget* CalibrationPage::MakeStep(Step step, const QString& prefix, const QStri
   w.hints_area->setWidget(w.hints);
   w.hints_area->setWidgetResizable(true);
   w.hints_area->setFrameShape(QFrame::NoFrame);
+}
 
-  auto* layout = new QVBoxLayout(page);
-  layout->addWidget(text);
-  layout->addWidget(new QLabel(step == kWhiteStep ? tr("Target session") : tr("Target sessions"), page));
-  layout->addLayout(list_row);
-  layout->addLayout(describe_row);
-  layout->addLayout(run_row);
-  layout->addWidget(w.status);
-  layout->addWidget(w.figures, 1);
-  layout->addWidget(w.hints_area);
-
-  connect(add, &QPushButton::clicked, this, [this, step] { AddFromFolder(step); });
-  connect(describe, &QPushButton::clicked, this, [this, step] { DescribeSelected(step); });
-  connect(remove, &QPushButton::clicked, this, [this, step] { qDeleteAll(steps_[step].sessions->selectedItems()); });
-  connect(w.run, &QPushButton::clicked, this, [this, step] { RunStep(step); });
-  connect(next, &QPushButton::clicked, this, [this, step] {
-    if (step == kLightsStep) {
-      if (use_set_->isEnabled()) emit UseCalibrationSet(calibration_folder());
-    } else {
-      ShowStep(Step(step + 1));
-    }
-  });
-  return page;
+bool CalibrationPage::SetComplete() const {
+  return std::all_of(done_.begin(), done_.end(), [](bool done) { return done; });
 }
 
 fs::path CalibrationPage::SetDir() const { return fs::path(set_folder_->text().trimmed().toStdString()); }
@@ -424,10 +527,11 @@ void CalibrationPage::SetTargetsStatus(const QString& text, bool error) {
 
 void CalibrationPage::AddSessions(Step step, const QStringList& folders) {
   QListWidget* list = steps_[step].sessions;
-  if (step == kWhiteStep && !folders.isEmpty()) list->clear();  // one gray chart session
+  const bool one = kSteps[step].one_session;
+  if (one && !folders.isEmpty()) list->clear();
   for (const QString& folder : folders) {
     if (list->findItems(folder, Qt::MatchExactly).isEmpty()) list->addItem(folder);
-    if (step == kWhiteStep) break;
+    if (one) break;
   }
 }
 
@@ -441,11 +545,11 @@ void CalibrationPage::AddFromFolder(Step step) {
   const QString dir = QFileDialog::getExistingDirectory(this, tr("Target session, or a folder of them"),
                                                         targets_folder_->text());
   if (dir.isEmpty()) return;
-  const auto found = TargetSessionsIn(dir.toStdString());
-  const auto it = found.find(StepKind(step));
+  const auto found = FindTargetSessions(dir.toStdString());
+  const auto it = found.find(kSteps[step].kind);
   // A folder that is no target of this kind is added all the same: the run
   // then says what is wrong with it (a scan session has no target.json).
-  AddSessions(step, it != found.end() ? it->second : QStringList{dir});
+  AddSessions(step, it != found.end() ? ToStrings(it->second) : QStringList{dir});
 }
 
 void CalibrationPage::DescribeSelected(Step step) {
@@ -457,50 +561,26 @@ void CalibrationPage::DescribeSelected(Step step) {
     SetStepStatus(step, tr("Select the captured session(s) to describe in the list first."), true);
     return;
   }
-  // Is one of the listed sessions already the target on the table?
-  bool have_table_view = false;
-  for (const QString& folder : Sessions(step)) {
-    try {
-      const CalibrationTargetDescription target = LoadCalibrationTarget(folder.toStdString());
-      have_table_view |= target.kind == StepKind(step) &&
-                         (step == kCameraStep ? target.on_table : target.white_sheet.height_mm == 0);
-    } catch (const std::exception&) {
-    }
-  }
-  QStringList written, kept;
+  QStringList folders;
+  for (QListWidgetItem* item : selected) folders << item->text();
+  DescribeTargetsOptions options;
+  options.kind = kSteps[step].kind;
+  if (steps_[step].spacer_mm) options.spacer_mm = steps_[step].spacer_mm->value();
+  std::vector<DescribedTargetSession> described;
   try {
-    for (QListWidgetItem* item : selected) {
-      const fs::path dir(item->text().toStdString());
-      if (fs::exists(dir / kCalibrationTargetFileName)) {
-        kept << item->text();  // never replaced: it may describe another target
-        continue;
-      }
-      if (!fs::exists(dir / "session.json")) {
-        throw std::runtime_error(item->text().toStdString() + " holds no session.json: capture it first");
-      }
-      CalibrationTargetDescription target;
-      target.kind = StepKind(step);
-      QString what;
-      if (step == kCameraStep) {
-        target.on_table = !have_table_view;
-        have_table_view = true;
-        what = target.on_table ? tr("the board lying on the table") : tr("a tilted board pose");
-      } else if (step == kWhiteStep) {
-        target.gray_chart = GrayChartTarget::MunsellNeutralScale();
-        what = tr("the gray chart");
-      } else {
-        target.white_sheet.height_mm = have_table_view ? steps_[step].spacer_mm->value() : 0;
-        have_table_view = true;
-        what = target.white_sheet.height_mm == 0
-                   ? tr("the sheet on the table")
-                   : tr("the sheet on the %1 mm spacer").arg(target.white_sheet.height_mm);
-      }
-      WriteCalibrationTarget(dir, target);
-      written << tr("%1 (%2)").arg(QString::fromStdString(dir.filename().string()), what);
-    }
+    described = DescribeTargetSessions(options, ToPaths(folders), ToPaths(Sessions(step)));
   } catch (const std::exception& error) {
     SetStepStatus(step, tr("Describe: %1").arg(error.what()), true);
     return;
+  }
+  QStringList written, kept;
+  for (const DescribedTargetSession& d : described) {
+    if (d.written) {
+      written << tr("%1 (%2)").arg(QString::fromStdString(d.session.filename().string()),
+                                   QString::fromStdString(d.what));
+    } else {
+      kept << QString::fromStdString(d.session.string());
+    }
   }
   QString text = written.isEmpty() ? tr("Nothing written.") : tr("target.json written: %1.").arg(written.join(", "));
   if (!kept.isEmpty()) {
@@ -524,15 +604,15 @@ void CalibrationPage::FindTargets() {
                      true);
     return;
   }
-  const auto found = TargetSessionsIn(folder);
+  const auto found = FindTargetSessions(folder);
   QStringList counts;
   int total = 0;
   for (int step = 0; step < kStepCount; ++step) {
-    const auto it = found.find(StepKind(step));
-    const QStringList sessions = it == found.end() ? QStringList() : it->second;
+    const auto it = found.find(kSteps[step].kind);
+    const QStringList sessions = it == found.end() ? QStringList() : ToStrings(it->second);
     steps_[step].sessions->clear();
     AddSessions(Step(step), sessions);
-    counts << tr("%1 %2").arg(sessions.size()).arg(QString::fromLatin1(CalibrationTargetKindName(StepKind(step))));
+    counts << tr("%1 %2").arg(sessions.size()).arg(QString::fromLatin1(CalibrationTargetKindName(kSteps[step].kind)));
     total += int(sessions.size());
   }
   if (total == 0) {
@@ -608,6 +688,7 @@ bool CalibrationPage::StartJob(int job, std::shared_ptr<BaseController> controll
 
 void CalibrationPage::RunStep(int step_index) {
   const Step step = Step(step_index);
+  const StepSpec& spec = kSteps[step];
   const fs::path set_dir = SetDir();
   const QStringList sessions = Sessions(step);
   if (set_dir.empty()) {
@@ -620,64 +701,46 @@ void CalibrationPage::RunStep(int step_index) {
                   true);
     return;
   }
-  std::vector<fs::path> paths;
-  for (const QString& session : sessions) paths.push_back(session.toStdString());
-  const QString set_name = calibration_folder();
   ClearFigures(step);
   SetStepStatus(step, tr("Running…"));
+  const StepRun run = spec.start({ToPaths(sessions), set_dir, replace_->isChecked()});
+  const QString set_name = calibration_folder();
+  StartJob(step, run.controller, Tr(spec.job_name),
+           [this, step, set_name, figures = run.figures](bool ok, bool cancelled, const QString& message) {
+             FinishStep(step, set_name, ok ? figures() : std::vector<QualityFigure>(), ok, cancelled, message);
+           });
+}
 
-  // What every step does with the outcome; `figures` is called on success only.
-  auto finish = [this, step, set_name](std::function<std::vector<QualityFigure>()> figures, QString done_text) {
-    return [this, step, set_name, figures, done_text](bool ok, bool cancelled, const QString& message) {
-      if (ok) {
-        ShowFigures(step, figures());
-        if (step == kCameraStep) {
-          // A new set: the other steps' figures belonged to the old one.
-          for (Step other : {kWhiteStep, kLightsStep}) {
-            worst_[other] = -1;
-            ClearFigures(other);
-            SetStepStatus(other, QString());
-          }
-        }
-      } else {
-        // Cancelled: the set on disk (if any) is shown as it still is.
-        worst_[step] = cancelled ? -1 : int(Mark::kFail);
+// What every step does with the outcome of its run.
+void CalibrationPage::FinishStep(Step step, const QString& set_name, const std::vector<QualityFigure>& figures,
+                                 bool ok, bool cancelled, const QString& message) {
+  if (ok) {
+    ShowFigures(step, figures);
+    if (step == kCameraStep) {
+      // A new set: the other steps' figures belonged to the old one.
+      for (int other = kCameraStep + 1; other < kStepCount; ++other) {
+        worst_[other] = -1;
+        ClearFigures(Step(other));
+        SetStepStatus(Step(other), QString());
       }
-      ReloadSet();
-      if (ok) {
-        SetStepStatus(step, done_text);
-      } else if (cancelled) {
-        SetStepStatus(step, tr("Cancelled: nothing was written; the set in %1 is as it was.").arg(set_name), true);
-      } else {
-        SetStepStatus(step, tr("Failed: %1").arg(message), true);
-        const std::string hint = FixHintForError(QualityStep(step), message.toStdString());
-        QLabel* hints = steps_[step].hints;
-        hints->setTextFormat(Qt::PlainText);
-        hints->setText(hint.empty() ? QString() : tr("What to fix: %1").arg(QString::fromStdString(hint)));
-        hints->setStyleSheet(QStringLiteral("color: #c0392b"));
-        FitHints(step);
-      }
-    };
-  };
-
-  if (step == kCameraStep) {
-    CameraCalibrationJobOptions options;
-    options.replace = replace_->isChecked();
-    auto controller = std::make_shared<CameraCalibrationController>(paths, set_dir, options);
-    StartJob(step, controller, tr("Camera calibration"),
-             finish([controller] { return CameraQuality(controller->summary()); },
-                    tr("Camera calibrated: a new set in %1.").arg(set_name)));
-  } else if (step == kWhiteStep) {
-    auto controller = std::make_shared<WhiteBalanceController>(paths.front(), set_dir, WhiteBalanceJobOptions());
-    StartJob(step, controller, tr("White balance"),
-             finish([controller] { return WhiteBalanceQuality(controller->summary()); },
-                    tr("White balance and linearity measured into %1.").arg(set_name)));
+    }
   } else {
-    auto controller = std::make_shared<LightCalibrationController>(paths, set_dir, LightCalibrationJobOptions());
-    const std::string first = paths.front().string();
-    StartJob(step, controller, tr("Light calibration"),
-             finish([controller, first] { return LightsQuality(controller->summary(), MeasuredLeds(first)); },
-                    tr("Lights calibrated into %1.").arg(set_name)));
+    // Cancelled: the set on disk (if any) is shown as it still is.
+    worst_[step] = cancelled ? -1 : int(Mark::kFail);
+  }
+  ReloadSet();
+  if (ok) {
+    SetStepStatus(step, Tr(kSteps[step].done_text).arg(set_name));
+  } else if (cancelled) {
+    SetStepStatus(step, tr("Cancelled: nothing was written; the set in %1 is as it was.").arg(set_name), true);
+  } else {
+    SetStepStatus(step, tr("Failed: %1").arg(message), true);
+    const std::string hint = FixHintForError(kSteps[step].quality_step, message.toStdString());
+    QLabel* hints = steps_[step].hints;
+    hints->setTextFormat(Qt::PlainText);
+    hints->setText(hint.empty() ? QString() : tr("What to fix: %1").arg(QString::fromStdString(hint)));
+    hints->setStyleSheet(QStringLiteral("color: #c0392b"));
+    FitHints(step);
   }
 }
 
@@ -769,28 +832,20 @@ void CalibrationPage::ReloadSet() {
   } else {
     try {
       const CalibrationSet set = LoadCalibrationSet(dir);
-      done_ = {set.camera_calibration.has_value(), set.white_balance.has_value(), set.lights.has_value()};
       // A step shows the figures of the set on disk unless it has just run.
-      if (set.camera_calibration && worst_[kCameraStep] < 0) {
-        ShowFigures(kCameraStep, CameraQuality(set.camera_calibration->summary));
-        SetStepStatus(kCameraStep,
-                      tr("In the set since %1.").arg(QString::fromStdString(set.camera_calibration->date)));
-      }
-      if (set.white_balance && worst_[kWhiteStep] < 0) {
-        ShowFigures(kWhiteStep, WhiteBalanceQuality(set.white_balance->summary));
-        SetStepStatus(kWhiteStep, tr("In the set since %1.").arg(QString::fromStdString(set.white_balance->date)));
-      }
-      if (set.lights && worst_[kLightsStep] < 0) {
-        const std::vector<LedDescription> measured =
-            set.lights->targets.empty() ? std::vector<LedDescription>() : MeasuredLeds(set.lights->targets[0].session);
-        ShowFigures(kLightsStep, LightsQuality(set.lights->summary, measured));
-        SetStepStatus(kLightsStep, tr("In the set since %1.").arg(QString::fromStdString(set.lights->date)));
+      for (int step = 0; step < kStepCount; ++step) {
+        const std::optional<StoredStep> stored = kSteps[step].stored(set);
+        done_[step] = stored.has_value();
+        if (stored && worst_[step] < 0) {
+          ShowFigures(Step(step), stored->figures);
+          SetStepStatus(Step(step), tr("In the set since %1.").arg(QString::fromStdString(stored->date)));
+        }
       }
       QStringList parts;
       for (int step = 0; step < kStepCount; ++step) {
-        parts << tr("%1 %2").arg(tr(kStepTitle[step]), done_[step] ? tr("done") : tr("missing"));
+        parts << tr("%1 %2").arg(Tr(kSteps[step].title), done_[step] ? tr("done") : tr("missing"));
       }
-      const bool complete = done_[kCameraStep] && done_[kWhiteStep] && done_[kLightsStep];
+      const bool complete = SetComplete();
       set_state_->setText(tr("%1: %2; %3 (%4, %5 × %6 px, created %7)")
                               .arg(calibration_folder(), parts.join(", "),
                                    complete ? tr("complete, ready for solves") : tr("incomplete"),
@@ -818,7 +873,7 @@ void CalibrationPage::UpdateStepList() {
                                                   : tr("done: figures fail");
     }
     QListWidgetItem* item = step_list_->item(step);
-    item->setText(tr("%1. %2\n      %3").arg(step + 1).arg(tr(kStepTitle[step]), state));
+    item->setText(tr("%1. %2\n      %3").arg(step + 1).arg(Tr(kSteps[step].title), state));
     item->setForeground(mark == Mark::kInfo ? QBrush() : QBrush(MarkForeground(mark)));
   }
 }
@@ -831,7 +886,7 @@ void CalibrationPage::UpdateButtons() {
   // The folders stay as they are while this page's job writes into them.
   set_box_->setEnabled(running_ == kNoJob);
   targets_box_->setEnabled(running_ == kNoJob);
-  use_set_->setEnabled(done_[kCameraStep] && done_[kWhiteStep] && done_[kLightsStep]);
+  use_set_->setEnabled(SetComplete());
 }
 
 // ---------------------------------------------------------------------------
@@ -845,7 +900,7 @@ void CalibrationPage::LoadSettings() {
   for (int step = 0; step < kStepCount; ++step) {
     steps_[step].sessions->clear();
     AddSessions(Step(step),
-                settings.value(QStringLiteral("calibration/%1_sessions").arg(kStepPrefix[step])).toStringList());
+                settings.value(QStringLiteral("calibration/%1_sessions").arg(QString::fromLatin1(kSteps[step].prefix))).toStringList());
   }
   SetCalibrationFolder(settings.value("calibration/set").toString());
   ShowStep(Step(std::clamp(settings.value("calibration/step", 0).toInt(), 0, kStepCount - 1)));
@@ -858,7 +913,7 @@ void CalibrationPage::SaveSettings() const {
   settings.setValue("calibration/targets_width", sim_width_->value());
   settings.setValue("calibration/targets_height", sim_height_->value());
   for (int step = 0; step < kStepCount; ++step) {
-    settings.setValue(QStringLiteral("calibration/%1_sessions").arg(kStepPrefix[step]), Sessions(Step(step)));
+    settings.setValue(QStringLiteral("calibration/%1_sessions").arg(QString::fromLatin1(kSteps[step].prefix)), Sessions(Step(step)));
   }
   settings.setValue("calibration/step", step_list_->currentRow());
 }

@@ -22,6 +22,7 @@
 class QCheckBox;
 class QDoubleSpinBox;
 class QLabel;
+class QLayout;
 class QLineEdit;
 class QListWidget;
 class QProgressBar;
@@ -78,12 +79,30 @@ class CalibrationPage : public QWidget {
     QDoubleSpinBox* spacer_mm = nullptr;  // lights only
   };
 
-  QWidget* MakeStep(Step step, const QString& prefix, const QString& instructions, const QString& run_text);
+  // The page's parts; each step's differences are its entry in the step table
+  // (calibration_page.cc).
+  QWidget* MakeSetBox();
+  QWidget* MakeTargetsBox();
+  QSpinBox* MakeSizeBox(const char* name, int value, QWidget* parent);
+  QWidget* MakeSteps();
+  QLayout* MakeProgressRow();
+  void ConnectRunner();
+  QWidget* MakeStep(Step step);
+  QLayout* MakeSessionList(Step step, QWidget* page);
+  QLayout* MakeDescribeRow(Step step, QWidget* page);
+  QLayout* MakeRunRow(Step step, QWidget* page);
+  void MakeFigures(Step step, QWidget* page);
+
   void AddSessions(Step step, const QStringList& folders);
   void AddFromFolder(Step step);
   // Writes the standard target's target.json into each selected session that
-  // has none (a capture made on the real bench).
+  // has none (a capture made on the real bench): DescribeTargetSessions.
   void DescribeSelected(Step step);
+  // Figures (on success), status and hints of a finished run.
+  void FinishStep(Step step, const QString& set_name, const std::vector<QualityFigure>& figures, bool ok,
+                  bool cancelled, const QString& message);
+  // Every step's section is in the set on disk.
+  bool SetComplete() const;
   QStringList Sessions(Step step) const;
   void ShowFigures(Step step, const std::vector<QualityFigure>& figures);
   void ClearFigures(Step step);

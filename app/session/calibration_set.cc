@@ -19,23 +19,16 @@ using session_internal::Json;
 using session_internal::JsonField;
 using session_internal::MemberPath;
 using session_internal::ThrowFieldError;
-using session_internal::Vector3ToJson;
+using session_internal::CheckSha256Format;
+using session_internal::FromJsonObject;
+using session_internal::Presence;
+using session_internal::RethrowAsSessionError;
+using session_internal::ToJsonObject;
 
 namespace {
 
 constexpr char kSchemaName[] = "scanbench.calibration_set";
 constexpr char kLightsFolder[] = "lights";
-
-template <typename Function>
-decltype(auto) AsSessionError(Function&& function) {
-  try {
-    return function();
-  } catch (const SessionError&) {
-    throw;
-  } catch (const std::exception& error) {
-    throw SessionError(error.what());
-  }
-}
 
 std::string FieldFileName(size_t led, const char* what) {
   char name[64];
@@ -43,50 +36,36 @@ std::string FieldFileName(size_t led, const char* what) {
   return name;
 }
 
-Json Vector2ToJson(double a, double b) { return Json::array({a, b}); }
-
-std::vector<double> Numbers(const JsonField& field) {
-  std::vector<double> values;
-  for (const JsonField& element : field.Elements()) values.push_back(element.Double());
-  return values;
-}
-
-std::vector<std::string> Strings(const JsonField& field) {
-  std::vector<std::string> values;
-  for (const JsonField& element : field.Elements()) values.push_back(element.String());
-  return values;
-}
-
 // ---------------------------------------------------------------------------
 // Records
 
-Json TargetsToJson(const std::vector<TargetCaptureRecord>& targets) {
-  Json json = Json::array();
-  for (const TargetCaptureRecord& t : targets) {
-    json.push_back({{"session", t.session},
-                    {"kind", t.kind},
-                    {"captured", t.captured},
-                    {"manifest_sha256", t.manifest_sha256},
-                    {"target_sha256", t.target_sha256},
-                    {"frame_sha256", t.frame_sha256}});
-  }
-  return json;
+template <typename Io>
+void TargetRecordFields(Io& io, TargetCaptureRecord& t) {
+  io.Field("session", t.session);
+  io.Field("kind", t.kind);
+  io.Field("captured", t.captured);
+  io.Field("manifest_sha256", t.manifest_sha256);
+  io.Field("target_sha256", t.target_sha256);
+  io.Field("frame_sha256", t.frame_sha256);
 }
 
-std::vector<TargetCaptureRecord> TargetsFromJson(const JsonField& field) {
-  std::vector<TargetCaptureRecord> targets;
-  for (const JsonField& element : field.Elements()) {
-    element.ExpectOnlyKeys({"session", "kind", "captured", "manifest_sha256", "target_sha256", "frame_sha256"});
-    TargetCaptureRecord t;
-    t.session = element.Member("session").String();
-    t.kind = element.Member("kind").String();
-    t.captured = element.Member("captured").String();
-    t.manifest_sha256 = element.Member("manifest_sha256").String();
-    t.target_sha256 = element.Member("target_sha256").String();
-    t.frame_sha256 = Strings(element.Member("frame_sha256"));
-    targets.push_back(t);
-  }
-  return targets;
+template <typename Io>
+void TargetsField(Io& io, std::vector<TargetCaptureRecord>& targets) {
+  io.Array("targets", targets, [](auto& record_io, TargetCaptureRecord& t) { TargetRecordFields(record_io, t); });
+}
+
+// [a, b] of two numbers; `rule` names them.
+template <typename Io>
+void PairField(Io& io, std::string_view key, double& a, double& b, const char* rule) {
+  io.Custom(
+      key, [&] { return Json::array({a, b}); },
+      [&, rule](const JsonField& field) {
+        std::vector<double> values;
+        session_internal::ValueFromJson(field, values);
+        if (values.size() != 2) field.Fail(rule);
+        a = values[0];
+        b = values[1];
+      });
 }
 
 // ---------------------------------------------------------------------------
@@ -94,317 +73,320 @@ std::vector<TargetCaptureRecord> TargetsFromJson(const JsonField& field) {
 
 constexpr const char* kIntrinsicsStdNames[9] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"};
 
-Json CameraSectionToJson(const CameraCalibrationSection& section) {
-  const CameraCalibrationSummary& s = section.summary;
-  Json stds;
-  for (int i = 0; i < 9; ++i) stds[kIntrinsicsStdNames[i]] = s.intrinsics_std[i];
-  Json views = Json::array();
-  for (const CalibrationViewReport& v : s.views) {
-    views.push_back({{"name", v.name},
-                     {"used", v.used},
-                     {"reason", v.reason},
-                     {"on_table", v.on_table},
-                     {"edge_width_px", v.edge_width_px},
-                     {"contrast", v.contrast},
-                     {"rms_px", v.rms_px}});
-  }
-  return Json{{"date", section.date},
-              {"targets", TargetsToJson(section.targets)},
-              {"board",
-               {{"inner_corners", {section.board.inner_corners_x, section.board.inner_corners_y}},
-                {"square_mm", section.board.square_mm}}},
-              {"geometry", session_internal::CameraGeometryToJson(s.camera)},
-              {"reprojection_rms_px", s.reprojection_rms_px},
-              {"table_view_rms_px", s.table_view_rms_px},
-              {"num_used_views", s.num_used_views},
-              {"intrinsics_std", stds},
-              {"views", views}};
+template <typename Io>
+void ViewFields(Io& io, CalibrationViewReport& v) {
+  io.Field("name", v.name);
+  io.Field("used", v.used);
+  io.Field("reason", v.reason);
+  io.Field("on_table", v.on_table);
+  io.Field("edge_width_px", v.edge_width_px);
+  io.Field("contrast", v.contrast);
+  io.Field("rms_px", v.rms_px);
 }
 
-CameraCalibrationSection CameraSectionFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"date", "targets", "board", "geometry", "reprojection_rms_px", "table_view_rms_px",
-                        "num_used_views", "intrinsics_std", "views"});
-  CameraCalibrationSection section;
-  section.date = field.Member("date").String();
-  section.targets = TargetsFromJson(field.Member("targets"));
-  const JsonField board = field.Member("board");
-  board.ExpectOnlyKeys({"inner_corners", "square_mm"});
-  const std::vector<double> corners = Numbers(board.Member("inner_corners"));
-  if (corners.size() != 2) board.Member("inner_corners").Fail("must be [corners along a row, along a column]");
-  section.board.inner_corners_x = static_cast<int>(corners[0]);
-  section.board.inner_corners_y = static_cast<int>(corners[1]);
-  section.board.square_mm = board.Member("square_mm").Double();
+template <typename Io>
+void CameraSectionFields(Io& io, CameraCalibrationSection& section) {
   CameraCalibrationSummary& s = section.summary;
-  s.termination = Termination::kSuccess;
-  s.camera = session_internal::CameraGeometryFromJson(field.Member("geometry"));
-  s.reprojection_rms_px = field.Member("reprojection_rms_px").Double();
-  s.table_view_rms_px = field.Member("table_view_rms_px").Double();
-  s.num_used_views = field.Member("num_used_views").Int();
-  const JsonField stds = field.Member("intrinsics_std");
-  stds.ExpectOnlyKeys({"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"});
-  for (int i = 0; i < 9; ++i) s.intrinsics_std[i] = stds.Member(kIntrinsicsStdNames[i]).Double();
-  for (const JsonField& v : field.Member("views").Elements()) {
-    v.ExpectOnlyKeys({"name", "used", "reason", "on_table", "edge_width_px", "contrast", "rms_px"});
-    CalibrationViewReport view;
-    view.name = v.Member("name").String();
-    view.used = v.Member("used").Bool();
-    view.reason = v.Member("reason").String();
-    view.on_table = v.Member("on_table").Bool();
-    view.edge_width_px = v.Member("edge_width_px").Double();
-    view.contrast = v.Member("contrast").Double();
-    view.rms_px = v.Member("rms_px").Double();
-    s.views.push_back(view);
-  }
-  return section;
+  io.Field("date", section.date);
+  TargetsField(io, section.targets);
+  io.Object("board", [&](auto& board) {
+    // Stored as numbers: a set written before the counts were checked as integers still reads.
+    board.Custom(
+        "inner_corners", [&] { return Json::array({section.board.inner_corners_x, section.board.inner_corners_y}); },
+        [&](const JsonField& corners) {
+          std::vector<double> counts;
+          session_internal::ValueFromJson(corners, counts);
+          if (counts.size() != 2) corners.Fail("must be [corners along a row, along a column]");
+          section.board.inner_corners_x = static_cast<int>(counts[0]);
+          section.board.inner_corners_y = static_cast<int>(counts[1]);
+        });
+    board.Field("square_mm", section.board.square_mm);
+  });
+  io.Custom(
+      "geometry", [&] { return session_internal::CameraGeometryToJson(s.camera); },
+      [&](const JsonField& geometry) { s.camera = session_internal::CameraGeometryFromJson(geometry); });
+  io.Field("reprojection_rms_px", s.reprojection_rms_px);
+  io.Field("table_view_rms_px", s.table_view_rms_px);
+  io.Field("num_used_views", s.num_used_views);
+  io.Object("intrinsics_std", [&](auto& stds) {
+    for (int i = 0; i < 9; ++i) stds.Field(kIntrinsicsStdNames[i], s.intrinsics_std[i]);
+  });
+  io.Array("views", s.views, [](auto& view_io, CalibrationViewReport& v) { ViewFields(view_io, v); });
 }
 
 // ---------------------------------------------------------------------------
 // White balance
 
-Json WhiteSectionToJson(const WhiteBalanceSection& section) {
-  Json leds = Json::array();
-  for (size_t k = 0; k < section.summary.leds.size(); ++k) {
-    const LedWhiteBalance& led = section.summary.leds[k];
-    Json patches = Json::array();
-    for (const PatchMeasurement& p : led.patches) {
-      patches.push_back({{"name", p.name},
-                         {"reflectance", p.reflectance},
-                         {"mean", Vector3ToJson(p.mean)},
-                         {"standard_error", Vector3ToJson(p.standard_error)},
-                         {"samples", {p.samples[0], p.samples[1], p.samples[2]}},
-                         {"clipped", p.clipped},
-                         {"underexposed", p.underexposed},
-                         {"nonlinear", p.nonlinear},
-                         {"used", p.used},
-                         {"linear_residual", Vector3ToJson(p.linear_residual)}});
-    }
-    leds.push_back({{"led_index", led.led_index},
-                    {"id", k < section.led_ids.size() ? section.led_ids[k] : static_cast<int>(k)},
-                    {"gains", Vector3ToJson(led.gains)},
-                    {"gains_std", Vector3ToJson(led.gains_std)},
-                    {"response_exponent", Vector3ToJson(led.response_exponent)},
-                    {"linearity_rms", Vector3ToJson(led.linearity_rms)},
-                    {"linear_range", Vector2ToJson(led.linear_range_min, led.linear_range_max)},
-                    {"used_patches", led.used_patches},
-                    {"patches", patches}});
-  }
-  return Json{{"date", section.date}, {"targets", TargetsToJson(section.targets)}, {"leds", leds}};
+template <typename Io>
+void PatchFields(Io& io, PatchMeasurement& p) {
+  io.Field("name", p.name);
+  io.Field("reflectance", p.reflectance);
+  io.Field("mean", p.mean);
+  io.Field("standard_error", p.standard_error);
+  io.Custom(
+      "samples", [&] { return Json::array({p.samples[0], p.samples[1], p.samples[2]}); },
+      [&](const JsonField& samples) {
+        const Eigen::Vector3d counts = samples.Vector3();
+        for (int c = 0; c < 3; ++c) p.samples[c] = static_cast<int>(counts[c]);
+      });
+  io.Field("clipped", p.clipped);
+  io.Field("underexposed", p.underexposed);
+  io.Field("nonlinear", p.nonlinear);
+  io.Field("used", p.used);
+  io.Field("linear_residual", p.linear_residual);
 }
 
-WhiteBalanceSection WhiteSectionFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"date", "targets", "leds"});
-  WhiteBalanceSection section;
-  section.date = field.Member("date").String();
-  section.targets = TargetsFromJson(field.Member("targets"));
-  section.summary.termination = Termination::kSuccess;
-  for (const JsonField& l : field.Member("leds").Elements()) {
-    l.ExpectOnlyKeys({"led_index", "id", "gains", "gains_std", "response_exponent", "linearity_rms", "linear_range",
-                      "used_patches", "patches"});
-    LedWhiteBalance led;
-    led.led_index = l.Member("led_index").Int();
-    section.led_ids.push_back(l.Member("id").Int());
-    led.gains = l.Member("gains").Vector3();
-    led.gains_std = l.Member("gains_std").Vector3();
-    led.response_exponent = l.Member("response_exponent").Vector3();
-    led.linearity_rms = l.Member("linearity_rms").Vector3();
-    const std::vector<double> range = Numbers(l.Member("linear_range"));
-    if (range.size() != 2) l.Member("linear_range").Fail("must be [lowest, highest]");
-    led.linear_range_min = range[0];
-    led.linear_range_max = range[1];
-    led.used_patches = l.Member("used_patches").Int();
-    for (const JsonField& p : l.Member("patches").Elements()) {
-      p.ExpectOnlyKeys({"name", "reflectance", "mean", "standard_error", "samples", "clipped", "underexposed",
-                        "nonlinear", "used", "linear_residual"});
-      PatchMeasurement m;
-      m.name = p.Member("name").String();
-      m.reflectance = p.Member("reflectance").Double();
-      m.mean = p.Member("mean").Vector3();
-      m.standard_error = p.Member("standard_error").Vector3();
-      const Eigen::Vector3d samples = p.Member("samples").Vector3();
-      for (int c = 0; c < 3; ++c) m.samples[c] = static_cast<int>(samples[c]);
-      m.clipped = p.Member("clipped").Bool();
-      m.underexposed = p.Member("underexposed").Bool();
-      m.nonlinear = p.Member("nonlinear").Bool();
-      m.used = p.Member("used").Bool();
-      m.linear_residual = p.Member("linear_residual").Vector3();
-      led.patches.push_back(m);
-    }
-    section.summary.leds.push_back(led);
-  }
-  return section;
+// One entry of white_balance.leds: the LED's figures and its firmware id.
+struct WhiteLedEntry {
+  LedWhiteBalance led;
+  int id = 0;
+};
+
+template <typename Io>
+void WhiteLedFields(Io& io, WhiteLedEntry& entry) {
+  LedWhiteBalance& led = entry.led;
+  io.Field("led_index", led.led_index);
+  io.Field("id", entry.id);
+  io.Field("gains", led.gains);
+  io.Field("gains_std", led.gains_std);
+  io.Field("response_exponent", led.response_exponent);
+  io.Field("linearity_rms", led.linearity_rms);
+  PairField(io, "linear_range", led.linear_range_min, led.linear_range_max, "must be [lowest, highest]");
+  io.Field("used_patches", led.used_patches);
+  io.Array("patches", led.patches, [](auto& patch_io, PatchMeasurement& p) { PatchFields(patch_io, p); });
+}
+
+template <typename Io>
+void WhiteSectionFields(Io& io, WhiteBalanceSection& section) {
+  io.Field("date", section.date);
+  TargetsField(io, section.targets);
+  io.Custom(
+      "leds",
+      [&] {
+        Json leds = Json::array();
+        for (size_t k = 0; k < section.summary.leds.size(); ++k) {
+          const WhiteLedEntry entry{section.summary.leds[k],
+                                    k < section.led_ids.size() ? section.led_ids[k] : static_cast<int>(k)};
+          leds.push_back(ToJsonObject(entry, [](auto& led_io, WhiteLedEntry& e) { WhiteLedFields(led_io, e); }));
+        }
+        return leds;
+      },
+      [&](const JsonField& leds) {
+        for (const JsonField& element : leds.Elements()) {
+          const auto entry =
+              FromJsonObject<WhiteLedEntry>(element, [](auto& led_io, WhiteLedEntry& e) { WhiteLedFields(led_io, e); });
+          section.summary.leds.push_back(entry.led);
+          section.led_ids.push_back(entry.id);
+        }
+      });
 }
 
 // ---------------------------------------------------------------------------
 // Lights
 
-Json LightsSectionToJson(const LightsSection& section) {
-  const LightCalibrationSummary& s = section.summary;
-  Json sheets = Json::array();
-  for (const WhiteSheetTarget& sheet : section.sheets) {
-    sheets.push_back({{"reflectance", sheet.reflectance}, {"height_mm", sheet.height_mm}});
-  }
-  Json leds = Json::array();
-  for (size_t k = 0; k < s.model.size(); ++k) {
-    const LedModelFit& m = s.model[k];
-    Json led{{"model",
-              {{"usable", m.usable},
-               {"led", session_internal::LedDescriptionToJson(m.led)},
-               {"position_std_mm", Vector3ToJson(m.position_std_mm)},
-               {"axis_std_deg", m.axis_std_deg},
-               {"mu_std", m.mu_std},
-               {"intensity_std", Vector3ToJson(m.intensity_std)},
-               {"residual_rms", m.residual_rms},
-               {"noise_rms", m.noise_rms},
-               {"chi", m.chi},
-               {"evaluations", m.evaluations},
-               {"termination", m.termination}}}};
-    if (k < s.per_pixel.size()) {
-      const LedPerPixelFit& p = s.per_pixel[k];
-      led["per_pixel"] = {{"iterations", p.iterations},
-                          {"converged", p.converged},
-                          {"direction_change_deg", p.direction_change_deg},
-                          {"intensity_change", p.intensity_change},
-                          {"position_in_table_mm", Vector3ToJson(p.position_in_table_mm)},
-                          {"residual_rms", p.residual_rms},
-                          {"cells_used", p.cells_used},
-                          {"cells_dropped", p.cells_dropped},
-                          {"direction_file",
-                           {{"file", FieldFileName(k, "direction")},
-                            {"sha256", 2 * k < section.field_sha256.size() ? section.field_sha256[2 * k] : ""}}},
-                          {"intensity_file",
-                           {{"file", FieldFileName(k, "intensity")},
-                            {"sha256", 2 * k + 1 < section.field_sha256.size() ? section.field_sha256[2 * k + 1] : ""}}}};
-    }
-    leds.push_back(led);
-  }
-  Json json{{"date", section.date},
-            {"targets", TargetsToJson(section.targets)},
-            {"sheets", sheets},
-            {"cell_px", s.cell_px},
-            {"selected", s.selected == LightCalibrationSummary::Choice::kModel ? "model" : "per_pixel"},
-            {"selection_reason", s.selection_reason},
-            {"warnings", s.warnings},
-            {"leds", leds}};
-  if (s.per_pixel_field) {
-    const LightFieldGrid& g = s.per_pixel_field->grid();
-    json["field_grid"] = {{"width", g.width},       {"height", g.height},   {"origin_x", g.origin_x},
-                          {"origin_y", g.origin_y}, {"step", g.step},       {"nodes_x", g.nodes_x},
-                          {"nodes_y", g.nodes_y}};
-  }
-  return json;
-}
-
 struct FieldFileEntry {
-  std::string path;  // JSON path
+  std::string path;  // JSON path, for errors
   std::string file;
   std::string sha256;
 };
 
-LightsSection LightsSectionFromJson(const JsonField& field, std::vector<FieldFileEntry>* files,
-                                    std::optional<LightFieldGrid>* grid) {
-  field.ExpectOnlyKeys({"date", "targets", "sheets", "cell_px", "selected", "selection_reason", "warnings", "leds",
-                        "field_grid"});
-  LightsSection section;
+// One entry of lights.leds: the LED model's fit, and the per-pixel field's
+// when there is one, with its two files.
+struct LightLedEntry {
+  LedModelFit model;
+  std::optional<LedPerPixelFit> per_pixel;
+  FieldFileEntry direction_file, intensity_file;
+};
+
+template <typename Io>
+void FieldFileFields(Io& io, std::string_view key, FieldFileEntry& entry) {
+  io.Object(key, [&](auto& file_io) {
+    file_io.Field("file", entry.file);
+    file_io.Field("sha256", entry.sha256);
+  });
+}
+
+template <typename Io>
+void ModelFitFields(Io& io, LedModelFit& m) {
+  io.Field("usable", m.usable);
+  io.Custom(
+      "led", [&] { return session_internal::LedDescriptionToJson(m.led); },
+      [&](const JsonField& led) {
+        m.led = session_internal::LedDescriptionFromJson(led);
+        session_internal::CheckLedDescription(m.led, led.file(), led.path());
+      });
+  io.Field("position_std_mm", m.position_std_mm);
+  io.Field("axis_std_deg", m.axis_std_deg);
+  io.Field("mu_std", m.mu_std);
+  io.Field("intensity_std", m.intensity_std);
+  io.Field("residual_rms", m.residual_rms);
+  io.Field("noise_rms", m.noise_rms);
+  io.Field("chi", m.chi);
+  io.Field("evaluations", m.evaluations);
+  io.Field("termination", m.termination);
+}
+
+template <typename Io>
+void LightLedFields(Io& io, LightLedEntry& entry) {
+  io.Object("model", [&](auto& model) { ModelFitFields(model, entry.model); });
+  io.Optional("per_pixel", entry.per_pixel, [&](auto& p_io, LedPerPixelFit& p) {
+    p_io.Field("iterations", p.iterations);
+    p_io.Field("converged", p.converged);
+    p_io.Field("direction_change_deg", p.direction_change_deg);
+    p_io.Field("intensity_change", p.intensity_change);
+    p_io.Field("position_in_table_mm", p.position_in_table_mm);
+    p_io.Field("residual_rms", p.residual_rms);
+    p_io.Field("cells_used", p.cells_used);
+    p_io.Field("cells_dropped", p.cells_dropped);
+    FieldFileFields(p_io, "direction_file", entry.direction_file);
+    FieldFileFields(p_io, "intensity_file", entry.intensity_file);
+  });
+}
+
+template <typename Io>
+void GridFields(Io& io, LightFieldGrid& g) {
+  io.Field("width", g.width);
+  io.Field("height", g.height);
+  io.Field("origin_x", g.origin_x);
+  io.Field("origin_y", g.origin_y);
+  io.Field("step", g.step);
+  io.Field("nodes_x", g.nodes_x);
+  io.Field("nodes_y", g.nodes_y);
+}
+
+const char* ChoiceName(LightCalibrationSummary::Choice choice) {
+  return choice == LightCalibrationSummary::Choice::kModel ? "model" : "per_pixel";
+}
+
+// What reading the lights section finds besides the section: the field
+// files (loaded after the manifest) and their grid.
+struct LightsFieldOnDisk {
+  std::vector<FieldFileEntry> files;
+  std::optional<LightFieldGrid> grid;
+};
+
+template <typename Io>
+void LightsSectionFields(Io& io, LightsSection& section, LightsFieldOnDisk* on_disk) {
   LightCalibrationSummary& s = section.summary;
-  s.termination = Termination::kSuccess;
-  section.date = field.Member("date").String();
-  section.targets = TargetsFromJson(field.Member("targets"));
-  for (const JsonField& sheet : field.Member("sheets").Elements()) {
-    sheet.ExpectOnlyKeys({"reflectance", "height_mm"});
-    WhiteSheetTarget target;
-    target.reflectance = sheet.Member("reflectance").Double();
-    target.height_mm = sheet.Member("height_mm").Double();
-    section.sheets.push_back(target);
+  io.Field("date", section.date);
+  TargetsField(io, section.targets);
+  io.Array("sheets", section.sheets, [](auto& sheet_io, WhiteSheetTarget& sheet) {
+    sheet_io.Field("reflectance", sheet.reflectance);
+    sheet_io.Field("height_mm", sheet.height_mm);
+  });
+  io.Field("cell_px", s.cell_px);
+  io.Custom(
+      "selected", [&] { return Json(ChoiceName(s.selected)); },
+      [&](const JsonField& selected) {
+        const std::string choice = selected.String();
+        if (choice == ChoiceName(LightCalibrationSummary::Choice::kModel)) {
+          s.selected = LightCalibrationSummary::Choice::kModel;
+        } else if (choice == ChoiceName(LightCalibrationSummary::Choice::kPerPixel)) {
+          s.selected = LightCalibrationSummary::Choice::kPerPixel;
+        } else {
+          selected.Fail("must be \"model\" or \"per_pixel\"");
+        }
+      });
+  io.Field("selection_reason", s.selection_reason);
+  io.Field("warnings", s.warnings);
+  auto led_fields = [](auto& led_io, LightLedEntry& entry) { LightLedFields(led_io, entry); };
+  io.Custom(
+      "leds",
+      [&] {
+        Json leds = Json::array();
+        for (size_t k = 0; k < s.model.size(); ++k) {
+          LightLedEntry entry{s.model[k], std::nullopt, {}, {}};
+          if (k < s.per_pixel.size()) {
+            entry.per_pixel = s.per_pixel[k];
+            auto sha = [&](size_t i) { return i < section.field_sha256.size() ? section.field_sha256[i] : ""; };
+            entry.direction_file = {"", FieldFileName(k, "direction"), sha(2 * k)};
+            entry.intensity_file = {"", FieldFileName(k, "intensity"), sha(2 * k + 1)};
+          }
+          leds.push_back(ToJsonObject(entry, led_fields));
+        }
+        return leds;
+      },
+      [&](const JsonField& leds) {
+        for (const JsonField& element : leds.Elements()) {
+          LightLedEntry entry = FromJsonObject<LightLedEntry>(element, led_fields);
+          s.model.push_back(entry.model);
+          if (!entry.per_pixel) continue;
+          s.per_pixel.push_back(*entry.per_pixel);
+          const std::string per_pixel_path = MemberPath(element.path(), "per_pixel");
+          entry.direction_file.path = MemberPath(per_pixel_path, "direction_file");
+          entry.intensity_file.path = MemberPath(per_pixel_path, "intensity_file");
+          on_disk->files.push_back(entry.direction_file);
+          on_disk->files.push_back(entry.intensity_file);
+        }
+      });
+  io.Custom(
+      "field_grid",
+      [&]() -> std::optional<Json> {
+        if (!s.per_pixel_field) return std::nullopt;
+        return ToJsonObject(s.per_pixel_field->grid(), [](auto& grid_io, LightFieldGrid& g) { GridFields(grid_io, g); });
+      },
+      [&](const JsonField& field) {
+        const auto grid =
+            FromJsonObject<LightFieldGrid>(field, [](auto& grid_io, LightFieldGrid& g) { GridFields(grid_io, g); });
+        try {
+          grid.Check();
+        } catch (const std::invalid_argument& error) {
+          ThrowFieldError(field.file(), field.path(), error.what());
+        }
+        on_disk->grid = grid;
+      },
+      Presence::kOptionalOnRead);
+}
+
+// ---------------------------------------------------------------------------
+// The set
+
+template <typename Io>
+void CalibrationSetFields(Io& io, CalibrationSet& set, LightsFieldOnDisk* on_disk) {
+  io.Custom(
+      "schema", [] { return Json(kSchemaName); }, [](const JsonField&) { /* checked first, by CheckSchema */ });
+  io.Field("schema_version", set.schema_version);
+  io.Field("created", set.created);
+  io.Field("software_version", set.software_version);
+  io.Object("camera", [&](auto& camera) {
+    camera.Field("make", set.camera.make);
+    camera.Field("model", set.camera.model);
+    camera.Field("serial", set.camera.serial);
+    camera.Field("lens", set.camera.lens);
+    camera.Field("width", set.camera.width);
+    camera.Field("height", set.camera.height);
+  });
+  io.Optional("camera_calibration", set.camera_calibration,
+              [](auto& section_io, CameraCalibrationSection& section) { CameraSectionFields(section_io, section); });
+  io.Optional("white_balance", set.white_balance,
+              [](auto& section_io, WhiteBalanceSection& section) { WhiteSectionFields(section_io, section); });
+  io.Optional("lights", set.lights, [on_disk](auto& section_io, LightsSection& section) {
+    LightsSectionFields(section_io, section, on_disk);
+  });
+}
+
+// The schema and its version say how to read the rest, so they come first.
+void CheckSchema(const JsonField& root) {
+  const JsonField schema = root.Member("schema");
+  if (schema.String() != kSchemaName) schema.Fail(std::string("must be \"") + kSchemaName + "\"");
+  const JsonField version = root.Member("schema_version");
+  if (version.Int() > kCalibrationSetSchemaVersion) {
+    version.Fail("is newer than this scanbench reads (" + std::to_string(kCalibrationSetSchemaVersion) +
+                 "); update scanbench");
   }
-  s.cell_px = field.Member("cell_px").Int();
-  const JsonField selected = field.Member("selected");
-  const std::string choice = selected.String();
-  if (choice == "model") {
-    s.selected = LightCalibrationSummary::Choice::kModel;
-  } else if (choice == "per_pixel") {
-    s.selected = LightCalibrationSummary::Choice::kPerPixel;
-  } else {
-    selected.Fail("must be \"model\" or \"per_pixel\"");
+  if (version.Int() < kCalibrationSetSchemaVersion) {
+    version.Fail("is older than this scanbench reads (" + std::to_string(kCalibrationSetSchemaVersion) + ")");
   }
-  s.selection_reason = field.Member("selection_reason").String();
-  s.warnings = Strings(field.Member("warnings"));
-  const std::vector<JsonField> leds = field.Member("leds").Elements();
-  for (size_t k = 0; k < leds.size(); ++k) {
-    leds[k].ExpectOnlyKeys({"model", "per_pixel"});
-    const JsonField model = leds[k].Member("model");
-    model.ExpectOnlyKeys({"usable", "led", "position_std_mm", "axis_std_deg", "mu_std", "intensity_std",
-                          "residual_rms", "noise_rms", "chi", "evaluations", "termination"});
-    LedModelFit m;
-    m.usable = model.Member("usable").Bool();
-    m.led = session_internal::LedDescriptionFromJson(model.Member("led"));
-    session_internal::CheckLedDescription(m.led, field.file(), MemberPath(model.path(), "led"));
-    m.position_std_mm = model.Member("position_std_mm").Vector3();
-    m.axis_std_deg = model.Member("axis_std_deg").Double();
-    m.mu_std = model.Member("mu_std").Double();
-    m.intensity_std = model.Member("intensity_std").Vector3();
-    m.residual_rms = model.Member("residual_rms").Double();
-    m.noise_rms = model.Member("noise_rms").Double();
-    m.chi = model.Member("chi").Double();
-    m.evaluations = model.Member("evaluations").Int();
-    m.termination = model.Member("termination").String();
-    s.model.push_back(m);
-    if (const auto per_pixel = leds[k].OptionalMember("per_pixel")) {
-      per_pixel->ExpectOnlyKeys({"iterations", "converged", "direction_change_deg", "intensity_change",
-                                 "position_in_table_mm", "residual_rms", "cells_used", "cells_dropped",
-                                 "direction_file", "intensity_file"});
-      LedPerPixelFit p;
-      p.iterations = per_pixel->Member("iterations").Int();
-      p.converged = per_pixel->Member("converged").Bool();
-      p.direction_change_deg = Numbers(per_pixel->Member("direction_change_deg"));
-      p.intensity_change = Numbers(per_pixel->Member("intensity_change"));
-      p.position_in_table_mm = per_pixel->Member("position_in_table_mm").Vector3();
-      p.residual_rms = per_pixel->Member("residual_rms").Double();
-      p.cells_used = per_pixel->Member("cells_used").Int();
-      p.cells_dropped = per_pixel->Member("cells_dropped").Int();
-      s.per_pixel.push_back(p);
-      for (const char* which : {"direction_file", "intensity_file"}) {
-        const JsonField entry = per_pixel->Member(which);
-        entry.ExpectOnlyKeys({"file", "sha256"});
-        files->push_back({entry.path(), entry.Member("file").String(), entry.Member("sha256").String()});
-      }
-    }
-  }
-  if (const auto g = field.OptionalMember("field_grid")) {
-    g->ExpectOnlyKeys({"width", "height", "origin_x", "origin_y", "step", "nodes_x", "nodes_y"});
-    LightFieldGrid value;
-    value.width = g->Member("width").Int();
-    value.height = g->Member("height").Int();
-    value.origin_x = g->Member("origin_x").Double();
-    value.origin_y = g->Member("origin_y").Double();
-    value.step = g->Member("step").Double();
-    value.nodes_x = g->Member("nodes_x").Int();
-    value.nodes_y = g->Member("nodes_y").Int();
-    try {
-      value.Check();
-    } catch (const std::invalid_argument& error) {
-      ThrowFieldError(field.file(), g->path(), error.what());
-    }
-    *grid = value;
-  }
-  return section;
 }
 
 // ---------------------------------------------------------------------------
 
 void CheckDate(const std::string& date, const std::string& file, const std::string& path) {
-  ParseUtcTimestamp(date, file + ": " + path);
+  session_internal::ParseIso8601Utc(date, file + ": " + path);
 }
 
 void CheckFinite(double value, const std::string& file, const std::string& path) {
   if (!std::isfinite(value)) ThrowFieldError(file, path, FormatValue(value) + " must be finite");
-}
-
-bool IsSha256(const std::string& text) {
-  if (text.size() != 64) return false;
-  for (const char c : text) {
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  }
-  return true;
 }
 
 void CheckTargets(const std::vector<TargetCaptureRecord>& targets, const char* expected_kind, const std::string& file,
@@ -418,52 +400,18 @@ void CheckTargets(const std::vector<TargetCaptureRecord>& targets, const char* e
       ThrowFieldError(file, MemberPath(element, "kind"),
                       FormatValue(t.kind) + " must be \"" + expected_kind + "\" for this section");
     }
-    for (const auto& [name, sha] : {std::pair{"manifest_sha256", &t.manifest_sha256}, {"target_sha256", &t.target_sha256}}) {
-      if (!IsSha256(*sha)) ThrowFieldError(file, MemberPath(element, name), FormatValue(*sha) + " must be 64 lower-case hex digits");
-    }
+    CheckSha256Format(t.manifest_sha256, file, MemberPath(element, "manifest_sha256"));
+    CheckSha256Format(t.target_sha256, file, MemberPath(element, "target_sha256"));
     for (size_t f = 0; f < t.frame_sha256.size(); ++f) {
-      if (!IsSha256(t.frame_sha256[f])) {
-        ThrowFieldError(file, ElementPath(MemberPath(element, "frame_sha256"), f),
-                        FormatValue(t.frame_sha256[f]) + " must be 64 lower-case hex digits");
-      }
+      CheckSha256Format(t.frame_sha256[f], file, ElementPath(MemberPath(element, "frame_sha256"), f));
     }
   }
-}
-
-int64_t DaysFromCivil(int64_t y, unsigned m, unsigned d) {
-  // Days since 1970-01-01 of a proleptic Gregorian date.
-  y -= m <= 2;
-  const int64_t era = (y >= 0 ? y : y - 399) / 400;
-  const unsigned yoe = static_cast<unsigned>(y - era * 400);
-  const unsigned doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
-  const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-  return era * 146097 + static_cast<int64_t>(doe) - 719468;
 }
 
 }  // namespace
 
 std::chrono::system_clock::time_point ParseUtcTimestamp(const std::string& text, const std::string& what) {
-  int year, month, day, hour, minute, second;
-  int consumed = 0;
-  if (std::sscanf(text.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d%n", &year, &month, &day, &hour, &minute, &second,
-                  &consumed) != 6 ||
-      consumed != 19 || month < 1 || month > 12 || day < 1 || day > 31 || hour > 23 || minute > 59 || second > 60) {
-    throw SessionError(what + ": " + FormatValue(text) + " must be an ISO 8601 UTC time like 2024-05-01T12:34:56Z");
-  }
-  size_t pos = 19;
-  double fraction = 0;
-  if (pos < text.size() && text[pos] == '.') {
-    const size_t start = ++pos;
-    while (pos < text.size() && text[pos] >= '0' && text[pos] <= '9') ++pos;
-    if (pos == start) throw SessionError(what + ": " + FormatValue(text) + " has an empty fraction of a second");
-    fraction = std::stod("0." + text.substr(start, pos - start));
-  }
-  if (pos + 1 != text.size() || text[pos] != 'Z') {
-    throw SessionError(what + ": " + FormatValue(text) + " must end in Z (UTC)");
-  }
-  const int64_t seconds = DaysFromCivil(year, month, day) * 86400 + hour * 3600 + minute * 60 + second;
-  return std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
-      std::chrono::duration<double>(static_cast<double>(seconds) + fraction)));
+  return session_internal::ParseIso8601Utc(text, what);
 }
 
 void CheckCalibrationSet(const CalibrationSet& set, const std::string& file) {
@@ -541,40 +489,19 @@ CalibrationSet LoadCalibrationSet(const fs::path& dir, const CalibrationLoadOpti
   if (!fs::is_regular_file(manifest, error)) {
     throw SessionError(file + ": does not exist (is " + dir.string() + " a calibration set?)");
   }
-  const std::vector<uint8_t> bytes = AsSessionError([&] { return ReadFileBytes(manifest); });
+  const std::vector<uint8_t> bytes = RethrowAsSessionError([&] { return ReadFileBytes(manifest); });
   const Json json = session_internal::ParseJson(std::string(bytes.begin(), bytes.end()), file);
   const JsonField root(json, "", file);
-  const JsonField schema = root.Member("schema");
-  if (schema.String() != kSchemaName) schema.Fail(std::string("must be \"") + kSchemaName + "\"");
-  const JsonField version = root.Member("schema_version");
-  if (version.Int() > kCalibrationSetSchemaVersion) {
-    version.Fail("is newer than this scanbench reads (" + std::to_string(kCalibrationSetSchemaVersion) +
-                 "); update scanbench");
-  }
-  if (version.Int() < kCalibrationSetSchemaVersion) {
-    version.Fail("is older than this scanbench reads (" + std::to_string(kCalibrationSetSchemaVersion) + ")");
-  }
-  root.ExpectOnlyKeys({"schema", "schema_version", "created", "software_version", "camera", "camera_calibration",
-                       "white_balance", "lights"});
+  CheckSchema(root);
   CalibrationSet set;
-  set.schema_version = version.Int();
-  set.created = root.Member("created").String();
-  set.software_version = root.Member("software_version").String();
-  const JsonField camera = root.Member("camera");
-  camera.ExpectOnlyKeys({"make", "model", "serial", "lens", "width", "height"});
-  set.camera.make = camera.Member("make").String();
-  set.camera.model = camera.Member("model").String();
-  set.camera.serial = camera.Member("serial").String();
-  set.camera.lens = camera.Member("lens").String();
-  set.camera.width = camera.Member("width").Int();
-  set.camera.height = camera.Member("height").Int();
-  if (const auto section = root.OptionalMember("camera_calibration")) {
-    set.camera_calibration = CameraSectionFromJson(*section);
-  }
-  if (const auto section = root.OptionalMember("white_balance")) set.white_balance = WhiteSectionFromJson(*section);
-  std::vector<FieldFileEntry> files;
-  std::optional<LightFieldGrid> grid;
-  if (const auto section = root.OptionalMember("lights")) set.lights = LightsSectionFromJson(*section, &files, &grid);
+  LightsFieldOnDisk on_disk;
+  session_internal::ReadObject(root, [&](auto& io) { CalibrationSetFields(io, set, &on_disk); });
+  // Only successful calibrations are stored.
+  if (set.camera_calibration) set.camera_calibration->summary.termination = Termination::kSuccess;
+  if (set.white_balance) set.white_balance->summary.termination = Termination::kSuccess;
+  if (set.lights) set.lights->summary.termination = Termination::kSuccess;
+  const std::vector<FieldFileEntry>& files = on_disk.files;
+  const std::optional<LightFieldGrid>& grid = on_disk.grid;
 
   // The per-pixel field: every file inside lights/, present, hashing right,
   // of the grid's size.
@@ -596,13 +523,13 @@ CalibrationSet LoadCalibrationSet(const fs::path& dir, const CalibrationLoadOpti
         ThrowFieldError(file, MemberPath(entry.path, "file"), FormatValue(entry.file) + " does not exist in " + dir.string());
       }
       if (options.verify_checksums) {
-        const std::string actual = AsSessionError([&] { return Sha256HexOfFile(full); });
+        const std::string actual = RethrowAsSessionError([&] { return Sha256HexOfFile(full); });
         if (actual != entry.sha256) {
           ThrowFieldError(file, MemberPath(entry.path, "sha256"),
                           FormatValue(entry.sha256) + " mismatch: file " + entry.file + " has " + actual);
         }
       }
-      const ImageF image = AsSessionError([&] { return ReadImageFloat(full); });
+      const ImageF image = RethrowAsSessionError([&] { return ReadImageFloat(full); });
       if (image.width() != grid->nodes_x || image.height() != grid->nodes_y || image.channels() != 3) {
         ThrowFieldError(file, MemberPath(entry.path, "file"),
                         FormatValue(entry.file) + " is " + std::to_string(image.width()) + "x" +
@@ -631,12 +558,12 @@ void WriteCalibrationSet(const fs::path& dir, CalibrationSet& set) {
   const fs::path manifest = dir / kCalibrationManifestName;
   const std::string file = manifest.string();
   CheckCalibrationSet(set, file);
-  AsSessionError([&] { fs::create_directories(dir); });
+  RethrowAsSessionError([&] { fs::create_directories(dir); });
   if (set.lights && set.lights->summary.per_pixel_field) {
     const SampledLightField& field = *set.lights->summary.per_pixel_field;
     const LightFieldGrid& g = field.grid();
     const size_t num_leds = static_cast<size_t>(field.num_lights());
-    AsSessionError([&] { fs::create_directories(dir / kLightsFolder); });
+    RethrowAsSessionError([&] { fs::create_directories(dir / kLightsFolder); });
     set.lights->field_sha256.clear();
     for (size_t k = 0; k < num_leds; ++k) {
       for (const bool direction : {true, false}) {
@@ -646,27 +573,15 @@ void WriteCalibrationSet(const fs::path& dir, CalibrationSet& set) {
           for (int c = 0; c < 3; ++c) image.data()[3 * n + c] = values[(n * num_leds + k) * 3 + c];
         }
         const fs::path path = dir / FieldFileName(k, direction ? "direction" : "intensity");
-        AsSessionError([&] { WriteExr(path, image, OverwritePolicy::kReplace); });
-        set.lights->field_sha256.push_back(AsSessionError([&] { return Sha256HexOfFile(path); }));
+        RethrowAsSessionError([&] { WriteExr(path, image, OverwritePolicy::kReplace); });
+        set.lights->field_sha256.push_back(RethrowAsSessionError([&] { return Sha256HexOfFile(path); }));
       }
     }
   }
-  Json json{{"schema", kSchemaName},
-            {"schema_version", set.schema_version},
-            {"created", set.created},
-            {"software_version", set.software_version},
-            {"camera",
-             {{"make", set.camera.make},
-              {"model", set.camera.model},
-              {"serial", set.camera.serial},
-              {"lens", set.camera.lens},
-              {"width", set.camera.width},
-              {"height", set.camera.height}}}};
-  if (set.camera_calibration) json["camera_calibration"] = CameraSectionToJson(*set.camera_calibration);
-  if (set.white_balance) json["white_balance"] = WhiteSectionToJson(*set.white_balance);
-  if (set.lights) json["lights"] = LightsSectionToJson(*set.lights);
+  const Json json =
+      ToJsonObject(set, [](auto& io, CalibrationSet& value) { CalibrationSetFields(io, value, nullptr); });
   const std::string text = session_internal::DumpJson(json);
-  AsSessionError([&] { WriteFileAtomic(manifest, text, OverwritePolicy::kReplace); });
+  RethrowAsSessionError([&] { WriteFileAtomic(manifest, text, OverwritePolicy::kReplace); });
 }
 
 void CheckCalibrationFitsSession(const CalibrationSet& set, const std::string& set_name, const Session& session,
@@ -741,8 +656,8 @@ TargetCaptureRecord MakeTargetCaptureRecord(const fs::path& session_dir, const S
   record.session = session_dir.string();
   record.kind = kind;
   record.captured = session.created;
-  record.manifest_sha256 = AsSessionError([&] { return Sha256HexOfFile(session_dir / "session.json"); });
-  record.target_sha256 = AsSessionError([&] { return Sha256HexOfFile(session_dir / kCalibrationTargetFileName); });
+  record.manifest_sha256 = RethrowAsSessionError([&] { return Sha256HexOfFile(session_dir / "session.json"); });
+  record.target_sha256 = RethrowAsSessionError([&] { return Sha256HexOfFile(session_dir / kCalibrationTargetFileName); });
   for (const FrameRecord& frame : session.frames) record.frame_sha256.push_back(frame.sha256);
   return record;
 }

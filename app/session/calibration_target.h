@@ -14,7 +14,10 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "app/session/session_error.h"
 #include "calibration/calibration_targets.h"
@@ -49,5 +52,52 @@ CalibrationTargetDescription CalibrationTargetFromJson(const std::string& text, 
 CalibrationTargetDescription LoadCalibrationTarget(const std::filesystem::path& session_dir);
 // Writes <session_dir>/target.json atomically (replacing).
 void WriteCalibrationTarget(const std::filesystem::path& session_dir, const CalibrationTargetDescription& target);
+
+// "checkerboard" -> kCheckerboard, ...; std::nullopt for any other name.
+std::optional<CalibrationTargetDescription::Kind> CalibrationTargetKindFromName(const std::string& name);
+
+// The target sessions in `folder` (itself, or its sub-folders) by kind, each
+// sorted by folder name. Unreadable target.json files are skipped: the
+// calibration names what is wrong with them if they are chosen anyway.
+std::map<CalibrationTargetDescription::Kind, std::vector<std::filesystem::path>> FindTargetSessions(
+    const std::filesystem::path& folder);
+
+// Whether `target` is the view on the table its calibration needs once: the
+// board lying on the table (camera), the white sheet on the table (lights).
+// Always false for a gray chart.
+bool IsTableView(const CalibrationTargetDescription& target);
+
+// Describing captures of the standard targets made on the real bench (plain
+// sessions, without target.json) as target sessions.
+struct DescribeTargetsOptions {
+  CalibrationTargetDescription::Kind kind = CalibrationTargetDescription::Kind::kCheckerboard;
+  // The raised white sheet's face above the table, mm, (0, 200]; white sheets only.
+  double spacer_mm = 40.0;
+
+  // Throws std::invalid_argument (FieldError) naming the field.
+  void Check() const;
+};
+
+struct DescribedTargetSession {
+  std::filesystem::path session;
+  // False: the session had a target.json, which is never replaced (it may
+  // describe another target).
+  bool written = false;
+  // "the board lying on the table", "a tilted board pose", "the gray chart",
+  // "the sheet on the table", "the sheet on the 40 mm spacer"; "" when kept.
+  std::string what;
+};
+
+// Writes the standard target of options.kind into each of `sessions` (in
+// order) that has no target.json: the 9 x 6 checkerboard of 9 mm squares,
+// the Munsell neutral scale centred on the table, or the 99 % white sheet.
+// The first board / sheet written is the table view unless one of `sessions`
+// or `also_listed` (the other sessions of the calibration) already is one;
+// later ones are tilted board poses / sheets on the spacer. Throws
+// SessionError naming the session when one holds no session.json (those
+// before it are written).
+std::vector<DescribedTargetSession> DescribeTargetSessions(const DescribeTargetsOptions& options,
+                                                           const std::vector<std::filesystem::path>& sessions,
+                                                           const std::vector<std::filesystem::path>& also_listed = {});
 
 }  // namespace scanbench

@@ -134,6 +134,10 @@ std::optional<JsonField> JsonField::OptionalMember(std::string_view key) const {
 }
 
 void JsonField::ExpectOnlyKeys(std::initializer_list<std::string_view> known) const {
+  ExpectOnlyKeys(std::span<const std::string_view>(known.begin(), known.size()));
+}
+
+void JsonField::ExpectOnlyKeys(std::span<const std::string_view> known) const {
   ExpectObject();
   for (const auto& item : value_->items()) {
     if (std::find(known.begin(), known.end(), item.key()) == known.end()) {
@@ -191,5 +195,100 @@ Eigen::Vector3d JsonField::Vector3() const {
 }
 
 Json Vector3ToJson(const Eigen::Vector3d& value) { return Json::array({value.x(), value.y(), value.z()}); }
+
+bool IsSha256Hex(std::string_view text) {
+  if (text.size() != 64) return false;
+  for (const char c : text) {
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  }
+  return true;
+}
+
+void CheckSha256Format(const std::string& sha256, const std::string& file, const std::string& path) {
+  if (!IsSha256Hex(sha256)) ThrowFieldError(file, path, FormatValue(sha256) + " must be 64 lower-case hex digits");
+}
+
+namespace {
+
+bool IsDigits(std::string_view text, size_t pos, size_t count) {
+  if (pos + count > text.size()) return false;
+  for (size_t i = pos; i < pos + count; ++i) {
+    if (text[i] < '0' || text[i] > '9') return false;
+  }
+  return true;
+}
+
+int DigitsValue(std::string_view text, size_t pos, size_t count) {
+  int value = 0;
+  for (size_t i = pos; i < pos + count; ++i) value = value * 10 + (text[i] - '0');
+  return value;
+}
+
+int64_t DaysFromCivil(int64_t y, unsigned m, unsigned d) {
+  // Days since 1970-01-01 of a proleptic Gregorian date.
+  y -= m <= 2;
+  const int64_t era = (y >= 0 ? y : y - 399) / 400;
+  const unsigned yoe = static_cast<unsigned>(y - era * 400);
+  const unsigned doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+  const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  return era * 146097 + static_cast<int64_t>(doe) - 719468;
+}
+
+}  // namespace
+
+std::chrono::system_clock::time_point ParseIso8601Utc(const std::string& text, const std::string& what) {
+  auto fail = [&](const char* detail) {
+    throw SessionError(what + ": " + FormatValue(text) + " must be an ISO 8601 UTC time like 2024-05-01T12:34:56Z" +
+                       detail);
+  };
+  // Digits only where digits belong: no sign, no space.
+  if (text.size() < 20 || !IsDigits(text, 0, 4) || text[4] != '-' || !IsDigits(text, 5, 2) || text[7] != '-' ||
+      !IsDigits(text, 8, 2) || text[10] != 'T' || !IsDigits(text, 11, 2) || text[13] != ':' ||
+      !IsDigits(text, 14, 2) || text[16] != ':' || !IsDigits(text, 17, 2)) {
+    fail("");
+  }
+  const int year = DigitsValue(text, 0, 4), month = DigitsValue(text, 5, 2), day = DigitsValue(text, 8, 2);
+  const int hour = DigitsValue(text, 11, 2), minute = DigitsValue(text, 14, 2), second = DigitsValue(text, 17, 2);
+  if (month < 1 || month > 12 || day < 1 || day > 31 || hour > 23 || minute > 59 || second > 60) fail("");
+  size_t pos = 19;
+  double fraction = 0;
+  if (text[pos] == '.') {
+    const size_t start = ++pos;
+    while (pos < text.size() && IsDigits(text, pos, 1)) ++pos;
+    if (pos == start) fail(" (the fraction of a second is empty)");
+    fraction = std::stod("0." + text.substr(start, pos - start));
+  }
+  if (pos + 1 != text.size() || text[pos] != 'Z') fail(" (it must end in Z: UTC)");
+  const int64_t seconds = DaysFromCivil(year, month, day) * 86400 + hour * 3600 + minute * 60 + second;
+  return std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
+      std::chrono::duration<double>(static_cast<double>(seconds) + fraction)));
+}
+
+// ----------------------------------------------------------------------------
+// Field values
+
+Json ValueToJson(const std::string& value) { return value; }
+Json ValueToJson(bool value) { return value; }
+Json ValueToJson(int value) { return value; }
+Json ValueToJson(double value) { return value; }
+Json ValueToJson(const Eigen::Vector3d& value) { return Vector3ToJson(value); }
+Json ValueToJson(const std::vector<double>& values) { return values; }
+Json ValueToJson(const std::vector<std::string>& values) { return values; }
+
+void ValueFromJson(const JsonField& field, std::string& value) { value = field.String(); }
+void ValueFromJson(const JsonField& field, bool& value) { value = field.Bool(); }
+void ValueFromJson(const JsonField& field, int& value) { value = field.Int(); }
+void ValueFromJson(const JsonField& field, double& value) { value = field.Double(); }
+void ValueFromJson(const JsonField& field, Eigen::Vector3d& value) { value = field.Vector3(); }
+
+void ValueFromJson(const JsonField& field, std::vector<double>& values) {
+  values.clear();
+  for (const JsonField& element : field.Elements()) values.push_back(element.Double());
+}
+
+void ValueFromJson(const JsonField& field, std::vector<std::string>& values) {
+  values.clear();
+  for (const JsonField& element : field.Elements()) values.push_back(element.String());
+}
 
 }  // namespace scanbench::session_internal

@@ -23,73 +23,82 @@ Eigen::Vector3d NormalizedUnlessUnit(const Eigen::Vector3d& v) {
   return std::abs(v.norm() - 1.0) <= kUnitNormTolerance ? v : v.normalized();
 }
 
-Json IntrinsicsToJson(const CameraIntrinsics& k) {
-  return Json{{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy},
-              {"cx", k.cx},       {"cy", k.cy},         {"k1", k.k1}, {"k2", k.k2},
-              {"k3", k.k3},       {"p1", k.p1},         {"p2", k.p2}};
+template <typename Io>
+void IntrinsicsFields(Io& io, CameraIntrinsics& k) {
+  io.Field("width", k.width);
+  io.Field("height", k.height);
+  io.Field("fx", k.fx);
+  io.Field("fy", k.fy);
+  io.Field("cx", k.cx);
+  io.Field("cy", k.cy);
+  io.Field("k1", k.k1);
+  io.Field("k2", k.k2);
+  io.Field("k3", k.k3);
+  io.Field("p1", k.p1);
+  io.Field("p2", k.p2);
 }
 
-CameraIntrinsics IntrinsicsFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "k3", "p1", "p2"});
-  CameraIntrinsics k;
-  k.width = field.Member("width").Int();
-  k.height = field.Member("height").Int();
-  k.fx = field.Member("fx").Double();
-  k.fy = field.Member("fy").Double();
-  k.cx = field.Member("cx").Double();
-  k.cy = field.Member("cy").Double();
-  k.k1 = field.Member("k1").Double();
-  k.k2 = field.Member("k2").Double();
-  k.k3 = field.Member("k3").Double();
-  k.p1 = field.Member("p1").Double();
-  k.p2 = field.Member("p2").Double();
-  return k;
+template <typename Io>
+void QuaternionFields(Io& io, Eigen::Vector4d& wxyz) {
+  io.Field("w", wxyz[0]);
+  io.Field("x", wxyz[1]);
+  io.Field("y", wxyz[2]);
+  io.Field("z", wxyz[3]);
 }
 
-Json PoseToJson(const Eigen::Isometry3d& cam_from_table) {
-  Eigen::Quaterniond rotation(cam_from_table.linear());
-  // q and -q are the same rotation; a positive w makes files comparable.
-  if (rotation.w() < 0) rotation.coeffs() = -rotation.coeffs();
-  return Json{{"rotation", {{"w", rotation.w()}, {"x", rotation.x()}, {"y", rotation.y()}, {"z", rotation.z()}}},
-              {"translation_mm", Vector3ToJson(cam_from_table.translation())}};
+// The rotation is stored as a quaternion, read back as a matrix.
+template <typename Io>
+void PoseFields(Io& io, Eigen::Isometry3d& cam_from_table) {
+  io.Custom(
+      "rotation",
+      [&] {
+        Eigen::Quaterniond rotation(cam_from_table.linear());
+        // q and -q are the same rotation; a positive w makes files comparable.
+        if (rotation.w() < 0) rotation.coeffs() = -rotation.coeffs();
+        const Eigen::Vector4d wxyz(rotation.w(), rotation.x(), rotation.y(), rotation.z());
+        return ToJsonObject(wxyz, [](auto& q, Eigen::Vector4d& value) { QuaternionFields(q, value); });
+      },
+      [&](const JsonField& rotation_field) {
+        const auto wxyz = FromJsonObject<Eigen::Vector4d>(
+            rotation_field, [](auto& q, Eigen::Vector4d& value) { QuaternionFields(q, value); });
+        const Eigen::Quaterniond rotation(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
+        if (!rotation.coeffs().allFinite()) rotation_field.Fail("must be finite");
+        // Only the direction of q matters; a hand-written 0.7071 is welcome.
+        if (!(rotation.norm() > 0)) rotation_field.Fail("must be a non-zero quaternion");
+        cam_from_table.linear() = rotation.normalized().toRotationMatrix();
+      });
+  io.Custom(
+      "translation_mm", [&] { return Vector3ToJson(cam_from_table.translation()); },
+      [&](const JsonField& translation) { cam_from_table.translation() = translation.Vector3(); });
 }
 
-Eigen::Isometry3d PoseFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"rotation", "translation_mm"});
-  const JsonField rotation_field = field.Member("rotation");
-  rotation_field.ExpectOnlyKeys({"w", "x", "y", "z"});
-  Eigen::Quaterniond rotation(rotation_field.Member("w").Double(), rotation_field.Member("x").Double(),
-                              rotation_field.Member("y").Double(), rotation_field.Member("z").Double());
-  if (!rotation.coeffs().allFinite()) rotation_field.Fail("must be finite");
-  // Only the direction of q matters; a hand-written 0.7071 is welcome.
-  if (!(rotation.norm() > 0)) rotation_field.Fail("must be a non-zero quaternion");
-  Eigen::Isometry3d cam_from_table = Eigen::Isometry3d::Identity();
-  cam_from_table.linear() = rotation.normalized().toRotationMatrix();
-  cam_from_table.translation() = field.Member("translation_mm").Vector3();
-  return cam_from_table;
+template <typename Io>
+void CameraGeometryFields(Io& io, CameraGeometry& camera) {
+  io.Object("intrinsics", [&](auto& intrinsics) { IntrinsicsFields(intrinsics, camera.intrinsics); });
+  io.Object("cam_from_table", [&](auto& pose) { PoseFields(pose, camera.cam_from_table); });
 }
 
-Json LedToJson(const LedDescription& led) {
-  return Json{{"id", led.id},
-              {"position_in_table_mm", Vector3ToJson(led.position_in_table_mm)},
-              {"axis_in_table", Vector3ToJson(led.axis_in_table)},
-              {"mu", led.mu},
-              {"rgb_intensity", Vector3ToJson(led.rgb_intensity)}};
+template <typename Io>
+void LedFields(Io& io, LedDescription& led) {
+  io.Field("id", led.id);
+  io.Field("position_in_table_mm", led.position_in_table_mm);
+  io.Custom(
+      "axis_in_table", [&] { return Vector3ToJson(led.axis_in_table); },
+      [&](const JsonField& axis_field) {
+        const Eigen::Vector3d axis = axis_field.Vector3();
+        if (!axis.allFinite()) axis_field.Fail("must be finite");
+        if (!(axis.norm() > 0)) axis_field.Fail("must be a non-zero direction");
+        led.axis_in_table = NormalizedUnlessUnit(axis);
+      });
+  io.Field("mu", led.mu);
+  io.Field("rgb_intensity", led.rgb_intensity);
 }
 
-LedDescription LedFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"id", "position_in_table_mm", "axis_in_table", "mu", "rgb_intensity"});
-  LedDescription led;
-  led.id = field.Member("id").Int();
-  led.position_in_table_mm = field.Member("position_in_table_mm").Vector3();
-  const JsonField axis_field = field.Member("axis_in_table");
-  const Eigen::Vector3d axis = axis_field.Vector3();
-  if (!axis.allFinite()) axis_field.Fail("must be finite");
-  if (!(axis.norm() > 0)) axis_field.Fail("must be a non-zero direction");
-  led.axis_in_table = NormalizedUnlessUnit(axis);
-  led.mu = field.Member("mu").Double();
-  led.rgb_intensity = field.Member("rgb_intensity").Vector3();
-  return led;
+template <typename Io>
+void RigFields(Io& io, RigDescription& rig) {
+  io.Field("name", rig.name);
+  io.Object("camera", [&](auto& camera) { CameraGeometryFields(camera, rig.camera); });
+  io.Array("leds", rig.leds, [](auto& led_io, LedDescription& led) { LedFields(led_io, led); });
 }
 
 void CheckIntrinsics(const CameraIntrinsics& intrinsics, const std::string& file, const std::string& path) {
@@ -146,25 +155,11 @@ void CheckLed(const LedDescription& led, const std::string& file, const std::str
 }  // namespace
 
 Json RigToJson(const RigDescription& rig) {
-  Json leds = Json::array();
-  for (const LedDescription& led : rig.leds) leds.push_back(LedToJson(led));
-  return Json{{"name", rig.name},
-              {"camera",
-               {{"intrinsics", IntrinsicsToJson(rig.camera.intrinsics)},
-                {"cam_from_table", PoseToJson(rig.camera.cam_from_table)}}},
-              {"leds", std::move(leds)}};
+  return ToJsonObject(rig, [](auto& io, RigDescription& value) { RigFields(io, value); });
 }
 
 RigDescription RigFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"name", "camera", "leds"});
-  RigDescription rig;
-  rig.name = field.Member("name").String();
-  const JsonField camera = field.Member("camera");
-  camera.ExpectOnlyKeys({"intrinsics", "cam_from_table"});
-  rig.camera.intrinsics = IntrinsicsFromJson(camera.Member("intrinsics"));
-  rig.camera.cam_from_table = PoseFromJson(camera.Member("cam_from_table"));
-  for (const JsonField& led : field.Member("leds").Elements()) rig.leds.push_back(LedFromJson(led));
-  return rig;
+  return FromJsonObject<RigDescription>(field, [](auto& io, RigDescription& value) { RigFields(io, value); });
 }
 
 void CheckRig(const RigDescription& rig, const std::string& file, const std::string& path) {
@@ -186,15 +181,11 @@ void CheckRig(const RigDescription& rig, const std::string& file, const std::str
 }
 
 Json CameraGeometryToJson(const CameraGeometry& camera) {
-  return Json{{"intrinsics", IntrinsicsToJson(camera.intrinsics)}, {"cam_from_table", PoseToJson(camera.cam_from_table)}};
+  return ToJsonObject(camera, [](auto& io, CameraGeometry& value) { CameraGeometryFields(io, value); });
 }
 
 CameraGeometry CameraGeometryFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"intrinsics", "cam_from_table"});
-  CameraGeometry camera;
-  camera.intrinsics = IntrinsicsFromJson(field.Member("intrinsics"));
-  camera.cam_from_table = PoseFromJson(field.Member("cam_from_table"));
-  return camera;
+  return FromJsonObject<CameraGeometry>(field, [](auto& io, CameraGeometry& value) { CameraGeometryFields(io, value); });
 }
 
 void CheckCameraGeometry(const CameraGeometry& camera, const std::string& file, const std::string& path) {
@@ -202,8 +193,14 @@ void CheckCameraGeometry(const CameraGeometry& camera, const std::string& file, 
   CheckPose(camera.cam_from_table, file, MemberPath(path, "cam_from_table"));
 }
 
-Json LedDescriptionToJson(const LedDescription& led) { return LedToJson(led); }
-LedDescription LedDescriptionFromJson(const JsonField& field) { return LedFromJson(field); }
+Json LedDescriptionToJson(const LedDescription& led) {
+  return ToJsonObject(led, [](auto& io, LedDescription& value) { LedFields(io, value); });
+}
+
+LedDescription LedDescriptionFromJson(const JsonField& field) {
+  return FromJsonObject<LedDescription>(field, [](auto& io, LedDescription& value) { LedFields(io, value); });
+}
+
 void CheckLedDescription(const LedDescription& led, const std::string& file, const std::string& path) {
   CheckLed(led, file, path);
 }

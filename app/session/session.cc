@@ -17,11 +17,14 @@
 
 namespace scanbench {
 namespace fs = std::filesystem;
+using session_internal::CheckSha256Format;
 using session_internal::ElementPath;
 using session_internal::FormatValue;
 using session_internal::Json;
 using session_internal::JsonField;
 using session_internal::MemberPath;
+using session_internal::Presence;
+using session_internal::RethrowAsSessionError;
 using session_internal::ThrowFieldError;
 
 namespace {
@@ -31,64 +34,8 @@ constexpr char kFramesFolder[] = "frames";
 constexpr char kResultsFolder[] = "results";
 constexpr size_t kMaxRunLabelLength = 64;
 
-// I/O helpers throw std::runtime_error / fs::filesystem_error naming the path;
-// callers of this library catch one type.
-template <typename Function>
-decltype(auto) RethrowAsSessionError(Function&& function) {
-  try {
-    return function();
-  } catch (const SessionError&) {
-    throw;
-  } catch (const std::exception& error) {
-    throw SessionError(error.what());
-  }
-}
-
 // ----------------------------------------------------------------------------
 // Field rules
-
-bool IsDigits(std::string_view text, size_t pos, size_t count) {
-  if (pos + count > text.size()) return false;
-  for (size_t i = pos; i < pos + count; ++i) {
-    if (text[i] < '0' || text[i] > '9') return false;
-  }
-  return true;
-}
-
-int DigitsValue(std::string_view text, size_t pos, size_t count) {
-  int value = 0;
-  for (size_t i = pos; i < pos + count; ++i) value = value * 10 + (text[i] - '0');
-  return value;
-}
-
-// YYYY-MM-DDTHH:MM:SS[.fraction]Z. Only UTC: local times without a zone are
-// ambiguous once a session travels.
-bool IsIso8601Utc(std::string_view text) {
-  if (text.size() < 20 || !IsDigits(text, 0, 4) || text[4] != '-' || !IsDigits(text, 5, 2) || text[7] != '-' ||
-      !IsDigits(text, 8, 2) || text[10] != 'T' || !IsDigits(text, 11, 2) || text[13] != ':' ||
-      !IsDigits(text, 14, 2) || text[16] != ':' || !IsDigits(text, 17, 2)) {
-    return false;
-  }
-  const int month = DigitsValue(text, 5, 2), day = DigitsValue(text, 8, 2);
-  const int hour = DigitsValue(text, 11, 2), minute = DigitsValue(text, 14, 2), second = DigitsValue(text, 17, 2);
-  if (month < 1 || month > 12 || day < 1 || day > 31 || hour > 23 || minute > 59 || second > 60) return false;
-  size_t pos = 19;
-  if (text[pos] == '.') {
-    ++pos;
-    const size_t fraction_start = pos;
-    while (pos < text.size() && IsDigits(text, pos, 1)) ++pos;
-    if (pos == fraction_start) return false;
-  }
-  return pos + 1 == text.size() && text[pos] == 'Z';
-}
-
-bool IsSha256Hex(std::string_view text) {
-  if (text.size() != 64) return false;
-  for (const char c : text) {
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  }
-  return true;
-}
 
 // Every file a session lists must stay inside its folder, so that a session can
 // be moved or archived as one folder and a manifest cannot point at /etc.
@@ -109,14 +56,8 @@ bool IsInFramesFolder(const std::string& relative) {
   return part != path.end() && *part == kFramesFolder && ++part != path.end() && !part->empty();
 }
 
-void CheckSha256Format(const std::string& sha256, const std::string& file, const std::string& path) {
-  if (!IsSha256Hex(sha256)) ThrowFieldError(file, path, FormatValue(sha256) + " must be 64 lower-case hex digits");
-}
-
 void CheckTimestamp(const std::string& time, const std::string& file, const std::string& path) {
-  if (!IsIso8601Utc(time)) {
-    ThrowFieldError(file, path, FormatValue(time) + " must be an ISO 8601 UTC time like 2024-05-01T12:34:56Z");
-  }
+  session_internal::ParseIso8601Utc(time, file + ": " + path);
 }
 
 void CheckCamera(const CameraInfo& camera, const std::string& file) {
@@ -256,106 +197,83 @@ void CheckListedFile(const fs::path& root, const std::string& manifest, const st
 
 const char* FrameKindName(FrameKind kind) { return kind == FrameKind::kDark ? "dark" : "led"; }
 
-Json FrameToJson(const FrameRecord& frame) {
-  Json json{{"kind", FrameKindName(frame.kind)}};
-  if (frame.kind == FrameKind::kLed) json["led_index"] = frame.led_index;
-  json["file"] = frame.file;
-  json["sha256"] = frame.sha256;
-  json["capture_time"] = frame.capture_time;
-  json["exposure_time_s"] = frame.exposure_time_s;
-  json["width"] = frame.width;
-  json["height"] = frame.height;
-  return json;
+template <typename Io>
+void FrameFields(Io& io, FrameRecord& frame) {
+  io.Custom(
+      "kind", [&] { return Json(FrameKindName(frame.kind)); },
+      [&](const JsonField& kind) {
+        const std::string name = kind.String();
+        if (name == "dark") {
+          frame.kind = FrameKind::kDark;
+        } else if (name == "led") {
+          frame.kind = FrameKind::kLed;
+        } else {
+          kind.Fail("must be \"dark\" or \"led\"");
+        }
+      });
+  // An LED frame names its LED; a dark frame has none. The kind is read first.
+  io.Custom(
+      "led_index",
+      [&]() -> std::optional<Json> {
+        if (frame.kind != FrameKind::kLed) return std::nullopt;
+        return Json(frame.led_index);
+      },
+      [&](const JsonField& led_index) {
+        if (frame.kind == FrameKind::kDark) led_index.Fail("must be absent or null for a dark frame");
+        frame.led_index = led_index.Int();
+      },
+      frame.kind == FrameKind::kLed ? Presence::kRequired : Presence::kOptionalOnRead);
+  io.Field("file", frame.file);
+  io.Field("sha256", frame.sha256);
+  io.Field("capture_time", frame.capture_time);
+  io.Field("exposure_time_s", frame.exposure_time_s);
+  io.Field("width", frame.width);
+  io.Field("height", frame.height);
 }
 
-FrameRecord FrameFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"kind", "led_index", "file", "sha256", "capture_time", "exposure_time_s", "width", "height"});
-  FrameRecord frame;
-  const JsonField kind = field.Member("kind");
-  const std::string kind_name = kind.String();
-  if (kind_name == "dark") {
-    frame.kind = FrameKind::kDark;
-    if (const auto led_index = field.OptionalMember("led_index")) led_index->Fail("must be absent or null for a dark frame");
-  } else if (kind_name == "led") {
-    frame.kind = FrameKind::kLed;
-    frame.led_index = field.Member("led_index").Int();
-  } else {
-    kind.Fail("must be \"dark\" or \"led\"");
-  }
-  frame.file = field.Member("file").String();
-  frame.sha256 = field.Member("sha256").String();
-  frame.capture_time = field.Member("capture_time").String();
-  frame.exposure_time_s = field.Member("exposure_time_s").Double();
-  frame.width = field.Member("width").Int();
-  frame.height = field.Member("height").Int();
-  return frame;
+template <typename Io>
+void CameraFields(Io& io, CameraInfo& camera) {
+  io.Field("make", camera.make);
+  io.Field("model", camera.model);
+  io.Field("serial", camera.serial);
+  io.Field("lens", camera.lens);
+  io.Object("settings", [&](auto& settings) {
+    settings.Field("iso", camera.iso);
+    settings.Field("exposure_time_s", camera.exposure_time_s);
+    settings.Field("f_number", camera.f_number);
+    settings.Field("width", camera.width);
+    settings.Field("height", camera.height);
+  });
 }
 
-Json CameraToJson(const CameraInfo& camera) {
-  return Json{{"make", camera.make},
-              {"model", camera.model},
-              {"serial", camera.serial},
-              {"lens", camera.lens},
-              {"settings",
-               {{"iso", camera.iso},
-                {"exposure_time_s", camera.exposure_time_s},
-                {"f_number", camera.f_number},
-                {"width", camera.width},
-                {"height", camera.height}}}};
-}
-
-CameraInfo CameraFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"make", "model", "serial", "lens", "settings"});
-  CameraInfo camera;
-  camera.make = field.Member("make").String();
-  camera.model = field.Member("model").String();
-  camera.serial = field.Member("serial").String();
-  camera.lens = field.Member("lens").String();
-  const JsonField settings = field.Member("settings");
-  settings.ExpectOnlyKeys({"iso", "exposure_time_s", "f_number", "width", "height"});
-  camera.iso = settings.Member("iso").Double();
-  camera.exposure_time_s = settings.Member("exposure_time_s").Double();
-  camera.f_number = settings.Member("f_number").Double();
-  camera.width = settings.Member("width").Int();
-  camera.height = settings.Member("height").Int();
-  return camera;
-}
-
-Json GroundTruthToJson(const GroundTruthFiles& truth) {
-  Json json{{"mm_per_pixel", truth.mm_per_pixel}};
+template <typename Io>
+void GroundTruthFields(Io& io, GroundTruthFiles& truth) {
+  io.Field("mm_per_pixel", truth.mm_per_pixel);
   for (const auto& entry : GroundTruthEntries(truth)) {
-    json[entry.name] = Json{{"file", *entry.file}, {"sha256", *entry.sha256}};
+    io.Object(entry.name, [&](auto& map) {
+      map.Field("file", *entry.file);
+      map.Field("sha256", *entry.sha256);
+    });
   }
-  return json;
 }
 
-GroundTruthFiles GroundTruthFromJson(const JsonField& field) {
-  field.ExpectOnlyKeys({"mm_per_pixel", "normal", "albedo", "height", "mask"});
-  GroundTruthFiles truth;
-  truth.mm_per_pixel = field.Member("mm_per_pixel").Double();
-  for (const auto& entry : GroundTruthEntries(truth)) {
-    const JsonField file_entry = field.Member(entry.name);
-    file_entry.ExpectOnlyKeys({"file", "sha256"});
-    *entry.file = file_entry.Member("file").String();
-    *entry.sha256 = file_entry.Member("sha256").String();
-  }
-  return truth;
-}
-
-Json SessionToJsonValue(const Session& session) {
-  Json json{{"schema_version", session.schema_version},
-            {"sample_name", session.sample_name},
-            {"notes", session.notes},
-            {"created", session.created},
-            {"software_version", session.software_version},
-            {"capture", {{"complete", session.capture_complete}}},
-            {"camera", CameraToJson(session.camera)},
-            {"rig", session_internal::RigToJson(session.rig)}};
-  if (session.ground_truth) json["ground_truth"] = GroundTruthToJson(*session.ground_truth);
-  Json frames = Json::array();
-  for (const FrameRecord& frame : session.frames) frames.push_back(FrameToJson(frame));
-  json["frames"] = std::move(frames);
-  return json;
+template <typename Io>
+void SessionFields(Io& io, Session& session) {
+  io.Field("schema_version", session.schema_version);
+  io.Field("sample_name", session.sample_name);
+  io.Field("notes", session.notes, Presence::kOptionalOnRead);
+  io.Field("created", session.created);
+  io.Field("software_version", session.software_version);
+  io.Object("capture", [&](auto& capture) { capture.Field("complete", session.capture_complete); },
+            Presence::kOptionalOnRead);
+  io.Object("camera", [&](auto& camera) { CameraFields(camera, session.camera); });
+  io.Custom(
+      "rig", [&] { return session_internal::RigToJson(session.rig); },
+      [&](const JsonField& rig) { session.rig = session_internal::RigFromJson(rig); });
+  io.Optional("ground_truth", session.ground_truth, [](auto& truth_io, GroundTruthFiles& truth) {
+    GroundTruthFields(truth_io, truth);
+  });
+  io.Array("frames", session.frames, [](auto& frame_io, FrameRecord& frame) { FrameFields(frame_io, frame); });
 }
 
 Session SessionFromJsonValue(const Json& json, const std::string& file) {
@@ -371,24 +289,10 @@ Session SessionFromJsonValue(const Json& json, const std::string& file) {
     version_field.Fail("is older than this scanbench reads (" + std::to_string(kSessionSchemaVersion) +
                        ") and cannot be converted");
   }
-  root.ExpectOnlyKeys({"schema_version", "sample_name", "notes", "created", "software_version", "capture", "camera",
-                       "rig", "ground_truth", "frames"});
   Session session;
-  session.schema_version = version;
-  session.sample_name = root.Member("sample_name").String();
-  if (const auto notes = root.OptionalMember("notes")) session.notes = notes->String();
-  session.created = root.Member("created").String();
-  session.software_version = root.Member("software_version").String();
   // Sessions written without journalling (e.g. simulated ones) are whole by construction.
   session.capture_complete = true;
-  if (const auto capture = root.OptionalMember("capture")) {
-    capture->ExpectOnlyKeys({"complete"});
-    session.capture_complete = capture->Member("complete").Bool();
-  }
-  session.camera = CameraFromJson(root.Member("camera"));
-  session.rig = session_internal::RigFromJson(root.Member("rig"));
-  if (const auto truth = root.OptionalMember("ground_truth")) session.ground_truth = GroundTruthFromJson(*truth);
-  for (const JsonField& frame : root.Member("frames").Elements()) session.frames.push_back(FrameFromJson(frame));
+  session_internal::ReadObject(root, [&](auto& io) { SessionFields(io, session); });
   return session;
 }
 
@@ -451,7 +355,9 @@ void CheckSession(const Session& session, const std::string& name_for_errors) {
 }
 
 std::string SessionToJson(const Session& session) {
-  return session_internal::DumpJson(SessionToJsonValue(session));
+  return session_internal::DumpJson(session_internal::ToJsonObject(session, [](auto& io, Session& value) {
+    SessionFields(io, value);
+  }));
 }
 
 Session SessionFromJson(const std::string& text, const std::string& name_for_errors) {
