@@ -64,6 +64,176 @@ double ReprojectionRms(const std::vector<cv::Point3f>& object, const std::vector
   return std::sqrt(sum / std::max<size_t>(1, image.size()));
 }
 
+// ---------------------------------------------------------------------------
+// The steps of CalibrateCamera.
+
+// Throws std::invalid_argument for views of different sizes or a board
+// height out of range.
+void CheckViews(const std::vector<CalibrationView>& views) {
+  const int width = views[0].gray.width(), height = views[0].gray.height();
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (!views[v].gray.SameSize(width, height)) {
+      throw std::invalid_argument("CalibrateCamera: view " + views[v].name + " is " +
+                                  std::to_string(views[v].gray.width()) + "x" + std::to_string(views[v].gray.height()) +
+                                  " but view " + views[0].name + " is " + std::to_string(width) + "x" +
+                                  std::to_string(height) + "; all views must have one size");
+    }
+    if (!(views[v].board_height_mm >= 0 && views[v].board_height_mm <= 200)) {
+      throw FieldError("CalibrationView[" + std::to_string(v) + "] (" + views[v].name + ")", "board_height_mm",
+                       views[v].board_height_mm, "must lie in [0, 200]");
+    }
+  }
+}
+
+// The board in every view, with a report per view (used = usable so far).
+// Progress runs over [0, 0.8]; false when it asked to stop.
+bool DetectViews(const CheckerboardDetectionOptions& options, const CheckerboardTarget& board,
+                 const std::vector<CalibrationView>& views, const ProgressCallback& progress,
+                 std::vector<CheckerboardDetection>* detections, std::vector<CalibrationViewReport>* reports) {
+  detections->assign(views.size(), CheckerboardDetection());
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (progress && !progress(0.8 * v / views.size())) return false;
+    const CheckerboardDetection& detection = (*detections)[v] = DetectCheckerboard(options, views[v].gray, board);
+    CalibrationViewReport report;
+    report.name = views[v].name;
+    report.on_table = views[v].on_table;
+    report.used = detection.usable;
+    report.reason = detection.reason;
+    report.edge_width_px = detection.edge_width_px;
+    report.contrast = detection.contrast;
+    reports->push_back(report);
+  }
+  return true;
+}
+
+std::vector<cv::Point2f> ToCvPoints(const std::vector<Eigen::Vector2d>& corners) {
+  std::vector<cv::Point2f> points;
+  for (const Eigen::Vector2d& c : corners) points.emplace_back(float(c.x()), float(c.y()));
+  return points;
+}
+
+// OpenCV's calibration of the views in `used` (their indices).
+struct OpenCvCalibration {
+  cv::Mat camera_matrix, distortion;
+  std::vector<cv::Mat> rvecs, tvecs;
+  cv::Mat std_intrinsics, std_extrinsics, per_view_rms;
+  std::vector<size_t> used;
+  double rms_px = 0;
+};
+
+int CalibrationFlags(const CameraCalibrationOptions& options) {
+  int flags = 0;
+  if (options.radial_terms < 3) flags |= cv::CALIB_FIX_K3;
+  if (options.radial_terms < 2) flags |= cv::CALIB_FIX_K2;
+  if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
+  return flags;
+}
+
+// Calibrate on the usable views; drop the worst view (its report says why)
+// while it does not fit the others. Sets *failure when fewer than min_views
+// remain.
+OpenCvCalibration CalibrateOnUsableViews(const CameraCalibrationOptions& options, const CheckerboardTarget& board,
+                                         const std::vector<CheckerboardDetection>& detections, cv::Size image_size,
+                                         std::vector<CalibrationViewReport>* reports, std::string* failure) {
+  std::vector<cv::Point3f> object;
+  for (const Eigen::Vector3d& p : board.CornersInTarget()) {
+    object.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+  }
+  OpenCvCalibration calibration;
+  while (true) {
+    calibration.used.clear();
+    std::vector<std::vector<cv::Point3f>> object_points;
+    std::vector<std::vector<cv::Point2f>> image_points;
+    for (size_t v = 0; v < reports->size(); ++v) {
+      if (!(*reports)[v].used) continue;
+      calibration.used.push_back(v);
+      image_points.push_back(ToCvPoints(detections[v].corners));
+      object_points.push_back(object);
+    }
+    if (static_cast<int>(calibration.used.size()) < options.min_views) {
+      *failure = std::to_string(calibration.used.size()) + " usable views, min_views = " +
+                 std::to_string(options.min_views) + " required";
+      return calibration;
+    }
+    calibration.camera_matrix = cv::Mat();
+    calibration.distortion = cv::Mat();
+    calibration.rms_px = cv::calibrateCamera(
+        object_points, image_points, image_size, calibration.camera_matrix, calibration.distortion, calibration.rvecs,
+        calibration.tvecs, calibration.std_intrinsics, calibration.std_extrinsics, calibration.per_view_rms,
+        CalibrationFlags(options), cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, DBL_EPSILON));
+    const cv::Mat& per_view_rms = calibration.per_view_rms;
+    size_t worst = 0;
+    for (size_t u = 1; u < calibration.used.size(); ++u) {
+      if (per_view_rms.at<double>(int(u)) > per_view_rms.at<double>(int(worst))) worst = u;
+    }
+    const double worst_rms = per_view_rms.at<double>(int(worst));
+    if (worst_rms <= options.max_view_rms_px) return calibration;
+    CalibrationViewReport& report = (*reports)[calibration.used[worst]];
+    report.used = false;
+    report.reason = "reprojection RMS " + Fixed(worst_rms, 3) + " px > max_view_rms_px " +
+                    Fixed(options.max_view_rms_px, 3) + " px: the view does not fit the others";
+  }
+}
+
+// OpenCV's result into the summary: intrinsics, their spread, each used
+// view's RMS and pose.
+void StoreCalibration(const OpenCvCalibration& calibration, int width, int height, CameraCalibrationSummary* summary) {
+  summary->reprojection_rms_px = calibration.rms_px;
+  CameraIntrinsics& k = summary->camera.intrinsics;
+  k.width = width;
+  k.height = height;
+  k.fx = calibration.camera_matrix.at<double>(0, 0);
+  k.fy = calibration.camera_matrix.at<double>(1, 1);
+  k.cx = calibration.camera_matrix.at<double>(0, 2);
+  k.cy = calibration.camera_matrix.at<double>(1, 2);
+  const double* d = calibration.distortion.ptr<double>();
+  k.k1 = d[0];
+  k.k2 = d[1];
+  k.p1 = d[2];
+  k.p2 = d[3];
+  k.k3 = calibration.distortion.total() > 4 ? d[4] : 0.0;
+  for (int i = 0; i < 9 && i < static_cast<int>(calibration.std_intrinsics.total()); ++i) {
+    summary->intrinsics_std[i] = calibration.std_intrinsics.at<double>(i);
+  }
+  for (size_t u = 0; u < calibration.used.size(); ++u) {
+    CalibrationViewReport& report = summary->views[calibration.used[u]];
+    report.rms_px = calibration.per_view_rms.at<double>(int(u));
+    report.cam_from_target = PoseFromRodrigues(calibration.rvecs[u], calibration.tvecs[u]);
+  }
+  summary->num_used_views = static_cast<int>(calibration.used.size());
+}
+
+// The first used view of the board lying flat; sets *failure (and returns
+// views.size()) when there is none.
+size_t FindTableView(const std::vector<CalibrationView>& views, const std::vector<size_t>& used,
+                     std::string* failure) {
+  for (size_t v : used) {
+    if (views[v].on_table) return v;
+  }
+  bool any_on_table = false;
+  for (const CalibrationView& view : views) any_on_table |= view.on_table;
+  *failure = any_on_table ? "the view of the board lying on the table was rejected; the table pose is unknown"
+                          : "no view has the board lying flat on the table (on_table); the table pose is unknown";
+  return views.size();
+}
+
+// cam_from_table from the on-table view's corners (the board's face
+// board_height_mm above the table) and their reprojection RMS.
+void SolveTablePose(const OpenCvCalibration& calibration, const CheckerboardTarget& board, double board_height_mm,
+                    const CheckerboardDetection& detection, CameraCalibrationSummary* summary) {
+  std::vector<cv::Point3f> table_points;
+  for (const Eigen::Vector3d& p : board.CornersInTarget()) {
+    table_points.emplace_back(float(p.x()), float(p.y()), float(board_height_mm));
+  }
+  const std::vector<cv::Point2f> table_corners = ToCvPoints(detection.corners);
+  cv::Mat rvec, tvec;
+  cv::solvePnP(table_points, table_corners, calibration.camera_matrix, calibration.distortion, rvec, tvec, false,
+               cv::SOLVEPNP_ITERATIVE);
+  summary->camera.cam_from_table = PoseFromRodrigues(rvec, tvec);
+  summary->table_view_rms_px = ReprojectionRms(table_points, table_corners, rvec, tvec, calibration.camera_matrix,
+                                               calibration.distortion);
+}
+
 }  // namespace
 
 void CheckerboardDetectionOptions::Check() const {
@@ -106,10 +276,10 @@ ImageF BalancedGray(const ImageF& rgb) {
   return gray;
 }
 
-CheckerboardDetection DetectCheckerboard(const ImageF& gray, const CheckerboardTarget& board,
-                                         const CheckerboardDetectionOptions& options) {
-  board.Check();
+CheckerboardDetection DetectCheckerboard(const CheckerboardDetectionOptions& options, const ImageF& gray,
+                                         const CheckerboardTarget& board) {
   options.Check();
+  board.Check();
   if (gray.empty() || gray.channels() != 1) {
     throw std::invalid_argument("DetectCheckerboard: image " + std::to_string(gray.width()) + "x" +
                                 std::to_string(gray.height()) + "x" + std::to_string(gray.channels()) +
@@ -182,157 +352,54 @@ std::string CameraCalibrationSummary::BriefReport() const {
   return out.str();
 }
 
-CameraCalibrationSummary CalibrateCamera(const CheckerboardTarget& board, const std::vector<CalibrationView>& views,
-                                         const CameraCalibrationOptions& options,
+CameraCalibrationSummary CalibrateCamera(const CameraCalibrationOptions& options, const CheckerboardTarget& board,
+                                         const std::vector<CalibrationView>& views,
                                          const ProgressCallback& progress) {
-  board.Check();
   options.Check();
+  board.Check();
   CameraCalibrationSummary summary;
   if (views.empty()) {
-    summary.message = "no views given";
+    summary.SetFailure("no views given");
     return summary;
   }
+  CheckViews(views);
   const int width = views[0].gray.width(), height = views[0].gray.height();
-  for (size_t v = 0; v < views.size(); ++v) {
-    if (!views[v].gray.SameSize(width, height)) {
-      throw std::invalid_argument("CalibrateCamera: view " + views[v].name + " is " +
-                                  std::to_string(views[v].gray.width()) + "x" + std::to_string(views[v].gray.height()) +
-                                  " but view " + views[0].name + " is " + std::to_string(width) + "x" +
-                                  std::to_string(height) + "; all views must have one size");
-    }
-    if (!(views[v].board_height_mm >= 0 && views[v].board_height_mm <= 200)) {
-      throw FieldError("CalibrationView[" + std::to_string(v) + "] (" + views[v].name + ")", "board_height_mm",
-                       views[v].board_height_mm, "must lie in [0, 200]");
-    }
+
+  std::vector<CheckerboardDetection> detections;
+  if (!DetectViews(options.detection, board, views, progress, &detections, &summary.views)) {
+    summary.SetCancelled();
+    return summary;
   }
-
-  // Detect.
-  std::vector<CheckerboardDetection> detections(views.size());
-  for (size_t v = 0; v < views.size(); ++v) {
-    if (progress && !progress(0.8 * v / views.size())) {
-      summary.message = "cancelled";
-      return summary;
-    }
-    detections[v] = DetectCheckerboard(views[v].gray, board, options.detection);
-    CalibrationViewReport report;
-    report.name = views[v].name;
-    report.on_table = views[v].on_table;
-    report.used = detections[v].usable;
-    report.reason = detections[v].reason;
-    report.edge_width_px = detections[v].edge_width_px;
-    report.contrast = detections[v].contrast;
-    summary.views.push_back(report);
-  }
-
-  std::vector<cv::Point3f> object;
-  for (const Eigen::Vector3d& p : board.CornersInTarget()) object.emplace_back(float(p.x()), float(p.y()), float(p.z()));
-  int flags = 0;
-  if (options.radial_terms < 3) flags |= cv::CALIB_FIX_K3;
-  if (options.radial_terms < 2) flags |= cv::CALIB_FIX_K2;
-  if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
-
-  cv::Mat camera_matrix, distortion;
-  std::vector<cv::Mat> rvecs, tvecs;
-  cv::Mat std_intrinsics, std_extrinsics, per_view_rms;
-  std::vector<size_t> used;
-  // Calibrate; drop the worst view while it does not fit the others.
-  while (true) {
-    used.clear();
-    std::vector<std::vector<cv::Point3f>> object_points;
-    std::vector<std::vector<cv::Point2f>> image_points;
-    for (size_t v = 0; v < views.size(); ++v) {
-      if (!summary.views[v].used) continue;
-      used.push_back(v);
-      std::vector<cv::Point2f> corners;
-      for (const Eigen::Vector2d& c : detections[v].corners) corners.emplace_back(float(c.x()), float(c.y()));
-      image_points.push_back(corners);
-      object_points.push_back(object);
-    }
-    if (static_cast<int>(used.size()) < options.min_views) {
-      summary.message = std::to_string(used.size()) + " usable views, min_views = " +
-                        std::to_string(options.min_views) + " required";
-      return summary;
-    }
-    camera_matrix = cv::Mat();
-    distortion = cv::Mat();
-    summary.reprojection_rms_px = cv::calibrateCamera(
-        object_points, image_points, cv::Size(width, height), camera_matrix, distortion, rvecs, tvecs,
-        std_intrinsics, std_extrinsics, per_view_rms, flags,
-        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, DBL_EPSILON));
-    size_t worst = 0;
-    for (size_t u = 1; u < used.size(); ++u) {
-      if (per_view_rms.at<double>(int(u)) > per_view_rms.at<double>(int(worst))) worst = u;
-    }
-    const double worst_rms = per_view_rms.at<double>(int(worst));
-    if (worst_rms <= options.max_view_rms_px) break;
-    CalibrationViewReport& report = summary.views[used[worst]];
-    report.used = false;
-    report.reason = "reprojection RMS " + Fixed(worst_rms, 3) + " px > max_view_rms_px " +
-                    Fixed(options.max_view_rms_px, 3) + " px: the view does not fit the others";
+  std::string failure;
+  const OpenCvCalibration calibration =
+      CalibrateOnUsableViews(options, board, detections, cv::Size(width, height), &summary.views, &failure);
+  if (!failure.empty()) {
+    summary.reprojection_rms_px = calibration.rms_px;  // of the last round, if any
+    summary.SetFailure(failure);
+    return summary;
   }
   if (progress && !progress(0.9)) {
-    summary.message = "cancelled";
+    summary.SetCancelled();
     return summary;
   }
-
-  CameraIntrinsics& k = summary.camera.intrinsics;
-  k.width = width;
-  k.height = height;
-  k.fx = camera_matrix.at<double>(0, 0);
-  k.fy = camera_matrix.at<double>(1, 1);
-  k.cx = camera_matrix.at<double>(0, 2);
-  k.cy = camera_matrix.at<double>(1, 2);
-  const double* d = distortion.ptr<double>();
-  k.k1 = d[0];
-  k.k2 = d[1];
-  k.p1 = d[2];
-  k.p2 = d[3];
-  k.k3 = distortion.total() > 4 ? d[4] : 0.0;
-  for (int i = 0; i < 9 && i < static_cast<int>(std_intrinsics.total()); ++i) {
-    summary.intrinsics_std[i] = std_intrinsics.at<double>(i);
-  }
-  for (size_t u = 0; u < used.size(); ++u) {
-    CalibrationViewReport& report = summary.views[used[u]];
-    report.rms_px = per_view_rms.at<double>(int(u));
-    report.cam_from_target = PoseFromRodrigues(rvecs[u], tvecs[u]);
-  }
-  summary.num_used_views = static_cast<int>(used.size());
+  StoreCalibration(calibration, width, height, &summary);
   try {
-    CheckCameraIntrinsics(k);
+    CheckCameraIntrinsics(summary.camera.intrinsics);
   } catch (const std::invalid_argument& error) {
-    summary.message = std::string("calibration gave unusable intrinsics: ") + error.what();
+    summary.SetFailure(std::string("calibration gave unusable intrinsics: ") + error.what());
     return summary;
   }
 
-  // The table pose from the (first used) view of the board lying flat.
-  size_t table_view = views.size();
-  for (size_t v : used) {
-    if (views[v].on_table) {
-      table_view = v;
-      break;
-    }
-  }
-  if (table_view == views.size()) {
-    bool any_on_table = false;
-    for (const CalibrationView& view : views) any_on_table |= view.on_table;
-    summary.message = any_on_table ? "the view of the board lying on the table was rejected; the table pose is unknown"
-                                   : "no view has the board lying flat on the table (on_table); the table pose is unknown";
+  const size_t table_view = FindTableView(views, calibration.used, &failure);
+  if (!failure.empty()) {
+    summary.SetFailure(failure);
     return summary;
   }
-  std::vector<cv::Point3f> table_points;
-  for (const Eigen::Vector3d& p : board.CornersInTarget()) {
-    table_points.emplace_back(float(p.x()), float(p.y()), float(views[table_view].board_height_mm));
-  }
-  std::vector<cv::Point2f> table_corners;
-  for (const Eigen::Vector2d& c : detections[table_view].corners) table_corners.emplace_back(float(c.x()), float(c.y()));
-  cv::Mat rvec, tvec;
-  cv::solvePnP(table_points, table_corners, camera_matrix, distortion, rvec, tvec, false, cv::SOLVEPNP_ITERATIVE);
-  summary.camera.cam_from_table = PoseFromRodrigues(rvec, tvec);
-  summary.table_view_rms_px = ReprojectionRms(table_points, table_corners, rvec, tvec, camera_matrix, distortion);
+  SolveTablePose(calibration, board, views[table_view].board_height_mm, detections[table_view], &summary);
   const Eigen::Vector3d centre = CameraCentreInTable(summary.camera);
   if (!(centre.z() > 0)) {
-    summary.message = "the table pose puts the camera below the table (z = " + Fixed(centre.z(), 1) +
-                      " mm): is the on-table view's board upside down?";
+    summary.SetFailure("the table pose puts the camera below the table (z = " + Fixed(centre.z(), 1) +
+                       " mm): is the on-table view's board upside down?");
     return summary;
   }
   summary.termination = Termination::kSuccess;

@@ -52,16 +52,18 @@ struct CheckerboardDetection {
 
 // `gray`: 1 channel, linear (any scale). Never throws for an image without a
 // board: found = false with the reason. Throws std::invalid_argument for bad
-// options or an empty or multi-channel image.
-CheckerboardDetection DetectCheckerboard(const ImageF& gray, const CheckerboardTarget& board,
-                                         const CheckerboardDetectionOptions& options = {});
+// options or an empty or multi-channel image. A measurement of one view (one
+// OpenCV call, nothing to cancel), so it returns the detection itself rather
+// than a summary: "not found" and "blurred" are results, not failures.
+CheckerboardDetection DetectCheckerboard(const CheckerboardDetectionOptions& options, const ImageF& gray,
+                                         const CheckerboardTarget& board);
 
 // A gray image for detection from a developed RAW frame: each colour channel
 // divided by its mean, then averaged (the CFA colours weigh alike).
 ImageF BalancedGray(const ImageF& rgb);
 
 struct CameraCalibrationOptions {
-  CheckerboardDetectionOptions detection;
+  CheckerboardDetectionOptions detection;  // how each view's board is found and judged
   int min_views = 4;               // usable views needed, [3, 1000]
   // Radial distortion terms to fit, [1, 3]: 1 = k1, 2 = k1 k2, 3 = k1 k2 k3
   // (the others stay 0). Across the narrow field of a short tele lens the
@@ -72,6 +74,7 @@ struct CameraCalibrationOptions {
   // is rejected and the calibration rerun without it, > 0.
   double max_view_rms_px = 1.0;
 
+  // Throws std::invalid_argument naming the field, its value and the rule.
   void Check() const;
 };
 
@@ -108,11 +111,14 @@ struct CameraCalibrationSummary : AlgorithmSummary {
 };
 
 
-// Throws std::invalid_argument for bad options or target, or views of
-// different sizes. A calibration that cannot be made (too few usable views,
-// no on-table view) returns Termination::kFailure with the reason.
-CameraCalibrationSummary CalibrateCamera(const CheckerboardTarget& board, const std::vector<CalibrationView>& views,
-                                         const CameraCalibrationOptions& options = {},
+// The camera (intrinsics and cam_from_table) is a figure of the summary (the
+// calibration set stores it as it is). Throws std::invalid_argument for bad
+// options or target, or views of different sizes. A calibration that cannot
+// be made (too few usable views, no on-table view) returns
+// Termination::kFailure with the reason; Termination::kCancelled when the
+// progress callback asks to stop.
+CameraCalibrationSummary CalibrateCamera(const CameraCalibrationOptions& options, const CheckerboardTarget& board,
+                                         const std::vector<CalibrationView>& views,
                                          const ProgressCallback& progress = {});
 
 }  // namespace scanbench

@@ -8,12 +8,10 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include "core/field_error.h"
+
 namespace scanbench {
 namespace {
-
-std::invalid_argument FieldError(const std::string& field, double value, const std::string& rule) {
-  return std::invalid_argument("camera intrinsics: " + field + " = " + std::to_string(value) + " " + rule);
-}
 
 cv::Matx33d CameraMatrix(const CameraIntrinsics& k) {
   return cv::Matx33d(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
@@ -26,14 +24,15 @@ cv::Vec<double, 5> DistortionVector(const CameraIntrinsics& k) {
 }  // namespace
 
 void CheckCameraIntrinsics(const CameraIntrinsics& k) {
-  if (k.width <= 0) throw FieldError("width", k.width, "must be > 0");
-  if (k.height <= 0) throw FieldError("height", k.height, "must be > 0");
-  if (!(k.fx > 0) || !std::isfinite(k.fx)) throw FieldError("fx", k.fx, "must be finite and > 0");
-  if (!(k.fy > 0) || !std::isfinite(k.fy)) throw FieldError("fy", k.fy, "must be finite and > 0");
-  if (!(k.cx >= 0 && k.cx <= k.width - 1)) throw FieldError("cx", k.cx, "must lie in [0, width - 1]");
-  if (!(k.cy >= 0 && k.cy <= k.height - 1)) throw FieldError("cy", k.cy, "must lie in [0, height - 1]");
+  const std::string where = "CameraIntrinsics";
+  if (k.width <= 0) throw FieldError(where, "width", k.width, "must be > 0");
+  if (k.height <= 0) throw FieldError(where, "height", k.height, "must be > 0");
+  if (!(k.fx > 0) || !std::isfinite(k.fx)) throw FieldError(where, "fx", k.fx, "must be finite and > 0");
+  if (!(k.fy > 0) || !std::isfinite(k.fy)) throw FieldError(where, "fy", k.fy, "must be finite and > 0");
+  if (!(k.cx >= 0 && k.cx <= k.width - 1)) throw FieldError(where, "cx", k.cx, "must lie in [0, width - 1]");
+  if (!(k.cy >= 0 && k.cy <= k.height - 1)) throw FieldError(where, "cy", k.cy, "must lie in [0, height - 1]");
   for (const auto& [name, value] : {std::pair{"k1", k.k1}, {"k2", k.k2}, {"k3", k.k3}, {"p1", k.p1}, {"p2", k.p2}}) {
-    if (!std::isfinite(value)) throw FieldError(name, value, "must be finite");
+    if (!std::isfinite(value)) throw FieldError(where, name, value, "must be finite");
   }
 }
 

@@ -12,6 +12,7 @@
 #include <unsupported/Eigen/NonLinearOptimization>
 #include <unsupported/Eigen/NumericalDiff>
 
+#include "core/field_error.h"
 #include "core/format.h"
 #include "calibration/bayer_sampling.h"
 #include "calibration/camera_model.h"
@@ -26,13 +27,6 @@ constexpr int kNumParams = 9;  // position (3), axis (2), mu, log intensity (3)
 // Raised-sheet cells whose LED ray meets the table closer than this to the
 // edge of the measured cells are left out of the per-pixel position step.
 constexpr double kSelectionMarginCells = 4;
-
-template <typename T>
-std::invalid_argument FieldError(const std::string& field, T value, const std::string& rule) {
-  std::ostringstream text;
-  text << "LightCalibrationOptions." << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
-}
 
 // ---------------------------------------------------------------------------
 // Cells: raw samples averaged per colour.
@@ -52,13 +46,41 @@ struct SheetCells {
   std::vector<std::vector<CellValue>> values;    // [led][cell]
 };
 
-std::vector<CellValue> MeasureCells(const RawImage& frame, const RawImage& dark, int cell, int nx, int ny,
+// The cell grid: square cells of `cell` pixels from pixel (0, 0); also the
+// nodes of the per-pixel field.
+struct CellGrid {
+  int cell = 2;
+  int nx = 0, ny = 0;
+
+  size_t num_cells() const { return static_cast<size_t>(nx) * ny; }
+  // Pixel position of cell (0, 0)'s centre.
+  double origin() const { return 0.5 * (cell - 1); }
+  std::vector<Eigen::Vector2d> CentresInPixels() const {
+    std::vector<Eigen::Vector2d> centres;
+    for (int j = 0; j < ny; ++j) {
+      for (int i = 0; i < nx; ++i) centres.emplace_back(i * cell + origin(), j * cell + origin());
+    }
+    return centres;
+  }
+};
+
+CellGrid MakeCellGrid(const LightCalibrationOptions& options, int width, int height) {
+  CellGrid grid;
+  grid.cell = options.cell_px > 0 ? options.cell_px : std::max(2, 2 * static_cast<int>(std::lround(width / 128.0)));
+  grid.nx = width / grid.cell;
+  grid.ny = height / grid.cell;
+  return grid;
+}
+
+// The raw samples of every cell averaged per colour; cells with a clipped,
+// too dark or too thin colour are invalid.
+std::vector<CellValue> AverageCells(const RawImage& frame, const RawImage& dark, const CellGrid& grid,
                                     const LightCalibrationOptions& options, const std::string& name) {
   const LinearBayerReader reader(frame, dark, options.clip_fraction, name);
-  std::vector<RgbStatistics> stats(static_cast<size_t>(nx) * ny);
-  for (int y = 0; y < ny * cell; ++y) {
-    RgbStatistics* row_cells = &stats[static_cast<size_t>(y / cell) * nx];
-    for (int x = 0; x < nx * cell; ++x) reader.Accumulate(x, y, row_cells[x / cell]);
+  std::vector<RgbStatistics> stats(grid.num_cells());
+  for (int y = 0; y < grid.ny * grid.cell; ++y) {
+    RgbStatistics* row_cells = &stats[static_cast<size_t>(y / grid.cell) * grid.nx];
+    for (int x = 0; x < grid.nx * grid.cell; ++x) reader.Accumulate(x, y, row_cells[x / grid.cell]);
   }
   std::vector<CellValue> cells(stats.size());
   for (size_t i = 0; i < stats.size(); ++i) {
@@ -71,8 +93,14 @@ std::vector<CellValue> MeasureCells(const RawImage& frame, const RawImage& dark,
       v.valid &= s.clipped == 0 && s.count >= 2 && v.mean[c] >= options.min_level && v.mean[c] > 0;
     }
   }
-  // Dust and creases: a cell far from the median of its neighbourhood. A
-  // smooth light gradient leaves the centre at the median.
+  return cells;
+}
+
+// Dust and creases: a cell far from the median of its neighbourhood becomes
+// invalid. A smooth light gradient leaves the centre at the median.
+std::vector<CellValue> DropOutlierCells(const std::vector<CellValue>& cells, const CellGrid& grid,
+                                        double outlier_sigma) {
+  const int nx = grid.nx, ny = grid.ny;
   std::vector<CellValue> filtered = cells;
   for (int j = 0; j < ny; ++j) {
     for (int i = 0; i < nx; ++i) {
@@ -92,11 +120,23 @@ std::vector<CellValue> MeasureCells(const RawImage& frame, const RawImage& dark,
         std::nth_element(neighbours.begin(), neighbours.begin() + neighbours.size() / 2, neighbours.end());
         const double median = neighbours[neighbours.size() / 2];
         const double sigma = std::max(v.standard_error[c], kMinRelativeError * v.mean[c]);
-        if (std::abs(v.mean[c] - median) > options.outlier_sigma * 1.5 * sigma) v.valid = false;
+        if (std::abs(v.mean[c] - median) > outlier_sigma * 1.5 * sigma) v.valid = false;
       }
     }
   }
   return filtered;
+}
+
+// log(measured / reflectance) of one colour of a valid cell, and its weight
+// 1 / relative standard error.
+struct LogCellValue {
+  double log_value = 0;
+  double weight = 1;
+};
+
+LogCellValue LogOfCell(const CellValue& v, int channel, double reflectance) {
+  return {std::log(v.mean[channel] / reflectance),
+          1.0 / std::max(kMinRelativeError, v.standard_error[channel] / v.mean[channel])};
 }
 
 // ---------------------------------------------------------------------------
@@ -149,13 +189,17 @@ double LogModel(const LedParameters& parameters, const Eigen::VectorXd& x, const
          std::log(kLedReferenceDistanceMm * kLedReferenceDistanceMm / d2) + std::log(std::max(1e-9, l.z()));
 }
 
-struct LedFunctor {
+// What Eigen's NumericalDiff and LevenbergMarquardt look up on a functor:
+// both fits have a run-time number of parameters and residuals.
+struct DynamicSizeFunctor {
   using Scalar = double;
   enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
   using InputType = Eigen::VectorXd;
   using ValueType = Eigen::VectorXd;
   using JacobianType = Eigen::MatrixXd;
+};
 
+struct LedFunctor : DynamicSizeFunctor {
   const LedParameters* parameters;
   const std::vector<FitSample>* samples;
 
@@ -199,7 +243,7 @@ struct FitResult {
 FitResult FitLed(const LedParameters& parameters, const std::vector<FitSample>& samples, Eigen::VectorXd x,
                  int max_evaluations) {
   FitResult result;
-  LedFunctor functor{&parameters, &samples};
+  LedFunctor functor{{}, &parameters, &samples};
   Eigen::NumericalDiff<LedFunctor> numeric(functor);
   Eigen::LevenbergMarquardt<Eigen::NumericalDiff<LedFunctor>> lm(numeric);
   lm.parameters.maxfev = max_evaluations;
@@ -303,13 +347,7 @@ struct RatioSample {
 // table sheet's intensity where the LED's ray through the cell meets the
 // table, times the inverse-square gain (d_table / d_raised)^2 and the
 // cell's Lambert factor.
-struct PositionFunctor {
-  using Scalar = double;
-  enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
-  using InputType = Eigen::VectorXd;
-  using ValueType = Eigen::VectorXd;
-  using JacobianType = Eigen::MatrixXd;
-
+struct PositionFunctor : DynamicSizeFunctor {
   const CameraGeometry* camera;
   const CellMap* map;
   const std::vector<RatioSample>* samples;
@@ -346,7 +384,7 @@ PositionFit FitPosition(const CameraGeometry& camera, const CellMap& map, const 
     result.termination = "fewer than 10 usable raised-sheet cells";
     return result;
   }
-  PositionFunctor functor{&camera, &map, &samples};
+  PositionFunctor functor{{}, &camera, &map, &samples};
   Eigen::NumericalDiff<PositionFunctor> numeric(functor);
   Eigen::LevenbergMarquardt<Eigen::NumericalDiff<PositionFunctor>> lm(numeric);
   lm.parameters.maxfev = max_evaluations;
@@ -370,27 +408,372 @@ PositionFit FitPosition(const CameraGeometry& camera, const CellMap& map, const 
   return result;
 }
 
+// ---------------------------------------------------------------------------
+// The steps of CalibrateLights.
+
+// Progress over the calibration's steps: one per sheet and LED measured, two
+// per LED calibrated. Next() is false once the callback asks to stop.
+class StepProgress {
+ public:
+  StepProgress(const ProgressCallback& progress, double total_steps) : progress_(progress), total_(total_steps) {}
+  bool Next() {
+    steps_ += 1;
+    return !progress_ || progress_(steps_ / total_);
+  }
+
+ private:
+  const ProgressCallback& progress_;
+  double total_;
+  double steps_ = 0;
+};
+
+// The captures against the camera and the LEDs (throws std::invalid_argument
+// naming the sheet or LED); the first sheet on the table (-1 if none) and the
+// heights the sheets lie at.
+struct SheetLayout {
+  int table_sheet = -1;
+  std::set<double> heights_mm;
+};
+
+SheetLayout CheckInputs(const CameraGeometry& camera, const std::vector<LedDescription>& measured_leds,
+                        const std::vector<WhiteSheetCapture>& sheets) {
+  const int width = camera.intrinsics.width, height = camera.intrinsics.height;
+  const size_t num_leds = measured_leds.size();
+  if (num_leds == 0) throw std::invalid_argument("CalibrateLights: no LEDs given");
+  if (sheets.empty()) throw std::invalid_argument("CalibrateLights: no white sheet captures given");
+  SheetLayout layout;
+  for (size_t s = 0; s < sheets.size(); ++s) {
+    const WhiteSheetCapture& capture = sheets[s];
+    capture.sheet.Check();
+    if (capture.dark == nullptr) throw std::invalid_argument("white sheet " + capture.name + ": no dark frame");
+    if (capture.led_frames.size() != num_leds) {
+      throw std::invalid_argument("white sheet " + capture.name + ": " + std::to_string(capture.led_frames.size()) +
+                                  " LED frames for " + std::to_string(num_leds) + " LEDs");
+    }
+    for (const RawImage* frame : capture.led_frames) {
+      if (frame == nullptr || !frame->mosaic.SameSize(width, height)) {
+        throw std::invalid_argument("white sheet " + capture.name + ": a frame is missing or not " +
+                                    std::to_string(width) + "x" + std::to_string(height) + " like the camera");
+      }
+    }
+    if (capture.sheet.height_mm == 0 && layout.table_sheet < 0) layout.table_sheet = static_cast<int>(s);
+    layout.heights_mm.insert(capture.sheet.height_mm);
+  }
+  for (size_t k = 0; k < num_leds; ++k) {
+    const Eigen::Vector3d& position = measured_leds[k].position_in_table_mm;
+    if (!(position.z() > 0) || !position.allFinite()) {
+      throw std::invalid_argument("CalibrateLights: LED " + std::to_string(k) +
+                                  " measured position must be finite and above the table");
+    }
+  }
+  return layout;
+}
+
+// Every sheet's cells under every LED. False when the progress callback
+// asked to stop.
+bool MeasureSheets(const CameraGeometry& camera, const CellGrid& grid, const std::vector<WhiteSheetCapture>& sheets,
+                   size_t num_leds, const LightCalibrationOptions& options, StepProgress& steps,
+                   std::vector<SheetCells>* cells) {
+  const std::vector<Eigen::Vector2d> centres = grid.CentresInPixels();
+  cells->assign(sheets.size(), SheetCells());
+  for (size_t s = 0; s < sheets.size(); ++s) {
+    SheetCells& sc = (*cells)[s];
+    sc.name = sheets[s].name;
+    sc.height_mm = sheets[s].sheet.height_mm;
+    sc.reflectance = sheets[s].sheet.reflectance;
+    sc.nx = grid.nx;
+    sc.ny = grid.ny;
+    sc.points = ComputePlanePointsInTable(camera, centres, sc.height_mm);
+    for (size_t k = 0; k < num_leds; ++k) {
+      const std::string name = "white sheet " + sc.name + ", LED " + std::to_string(k);
+      sc.values.push_back(DropOutlierCells(
+          AverageCells(*sheets[s].led_frames[k], *sheets[s].dark, grid, options, name), grid, options.outlier_sigma));
+      if (!steps.Next()) return false;
+    }
+  }
+  return true;
+}
+
+// The model's samples of LED k: every valid cell of every sheet, per colour.
+std::vector<FitSample> ModelSamples(const std::vector<SheetCells>& cells, size_t k) {
+  std::vector<FitSample> samples;
+  for (const SheetCells& sc : cells) {
+    for (size_t i = 0; i < sc.points.size(); ++i) {
+      const CellValue& v = sc.values[k][i];
+      if (!v.valid) continue;
+      for (int c = 0; c < 3; ++c) {
+        const LogCellValue value = LogOfCell(v, c, sc.reflectance);
+        FitSample s;
+        s.point = sc.points[i];
+        s.channel = c;
+        s.log_value = value.log_value;
+        s.weight = value.weight;
+        samples.push_back(s);
+      }
+    }
+  }
+  return samples;
+}
+
+// The axis the fit tilts: the measured one, or towards the table origin when
+// none was measured.
+LedParameters ParametersFor(const LedDescription& measured) {
+  return LedParameters(measured.axis_in_table.norm() > 1e-12 ? measured.axis_in_table
+                                                              : Eigen::Vector3d(-measured.position_in_table_mm));
+}
+
+// Fit the LED model: Levenberg-Marquardt from the measured LED with
+// brightness from the data. A failed fit keeps the start (the measured LED
+// with fitted brightness), flagged unusable: the per-pixel field is then the
+// only result.
+LedModelFit FitLedModel(const LedParameters& parameters, const LedDescription& measured,
+                        const std::vector<FitSample>& samples, int max_evaluations) {
+  const Eigen::VectorXd start = StartValues(parameters, measured, samples);
+  const FitResult model = FitLed(parameters, samples, start, max_evaluations);
+  LedModelFit fit;
+  fit.usable = model.ok;
+  fit.led = parameters.Unpack(model.ok ? model.x : start, measured.id);
+  auto standard_deviation = [&](int p) { return std::sqrt(std::max(0.0, model.covariance(p, p))); };
+  for (int a = 0; a < 3; ++a) fit.position_std_mm[a] = standard_deviation(a);
+  fit.axis_std_deg = std::sqrt(std::max(0.0, model.covariance(3, 3) + model.covariance(4, 4))) * kRadToDeg;
+  fit.mu_std = standard_deviation(5);
+  for (int c = 0; c < 3; ++c) fit.intensity_std[c] = standard_deviation(6 + c);
+  fit.residual_rms = model.residual_rms;
+  fit.noise_rms = model.noise_rms;
+  fit.chi = model.chi;
+  fit.evaluations = model.evaluations;
+  fit.termination = model.ok ? model.termination
+                             : model.termination + ", but the result is unusable (mu < 0 or not finite)";
+  return fit;
+}
+
+// The raised sheets' cells of LED k for the position step: only cells whose
+// ray from `position` meets the table well inside the measured cells (a low
+// LED shifts the ray's foot far outwards); chosen once, with room for the
+// position to move, so that the iteration does not chase a changing set.
+std::vector<RatioSample> RaisedSheetSamples(const CameraGeometry& camera, const CellGrid& grid,
+                                            const std::vector<SheetCells>& cells, size_t k,
+                                            const Eigen::Vector3d& position) {
+  std::vector<RatioSample> samples;
+  for (const SheetCells& sc : cells) {
+    if (sc.height_mm == 0) continue;
+    for (size_t i = 0; i < sc.points.size(); ++i) {
+      const CellValue& v = sc.values[k][i];
+      if (!v.valid) continue;
+      const double t = position.z() / std::max(1e-6, position.z() - sc.height_mm);
+      const Eigen::Vector3d below = position + t * (sc.points[i] - position);
+      const Eigen::Vector2d pixel = ProjectToPixel(camera.intrinsics, camera.cam_from_table * below);
+      const double u = (pixel.x() - grid.origin()) / grid.cell, w = (pixel.y() - grid.origin()) / grid.cell;
+      if (!(u >= kSelectionMarginCells && w >= kSelectionMarginCells && u <= grid.nx - 1 - kSelectionMarginCells &&
+            w <= grid.ny - 1 - kSelectionMarginCells)) {
+        continue;
+      }
+      for (int c = 0; c < 3; ++c) {
+        const LogCellValue value = LogOfCell(v, c, sc.reflectance);
+        RatioSample rs;
+        rs.point = sc.points[i];
+        rs.height_mm = sc.height_mm;
+        rs.channel = c;
+        rs.log_value = value.log_value;
+        rs.weight = value.weight;
+        samples.push_back(rs);
+      }
+    }
+  }
+  return samples;
+}
+
+// The table sheet's log intensity of LED k at `position`: measured cells
+// divided by their Lambert factor, invalid ones from the model LED.
+CellMap TableIntensityMap(const CellGrid& grid, const SheetCells& table, size_t k, const Eigen::Vector3d& position,
+                          const LedDescription& model_led) {
+  CellMap map{grid.nx, grid.ny, grid.origin(), static_cast<double>(grid.cell), {}};
+  map.log_intensity.resize(grid.num_cells());
+  for (size_t i = 0; i < grid.num_cells(); ++i) {
+    const CellValue& v = table.values[k][i];
+    const Eigen::Vector3d& p = table.points[i];
+    const Eigen::Vector3d value = v.valid ? Eigen::Vector3d(v.mean / (table.reflectance * LambertZ(position, p)))
+                                          : ModelIntensity(model_led, p);
+    map.log_intensity[i] = value.array().max(1e-12).log();
+  }
+  return map;
+}
+
+// The per-pixel procedure for LED k: intensities on the table sheet under the
+// current directions; a new position from them and the raised sheet (along a
+// ray from the LED the intensity falls as 1 / d^2 whatever the LED's emission
+// pattern); repeat until directions and intensities stop changing. Without a
+// raised sheet the directions come from the model's position. Sets *failure
+// when a position step fails.
+LedPerPixelFit RunPerPixelProcedure(const CameraGeometry& camera, const CellGrid& grid,
+                                    const std::vector<SheetCells>& cells, const SheetCells& table, size_t k,
+                                    const LedDescription& measured, const LedDescription& model_led,
+                                    bool has_raised_sheet, const LightCalibrationOptions& options,
+                                    std::string* failure) {
+  LedPerPixelFit per_pixel;
+  Eigen::Vector3d position = has_raised_sheet ? measured.position_in_table_mm : model_led.position_in_table_mm;
+  const std::vector<RatioSample> ratio_samples = RaisedSheetSamples(camera, grid, cells, k, position);
+  for (int iteration = 1; has_raised_sheet && iteration <= options.max_iterations; ++iteration) {
+    const CellMap map = TableIntensityMap(grid, table, k, position, model_led);
+    const PositionFit position_step = FitPosition(camera, map, ratio_samples, position, options.max_fit_evaluations);
+    if (!position_step.ok) {
+      *failure = "LED " + std::to_string(k) + ": the per-pixel procedure's position step failed in iteration " +
+                 std::to_string(iteration) + ": " + position_step.termination;
+      return per_pixel;
+    }
+    const Eigen::Vector3d next = position_step.position;
+    double direction_change = 0, intensity_change = 0;
+    for (const Eigen::Vector3d& p : table.points) {
+      const Eigen::Vector3d before = (position - p).normalized(), after = (next - p).normalized();
+      direction_change = std::max(direction_change, std::atan2(before.cross(after).norm(), before.dot(after)));
+      intensity_change = std::max(intensity_change, std::abs(LambertZ(position, p) / LambertZ(next, p) - 1.0));
+    }
+    per_pixel.direction_change_deg.push_back(direction_change * kRadToDeg);
+    per_pixel.intensity_change.push_back(intensity_change);
+    per_pixel.iterations = iteration;
+    per_pixel.residual_rms = position_step.residual_rms;
+    position = next;
+    if (direction_change * kRadToDeg <= options.direction_tolerance_deg &&
+        intensity_change <= options.intensity_tolerance) {
+      per_pixel.converged = true;
+      break;
+    }
+  }
+  if (!has_raised_sheet) per_pixel.converged = true;  // directions from the model: nothing to iterate
+  per_pixel.position_in_table_mm = position;
+  return per_pixel;
+}
+
+// The field's intensities of LED k at the table sheet's cells: measured
+// under the converged position, gaps filled from the model; counts the cells
+// used and dropped into *per_pixel.
+std::vector<Eigen::Vector3d> FieldIntensities(const SheetCells& table, size_t k, const LedDescription& model_led,
+                                              LedPerPixelFit* per_pixel) {
+  std::vector<Eigen::Vector3d> intensity(table.points.size());
+  for (size_t i = 0; i < table.points.size(); ++i) {
+    const CellValue& v = table.values[k][i];
+    const Eigen::Vector3d& p = table.points[i];
+    if (v.valid) {
+      intensity[i] = v.mean / (table.reflectance * LambertZ(per_pixel->position_in_table_mm, p));
+      ++per_pixel->cells_used;
+    } else {
+      intensity[i] = ModelIntensity(model_led, p);
+      ++per_pixel->cells_dropped;
+    }
+  }
+  return intensity;
+}
+
+// Smooth the cells with a 3x3 binomial filter (filters what the cell averages
+// leave of the paper's texture). At the border a one-sided average would pull
+// a sloped field inwards: the border cells stay as measured.
+std::vector<Eigen::Vector3d> SmoothCells(const std::vector<Eigen::Vector3d>& intensity, const CellGrid& grid) {
+  const int nx = grid.nx, ny = grid.ny;
+  std::vector<Eigen::Vector3d> smoothed(intensity.size());
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const size_t centre = static_cast<size_t>(j) * nx + i;
+      const bool inside = i > 0 && j > 0 && i < nx - 1 && j < ny - 1;
+      if (!inside) {
+        smoothed[centre] = intensity[centre];
+        continue;
+      }
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      double weights = 0;
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const double w = (di == 0 ? 2.0 : 1.0) * (dj == 0 ? 2.0 : 1.0);
+          sum += w * intensity[static_cast<size_t>(j + dj) * nx + i + di];
+          weights += w;
+        }
+      }
+      smoothed[centre] = sum / weights;
+    }
+  }
+  return smoothed;
+}
+
+// The per-pixel field's node values, node-major (SampledLightField's layout).
+struct FieldNodes {
+  size_t num_leds = 0;
+  std::vector<float> dirs_in_table, rgb_intensities;
+
+  FieldNodes(size_t num_nodes, size_t leds)
+      : num_leds(leds), dirs_in_table(num_nodes * leds * 3), rgb_intensities(num_nodes * leds * 3) {}
+  // LED k's directions from `position` to every table cell and its intensities.
+  void Store(size_t k, const std::vector<Eigen::Vector3d>& table_points, const Eigen::Vector3d& position,
+             const std::vector<Eigen::Vector3d>& intensity) {
+    for (size_t i = 0; i < table_points.size(); ++i) {
+      const Eigen::Vector3d direction = (position - table_points[i]).normalized();
+      for (int c = 0; c < 3; ++c) {
+        dirs_in_table[(i * num_leds + k) * 3 + c] = static_cast<float>(direction[c]);
+        rgb_intensities[(i * num_leds + k) * 3 + c] = static_cast<float>(std::max(0.0, intensity[i][c]));
+      }
+    }
+  }
+};
+
+// Select the model or the per-pixel field: the model when every LED's fit
+// converged and the worst residual is within model_noise_factor of the
+// noise. The worst LED is the last failed fit, else the largest chi.
+void SelectModel(double model_noise_factor, LightCalibrationSummary* summary) {
+  double worst_chi = 0;
+  size_t worst_led = 0;
+  bool model_failed = false;
+  for (size_t k = 0; k < summary->model.size(); ++k) {
+    const LedModelFit& fit = summary->model[k];
+    if (!fit.usable) {
+      model_failed = true;
+      worst_led = k;
+    } else if (!model_failed && fit.chi > worst_chi) {
+      worst_chi = fit.chi;
+      worst_led = k;
+    }
+  }
+  const LedModelFit& worst = summary->model[worst_led];
+  const std::string figures = "largest model residual " + Fixed(100 * worst.residual_rms, 3) + " % rms (LED " +
+                              std::to_string(worst_led) + ") is " + Fixed(worst.chi, 2) + "x the cells' noise " +
+                              Fixed(100 * worst.noise_rms, 3) + " %";
+  const std::string per_pixel_used =
+      ": the LEDs do not follow the point-source model; the measured per-pixel field is used";
+  if (model_failed) {
+    summary->selected = LightCalibrationSummary::Choice::kPerPixel;
+    summary->selection_reason = "the model fit failed for LED " + std::to_string(worst_led) + per_pixel_used;
+  } else if (worst_chi <= model_noise_factor) {
+    summary->selected = LightCalibrationSummary::Choice::kModel;
+    summary->selection_reason =
+        figures + ", within model_noise_factor " + Fixed(model_noise_factor, 2) +
+        ": the LEDs follow the point-source model, which is compact and holds off the table plane";
+  } else {
+    summary->selected = LightCalibrationSummary::Choice::kPerPixel;
+    summary->selection_reason = figures + ", above model_noise_factor " + Fixed(model_noise_factor, 2) + per_pixel_used;
+  }
+}
+
 }  // namespace
 
 void LightCalibrationOptions::Check() const {
+  const std::string where = "LightCalibrationOptions";
   if (cell_px != 0 && (cell_px < 2 || cell_px > 512 || cell_px % 2 != 0)) {
-    throw FieldError("cell_px", cell_px, "must be 0 (automatic) or an even number in [2, 512]");
+    throw FieldError(where, "cell_px", cell_px, "must be 0 (automatic) or an even number in [2, 512]");
   }
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) throw FieldError("clip_fraction", clip_fraction, "must lie in (0, 1]");
-  if (!(min_level >= 0 && min_level < 1)) throw FieldError("min_level", min_level, "must lie in [0, 1)");
-  if (!(outlier_sigma > 0)) throw FieldError("outlier_sigma", outlier_sigma, "must be > 0");
+  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
+    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
+  }
+  if (!(min_level >= 0 && min_level < 1)) throw FieldError(where, "min_level", min_level, "must lie in [0, 1)");
+  if (!(outlier_sigma > 0)) throw FieldError(where, "outlier_sigma", outlier_sigma, "must be > 0");
   if (max_iterations < 1 || max_iterations > 1000) {
-    throw FieldError("max_iterations", max_iterations, "must lie in [1, 1000]");
+    throw FieldError(where, "max_iterations", max_iterations, "must lie in [1, 1000]");
   }
   if (!(direction_tolerance_deg > 0)) {
-    throw FieldError("direction_tolerance_deg", direction_tolerance_deg, "must be > 0");
+    throw FieldError(where, "direction_tolerance_deg", direction_tolerance_deg, "must be > 0");
   }
-  if (!(intensity_tolerance > 0)) throw FieldError("intensity_tolerance", intensity_tolerance, "must be > 0");
+  if (!(intensity_tolerance > 0)) throw FieldError(where, "intensity_tolerance", intensity_tolerance, "must be > 0");
   if (max_fit_evaluations < 10 || max_fit_evaluations > 1000000) {
-    throw FieldError("max_fit_evaluations", max_fit_evaluations, "must lie in [10, 1000000]");
+    throw FieldError(where, "max_fit_evaluations", max_fit_evaluations, "must lie in [10, 1000000]");
   }
   if (!(model_noise_factor >= 1) || !std::isfinite(model_noise_factor)) {
-    throw FieldError("model_noise_factor", model_noise_factor, "must be finite and >= 1");
+    throw FieldError(where, "model_noise_factor", model_noise_factor, "must be finite and >= 1");
   }
 }
 
@@ -425,316 +808,90 @@ std::string LightCalibrationSummary::BriefReport() const {
   return out.str();
 }
 
-LightCalibrationSummary CalibrateLights(const CameraGeometry& camera, const std::vector<LedDescription>& measured_leds,
+LightCalibrationSummary CalibrateLights(const LightCalibrationOptions& options, const CameraGeometry& camera,
+                                        const std::vector<LedDescription>& measured_leds,
                                         const std::vector<WhiteSheetCapture>& sheets,
-                                        const LightCalibrationOptions& options,
                                         const ProgressCallback& progress) {
   options.Check();
   CheckCameraIntrinsics(camera.intrinsics);
   LightCalibrationSummary summary;
   const int width = camera.intrinsics.width, height = camera.intrinsics.height;
   const size_t num_leds = measured_leds.size();
-  if (num_leds == 0) throw std::invalid_argument("CalibrateLights: no LEDs given");
-  if (sheets.empty()) throw std::invalid_argument("CalibrateLights: no white sheet captures given");
-  int table_sheet = -1;
-  std::set<double> heights;
-  for (size_t s = 0; s < sheets.size(); ++s) {
-    const WhiteSheetCapture& capture = sheets[s];
-    capture.sheet.Check();
-    if (capture.dark == nullptr) throw std::invalid_argument("white sheet " + capture.name + ": no dark frame");
-    if (capture.led_frames.size() != num_leds) {
-      throw std::invalid_argument("white sheet " + capture.name + ": " + std::to_string(capture.led_frames.size()) +
-                                  " LED frames for " + std::to_string(num_leds) + " LEDs");
-    }
-    for (const RawImage* frame : capture.led_frames) {
-      if (frame == nullptr || !frame->mosaic.SameSize(width, height)) {
-        throw std::invalid_argument("white sheet " + capture.name + ": a frame is missing or not " +
-                                    std::to_string(width) + "x" + std::to_string(height) + " like the camera");
-      }
-    }
-    if (capture.sheet.height_mm == 0 && table_sheet < 0) table_sheet = static_cast<int>(s);
-    heights.insert(capture.sheet.height_mm);
-  }
-  if (table_sheet < 0) {
-    summary.message = "no white sheet lies on the table (height_mm = 0): the per-pixel field is measured there";
+  const SheetLayout layout = CheckInputs(camera, measured_leds, sheets);
+  if (layout.table_sheet < 0) {
+    summary.SetFailure("no white sheet lies on the table (height_mm = 0): the per-pixel field is measured there");
     return summary;
   }
-  if (heights.size() < 2) {
+  const bool has_raised_sheet = layout.heights_mm.size() >= 2;
+  if (!has_raised_sheet) {
     summary.warnings.push_back("the white sheet was captured at one height only: LED distance, aim and falloff "
                                "trade off on one plane (add a capture on a spacer of known height)");
   }
-  const int cell = options.cell_px > 0 ? options.cell_px : std::max(2, 2 * static_cast<int>(std::lround(width / 128.0)));
-  summary.cell_px = cell;
-  const int nx = width / cell, ny = height / cell;
-  if (nx < 3 || ny < 3) {
-    summary.message = "cells of " + std::to_string(cell) + " px leave fewer than 3x3 cells in the image";
+  const CellGrid grid = MakeCellGrid(options, width, height);
+  summary.cell_px = grid.cell;
+  if (grid.nx < 3 || grid.ny < 3) {
+    summary.SetFailure("cells of " + std::to_string(grid.cell) + " px leave fewer than 3x3 cells in the image");
     return summary;
   }
 
-  // Measure.
-  std::vector<Eigen::Vector2d> centres;
-  for (int j = 0; j < ny; ++j) {
-    for (int i = 0; i < nx; ++i) centres.emplace_back(i * cell + 0.5 * (cell - 1), j * cell + 0.5 * (cell - 1));
+  StepProgress steps(progress, sheets.size() * num_leds + 2.0 * num_leds);
+  std::vector<SheetCells> cells;
+  if (!MeasureSheets(camera, grid, sheets, num_leds, options, steps, &cells)) {
+    summary.SetCancelled();
+    return summary;
   }
-  std::vector<SheetCells> cells(sheets.size());
-  const double total_steps = sheets.size() * num_leds + 2.0 * num_leds;
-  double steps = 0;
-  auto step = [&]() {
-    steps += 1;
-    return !progress || progress(steps / total_steps);
-  };
-  for (size_t s = 0; s < sheets.size(); ++s) {
-    SheetCells& sc = cells[s];
-    sc.name = sheets[s].name;
-    sc.height_mm = sheets[s].sheet.height_mm;
-    sc.reflectance = sheets[s].sheet.reflectance;
-    sc.nx = nx;
-    sc.ny = ny;
-    sc.points = ComputePlanePointsInTable(camera, centres, sc.height_mm);
-    for (size_t k = 0; k < num_leds; ++k) {
-      sc.values.push_back(MeasureCells(*sheets[s].led_frames[k], *sheets[s].dark, cell, nx, ny, options,
-                                       "white sheet " + sc.name + ", LED " + std::to_string(k)));
-      if (!step()) {
-        summary.message = "cancelled";
-        return summary;
-      }
-    }
-  }
-
-  auto samples_for = [&](size_t k) {
-    std::vector<FitSample> samples;
-    for (const SheetCells& sc : cells) {
-      for (size_t i = 0; i < sc.points.size(); ++i) {
-        const CellValue& v = sc.values[k][i];
-        if (!v.valid) continue;
-        for (int c = 0; c < 3; ++c) {
-          FitSample s;
-          s.point = sc.points[i];
-          s.channel = c;
-          s.log_value = std::log(v.mean[c] / sc.reflectance);
-          s.weight = 1.0 / std::max(kMinRelativeError, v.standard_error[c] / v.mean[c]);
-          samples.push_back(s);
-        }
-      }
-    }
-    return samples;
-  };
-
-  const SheetCells& table = cells[table_sheet];
-  const size_t num_cells = table.points.size();
-  const size_t node_values = num_cells * num_leds * 3;
-  std::vector<float> field_dirs(node_values), field_intensities(node_values);
-  double worst_chi = 0;
-  size_t worst_led = 0;
-  bool model_failed = false;
+  const SheetCells& table = cells[layout.table_sheet];
+  FieldNodes nodes(grid.num_cells(), num_leds);
   for (size_t k = 0; k < num_leds; ++k) {
-    const LedDescription& measured = measured_leds[k];
-    if (!(measured.position_in_table_mm.z() > 0) || !measured.position_in_table_mm.allFinite()) {
-      throw std::invalid_argument("CalibrateLights: LED " + std::to_string(k) +
-                                  " measured position must be finite and above the table");
-    }
-    const LedParameters parameters(measured.axis_in_table.norm() > 1e-12
-                                       ? measured.axis_in_table
-                                       : Eigen::Vector3d(-measured.position_in_table_mm));
-    // The parametric model, on the raw samples.
-    const std::vector<FitSample> samples = samples_for(k);
+    const std::vector<FitSample> samples = ModelSamples(cells, k);
     if (samples.size() < 3 * kNumParams) {
-      summary.message = "LED " + std::to_string(k) + ": only " + std::to_string(samples.size() / 3) +
-                        " usable cells (clipped or too dark?)";
+      summary.SetFailure("LED " + std::to_string(k) + ": only " + std::to_string(samples.size() / 3) +
+                         " usable cells (clipped or too dark?)");
       return summary;
     }
-    const Eigen::VectorXd start = StartValues(parameters, measured, samples);
-    const FitResult model = FitLed(parameters, samples, start, options.max_fit_evaluations);
-    LedModelFit fit;
-    fit.usable = model.ok;
-    // A failed fit keeps the start (the measured LED with fitted brightness),
-    // flagged: the per-pixel field is then the only result.
-    fit.led = parameters.Unpack(model.ok ? model.x : start, measured.id);
-    for (int a = 0; a < 3; ++a) fit.position_std_mm[a] = std::sqrt(std::max(0.0, model.covariance(a, a)));
-    fit.axis_std_deg = std::sqrt(std::max(0.0, model.covariance(3, 3) + model.covariance(4, 4))) * kRadToDeg;
-    fit.mu_std = std::sqrt(std::max(0.0, model.covariance(5, 5)));
-    for (int c = 0; c < 3; ++c) fit.intensity_std[c] = std::sqrt(std::max(0.0, model.covariance(6 + c, 6 + c)));
-    fit.residual_rms = model.residual_rms;
-    fit.noise_rms = model.noise_rms;
-    fit.chi = model.chi;
-    fit.evaluations = model.evaluations;
-    fit.termination = model.ok ? model.termination
-                               : model.termination + ", but the result is unusable (mu < 0 or not finite)";
-    summary.model.push_back(fit);
-    if (!model.ok) {
-      summary.warnings.push_back("LED " + std::to_string(k) + ": the model fit failed: " + fit.termination);
-      model_failed = true;
-      worst_led = k;
-    } else if (!model_failed && model.chi > worst_chi) {
-      worst_chi = model.chi;
-      worst_led = k;
+    summary.model.push_back(
+        FitLedModel(ParametersFor(measured_leds[k]), measured_leds[k], samples, options.max_fit_evaluations));
+    const LedModelFit& model = summary.model.back();
+    if (!model.usable) {
+      summary.warnings.push_back("LED " + std::to_string(k) + ": the model fit failed: " + model.termination);
     }
-    if (!step()) {
-      summary.message = "cancelled";
+    if (!steps.Next()) {
+      summary.SetCancelled();
       return summary;
     }
 
-    // The per-pixel procedure: intensities on the table sheet under the
-    // current directions; a new position from them and the raised sheet
-    // (along a ray from the LED the intensity falls as 1 / d^2 whatever the
-    // LED's emission pattern); repeat until directions and intensities stop
-    // changing.
-    LedPerPixelFit per_pixel;
-    Eigen::Vector3d position = measured.position_in_table_mm;
-    const bool has_raised_sheet = heights.size() >= 2;
-    if (!has_raised_sheet) position = fit.led.position_in_table_mm;
-    std::vector<RatioSample> ratio_samples;
-    for (const SheetCells& sc : cells) {
-      if (sc.height_mm == 0) continue;
-      for (size_t i = 0; i < sc.points.size(); ++i) {
-        const CellValue& v = sc.values[k][i];
-        if (!v.valid) continue;
-        // Only cells whose ray meets the table well inside the measured
-        // cells (a low LED shifts the ray's foot far outwards); chosen once,
-        // with room for the position to move, so that the iteration does
-        // not chase a changing set.
-        const double t = position.z() / std::max(1e-6, position.z() - sc.height_mm);
-        const Eigen::Vector3d below = position + t * (sc.points[i] - position);
-        const Eigen::Vector2d pixel = ProjectToPixel(camera.intrinsics, camera.cam_from_table * below);
-        const double u = (pixel.x() - 0.5 * (cell - 1)) / cell, w = (pixel.y() - 0.5 * (cell - 1)) / cell;
-        if (!(u >= kSelectionMarginCells && w >= kSelectionMarginCells && u <= nx - 1 - kSelectionMarginCells &&
-              w <= ny - 1 - kSelectionMarginCells)) {
-          continue;
-        }
-        for (int c = 0; c < 3; ++c) {
-          RatioSample rs;
-          rs.point = sc.points[i];
-          rs.height_mm = sc.height_mm;
-          rs.channel = c;
-          rs.log_value = std::log(v.mean[c] / sc.reflectance);
-          rs.weight = 1.0 / std::max(kMinRelativeError, v.standard_error[c] / v.mean[c]);
-          ratio_samples.push_back(rs);
-        }
-      }
+    std::string failure;
+    LedPerPixelFit per_pixel = RunPerPixelProcedure(camera, grid, cells, table, k, measured_leds[k], model.led,
+                                                    has_raised_sheet, options, &failure);
+    if (!failure.empty()) {
+      summary.SetFailure(failure);
+      return summary;
     }
-    for (int iteration = 1; has_raised_sheet && iteration <= options.max_iterations; ++iteration) {
-      CellMap map{nx, ny, 0.5 * (cell - 1), static_cast<double>(cell), {}};
-      map.log_intensity.resize(num_cells);
-      for (size_t i = 0; i < num_cells; ++i) {
-        const CellValue& v = table.values[k][i];
-        const Eigen::Vector3d& p = table.points[i];
-        const Eigen::Vector3d value =
-            v.valid ? Eigen::Vector3d(v.mean / (table.reflectance * LambertZ(position, p))) : ModelIntensity(fit.led, p);
-        map.log_intensity[i] = value.array().max(1e-12).log();
-      }
-      const PositionFit position_step = FitPosition(camera, map, ratio_samples, position, options.max_fit_evaluations);
-      if (!position_step.ok) {
-        summary.message = "LED " + std::to_string(k) + ": the per-pixel procedure's position step failed in iteration " +
-                          std::to_string(iteration) + ": " + position_step.termination;
-        return summary;
-      }
-      const Eigen::Vector3d next = position_step.position;
-      double direction_change = 0, intensity_change = 0;
-      for (const Eigen::Vector3d& p : table.points) {
-        const Eigen::Vector3d before = (position - p).normalized(), after = (next - p).normalized();
-        direction_change = std::max(direction_change, std::atan2(before.cross(after).norm(), before.dot(after)));
-        intensity_change = std::max(intensity_change, std::abs(LambertZ(position, p) / LambertZ(next, p) - 1.0));
-      }
-      per_pixel.direction_change_deg.push_back(direction_change * kRadToDeg);
-      per_pixel.intensity_change.push_back(intensity_change);
-      per_pixel.iterations = iteration;
-      per_pixel.residual_rms = position_step.residual_rms;
-      position = next;
-      if (direction_change * kRadToDeg <= options.direction_tolerance_deg &&
-          intensity_change <= options.intensity_tolerance) {
-        per_pixel.converged = true;
-        break;
-      }
-    }
-    if (!has_raised_sheet) per_pixel.converged = true;  // directions from the model: nothing to iterate
-    per_pixel.position_in_table_mm = position;
-
-    // The field at the table sheet's cells: measured intensities (smoothed,
-    // gaps filled from the model), directions from the position.
-    std::vector<Eigen::Vector3d> intensity(num_cells);
-    std::vector<bool> valid(num_cells);
-    for (size_t i = 0; i < num_cells; ++i) {
-      const CellValue& v = table.values[k][i];
-      valid[i] = v.valid;
-      const Eigen::Vector3d& p = table.points[i];
-      if (v.valid) {
-        intensity[i] = v.mean / (table.reflectance * LambertZ(position, p));
-        ++per_pixel.cells_used;
-      } else {
-        intensity[i] = ModelIntensity(fit.led, p);
-        ++per_pixel.cells_dropped;
-      }
-    }
-    if (options.smooth_intensity) {
-      std::vector<Eigen::Vector3d> smoothed(num_cells);
-      for (int j = 0; j < ny; ++j) {
-        for (int i = 0; i < nx; ++i) {
-          Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-          double weights = 0;
-          for (int dj = -1; dj <= 1; ++dj) {
-            for (int di = -1; di <= 1; ++di) {
-              const int ii = i + di, jj = j + dj;
-              if (ii < 0 || jj < 0 || ii >= nx || jj >= ny) continue;
-              const double w = (di == 0 ? 2.0 : 1.0) * (dj == 0 ? 2.0 : 1.0);
-              sum += w * intensity[static_cast<size_t>(jj) * nx + ii];
-              weights += w;
-            }
-          }
-          // At the border a one-sided average would pull a sloped field
-          // inwards: keep the border cells as measured.
-          const bool inside = i > 0 && j > 0 && i < nx - 1 && j < ny - 1;
-          smoothed[static_cast<size_t>(j) * nx + i] = inside ? Eigen::Vector3d(sum / weights)
-                                                             : intensity[static_cast<size_t>(j) * nx + i];
-        }
-      }
-      intensity = std::move(smoothed);
-    }
-    for (size_t i = 0; i < num_cells; ++i) {
-      const Eigen::Vector3d direction = (position - table.points[i]).normalized();
-      for (int c = 0; c < 3; ++c) {
-        field_dirs[(i * num_leds + k) * 3 + c] = static_cast<float>(direction[c]);
-        field_intensities[(i * num_leds + k) * 3 + c] = static_cast<float>(std::max(0.0, intensity[i][c]));
-      }
-    }
+    std::vector<Eigen::Vector3d> intensity = FieldIntensities(table, k, model.led, &per_pixel);
+    if (options.smooth_intensity) intensity = SmoothCells(intensity, grid);
+    nodes.Store(k, table.points, per_pixel.position_in_table_mm, intensity);
     summary.per_pixel.push_back(per_pixel);
     if (!per_pixel.converged) {
       summary.warnings.push_back("LED " + std::to_string(k) + ": the per-pixel procedure did not converge in " +
                                  std::to_string(options.max_iterations) + " iterations");
     }
-    if (!step()) {
-      summary.message = "cancelled";
+    if (!steps.Next()) {
+      summary.SetCancelled();
       return summary;
     }
   }
 
-  LightFieldGrid grid;
-  grid.width = width;
-  grid.height = height;
-  grid.origin_x = 0.5 * (cell - 1);
-  grid.origin_y = 0.5 * (cell - 1);
-  grid.step = cell;
-  grid.nodes_x = nx;
-  grid.nodes_y = ny;
-  summary.per_pixel_field.emplace(grid, static_cast<int>(num_leds), std::move(field_dirs),
-                                  std::move(field_intensities));
-
-  const LedModelFit& worst = summary.model[worst_led];
-  const std::string figures = "largest model residual " + Fixed(100 * worst.residual_rms, 3) + " % rms (LED " +
-                              std::to_string(worst_led) + ") is " + Fixed(worst.chi, 2) + "x the cells' noise " +
-                              Fixed(100 * worst.noise_rms, 3) + " %";
-  if (model_failed) {
-    summary.selected = LightCalibrationSummary::Choice::kPerPixel;
-    summary.selection_reason = "the model fit failed for LED " + std::to_string(worst_led) +
-                               ": the LEDs do not follow the point-source model; the measured per-pixel field is used";
-  } else if (worst_chi <= options.model_noise_factor) {
-    summary.selected = LightCalibrationSummary::Choice::kModel;
-    summary.selection_reason = figures + ", within model_noise_factor " + Fixed(options.model_noise_factor, 2) +
-                               ": the LEDs follow the point-source model, which is compact and holds off the table plane";
-  } else {
-    summary.selected = LightCalibrationSummary::Choice::kPerPixel;
-    summary.selection_reason = figures + ", above model_noise_factor " + Fixed(options.model_noise_factor, 2) +
-                               ": the LEDs do not follow the point-source model; the measured per-pixel field is used";
-  }
+  LightFieldGrid field_grid;
+  field_grid.width = width;
+  field_grid.height = height;
+  field_grid.origin_x = grid.origin();
+  field_grid.origin_y = grid.origin();
+  field_grid.step = grid.cell;
+  field_grid.nodes_x = grid.nx;
+  field_grid.nodes_y = grid.ny;
+  summary.per_pixel_field.emplace(field_grid, static_cast<int>(num_leds), std::move(nodes.dirs_in_table),
+                                  std::move(nodes.rgb_intensities));
+  SelectModel(options.model_noise_factor, &summary);
   summary.termination = Termination::kSuccess;
   return summary;
 }

@@ -118,16 +118,18 @@ struct LightCalibrationSummary : AlgorithmSummary {
   std::string BriefReport() const;
 };
 
-
 // `camera`: the calibrated camera. `measured_leds`: the starting point (tape-
 // measured positions; axis, mu and intensity may be nominal). `sheets`: at
 // least one on the table (height 0: the per-pixel field lives there); a second
-// at another height is strongly advised. Throws std::invalid_argument for bad
-// options or inputs that do not fit together; Termination::kFailure (with the
-// reason) when the data cannot be fitted or the progress callback cancels.
-LightCalibrationSummary CalibrateLights(const CameraGeometry& camera, const std::vector<LedDescription>& measured_leds,
+// at another height is strongly advised. Both products (the fitted LEDs and
+// the per-pixel field) are figures of the summary, which the calibration set
+// stores as it is. Throws std::invalid_argument for bad options or inputs
+// that do not fit together; returns Termination::kFailure (with the reason)
+// when the data cannot be fitted, Termination::kCancelled when the progress
+// callback asks to stop.
+LightCalibrationSummary CalibrateLights(const LightCalibrationOptions& options, const CameraGeometry& camera,
+                                        const std::vector<LedDescription>& measured_leds,
                                         const std::vector<WhiteSheetCapture>& sheets,
-                                        const LightCalibrationOptions& options = {},
                                         const ProgressCallback& progress = {});
 
 }  // namespace scanbench

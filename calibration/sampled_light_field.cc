@@ -5,12 +5,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/field_error.h"
+
 namespace scanbench {
 namespace {
-
-std::invalid_argument GridError(const std::string& field, double value, const std::string& rule) {
-  return std::invalid_argument("LightFieldGrid." + field + " = " + std::to_string(value) + " " + rule);
-}
 
 // Cell index and fraction along one axis; the fraction leaves [0, 1] beyond
 // the outermost nodes (linear extrapolation).
@@ -24,7 +22,7 @@ void Locate(double position, double origin, double step, int nodes, int* cell, d
 }  // namespace
 
 LightFieldGrid LightFieldGrid::Covering(int width, int height, int step) {
-  if (step < 1) throw GridError("step", step, "must be >= 1");
+  if (step < 1) throw FieldError("LightFieldGrid", "step", step, "must be >= 1");
   LightFieldGrid grid;
   grid.width = width;
   grid.height = height;
@@ -36,13 +34,13 @@ LightFieldGrid LightFieldGrid::Covering(int width, int height, int step) {
 }
 
 void LightFieldGrid::Check() const {
-  if (width <= 0) throw GridError("width", width, "must be > 0");
-  if (height <= 0) throw GridError("height", height, "must be > 0");
-  if (!(step > 0) || !std::isfinite(step)) throw GridError("step", step, "must be finite and > 0");
-  if (!std::isfinite(origin_x)) throw GridError("origin_x", origin_x, "must be finite");
-  if (!std::isfinite(origin_y)) throw GridError("origin_y", origin_y, "must be finite");
-  if (nodes_x < 2) throw GridError("nodes_x", nodes_x, "must be >= 2");
-  if (nodes_y < 2) throw GridError("nodes_y", nodes_y, "must be >= 2");
+  if (width <= 0) throw FieldError("LightFieldGrid", "width", width, "must be > 0");
+  if (height <= 0) throw FieldError("LightFieldGrid", "height", height, "must be > 0");
+  if (!(step > 0) || !std::isfinite(step)) throw FieldError("LightFieldGrid", "step", step, "must be finite and > 0");
+  if (!std::isfinite(origin_x)) throw FieldError("LightFieldGrid", "origin_x", origin_x, "must be finite");
+  if (!std::isfinite(origin_y)) throw FieldError("LightFieldGrid", "origin_y", origin_y, "must be finite");
+  if (nodes_x < 2) throw FieldError("LightFieldGrid", "nodes_x", nodes_x, "must be >= 2");
+  if (nodes_y < 2) throw FieldError("LightFieldGrid", "nodes_y", nodes_y, "must be >= 2");
 }
 
 SampledLightField::SampledLightField(LightFieldGrid grid, int num_lights, std::vector<float> light_dirs_in_table,

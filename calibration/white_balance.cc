@@ -9,19 +9,13 @@
 
 #include <Eigen/Dense>
 
+#include "core/field_error.h"
 #include "core/format.h"
 #include "calibration/bayer_sampling.h"
 #include "calibration/camera_model.h"
 
 namespace scanbench {
 namespace {
-
-template <typename T>
-std::invalid_argument FieldError(const std::string& field, T value, const std::string& rule) {
-  std::ostringstream text;
-  text << "WhiteBalanceOptions." << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
-}
 
 // Raw pixels whose table point lies inside the patch's inset square.
 std::vector<std::pair<int, int>> PatchPixels(const GrayPatch& patch, double height_mm, double inset,
@@ -150,18 +144,149 @@ std::vector<double> LogIrradiance(const GrayChartTarget& chart, const LedDescrip
   return values;
 }
 
+// ---------------------------------------------------------------------------
+// The steps of CalibrateWhiteBalance.
+
+// Throws std::invalid_argument when the LED descriptions or frames do not fit
+// the camera and each other.
+void CheckFrames(const CameraGeometry& camera, const std::vector<LedDescription>& leds,
+                 const std::vector<RawImage>& led_frames) {
+  if (!leds.empty() && leds.size() != led_frames.size()) {
+    throw std::invalid_argument("CalibrateWhiteBalance: " + std::to_string(leds.size()) + " LED descriptions for " +
+                                std::to_string(led_frames.size()) + " frames; give one per frame or none");
+  }
+  for (size_t k = 0; k < led_frames.size(); ++k) {
+    if (!led_frames[k].mosaic.SameSize(camera.intrinsics.width, camera.intrinsics.height)) {
+      throw std::invalid_argument("gray chart frame of LED " + std::to_string(k) + " is " +
+                                  std::to_string(led_frames[k].width()) + "x" + std::to_string(led_frames[k].height()) +
+                                  " but the camera calibration is " + std::to_string(camera.intrinsics.width) + "x" +
+                                  std::to_string(camera.intrinsics.height));
+    }
+  }
+}
+
+using PatchPixelList = std::vector<std::pair<int, int>>;
+
+// Where each patch is, once for all LEDs. Sets *failure naming the first
+// patch outside the image.
+std::vector<PatchPixelList> LocatePatches(const GrayChartTarget& chart, const CameraGeometry& camera, double inset,
+                                          std::string* failure) {
+  std::vector<PatchPixelList> pixels;
+  for (const GrayPatch& patch : chart.patches) {
+    pixels.push_back(PatchPixels(patch, chart.height_mm, inset, camera));
+    if (pixels.back().empty()) {
+      *failure = "patch " + patch.name + " lies outside the image";
+      break;
+    }
+  }
+  return pixels;
+}
+
+// Every patch's raw samples under LED k averaged per colour, flagged clipped
+// or underexposed. Sets *failure when a patch has too few samples.
+std::vector<PatchMeasurement> MeasurePatches(const GrayChartTarget& chart, const std::vector<PatchPixelList>& pixels,
+                                             const LinearBayerReader& reader, size_t k,
+                                             const WhiteBalanceOptions& options, std::string* failure) {
+  std::vector<PatchMeasurement> patches;
+  for (size_t p = 0; p < chart.patches.size(); ++p) {
+    RgbStatistics stats{};
+    for (const auto& [x, y] : pixels[p]) reader.Accumulate(x, y, stats);
+    PatchMeasurement m;
+    m.name = chart.patches[p].name;
+    m.reflectance = chart.patches[p].reflectance;
+    bool enough = true;
+    for (int c = 0; c < 3; ++c) {
+      m.mean[c] = stats[c].Mean();
+      m.standard_error[c] = stats[c].StandardError();
+      m.samples[c] = stats[c].count;
+      m.clipped |= stats[c].clipped > 0;
+      // A colour whose bright samples clipped reads low: that is "clipped", not underexposed.
+      m.underexposed |= stats[c].clipped == 0 && !(m.mean[c] >= options.min_level);
+      enough &= stats[c].count + stats[c].clipped >= options.min_samples;
+    }
+    if (!enough) {
+      *failure = "LED " + std::to_string(k) + ": patch " + m.name + " has fewer than min_samples = " +
+                 std::to_string(options.min_samples) + " samples of some colour";
+      return patches;
+    }
+    m.used = !m.clipped && !m.underexposed;
+    patches.push_back(m);
+  }
+  return patches;
+}
+
+// The linear fit; patches that leave it beyond the tolerance are outside the
+// linear range: drop the worst (flagged non-linear) and refit. False when
+// fewer than 3 usable patches of 2 reflectances remain.
+bool FitLinearRange(const GrayChartTarget& chart, const std::vector<double>& log_irradiance,
+                    double linearity_tolerance, std::vector<PatchMeasurement>* patches, ChartFit* linear) {
+  while (true) {
+    if (DistinctReflectances(*patches) < 2 ||
+        std::count_if(patches->begin(), patches->end(), [](const PatchMeasurement& m) { return m.used; }) < 3) {
+      return false;
+    }
+    *linear = FitChart(chart, *patches, log_irradiance, false);
+    int worst = -1;
+    double worst_residual = linearity_tolerance;
+    for (size_t p = 0; p < patches->size(); ++p) {
+      if (!(*patches)[p].used) continue;
+      const double r = linear->residual[p].cwiseAbs().maxCoeff();
+      if (r > worst_residual) {
+        worst_residual = r;
+        worst = static_cast<int>(p);
+      }
+    }
+    if (worst < 0) return true;
+    (*patches)[worst].used = false;
+    (*patches)[worst].nonlinear = true;
+  }
+}
+
+// The LED's figures from the linear fit: response exponents (a free fit),
+// linearity, linear range and gains with their spread.
+void DescribeLed(const GrayChartTarget& chart, const std::vector<double>& log_irradiance, const ChartFit& linear,
+                 double linearity_tolerance, LedWhiteBalance* led) {
+  const ChartFit free = FitChart(chart, led->patches, log_irradiance, true);
+  led->response_exponent = free.exponent;
+  led->used_patches = 0;
+  led->linear_range_min = 1e9;
+  led->linear_range_max = 0;
+  Eigen::Vector3d sum_squares = Eigen::Vector3d::Zero();
+  for (size_t p = 0; p < led->patches.size(); ++p) {
+    PatchMeasurement& m = led->patches[p];
+    m.linear_residual = linear.residual[p];
+    // A patch left out for clipping may still be far off the line: say so.
+    if (!m.used && !m.nonlinear && !m.underexposed && linear.residual[p].cwiseAbs().maxCoeff() > linearity_tolerance) {
+      m.nonlinear = true;
+    }
+    if (!m.used) continue;
+    ++led->used_patches;
+    sum_squares += m.linear_residual.cwiseAbs2();
+    led->linear_range_min = std::min(led->linear_range_min, m.mean.minCoeff());
+    led->linear_range_max = std::max(led->linear_range_max, m.mean.maxCoeff());
+  }
+  led->linearity_rms = (sum_squares / std::max(1, led->used_patches)).cwiseSqrt();
+  for (int c = 0; c < 3; ++c) {
+    led->gains[c] = std::exp(linear.log_scale[1] - linear.log_scale[c]);
+    led->gains_std[c] = c == 1 ? 0.0 : led->gains[c] * std::hypot(linear.log_scale_std[1], linear.log_scale_std[c]);
+  }
+}
+
 }  // namespace
 
 void WhiteBalanceOptions::Check() const {
-  if (!(patch_inset >= 0 && patch_inset <= 0.45)) throw FieldError("patch_inset", patch_inset, "must lie in [0, 0.45]");
+  const std::string where = "WhiteBalanceOptions";
+  if (!(patch_inset >= 0 && patch_inset <= 0.45)) {
+    throw FieldError(where, "patch_inset", patch_inset, "must lie in [0, 0.45]");
+  }
   if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw FieldError("clip_fraction", clip_fraction, "must lie in (0, 1]");
+    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
   }
-  if (!(min_level >= 0 && min_level < 1)) throw FieldError("min_level", min_level, "must lie in [0, 1)");
+  if (!(min_level >= 0 && min_level < 1)) throw FieldError(where, "min_level", min_level, "must lie in [0, 1)");
   if (!(linearity_tolerance > 0 && linearity_tolerance < 1)) {
-    throw FieldError("linearity_tolerance", linearity_tolerance, "must lie in (0, 1)");
+    throw FieldError(where, "linearity_tolerance", linearity_tolerance, "must lie in (0, 1)");
   }
-  if (min_samples < 1) throw FieldError("min_samples", min_samples, "must be >= 1");
+  if (min_samples < 1) throw FieldError(where, "min_samples", min_samples, "must be >= 1");
 }
 
 std::string WhiteBalanceSummary::BriefReport() const {
@@ -183,38 +308,24 @@ std::string WhiteBalanceSummary::BriefReport() const {
   return out.str();
 }
 
-WhiteBalanceSummary CalibrateWhiteBalance(const GrayChartTarget& chart, const CameraGeometry& camera,
-                                          const std::vector<LedDescription>& leds, const RawImage& dark,
-                                          const std::vector<RawImage>& led_frames,
-                                          const WhiteBalanceOptions& options) {
-  chart.Check();
+WhiteBalanceSummary CalibrateWhiteBalance(const WhiteBalanceOptions& options, const GrayChartTarget& chart,
+                                          const CameraGeometry& camera, const std::vector<LedDescription>& leds,
+                                          const RawImage& dark, const std::vector<RawImage>& led_frames,
+                                          const ProgressCallback& progress) {
   options.Check();
+  chart.Check();
   CheckCameraIntrinsics(camera.intrinsics);
   WhiteBalanceSummary summary;
   if (led_frames.empty()) {
-    summary.message = "no LED frames given";
+    summary.SetFailure("no LED frames given");
     return summary;
   }
-  if (!leds.empty() && leds.size() != led_frames.size()) {
-    throw std::invalid_argument("CalibrateWhiteBalance: " + std::to_string(leds.size()) + " LED descriptions for " +
-                                std::to_string(led_frames.size()) + " frames; give one per frame or none");
-  }
-  for (size_t k = 0; k < led_frames.size(); ++k) {
-    if (!led_frames[k].mosaic.SameSize(camera.intrinsics.width, camera.intrinsics.height)) {
-      throw std::invalid_argument("gray chart frame of LED " + std::to_string(k) + " is " +
-                                  std::to_string(led_frames[k].width()) + "x" + std::to_string(led_frames[k].height()) +
-                                  " but the camera calibration is " + std::to_string(camera.intrinsics.width) + "x" +
-                                  std::to_string(camera.intrinsics.height));
-    }
-  }
-  // Where each patch is, once for all LEDs.
-  std::vector<std::vector<std::pair<int, int>>> pixels;
-  for (const GrayPatch& patch : chart.patches) {
-    pixels.push_back(PatchPixels(patch, chart.height_mm, options.patch_inset, camera));
-    if (pixels.back().empty()) {
-      summary.message = "patch " + patch.name + " lies outside the image";
-      return summary;
-    }
+  CheckFrames(camera, leds, led_frames);
+  std::string failure;
+  const std::vector<PatchPixelList> pixels = LocatePatches(chart, camera, options.patch_inset, &failure);
+  if (!failure.empty()) {
+    summary.SetFailure(failure);
+    return summary;
   }
 
   for (size_t k = 0; k < led_frames.size(); ++k) {
@@ -222,87 +333,25 @@ WhiteBalanceSummary CalibrateWhiteBalance(const GrayChartTarget& chart, const Ca
                                    "gray chart frame of LED " + std::to_string(k));
     LedWhiteBalance led;
     led.led_index = static_cast<int>(k);
+    led.patches = MeasurePatches(chart, pixels, reader, k, options, &failure);
+    if (!failure.empty()) {
+      summary.SetFailure(failure);
+      return summary;
+    }
     const std::vector<double> log_irradiance = LogIrradiance(chart, leds.empty() ? nullptr : &leds[k]);
-    for (size_t p = 0; p < chart.patches.size(); ++p) {
-      RgbStatistics stats{};
-      for (const auto& [x, y] : pixels[p]) reader.Accumulate(x, y, stats);
-      PatchMeasurement m;
-      m.name = chart.patches[p].name;
-      m.reflectance = chart.patches[p].reflectance;
-      bool enough = true;
-      int clipped = 0;
-      for (int c = 0; c < 3; ++c) {
-        clipped += stats[c].clipped;
-        m.mean[c] = stats[c].Mean();
-        m.standard_error[c] = stats[c].StandardError();
-        m.samples[c] = stats[c].count;
-        m.clipped |= stats[c].clipped > 0;
-        // A colour whose bright samples clipped reads low: that is "clipped", not underexposed.
-        m.underexposed |= stats[c].clipped == 0 && !(m.mean[c] >= options.min_level);
-        enough &= stats[c].count + stats[c].clipped >= options.min_samples;
-      }
-      if (!enough) {
-        summary.message = "LED " + std::to_string(k) + ": patch " + m.name + " has fewer than min_samples = " +
-                          std::to_string(options.min_samples) + " samples of some colour";
-        return summary;
-      }
-      m.used = !m.clipped && !m.underexposed;
-      led.patches.push_back(m);
-    }
-
-    // The linear fit; patches that leave it beyond the tolerance are outside
-    // the linear range: drop the worst and refit.
     ChartFit linear;
-    while (true) {
-      if (DistinctReflectances(led.patches) < 2 ||
-          std::count_if(led.patches.begin(), led.patches.end(), [](const PatchMeasurement& m) { return m.used; }) < 3) {
-        summary.message = "LED " + std::to_string(k) + ": fewer than 3 usable patches of 2 reflectances (clipped, "
-                          "underexposed or non-linear); change the exposure";
-        summary.leds.push_back(led);
-        return summary;
-      }
-      linear = FitChart(chart, led.patches, log_irradiance, false);
-      int worst = -1;
-      double worst_residual = options.linearity_tolerance;
-      for (size_t p = 0; p < led.patches.size(); ++p) {
-        if (!led.patches[p].used) continue;
-        const double r = linear.residual[p].cwiseAbs().maxCoeff();
-        if (r > worst_residual) {
-          worst_residual = r;
-          worst = static_cast<int>(p);
-        }
-      }
-      if (worst < 0) break;
-      led.patches[worst].used = false;
-      led.patches[worst].nonlinear = true;
+    if (!FitLinearRange(chart, log_irradiance, options.linearity_tolerance, &led.patches, &linear)) {
+      summary.SetFailure("LED " + std::to_string(k) + ": fewer than 3 usable patches of 2 reflectances (clipped, "
+                         "underexposed or non-linear); change the exposure");
+      summary.leds.push_back(led);
+      return summary;
     }
-    const ChartFit free = FitChart(chart, led.patches, log_irradiance, true);
-    led.response_exponent = free.exponent;
-    led.used_patches = 0;
-    led.linear_range_min = 1e9;
-    led.linear_range_max = 0;
-    Eigen::Vector3d sum_squares = Eigen::Vector3d::Zero();
-    for (size_t p = 0; p < led.patches.size(); ++p) {
-      PatchMeasurement& m = led.patches[p];
-      m.linear_residual = linear.residual[p];
-      // A patch left out for clipping may still be far off the line: say so.
-      if (!m.used && !m.nonlinear && !m.underexposed &&
-          linear.residual[p].cwiseAbs().maxCoeff() > options.linearity_tolerance) {
-        m.nonlinear = true;
-      }
-      if (!m.used) continue;
-      ++led.used_patches;
-      sum_squares += m.linear_residual.cwiseAbs2();
-      led.linear_range_min = std::min(led.linear_range_min, m.mean.minCoeff());
-      led.linear_range_max = std::max(led.linear_range_max, m.mean.maxCoeff());
-    }
-    led.linearity_rms = (sum_squares / std::max(1, led.used_patches)).cwiseSqrt();
-    for (int c = 0; c < 3; ++c) {
-      led.gains[c] = std::exp(linear.log_scale[1] - linear.log_scale[c]);
-      led.gains_std[c] =
-          c == 1 ? 0.0 : led.gains[c] * std::hypot(linear.log_scale_std[1], linear.log_scale_std[c]);
-    }
+    DescribeLed(chart, log_irradiance, linear, options.linearity_tolerance, &led);
     summary.leds.push_back(led);
+    if (progress && !progress(double(k + 1) / led_frames.size())) {
+      summary.SetCancelled();
+      return summary;
+    }
   }
   summary.termination = Termination::kSuccess;
   return summary;

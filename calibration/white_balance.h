@@ -84,13 +84,15 @@ struct WhiteBalanceSummary : AlgorithmSummary {
 // exposure. `camera`: the calibrated camera (to find the patches). `leds`:
 // the LED descriptions (one per frame; measured positions are good enough) for
 // the shape of the irradiance over the chart, or empty for a plain gradient.
-// Throws
-// std::invalid_argument for bad options, chart or frames that do not fit
-// together; returns Termination::kFailure (naming the LED and patch) when a
-// LED leaves fewer than 3 usable patches of 2 reflectances.
-WhiteBalanceSummary CalibrateWhiteBalance(const GrayChartTarget& chart, const CameraGeometry& camera,
-                                          const std::vector<LedDescription>& leds, const RawImage& dark,
-                                          const std::vector<RawImage>& led_frames,
-                                          const WhiteBalanceOptions& options = {});
+// The gains are figures of the summary (the calibration set stores it as it
+// is). Throws std::invalid_argument for bad options, chart or frames that do
+// not fit together; returns Termination::kFailure (naming the LED and patch)
+// when a LED leaves fewer than 3 usable patches of 2 reflectances, and
+// Termination::kCancelled when the progress callback (called after each LED)
+// asks to stop.
+WhiteBalanceSummary CalibrateWhiteBalance(const WhiteBalanceOptions& options, const GrayChartTarget& chart,
+                                          const CameraGeometry& camera, const std::vector<LedDescription>& leds,
+                                          const RawImage& dark, const std::vector<RawImage>& led_frames,
+                                          const ProgressCallback& progress = {});
 
 }  // namespace scanbench

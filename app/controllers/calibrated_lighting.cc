@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/io/file_util.h"
+#include "core/field_error.h"
 #include "calibration/rig_light_field.h"
 #include "calibration/sampled_light_field.h"
 
@@ -15,8 +16,7 @@ namespace fs = std::filesystem;
 
 void CalibrationUseOptions::Check() const {
   if (!(max_age_days > 0) || !std::isfinite(max_age_days)) {
-    throw std::invalid_argument("CalibrationUseOptions.max_age_days = " + std::to_string(max_age_days) +
-                                " must be finite and > 0");
+    throw FieldError("CalibrationUseOptions", "max_age_days", max_age_days, "must be finite and > 0");
   }
 }
 

@@ -6,6 +6,7 @@
 #include "app/io/raw_decoder.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
+#include "core/summary.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -84,11 +85,47 @@ CalibrationSet LoadSetForTargets(const fs::path& calibration_dir, const TargetSe
   return set;
 }
 
+// A checkerboard view from a target session: every LED frame developed and
+// summed (an evenly lit board), balanced to gray.
+CalibrationView CheckerboardView(const TargetSession& t, const std::string& name) {
+  RawDevelopOptions develop;
+  develop.demosaic = RawDevelopOptions::Demosaic::kBilinear;
+  ImageF sum;
+  for (const RawImage& raw : t.leds) {
+    const DevelopedFrame developed = DevelopRaw(raw, &t.dark, develop);
+    if (sum.empty()) sum = ImageF(developed.rgb.width(), developed.rgb.height(), 3);
+    for (size_t v = 0; v < sum.size(); ++v) sum.data()[v] += developed.rgb.data()[v];
+  }
+  CalibrationView view;
+  view.name = name;
+  view.gray = BalancedGray(sum);
+  view.on_table = t.target.on_table;
+  view.board_height_mm = t.target.board_height_mm;
+  return view;
+}
+
+// Throws SessionError when `other` holds another board than the first session.
+void CheckSameBoard(const CheckerboardTarget& board, const fs::path& first_session, const TargetSession& other) {
+  const CheckerboardTarget& b = other.target.checkerboard;
+  if (b.inner_corners_x != board.inner_corners_x || b.inner_corners_y != board.inner_corners_y ||
+      b.square_mm != board.square_mm) {
+    throw SessionError((other.dir / kCalibrationTargetFileName).string() + ": checkerboard: another board than in " +
+                       first_session.string() + "; one calibration uses one board");
+  }
+}
+
 }  // namespace
 
 void CameraCalibrationJobOptions::Check() const { calibration.Check(); }
 
 // ---------------------------------------------------------------------------
+struct CameraCalibrationController::Inputs {
+  std::vector<CalibrationView> views;
+  std::vector<TargetCaptureRecord> records;
+  CalibratedCameraIdentity identity;
+  CheckerboardTarget board;
+};
+
 CameraCalibrationController::CameraCalibrationController(std::vector<fs::path> target_sessions, fs::path calibration_dir,
                                                          CameraCalibrationJobOptions options)
     : sessions_(std::move(target_sessions)), calibration_dir_(std::move(calibration_dir)),
@@ -97,6 +134,13 @@ CameraCalibrationController::CameraCalibrationController(std::vector<fs::path> t
 void CameraCalibrationController::Run() {
   options_.Check();
   summary_ = CameraCalibrationSummary();
+  CheckOutputFolder();
+  const Inputs inputs = ReadCheckerboardSessions();
+  Calibrate(inputs);
+  WriteSet(inputs);
+}
+
+void CameraCalibrationController::CheckOutputFolder() const {
   const fs::path manifest = calibration_dir_ / kCalibrationManifestName;
   if (fs::exists(manifest) && !options_.replace) {
     throw SessionError(manifest.string() +
@@ -104,51 +148,35 @@ void CameraCalibrationController::Run() {
                        "or replace it)");
   }
   if (sessions_.empty()) throw std::invalid_argument("camera calibration: no checkerboard sessions given");
+}
 
-  std::vector<CalibrationView> views;
-  std::vector<TargetCaptureRecord> records;
-  CalibratedCameraIdentity identity;
-  CheckerboardTarget board;
+CameraCalibrationController::Inputs CameraCalibrationController::ReadCheckerboardSessions() const {
+  const std::string stage = "read checkerboard sessions";
+  Inputs inputs;
   for (size_t i = 0; i < sessions_.size(); ++i) {
-    const std::string stage = "read checkerboard sessions";
     ReportProgress(stage, double(i) / sessions_.size());
     const TargetSession t = LoadTargetSession(sessions_[i], CalibrationTargetDescription::Kind::kCheckerboard,
                                               options_.verify_checksums, *this, stage);
     if (i == 0) {
-      identity = IdentityOf(t.session);
-      board = t.target.checkerboard;
+      inputs.identity = IdentityOf(t.session);
+      inputs.board = t.target.checkerboard;
     } else {
-      CheckSameCamera(identity, (sessions_[0] / "session.json").string() + " (first checkerboard session)", t);
-      const CheckerboardTarget& other = t.target.checkerboard;
-      if (other.inner_corners_x != board.inner_corners_x || other.inner_corners_y != board.inner_corners_y ||
-          other.square_mm != board.square_mm) {
-        throw SessionError((t.dir / kCalibrationTargetFileName).string() +
-                           ": checkerboard: another board than in " + sessions_[0].string() +
-                           "; one calibration uses one board");
-      }
+      CheckSameCamera(inputs.identity, (sessions_[0] / "session.json").string() + " (first checkerboard session)", t);
+      CheckSameBoard(inputs.board, sessions_[0], t);
     }
-    // Every LED frame summed: an evenly lit board.
-    RawDevelopOptions develop;
-    develop.demosaic = RawDevelopOptions::Demosaic::kBilinear;
-    ImageF sum;
-    for (const RawImage& raw : t.leds) {
-      const DevelopedFrame developed = DevelopRaw(raw, &t.dark, develop);
-      if (sum.empty()) sum = ImageF(developed.rgb.width(), developed.rgb.height(), 3);
-      for (size_t v = 0; v < sum.size(); ++v) sum.data()[v] += developed.rgb.data()[v];
-    }
-    CalibrationView view;
-    view.name = sessions_[i].string();
-    view.gray = BalancedGray(sum);
-    view.on_table = t.target.on_table;
-    view.board_height_mm = t.target.board_height_mm;
-    views.push_back(std::move(view));
-    records.push_back(MakeTargetCaptureRecord(t.dir, t.session, "checkerboard"));
+    inputs.views.push_back(CheckerboardView(t, sessions_[i].string()));
+    inputs.records.push_back(MakeTargetCaptureRecord(t.dir, t.session, "checkerboard"));
     ThrowIfStopRequested(stage);
   }
+  return inputs;
+}
 
-  ReportProgress("calibrate camera", 0);
-  summary_ = CalibrateCamera(board, views, options_.calibration, StageCallback("calibrate camera"));
-  ThrowIfStopRequested("calibrate camera");
+void CameraCalibrationController::Calibrate(const Inputs& inputs) {
+  const std::string stage = "calibrate camera";
+  BeginStage(stage);
+  summary_ = CalibrateCamera(options_.calibration, inputs.board, inputs.views, StageCallback(stage));
+  ThrowIfStopRequested(stage);
+  if (summary_.IsCancelled()) throw Cancelled(stage);
   if (!summary_.IsUsable()) {
     std::string reasons;
     for (const CalibrationViewReport& view : summary_.views) {
@@ -156,15 +184,17 @@ void CameraCalibrationController::Run() {
     }
     throw std::runtime_error("camera calibration failed: " + summary_.message + reasons);
   }
+}
 
+void CameraCalibrationController::WriteSet(const Inputs& inputs) const {
   CalibrationSet set;
   set.created = Now();
   set.software_version = "scanbench " SCANBENCH_VERSION;
-  set.camera = identity;
+  set.camera = inputs.identity;
   CameraCalibrationSection section;
   section.date = set.created;
-  section.targets = records;
-  section.board = board;
+  section.targets = inputs.records;
+  section.board = inputs.board;
   section.summary = summary_;
   set.camera_calibration = section;
   if (options_.replace && fs::exists(calibration_dir_ / "lights")) fs::remove_all(calibration_dir_ / "lights");
@@ -173,6 +203,11 @@ void CameraCalibrationController::Run() {
 }
 
 // ---------------------------------------------------------------------------
+struct WhiteBalanceController::Inputs {
+  TargetSession target;
+  CalibrationSet set;
+};
+
 WhiteBalanceController::WhiteBalanceController(fs::path target_session, fs::path calibration_dir,
                                                WhiteBalanceJobOptions options)
     : session_(std::move(target_session)), calibration_dir_(std::move(calibration_dir)),
@@ -181,21 +216,41 @@ WhiteBalanceController::WhiteBalanceController(fs::path target_session, fs::path
 void WhiteBalanceController::Run() {
   options_.Check();
   summary_ = WhiteBalanceSummary();
+  Inputs inputs = ReadInputs();
+  Calibrate(inputs);
+  WriteSet(inputs);
+}
+
+WhiteBalanceController::Inputs WhiteBalanceController::ReadInputs() const {
   const std::string stage = "read gray chart session";
-  ReportProgress(stage, 0);
-  const TargetSession t = LoadTargetSession(session_, CalibrationTargetDescription::Kind::kGrayChart,
-                                            options_.verify_checksums, *this, stage);
-  CalibrationSet set = LoadSetForTargets(calibration_dir_, t);
-  ReportProgress("white balance", 0);
-  summary_ = CalibrateWhiteBalance(t.target.gray_chart, set.camera_calibration->summary.camera, t.session.rig.leds,
-                                   t.dark, t.leds, options_.white_balance);
-  ThrowIfStopRequested("white balance");
-  if (!summary_.IsUsable()) throw std::runtime_error("white balance failed: " + summary_.message);
+  BeginStage(stage);
+  Inputs inputs;
+  inputs.target = LoadTargetSession(session_, CalibrationTargetDescription::Kind::kGrayChart, options_.verify_checksums,
+                                    *this, stage);
+  inputs.set = LoadSetForTargets(calibration_dir_, inputs.target);
+  return inputs;
+}
+
+void WhiteBalanceController::Calibrate(const Inputs& inputs) {
+  const std::string stage = "white balance";
+  BeginStage(stage);
+  const TargetSession& t = inputs.target;
+  summary_ = CalibrateWhiteBalance(options_.white_balance, t.target.gray_chart,
+                                   inputs.set.camera_calibration->summary.camera, t.session.rig.leds, t.dark, t.leds,
+                                   StageCallback(stage));
+  ThrowIfStopRequested(stage);
+  if (summary_.IsCancelled()) throw Cancelled(stage);
+  RequireSuccess(summary_, "white balance failed");
+}
+
+void WhiteBalanceController::WriteSet(Inputs& inputs) const {
+  const TargetSession& t = inputs.target;
   WhiteBalanceSection section;
   section.date = Now();
   section.targets = {MakeTargetCaptureRecord(t.dir, t.session, "gray_chart")};
   for (const LedDescription& led : t.session.rig.leds) section.led_ids.push_back(led.id);
   section.summary = summary_;
+  CalibrationSet& set = inputs.set;
   set.white_balance = section;
   if (set.lights && set.lights->summary.model.size() != section.led_ids.size()) {
     set.lights.reset();  // another LED set: the old light calibration no longer applies
@@ -205,6 +260,11 @@ void WhiteBalanceController::Run() {
 }
 
 // ---------------------------------------------------------------------------
+struct LightCalibrationController::Inputs {
+  std::vector<TargetSession> targets;
+  CalibrationSet set;
+};
+
 LightCalibrationController::LightCalibrationController(std::vector<fs::path> target_sessions, fs::path calibration_dir,
                                                        LightCalibrationJobOptions options)
     : sessions_(std::move(target_sessions)), calibration_dir_(std::move(calibration_dir)),
@@ -214,23 +274,34 @@ void LightCalibrationController::Run() {
   options_.Check();
   summary_ = LightCalibrationSummary();
   if (sessions_.empty()) throw std::invalid_argument("light calibration: no white sheet sessions given");
-  std::vector<TargetSession> targets;
-  std::optional<CalibrationSet> set;
+  Inputs inputs = ReadWhiteSheetSessions();
+  Calibrate(inputs);
+  WriteSet(inputs);
+}
+
+LightCalibrationController::Inputs LightCalibrationController::ReadWhiteSheetSessions() const {
+  const std::string stage = "read white sheet sessions";
+  Inputs inputs;
+  std::vector<TargetSession>& targets = inputs.targets;
   for (size_t i = 0; i < sessions_.size(); ++i) {
-    const std::string stage = "read white sheet sessions";
     ReportProgress(stage, double(i) / sessions_.size());
     targets.push_back(LoadTargetSession(sessions_[i], CalibrationTargetDescription::Kind::kWhiteSheet,
                                         options_.verify_checksums, *this, stage));
-    if (!set) set = LoadSetForTargets(calibration_dir_, targets.back());
-    CheckSameCamera(set->camera, (calibration_dir_ / kCalibrationManifestName).string(), targets.back());
+    if (i == 0) inputs.set = LoadSetForTargets(calibration_dir_, targets.back());
+    CheckSameCamera(inputs.set.camera, (calibration_dir_ / kCalibrationManifestName).string(), targets.back());
     if (targets.back().session.rig.leds.size() != targets[0].session.rig.leds.size()) {
       throw SessionError((sessions_[i] / "session.json").string() + ": rig.leds: " +
                          std::to_string(targets.back().session.rig.leds.size()) + " LEDs, but " +
                          sessions_[0].string() + " has " + std::to_string(targets[0].session.rig.leds.size()));
     }
   }
+  return inputs;
+}
+
+void LightCalibrationController::Calibrate(const Inputs& inputs) {
+  const std::string stage = "calibrate lights";
   std::vector<WhiteSheetCapture> captures;
-  for (const TargetSession& t : targets) {
+  for (const TargetSession& t : inputs.targets) {
     WhiteSheetCapture capture;
     capture.name = t.dir.string();
     capture.sheet = t.target.white_sheet;
@@ -238,24 +309,29 @@ void LightCalibrationController::Run() {
     for (const RawImage& raw : t.leds) capture.led_frames.push_back(&raw);
     captures.push_back(capture);
   }
-  ReportProgress("calibrate lights", 0);
+  BeginStage(stage);
   // The measured LED positions of the first session are the start.
-  summary_ = CalibrateLights(set->camera_calibration->summary.camera, targets[0].session.rig.leds, captures,
-                             options_.lights, StageCallback("calibrate lights"));
-  ThrowIfStopRequested("calibrate lights");
-  if (!summary_.IsUsable()) throw std::runtime_error("light calibration failed: " + summary_.message);
+  summary_ = CalibrateLights(options_.lights, inputs.set.camera_calibration->summary.camera,
+                             inputs.targets[0].session.rig.leds, captures, StageCallback(stage));
+  ThrowIfStopRequested(stage);
+  if (summary_.IsCancelled()) throw Cancelled(stage);
+  RequireSuccess(summary_, "light calibration failed");
+}
+
+void LightCalibrationController::WriteSet(Inputs& inputs) const {
   LightsSection section;
   section.date = Now();
-  for (const TargetSession& t : targets) {
+  for (const TargetSession& t : inputs.targets) {
     section.targets.push_back(MakeTargetCaptureRecord(t.dir, t.session, "white_sheet"));
     section.sheets.push_back(t.target.white_sheet);
   }
   section.summary = summary_;
-  set->lights = section;
-  if (set->white_balance && set->white_balance->summary.leds.size() != summary_.model.size()) {
-    set->white_balance.reset();  // another LED set
+  CalibrationSet& set = inputs.set;
+  set.lights = section;
+  if (set.white_balance && set.white_balance->summary.leds.size() != summary_.model.size()) {
+    set.white_balance.reset();  // another LED set
   }
-  WriteCalibrationSet(calibration_dir_, *set);
+  WriteCalibrationSet(calibration_dir_, set);
   ReportProgress("calibrate lights", 1);
 }
 

@@ -40,6 +40,12 @@ class CameraCalibrationController : public BaseController {
   const CameraCalibrationSummary& summary() const { return summary_; }
 
  private:
+  struct Inputs;  // the views and records of the checkerboard sessions
+  void CheckOutputFolder() const;
+  Inputs ReadCheckerboardSessions() const;
+  void Calibrate(const Inputs& inputs);
+  void WriteSet(const Inputs& inputs) const;
+
   std::vector<std::filesystem::path> sessions_;
   std::filesystem::path calibration_dir_;
   CameraCalibrationJobOptions options_;
@@ -61,6 +67,11 @@ class WhiteBalanceController : public BaseController {
   const WhiteBalanceSummary& summary() const { return summary_; }
 
  private:
+  struct Inputs;  // the gray chart session and the set it goes into
+  Inputs ReadInputs() const;
+  void Calibrate(const Inputs& inputs);
+  void WriteSet(Inputs& inputs) const;
+
   std::filesystem::path session_;
   std::filesystem::path calibration_dir_;
   WhiteBalanceJobOptions options_;
@@ -82,6 +93,11 @@ class LightCalibrationController : public BaseController {
   const LightCalibrationSummary& summary() const { return summary_; }
 
  private:
+  struct Inputs;  // the white sheet sessions and the set they go into
+  Inputs ReadWhiteSheetSessions() const;
+  void Calibrate(const Inputs& inputs);
+  void WriteSet(Inputs& inputs) const;
+
   std::vector<std::filesystem::path> sessions_;
   std::filesystem::path calibration_dir_;
   LightCalibrationJobOptions options_;

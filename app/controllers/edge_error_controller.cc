@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/field_error.h"
 #include "core/format.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
@@ -83,6 +84,96 @@ ImageU8 TiltImage(const TiltMap& map, int image_width, int image_height, int out
   return image;
 }
 
+// The mean block tilt in the centre box and the border band, and the largest,
+// over blocks that are mostly solved.
+struct TiltFigures {
+  double centre_deg = 0, border_deg = 0, max_deg = 0;
+};
+
+TiltFigures MeasureTilt(const TiltMap& tilt, int width, int height, double centre_fraction, double border_fraction) {
+  const int block = tilt.block;
+  TiltFigures figures;
+  double centre_sum = 0, border_sum = 0;
+  int centre_count = 0, border_count = 0;
+  for (int j = 0; j < tilt.blocks_y; ++j) {
+    for (int i = 0; i < tilt.blocks_x; ++i) {
+      const size_t b = static_cast<size_t>(j) * tilt.blocks_x + i;
+      if (tilt.count[b] < block * block / 4) continue;  // mostly unsolved: not a fair mean
+      const double magnitude = tilt.tilt_deg[b].norm();
+      const double cx = ((i + 0.5) * block) / width, cy = ((j + 0.5) * block) / height;
+      const bool centre = std::abs(cx - 0.5) <= 0.5 * centre_fraction && std::abs(cy - 0.5) <= 0.5 * centre_fraction;
+      const bool border =
+          cx < border_fraction || cx > 1 - border_fraction || cy < border_fraction || cy > 1 - border_fraction;
+      if (centre) {
+        centre_sum += magnitude;
+        ++centre_count;
+      }
+      if (border) {
+        border_sum += magnitude;
+        ++border_count;
+      }
+      figures.max_deg = std::max(figures.max_deg, magnitude);
+    }
+  }
+  figures.centre_deg = centre_count > 0 ? centre_sum / centre_count : 0.0;
+  figures.border_deg = border_count > 0 ? border_sum / border_count : 0.0;
+  return figures;
+}
+
+// `left` | `right` with a white gap.
+ImageU8 SideBySide(const ImageU8& left, const ImageU8& right) {
+  constexpr int kGap = 8;
+  ImageU8 both(left.width() + kGap + right.width(), std::max(left.height(), right.height()), 3, 255);
+  for (int y = 0; y < left.height(); ++y) {
+    for (int x = 0; x < left.width(); ++x) {
+      for (int c = 0; c < 3; ++c) {
+        both(x, y, c) = left(x, y, c);
+        both(left.width() + kGap + x, y, c) = right(x, y, c);
+      }
+    }
+  }
+  return both;
+}
+
+nlohmann::json CaseJson(const EdgeErrorCase& result) {
+  return {{"description", result.description},
+          {"angular_error_deg", StatisticsJson(result.error_deg)},
+          {"sample_angular_error_deg", StatisticsJson(result.sample_error_deg)},
+          {"centre_tilt_deg", result.centre_tilt_deg},
+          {"border_tilt_deg", result.border_tilt_deg},
+          {"max_tilt_deg", result.max_tilt_deg},
+          {"image", result.image}};
+}
+
+// One way of treating the lights, solved and measured alike.
+struct LightCase {
+  std::string name, description;
+  std::unique_ptr<LightField> field;
+};
+
+// distant_uniform (from the rig description, then from the calibrated LEDs),
+// the uncalibrated near-field rig and the calibration; the calibrated light
+// field moves out of `calibrated`.
+std::vector<LightCase> MakeLightCases(const Session& session, const CalibrationSet& set,
+                                      CalibratedLighting* calibrated) {
+  const int width = session.camera.width, height = session.camera.height;
+  const std::vector<LedDescription> fitted = set.lights->summary.ModelLeds();
+  std::vector<LightCase> cases;
+  cases.push_back({"distant_uniform",
+                   "lights distant and uniform: each LED's direction and intensity at the table origin from the "
+                   "session's rig description, the same at every pixel",
+                   MakeDistantUniformLightField(session.rig.leds, width, height)});
+  cases.push_back({"distant_uniform_fitted",
+                   "lights distant and uniform, from the calibrated LED positions and intensities: the "
+                   "far-field assumption alone",
+                   MakeDistantUniformLightField(fitted, width, height)});
+  cases.push_back({"rig_description",
+                   "near-field LEDs of the session's (uncalibrated) rig description on its nominal camera",
+                   MakeRigLightField(session.rig)});
+  cases.push_back({"calibrated", calibrated->light_model, std::move(calibrated->light_field)});
+  return cases;
+}
+
 }  // namespace
 
 void EdgeErrorOptions::Check() const {
@@ -91,21 +182,15 @@ void EdgeErrorOptions::Check() const {
   calibration.Check();
   if (calibration_dir.empty()) throw std::invalid_argument("EdgeErrorOptions.calibration_dir must be given");
   if (output_dir.empty()) throw std::invalid_argument("EdgeErrorOptions.output_dir must be given");
-  if (block_px < 0 || block_px > 4096) {
-    throw std::invalid_argument("EdgeErrorOptions.block_px = " + std::to_string(block_px) + " must lie in [0, 4096]");
-  }
+  const std::string where = "EdgeErrorOptions";
+  if (block_px < 0 || block_px > 4096) throw FieldError(where, "block_px", block_px, "must lie in [0, 4096]");
   if (!(border_fraction > 0 && border_fraction < 0.5)) {
-    throw std::invalid_argument("EdgeErrorOptions.border_fraction = " + std::to_string(border_fraction) +
-                                " must lie in (0, 0.5)");
+    throw FieldError(where, "border_fraction", border_fraction, "must lie in (0, 0.5)");
   }
   if (!(centre_fraction > 0 && centre_fraction < 1)) {
-    throw std::invalid_argument("EdgeErrorOptions.centre_fraction = " + std::to_string(centre_fraction) +
-                                " must lie in (0, 1)");
+    throw FieldError(where, "centre_fraction", centre_fraction, "must lie in (0, 1)");
   }
-  if (!(colour_scale_deg > 0)) {
-    throw std::invalid_argument("EdgeErrorOptions.colour_scale_deg = " + std::to_string(colour_scale_deg) +
-                                " must be > 0");
-  }
+  if (!(colour_scale_deg > 0)) throw FieldError(where, "colour_scale_deg", colour_scale_deg, "must be > 0");
 }
 
 const EdgeErrorCase* EdgeErrorSummary::Find(const std::string& name) const {
@@ -128,164 +213,130 @@ std::string EdgeErrorSummary::FullReport() const {
   return out.str();
 }
 
+struct EdgeErrorController::Inputs {
+  Session session;
+  std::string session_name;
+  ImageF truth;         // normals in the table frame
+  ImageU8 sample_mask;  // as stored: > 127 on the sample
+  std::vector<ImageF> images;
+  std::vector<ImageU8> valid;
+};
+
 EdgeErrorController::EdgeErrorController(fs::path session_dir, EdgeErrorOptions options)
     : session_dir_(std::move(session_dir)), options_(std::move(options)) {}
 
 void EdgeErrorController::Run() {
   options_.Check();
   summary_ = EdgeErrorSummary();
-  ReportProgress("load session", 0);
-  SessionLoadOptions load;
-  load.verify_checksums = options_.verify_checksums;
-  const Session session = LoadSession(session_dir_, load);
-  const std::string session_name = (session_dir_ / "session.json").string();
-  if (!session.ground_truth) {
-    throw SessionError(session_name + ": ground_truth: missing; the edge error is measured against ground truth "
-                                      "(a simulated session)");
-  }
-  const int width = session.camera.width, height = session.camera.height;
-  const ImageF truth = ReadImageFloat(session_dir_ / session.ground_truth->normal_file);
-  const ImageU8 stored_mask = ReadImageU8(session_dir_ / session.ground_truth->mask_file);
-
-  // Develop every frame once.
-  auto decode = [&](const FrameRecord& record) {
-    const fs::path path = session_dir_ / record.file;
-    RawImage raw = DecodeRawFile(path);
-    CheckRawSize(raw, width, height, path.string());
-    return raw;
-  };
-  const RawImage dark = decode(*FindDarkFrame(session));
-  std::vector<ImageF> images;
-  std::vector<ImageU8> valid;
-  for (size_t k = 0; k < session.rig.leds.size(); ++k) {
-    ThrowIfStopRequested("decode RAW");
-    ReportProgress("decode RAW", double(k) / session.rig.leds.size());
-    DevelopedFrame developed = DevelopRaw(decode(*FindLedFrame(session, static_cast<int>(k))), &dark, options_.develop);
-    images.push_back(std::move(developed.rgb));
-    valid.push_back(std::move(developed.valid));
-  }
-
+  Inputs inputs = LoadSessionWithTruth();
+  DevelopFrames(&inputs);
   const CalibrationSet set = LoadCalibrationSet(options_.calibration_dir);
   const std::string set_name = (options_.calibration_dir / kCalibrationManifestName).string();
-  CalibratedLighting calibrated = MakeCalibratedLighting(set, set_name, session, session_name, options_.calibration);
-  std::vector<LedDescription> fitted = set.lights->summary.ModelLeds();
+  CalibratedLighting calibrated =
+      MakeCalibratedLighting(set, set_name, inputs.session, inputs.session_name, options_.calibration);
+  const std::vector<LightCase> cases = MakeLightCases(inputs.session, set, &calibrated);
 
-  struct Case {
-    std::string name, description;
-    std::unique_ptr<LightField> field;
-  };
-  std::vector<Case> cases;
-  cases.push_back({"distant_uniform",
-                   "lights distant and uniform: each LED's direction and intensity at the table origin from the "
-                   "session's rig description, the same at every pixel",
-                   MakeDistantUniformLightField(session.rig.leds, width, height)});
-  cases.push_back({"distant_uniform_fitted",
-                   "lights distant and uniform, from the calibrated LED positions and intensities: the "
-                   "far-field assumption alone",
-                   MakeDistantUniformLightField(fitted, width, height)});
-  cases.push_back({"rig_description",
-                   "near-field LEDs of the session's (uncalibrated) rig description on its nominal camera",
-                   MakeRigLightField(session.rig)});
-  cases.push_back({"calibrated", calibrated.light_model, std::move(calibrated.light_field)});
-
-  const int block = options_.block_px > 0 ? options_.block_px : std::max(4, width / 40);
-  summary_.block_px = block;
+  const int width = inputs.session.camera.width;
+  summary_.block_px = options_.block_px > 0 ? options_.block_px : std::max(4, width / 40);
   summary_.output_dir = options_.output_dir;
   fs::create_directories(options_.output_dir);
   nlohmann::json report;
   report["schema"] = "scanbench.edge_error/1";
   report["session"] = fs::absolute(session_dir_).string();
   report["calibration"] = fs::absolute(options_.calibration_dir).string();
-  report["block_px"] = block;
+  report["block_px"] = summary_.block_px;
   report["border_fraction"] = options_.border_fraction;
   report["centre_fraction"] = options_.centre_fraction;
   std::vector<ImageU8> case_images;
-  for (size_t c = 0; c < cases.size(); ++c) {
-    const std::string stage = "solve " + cases[c].name;
-    ReportProgress(stage, 0);
-    PhotometricSolverInput input;
-    for (size_t k = 0; k < images.size(); ++k) {
-      input.images.push_back(&images[k]);
-      input.sample_valid.push_back(&valid[k]);
-    }
-    input.light_field = cases[c].field.get();
-    PhotometricSolution solution;
-    const PhotometricSolverSummary solved = SolvePhotometricStereo(options_.solver, input, &solution,
-                                                                   StageCallback(stage));
-    if (solved.termination == Termination::kCancelled) throw Cancelled(stage);
-
-    EdgeErrorCase result;
-    result.name = cases[c].name;
-    result.description = cases[c].description;
-    ImageU8 solved_mask(width, height, 1), sample_mask(width, height, 1);
-    for (size_t i = 0; i < solved_mask.num_pixels(); ++i) {
-      solved_mask.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
-      sample_mask.data()[i] = solved_mask.data()[i] && stored_mask.data()[i * stored_mask.channels()] > 127;
-    }
-    result.error_deg = AngularErrorDegrees(solution.normal_in_table, truth, solved_mask);
-    result.sample_error_deg = AngularErrorDegrees(solution.normal_in_table, truth, sample_mask);
-    const TiltMap tilt = ComputeTilt(solution, truth, block);
-    double centre_sum = 0, border_sum = 0;
-    int centre_count = 0, border_count = 0;
-    for (int j = 0; j < tilt.blocks_y; ++j) {
-      for (int i = 0; i < tilt.blocks_x; ++i) {
-        const size_t b = static_cast<size_t>(j) * tilt.blocks_x + i;
-        if (tilt.count[b] < block * block / 4) continue;  // mostly unsolved: not a fair mean
-        const double magnitude = tilt.tilt_deg[b].norm();
-        const double cx = ((i + 0.5) * block) / width, cy = ((j + 0.5) * block) / height;
-        const bool centre = std::abs(cx - 0.5) <= 0.5 * options_.centre_fraction &&
-                            std::abs(cy - 0.5) <= 0.5 * options_.centre_fraction;
-        const bool border = cx < options_.border_fraction || cx > 1 - options_.border_fraction ||
-                            cy < options_.border_fraction || cy > 1 - options_.border_fraction;
-        if (centre) {
-          centre_sum += magnitude;
-          ++centre_count;
-        }
-        if (border) {
-          border_sum += magnitude;
-          ++border_count;
-        }
-        result.max_tilt_deg = std::max(result.max_tilt_deg, magnitude);
-      }
-    }
-    result.centre_tilt_deg = centre_count > 0 ? centre_sum / centre_count : 0.0;
-    result.border_tilt_deg = border_count > 0 ? border_sum / border_count : 0.0;
-    const ImageU8 image = TiltImage(tilt, width, height, std::min(width, 616), options_.colour_scale_deg);
-    result.image = "edge_error_" + result.name + ".png";
-    WritePng(options_.output_dir / result.image, image, OverwritePolicy::kReplace);
-    case_images.push_back(image);
-    report["cases"][result.name] = {{"description", result.description},
-                                    {"angular_error_deg", StatisticsJson(result.error_deg)},
-                                    {"sample_angular_error_deg", StatisticsJson(result.sample_error_deg)},
-                                    {"centre_tilt_deg", result.centre_tilt_deg},
-                                    {"border_tilt_deg", result.border_tilt_deg},
-                                    {"max_tilt_deg", result.max_tilt_deg},
-                                    {"image", result.image}};
-    summary_.cases.push_back(result);
-    ThrowIfStopRequested(stage);
+  for (const LightCase& light_case : cases) {
+    case_images.push_back(MeasureCase(inputs, light_case.name, light_case.description, *light_case.field));
+    report["cases"][light_case.name] = CaseJson(summary_.cases.back());
   }
 
-  // distant-uniform | calibrated, with a white gap.
-  const ImageU8& left = case_images.front();
-  const ImageU8& right = case_images.back();
-  constexpr int kGap = 8;
-  ImageU8 both(left.width() + kGap + right.width(), std::max(left.height(), right.height()), 3, 255);
-  for (int y = 0; y < left.height(); ++y) {
-    for (int x = 0; x < left.width(); ++x) {
-      for (int c = 0; c < 3; ++c) {
-        both(x, y, c) = left(x, y, c);
-        both(left.width() + kGap + x, y, c) = right(x, y, c);
-      }
-    }
-  }
   summary_.comparison_image = "edge_error.png";
-  WritePng(options_.output_dir / summary_.comparison_image, both, OverwritePolicy::kReplace);
+  WritePng(options_.output_dir / summary_.comparison_image, SideBySide(case_images.front(), case_images.back()),
+           OverwritePolicy::kReplace);
   report["comparison_image"] = summary_.comparison_image;
   report["colour_scale_deg"] = options_.colour_scale_deg;
   report["warnings"] = calibrated.warnings;
   WriteFileAtomic(options_.output_dir / "edge_error.json", report.dump(2) + "\n", OverwritePolicy::kReplace);
   WriteFileAtomic(options_.output_dir / "edge_error.txt", summary_.FullReport(), OverwritePolicy::kReplace);
   ReportProgress("edge error", 1);
+}
+
+EdgeErrorController::Inputs EdgeErrorController::LoadSessionWithTruth() const {
+  BeginStage("load session");
+  Inputs inputs;
+  SessionLoadOptions load;
+  load.verify_checksums = options_.verify_checksums;
+  inputs.session = LoadSession(session_dir_, load);
+  inputs.session_name = (session_dir_ / "session.json").string();
+  if (!inputs.session.ground_truth) {
+    throw SessionError(inputs.session_name + ": ground_truth: missing; the edge error is measured against ground truth "
+                                             "(a simulated session)");
+  }
+  inputs.truth = ReadImageFloat(session_dir_ / inputs.session.ground_truth->normal_file);
+  inputs.sample_mask = ReadImageU8(session_dir_ / inputs.session.ground_truth->mask_file);
+  return inputs;
+}
+
+void EdgeErrorController::DevelopFrames(Inputs* inputs) const {
+  const Session& session = inputs->session;
+  auto decode = [&](const FrameRecord& record) {
+    const fs::path path = session_dir_ / record.file;
+    RawImage raw = DecodeRawFile(path);
+    CheckRawSize(raw, session.camera.width, session.camera.height, path.string());
+    return raw;
+  };
+  const RawImage dark = decode(*FindDarkFrame(session));
+  for (size_t k = 0; k < session.rig.leds.size(); ++k) {
+    ThrowIfStopRequested("decode RAW");
+    ReportProgress("decode RAW", double(k) / session.rig.leds.size());
+    DevelopedFrame developed = DevelopRaw(decode(*FindLedFrame(session, static_cast<int>(k))), &dark, options_.develop);
+    inputs->images.push_back(std::move(developed.rgb));
+    inputs->valid.push_back(std::move(developed.valid));
+  }
+}
+
+ImageU8 EdgeErrorController::MeasureCase(const Inputs& inputs, const std::string& name, const std::string& description,
+                                         const LightField& field) {
+  const std::string stage = "solve " + name;
+  BeginStage(stage);
+  PhotometricSolverInput input;
+  for (size_t k = 0; k < inputs.images.size(); ++k) {
+    input.images.push_back(&inputs.images[k]);
+    input.sample_valid.push_back(&inputs.valid[k]);
+  }
+  input.light_field = &field;
+  PhotometricSolution solution;
+  const PhotometricSolverSummary solved =
+      SolvePhotometricStereo(options_.solver, input, &solution, StageCallback(stage));
+  if (solved.IsCancelled()) throw Cancelled(stage);
+
+  const int width = inputs.session.camera.width, height = inputs.session.camera.height;
+  EdgeErrorCase result;
+  result.name = name;
+  result.description = description;
+  ImageU8 solved_mask(width, height, 1), sample_mask(width, height, 1);
+  for (size_t i = 0; i < solved_mask.num_pixels(); ++i) {
+    solved_mask.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    sample_mask.data()[i] =
+        solved_mask.data()[i] && inputs.sample_mask.data()[i * inputs.sample_mask.channels()] > 127;
+  }
+  result.error_deg = AngularErrorDegrees(solution.normal_in_table, inputs.truth, solved_mask);
+  result.sample_error_deg = AngularErrorDegrees(solution.normal_in_table, inputs.truth, sample_mask);
+  const TiltMap tilt = ComputeTilt(solution, inputs.truth, summary_.block_px);
+  const TiltFigures figures =
+      MeasureTilt(tilt, width, height, options_.centre_fraction, options_.border_fraction);
+  result.centre_tilt_deg = figures.centre_deg;
+  result.border_tilt_deg = figures.border_deg;
+  result.max_tilt_deg = figures.max_deg;
+  const ImageU8 image = TiltImage(tilt, width, height, std::min(width, 616), options_.colour_scale_deg);
+  result.image = "edge_error_" + result.name + ".png";
+  WritePng(options_.output_dir / result.image, image, OverwritePolicy::kReplace);
+  summary_.cases.push_back(result);
+  ThrowIfStopRequested(stage);
+  return image;
 }
 
 }  // namespace scanbench

@@ -67,6 +67,14 @@ class EdgeErrorController : public BaseController {
   const EdgeErrorSummary& summary() const { return summary_; }
 
  private:
+  struct Inputs;  // the session, its ground truth and developed frames
+  Inputs LoadSessionWithTruth() const;
+  void DevelopFrames(Inputs* inputs) const;
+  // Solves with `field`, measures the case into summary_.cases, writes its
+  // tilt image and returns it.
+  ImageU8 MeasureCase(const Inputs& inputs, const std::string& name, const std::string& description,
+                      const LightField& field);
+
   std::filesystem::path session_dir_;
   EdgeErrorOptions options_;
   EdgeErrorSummary summary_;

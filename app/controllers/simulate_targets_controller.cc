@@ -8,6 +8,8 @@
 #include "app/io/dng_writer.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
+#include "core/field_error.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -21,24 +23,105 @@ struct TargetJob {
   TargetRenderOptions render;
 };
 
+// Every target to render, in order, with its session folder noted in the summary.
+std::vector<TargetJob> PlanTargetJobs(const SimulateTargetsOptions& options, const fs::path& output_dir,
+                                      SimulateTargetsSummary* summary) {
+  std::vector<TargetJob> jobs;
+  if (options.checkerboard) {
+    const std::vector<Eigen::Isometry3d> poses = DefaultCheckerboardPoses();
+    for (int i = 0; i < options.num_board_poses; ++i) {
+      TargetJob job;
+      job.name = "checkerboard_" + std::to_string(i);
+      job.target = SimulatedTarget::Checkerboard(options.board, poses[i]);
+      job.description.kind = CalibrationTargetDescription::Kind::kCheckerboard;
+      job.description.checkerboard = options.board;
+      job.description.on_table = i == 0;
+      job.description.board_height_mm = 0;
+      job.render.exposure = options.board_exposure;
+      jobs.push_back(job);
+      summary->checkerboard_sessions.push_back(output_dir / job.name);
+    }
+  }
+  if (options.gray_chart) {
+    TargetJob job;
+    job.name = "gray_chart";
+    job.target = SimulatedTarget::GrayChart(GrayChartTarget::MunsellNeutralScale());
+    job.description.kind = CalibrationTargetDescription::Kind::kGrayChart;
+    job.description.gray_chart = job.target.gray_chart;
+    jobs.push_back(job);
+    summary->gray_chart_session = output_dir / job.name;
+  }
+  if (options.white_sheets) {
+    for (const double height : {0.0, options.spacer_mm}) {
+      TargetJob job;
+      job.name = height == 0 ? "white_sheet_table" : "white_sheet_spacer";
+      WhiteSheetTarget sheet;
+      sheet.height_mm = height;
+      job.target = SimulatedTarget::WhiteSheet(sheet);
+      job.description.kind = CalibrationTargetDescription::Kind::kWhiteSheet;
+      job.description.white_sheet = sheet;
+      jobs.push_back(job);
+      summary->white_sheet_sessions.push_back(output_dir / job.name);
+    }
+  }
+  return jobs;
+}
+
+// A new target session as the capture sequencer starts it: the measured rig,
+// the simulated camera at the job's exposure, no frames yet.
+Session NewTargetSession(const TargetJob& job, const RigDescription& measured, const SimulatedRigOptions& rig) {
+  Session session;
+  session.sample_name = "calibration target: " + job.name;
+  session.notes = "rendered by the scanbench simulated rig from its true parameters; rig = measured description";
+  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
+  session.software_version = "scanbench " SCANBENCH_VERSION;
+  session.rig = measured;
+  session.camera.make = "scanbench";
+  session.camera.model = "Simulated D5100";
+  session.camera.serial = "SIM-" + std::to_string(rig.seed);
+  session.camera.lens = "simulated prime";
+  session.camera.iso = kSimulatedIso;
+  session.camera.exposure_time_s = kSimulatedExposureTimeS * job.render.exposure;
+  session.camera.f_number = kSimulatedFNumber;
+  session.camera.width = rig.width;
+  session.camera.height = rig.height;
+  return session;
+}
+
+// Journals `raw` as the session's dark frame (no LED) or LED frame.
+void AddTargetFrame(const fs::path& dir, Session& session, std::optional<int> led, const RawImage& raw) {
+  FrameRecord record;
+  record.kind = led ? FrameKind::kLed : FrameKind::kDark;
+  record.led_index = led.value_or(-1);
+  record.file = FrameFileName(led, ".dng");
+  record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
+  record.exposure_time_s = session.camera.exposure_time_s;
+  record.width = raw.width();
+  record.height = raw.height();
+  DngMetadata metadata;
+  metadata.model = session.camera.model;
+  metadata.serial = session.camera.serial;
+  metadata.software = session.software_version;
+  metadata.exposure_time_s = session.camera.exposure_time_s;
+  metadata.iso = kSimulatedIso;
+  metadata.f_number = kSimulatedFNumber;
+  AddFrame(dir, session, record, EncodeDng(raw, metadata));
+}
+
 }  // namespace
 
 void SimulateTargetsOptions::Check() const {
   rig.Check();
   measured.Check();
   board.Check();
+  const std::string where = "SimulateTargetsOptions";
   if (num_board_poses < 4 || num_board_poses > 9) {
-    throw std::invalid_argument("SimulateTargetsOptions.num_board_poses = " + std::to_string(num_board_poses) +
-                                " must lie in [4, 9]");
+    throw FieldError(where, "num_board_poses", num_board_poses, "must lie in [4, 9]");
   }
   if (!(board_exposure > 0 && board_exposure <= 100)) {
-    throw std::invalid_argument("SimulateTargetsOptions.board_exposure = " + std::to_string(board_exposure) +
-                                " must lie in (0, 100]");
+    throw FieldError(where, "board_exposure", board_exposure, "must lie in (0, 100]");
   }
-  if (!(spacer_mm > 0 && spacer_mm <= 200)) {
-    throw std::invalid_argument("SimulateTargetsOptions.spacer_mm = " + std::to_string(spacer_mm) +
-                                " must lie in (0, 200]");
-  }
+  if (!(spacer_mm > 0 && spacer_mm <= 200)) throw FieldError(where, "spacer_mm", spacer_mm, "must lie in (0, 200]");
 }
 
 SimulateTargetsController::SimulateTargetsController(fs::path output_dir, SimulateTargetsOptions options)
@@ -51,52 +134,12 @@ void SimulateTargetsController::Run() {
   const RigDescription truth = MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height);
   const RigDescription measured = MakeMeasuredRigDescription(truth, options_.measured);
   const TargetRenderer renderer(options_.rig, truth);
-
-  std::vector<TargetJob> jobs;
-  if (options_.checkerboard) {
-    const std::vector<Eigen::Isometry3d> poses = DefaultCheckerboardPoses();
-    for (int i = 0; i < options_.num_board_poses; ++i) {
-      TargetJob job;
-      job.name = "checkerboard_" + std::to_string(i);
-      job.target = SimulatedTarget::Checkerboard(options_.board, poses[i]);
-      job.description.kind = CalibrationTargetDescription::Kind::kCheckerboard;
-      job.description.checkerboard = options_.board;
-      job.description.on_table = i == 0;
-      job.description.board_height_mm = 0;
-      job.render.exposure = options_.board_exposure;
-      jobs.push_back(job);
-      summary_.checkerboard_sessions.push_back(output_dir_ / job.name);
-    }
-  }
-  if (options_.gray_chart) {
-    TargetJob job;
-    job.name = "gray_chart";
-    job.target = SimulatedTarget::GrayChart(GrayChartTarget::MunsellNeutralScale());
-    job.description.kind = CalibrationTargetDescription::Kind::kGrayChart;
-    job.description.gray_chart = job.target.gray_chart;
-    jobs.push_back(job);
-    summary_.gray_chart_session = output_dir_ / job.name;
-  }
-  if (options_.white_sheets) {
-    for (const double height : {0.0, options_.spacer_mm}) {
-      TargetJob job;
-      job.name = height == 0 ? "white_sheet_table" : "white_sheet_spacer";
-      WhiteSheetTarget sheet;
-      sheet.height_mm = height;
-      job.target = SimulatedTarget::WhiteSheet(sheet);
-      job.description.kind = CalibrationTargetDescription::Kind::kWhiteSheet;
-      job.description.white_sheet = sheet;
-      jobs.push_back(job);
-      summary_.white_sheet_sessions.push_back(output_dir_ / job.name);
-    }
-  }
-
+  const std::vector<TargetJob> jobs = PlanTargetJobs(options_, output_dir_, &summary_);
   const int num_frames = 1 + renderer.num_leds();
   const double total = static_cast<double>(jobs.size() * num_frames);
   for (size_t j = 0; j < jobs.size(); ++j) {
     const TargetJob& job = jobs[j];
     const fs::path dir = output_dir_ / job.name;
-    const std::string stage = "render " + job.name;
     std::optional<Session> existing;
     if (fs::exists(dir / "session.json")) {
       existing = LoadSession(dir);
@@ -105,62 +148,39 @@ void SimulateTargetsController::Run() {
         continue;
       }
     }
-    Session session;
-    if (existing) {
-      session = *existing;
-    } else {
-      session.sample_name = "calibration target: " + job.name;
-      session.notes = "rendered by the scanbench simulated rig from its true parameters; rig = measured description";
-      session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-      session.software_version = "scanbench " SCANBENCH_VERSION;
-      session.rig = measured;
-      session.camera.make = "scanbench";
-      session.camera.model = "Simulated D5100";
-      session.camera.serial = "SIM-" + std::to_string(options_.rig.seed);
-      session.camera.lens = "simulated prime";
-      session.camera.iso = kSimulatedIso;
-      session.camera.exposure_time_s = kSimulatedExposureTimeS * job.render.exposure;
-      session.camera.f_number = kSimulatedFNumber;
-      session.camera.width = options_.rig.width;
-      session.camera.height = options_.rig.height;
+    Session session = existing ? *existing : NewTargetSession(job, measured, options_.rig);
+    if (!existing) {
       CreateSessionFolder(dir);
       WriteSessionManifest(dir, session);
     }
     WriteCalibrationTarget(dir, job.description);
-
-    ReportProgress("simulate targets", j * num_frames / total);
-    const PreparedTarget prepared = renderer.Prepare(job.target, job.render);
-    for (int f = 0; f < num_frames; ++f) {
-      ThrowIfStopRequested(stage);
-      const std::optional<int> led = f == 0 ? std::nullopt : std::optional<int>(f - 1);
-      if (led ? FindLedFrame(session, *led) != nullptr : FindDarkFrame(session) != nullptr) continue;
-      // Every target gets its own noise: frame index 1000 * target + frame.
-      const RawImage raw = renderer.RenderFrame(prepared, led ? std::vector<int>{*led} : std::vector<int>{},
-                                                1000 * (j + 1) + f, job.render);
-      FrameRecord record;
-      record.kind = led ? FrameKind::kLed : FrameKind::kDark;
-      record.led_index = led.value_or(-1);
-      record.file = FrameFileName(led, ".dng");
-      record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
-      record.exposure_time_s = session.camera.exposure_time_s;
-      record.width = raw.width();
-      record.height = raw.height();
-      DngMetadata metadata;
-      metadata.model = session.camera.model;
-      metadata.serial = session.camera.serial;
-      metadata.software = session.software_version;
-      metadata.exposure_time_s = session.camera.exposure_time_s;
-      metadata.iso = kSimulatedIso;
-      metadata.f_number = kSimulatedFNumber;
-      AddFrame(dir, session, record, EncodeDng(raw, metadata));
-      ReportProgress("simulate targets", (j * num_frames + f + 1) / total);
-    }
+    RenderFrames(renderer, job.target, job.render, j, total, dir, session);
     session.capture_complete = true;
     WriteSessionManifest(dir, session);
     ++summary_.sessions_written;
   }
   ReportProgress("simulate targets", 1);
-  summary_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary_.seconds = SecondsSince(start);
+}
+
+void SimulateTargetsController::RenderFrames(const TargetRenderer& renderer, const SimulatedTarget& target,
+                                             const TargetRenderOptions& render, size_t job_index, double total_frames,
+                                             const fs::path& dir, Session& session) {
+  const std::string stage = "render " + dir.filename().string();
+  const int num_frames = 1 + renderer.num_leds();
+  const size_t frames_before = job_index * num_frames;
+  ReportProgress("simulate targets", frames_before / total_frames);
+  const PreparedTarget prepared = renderer.Prepare(target, render);
+  for (int f = 0; f < num_frames; ++f) {
+    ThrowIfStopRequested(stage);
+    const std::optional<int> led = f == 0 ? std::nullopt : std::optional<int>(f - 1);
+    if (led ? FindLedFrame(session, *led) != nullptr : FindDarkFrame(session) != nullptr) continue;  // resumed
+    // Every target gets its own noise: frame index 1000 * target + frame.
+    const RawImage raw = renderer.RenderFrame(prepared, led ? std::vector<int>{*led} : std::vector<int>{},
+                                              1000 * (job_index + 1) + f, render);
+    AddTargetFrame(dir, session, led, raw);
+    ReportProgress("simulate targets", (frames_before + f + 1) / total_frames);
+  }
 }
 
 }  // namespace scanbench

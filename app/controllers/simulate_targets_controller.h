@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "app/controllers/base_controller.h"
+#include "app/session/session.h"
 #include "app/sim/simulated_rig.h"
 #include "app/sim/target_renderer.h"
 
@@ -54,6 +55,11 @@ class SimulateTargetsController : public BaseController {
   const SimulateTargetsSummary& summary() const { return summary_; }
 
  private:
+  // The frames `session` (in folder `dir`, named after the job) still lacks,
+  // rendered and journalled; job_index names the noise and the progress.
+  void RenderFrames(const TargetRenderer& renderer, const SimulatedTarget& target, const TargetRenderOptions& render,
+                    size_t job_index, double total_frames, const std::filesystem::path& dir, Session& session);
+
   std::filesystem::path output_dir_;
   SimulateTargetsOptions options_;
   SimulateTargetsSummary summary_;

@@ -105,10 +105,10 @@ void CheckIntrinsics(const CameraIntrinsics& intrinsics, const std::string& file
   try {
     CheckCameraIntrinsics(intrinsics);
   } catch (const std::invalid_argument& error) {
-    // CheckCameraIntrinsics says "camera intrinsics: fx = 0 must be > 0"; the
+    // CheckCameraIntrinsics says "CameraIntrinsics.fx = 0 must be > 0"; the
     // path already says where.
     std::string message = error.what();
-    const std::string redundant_prefix = "camera intrinsics: ";
+    const std::string redundant_prefix = "CameraIntrinsics.";
     if (message.rfind(redundant_prefix, 0) == 0) message.erase(0, redundant_prefix.size());
     ThrowFieldError(file, path, message);
   }

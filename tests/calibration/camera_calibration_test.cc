@@ -63,7 +63,7 @@ Eigen::Vector2d DistortionShift(const CameraIntrinsics& k, double x, double y) {
 }
 
 TEST_F(CameraCalibrationTest, RecoversTheTrueIntrinsicsDistortionAndTablePose) {
-  const CameraCalibrationSummary summary = CalibrateCamera(board_, *views_);
+  const CameraCalibrationSummary summary = CalibrateCamera({}, board_, *views_);
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   EXPECT_EQ(summary.num_used_views, 9);
   EXPECT_LT(summary.reprojection_rms_px, 0.2);
@@ -113,7 +113,7 @@ TEST_F(CameraCalibrationTest, BlurredAndMissingBoardsAreRejectedWithTheReason) {
   empty.name = "no board";
   for (size_t i = 0; i < empty.gray.size(); ++i) empty.gray.data()[i] = 0.5f;
   views.push_back(empty);
-  const CameraCalibrationSummary summary = CalibrateCamera(board_, views);
+  const CameraCalibrationSummary summary = CalibrateCamera({}, board_, views);
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   EXPECT_EQ(summary.num_used_views, 9);
   ASSERT_EQ(summary.views.size(), 11u);
@@ -128,7 +128,7 @@ TEST_F(CameraCalibrationTest, BlurredAndMissingBoardsAreRejectedWithTheReason) {
 }
 
 TEST_F(CameraCalibrationTest, DetectedCornersLieOnTheTrueProjections) {
-  const CheckerboardDetection detection = DetectCheckerboard((*views_)[0].gray, board_);
+  const CheckerboardDetection detection = DetectCheckerboard({}, (*views_)[0].gray, board_);
   ASSERT_TRUE(detection.usable) << detection.reason;
   const std::vector<Eigen::Vector3d> corners = board_.CornersInTarget();
   double sum_squares = 0;
@@ -143,12 +143,29 @@ TEST_F(CameraCalibrationTest, DetectedCornersLieOnTheTrueProjections) {
 TEST_F(CameraCalibrationTest, WithoutAnOnTableViewTheCalibrationFailsSayingWhy) {
   std::vector<CalibrationView> views = *views_;
   for (CalibrationView& view : views) view.on_table = false;
-  const CameraCalibrationSummary summary = CalibrateCamera(board_, views);
+  const CameraCalibrationSummary summary = CalibrateCamera({}, board_, views);
   EXPECT_FALSE(summary.IsUsable());
   EXPECT_THAT(summary.message, ::testing::HasSubstr("no view has the board lying flat on the table"));
   views.resize(2);
   views[0].on_table = true;
-  EXPECT_THAT(CalibrateCamera(board_, views).message, ::testing::HasSubstr("2 usable views, min_views = 4"));
+  EXPECT_THAT(CalibrateCamera({}, board_, views).message, ::testing::HasSubstr("2 usable views, min_views = 4"));
+}
+
+TEST_F(CameraCalibrationTest, ACancelEndsCancelledNotFailed) {
+  // Stop while detecting the second view, then just before the table pose.
+  std::vector<double> reported;
+  const CameraCalibrationSummary detecting = CalibrateCamera({}, board_, *views_, [&](double fraction) {
+    reported.push_back(fraction);
+    return reported.size() < 2;
+  });
+  EXPECT_TRUE(detecting.IsCancelled());
+  EXPECT_FALSE(detecting.IsUsable());
+  EXPECT_EQ(detecting.views.size(), 1u);
+  const CameraCalibrationSummary solved =
+      CalibrateCamera({}, board_, *views_, [](double fraction) { return fraction < 0.9; });
+  EXPECT_EQ(solved.termination, Termination::kCancelled);
+  EXPECT_EQ(solved.views.size(), views_->size());
+  EXPECT_EQ(solved.num_used_views, 0);
 }
 
 TEST(CameraCalibrationOptionsTest, CheckNamesTheFieldValueAndRule) {

@@ -96,7 +96,7 @@ class LightCalibrationTest : public ::testing::Test {
 TEST_F(LightCalibrationTest, ModelRecoversTheTrueLedPositionsFalloffAndIntensities) {
   // The true camera: the camera calibration is tested on its own.
   const LightCalibrationSummary summary =
-      CalibrateLights(sheets_->truth.camera, sheets_->measured.leds, sheets_->Captures(true));
+      CalibrateLights({}, sheets_->truth.camera, sheets_->measured.leds, sheets_->Captures(true));
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   std::cout << summary.BriefReport() << "\n";
   ASSERT_EQ(summary.model.size(), 10u);
@@ -142,7 +142,7 @@ TEST_F(LightCalibrationTest, ModelRecoversTheTrueLedPositionsFalloffAndIntensiti
 
 TEST_F(LightCalibrationTest, PerPixelProcedureConvergesOnTheTrueField) {
   const LightCalibrationSummary summary =
-      CalibrateLights(sheets_->truth.camera, sheets_->measured.leds, sheets_->Captures(true));
+      CalibrateLights({}, sheets_->truth.camera, sheets_->measured.leds, sheets_->Captures(true));
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   ASSERT_EQ(summary.per_pixel.size(), 10u);
   for (size_t k = 0; k < 10; ++k) {
@@ -174,7 +174,7 @@ TEST_F(LightCalibrationTest, PerPixelProcedureConvergesOnTheTrueField) {
 
 TEST_F(LightCalibrationTest, OneSheetHeightWarns) {
   const LightCalibrationSummary summary =
-      CalibrateLights(sheets_->truth.camera, sheets_->measured.leds, sheets_->Captures(false));
+      CalibrateLights({}, sheets_->truth.camera, sheets_->measured.leds, sheets_->Captures(false));
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   ASSERT_EQ(summary.warnings.size(), 1u);
   EXPECT_THAT(summary.warnings[0], ::testing::HasSubstr("one height only"));
@@ -183,18 +183,35 @@ TEST_F(LightCalibrationTest, OneSheetHeightWarns) {
 TEST_F(LightCalibrationTest, BadInputIsNamed) {
   std::vector<WhiteSheetCapture> captures = sheets_->Captures(true);
   captures[1].led_frames.pop_back();
-  EXPECT_THAT([&] { CalibrateLights(sheets_->truth.camera, sheets_->measured.leds, captures); },
+  EXPECT_THAT([&] { CalibrateLights({}, sheets_->truth.camera, sheets_->measured.leds, captures); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   ::testing::HasSubstr("white sheet sheet on spacer: 9 LED frames for 10 LEDs")));
   captures = sheets_->Captures(true);
   captures.erase(captures.begin());
-  EXPECT_THAT(CalibrateLights(sheets_->truth.camera, sheets_->measured.leds, captures).message,
+  EXPECT_THAT(CalibrateLights({}, sheets_->truth.camera, sheets_->measured.leds, captures).message,
               ::testing::HasSubstr("no white sheet lies on the table"));
   LightCalibrationOptions options;
   options.cell_px = 7;
   EXPECT_THAT([&] { options.Check(); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   ::testing::HasSubstr("LightCalibrationOptions.cell_px = 7 must be 0 (automatic) or an even")));
+}
+
+TEST_F(LightCalibrationTest, ACancelEndsCancelledNotFailed) {
+  // 2 sheets x 10 LEDs measured, then two steps per LED: stop while
+  // measuring, then right after the first LED's model fit.
+  for (const int stop_at : {3, 21}) {
+    int calls = 0;
+    const LightCalibrationSummary summary =
+        CalibrateLights({}, sheets_->truth.camera, sheets_->measured.leds, sheets_->Captures(true),
+                        [&](double) { return ++calls < stop_at; });
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << stop_at;
+    EXPECT_FALSE(summary.IsUsable());
+    EXPECT_EQ(calls, stop_at);
+    EXPECT_EQ(summary.model.size(), stop_at == 21 ? 1u : 0u);
+    EXPECT_TRUE(summary.per_pixel.empty());
+    EXPECT_FALSE(summary.per_pixel_field.has_value());
+  }
 }
 
 // LEDs whose lens throws rings into the beam: the model cannot follow, the
@@ -207,7 +224,7 @@ TEST(LightCalibrationRippleTest, LedsOffTheModelSelectThePerPixelField) {
   LightCalibrationOptions options;
   options.max_fit_evaluations = 300;  // a model that cannot fit need not be chased long
   const LightCalibrationSummary summary =
-      CalibrateLights(sheets.truth.camera, sheets.measured.leds, sheets.Captures(true), options);
+      CalibrateLights(options, sheets.truth.camera, sheets.measured.leds, sheets.Captures(true));
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   EXPECT_EQ(summary.selected, LightCalibrationSummary::Choice::kPerPixel);
   EXPECT_THAT(summary.selection_reason, ::testing::HasSubstr("do not follow the point-source model"));

@@ -44,8 +44,9 @@ TEST(WhiteBalanceTest, MunsellValuesGiveTheirReflectance) {
 TEST(WhiteBalanceTest, RecoversEachLedsTrueGainsAndALinearResponse) {
   const ChartCapture capture = RenderChart(1.0);
   // The camera is the true one here: registration is the camera test's job.
-  const WhiteBalanceSummary summary = CalibrateWhiteBalance(capture.chart, capture.truth.camera, capture.measured.leds,
-                                                            capture.frames.dark, capture.frames.leds);
+  const WhiteBalanceSummary summary = CalibrateWhiteBalance({}, capture.chart, capture.truth.camera,
+                                                            capture.measured.leds, capture.frames.dark,
+                                                            capture.frames.leds);
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   ASSERT_EQ(summary.leds.size(), 10u);
   for (size_t k = 0; k < 10; ++k) {
@@ -76,10 +77,28 @@ TEST(WhiteBalanceTest, RecoversEachLedsTrueGainsAndALinearResponse) {
   }
 }
 
+TEST(WhiteBalanceTest, ACancelEndsCancelledAfterTheLedItFinished) {
+  const ChartCapture capture = RenderChart(1.0);
+  std::vector<double> reported;
+  const WhiteBalanceSummary summary =
+      CalibrateWhiteBalance({}, capture.chart, capture.truth.camera, capture.measured.leds, capture.frames.dark,
+                            capture.frames.leds, [&](double fraction) {
+                              reported.push_back(fraction);
+                              return reported.size() < 2;
+                            });
+  EXPECT_TRUE(summary.IsCancelled());
+  EXPECT_FALSE(summary.IsUsable());
+  EXPECT_EQ(summary.leds.size(), 2u);
+  ASSERT_EQ(reported.size(), 2u);
+  EXPECT_DOUBLE_EQ(reported[0], 0.1);
+  EXPECT_DOUBLE_EQ(reported[1], 0.2);
+}
+
 TEST(WhiteBalanceTest, OverexposedPatchesAreFlaggedAndLeftOut) {
   const ChartCapture capture = RenderChart(2.2);
-  const WhiteBalanceSummary summary = CalibrateWhiteBalance(capture.chart, capture.truth.camera, capture.measured.leds,
-                                                            capture.frames.dark, capture.frames.leds);
+  const WhiteBalanceSummary summary = CalibrateWhiteBalance({}, capture.chart, capture.truth.camera,
+                                                            capture.measured.leds, capture.frames.dark,
+                                                            capture.frames.leds);
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
   int clipped = 0;
   for (size_t k = 0; k < 10; ++k) {
@@ -112,7 +131,7 @@ TEST(WhiteBalanceTest, ChecksAndFailuresNameTheProblem) {
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("patches[4] (N7).reflectance = 0")));
   // Far too dark: every patch underexposed.
   const ChartCapture capture = RenderChart(0.01);
-  const WhiteBalanceSummary summary = CalibrateWhiteBalance(capture.chart, capture.truth.camera, {},
+  const WhiteBalanceSummary summary = CalibrateWhiteBalance({}, capture.chart, capture.truth.camera, {},
                                                             capture.frames.dark, capture.frames.leds);
   EXPECT_FALSE(summary.IsUsable());
   EXPECT_THAT(summary.message, ::testing::HasSubstr("LED 0: fewer than 3 usable patches"));

@@ -82,6 +82,7 @@ class CalibrationChain {
   void ScanSolvedWithTheCalibrationMeetsTheTarget() const;
   void EdgeErrorOfDistantUniformLightsFarExceedsTheCalibrated() const;
   void OtherCamerasStaleSetsAndWrongTargetsAreNamed() const;
+  void AStopInsideACalibrationThrowsCancelledAndKeepsTheSet() const;
 
   TemporaryFolder* folder_ = nullptr;
   SimulateTargetsController* targets_ = nullptr;
@@ -266,6 +267,24 @@ void CalibrationChain::OtherCamerasStaleSetsAndWrongTargetsAreNamed() const {
               ::testing::ThrowsMessage<SessionError>(HasSubstr("none a calibration set?)")));
 }
 
+void CalibrationChain::AStopInsideACalibrationThrowsCancelledAndKeepsTheSet() const {
+  const auto read = [](const fs::path& path) {
+    std::ifstream in(path);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string set_before = read(Calibration() / kCalibrationManifestName);
+  LightCalibrationController lights(targets_->summary().white_sheet_sessions, Calibration(), {});
+  // The stop comes from inside CalibrateLights, after its first step.
+  lights.SetProgressCallback([&lights](const ProgressReport& report) {
+    if (report.stage == "calibrate lights" && report.fraction > 0) lights.RequestStop();
+  });
+  EXPECT_THAT([&] { lights.Run(); },
+              ::testing::ThrowsMessage<Cancelled>(HasSubstr("cancelled during calibrate lights")));
+  EXPECT_EQ(lights.summary().termination, Termination::kCancelled);
+  EXPECT_TRUE(lights.summary().model.empty());
+  EXPECT_EQ(read(Calibration() / kCalibrationManifestName), set_before);
+}
+
 TEST(CalibrationControllersTest, TargetsToCalibrationSetToACalibratedScan) {
   const CalibrationChain chain;
   {
@@ -287,6 +306,10 @@ TEST(CalibrationControllersTest, TargetsToCalibrationSetToACalibratedScan) {
   {
     SCOPED_TRACE("refusals");
     chain.OtherCamerasStaleSetsAndWrongTargetsAreNamed();
+  }
+  {
+    SCOPED_TRACE("stop");
+    chain.AStopInsideACalibrationThrowsCancelledAndKeepsTheSet();
   }
 }
 
