@@ -8,6 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/field_error.h"
+
 namespace scanbench {
 namespace {
 
@@ -33,8 +35,7 @@ int DemosaicOffset(uint16_t white_level) { return std::min(16384, 65535 - int(wh
 
 void RawDevelopOptions::Check() const {
   if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw std::invalid_argument("RawDevelopOptions.clip_fraction = " + std::to_string(clip_fraction) +
-                                " must lie in (0, 1]");
+    throw FieldError("RawDevelopOptions", "clip_fraction", clip_fraction, "must lie in (0, 1]");
   }
 }
 
