@@ -90,7 +90,8 @@ cv::Mat LowPass(const cv::Mat& weighted_slopes, double sigma) {
     return low_pass;
   }
   const double f = factor;
-  const cv::Size coarse_size((weighted_slopes.cols + factor - 1) / factor, (weighted_slopes.rows + factor - 1) / factor);
+  const cv::Size coarse_size((weighted_slopes.cols + factor - 1) / factor,
+                             (weighted_slopes.rows + factor - 1) / factor);
   cv::Mat coarse;
   cv::resize(weighted_slopes, coarse, coarse_size, 0, 0, cv::INTER_AREA);
   // Box of f px (variance (f^2 - 1) / 12) and bilinear tent (f^2 / 6) are part of the low-pass.

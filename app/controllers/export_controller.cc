@@ -877,7 +877,8 @@ ExportMaps ExportController::Derive(const ExportInputs& inputs) {
   summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
                                       &maps.height_mm, StageCallback("height from normals"));
   RequireSuccess(summary_.height, "height from normals");
-  const auto [lowest, highest] = std::minmax_element(maps.height_mm.data(), maps.height_mm.data() + maps.height_mm.size());
+  const float* heights = maps.height_mm.data();
+  const auto [lowest, highest] = std::minmax_element(heights, heights + maps.height_mm.size());
   summary_.height_min_mm = *lowest;
   summary_.height_max_mm = *highest;
   EndStage("height");

@@ -15,6 +15,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "core/format.h"
+
 namespace scanbench {
 namespace {
 
@@ -499,6 +501,44 @@ TEST(GlossMipChain, BadOptionsAndShapesAreNamed) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("'phong'"));
   }
+}
+
+TEST(GlossMipChain, ProgressRisesToOneOverTheLevels) {
+  const ImageF normals = ConstantNormals(37, 20, 0, 0, 1);
+  std::vector<double> fractions;
+  std::vector<GlossMipLevel> levels;
+  const GlossMipSummary summary = BuildGlossMipChain({}, normals, nullptr, nullptr, &levels, [&](double f) {
+    fractions.push_back(f);
+    return true;
+  });
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
+  EXPECT_EQ(fractions.size(), levels.size()) << "one report per level";
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_EQ(fractions.back(), 1.0);
+}
+
+TEST(GlossMipChain, CancelLeavesNoLevels) {
+  const ImageF normals = ConstantNormals(37, 20, 0, 0, 1);
+  for (int allowed_calls : {0, 3}) {
+    int calls = 0;
+    std::vector<GlossMipLevel> levels(2);
+    const GlossMipSummary summary = BuildGlossMipChain({}, normals, nullptr, nullptr, &levels,
+                                                       [&](double) { return calls++ < allowed_calls; });
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
+    EXPECT_EQ(calls, allowed_calls + 1) << "no level after the cancel";
+    EXPECT_TRUE(levels.empty());
+    EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("cancelled"));
+  }
+}
+
+TEST(GlossMipChain, NullOutputThrowsAndBriefReportGivesTheFigures) {
+  const ImageF normals = ConstantNormals(9, 5, 0, 0, 1);
+  EXPECT_THROW(BuildGlossMipChain({}, normals, nullptr, nullptr, nullptr), std::invalid_argument);
+  std::vector<GlossMipLevel> levels;
+  const GlossMipSummary summary = BuildGlossMipChain({}, normals, nullptr, nullptr, &levels);
+  EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("(vmf): success, " + std::to_string(levels.size()) +
+                                                          " levels, mean GGX alpha " +
+                                                          Fixed(summary.mean_roughness.front(), 3)));
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "core/format.h"
 #include "tests/util/option_check.h"
 
 namespace scanbench {
@@ -337,7 +338,8 @@ TEST_P(HeightMethods, CancelMidwayWithHolesStopsAskingAndReturnsFiniteHeights) {
   int calls = 0;
   HeightFromNormalsSummary summary;
   ImageF height;
-  summary = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, &valid, &height, [&](double) { return ++calls < 3; });
+  summary = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, &valid, &height,
+                              [&](double) { return ++calls < 3; });
   EXPECT_EQ(summary.termination, Termination::kCancelled) << summary.message;
   EXPECT_EQ(calls, 3);
   EXPECT_TRUE(AllFinite(height));
@@ -349,11 +351,12 @@ TEST_P(HeightMethods, ProgressReachesOneWhenNotCancelled) {
   double last_fraction = -1;
   bool monotonic = true;
   HeightFromNormalsSummary summary;
-  summary = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr, &output, [&](double fraction) {
+  auto progress = [&](double fraction) {
     monotonic = monotonic && fraction >= last_fraction && fraction <= 1.0;
     last_fraction = fraction;
     return true;
-  });
+  };
+  summary = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr, &output, progress);
   EXPECT_EQ(summary.termination, Termination::kSuccess);
   EXPECT_TRUE(monotonic);
   EXPECT_NEAR(last_fraction, 1.0, 1e-9);
@@ -390,7 +393,8 @@ TEST(HeightFromNormals, RelaxationReportsLevelsSweepsAndConvergence) {
   ImageF output;
   const Scene scene = Render(SumOfSines(), 256, 160, 0.1);
   HeightFromNormalsSummary summary;
-  summary = HeightFromNormals(Options(Method::kMultiresolutionRelaxation, 0.1), scene.normal_in_tangent, nullptr, &output);
+  summary =
+      HeightFromNormals(Options(Method::kMultiresolutionRelaxation, 0.1), scene.normal_in_tangent, nullptr, &output);
   EXPECT_EQ(summary.method, "relaxation");
   // 256 -> 128 -> 64 -> 32 -> 16 -> 8 columns (coarsest_level_size 8): six levels.
   EXPECT_EQ(summary.levels, 6);
@@ -417,7 +421,8 @@ TEST(HeightFromNormals, PlainGaussSeidelWorksAndOverRelaxationIsMoreAccurate) {
   ImageF plain_height;
   plain_summary = HeightFromNormals(plain, scene.normal_in_tangent, nullptr, &plain_height);
   ImageF sor_height;
-  sor_summary = HeightFromNormals(Options(Method::kMultiresolutionRelaxation, 0.05), scene.normal_in_tangent, nullptr, &sor_height);
+  sor_summary = HeightFromNormals(Options(Method::kMultiresolutionRelaxation, 0.05), scene.normal_in_tangent, nullptr,
+                                  &sor_height);
   const double truth_rms = Rms(scene.height_mm);
   const double plain_error = RmsDifference(plain_height, scene.height_mm);
   const double sor_error = RmsDifference(sor_height, scene.height_mm);
@@ -650,6 +655,29 @@ TEST(HeightFromNormals, SimulatedRigGroundTruthHeightIsRecovered) {
     EXPECT_LT(error, 0.09 * truth_rms);
     EXPECT_LT(interior_error, 0.04);  // measured 0.0285 mm
   }
+}
+
+TEST(HeightFromNormals, NullOutputThrowsNamingIt) {
+  try {
+    HeightFromNormals({}, ImageF(8, 6, 3, 0.0f), nullptr, nullptr);
+    ADD_FAILURE() << "null output accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("height_mm"));
+  }
+}
+
+TEST_P(HeightMethods, BriefReportGivesTheMethodOutcomeAndResidual) {
+  const Scene scene = Render(SumOfSines(), 64, 48, 0.1);
+  ImageF height;
+  const HeightFromNormalsSummary done = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr,
+                                                          &height);
+  ASSERT_EQ(done.termination, Termination::kSuccess) << done.message;
+  EXPECT_THAT(done.BriefReport(), HasSubstr("(" + done.method + "): success"));
+  EXPECT_THAT(done.BriefReport(), HasSubstr("RMS slope residual " + Fixed(done.rms_slope_residual, 3)));
+  const HeightFromNormalsSummary stopped =
+      HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr, &height,
+                        [](double) { return false; });
+  EXPECT_THAT(stopped.BriefReport(), HasSubstr("cancelled"));
 }
 
 }  // namespace

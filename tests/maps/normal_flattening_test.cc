@@ -15,6 +15,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "core/format.h"
 #include "tests/util/option_check.h"
 
 namespace scanbench {
@@ -356,6 +357,27 @@ TEST(FlattenNormals, BadShapesThrowNamingThem) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("valid mask is 8x5x1"));
   }
+}
+
+TEST(FlattenNormals, NullOutputThrowsNamingIt) {
+  try {
+    FlattenNormals({}, ImageF(8, 6, 3, 0.0f), nullptr, nullptr);
+    ADD_FAILURE() << "null output accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("flat_normal_in_tangent"));
+  }
+}
+
+TEST(FlattenNormals, BriefReportGivesTheOutcomeAndTheFigures) {
+  const ImageF tilted = DetailOnTilt(64, 48, 1.0);
+  ImageF flat;
+  const NormalFlatteningSummary done = FlattenNormals({}, tilted, nullptr, &flat);
+  ASSERT_EQ(done.termination, Termination::kSuccess) << done.message;
+  EXPECT_THAT(done.BriefReport(), HasSubstr("success, removed tilt mean " + Fixed(done.mean_removed_tilt_deg, 3)));
+  EXPECT_THAT(done.BriefReport(), HasSubstr("over " + std::to_string(done.valid_pixels) + " px"));
+  const NormalFlatteningSummary stopped = FlattenNormals({}, tilted, nullptr, &flat, [](double) { return false; });
+  EXPECT_THAT(stopped.BriefReport(), HasSubstr("cancelled"));
+  EXPECT_THAT(stopped.BriefReport(), HasSubstr(stopped.message));
 }
 
 }  // namespace

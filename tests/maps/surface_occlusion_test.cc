@@ -19,6 +19,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace {
@@ -396,7 +397,8 @@ TEST(AmbientOcclusion, CancelReturnsCancelledAndAnEmptyImage) {
     int calls = 0;
     OcclusionSummary summary;
     ImageF ao;
-    summary = AmbientOcclusionFromHeight(AoOptions(0.1, 1.0), flat, &ao, [&](double) { return calls++ < allowed_calls; });
+    summary =
+        AmbientOcclusionFromHeight(AoOptions(0.1, 1.0), flat, &ao, [&](double) { return calls++ < allowed_calls; });
     EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
     EXPECT_TRUE(ao.empty());
   }
@@ -606,6 +608,57 @@ TEST(AdjustOcclusionForAlbedo, BadShapesAreNamed) {
   ImageF bad(4, 3, 1, 0.5f);
   bad(1, 1) = std::nanf("");
   EXPECT_THROW(AdjustOcclusionForAlbedo(bad, ImageF(4, 3, 1)), std::invalid_argument);
+}
+
+TEST(Cavity, CancelReturnsCancelledAndAnEmptyImage) {
+  const ImageF flat(32, 32, 1, 0.0f);
+  for (int allowed_calls : {0, 1}) {  // before and after the blur
+    int calls = 0;
+    ImageF cavity(4, 4, 1);
+    const OcclusionSummary summary =
+        CavityFromHeight(CavityOptionsFor(0.1, 0.5, 0.2), flat, &cavity,
+                         [&](double) { return calls++ < allowed_calls; });
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
+    EXPECT_TRUE(cavity.empty());
+  }
+}
+
+TEST(Cavity, ProgressRisesToOne) {
+  std::vector<double> fractions;
+  ImageF cavity;
+  CavityFromHeight(CavityOptionsFor(0.1, 0.5, 0.2), ImageF(20, 50, 1, 0.0f), &cavity, [&](double f) {
+    fractions.push_back(f);
+    return true;
+  });
+  ASSERT_GE(fractions.size(), 2u);
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_EQ(fractions.back(), 1.0);
+}
+
+TEST(Occlusion, NullOutputsThrowNamingThem) {
+  try {
+    AmbientOcclusionFromHeight(AmbientOcclusionOptions(), ImageF(4, 4, 1), nullptr);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("visibility must not be null"));
+  }
+  try {
+    CavityFromHeight(CavityOptions(), ImageF(4, 4, 1), nullptr);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cavity must not be null"));
+  }
+}
+
+TEST(Occlusion, BriefReportNamesTheMapAndItsFigures) {
+  const ImageF height = MakeHeight(40, 30, 0.1, [](double x, double y) { return 0.3 * std::sin(x) * std::cos(y); });
+  ImageF map;
+  const OcclusionSummary ao = AmbientOcclusionFromHeight(AoOptions(0.1, 0.5), height, &map);
+  EXPECT_THAT(ao.BriefReport(), HasSubstr("Ambient occlusion: success, mean " + Fixed(ao.mean, 3)));
+  EXPECT_THAT(ao.BriefReport(), HasSubstr(std::to_string(ao.steps_per_direction) + " steps per direction"));
+  const OcclusionSummary cavity = CavityFromHeight(CavityOptionsFor(0.1, 0.5, 0.2), height, &map);
+  EXPECT_THAT(cavity.BriefReport(), HasSubstr("Cavity: success, mean " + Fixed(cavity.mean, 3)));
+  EXPECT_THAT(cavity.BriefReport(), ::testing::Not(HasSubstr("steps per direction")));
 }
 
 }  // namespace

@@ -174,7 +174,8 @@ TEST(TileableCrop, RequestedAndAutomaticSizes) {
     options.blend_width_px = band;
     std::vector<ImageF> tiles;
     const TileableCropSummary summary =
-        MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}, {&pattern, TileMapKind::kNormal}}, nullptr, &tiles);
+        MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}, {&pattern, TileMapKind::kNormal}}, nullptr,
+                         &tiles);
     EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
     EXPECT_EQ(tiles.size(), 2u);
     for (const ImageF& tile : tiles) {
@@ -356,6 +357,43 @@ TEST(TileableCrop, BadOptionsAndInputsAreNamed) {
   expect_error({{&gray, TileMapKind::kNormal}}, nullptr, options, &tiles, "maps[0] is a normal map with 1 channels");
   expect_error({{&image}}, &small_mask, options, &tiles, "valid mask is 10x10x1, must be 64x64x1");
   expect_error({{&image}}, nullptr, options, nullptr, "tiles must not be null");
+}
+
+TEST(TileableCrop, CancelLeavesNoTiles) {
+  const ImageF pattern = PeriodicPattern(200, 150, 5);
+  TileableCropOptions options;
+  options.tile_width = 64;
+  options.blend_width_px = 8;
+  for (int allowed_calls : {0, 1}) {  // after the search, after the first map
+    int calls = 0;
+    std::vector<ImageF> tiles;
+    const TileableCropSummary summary =
+        MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}, {&pattern, TileMapKind::kLinear}}, nullptr,
+                         &tiles, [&](double) { return calls++ < allowed_calls; });
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
+    EXPECT_TRUE(tiles.empty());
+    EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("cancelled"));
+  }
+}
+
+TEST(TileableCrop, ProgressRisesToOneAndBriefReportGivesThePlace) {
+  const ImageF pattern = PeriodicPattern(200, 150, 5);
+  TileableCropOptions options;
+  options.tile_width = 64;
+  options.blend_width_px = 8;
+  std::vector<double> fractions;
+  std::vector<ImageF> tiles;
+  const TileableCropSummary summary =
+      MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}}, nullptr, &tiles, [&](double f) {
+        fractions.push_back(f);
+        return true;
+      });
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
+  ASSERT_FALSE(fractions.empty());
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_EQ(fractions.back(), 1.0);
+  EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("success, 64x64 at (" + std::to_string(summary.x0) + ", " +
+                                                          std::to_string(summary.y0) + ")"));
 }
 
 }  // namespace
