@@ -17,6 +17,18 @@ namespace scanbench {
 // kFieldWidthMm / width, as on the rig.
 inline constexpr double kFieldWidthMm = 150.0;
 
+// A width x height map of `channels` whose pixel (x, y) is at(u_mm, v_mm,
+// pixel): u = x, v = y times the pitch kFieldWidthMm / width.
+inline ImageF SampleField(int width, int height, int channels,
+                          const std::function<void(double u_mm, double v_mm, float* pixel)>& at) {
+  ImageF map(width, height, channels);
+  const double mm = kFieldWidthMm / width;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) at(x * mm, y * mm, &map(x, y));
+  }
+  return map;
+}
+
 // A synthetic map per size, made on first use and kept while that size is
 // asked for: one map in memory at a time, so the 16 MP cases fit. The
 // reference Get returns lives until Get is called for another size.

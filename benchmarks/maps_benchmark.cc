@@ -27,23 +27,18 @@ namespace {
 // A weave-like relief's normals: gradient of 0.2 |sin(2 pi u / 2.4)| |cos(2 pi v / 3)| + 3 sin(2 pi (u + v) / 80),
 // u, v in mm.
 ImageF WeaveNormals(int width, int height) {
-  ImageF map(width, height, 3);
-  const double mm = kFieldWidthMm / width, two_pi = 2 * std::numbers::pi;
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const double u = x * mm, v = y * mm;
-      const double su = std::sin(two_pi * u / 2.4), cv = std::cos(two_pi * v / 3.0);
-      const double fold = 3 * two_pi / 80 * std::cos(two_pi * (u + v) / 80);
-      const double dzdu = 0.2 * two_pi / 2.4 * std::cos(two_pi * u / 2.4) * (su >= 0 ? 1 : -1) * std::abs(cv) + fold;
-      const double dzdv = -0.2 * two_pi / 3.0 * std::abs(su) * std::sin(two_pi * v / 3.0) * (cv >= 0 ? 1 : -1) + fold;
-      // v runs down the image; the tangent frame's y is up.
-      const double p = dzdu, q = -dzdv, length = std::sqrt(p * p + q * q + 1);
-      map(x, y, 0) = static_cast<float>(-p / length);
-      map(x, y, 1) = static_cast<float>(-q / length);
-      map(x, y, 2) = static_cast<float>(1 / length);
-    }
-  }
-  return map;
+  constexpr double two_pi = 2 * std::numbers::pi;
+  return SampleField(width, height, 3, [](double u, double v, float* normal) {
+    const double su = std::sin(two_pi * u / 2.4), cv = std::cos(two_pi * v / 3.0);
+    const double fold = 3 * two_pi / 80 * std::cos(two_pi * (u + v) / 80);
+    const double dzdu = 0.2 * two_pi / 2.4 * std::cos(two_pi * u / 2.4) * (su >= 0 ? 1 : -1) * std::abs(cv) + fold;
+    const double dzdv = -0.2 * two_pi / 3.0 * std::abs(su) * std::sin(two_pi * v / 3.0) * (cv >= 0 ? 1 : -1) + fold;
+    // v runs down the image; the tangent frame's y is up.
+    const double p = dzdu, q = -dzdv, length = std::sqrt(p * p + q * q + 1);
+    normal[0] = static_cast<float>(-p / length);
+    normal[1] = static_cast<float>(-q / length);
+    normal[2] = static_cast<float>(1 / length);
+  });
 }
 
 const ImageF& Normals(int width, int height) {

@@ -21,16 +21,11 @@ namespace {
 
 // A weave-like relief, mm: threads of 2.4 x 3 mm with 0.2 mm crowns plus fine ripples.
 ImageF WeaveHeight(int width, int height) {
-  ImageF map(width, height, 1);
-  const double mm = kFieldWidthMm / width, two_pi = 2 * std::numbers::pi;
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const double u = x * mm, v = y * mm;
-      map(x, y) = static_cast<float>(0.2 * std::abs(std::sin(two_pi * u / 2.4)) * std::abs(std::cos(two_pi * v / 3.0)) +
-                                     0.02 * std::sin(two_pi * (u + 0.7 * v) / 0.35));
-    }
-  }
-  return map;
+  constexpr double two_pi = 2 * std::numbers::pi;
+  return SampleField(width, height, 1, [](double u, double v, float* height_mm) {
+    *height_mm = static_cast<float>(0.2 * std::abs(std::sin(two_pi * u / 2.4)) * std::abs(std::cos(two_pi * v / 3.0)) +
+                                    0.02 * std::sin(two_pi * (u + 0.7 * v) / 0.35));
+  });
 }
 
 const ImageF& Height(int width, int height) {
