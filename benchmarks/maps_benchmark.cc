@@ -10,56 +10,40 @@
 // level, 1e-6 tolerance), which it uses up on every level of these sizes;
 // its counters give the sweeps and the RMS slope residual reached. CPU time
 // (and so MP/s) is the whole process's, all threads: the relaxation sweeps
-// and OpenCV's blur and resize run on cv::parallel_for_.
+// run on the shared thread pool (core/parallel_for.h), OpenCV's blur and
+// resize on cv::parallel_for_.
 #include <cmath>
-#include <map>
-#include <memory>
-#include <mutex>
 #include <numbers>
-#include <utility>
 
 #include <benchmark/benchmark.h>
 
+#include "benchmarks/map_cache.h"
 #include "maps/height_from_normals.h"
 #include "maps/normal_flattening.h"
 
 namespace scanbench {
 namespace {
 
-constexpr double kFieldWidthMm = 150.0;
-
-const ImageF& Normals(int width, int height) {
-  static std::mutex mutex;
-  static std::map<std::pair<int, int>, std::unique_ptr<ImageF>> cache;
-  std::lock_guard<std::mutex> lock(mutex);
-  auto found = cache.find({width, height});
-  if (found == cache.end()) {
-    cache.clear();  // one normal map in memory at a time
-    auto map = std::make_unique<ImageF>(width, height, 3);
-    const double mm = kFieldWidthMm / width, two_pi = 2 * std::numbers::pi;
-    for (int y = 0; y < height; ++y) {
-      for (int x = 0; x < width; ++x) {
-        const double u = x * mm, v = y * mm;
-        // Gradient of 0.2 |sin(2 pi u / 2.4)| |cos(2 pi v / 3)| + 3 sin(2 pi (u + v) / 80), per mm.
-        const double su = std::sin(two_pi * u / 2.4), cv = std::cos(two_pi * v / 3.0);
-        const double fold = 3 * two_pi / 80 * std::cos(two_pi * (u + v) / 80);
-        const double dzdu = 0.2 * two_pi / 2.4 * std::cos(two_pi * u / 2.4) * (su >= 0 ? 1 : -1) * std::abs(cv) + fold;
-        const double dzdv = -0.2 * two_pi / 3.0 * std::abs(su) * std::sin(two_pi * v / 3.0) * (cv >= 0 ? 1 : -1) + fold;
-        // v runs down the image; the tangent frame's y is up.
-        const double p = dzdu, q = -dzdv, length = std::sqrt(p * p + q * q + 1);
-        (*map)(x, y, 0) = static_cast<float>(-p / length);
-        (*map)(x, y, 1) = static_cast<float>(-q / length);
-        (*map)(x, y, 2) = static_cast<float>(1 / length);
-      }
-    }
-    found = cache.emplace(std::make_pair(width, height), std::move(map)).first;
-  }
-  return *found->second;
+// A weave-like relief's normals: gradient of 0.2 |sin(2 pi u / 2.4)| |cos(2 pi v / 3)| + 3 sin(2 pi (u + v) / 80),
+// u, v in mm.
+ImageF WeaveNormals(int width, int height) {
+  constexpr double two_pi = 2 * std::numbers::pi;
+  return SampleField(width, height, 3, [](double u, double v, float* normal) {
+    const double su = std::sin(two_pi * u / 2.4), cv = std::cos(two_pi * v / 3.0);
+    const double fold = 3 * two_pi / 80 * std::cos(two_pi * (u + v) / 80);
+    const double dzdu = 0.2 * two_pi / 2.4 * std::cos(two_pi * u / 2.4) * (su >= 0 ? 1 : -1) * std::abs(cv) + fold;
+    const double dzdv = -0.2 * two_pi / 3.0 * std::abs(su) * std::sin(two_pi * v / 3.0) * (cv >= 0 ? 1 : -1) + fold;
+    // v runs down the image; the tangent frame's y is up.
+    const double p = dzdu, q = -dzdv, length = std::sqrt(p * p + q * q + 1);
+    normal[0] = static_cast<float>(-p / length);
+    normal[1] = static_cast<float>(-q / length);
+    normal[2] = static_cast<float>(1 / length);
+  });
 }
 
-void SetRate(benchmark::State& state, int width, int height) {
-  state.counters["MP/s"] =
-      benchmark::Counter(static_cast<double>(width) * height * 1e-6 * state.iterations(), benchmark::Counter::kIsRate);
+const ImageF& Normals(int width, int height) {
+  static MapCache cache(WeaveNormals);
+  return cache.Get(width, height);
 }
 
 void BM_Height(benchmark::State& state, HeightFromNormalsOptions::Method method, int width, int height) {
@@ -68,11 +52,12 @@ void BM_Height(benchmark::State& state, HeightFromNormalsOptions::Method method,
   options.method = method;
   options.mm_per_pixel = kFieldWidthMm / width;
   HeightFromNormalsSummary summary;
+  ImageF heights;
   for (auto _ : state) {
-    ImageF heights = HeightFromNormals(normals, nullptr, options, &summary);
+    summary = HeightFromNormals(options, normals, nullptr, &heights);
     benchmark::DoNotOptimize(heights.data());
   }
-  SetRate(state, width, height);
+  SetMegapixelRate(state, width, height);
   state.counters["sweeps"] = summary.total_sweeps;
   state.counters["levels"] = summary.levels;
   state.counters["residual"] = summary.rms_slope_residual;
@@ -83,11 +68,12 @@ void BM_Flatten(benchmark::State& state, int width, int height) {
   NormalFlatteningOptions options;
   options.low_pass_sigma_px = static_cast<double>(state.range(0));
   NormalFlatteningSummary summary;
+  ImageF flat;
   for (auto _ : state) {
-    ImageF flat = FlattenNormals(normals, nullptr, options, &summary);
+    summary = FlattenNormals(options, normals, nullptr, &flat);
     benchmark::DoNotOptimize(flat.data());
   }
-  SetRate(state, width, height);
+  SetMegapixelRate(state, width, height);
   state.counters["removed_tilt_deg"] = summary.mean_removed_tilt_deg;
 }
 

@@ -8,10 +8,13 @@
 #include <functional>
 #include <sstream>
 #include <stdexcept>
-
-#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/field_error.h"
+#include "core/format.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 namespace {
@@ -81,8 +84,8 @@ double FinishLevel(const LevelSums& sums, GlossMipOptions::Model model, double b
   level->roughness = ImageF(sums.width, sums.height, 1);
   std::vector<double> row_roughness(sums.height, 0.0);
   std::vector<size_t> row_textured(sums.height, 0);
-  auto finish_rows = [&](const cv::Range& rows) {
-    for (int y = rows.start; y < rows.end; ++y) {
+  auto finish_rows = [&](int first_row, int end_row) {
+    for (int y = first_row; y < end_row; ++y) {
       for (int x = 0; x < sums.width; ++x) {
         const size_t i = static_cast<size_t>(y) * sums.width + x;
         std::array<double, 3> direction{0.0, 0.0, 1.0};
@@ -111,9 +114,10 @@ double FinishLevel(const LevelSums& sums, GlossMipOptions::Model model, double b
       }
     }
   };
-  // Small levels are not worth the threads.
+  // Small levels are not worth the threads: at most 64 chunks, 16384 texels or more each.
   const double stripes = std::max(1.0, std::min(64.0, static_cast<double>(sums.width) * sums.height / 16384));
-  cv::parallel_for_(cv::Range(0, sums.height), finish_rows, stripes);
+  const int chunk_rows = static_cast<int>(std::ceil(sums.height / stripes));
+  ParallelFor(sums.height, 0, chunk_rows, [&](int first, int last, int) { finish_rows(first, last); });
   double roughness_sum = 0;
   size_t textured = 0;
   for (int y = 0; y < sums.height; ++y) {
@@ -121,6 +125,107 @@ double FinishLevel(const LevelSums& sums, GlossMipOptions::Model model, double b
     textured += row_textured[y];
   }
   return textured > 0 ? roughness_sum / textured : base_roughness;
+}
+
+void CheckInputs(const ImageF& normal_in_tangent, const ImageF* roughness, const ImageU8* valid,
+                 const std::vector<GlossMipLevel>* levels) {
+  const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
+  if (normal_in_tangent.empty() || normal_in_tangent.channels() != 3) {
+    throw std::invalid_argument("gloss mip chain: normal_in_tangent is " + std::to_string(width) + "x" +
+                                std::to_string(height) + "x" + std::to_string(normal_in_tangent.channels()) +
+                                ", must be non-empty with 3 channels");
+  }
+  if (roughness != nullptr && (!roughness->SameSize(normal_in_tangent) || roughness->channels() != 1)) {
+    throw std::invalid_argument("gloss mip chain: roughness is " + std::to_string(roughness->width()) + "x" +
+                                std::to_string(roughness->height()) + "x" + std::to_string(roughness->channels()) +
+                                ", must be " + std::to_string(width) + "x" + std::to_string(height) + "x1");
+  }
+  if (valid != nullptr && (!valid->SameSize(normal_in_tangent) || valid->channels() != 1)) {
+    throw std::invalid_argument("gloss mip chain: valid mask is " + std::to_string(valid->width()) + "x" +
+                                std::to_string(valid->height()) + "x" + std::to_string(valid->channels()) +
+                                ", must be " + std::to_string(width) + "x" + std::to_string(height) + "x1");
+  }
+  if (levels == nullptr) throw std::invalid_argument("gloss mip chain: levels must not be null");
+}
+
+// Mip 0 (the input, normals normalised, roughness clamped) and the footprint
+// sums of level 1 (each mip-0 pixel lies in exactly one level-1 footprint);
+// counts what it left out into the summary. `level1` is the size of level 1,
+// or {0, 0} when mip 0 is the only level.
+struct Mip0 {
+  GlossMipLevel level;
+  LevelSums level1_sums;
+  size_t used = 0;            // mip-0 normals that carry weight
+  double roughness_sum = 0;   // of their alphas
+};
+
+Mip0 BuildMip0(const ImageF& normal_in_tangent, const ImageF* roughness, const ImageU8* valid,
+               const GlossMipOptions& options, std::pair<int, int> level1, GlossMipSummary* s) {
+  const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
+  const bool vmf = options.model == GlossMipOptions::Model::kVmf;
+  const bool has_level1 = level1.first > 0;
+  Mip0 mip0{{ImageF(width, height, 3), ImageF(width, height, 1)}, LevelSums(level1.first, level1.second, vmf)};
+  LevelSums& sums = mip0.level1_sums;
+  double cached_alpha = -1, cached_length = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      double alpha = options.base_roughness;
+      if (roughness != nullptr) {
+        const double value = (*roughness)(x, y);
+        if (!std::isfinite(value)) {
+          ++s->clamped_roughness;
+        } else {
+          if (value < kMinGgxAlpha || value > 1.0) ++s->clamped_roughness;
+          alpha = ClampAlpha(value);
+        }
+      }
+      mip0.level.roughness(x, y) = static_cast<float>(alpha);
+      const double nx = normal_in_tangent(x, y, 0), ny = normal_in_tangent(x, y, 1), nz = normal_in_tangent(x, y, 2);
+      const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
+      if (!std::isfinite(length) || length < kMinNormalLength) {
+        ++s->invalid_normals;
+        mip0.level.normal_in_tangent(x, y, 0) = 0.0f;
+        mip0.level.normal_in_tangent(x, y, 1) = 0.0f;
+        mip0.level.normal_in_tangent(x, y, 2) = 1.0f;
+        continue;
+      }
+      const std::array<double, 3> unit{nx / length, ny / length, nz / length};
+      for (int c = 0; c < 3; ++c) mip0.level.normal_in_tangent(x, y, c) = static_cast<float>(unit[c]);
+      if (valid != nullptr && (*valid)(x, y) == 0) {
+        ++s->masked_pixels;
+        continue;
+      }
+      ++mip0.used;
+      mip0.roughness_sum += alpha;
+      if (!has_level1) continue;
+      const size_t to = static_cast<size_t>(y / 2) * sums.width + x / 2;
+      if (!vmf && alpha != cached_alpha) {  // without a roughness map every pixel has the same alpha
+        cached_alpha = alpha;
+        cached_length = GgxAlphaToNormalLength(alpha);
+      }
+      const double scale = vmf ? 1.0 : cached_length;
+      for (int c = 0; c < 3; ++c) sums.vector_sum[to * 3 + c] += scale * unit[c];
+      if (vmf) sums.alpha2_sum[to] += alpha * alpha;
+      ++sums.count[to];
+    }
+  }
+  return mip0;
+}
+
+std::string Describe(const GlossMipSummary& s, size_t levels, int width, int height,
+                     std::pair<int, int> last_size, bool any_used) {
+  std::ostringstream message;
+  message << s.model << " gloss mips: " << levels << " levels from " << width << "x" << height
+          << ", mean roughness " << s.mean_roughness.front() << " at mip 0, " << s.mean_roughness.back() << " at "
+          << last_size.first << "x" << last_size.second;
+  if (s.invalid_normals > 0) message << "; " << s.invalid_normals << " invalid normals ignored";
+  if (s.masked_pixels > 0) message << "; " << s.masked_pixels << " pixels outside the valid mask ignored";
+  if (s.clamped_roughness > 0) {
+    message << "; " << s.clamped_roughness << " roughness values outside [" << kMinGgxAlpha
+            << ", 1] clamped (non-finite: base_roughness)";
+  }
+  if (!any_used) message << "; no valid normal in the map (all levels flat at base_roughness)";
+  return message.str();
 }
 
 }  // namespace
@@ -163,112 +268,61 @@ std::vector<std::pair<int, int>> GlossMipLevelSizes(int width, int height, int m
   return sizes;
 }
 
-std::vector<GlossMipLevel> BuildGlossMipChain(const ImageF& normal_in_tangent, const ImageF* roughness,
-                                              const GlossMipOptions& options, GlossMipSummary* summary,
-                                              const ImageU8* valid) {
+std::string GlossMipSummary::BriefReport() const {
+  std::string report = "Gloss mips (" + (model.empty() ? std::string("?") : model) + "): " +
+                       TerminationName(termination) + ", " + std::to_string(mean_roughness.size()) + " levels";
+  if (!mean_roughness.empty()) {
+    report += ", mean GGX alpha " + Fixed(mean_roughness.front(), 3) + " at mip 0, " +
+              Fixed(mean_roughness.back(), 3) + " at the last";
+  }
+  report += ", " + Fixed(seconds, 2) + " s";
+  if (termination != Termination::kSuccess) report += " (" + message + ")";
+  return report;
+}
+
+GlossMipSummary BuildGlossMipChain(const GlossMipOptions& options, const ImageF& normal_in_tangent,
+                                   const ImageF* roughness, const ImageU8* valid, std::vector<GlossMipLevel>* levels,
+                                   const ProgressCallback& progress) {
   const auto start = std::chrono::steady_clock::now();
   options.Check();
+  CheckInputs(normal_in_tangent, roughness, valid, levels);
   const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
-  if (normal_in_tangent.empty() || normal_in_tangent.channels() != 3) {
-    throw std::invalid_argument("gloss mip chain: normal_in_tangent is " + std::to_string(width) + "x" +
-                                std::to_string(height) + "x" + std::to_string(normal_in_tangent.channels()) +
-                                ", must be non-empty with 3 channels");
-  }
-  if (roughness != nullptr && (!roughness->SameSize(normal_in_tangent) || roughness->channels() != 1)) {
-    throw std::invalid_argument("gloss mip chain: roughness is " + std::to_string(roughness->width()) + "x" +
-                                std::to_string(roughness->height()) + "x" + std::to_string(roughness->channels()) +
-                                ", must be " + std::to_string(width) + "x" + std::to_string(height) + "x1");
-  }
-  if (valid != nullptr && (!valid->SameSize(normal_in_tangent) || valid->channels() != 1)) {
-    throw std::invalid_argument("gloss mip chain: valid mask is " + std::to_string(valid->width()) + "x" +
-                                std::to_string(valid->height()) + "x" + std::to_string(valid->channels()) +
-                                ", must be " + std::to_string(width) + "x" + std::to_string(height) + "x1");
-  }
   const bool vmf = options.model == GlossMipOptions::Model::kVmf;
   const std::vector<std::pair<int, int>> sizes = GlossMipLevelSizes(width, height, options.max_levels);
-  GlossMipSummary local;
-  GlossMipSummary& s = summary != nullptr ? *summary : local;
-  s = GlossMipSummary{};
+  GlossMipSummary s;
   s.model = GlossModelName(options.model);
+  levels->clear();
+  // Progress in texels made, every level's share by its size.
+  double total_texels = 0, done_texels = 0;
+  for (const auto& [w, h] : sizes) total_texels += static_cast<double>(w) * h;
+  auto cancelled_after = [&](const std::pair<int, int>& size) {
+    done_texels += static_cast<double>(size.first) * size.second;
+    if (!progress || progress(done_texels / total_texels)) return false;
+    levels->clear();
+    s.SetCancelled("gloss mips cancelled by the progress callback after " + std::to_string(size.first) + "x" +
+                   std::to_string(size.second));
+    s.seconds = SecondsSince(start);
+    return true;
+  };
 
-  std::vector<GlossMipLevel> levels(sizes.size());
-  // Mip 0: the input, normalised and clamped; its weights go straight into
-  // level 1's sums (each pixel lies in exactly one level-1 footprint).
-  GlossMipLevel& mip0 = levels[0];
-  mip0.normal_in_tangent = ImageF(width, height, 3);
-  mip0.roughness = ImageF(width, height, 1);
-  LevelSums sums(sizes.size() > 1 ? sizes[1].first : 0, sizes.size() > 1 ? sizes[1].second : 0, vmf);
-  double roughness_sum = 0;
-  size_t used = 0;  // mip-0 normals that carry weight
-  double cached_alpha = -1, cached_length = 0;
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      double alpha = options.base_roughness;
-      if (roughness != nullptr) {
-        const double value = (*roughness)(x, y);
-        if (!std::isfinite(value)) {
-          ++s.clamped_roughness;
-        } else {
-          if (value < kMinGgxAlpha || value > 1.0) ++s.clamped_roughness;
-          alpha = ClampAlpha(value);
-        }
-      }
-      mip0.roughness(x, y) = static_cast<float>(alpha);
-      const double nx = normal_in_tangent(x, y, 0), ny = normal_in_tangent(x, y, 1), nz = normal_in_tangent(x, y, 2);
-      const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
-      if (!std::isfinite(length) || length < kMinNormalLength) {
-        ++s.invalid_normals;
-        mip0.normal_in_tangent(x, y, 0) = 0.0f;
-        mip0.normal_in_tangent(x, y, 1) = 0.0f;
-        mip0.normal_in_tangent(x, y, 2) = 1.0f;
-        continue;
-      }
-      const std::array<double, 3> unit{nx / length, ny / length, nz / length};
-      for (int c = 0; c < 3; ++c) mip0.normal_in_tangent(x, y, c) = static_cast<float>(unit[c]);
-      if (valid != nullptr && (*valid)(x, y) == 0) {
-        ++s.masked_pixels;
-        continue;
-      }
-      ++used;
-      roughness_sum += alpha;
-      if (sizes.size() == 1) continue;
-      const size_t to = static_cast<size_t>(y / 2) * sums.width + x / 2;
-      if (!vmf && alpha != cached_alpha) {  // without a roughness map every pixel has the same alpha
-        cached_alpha = alpha;
-        cached_length = GgxAlphaToNormalLength(alpha);
-      }
-      const double scale = vmf ? 1.0 : cached_length;
-      for (int c = 0; c < 3; ++c) sums.vector_sum[to * 3 + c] += scale * unit[c];
-      if (vmf) sums.alpha2_sum[to] += alpha * alpha;
-      ++sums.count[to];
-    }
-  }
-  s.mean_roughness.push_back(used > 0 ? roughness_sum / used : options.base_roughness);
-
+  std::vector<GlossMipLevel> chain(sizes.size());
+  Mip0 mip0 = BuildMip0(normal_in_tangent, roughness, valid, options,
+                        sizes.size() > 1 ? sizes[1] : std::pair<int, int>{0, 0}, &s);
+  chain[0] = std::move(mip0.level);
+  s.mean_roughness.push_back(mip0.used > 0 ? mip0.roughness_sum / mip0.used : options.base_roughness);
+  if (cancelled_after(sizes[0])) return s;
+  LevelSums sums = std::move(mip0.level1_sums);
   for (size_t l = 1; l < sizes.size(); ++l) {
     if (l > 1) sums = Downsample(sums, vmf);
-    s.mean_roughness.push_back(FinishLevel(sums, options.model, options.base_roughness, &levels[l]));
+    s.mean_roughness.push_back(FinishLevel(sums, options.model, options.base_roughness, &chain[l]));
+    if (cancelled_after(sizes[l])) return s;
   }
 
-  std::ostringstream message;
-  message << s.model << " gloss mips: " << levels.size() << " levels from " << width << "x" << height
-          << ", mean roughness " << s.mean_roughness.front() << " at mip 0, " << s.mean_roughness.back()
-          << " at " << sizes.back().first << "x" << sizes.back().second;
-  if (s.invalid_normals > 0) message << "; " << s.invalid_normals << " invalid normals ignored";
-  if (s.masked_pixels > 0) message << "; " << s.masked_pixels << " pixels outside the valid mask ignored";
-  if (s.clamped_roughness > 0) {
-    message << "; " << s.clamped_roughness << " roughness values outside [" << kMinGgxAlpha
-            << ", 1] clamped (non-finite: base_roughness)";
-  }
-  if (used == 0) {
-    s.termination = Termination::kFailure;
-    message << "; no valid normal in the map (all levels flat at base_roughness)";
-  } else {
-    s.termination = Termination::kSuccess;
-  }
-  s.message = message.str();
-  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return levels;
+  s.termination = mip0.used > 0 ? Termination::kSuccess : Termination::kFailure;
+  s.message = Describe(s, chain.size(), width, height, sizes.back(), mip0.used > 0);
+  s.seconds = SecondsSince(start);
+  *levels = std::move(chain);
+  return s;
 }
 
 double GlossToGgxAlpha(double gloss) {

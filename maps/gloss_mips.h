@@ -46,13 +46,15 @@ struct GlossMipLevel {
 };
 
 struct GlossMipSummary : AlgorithmSummary {
-  std::string model;
-  std::vector<double> mean_roughness;   // per level, over texels with at least one valid source normal
+  std::string model;                    // GlossModelName
+  std::vector<double> mean_roughness;   // per level, over texels with at least one valid source normal, GGX alpha
   size_t invalid_normals = 0;           // mip-0 normals that carried no weight (non-finite or zero)
   size_t masked_pixels = 0;             // mip-0 pixels outside the valid mask (valid normals only)
   size_t clamped_roughness = 0;         // roughness-map pixels outside [kMinGgxAlpha, 1] (clamped) or
                                         // non-finite (base_roughness used)
   double seconds = 0;
+  // "Gloss mips (vmf): success, 12 levels, mean GGX alpha 0.300 at mip 0, 0.350 at the last, 0.03 s".
+  std::string BriefReport() const;
 };
 
 // Each level halves the size (odd sizes round up, edge texels cover fewer
@@ -66,14 +68,16 @@ struct GlossMipSummary : AlgorithmSummary {
 //    alpha' = 1); direction = the normalised mean.
 //  kGgxNormalLength (algorithm 3 of seed 004): mean of n * GgxAlphaToNormalLength(alpha)
 //    over the footprint; alpha = NormalLengthToGgxAlpha(|mean|), direction = mean / |mean|.
-// Throws std::invalid_argument (naming the image and its shape) for an empty
-// or non-3-channel normal map, a roughness map or mask of another size or
-// channel count, and for bad options, before any work. Termination is
-// kFailure (levels still returned, flat) when no normal carries weight.
+// Writes the levels, mip 0 first, into *levels. Throws std::invalid_argument
+// (naming the image and its shape) for an empty or non-3-channel normal map,
+// a roughness map or mask of another size or channel count, a null output,
+// and for bad options, before any work. Termination is kFailure (levels
+// still written, flat) when no normal carries weight; kCancelled (no levels)
+// when `progress`, asked after each level, returns false.
 // Gloss in the seed-004 parameterisation is available through the helpers.
-std::vector<GlossMipLevel> BuildGlossMipChain(const ImageF& normal_in_tangent, const ImageF* roughness,
-                                              const GlossMipOptions& options, GlossMipSummary* summary,
-                                              const ImageU8* valid = nullptr);
+GlossMipSummary BuildGlossMipChain(const GlossMipOptions& options, const ImageF& normal_in_tangent,
+                                   const ImageF* roughness, const ImageU8* valid, std::vector<GlossMipLevel>* levels,
+                                   const ProgressCallback& progress = {});
 
 // Size of every level BuildGlossMipChain makes for a width x height mip 0
 // (max_levels as in the options), as {width, height} pairs.

@@ -12,8 +12,9 @@
 
 #include <opencv2/core.hpp>
 
-#include "core/format.h"
 #include "core/field_error.h"
+#include "core/format.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 namespace {
@@ -37,8 +38,6 @@ struct Level {
   int width = 0, height = 0;      // pixels of this level
   int stride = 0;                 // width + 2
   double pitch_mm = 0;            // pixel pitch of this level on the sample, mm
-  std::vector<float> step_right;  // full level only, until the edges are built: height step to the right, mm
-  std::vector<float> step_down;   // ... and one row down, mm
   std::vector<uint8_t> valid;     // per pixel, width * height
   // Padded (stride x (height + 2)); edge (x, y) -> (x + 1, y) and (x, y) -> (x, y + 1).
   std::vector<float> target_right, target_down;  // wanted height difference along the edge, mm
@@ -49,7 +48,14 @@ struct Level {
   size_t num_pixels() const { return static_cast<size_t>(width) * height; }
 };
 
-void BuildEdges(Level* level) {
+// Per-pixel height steps of the full level, mm, until the edges are built
+// from them (the DCT also fills its holes and builds its right-hand side).
+struct SlopeSteps {
+  std::vector<float> right;  // height step to the right
+  std::vector<float> down;   // ... and one row down
+};
+
+void BuildEdges(const SlopeSteps& steps, Level* level) {
   const int w = level->width, h = level->height;
   level->stride = w + 2;
   const size_t padded = static_cast<size_t>(level->stride) * (h + 2);
@@ -64,12 +70,12 @@ void BuildEdges(Level* level) {
       if (x + 1 < w) {
         const bool both = level->valid[i] && level->valid[i + 1];
         level->kind_right[p] = both ? kSlopeEdge : kFillEdge;
-        if (both) level->target_right[p] = 0.5f * (level->step_right[i] + level->step_right[i + 1]);
+        if (both) level->target_right[p] = 0.5f * (steps.right[i] + steps.right[i + 1]);
       }
       if (y + 1 < h) {
         const bool both = level->valid[i] && level->valid[i + w];
         level->kind_down[p] = both ? kSlopeEdge : kFillEdge;
-        if (both) level->target_down[p] = 0.5f * (level->step_down[i] + level->step_down[i + w]);
+        if (both) level->target_down[p] = 0.5f * (steps.down[i] + steps.down[i + w]);
       }
     }
   }
@@ -249,8 +255,8 @@ double RelaxColour(const Level& level, float over_relaxation, int colour, int ro
 }
 
 // One red-black Gauss-Seidel sweep (both colours). Large levels are split into
-// fixed bands of rows run through cv::parallel_for_; the result does not
-// depend on the number of threads (bands are fixed, sums added in order).
+// fixed bands of rows run through ParallelFor; the result does not depend on
+// the number of threads (bands are fixed, sums added in order).
 double GaussSeidelSweep(const Level& level, float over_relaxation, std::vector<float>* height_padded) {
   constexpr size_t kParallelPixels = 1 << 16;
   constexpr int kBandRows = 32;
@@ -263,8 +269,8 @@ double GaussSeidelSweep(const Level& level, float over_relaxation, std::vector<f
   std::vector<double> band_sums(bands, 0.0);
   double sum_squared_update = 0;
   for (int colour = 0; colour < 2; ++colour) {
-    cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
-      for (int band = range.start; band < range.end; ++band) {
+    ParallelFor(bands, 0, 1, [&](int first, int last, int) {
+      for (int band = first; band < last; ++band) {
         band_sums[band] = RelaxColour(level, over_relaxation, colour, band * kBandRows,
                                       std::min(level.height, (band + 1) * kBandRows), h);
       }
@@ -421,6 +427,259 @@ cv::Mat SolveNeumannPoisson(const cv::Mat& rhs) {
   return solution(cv::Rect(0, 0, w, h)).clone();
 }
 
+void CheckInputs(const ImageF& normal_in_tangent, const ImageU8* valid, const ImageF* height_mm) {
+  if (normal_in_tangent.empty() || normal_in_tangent.channels() != 3) {
+    throw std::invalid_argument("HeightFromNormals: normal_in_tangent is " + std::to_string(normal_in_tangent.width()) +
+                                "x" + std::to_string(normal_in_tangent.height()) + "x" +
+                                std::to_string(normal_in_tangent.channels()) + ", must be a non-empty 3-channel image");
+  }
+  if (valid != nullptr && (!valid->SameSize(normal_in_tangent) || valid->channels() != 1)) {
+    throw std::invalid_argument(
+        "HeightFromNormals: valid mask is " + std::to_string(valid->width()) + "x" + std::to_string(valid->height()) +
+        "x" + std::to_string(valid->channels()) + ", must be 1 channel of the normal map's size " +
+        std::to_string(normal_in_tangent.width()) + "x" + std::to_string(normal_in_tangent.height()));
+  }
+  if (height_mm == nullptr) throw std::invalid_argument("HeightFromNormals: height_mm must not be null");
+}
+
+// The full level's size, pitch and valid pixels, and its height steps in mm.
+// Image rows go down while the tangent y goes up, so the step one row down is
+// +n.y / n.z (slope dz/dy_up = -n.y / n.z).
+struct FullLevelSlopes {
+  Level level;
+  SlopeSteps steps;
+  size_t valid_count = 0;
+  size_t unusable_normals = 0;  // wanted pixels whose normal is non-finite or zero
+};
+
+FullLevelSlopes SlopesFromNormals(const ImageF& normal_in_tangent, const ImageU8* valid,
+                                  const HeightFromNormalsOptions& options) {
+  FullLevelSlopes full;
+  Level& level = full.level;
+  level.width = normal_in_tangent.width();
+  level.height = normal_in_tangent.height();
+  level.pitch_mm = options.mm_per_pixel;
+  level.valid.assign(level.num_pixels(), 0);
+  full.steps.right.assign(level.num_pixels(), 0.0f);
+  full.steps.down.assign(level.num_pixels(), 0.0f);
+  const double mm = options.mm_per_pixel;
+  const float max_slope = static_cast<float>(options.max_slope);
+  for (size_t i = 0; i < level.num_pixels(); ++i) {
+    const float* n = normal_in_tangent.data() + 3 * i;
+    const bool wanted = valid == nullptr || valid->data()[i] != 0;
+    const bool finite = std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]);
+    const bool usable = finite && n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-12f;
+    if (wanted && !usable) ++full.unusable_normals;
+    if (!wanted || !usable) continue;
+    // Near-grazing or back-facing normals: clamp the slope instead of dividing by ~0.
+    const float nz = std::max(n[2], 1e-6f);
+    full.steps.right[i] = static_cast<float>(std::clamp(-n[0] / nz, -max_slope, max_slope) * mm);
+    full.steps.down[i] = static_cast<float>(std::clamp(n[1] / nz, -max_slope, max_slope) * mm);
+    level.valid[i] = 1;
+    ++full.valid_count;
+  }
+  return full;
+}
+
+// Progress in units of work (pixel sweeps, DCT solves), reported at most
+// every 0.1% (thousands of sweeps on tiny coarse levels would otherwise flood
+// the caller) and always at the end. Once the callback said no it is never
+// asked again.
+class WorkProgress {
+ public:
+  WorkProgress(const ProgressCallback& progress, double total_work) : progress_(progress), total_(total_work) {}
+
+  // Counts `work` as done and reports; false once cancelled.
+  bool Advance(double work) {
+    if (cancelled_) return false;
+    done_ += work;
+    const double fraction = std::min(1.0, done_ / total_);
+    if (progress_ && (fraction >= last_reported_ + 1e-3 || fraction >= 1.0) && fraction > last_reported_) {
+      last_reported_ = fraction;
+      if (!progress_(fraction)) cancelled_ = true;
+    }
+    return !cancelled_;
+  }
+  // Work budgeted but not needed (a level that converged early), not reported.
+  void Skip(double work) { done_ += work; }
+  // Reports the end, after levels or rounds that stopped early.
+  void Finish() {
+    if (!cancelled_) Advance(total_ - done_);
+  }
+  bool cancelled() const { return cancelled_; }
+
+ private:
+  const ProgressCallback& progress_;
+  double total_ = 1;
+  double done_ = 0;
+  double last_reported_ = -1;
+  bool cancelled_ = false;
+};
+
+// What a method leaves: the full level's heights, padded as the level.
+struct MethodResult {
+  std::vector<float> height_padded;
+  bool cancelled = false;
+  int hole_rounds = 0;  // DCT re-solves for the holes
+};
+
+// The multi-resolution relaxation: halves the edge targets down to
+// coarsest_level_size, relaxes the coarsest level from zero and each finer
+// one from the bilinear upsampling of the one below. A cancelled run may stop
+// on a coarse level: its estimate is brought to full size.
+MethodResult SolveByRelaxation(const HeightFromNormalsOptions& options, const Level& full,
+                               const ProgressCallback& progress, HeightFromNormalsSummary* summary) {
+  // The longer side decides, so a thin strip still gets its coarse levels (a side of 1 stays 1).
+  std::vector<Level> coarse;  // levels 1, 2, ...
+  auto level = [&](size_t k) -> const Level& { return k == 0 ? full : coarse[k - 1]; };
+  while (std::max((level(coarse.size()).width + 1) / 2, (level(coarse.size()).height + 1) / 2) >=
+         options.coarsest_level_size) {
+    coarse.push_back(Downsample(level(coarse.size())));
+  }
+  const size_t num_levels = coarse.size() + 1;
+  // Each level is budgeted at its maximum number of sweeps.
+  double total_work = 0;
+  for (size_t k = 0; k < num_levels; ++k) {
+    total_work += static_cast<double>(level(k).num_pixels()) * options.max_sweeps_per_level;
+  }
+  WorkProgress work(progress, total_work);
+
+  MethodResult result;
+  std::vector<float>& solution = result.height_padded;  // of the level `solved_level`
+  size_t solved_level = num_levels - 1;
+  summary->converged = true;
+  for (int k = static_cast<int>(num_levels) - 1; k >= 0 && !work.cancelled(); --k) {
+    const Level& current = level(k);
+    if (solution.empty()) {
+      solution.assign(static_cast<size_t>(current.stride) * (current.height + 2), 0.0f);
+    } else if (static_cast<size_t>(k) != solved_level) {
+      solution = Upsample(level(solved_level), solution, current);
+    }
+    solved_level = k;
+    ++summary->levels;
+    const double threshold = options.tolerance * current.pitch_mm;
+    bool level_converged = false;
+    int sweeps = 0;
+    while (sweeps < options.max_sweeps_per_level) {
+      const double squared = GaussSeidelSweep(current, static_cast<float>(options.over_relaxation), &solution);
+      ++sweeps;
+      const double rms_update = std::sqrt(squared / static_cast<double>(current.num_pixels()));
+      if (!work.Advance(static_cast<double>(current.num_pixels()))) break;
+      if (rms_update <= threshold) {
+        level_converged = true;
+        break;
+      }
+    }
+    work.Skip(static_cast<double>(current.num_pixels()) * (options.max_sweeps_per_level - sweeps));
+    summary->total_sweeps += sweeps;
+    if (!level_converged) summary->converged = false;
+  }
+  work.Finish();
+  for (int k = static_cast<int>(solved_level) - 1; k >= 0; --k) solution = Upsample(level(k + 1), solution, level(k));
+  result.cancelled = work.cancelled();
+  return result;
+}
+
+// The exact least-squares answer by a DCT Poisson solve. The DCT needs a
+// slope everywhere: holes get a smooth extension of the slopes around them
+// (pull-push), so they neither bend the valid area nor go flat. Then each
+// re-solve gives the edges into holes the differences of the current solution
+// (an integrable fill), so the valid pixels around the holes follow their own
+// slopes more; it stops once a round changes the height by less than the
+// tolerance. A cancel before the first solve leaves a flat (zero) height.
+MethodResult SolveByDct(const HeightFromNormalsOptions& options, const Level& full, SlopeSteps steps, bool all_valid,
+                        const ProgressCallback& progress, HeightFromNormalsSummary* summary) {
+  const int width = full.width, height = full.height;
+  if (!all_valid) {
+    std::vector<float> weight(full.valid.begin(), full.valid.end());
+    PullPushFill(width, height, std::move(weight), {&steps.right, &steps.down});
+  }
+  cv::Mat poisson_rhs = PoissonRightHandSide(width, height, steps.right, steps.down);
+  steps = {};
+  WorkProgress work(progress, 1.0 + (all_valid ? 0 : options.dct_hole_iterations));
+
+  MethodResult result;
+  result.height_padded.assign(static_cast<size_t>(full.stride) * (full.height + 2), 0.0f);
+  summary->converged = true;
+  if (work.Advance(0.1)) {
+    cv::Mat dct_height = SolveNeumannPoisson(poisson_rhs);
+    poisson_rhs.release();
+    bool holes_settled = false;
+    for (int round = 0; !all_valid && round < options.dct_hole_iterations && !work.cancelled(); ++round) {
+      cv::Mat next = SolveNeumannPoisson(HoleConsistentRightHandSide(full, dct_height));
+      const double rms_change = cv::norm(next, dct_height, cv::NORM_L2) / std::sqrt(static_cast<double>(next.total()));
+      dct_height = next;
+      ++result.hole_rounds;
+      work.Advance(1.0);
+      holes_settled = rms_change <= options.tolerance * full.pitch_mm;
+      if (holes_settled) break;
+    }
+    summary->converged = all_valid || holes_settled;
+    for (int y = 0; y < height; ++y) {
+      const double* row = dct_height.ptr<double>(y);
+      float* out = result.height_padded.data() + full.Padded(0, y);
+      for (int x = 0; x < width; ++x) out[x] = static_cast<float>(row[x]);
+    }
+    summary->levels = 1;
+    work.Advance(0.9);
+  }
+  work.Finish();
+  result.cancelled = work.cancelled();
+  return result;
+}
+
+// The output: zero mean over the valid pixels. Also the RMS slope residual of
+// the fit over the slope edges, unitless.
+ImageF CentredHeight(const Level& full, const std::vector<float>& solution, size_t valid_count,
+                     double* rms_slope_residual) {
+  const int width = full.width, height = full.height;
+  const double mm = full.pitch_mm;
+  double sum = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      if (full.valid[static_cast<size_t>(y) * width + x]) sum += solution[full.Padded(x, y)];
+    }
+  }
+  const float mean = static_cast<float>(sum / static_cast<double>(valid_count));
+  ImageF height_mm(width, height, 1);
+  double residual_squared = 0;
+  size_t slope_edges = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const size_t p = full.Padded(x, y);
+      height_mm(x, y) = solution[p] - mean;
+      if (full.kind_right[p] == kSlopeEdge) {
+        const double r = (solution[p + 1] - solution[p] - full.target_right[p]) / mm;
+        residual_squared += r * r;
+        ++slope_edges;
+      }
+      if (full.kind_down[p] == kSlopeEdge) {
+        const double r = (solution[p + full.stride] - solution[p] - full.target_down[p]) / mm;
+        residual_squared += r * r;
+        ++slope_edges;
+      }
+    }
+  }
+  *rms_slope_residual = slope_edges > 0 ? std::sqrt(residual_squared / static_cast<double>(slope_edges)) : 0.0;
+  return height_mm;
+}
+
+std::string Describe(const HeightFromNormalsSummary& summary, bool relaxation, bool cancelled, size_t valid_count,
+                     size_t num_pixels, int hole_rounds, size_t unusable_normals) {
+  char figures[256];
+  std::snprintf(figures, sizeof(figures),
+                "%s, %zu of %zu pixels valid, %d level(s), %d sweep(s)%s, RMS slope residual %.3g, %.2f s",
+                summary.method.c_str(), valid_count, num_pixels, summary.levels, summary.total_sweeps,
+                relaxation ? (summary.converged ? ", converged" : ", not converged") : "",
+                summary.rms_slope_residual, summary.seconds);
+  std::string message = std::string(cancelled ? "cancelled: " : "") + figures;
+  if (hole_rounds > 0) message += "; " + std::to_string(hole_rounds) + " DCT re-solve(s) for the holes";
+  if (unusable_normals > 0) {
+    message += "; " + std::to_string(unusable_normals) + " pixel(s) with a non-finite or zero normal treated as holes";
+  }
+  return message;
+}
+
 }  // namespace
 
 void HeightFromNormalsOptions::Check() const {
@@ -466,229 +725,52 @@ HeightFromNormalsOptions::Method HeightMethodFromName(const std::string& name) {
   throw std::invalid_argument("height method '" + name + "' must be relaxation or dct");
 }
 
-ImageF HeightFromNormals(const ImageF& normal_in_tangent, const ImageU8* valid, const HeightFromNormalsOptions& options,
-                         HeightFromNormalsSummary* summary, const ProgressCallback& progress) {
+std::string HeightFromNormalsSummary::BriefReport() const {
+  std::string report = "Height from normals (" + (method.empty() ? std::string("?") : method) +
+                       "): " + TerminationName(termination) + ", " + std::to_string(levels) + " level(s), " +
+                       std::to_string(total_sweeps) + " sweep(s), " + (converged ? "converged" : "not converged") +
+                       ", RMS slope residual " + Fixed(rms_slope_residual, 3) + ", " + Fixed(seconds, 2) + " s";
+  if (termination != Termination::kSuccess) report += " (" + message + ")";
+  return report;
+}
+
+HeightFromNormalsSummary HeightFromNormals(const HeightFromNormalsOptions& options, const ImageF& normal_in_tangent,
+                                           const ImageU8* valid, ImageF* height_mm, const ProgressCallback& progress) {
   options.Check();
   const auto start = std::chrono::steady_clock::now();
-  if (normal_in_tangent.empty() || normal_in_tangent.channels() != 3) {
-    throw std::invalid_argument("HeightFromNormals: normal_in_tangent is " + std::to_string(normal_in_tangent.width()) +
-                                "x" + std::to_string(normal_in_tangent.height()) + "x" +
-                                std::to_string(normal_in_tangent.channels()) + ", must be a non-empty 3-channel image");
-  }
-  if (valid != nullptr && (!valid->SameSize(normal_in_tangent) || valid->channels() != 1)) {
-    throw std::invalid_argument(
-        "HeightFromNormals: valid mask is " + std::to_string(valid->width()) + "x" + std::to_string(valid->height()) +
-        "x" + std::to_string(valid->channels()) + ", must be 1 channel of the normal map's size " +
-        std::to_string(normal_in_tangent.width()) + "x" + std::to_string(normal_in_tangent.height()));
-  }
-  HeightFromNormalsSummary local_summary;
-  HeightFromNormalsSummary& result = summary != nullptr ? *summary : local_summary;
-  result = HeightFromNormalsSummary();
-  result.method = HeightMethodName(options.method);
-
+  CheckInputs(normal_in_tangent, valid, height_mm);
+  HeightFromNormalsSummary summary;
+  summary.method = HeightMethodName(options.method);
   const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
-  const double mm = options.mm_per_pixel;
-  const float max_slope = static_cast<float>(options.max_slope);
 
-  // Level 0: height steps in mm. Image rows go down while the tangent y goes
-  // up, so the step one row down is +n.y / n.z (slope dz/dy_up = -n.y / n.z).
-  std::vector<Level> levels(1);
-  levels.reserve(40);  // more than any int size can halve to; keeps `full` valid while levels are added
-  Level& full = levels[0];
-  full.width = width;
-  full.height = height;
-  full.pitch_mm = mm;
-  full.step_right.assign(full.num_pixels(), 0.0f);
-  full.step_down.assign(full.num_pixels(), 0.0f);
-  full.valid.assign(full.num_pixels(), 0);
-  size_t valid_count = 0, unusable_normals = 0;
-  for (size_t i = 0; i < full.num_pixels(); ++i) {
-    const float* n = normal_in_tangent.data() + 3 * i;
-    const bool wanted = valid == nullptr || valid->data()[i] != 0;
-    const bool finite = std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]);
-    const bool usable = finite && n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-12f;
-    if (wanted && !usable) ++unusable_normals;
-    if (!wanted || !usable) continue;
-    // Near-grazing or back-facing normals: clamp the slope instead of dividing by ~0.
-    const float nz = std::max(n[2], 1e-6f);
-    full.step_right[i] = static_cast<float>(std::clamp(-n[0] / nz, -max_slope, max_slope) * mm);
-    full.step_down[i] = static_cast<float>(std::clamp(n[1] / nz, -max_slope, max_slope) * mm);
-    full.valid[i] = 1;
-    ++valid_count;
+  FullLevelSlopes full = SlopesFromNormals(normal_in_tangent, valid, options);
+  if (full.valid_count == 0) {
+    summary.SetFailure("no valid pixel with a finite normal in the " + std::to_string(width) + "x" +
+                       std::to_string(height) + " map; height is all zero");
+    summary.seconds = SecondsSince(start);
+    *height_mm = ImageF(width, height, 1, 0.0f);
+    return summary;
   }
-  if (valid_count == 0) {
-    result.termination = Termination::kFailure;
-    result.message = "no valid pixel with a finite normal in the " + std::to_string(width) + "x" +
-                     std::to_string(height) + " map; height is all zero";
-    result.seconds = SecondsSince(start);
-    return ImageF(width, height, 1, 0.0f);
-  }
-  const bool all_valid = valid_count == full.num_pixels();
-  BuildEdges(&full);
-  MarkInteriorRows(&full);
-  cv::Mat poisson_rhs;
-  if (options.method == HeightFromNormalsOptions::Method::kDctPoisson) {
-    // The DCT needs a slope everywhere: holes get a smooth extension of the
-    // slopes around them, so they neither bend the valid area nor go flat.
-    if (!all_valid) {
-      std::vector<float> weight(full.valid.begin(), full.valid.end());
-      PullPushFill(width, height, std::move(weight), {&full.step_right, &full.step_down});
-    }
-    poisson_rhs = PoissonRightHandSide(width, height, full.step_right, full.step_down);
-  }
-  full.step_right = {};  // they live on in the edge targets
-  full.step_down = {};
+  const bool all_valid = full.valid_count == full.level.num_pixels();
+  BuildEdges(full.steps, &full.level);
+  MarkInteriorRows(&full.level);
 
-  if (options.method == HeightFromNormalsOptions::Method::kMultiresolutionRelaxation) {
-    // The longer side decides, so a thin strip still gets its coarse levels
-    // (a side of 1 stays 1).
-    while (std::max((levels.back().width + 1) / 2, (levels.back().height + 1) / 2) >= options.coarsest_level_size) {
-      levels.push_back(Downsample(levels.back()));
-    }
-  }
-
-  // Progress in units of pixel sweeps, each level budgeted at its maximum.
-  double total_work = 0, done_work = 0;
-  for (const Level& level : levels)
-    total_work += static_cast<double>(level.num_pixels()) * options.max_sweeps_per_level;
-  if (options.method == HeightFromNormalsOptions::Method::kDctPoisson) {
-    total_work = 1.0 + (all_valid ? 0 : options.dct_hole_iterations);
-  }
-  bool cancelled = false;
-  // Reports at most every 0.1% (thousands of sweeps on tiny coarse levels
-  // would otherwise flood the caller), and always the end.
-  double last_reported = -1;
-  auto keep_going = [&](double work) {
-    if (cancelled) return false;  // never ask again after a no
-    done_work += work;
-    const double fraction = std::min(1.0, done_work / total_work);
-    if (progress && (fraction >= last_reported + 1e-3 || fraction >= 1.0) && fraction > last_reported) {
-      last_reported = fraction;
-      if (!progress(fraction)) cancelled = true;
-    }
-    return !cancelled;
-  };
-
-  std::vector<float> solution;  // padded, the level `solved_level`
-  int hole_rounds = 0;          // DCT re-solves for the holes
-  size_t solved_level = levels.size() - 1;
-  result.converged = true;
-
-  if (options.method == HeightFromNormalsOptions::Method::kDctPoisson) {
-    solution.assign(static_cast<size_t>(full.stride) * (full.height + 2), 0.0f);
-    solved_level = 0;
-    if (keep_going(0.1)) {  // a cancel here returns a flat (zero) height
-      cv::Mat dct_height = SolveNeumannPoisson(poisson_rhs);
-      poisson_rhs.release();
-      // Holes: their edges take the differences of the current solution (an
-      // integrable fill) and the Poisson problem is solved again; each round
-      // lets the valid pixels around the holes follow their own slopes more.
-      // Stops early once a round changes the height by less than the tolerance.
-      bool holes_settled = false;
-      for (int round = 0; !all_valid && round < options.dct_hole_iterations && !cancelled; ++round) {
-        cv::Mat next = SolveNeumannPoisson(HoleConsistentRightHandSide(full, dct_height));
-        const double rms_change =
-            cv::norm(next, dct_height, cv::NORM_L2) / std::sqrt(static_cast<double>(next.total()));
-        dct_height = next;
-        ++hole_rounds;
-        keep_going(1.0);
-        holes_settled = rms_change <= options.tolerance * mm;
-        if (holes_settled) break;
-      }
-      result.converged = all_valid || holes_settled;
-      for (int y = 0; y < height; ++y) {
-        const double* row = dct_height.ptr<double>(y);
-        float* out = solution.data() + full.Padded(0, y);
-        for (int x = 0; x < width; ++x) out[x] = static_cast<float>(row[x]);
-      }
-      result.levels = 1;
-      keep_going(0.9);
-    }
-  }
-  // Relaxation: coarse to fine, each level starting from the one below.
-  const bool relax = options.method == HeightFromNormalsOptions::Method::kMultiresolutionRelaxation;
-  if (relax && !cancelled) {
-    for (int k = static_cast<int>(levels.size()) - 1; k >= 0 && !cancelled; --k) {
-      const Level& level = levels[k];
-      if (solution.empty()) {
-        solution.assign(static_cast<size_t>(level.stride) * (level.height + 2), 0.0f);
-      } else if (static_cast<size_t>(k) != solved_level) {
-        solution = Upsample(levels[solved_level], solution, level);
-      }
-      solved_level = k;
-      ++result.levels;
-      const double threshold = options.tolerance * level.pitch_mm;
-      bool level_converged = false;
-      int sweeps = 0;
-      while (sweeps < options.max_sweeps_per_level) {
-        const double squared = GaussSeidelSweep(level, static_cast<float>(options.over_relaxation), &solution);
-        ++sweeps;
-        const double rms_update = std::sqrt(squared / static_cast<double>(level.num_pixels()));
-        if (!keep_going(static_cast<double>(level.num_pixels()))) break;
-        if (rms_update <= threshold) {
-          level_converged = true;
-          break;
-        }
-      }
-      done_work += static_cast<double>(level.num_pixels()) * (options.max_sweeps_per_level - sweeps);
-      result.total_sweeps += sweeps;
-      if (!level_converged) result.converged = false;
-    }
-  }
-  if (cancelled) {
-    result.converged = false;
+  const bool relaxation = options.method == HeightFromNormalsOptions::Method::kMultiresolutionRelaxation;
+  MethodResult solved;
+  if (relaxation) {
+    full.steps = {};  // they live on in the edge targets
+    solved = SolveByRelaxation(options, full.level, progress, &summary);
   } else {
-    keep_going(total_work - done_work);  // levels or rounds that stopped early: report the end
+    solved = SolveByDct(options, full.level, std::move(full.steps), all_valid, progress, &summary);
   }
-  // A cancelled run may stop on a coarse level: bring it to full size.
-  for (int k = static_cast<int>(solved_level) - 1; k >= 0; --k) {
-    solution = Upsample(levels[k + 1], solution, levels[k]);
-  }
+  if (solved.cancelled) summary.converged = false;
 
-  // Zero mean over the valid pixels; residual of the fit over the slope edges.
-  double sum = 0;
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      if (full.valid[static_cast<size_t>(y) * width + x]) sum += solution[full.Padded(x, y)];
-    }
-  }
-  const float mean = static_cast<float>(sum / static_cast<double>(valid_count));
-  ImageF height_mm(width, height, 1);
-  double residual_squared = 0;
-  size_t slope_edges = 0;
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const size_t p = full.Padded(x, y);
-      height_mm(x, y) = solution[p] - mean;
-      if (full.kind_right[p] == kSlopeEdge) {
-        const double r = (solution[p + 1] - solution[p] - full.target_right[p]) / mm;
-        residual_squared += r * r;
-        ++slope_edges;
-      }
-      if (full.kind_down[p] == kSlopeEdge) {
-        const double r = (solution[p + full.stride] - solution[p] - full.target_down[p]) / mm;
-        residual_squared += r * r;
-        ++slope_edges;
-      }
-    }
-  }
-  result.rms_slope_residual = slope_edges > 0 ? std::sqrt(residual_squared / static_cast<double>(slope_edges)) : 0.0;
-  result.termination = cancelled ? Termination::kCancelled : Termination::kSuccess;
-  result.seconds = SecondsSince(start);
-
-  char figures[256];
-  std::snprintf(figures, sizeof(figures),
-                "%s, %zu of %zu pixels valid, %d level(s), %d sweep(s)%s, RMS slope residual %.3g, %.2f s",
-                result.method.c_str(), valid_count, full.num_pixels(), result.levels, result.total_sweeps,
-                relax ? (result.converged ? ", converged" : ", not converged") : "", result.rms_slope_residual,
-                result.seconds);
-  result.message = std::string(cancelled ? "cancelled: " : "") + figures;
-  if (hole_rounds > 0) result.message += "; " + std::to_string(hole_rounds) + " DCT re-solve(s) for the holes";
-  if (unusable_normals > 0) {
-    result.message +=
-        "; " + std::to_string(unusable_normals) + " pixel(s) with a non-finite or zero normal treated as holes";
-  }
-  return height_mm;
+  *height_mm = CentredHeight(full.level, solved.height_padded, full.valid_count, &summary.rms_slope_residual);
+  summary.termination = solved.cancelled ? Termination::kCancelled : Termination::kSuccess;
+  summary.seconds = SecondsSince(start);
+  summary.message = Describe(summary, relaxation, solved.cancelled, full.valid_count, full.level.num_pixels(),
+                             solved.hole_rounds, full.unusable_normals);
+  return summary;
 }
 
 }  // namespace scanbench

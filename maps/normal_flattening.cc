@@ -11,8 +11,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "core/format.h"
 #include "core/field_error.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace {
@@ -29,21 +29,7 @@ constexpr double kCoarseSigmaPx = 8.0;
 // is subtracted from the coarse sigma). Below 16 px it blurs at full size.
 int LowPassFactor(double sigma_px) { return std::max(1, static_cast<int>(std::floor(sigma_px / kCoarseSigmaPx))); }
 
-}  // namespace
-
-void NormalFlatteningOptions::Check() const {
-  if (!(low_pass_sigma_px > 0) || !std::isfinite(low_pass_sigma_px)) {
-    throw FieldError(kWhere, "low_pass_sigma_px", low_pass_sigma_px, "must be finite and > 0");
-  }
-  if (!(max_slope > 0) || !std::isfinite(max_slope)) {
-    throw FieldError(kWhere, "max_slope", max_slope, "must be finite and > 0");
-  }
-}
-
-ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid, const NormalFlatteningOptions& options,
-                      NormalFlatteningSummary* summary, const ProgressCallback& progress) {
-  options.Check();
-  const auto start = std::chrono::steady_clock::now();
+void CheckInputs(const ImageF& normal_in_tangent, const ImageU8* valid, const ImageF* flat_normal_in_tangent) {
   if (normal_in_tangent.empty() || normal_in_tangent.channels() != 3) {
     throw std::invalid_argument("FlattenNormals: normal_in_tangent is " + std::to_string(normal_in_tangent.width()) +
                                 "x" + std::to_string(normal_in_tangent.height()) + "x" +
@@ -55,19 +41,24 @@ ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid, con
         "x" + std::to_string(valid->channels()) + ", must be 1 channel of the normal map's size " +
         std::to_string(normal_in_tangent.width()) + "x" + std::to_string(normal_in_tangent.height()));
   }
-  NormalFlatteningSummary local_summary;
-  NormalFlatteningSummary& result = summary != nullptr ? *summary : local_summary;
-  result = NormalFlatteningSummary();
+  if (flat_normal_in_tangent == nullptr) {
+    throw std::invalid_argument("FlattenNormals: flat_normal_in_tangent must not be null");
+  }
+}
 
-  const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
-  const float max_slope = static_cast<float>(options.max_slope);
-
-  // Slopes weighted by validity: (w dz/dx, w dz/dy, w), y up as in the tangent frame.
-  cv::Mat weighted(height, width, CV_32FC3);
+// Slopes weighted by validity, (w dz/dx, w dz/dy, w) with y up as in the
+// tangent frame; w = 0 for pixels left out.
+struct WeightedSlopes {
+  cv::Mat slopes;  // CV_32FC3
   size_t valid_count = 0;
+};
+
+WeightedSlopes WeightSlopes(const ImageF& normal_in_tangent, const ImageU8* valid, float max_slope) {
+  const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
+  WeightedSlopes weighted{cv::Mat(height, width, CV_32FC3), 0};
   for (int y = 0; y < height; ++y) {
     const float* n = normal_in_tangent.row(y);
-    cv::Vec3f* out = weighted.ptr<cv::Vec3f>(y);
+    cv::Vec3f* out = weighted.slopes.ptr<cv::Vec3f>(y);
     for (int x = 0; x < width; ++x, n += 3) {
       const bool wanted = valid == nullptr || (*valid)(x, y) != 0;
       const bool usable = std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]) &&
@@ -79,94 +70,141 @@ ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid, con
       const float nz = std::max(n[2], 1e-6f);  // grazing or back-facing: clamp rather than divide by ~0
       out[x] =
           cv::Vec3f(std::clamp(-n[0] / nz, -max_slope, max_slope), std::clamp(-n[1] / nz, -max_slope, max_slope), 1.0f);
-      ++valid_count;
+      ++weighted.valid_count;
     }
   }
-  result.valid_pixels = valid_count;
+  return weighted;
+}
 
-  // Output where nothing is removed: the input's valid normals, re-normalised; (0, 0, 1) elsewhere.
-  auto write_normals = [&](const cv::Mat* low_pass) {
-    ImageF out(width, height, 3);
-    double tilt_sum = 0, tilt_max = 0;
-    for (int y = 0; y < height; ++y) {
-      const cv::Vec3f* s = weighted.ptr<cv::Vec3f>(y);
-      const cv::Vec3f* lp = low_pass != nullptr ? low_pass->ptr<cv::Vec3f>(y) : nullptr;
-      float* o = out.row(y);
-      for (int x = 0; x < width; ++x, o += 3) {
-        if (s[x][2] == 0) {
-          o[0] = 0, o[1] = 0, o[2] = 1;
-          continue;
-        }
-        float p = s[x][0], q = s[x][1];
-        if (lp != nullptr && lp[x][2] > 0) {
-          const float removed_p = lp[x][0] / lp[x][2], removed_q = lp[x][1] / lp[x][2];
-          p -= removed_p;
-          q -= removed_q;
-          const double tilt = std::atan(std::hypot(removed_p, removed_q));
-          tilt_sum += tilt;
-          tilt_max = std::max(tilt_max, tilt);
-        }
-        const float inverse_length = 1.0f / std::sqrt(p * p + q * q + 1.0f);
-        o[0] = -p * inverse_length, o[1] = -q * inverse_length, o[2] = inverse_length;
-      }
-    }
-    constexpr double kDeg = 180.0 / std::numbers::pi;
-    result.mean_removed_tilt_deg = valid_count > 0 ? tilt_sum / static_cast<double>(valid_count) * kDeg : 0.0;
-    result.max_removed_tilt_deg = tilt_max * kDeg;
-    return out;
-  };
-  auto finish = [&](Termination termination, const std::string& message) {
-    result.termination = termination;
-    result.seconds = SecondsSince(start);
-    char figures[200];
-    std::snprintf(figures, sizeof(figures),
-                  "%zu of %zu pixels valid, sigma %.1f px, removed tilt mean %.3f deg, max %.3f deg, %.2f s",
-                  valid_count, static_cast<size_t>(width) * height, options.low_pass_sigma_px,
-                  result.mean_removed_tilt_deg, result.max_removed_tilt_deg, result.seconds);
-    result.message = message + figures;
-  };
-
-  if (valid_count == 0) {
-    ImageF out = write_normals(nullptr);
-    finish(Termination::kFailure, "no valid pixel with a finite normal, nothing flattened: ");
-    return out;
-  }
-  if (progress && !progress(0.3)) {
-    ImageF out = write_normals(nullptr);
-    finish(Termination::kCancelled, "cancelled before the low-pass, normals unchanged: ");
-    return out;
-  }
-
-  // Normalised convolution: blur(w s) / blur(w), zero outside the image so the
-  // edges are averaged over what exists. Large sigmas are blurred on an
-  // area-averaged grid f times coarser and upsampled bilinearly: the low-pass
-  // holds nothing the coarse grid cannot carry, and the cost per pixel no
-  // longer grows with sigma (a 48 px sigma at full size is a 289-tap kernel).
-  const double sigma = options.low_pass_sigma_px;
+// Normalised convolution: blur(w s) / blur(w), zero outside the image so the
+// edges are averaged over what exists (the division happens in RemoveLowPass).
+// Large sigmas are blurred on an area-averaged grid f times coarser and
+// upsampled bilinearly: the low-pass holds nothing the coarse grid cannot
+// carry, and the cost per pixel no longer grows with sigma (a 48 px sigma at
+// full size is a 289-tap kernel).
+cv::Mat LowPass(const cv::Mat& weighted_slopes, double sigma) {
   const int factor = LowPassFactor(sigma);
   cv::Mat low_pass;
   if (factor == 1) {
-    cv::GaussianBlur(weighted, low_pass, cv::Size(0, 0), sigma, sigma, cv::BORDER_CONSTANT);
-  } else {
-    const double f = factor;
-    const cv::Size coarse_size((width + factor - 1) / factor, (height + factor - 1) / factor);
-    cv::Mat coarse;
-    cv::resize(weighted, coarse, coarse_size, 0, 0, cv::INTER_AREA);
-    // Box of f px (variance (f^2 - 1) / 12) and bilinear tent (f^2 / 6) are part of the low-pass.
-    const double coarse_variance = (sigma * sigma - (f * f - 1) / 12.0 - f * f / 6.0) / (f * f);
-    const double coarse_sigma = std::sqrt(std::max(coarse_variance, 0.25));
-    cv::GaussianBlur(coarse, coarse, cv::Size(0, 0), coarse_sigma, coarse_sigma, cv::BORDER_CONSTANT);
-    cv::resize(coarse, low_pass, weighted.size(), 0, 0, cv::INTER_LINEAR);
+    cv::GaussianBlur(weighted_slopes, low_pass, cv::Size(0, 0), sigma, sigma, cv::BORDER_CONSTANT);
+    return low_pass;
   }
-  if (progress && !progress(0.7)) {
-    ImageF out = write_normals(nullptr);
-    finish(Termination::kCancelled, "cancelled after the low-pass, normals unchanged: ");
-    return out;
+  const double f = factor;
+  const cv::Size coarse_size((weighted_slopes.cols + factor - 1) / factor,
+                             (weighted_slopes.rows + factor - 1) / factor);
+  cv::Mat coarse;
+  cv::resize(weighted_slopes, coarse, coarse_size, 0, 0, cv::INTER_AREA);
+  // Box of f px (variance (f^2 - 1) / 12) and bilinear tent (f^2 / 6) are part of the low-pass.
+  const double coarse_variance = (sigma * sigma - (f * f - 1) / 12.0 - f * f / 6.0) / (f * f);
+  const double coarse_sigma = std::sqrt(std::max(coarse_variance, 0.25));
+  cv::GaussianBlur(coarse, coarse, cv::Size(0, 0), coarse_sigma, coarse_sigma, cv::BORDER_CONSTANT);
+  cv::resize(coarse, low_pass, weighted_slopes.size(), 0, 0, cv::INTER_LINEAR);
+  return low_pass;
+}
+
+// The output normals: the valid pixels' slopes minus the low-pass (none when
+// `low_pass` is null: the input re-normalised), (0, 0, 1) elsewhere. Fills the
+// summary's removed-tilt figures.
+ImageF RemoveLowPass(const WeightedSlopes& weighted, const cv::Mat* low_pass, NormalFlatteningSummary* summary) {
+  const int width = weighted.slopes.cols, height = weighted.slopes.rows;
+  ImageF out(width, height, 3);
+  double tilt_sum = 0, tilt_max = 0;
+  for (int y = 0; y < height; ++y) {
+    const cv::Vec3f* s = weighted.slopes.ptr<cv::Vec3f>(y);
+    const cv::Vec3f* lp = low_pass != nullptr ? low_pass->ptr<cv::Vec3f>(y) : nullptr;
+    float* o = out.row(y);
+    for (int x = 0; x < width; ++x, o += 3) {
+      if (s[x][2] == 0) {
+        o[0] = 0, o[1] = 0, o[2] = 1;
+        continue;
+      }
+      float p = s[x][0], q = s[x][1];
+      if (lp != nullptr && lp[x][2] > 0) {
+        const float removed_p = lp[x][0] / lp[x][2], removed_q = lp[x][1] / lp[x][2];
+        p -= removed_p;
+        q -= removed_q;
+        const double tilt = std::atan(std::hypot(removed_p, removed_q));
+        tilt_sum += tilt;
+        tilt_max = std::max(tilt_max, tilt);
+      }
+      const float inverse_length = 1.0f / std::sqrt(p * p + q * q + 1.0f);
+      o[0] = -p * inverse_length, o[1] = -q * inverse_length, o[2] = inverse_length;
+    }
   }
-  ImageF out = write_normals(&low_pass);
-  finish(Termination::kSuccess, "");
-  if (progress) progress(1.0);
+  constexpr double kDeg = 180.0 / std::numbers::pi;
+  summary->mean_removed_tilt_deg =
+      weighted.valid_count > 0 ? tilt_sum / static_cast<double>(weighted.valid_count) * kDeg : 0.0;
+  summary->max_removed_tilt_deg = tilt_max * kDeg;
   return out;
+}
+
+// Ends the summary: termination, time and the message (`why` then the figures).
+void Finish(Termination termination, const std::string& why, const NormalFlatteningOptions& options,
+            size_t num_pixels, std::chrono::steady_clock::time_point start, NormalFlatteningSummary* summary) {
+  summary->termination = termination;
+  summary->seconds = SecondsSince(start);
+  char figures[200];
+  std::snprintf(figures, sizeof(figures),
+                "%zu of %zu pixels valid, sigma %.1f px, removed tilt mean %.3f deg, max %.3f deg, %.2f s",
+                summary->valid_pixels, num_pixels, options.low_pass_sigma_px, summary->mean_removed_tilt_deg,
+                summary->max_removed_tilt_deg, summary->seconds);
+  summary->message = why + figures;
+}
+
+}  // namespace
+
+void NormalFlatteningOptions::Check() const {
+  if (!(low_pass_sigma_px > 0) || !std::isfinite(low_pass_sigma_px)) {
+    throw FieldError(kWhere, "low_pass_sigma_px", low_pass_sigma_px, "must be finite and > 0");
+  }
+  if (!(max_slope > 0) || !std::isfinite(max_slope)) {
+    throw FieldError(kWhere, "max_slope", max_slope, "must be finite and > 0");
+  }
+}
+
+std::string NormalFlatteningSummary::BriefReport() const {
+  std::string report = std::string("Normal flattening: ") + TerminationName(termination) + ", removed tilt mean " +
+                       Fixed(mean_removed_tilt_deg, 3) + " deg, max " + Fixed(max_removed_tilt_deg, 3) + " deg over " +
+                       std::to_string(valid_pixels) + " px, " + Fixed(seconds, 2) + " s";
+  if (termination != Termination::kSuccess) report += " (" + message + ")";
+  return report;
+}
+
+NormalFlatteningSummary FlattenNormals(const NormalFlatteningOptions& options, const ImageF& normal_in_tangent,
+                                       const ImageU8* valid, ImageF* flat_normal_in_tangent,
+                                       const ProgressCallback& progress) {
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  CheckInputs(normal_in_tangent, valid, flat_normal_in_tangent);
+  NormalFlatteningSummary summary;
+  const size_t num_pixels = normal_in_tangent.num_pixels();
+
+  const WeightedSlopes weighted = WeightSlopes(normal_in_tangent, valid, static_cast<float>(options.max_slope));
+  summary.valid_pixels = weighted.valid_count;
+  // Where nothing is removed the output is the input's valid normals, re-normalised.
+  if (weighted.valid_count == 0) {
+    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, &summary);
+    Finish(Termination::kFailure, "no valid pixel with a finite normal, nothing flattened: ", options, num_pixels,
+           start, &summary);
+    return summary;
+  }
+  if (progress && !progress(0.3)) {
+    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, &summary);
+    Finish(Termination::kCancelled, "cancelled before the low-pass, normals unchanged: ", options, num_pixels, start,
+           &summary);
+    return summary;
+  }
+  const cv::Mat low_pass = LowPass(weighted.slopes, options.low_pass_sigma_px);
+  if (progress && !progress(0.7)) {
+    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, &summary);
+    Finish(Termination::kCancelled, "cancelled after the low-pass, normals unchanged: ", options, num_pixels, start,
+           &summary);
+    return summary;
+  }
+  *flat_normal_in_tangent = RemoveLowPass(weighted, &low_pass, &summary);
+  Finish(Termination::kSuccess, "", options, num_pixels, start, &summary);
+  if (progress) progress(1.0);
+  return summary;
 }
 
 }  // namespace scanbench

@@ -28,20 +28,23 @@ struct NormalFlatteningOptions {
 
 struct NormalFlatteningSummary : AlgorithmSummary {
   size_t valid_pixels = 0;              // pixels that fed the low-pass
-  double mean_removed_tilt_deg = 0;     // mean tilt of the removed low-pass normal, valid pixels
-  double max_removed_tilt_deg = 0;
+  double mean_removed_tilt_deg = 0;     // mean tilt of the removed low-pass normal, valid pixels, deg
+  double max_removed_tilt_deg = 0;      // deg
   double seconds = 0;
+  // "Normal flattening: success, removed tilt mean 5.972 deg, max 16.250 deg over 1005312 px, 0.06 s".
+  std::string BriefReport() const;
 };
 
 // normal_in_tangent: 3 channels, unit (x right, y up = towards image row 0,
 // z out of the sample). valid: optional, 1 channel, non-zero = use the pixel;
 // invalid pixels (and pixels whose normal is non-finite or zero) come out as
-// (0, 0, 1). Returns unit normals of the same size. Throws
-// std::invalid_argument on bad options (naming the field) and bad shapes
-// (naming them) before any work. Cancelling through `progress` returns the
-// input normals (slopes clamped, re-normalised) with termination kCancelled.
-ImageF FlattenNormals(const ImageF& normal_in_tangent, const ImageU8* valid,
-                      const NormalFlatteningOptions& options, NormalFlatteningSummary* summary,
-                      const ProgressCallback& progress = {});
+// (0, 0, 1). Writes unit normals of the same size into *flat_normal_in_tangent.
+// Throws std::invalid_argument on bad options (naming the field), bad shapes
+// (naming them) and a null output, before any work. Cancelling through
+// `progress` writes the input normals (slopes clamped, re-normalised) and
+// returns termination kCancelled.
+NormalFlatteningSummary FlattenNormals(const NormalFlatteningOptions& options, const ImageF& normal_in_tangent,
+                                       const ImageU8* valid, ImageF* flat_normal_in_tangent,
+                                       const ProgressCallback& progress = {});
 
 }  // namespace scanbench

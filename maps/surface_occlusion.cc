@@ -1,33 +1,25 @@
 #include "maps/surface_occlusion.h"
 
 #include <algorithm>
-#include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <limits>
-#include <mutex>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/field_error.h"
+#include "core/format.h"
 #include "core/parallel_for.h"
 
 namespace scanbench {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 std::string ShapeText(const ImageF& image) {
   return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" +
@@ -50,6 +42,10 @@ void CheckFiniteHeight(const ImageF& height_mm, const char* where) {
       }
     }
   }
+}
+
+void CheckOutput(const ImageF* output, const char* where, const char* name) {
+  if (output == nullptr) throw std::invalid_argument(std::string(where) + ": " + name + " must not be null");
 }
 
 void FillFigures(const ImageF& map, OcclusionSummary* summary) {
@@ -152,6 +148,122 @@ void MarchRow(const ImageF& height_mm, int y, const std::vector<MarchSample>& sa
   }
 }
 
+// The samples of every azimuth, the same for every pixel.
+struct AzimuthMarches {
+  int steps = 0;                                  // samples per azimuth
+  double radius_px = 0;                           // search radius, pixels
+  std::vector<std::vector<MarchSample>> samples;  // per azimuth
+  std::vector<float> cos_azimuth, sin_azimuth;    // x right, y down the rows
+};
+
+AzimuthMarches PlanMarches(const AmbientOcclusionOptions& options) {
+  AzimuthMarches marches;
+  marches.radius_px = options.radius_mm / options.mm_per_pixel;
+  marches.steps =
+      static_cast<int>(std::min<double>(options.max_steps, std::max(1.0, std::ceil(marches.radius_px))));
+  const std::vector<double> distances = MarchDistances(marches.radius_px, marches.steps);
+  const int num_directions = options.num_directions;
+  marches.samples.resize(num_directions);
+  marches.cos_azimuth.resize(num_directions);
+  marches.sin_azimuth.resize(num_directions);
+  for (int k = 0; k < num_directions; ++k) {
+    // Half-step offset: no azimuth runs exactly along the pixel axes, so
+    // axis-aligned structures are not over-weighted.
+    const double azimuth = 2 * std::numbers::pi * (k + 0.5) / num_directions;
+    marches.cos_azimuth[k] = static_cast<float>(std::cos(azimuth));
+    marches.sin_azimuth[k] = static_cast<float>(std::sin(azimuth));
+    for (double d : distances) {
+      const double ox = d * std::cos(azimuth), oy = d * std::sin(azimuth);
+      MarchSample s;
+      s.dx = static_cast<int>(std::floor(ox));
+      s.dy = static_cast<int>(std::floor(oy));
+      s.fx = static_cast<float>(ox - s.dx);
+      s.fy = static_cast<float>(oy - s.dy);
+      s.inv_distance_mm = static_cast<float>(1.0 / (d * options.mm_per_pixel));
+      marches.samples[k].push_back(s);
+    }
+  }
+  return marches;
+}
+
+// The pixel normals of row y (x right, y down the rows, z up), from central
+// differences of the height (one-sided at the border).
+void PixelNormalsRow(const ImageF& height_mm, int y, double mm_per_pixel, std::vector<float>* normal_x,
+                     std::vector<float>* normal_y, std::vector<float>* normal_z) {
+  const int width = height_mm.width(), rows = height_mm.height();
+  const float* up = height_mm.row(std::max(y - 1, 0));
+  const float* down = height_mm.row(std::min(y + 1, rows - 1));
+  const float* centre = height_mm.row(y);
+  const int dy_px = std::min(y + 1, rows - 1) - std::max(y - 1, 0);
+  for (int x = 0; x < width; ++x) {
+    const int left = std::max(x - 1, 0), right = std::min(x + 1, width - 1);
+    const double gx = right > left ? (centre[right] - centre[left]) / ((right - left) * mm_per_pixel) : 0;
+    const double gy = dy_px > 0 ? (down[x] - up[x]) / (dy_px * mm_per_pixel) : 0;
+    const double norm = std::sqrt(1 + gx * gx + gy * gy);
+    (*normal_x)[x] = static_cast<float>(-gx / norm);
+    (*normal_y)[x] = static_cast<float>(-gy / norm);
+    (*normal_z)[x] = static_cast<float>(1 / norm);
+  }
+}
+
+// Visibility of row y: per azimuth the steepest horizon, its half-slice's
+// share of the hemisphere, the mean over the azimuths.
+void VisibilityRow(const ImageF& height_mm, int y, const AzimuthMarches& marches,
+                   const AmbientOcclusionOptions& options, float* visibility_row) {
+  const int width = height_mm.width();
+  const int num_directions = static_cast<int>(marches.samples.size());
+  const bool pixel_normal = options.around_pixel_normal;
+  const float half_pi = static_cast<float>(std::numbers::pi / 2);
+  std::vector<float> max_tangent(width);
+  std::vector<float> sum(width, 0.0f);
+  std::vector<float> normal_x(width, 0.0f), normal_y(width, 0.0f), normal_z(width, 1.0f);
+  if (pixel_normal) PixelNormalsRow(height_mm, y, options.mm_per_pixel, &normal_x, &normal_y, &normal_z);
+  for (int k = 0; k < num_directions; ++k) {
+    const float cos_azimuth = marches.cos_azimuth[k], sin_azimuth = marches.sin_azimuth[k];
+    std::fill(max_tangent.begin(), max_tangent.end(), std::numeric_limits<float>::lowest());
+    LeavingSlopeRow(height_mm, y, cos_azimuth, sin_azimuth, options.mm_per_pixel, max_tangent.data());
+    MarchRow(height_mm, y, marches.samples[k], max_tangent.data());
+    if (!pixel_normal) {
+      // The half-slice towards this azimuth for the normal (0, 0, 1), horizon
+      // elevation h >= 0 (the table plane bounds the hemisphere):
+      // 2 * integral over zenith angles [0, pi/2 - h] of cos * sin = cos^2(h).
+      for (int x = 0; x < width; ++x) {
+        const float t = std::max(max_tangent[x], 0.0f);
+        sum[x] += 1.0f / (1.0f + t * t);
+      }
+    } else {
+      // GTAO's slice integral for normal n, per half-slice towards azimuth
+      // d: with the horizon at zenith angle theta = pi/2 - atan(t), gamma the
+      // angle of n projected into the slice (n_p), nd = n.d and nz = n.z,
+      //   2 |n_p| * integral_0^theta cos(a - gamma) sin(a) da
+      //     = nz / (1 + t^2) + nd * (theta - t / (1 + t^2)),
+      // the horizon never below n's own hemisphere: t >= -nd / nz.
+      for (int x = 0; x < width; ++x) {
+        const float nd = normal_x[x] * cos_azimuth + normal_y[x] * sin_azimuth;
+        const float t = std::max(max_tangent[x], -nd / normal_z[x]);
+        const float inv = 1.0f / (1.0f + t * t);
+        sum[x] += normal_z[x] * inv + nd * (half_pi - std::atan(t) - t * inv);
+      }
+    }
+  }
+  const float scale = 1.0f / num_directions;
+  for (int x = 0; x < width; ++x) visibility_row[x] = std::clamp(sum[x] * scale, 0.0f, 1.0f);
+}
+
+// Heights relative to the lowest point, as OpenCV's float image: a flat map
+// becomes exactly zero and stays so through the blur, and large offsets lose
+// no float precision.
+cv::Mat RelativeToLowest(const ImageF& height_mm) {
+  const float lowest = *std::min_element(height_mm.data(), height_mm.data() + height_mm.size());
+  cv::Mat relative(height_mm.height(), height_mm.width(), CV_32F);
+  for (int y = 0; y < height_mm.height(); ++y) {
+    const float* in = height_mm.row(y);
+    float* rel = relative.ptr<float>(y);
+    for (int x = 0; x < height_mm.width(); ++x) rel[x] = in[x] - lowest;
+  }
+  return relative;
+}
+
 }  // namespace
 
 void AmbientOcclusionOptions::Check() const {
@@ -192,161 +304,101 @@ void CavityOptions::Check() const {
   }
 }
 
-ImageF AmbientOcclusionFromHeight(const ImageF& height_mm, const AmbientOcclusionOptions& options,
-                                  OcclusionSummary* summary, const ProgressCallback& progress) {
-  options.Check();
-  CheckFiniteHeight(height_mm, "AmbientOcclusionFromHeight");
-  const auto start = Clock::now();
-  OcclusionSummary local;
-  OcclusionSummary& out = summary ? *summary : local;
-  out = OcclusionSummary();
-
-  const double radius_px = options.radius_mm / options.mm_per_pixel;
-  const int steps = static_cast<int>(std::min<double>(options.max_steps, std::max(1.0, std::ceil(radius_px))));
-  const std::vector<double> distances = MarchDistances(radius_px, steps);
-  const int num_directions = options.num_directions;
-  std::vector<std::vector<MarchSample>> marches(num_directions);
-  std::vector<float> cos_azimuth(num_directions), sin_azimuth(num_directions);
-  for (int k = 0; k < num_directions; ++k) {
-    // Half-step offset: no azimuth runs exactly along the pixel axes, so
-    // axis-aligned structures are not over-weighted.
-    const double azimuth = 2 * std::numbers::pi * (k + 0.5) / num_directions;
-    cos_azimuth[k] = static_cast<float>(std::cos(azimuth));
-    sin_azimuth[k] = static_cast<float>(std::sin(azimuth));
-    for (double d : distances) {
-      const double ox = d * std::cos(azimuth), oy = d * std::sin(azimuth);
-      MarchSample s;
-      s.dx = static_cast<int>(std::floor(ox));
-      s.dy = static_cast<int>(std::floor(oy));
-      s.fx = static_cast<float>(ox - s.dx);
-      s.fy = static_cast<float>(oy - s.dy);
-      s.inv_distance_mm = static_cast<float>(1.0 / (d * options.mm_per_pixel));
-      marches[k].push_back(s);
-    }
-  }
-
-  const int width = height_mm.width(), rows = height_mm.height();
-  ImageF visibility(width, rows, 1);
-  const int threads = options.num_threads > 0
-                          ? options.num_threads
-                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const bool pixel_normal = options.around_pixel_normal;
-  const float half_pi = static_cast<float>(std::numbers::pi / 2);
-  const bool finished = RunRows(rows, std::min(threads, rows), progress, [&](int y) {
-    std::vector<float> max_tangent(width);
-    std::vector<float> sum(width, 0.0f);
-    // The pixel normal (x right, y down the rows, z up), from central
-    // differences of the height (one-sided at the border).
-    std::vector<float> normal_x(width, 0.0f), normal_y(width, 0.0f), normal_z(width, 1.0f);
-    if (pixel_normal) {
-      const float* up = height_mm.row(std::max(y - 1, 0));
-      const float* down = height_mm.row(std::min(y + 1, rows - 1));
-      const float* centre = height_mm.row(y);
-      const int dy_px = std::min(y + 1, rows - 1) - std::max(y - 1, 0);
-      for (int x = 0; x < width; ++x) {
-        const int left = std::max(x - 1, 0), right = std::min(x + 1, width - 1);
-        const double gx = right > left ? (centre[right] - centre[left]) / ((right - left) * options.mm_per_pixel) : 0;
-        const double gy = dy_px > 0 ? (down[x] - up[x]) / (dy_px * options.mm_per_pixel) : 0;
-        const double norm = std::sqrt(1 + gx * gx + gy * gy);
-        normal_x[x] = static_cast<float>(-gx / norm);
-        normal_y[x] = static_cast<float>(-gy / norm);
-        normal_z[x] = static_cast<float>(1 / norm);
-      }
-    }
-    for (int k = 0; k < num_directions; ++k) {
-      std::fill(max_tangent.begin(), max_tangent.end(), std::numeric_limits<float>::lowest());
-      LeavingSlopeRow(height_mm, y, cos_azimuth[k], sin_azimuth[k], options.mm_per_pixel, max_tangent.data());
-      MarchRow(height_mm, y, marches[k], max_tangent.data());
-      if (!pixel_normal) {
-        // The half-slice towards this azimuth for the normal (0, 0, 1), horizon
-        // elevation h >= 0 (the table plane bounds the hemisphere):
-        // 2 * integral over zenith angles [0, pi/2 - h] of cos * sin = cos^2(h).
-        for (int x = 0; x < width; ++x) {
-          const float t = std::max(max_tangent[x], 0.0f);
-          sum[x] += 1.0f / (1.0f + t * t);
-        }
-      } else {
-        // GTAO's slice integral for normal n, per half-slice towards azimuth
-        // d: with the horizon at zenith angle theta = pi/2 - atan(t), gamma the
-        // angle of n projected into the slice (n_p), nd = n.d and nz = n.z,
-        //   2 |n_p| * integral_0^theta cos(a - gamma) sin(a) da
-        //     = nz / (1 + t^2) + nd * (theta - t / (1 + t^2)),
-        // the horizon never below n's own hemisphere: t >= -nd / nz.
-        for (int x = 0; x < width; ++x) {
-          const float nd = normal_x[x] * cos_azimuth[k] + normal_y[x] * sin_azimuth[k];
-          const float t = std::max(max_tangent[x], -nd / normal_z[x]);
-          const float inv = 1.0f / (1.0f + t * t);
-          sum[x] += normal_z[x] * inv + nd * (half_pi - std::atan(t) - t * inv);
-        }
-      }
-    }
-    float* out_row = visibility.row(y);
-    const float scale = 1.0f / num_directions;
-    for (int x = 0; x < width; ++x) out_row[x] = std::clamp(sum[x] * scale, 0.0f, 1.0f);
-  });
-
-  out.steps_per_direction = steps;
-  out.radius_px = radius_px;
-  out.seconds = SecondsSince(start);
-  if (!finished) {
-    out.termination = Termination::kCancelled;
-    out.message = "ambient occlusion cancelled by the progress callback";
-    return ImageF();
-  }
-  FillFigures(visibility, &out);
-  out.termination = Termination::kSuccess;
-  std::ostringstream text;
-  text << "ambient occlusion of " << width << "x" << rows << " px around the "
-       << (pixel_normal ? "pixel" : "table") << " normal: " << num_directions << " directions x "
-       << steps << " steps out to " << options.radius_mm << " mm (" << radius_px << " px); visibility mean "
-       << out.mean << ", min " << out.min << ", max " << out.max << "; " << out.seconds << " s";
-  out.message = text.str();
-  return visibility;
+std::string OcclusionSummary::BriefReport() const {
+  std::string name = map_name.empty() ? "Occlusion" : map_name;
+  name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
+  std::string report = name + ": " + TerminationName(termination) + ", mean " + Fixed(mean, 3) + ", min " +
+                       Fixed(min, 3) + ", max " + Fixed(max, 3) + ", radius " + Fixed(radius_px, 1) + " px";
+  if (steps_per_direction > 0) report += " (" + std::to_string(steps_per_direction) + " steps per direction)";
+  report += ", " + Fixed(seconds, 2) + " s";
+  if (termination != Termination::kSuccess) report += " (" + message + ")";
+  return report;
 }
 
-ImageF CavityFromHeight(const ImageF& height_mm, const CavityOptions& options, OcclusionSummary* summary) {
+OcclusionSummary AmbientOcclusionFromHeight(const AmbientOcclusionOptions& options, const ImageF& height_mm,
+                                            ImageF* visibility, const ProgressCallback& progress) {
+  options.Check();
+  CheckFiniteHeight(height_mm, "AmbientOcclusionFromHeight");
+  CheckOutput(visibility, "AmbientOcclusionFromHeight", "visibility");
+  const auto start = std::chrono::steady_clock::now();
+  OcclusionSummary summary;
+  summary.map_name = "ambient occlusion";
+
+  const AzimuthMarches marches = PlanMarches(options);
+  const int width = height_mm.width(), rows = height_mm.height();
+  ImageF map(width, rows, 1);
+  const int threads = ResolveThreadCount(options.num_threads);
+  const bool finished = RunRows(rows, std::min(threads, rows), progress,
+                                [&](int y) { VisibilityRow(height_mm, y, marches, options, map.row(y)); });
+
+  summary.steps_per_direction = marches.steps;
+  summary.radius_px = marches.radius_px;
+  summary.seconds = SecondsSince(start);
+  if (!finished) {
+    summary.SetCancelled("ambient occlusion cancelled by the progress callback");
+    *visibility = ImageF();
+    return summary;
+  }
+  FillFigures(map, &summary);
+  summary.termination = Termination::kSuccess;
+  std::ostringstream text;
+  text << "ambient occlusion of " << width << "x" << rows << " px around the "
+       << (options.around_pixel_normal ? "pixel" : "table") << " normal: " << options.num_directions
+       << " directions x " << marches.steps << " steps out to " << options.radius_mm << " mm (" << marches.radius_px
+       << " px); visibility mean " << summary.mean << ", min " << summary.min << ", max " << summary.max << "; "
+       << summary.seconds << " s";
+  summary.message = text.str();
+  *visibility = std::move(map);
+  return summary;
+}
+
+OcclusionSummary CavityFromHeight(const CavityOptions& options, const ImageF& height_mm, ImageF* cavity,
+                                  const ProgressCallback& progress) {
   options.Check();
   CheckFiniteHeight(height_mm, "CavityFromHeight");
-  const auto start = Clock::now();
-  OcclusionSummary local;
-  OcclusionSummary& out = summary ? *summary : local;
-  out = OcclusionSummary();
+  CheckOutput(cavity, "CavityFromHeight", "cavity");
+  const auto start = std::chrono::steady_clock::now();
+  OcclusionSummary summary;
+  summary.map_name = "cavity";
+  const double sigma_px = options.radius_mm / options.mm_per_pixel;
+  summary.radius_px = sigma_px;
+  auto cancelled = [&](double fraction) {
+    if (!progress || progress(fraction)) return false;
+    summary.seconds = SecondsSince(start);
+    summary.SetCancelled("cavity cancelled by the progress callback");
+    *cavity = ImageF();
+    return true;
+  };
+  if (cancelled(0.0)) return summary;
 
   const int width = height_mm.width(), rows = height_mm.height();
-  // Heights relative to the lowest point: a flat map becomes exactly zero and
-  // stays so through the blur, and large offsets lose no float precision.
-  const float lowest = *std::min_element(height_mm.data(), height_mm.data() + height_mm.size());
-  cv::Mat relative(rows, width, CV_32F);
-  for (int y = 0; y < rows; ++y) {
-    const float* in = height_mm.row(y);
-    float* rel = relative.ptr<float>(y);
-    for (int x = 0; x < width; ++x) rel[x] = in[x] - lowest;
-  }
-  const double sigma_px = options.radius_mm / options.mm_per_pixel;
+  const cv::Mat relative = RelativeToLowest(height_mm);
   cv::Mat mean;
   cv::GaussianBlur(relative, mean, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  if (cancelled(0.9)) return summary;
 
-  ImageF cavity(width, rows, 1);
+  ImageF map(width, rows, 1);
   const float inv_scale = static_cast<float>(1.0 / options.depth_scale_mm);
   for (int y = 0; y < rows; ++y) {
     const float* rel = relative.ptr<float>(y);
     const float* neighbourhood = mean.ptr<float>(y);
-    float* out_row = cavity.row(y);
+    float* out_row = map.row(y);
     for (int x = 0; x < width; ++x) {
       const float depth = neighbourhood[x] - rel[x];
       out_row[x] = std::clamp(1.0f - depth * inv_scale, 0.0f, 1.0f);
     }
   }
-  FillFigures(cavity, &out);
-  out.radius_px = sigma_px;
-  out.seconds = SecondsSince(start);
-  out.termination = Termination::kSuccess;
+  FillFigures(map, &summary);
+  summary.seconds = SecondsSince(start);
+  summary.termination = Termination::kSuccess;
   std::ostringstream text;
   text << "cavity of " << width << "x" << rows << " px: Gaussian sigma " << options.radius_mm << " mm ("
-       << sigma_px << " px), 0 at " << options.depth_scale_mm << " mm deep; mean " << out.mean << ", min "
-       << out.min << ", max " << out.max << "; " << out.seconds << " s";
-  out.message = text.str();
-  return cavity;
+       << sigma_px << " px), 0 at " << options.depth_scale_mm << " mm deep; mean " << summary.mean << ", min "
+       << summary.min << ", max " << summary.max << "; " << summary.seconds << " s";
+  summary.message = text.str();
+  *cavity = std::move(map);
+  if (progress) progress(1.0);
+  return summary;
 }
 
 ImageF AdjustOcclusionForAlbedo(const ImageF& visibility, const ImageF& albedo) {

@@ -25,13 +25,35 @@
 #include "calibration/camera_model.h"
 #include "solver/angular_error.h"
 #include "core/field_error.h"
+#include "core/format.h"
+#include "core/summary.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
 
+struct ExportInputs {
+  fs::path result_dir;            // absolute, <session>/results/<run-id>
+  fs::path session_dir;
+  Session session;
+  fs::path report_path;           // the result's report.json
+  nlohmann::json result_report;
+  ImageF solved_normals;          // normal.exr, tangent frame
+  ImageF albedo;                  // albedo.exr, linear RGB
+  ImageF confidence;              // confidence.exr: lights used, condition number, residual
+  ImageU8 valid;                  // solved_mask.png: 1 = solved
+};
+
+struct ExportMaps {
+  ImageF normals;                 // flattened (or as solved), tangent frame
+  ImageF height_mm;
+  ImageF occlusion;
+  ImageF cavity;
+  std::vector<GlossMipLevel> mips;
+  std::vector<ImageF> tiles;      // empty, or the tiles of TileInputs' maps in order
+};
+
 namespace {
 
-using Clock = std::chrono::steady_clock;
 constexpr char kWhere[] = "ExportOptions";
 
 std::runtime_error FileError(const fs::path& path, const std::string& problem) {
@@ -102,9 +124,36 @@ std::string MaterialNameFromSample(const std::string& sample_name) {
   return name.empty() ? "material" : name;
 }
 
-void RequireSuccess(Termination termination, const std::string& message, const std::string& stage) {
-  if (termination == Termination::kCancelled) throw Cancelled(stage);
-  if (termination != Termination::kSuccess) throw std::runtime_error(stage + " failed: " + message);
+// The export's scale into the summary: the options' when given, else the
+// session rig's pixel footprint at the image centre; a warning when a
+// simulated session's rig says otherwise by more than 1 %.
+void ResolveScale(const Session& session, const fs::path& session_dir, double mm_per_pixel_option,
+                  ExportSummary* summary) {
+  if (mm_per_pixel_option > 0) {
+    summary->mm_per_pixel = mm_per_pixel_option;
+    summary->mm_per_pixel_source = "options";
+  } else {
+    summary->mm_per_pixel = MmPerPixelAtImageCentre(session.rig.camera);
+    summary->mm_per_pixel_source = "session rig at the image centre";
+    if (!std::isfinite(summary->mm_per_pixel) || !(summary->mm_per_pixel > 0)) {
+      throw FileError(session_dir / "session.json",
+                      "rig.camera gives a pixel footprint of " + std::to_string(summary->mm_per_pixel) +
+                          " mm at the image centre; give --mm-per-pixel");
+    }
+  }
+  if (session.ground_truth && std::abs(session.ground_truth->mm_per_pixel / summary->mm_per_pixel - 1) > 0.01) {
+    std::ostringstream warning;
+    warning << "scale " << summary->mm_per_pixel << " mm/px differs from the simulated rig's "
+            << session.ground_truth->mm_per_pixel << " mm/px by more than 1 %";
+    summary->warnings.push_back(warning.str());
+  }
+}
+
+// The height options at the export's scale.
+HeightFromNormalsOptions ScaledHeightOptions(const ExportOptions& options, double mm_per_pixel) {
+  HeightFromNormalsOptions height = options.height;
+  height.mm_per_pixel = mm_per_pixel;
+  return height;
 }
 
 // OpenGL = the solver's tangent frame (+Y up); DirectX flips Y.
@@ -146,6 +195,42 @@ std::optional<double> RmsAfterPlane(const ImageF& estimate, const ImageF& refere
     }
   }
   return std::sqrt(sum_squares / count);
+}
+
+// The given result folder, absolute, without a trailing separator ("results/<run-id>/").
+fs::path NormalisedResultDir(const fs::path& given) {
+  fs::path result_dir = fs::absolute(given).lexically_normal();
+  if (!result_dir.has_filename()) result_dir = result_dir.parent_path();
+  return result_dir;
+}
+
+void CheckIsResultFolder(const fs::path& result_dir) {
+  std::error_code error;
+  if (!fs::is_directory(result_dir, error)) throw FileError(result_dir, "is not a result folder (does not exist)");
+  if (result_dir.parent_path().filename() != "results") {
+    throw FileError(result_dir, "is not a result folder: results live in <session>/results/<run-id>/");
+  }
+}
+
+nlohmann::json ReadJsonFile(const fs::path& path) {
+  try {
+    return nlohmann::json::parse(ReadFileBytes(path));
+  } catch (const nlohmann::json::exception& parse_error) {
+    throw FileError(path, std::string("is not valid JSON (") + parse_error.what() + ")");
+  }
+}
+
+std::string TangentFrameText(ExportOptions::NormalConvention convention) {
+  return convention == ExportOptions::NormalConvention::kDirectX
+             ? "unit normal, tangent frame x right, y down (DirectX), z out of the sample"
+             : "unit normal, tangent frame x right, y up (OpenGL), z out of the sample";
+}
+
+// The maps the tileable crop cuts, in the order of ExportMaps::tiles.
+std::vector<TileableMapInput> TileInputs(const ExportInputs& inputs, const ExportMaps& maps) {
+  return {{&inputs.albedo, TileMapKind::kLinear},   {&maps.normals, TileMapKind::kNormal},
+          {&maps.height_mm, TileMapKind::kLinear},  {&maps.occlusion, TileMapKind::kLinear},
+          {&maps.cavity, TileMapKind::kLinear},     {&maps.mips.front().roughness, TileMapKind::kLinear}};
 }
 
 // --- Files of an export --------------------------------------------------
@@ -338,6 +423,265 @@ nlohmann::json SummariesJson(const ExportSummary& summary) {
   return json;
 }
 
+// --- Planning the files -----------------------------------------------------
+
+// The files of one export, each with its image, encoding and metadata, in the
+// order they are listed.
+class FilePlanner {
+ public:
+  FilePlanner(const ExportOptions& options, const ExportSummary& summary, const std::string& source_result)
+      : options_(options),
+        summary_(summary),
+        exr_(options.preset == ExportOptions::Preset::kLinearExr),
+        format_(exr_ ? "exr" : options.preset == ExportOptions::Preset::kPng16 ? "png" : "tiff"),
+        extension_(exr_ ? ".exr" : format_ == "png" ? ".png" : ".tif"),
+        source_result_(source_result) {}
+
+  // A float map in the preset's format (EXR float, else 16-bit integers).
+  ExportFile* AddMap(const std::string& kind, ImageF image, const std::string& color_space,
+                     const IntegerEncoding& integer, const std::string& description, double pixel_mm,
+                     bool force_exr = false) {
+    ExportFile file;
+    file.kind = kind;
+    const bool as_exr = exr_ || force_exr;
+    file.format = as_exr ? "exr" : format_;
+    file.relative_path = RelativePath(kind, as_exr ? ".exr" : extension_);
+    file.is_float = as_exr;
+    file.bits_per_sample = as_exr ? 32 : 16;
+    file.width = image.width();
+    file.height = image.height();
+    file.channels = image.channels();
+    file.color_space = color_space;
+    file.encoding = as_exr ? "float, value as is" : integer.text;
+    file.mm_per_pixel = pixel_mm;
+    file.integer = integer;
+    file.float_image = std::make_shared<const ImageF>(std::move(image));
+    file.metadata = Metadata(file, description);
+    return &files_.emplace_back(std::move(file));
+  }
+
+  // Unit normals in the export's convention.
+  void AddNormal(const std::string& kind, const ImageF& normal_in_tangent, double pixel_mm) {
+    static const IntegerEncoding kNormalEncoding{0.5, 0.5, "uint16 = (n + 1) / 2 * 65535 per component"};
+    ExportFile* file = AddMap(kind, InConvention(normal_in_tangent, options_.normal_convention), "Raw",
+                              kNormalEncoding, TangentFrameText(options_.normal_convention), pixel_mm);
+    file->metadata.attributes["scanbench:normal_convention"] = NormalConventionName(options_.normal_convention);
+  }
+
+  // Heights in mm as float EXR, and for integer presets also normalised to
+  // [0, 1] over the exported height range.
+  void AddHeight(const std::string& kind, const ImageF& heights, double pixel_mm) {
+    AddMap(kind, heights, "Raw", {}, "height above the mean of the solved pixels, mm", pixel_mm, true);
+    if (exr_) return;
+    const double low = summary_.height_min_mm, range = summary_.height_max_mm - summary_.height_min_mm;
+    const IntegerEncoding encoding{range > 0 ? 1.0 / range : 0.0, range > 0 ? -low / range : 0.0,
+                                   "uint16 = (height_mm - height_min_mm) / (height_max_mm - height_min_mm) * 65535"};
+    ExportFile* file = AddMap(kind + "_normalized", heights, "Raw", encoding,
+                              "height normalised to [0, 1] over its range (see height_min_mm, height_max_mm)",
+                              pixel_mm);
+    std::ostringstream low_text, high_text;
+    low_text << std::setprecision(9) << summary_.height_min_mm;
+    high_text << std::setprecision(9) << summary_.height_max_mm;
+    file->metadata.attributes["scanbench:height_min_mm"] = low_text.str();
+    file->metadata.attributes["scanbench:height_max_mm"] = high_text.str();
+  }
+
+  // An 8-bit PNG stored as it is (mask, sRGB preview).
+  void AddU8(const std::string& kind, ImageU8 image, const std::string& color_space, const std::string& encoding,
+             const std::string& description) {
+    ExportFile file;
+    file.kind = kind;
+    file.format = "png";
+    file.relative_path = RelativePath(kind, ".png");
+    file.bits_per_sample = 8;
+    file.width = image.width();
+    file.height = image.height();
+    file.channels = image.channels();
+    file.color_space = color_space;
+    file.encoding = encoding;
+    file.mm_per_pixel = summary_.mm_per_pixel;
+    file.u8_image = std::make_shared<const ImageU8>(std::move(image));
+    file.metadata = Metadata(file, description);
+    files_.push_back(std::move(file));
+  }
+
+  std::vector<ExportFile> Take() { return std::move(files_); }
+
+ private:
+  std::string RelativePath(const std::string& kind, const std::string& extension) const {
+    const std::string& material = summary_.material_name;
+    return material + "/" + material + "_" + kind + extension;
+  }
+  ImageMetadata Metadata(const ExportFile& file, const std::string& description) const {
+    ImageMetadata metadata;
+    metadata.mm_per_pixel = file.mm_per_pixel;
+    metadata.description = "scanbench " + summary_.material_name + " " + file.kind + ": " + description;
+    metadata.color_space = file.color_space;
+    metadata.attributes["scanbench:map"] = file.kind;
+    metadata.attributes["scanbench:encoding"] = file.encoding;
+    metadata.attributes["scanbench:source_result"] = source_result_;
+    return metadata;
+  }
+
+  const ExportOptions& options_;
+  const ExportSummary& summary_;
+  const bool exr_;
+  const std::string format_, extension_, source_result_;
+  std::vector<ExportFile> files_;
+};
+
+// Every file of the export: the maps, their mips, the tiles, the solver's
+// confidence, the mask and the sRGB preview.
+std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSummary& summary,
+                                  const ExportInputs& inputs, const ExportMaps& maps) {
+  const IntegerEncoding unit_interval{1, 0, "uint16 = value * 65535, value in [0, 1]"};
+  const double mm = summary.mm_per_pixel;
+  FilePlanner plan(options, summary, inputs.result_dir.filename().string());
+  plan.AddMap("basecolor", inputs.albedo, "Linear", unit_interval,
+              "linear RGB albedo (camera raw channels, white balance from the light calibration)", mm);
+  plan.AddNormal("normal", maps.normals, mm);
+  plan.AddHeight("height", maps.height_mm, mm);
+  plan.AddMap("ao", maps.occlusion, "Raw", unit_interval, "ambient occlusion, cosine-weighted visibility, 1 = open",
+              mm);
+  plan.AddMap("cavity", maps.cavity, "Raw", unit_interval, "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
+  for (size_t k = 0; k < maps.mips.size(); ++k) {
+    const double pixel_mm = mm * std::ldexp(1.0, static_cast<int>(k));
+    plan.AddMap("roughness_mip" + std::to_string(k), maps.mips[k].roughness, "Raw", unit_interval,
+                "GGX alpha (" + summary.gloss.model + " mip chain; normal variance below this level folded in)",
+                pixel_mm);
+    if (k > 0) plan.AddNormal("normal_mip" + std::to_string(k), maps.mips[k].normal_in_tangent, pixel_mm);
+  }
+  if (!maps.tiles.empty()) {
+    plan.AddMap("tile_basecolor", maps.tiles[0], "Linear", unit_interval, "tileable crop of basecolor", mm);
+    plan.AddNormal("tile_normal", maps.tiles[1], mm);
+    plan.AddHeight("tile_height", maps.tiles[2], mm);
+    plan.AddMap("tile_ao", maps.tiles[3], "Raw", unit_interval, "tileable crop of ao", mm);
+    plan.AddMap("tile_cavity", maps.tiles[4], "Raw", unit_interval, "tileable crop of cavity", mm);
+    plan.AddMap("tile_roughness", maps.tiles[5], "Raw", unit_interval, "tileable crop of roughness_mip0", mm);
+  }
+  ExportFile* confidence =
+      plan.AddMap("confidence", inputs.confidence, "Raw", {},
+                  "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
+  confidence->channel_names = {"lights_used", "condition_number", "residual"};
+  ImageU8 mask(inputs.valid.width(), inputs.valid.height(), 1);
+  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = inputs.valid.data()[i] ? 255 : 0;
+  plan.AddU8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
+             "pixels the solver solved");
+  plan.AddU8("basecolor_srgb_preview", EncodeSrgbPreview(inputs.albedo), "sRGB", "uint8 sRGB transfer curve",
+             "8-bit sRGB preview of the linear basecolor");
+  return plan.Take();
+}
+
+// --- Writing -----------------------------------------------------------------
+
+// Compression dominates; the files are independent, so they are written
+// concurrently. `report` gets the fraction of files done (up to 0.9). The
+// first failure is rethrown once every write has ended.
+void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFile>& files,
+                            const std::function<void(double)>& report) {
+  std::vector<std::future<void>> pending;
+  for (const ExportFile& file : files) {
+    pending.push_back(std::async(std::launch::async, WriteExportFile, staging / file.relative_path, std::cref(file)));
+  }
+  std::exception_ptr failure;
+  for (size_t i = 0; i < pending.size(); ++i) {
+    try {
+      pending[i].get();
+    } catch (...) {
+      if (!failure) failure = std::current_exception();
+    }
+    report(0.9 * (i + 1) / pending.size());
+  }
+  if (failure) std::rethrow_exception(failure);
+}
+
+// Hashes and sizes of the written files, for the manifest; lists them in the summary.
+void RecordWrittenFiles(const fs::path& staging, std::vector<ExportFile>* files, ExportSummary* summary) {
+  for (ExportFile& file : *files) {
+    const fs::path path = staging / file.relative_path;
+    file.sha256 = Sha256HexOfFile(path);
+    file.bytes = fs::file_size(path);
+    summary->files[file.kind] = file.relative_path;
+  }
+}
+
+// --- The manifest (material.json) --------------------------------------------
+
+nlohmann::json FileEntryJson(const ExportFile& file) {
+  nlohmann::json entry = {{"path", file.relative_path},
+                          {"format", file.format},
+                          {"bits_per_sample", file.bits_per_sample},
+                          {"sample_type", file.is_float ? "float" : "uint"},
+                          {"channels", file.channels},
+                          {"width", file.width},
+                          {"height", file.height},
+                          {"color_space", file.color_space},
+                          {"encoding", file.encoding},
+                          {"mm_per_pixel", file.mm_per_pixel},
+                          {"sha256", file.sha256},
+                          {"bytes", file.bytes}};
+  if (!file.channel_names.empty()) entry["channel_names"] = file.channel_names;
+  for (const auto& [name, value] : file.metadata.attributes) {
+    if (name == "scanbench:height_min_mm" || name == "scanbench:height_max_mm") {
+      entry[name.substr(std::strlen("scanbench:"))] = std::stod(value);
+    }
+  }
+  return entry;
+}
+
+nlohmann::json SourceJson(const ExportInputs& inputs) {
+  return {{"session", inputs.session_dir.string()},
+          {"sample_name", inputs.session.sample_name},
+          {"result", inputs.result_dir.filename().string()},
+          {"result_dir", inputs.result_dir.string()},
+          {"solver_method", inputs.result_report.value("/solver/method"_json_pointer, std::string())},
+          {"result_report_sha256", Sha256HexOfFile(inputs.report_path)}};
+}
+
+nlohmann::json GroundTruthJson(const ExportOptions& options, const ExportSummary& summary,
+                               const GroundTruthFiles& truth) {
+  return {{"height_rms_error_mm", *summary.height_rms_error_mm},
+          {"height_reference", options.flatten_normals ? "true normals flattened and integrated with the same options"
+                                                       : "true height"},
+          {"height_error_measure", "RMS of exported minus reference height after removing their best-fit plane"},
+          {"normal_mean_angular_error_deg", summary.flattened_normal_mean_error_deg
+                                                ? nlohmann::json(*summary.flattened_normal_mean_error_deg)
+                                                : nlohmann::json(nullptr)},
+          {"evaluated_on", "sample mask, solved pixels"},
+          {"simulated_rig_mm_per_pixel", truth.mm_per_pixel}};
+}
+
+nlohmann::json ManifestJson(const ExportOptions& options, const ExportSummary& summary, const ExportInputs& inputs,
+                            const std::vector<ExportFile>& files) {
+  nlohmann::json manifest;
+  manifest["schema"] = kMaterialManifestSchema;
+  manifest["schema_version"] = kMaterialManifestSchemaVersion;
+  manifest["software_version"] = "scanbench " SCANBENCH_VERSION;
+  manifest["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
+  manifest["material"] = summary.material_name;
+  manifest["preset"] = summary.preset;
+  manifest["normal_convention"] = summary.normal_convention;
+  manifest["tangent_frame"] = TangentFrameText(options.normal_convention);
+  manifest["width"] = summary.image_width;
+  manifest["height"] = summary.image_height;
+  manifest["mm_per_pixel"] = summary.mm_per_pixel;
+  manifest["mm_per_pixel_source"] = summary.mm_per_pixel_source;
+  manifest["source"] = SourceJson(inputs);
+  nlohmann::json file_entries = nlohmann::json::object();
+  for (const ExportFile& file : files) file_entries[file.kind] = FileEntryJson(file);
+  manifest["files"] = file_entries;
+  manifest["options"] = OptionsJson(options);
+  manifest["summaries"] = SummariesJson(summary);
+  if (summary.height_rms_error_mm) {
+    manifest["ground_truth"] = GroundTruthJson(options, summary, *inputs.session.ground_truth);
+  }
+  manifest["warnings"] = summary.warnings;
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& [stage, stage_time] : summary.stage_seconds) stages[stage] = stage_time;
+  manifest["timings_s"] = stages;
+  return manifest;
+}
+
 }  // namespace
 
 void ExportOptions::Check() const {
@@ -439,387 +783,41 @@ std::string ExportSummary::FullReport() const {
 ExportController::ExportController(fs::path result_dir, ExportOptions options)
     : result_dir_(std::move(result_dir)), options_(std::move(options)) {}
 
+void ExportController::EndStage(const std::string& stage) {
+  const auto now = std::chrono::steady_clock::now();
+  summary_.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - stage_start_).count());
+  stage_start_ = now;
+}
+
 void ExportController::Run() {
   options_.Check();
   summary_ = ExportSummary();
-  const auto start = Clock::now();
-  auto stage_start = start;
-  auto end_stage = [&](const std::string& stage) {
-    const auto now = Clock::now();
-    summary_.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - stage_start).count());
-    stage_start = now;
-  };
   summary_.preset = ExportPresetName(options_.preset);
   summary_.normal_convention = NormalConventionName(options_.normal_convention);
+  const auto start = std::chrono::steady_clock::now();
+  stage_start_ = start;
 
-  // --- Load: the result and the session it belongs to ----------------------
-  ReportProgress("load result", 0);
-  fs::path result_dir = fs::absolute(result_dir_).lexically_normal();
-  if (!result_dir.has_filename()) result_dir = result_dir.parent_path();  // "results/<run-id>/"
-  summary_.result_dir = result_dir;
-  std::error_code error;
-  if (!fs::is_directory(result_dir, error)) throw FileError(result_dir, "is not a result folder (does not exist)");
-  if (result_dir.parent_path().filename() != "results") {
-    throw FileError(result_dir, "is not a result folder: results live in <session>/results/<run-id>/");
+  const ExportInputs inputs = Load();
+  EndStage("load");
+  const ExportMaps maps = Derive(inputs);
+  if (inputs.session.ground_truth) {
+    Evaluate(inputs, maps);
+    EndStage("evaluate");
   }
-  const fs::path session_dir = result_dir.parent_path().parent_path();
-  SessionLoadOptions load_options;
-  load_options.verify_checksums = false;  // the frames are not read; the solve verified them
-  const Session session = LoadSession(session_dir, load_options);
-  const int width = session.camera.width, height = session.camera.height;
-  summary_.image_width = width;
-  summary_.image_height = height;
+  std::vector<ExportFile> files = PlanFiles(options_, summary_, inputs, maps);
 
-  const fs::path report_path = result_dir / "report.json";
-  nlohmann::json result_report;
-  try {
-    result_report = nlohmann::json::parse(ReadFileBytes(report_path));
-  } catch (const nlohmann::json::exception& parse_error) {
-    throw FileError(report_path, std::string("is not valid JSON (") + parse_error.what() + ")");
-  }
-  const ImageF solved_normals = ReadResultMap(result_dir / "normal.exr", 3, width, height);
-  ReportProgress("load result", 0.3);
-  const ImageF albedo = ReadResultMap(result_dir / "albedo.exr", 3, width, height);
-  ReportProgress("load result", 0.6);
-  const ImageF confidence = ReadResultMap(result_dir / "confidence.exr", 3, width, height);
-  const ImageU8 valid = ReadMask(result_dir / "solved_mask.png", width, height);
-  ReportProgress("load result", 1);
-
-  if (options_.mm_per_pixel > 0) {
-    summary_.mm_per_pixel = options_.mm_per_pixel;
-    summary_.mm_per_pixel_source = "options";
-  } else {
-    summary_.mm_per_pixel = MmPerPixelAtImageCentre(session.rig.camera);
-    summary_.mm_per_pixel_source = "session rig at the image centre";
-    if (!std::isfinite(summary_.mm_per_pixel) || !(summary_.mm_per_pixel > 0)) {
-      throw FileError(session_dir / "session.json",
-                      "rig.camera gives a pixel footprint of " + std::to_string(summary_.mm_per_pixel) +
-                          " mm at the image centre; give --mm-per-pixel");
-    }
-  }
-  if (session.ground_truth && std::abs(session.ground_truth->mm_per_pixel / summary_.mm_per_pixel - 1) > 0.01) {
-    std::ostringstream warning;
-    warning << "scale " << summary_.mm_per_pixel << " mm/px differs from the simulated rig's "
-            << session.ground_truth->mm_per_pixel << " mm/px by more than 1 %";
-    summary_.warnings.push_back(warning.str());
-  }
-  const double mm = summary_.mm_per_pixel;
-  summary_.material_name =
-      options_.material_name.empty() ? MaterialNameFromSample(session.sample_name) : options_.material_name;
-  end_stage("load");
-  ThrowIfStopRequested("load result");
-
-  // --- Derived maps ----------------------------------------------------------
-  ImageF normals = solved_normals;
-  if (options_.flatten_normals) {
-    normals = FlattenNormals(solved_normals, &valid, options_.flattening, &summary_.flattening,
-                             StageCallback("flatten normals"));
-    RequireSuccess(summary_.flattening.termination, summary_.flattening.message, "flatten normals");
-    end_stage("flatten");
-  }
-  ThrowIfStopRequested("flatten normals");
-
-  HeightFromNormalsOptions height_options = options_.height;
-  height_options.mm_per_pixel = mm;
-  const ImageF height_mm =
-      HeightFromNormals(normals, &valid, height_options, &summary_.height, StageCallback("height from normals"));
-  RequireSuccess(summary_.height.termination, summary_.height.message, "height from normals");
-  const auto [min_height, max_height] = std::minmax_element(height_mm.data(), height_mm.data() + height_mm.size());
-  summary_.height_min_mm = *min_height;
-  summary_.height_max_mm = *max_height;
-  end_stage("height");
-  ThrowIfStopRequested("height from normals");
-
-  AmbientOcclusionOptions occlusion_options = options_.occlusion;
-  occlusion_options.mm_per_pixel = mm;
-  const ImageF occlusion = AmbientOcclusionFromHeight(height_mm, occlusion_options, &summary_.occlusion,
-                                                      StageCallback("ambient occlusion"));
-  RequireSuccess(summary_.occlusion.termination, summary_.occlusion.message, "ambient occlusion");
-  ThrowIfStopRequested("ambient occlusion");
-  CavityOptions cavity_options = options_.cavity;
-  cavity_options.mm_per_pixel = mm;
-  ReportProgress("cavity", 0);
-  const ImageF cavity = CavityFromHeight(height_mm, cavity_options, &summary_.cavity);
-  RequireSuccess(summary_.cavity.termination, summary_.cavity.message, "cavity");
-  ReportProgress("cavity", 1);
-  end_stage("occlusion_cavity");
-  ThrowIfStopRequested("cavity");
-
-  ReportProgress("roughness mips", 0);
-  const std::vector<GlossMipLevel> mips = BuildGlossMipChain(normals, nullptr, options_.gloss, &summary_.gloss, &valid);
-  RequireSuccess(summary_.gloss.termination, summary_.gloss.message, "roughness mips");
-  ReportProgress("roughness mips", 1);
-  end_stage("gloss_mips");
-  ThrowIfStopRequested("roughness mips");
-
-  std::vector<ImageF> tiles;
-  if (options_.tileable) {
-    ReportProgress("tileable crop", 0);
-    const std::vector<TileableMapInput> inputs = {{&albedo, TileMapKind::kLinear},
-                                                  {&normals, TileMapKind::kNormal},
-                                                  {&height_mm, TileMapKind::kLinear},
-                                                  {&occlusion, TileMapKind::kLinear},
-                                                  {&cavity, TileMapKind::kLinear},
-                                                  {&mips.front().roughness, TileMapKind::kLinear}};
-    summary_.tile = MakeTileableCrop(inputs, &valid, options_.tile, &tiles);
-    if (summary_.tile->termination == Termination::kCancelled) throw Cancelled("tileable crop");
-    if (summary_.tile->termination != Termination::kSuccess || tiles.size() != inputs.size()) {
-      summary_.warnings.push_back("no tileable crop: " + summary_.tile->message);
-      tiles.clear();
-    }
-    ReportProgress("tileable crop", 1);
-    end_stage("tileable_crop");
-    ThrowIfStopRequested("tileable crop");
-  }
-
-  // --- Against the simulated rig's ground truth ------------------------------
-  if (session.ground_truth) {
-    ReportProgress("ground truth", 0);
-    const GroundTruthFiles& truth = *session.ground_truth;
-    const ImageF truth_normals = ReadResultMap(session_dir / truth.normal_file, 3, width, height);
-    const ImageF truth_height = ReadResultMap(session_dir / truth.height_file, 1, width, height);
-    const ImageU8 on_sample = ReadMask(session_dir / truth.mask_file, width, height);
-    ImageU8 evaluated(width, height, 1);
-    for (size_t i = 0; i < evaluated.num_pixels(); ++i) evaluated.data()[i] = on_sample.data()[i] && valid.data()[i];
-    // Flattening removes the low frequencies of the height on purpose, and no
-    // clean cut separates them from the weave (the folds' wavelengths are a
-    // few sigma), so the reference is the true normals through the same
-    // flattening and integration: the figure is what the solve's normal
-    // error does to the exported height. Unflattened, the reference is the
-    // true height itself.
-    ImageF reference_normals = truth_normals;
-    ImageF reference_height = truth_height;
-    if (options_.flatten_normals) {
-      NormalFlatteningSummary flattened;
-      reference_normals = FlattenNormals(truth_normals, &valid, options_.flattening, &flattened);
-      RequireSuccess(flattened.termination, flattened.message, "ground truth: flatten true normals");
-      ReportProgress("ground truth", 0.3);
-      HeightFromNormalsSummary integrated;
-      reference_height = HeightFromNormals(reference_normals, &valid, height_options, &integrated,
-                                           StageCallback("ground truth"));
-      RequireSuccess(integrated.termination, integrated.message, "ground truth: height from true normals");
-    }
-    const ErrorStatistics normal_error = AngularErrorDegrees(normals, reference_normals, evaluated);
-    if (normal_error.num_pixels > 0) summary_.flattened_normal_mean_error_deg = normal_error.mean;
-    summary_.height_rms_error_mm = RmsAfterPlane(height_mm, reference_height, evaluated);
-    ReportProgress("ground truth", 1);
-    end_stage("evaluate");
-    ThrowIfStopRequested("ground truth");
-  }
-
-  // --- Files -----------------------------------------------------------------
-  const bool exr = options_.preset == ExportOptions::Preset::kLinearExr;
-  const std::string format = exr ? "exr" : options_.preset == ExportOptions::Preset::kPng16 ? "png" : "tiff";
-  const std::string extension = exr ? ".exr" : format == "png" ? ".png" : ".tif";
-  const std::string material = summary_.material_name;
-  const std::string source = result_dir.filename().string();
-  std::vector<ExportFile> files;
-  auto metadata_for = [&](const ExportFile& file, const std::string& description) {
-    ImageMetadata metadata;
-    metadata.mm_per_pixel = file.mm_per_pixel;
-    metadata.description = "scanbench " + material + " " + file.kind + ": " + description;
-    metadata.color_space = file.color_space;
-    metadata.attributes["scanbench:map"] = file.kind;
-    metadata.attributes["scanbench:encoding"] = file.encoding;
-    metadata.attributes["scanbench:source_result"] = source;
-    return metadata;
-  };
-  // A float map in the preset's format (EXR float, else 16-bit integers).
-  auto add_map = [&](const std::string& kind, ImageF image, const std::string& color_space,
-                     const IntegerEncoding& integer, const std::string& description, double pixel_mm,
-                     bool force_exr = false) {
-    ExportFile file;
-    file.kind = kind;
-    const bool as_exr = exr || force_exr;
-    file.format = as_exr ? "exr" : format;
-    file.relative_path = material + "/" + material + "_" + kind + (as_exr ? ".exr" : extension);
-    file.is_float = as_exr;
-    file.bits_per_sample = as_exr ? 32 : 16;
-    file.width = image.width();
-    file.height = image.height();
-    file.channels = image.channels();
-    file.color_space = color_space;
-    file.encoding = as_exr ? "float, value as is" : integer.text;
-    file.mm_per_pixel = pixel_mm;
-    file.integer = integer;
-    file.float_image = std::make_shared<const ImageF>(std::move(image));
-    file.metadata = metadata_for(file, description);
-    return &files.emplace_back(std::move(file));
-  };
-  const IntegerEncoding unit_interval{1, 0, "uint16 = value * 65535, value in [0, 1]"};
-  const IntegerEncoding normal_encoding{0.5, 0.5, "uint16 = (n + 1) / 2 * 65535 per component"};
-  const double height_range = summary_.height_max_mm - summary_.height_min_mm;
-  const IntegerEncoding height_encoding{
-      height_range > 0 ? 1.0 / height_range : 0.0, height_range > 0 ? -summary_.height_min_mm / height_range : 0.0,
-      "uint16 = (height_mm - height_min_mm) / (height_max_mm - height_min_mm) * 65535"};
-  const std::string convention_text =
-      options_.normal_convention == ExportOptions::NormalConvention::kDirectX
-          ? "unit normal, tangent frame x right, y down (DirectX), z out of the sample"
-          : "unit normal, tangent frame x right, y up (OpenGL), z out of the sample";
-  auto add_normal = [&](const std::string& kind, const ImageF& normal_in_tangent, double pixel_mm) {
-    ExportFile* file = add_map(kind, InConvention(normal_in_tangent, options_.normal_convention), "Raw",
-                               normal_encoding, convention_text, pixel_mm);
-    file->metadata.attributes["scanbench:normal_convention"] = NormalConventionName(options_.normal_convention);
-  };
-  auto add_height = [&](const std::string& kind, const ImageF& heights, double pixel_mm) {
-    add_map(kind, heights, "Raw", {}, "height above the mean of the solved pixels, mm", pixel_mm, true);
-    if (!exr) {
-      ExportFile* file = add_map(kind + "_normalized", heights, "Raw", height_encoding,
-                                 "height normalised to [0, 1] over its range (see height_min_mm, height_max_mm)",
-                                 pixel_mm);
-      std::ostringstream low, high;
-      low << std::setprecision(9) << summary_.height_min_mm;
-      high << std::setprecision(9) << summary_.height_max_mm;
-      file->metadata.attributes["scanbench:height_min_mm"] = low.str();
-      file->metadata.attributes["scanbench:height_max_mm"] = high.str();
-    }
-  };
-
-  add_map("basecolor", albedo, "Linear", unit_interval,
-          "linear RGB albedo (camera raw channels, white balance from the light calibration)", mm);
-  add_normal("normal", normals, mm);
-  add_height("height", height_mm, mm);
-  add_map("ao", occlusion, "Raw", unit_interval, "ambient occlusion, cosine-weighted visibility, 1 = open", mm);
-  add_map("cavity", cavity, "Raw", unit_interval, "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
-  for (size_t k = 0; k < mips.size(); ++k) {
-    const double pixel_mm = mm * std::ldexp(1.0, static_cast<int>(k));
-    add_map("roughness_mip" + std::to_string(k), mips[k].roughness, "Raw", unit_interval,
-            "GGX alpha (" + summary_.gloss.model + " mip chain; normal variance below this level folded in)",
-            pixel_mm);
-    if (k > 0) add_normal("normal_mip" + std::to_string(k), mips[k].normal_in_tangent, pixel_mm);
-  }
-  if (!tiles.empty()) {
-    add_map("tile_basecolor", tiles[0], "Linear", unit_interval, "tileable crop of basecolor", mm);
-    add_normal("tile_normal", tiles[1], mm);
-    add_height("tile_height", tiles[2], mm);
-    add_map("tile_ao", tiles[3], "Raw", unit_interval, "tileable crop of ao", mm);
-    add_map("tile_cavity", tiles[4], "Raw", unit_interval, "tileable crop of cavity", mm);
-    add_map("tile_roughness", tiles[5], "Raw", unit_interval, "tileable crop of roughness_mip0", mm);
-  }
-  {
-    ImageF confidence_copy = confidence;
-    ExportFile* file = add_map("confidence", std::move(confidence_copy), "Raw", {},
-                               "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
-    file->channel_names = {"lights_used", "condition_number", "residual"};
-  }
-  auto add_u8 = [&](const std::string& kind, ImageU8 image, const std::string& color_space,
-                    const std::string& encoding, const std::string& description) {
-    ExportFile file;
-    file.kind = kind;
-    file.format = "png";
-    file.relative_path = material + "/" + material + "_" + kind + ".png";
-    file.bits_per_sample = 8;
-    file.width = image.width();
-    file.height = image.height();
-    file.channels = image.channels();
-    file.color_space = color_space;
-    file.encoding = encoding;
-    file.mm_per_pixel = mm;
-    file.u8_image = std::make_shared<const ImageU8>(std::move(image));
-    file.metadata = metadata_for(file, description);
-    files.push_back(std::move(file));
-  };
-  ImageU8 mask(width, height, 1);
-  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = valid.data()[i] ? 255 : 0;
-  add_u8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
-         "pixels the solver solved");
-  add_u8("basecolor_srgb_preview", EncodeSrgbPreview(albedo), "sRGB", "uint8 sRGB transfer curve",
-         "8-bit sRGB preview of the linear basecolor");
-
-  ReportProgress("write files", 0);
-  const fs::path root = options_.output_root.empty() ? session_dir / "exports" : options_.output_root;
-  StagedExportFolder staged(root, source + "-" + summary_.preset);
-  fs::create_directory(staged.staging() / material);
-  // Compression dominates; the files are independent, so they are written concurrently.
-  {
-    std::vector<std::future<void>> pending;
-    for (const ExportFile& file : files) {
-      pending.push_back(std::async(std::launch::async, WriteExportFile, staged.staging() / file.relative_path,
-                                   std::cref(file)));
-    }
-    std::exception_ptr failure;
-    for (size_t i = 0; i < pending.size(); ++i) {
-      try {
-        pending[i].get();
-      } catch (...) {
-        if (!failure) failure = std::current_exception();
-      }
-      ReportProgress("write files", 0.9 * (i + 1) / pending.size());
-    }
-    if (failure) std::rethrow_exception(failure);
-  }
+  BeginStage("write files");
+  const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
+  StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
+  fs::create_directory(staged.staging() / summary_.material_name);
+  WriteFilesConcurrently(staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); });
   ThrowIfStopRequested("write files");
-  for (ExportFile& file : files) {
-    const fs::path path = staged.staging() / file.relative_path;
-    file.sha256 = Sha256HexOfFile(path);
-    file.bytes = fs::file_size(path);
-    summary_.files[file.kind] = file.relative_path;
-  }
+  RecordWrittenFiles(staged.staging(), &files, &summary_);
   summary_.export_dir = staged.final_dir();
-  end_stage("write_files");
-  summary_.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  EndStage("write_files");
+  summary_.seconds = SecondsSince(start);
 
-  nlohmann::json manifest;
-  manifest["schema"] = kMaterialManifestSchema;
-  manifest["schema_version"] = kMaterialManifestSchemaVersion;
-  manifest["software_version"] = "scanbench " SCANBENCH_VERSION;
-  manifest["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
-  manifest["material"] = material;
-  manifest["preset"] = summary_.preset;
-  manifest["normal_convention"] = summary_.normal_convention;
-  manifest["tangent_frame"] = convention_text;
-  manifest["width"] = width;
-  manifest["height"] = height;
-  manifest["mm_per_pixel"] = mm;
-  manifest["mm_per_pixel_source"] = summary_.mm_per_pixel_source;
-  manifest["source"] = {{"session", session_dir.string()},
-                        {"sample_name", session.sample_name},
-                        {"result", source},
-                        {"result_dir", result_dir.string()},
-                        {"solver_method", result_report.value("/solver/method"_json_pointer, std::string())},
-                        {"result_report_sha256", Sha256HexOfFile(report_path)}};
-  nlohmann::json file_entries = nlohmann::json::object();
-  for (const ExportFile& file : files) {
-    nlohmann::json entry = {{"path", file.relative_path},
-                            {"format", file.format},
-                            {"bits_per_sample", file.bits_per_sample},
-                            {"sample_type", file.is_float ? "float" : "uint"},
-                            {"channels", file.channels},
-                            {"width", file.width},
-                            {"height", file.height},
-                            {"color_space", file.color_space},
-                            {"encoding", file.encoding},
-                            {"mm_per_pixel", file.mm_per_pixel},
-                            {"sha256", file.sha256},
-                            {"bytes", file.bytes}};
-    if (!file.channel_names.empty()) entry["channel_names"] = file.channel_names;
-    for (const auto& [name, value] : file.metadata.attributes) {
-      if (name == "scanbench:height_min_mm" || name == "scanbench:height_max_mm") {
-        entry[name.substr(std::strlen("scanbench:"))] = std::stod(value);
-      }
-    }
-    file_entries[file.kind] = entry;
-  }
-  manifest["files"] = file_entries;
-  manifest["options"] = OptionsJson(options_);
-  manifest["summaries"] = SummariesJson(summary_);
-  if (summary_.height_rms_error_mm) {
-    manifest["ground_truth"] = {
-        {"height_rms_error_mm", *summary_.height_rms_error_mm},
-        {"height_reference", options_.flatten_normals
-                                 ? "true normals flattened and integrated with the same options"
-                                 : "true height"},
-        {"height_error_measure", "RMS of exported minus reference height after removing their best-fit plane"},
-        {"normal_mean_angular_error_deg",
-         summary_.flattened_normal_mean_error_deg ? nlohmann::json(*summary_.flattened_normal_mean_error_deg)
-                                                  : nlohmann::json(nullptr)},
-        {"evaluated_on", "sample mask, solved pixels"},
-        {"simulated_rig_mm_per_pixel", session.ground_truth->mm_per_pixel}};
-  }
-  manifest["warnings"] = summary_.warnings;
-  nlohmann::json stages = nlohmann::json::object();
-  for (const auto& [stage, stage_time] : summary_.stage_seconds) stages[stage] = stage_time;
-  manifest["timings_s"] = stages;
+  const nlohmann::json manifest = ManifestJson(options_, summary_, inputs, files);
   summary_.files["manifest"] = "material.json";
   summary_.files["summary"] = "summary.txt";
   WriteFileAtomic(staged.staging() / "material.json", manifest.dump(2) + "\n", OverwritePolicy::kRefuse);
@@ -827,6 +825,136 @@ void ExportController::Run() {
   ThrowIfStopRequested("write files");
   staged.Commit();
   ReportProgress("write files", 1);
+}
+
+// The result folder, its session, report and maps; the scale and the material name.
+ExportInputs ExportController::Load() {
+  BeginStage("load result");
+  ExportInputs inputs;
+  inputs.result_dir = NormalisedResultDir(result_dir_);
+  summary_.result_dir = inputs.result_dir;
+  CheckIsResultFolder(inputs.result_dir);
+  inputs.session_dir = inputs.result_dir.parent_path().parent_path();
+  SessionLoadOptions load_options;
+  load_options.verify_checksums = false;  // the frames are not read; the solve verified them
+  inputs.session = LoadSession(inputs.session_dir, load_options);
+  const int width = inputs.session.camera.width, height = inputs.session.camera.height;
+  summary_.image_width = width;
+  summary_.image_height = height;
+
+  inputs.report_path = inputs.result_dir / "report.json";
+  inputs.result_report = ReadJsonFile(inputs.report_path);
+  inputs.solved_normals = ReadResultMap(inputs.result_dir / "normal.exr", 3, width, height);
+  ReportProgress("load result", 0.3);
+  inputs.albedo = ReadResultMap(inputs.result_dir / "albedo.exr", 3, width, height);
+  ReportProgress("load result", 0.6);
+  inputs.confidence = ReadResultMap(inputs.result_dir / "confidence.exr", 3, width, height);
+  inputs.valid = ReadMask(inputs.result_dir / "solved_mask.png", width, height);
+  ReportProgress("load result", 1);
+
+  ResolveScale(inputs.session, inputs.session_dir, options_.mm_per_pixel, &summary_);
+  summary_.material_name = options_.material_name.empty() ? MaterialNameFromSample(inputs.session.sample_name)
+                                                          : options_.material_name;
+  return inputs;
+}
+
+// Flattened normals, height, occlusion, cavity, roughness mips and the
+// optional tiles, each a stage of its own.
+ExportMaps ExportController::Derive(const ExportInputs& inputs) {
+  const double mm = summary_.mm_per_pixel;
+  ExportMaps maps;
+  if (options_.flatten_normals) {
+    BeginStage("flatten normals");
+    summary_.flattening = FlattenNormals(options_.flattening, inputs.solved_normals, &inputs.valid, &maps.normals,
+                                         StageCallback("flatten normals"));
+    RequireSuccess(summary_.flattening, "flatten normals");
+    EndStage("flatten");
+  } else {
+    maps.normals = inputs.solved_normals;
+  }
+
+  BeginStage("height from normals");
+  summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
+                                      &maps.height_mm, StageCallback("height from normals"));
+  RequireSuccess(summary_.height, "height from normals");
+  const float* heights = maps.height_mm.data();
+  const auto [lowest, highest] = std::minmax_element(heights, heights + maps.height_mm.size());
+  summary_.height_min_mm = *lowest;
+  summary_.height_max_mm = *highest;
+  EndStage("height");
+
+  AmbientOcclusionOptions occlusion_options = options_.occlusion;
+  occlusion_options.mm_per_pixel = mm;
+  BeginStage("ambient occlusion");
+  summary_.occlusion = AmbientOcclusionFromHeight(occlusion_options, maps.height_mm, &maps.occlusion,
+                                                  StageCallback("ambient occlusion"));
+  RequireSuccess(summary_.occlusion, "ambient occlusion");
+  CavityOptions cavity_options = options_.cavity;
+  cavity_options.mm_per_pixel = mm;
+  BeginStage("cavity");
+  summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, StageCallback("cavity"));
+  RequireSuccess(summary_.cavity, "cavity");
+  EndStage("occlusion_cavity");
+
+  BeginStage("roughness mips");
+  summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals, nullptr, &inputs.valid, &maps.mips,
+                                      StageCallback("roughness mips"));
+  RequireSuccess(summary_.gloss, "roughness mips");
+  EndStage("gloss_mips");
+
+  if (options_.tileable) {
+    DeriveTile(inputs, &maps);
+    EndStage("tileable_crop");
+  }
+  return maps;
+}
+
+// A tile that does not fit is a warning, not a failure: the other maps stand.
+void ExportController::DeriveTile(const ExportInputs& inputs, ExportMaps* maps) {
+  BeginStage("tileable crop");
+  const std::vector<TileableMapInput> tile_inputs = TileInputs(inputs, *maps);
+  summary_.tile =
+      MakeTileableCrop(options_.tile, tile_inputs, &inputs.valid, &maps->tiles, StageCallback("tileable crop"));
+  if (summary_.tile->IsCancelled()) throw Cancelled("tileable crop");
+  if (!summary_.tile->IsUsable() || maps->tiles.size() != tile_inputs.size()) {
+    summary_.warnings.push_back("no tileable crop: " + summary_.tile->message);
+    maps->tiles.clear();
+  }
+  ReportProgress("tileable crop", 1);
+}
+
+// Against the simulated rig's ground truth, on the solved sample pixels.
+// Flattening removes the low frequencies of the height on purpose, and no
+// clean cut separates them from the weave (the folds' wavelengths are a few
+// sigma), so the reference is the true normals through the same flattening
+// and integration: the figure is what the solve's normal error does to the
+// exported height. Unflattened, the reference is the true height itself.
+void ExportController::Evaluate(const ExportInputs& inputs, const ExportMaps& maps) {
+  BeginStage("ground truth");
+  const GroundTruthFiles& truth = *inputs.session.ground_truth;
+  const int width = summary_.image_width, height = summary_.image_height;
+  const ImageF truth_normals = ReadResultMap(inputs.session_dir / truth.normal_file, 3, width, height);
+  const ImageF truth_height = ReadResultMap(inputs.session_dir / truth.height_file, 1, width, height);
+  const ImageU8 on_sample = ReadMask(inputs.session_dir / truth.mask_file, width, height);
+  ImageU8 evaluated(width, height, 1);
+  for (size_t i = 0; i < evaluated.num_pixels(); ++i) {
+    evaluated.data()[i] = on_sample.data()[i] && inputs.valid.data()[i];
+  }
+  ImageF reference_normals = truth_normals;
+  ImageF reference_height = truth_height;
+  if (options_.flatten_normals) {
+    RequireSuccess(FlattenNormals(options_.flattening, truth_normals, &inputs.valid, &reference_normals),
+                   "ground truth: flatten true normals");
+    ReportProgress("ground truth", 0.3);
+    RequireSuccess(HeightFromNormals(ScaledHeightOptions(options_, summary_.mm_per_pixel), reference_normals,
+                                     &inputs.valid, &reference_height,
+                                     SubRange(StageCallback("ground truth"), 0.3, 1.0)),
+                   "ground truth: height from true normals");
+  }
+  const ErrorStatistics normal_error = AngularErrorDegrees(maps.normals, reference_normals, evaluated);
+  if (normal_error.num_pixels > 0) summary_.flattened_normal_mean_error_deg = normal_error.mean;
+  summary_.height_rms_error_mm = RmsAfterPlane(maps.height_mm, reference_height, evaluated);
+  ReportProgress("ground truth", 1);
 }
 
 }  // namespace scanbench

@@ -6,6 +6,7 @@
 // beside earlier exports (never overwriting, staged then renamed).
 #pragma once
 
+#include <chrono>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -78,16 +79,30 @@ struct ExportSummary {
   std::string FullReport() const;
 };
 
+// What ExportController::Run's steps hand on (defined in export_controller.cc).
+struct ExportInputs;  // the result folder, its session and the solved maps
+struct ExportMaps;    // the derived maps
+
 class ExportController : public BaseController {
  public:
   ExportController(std::filesystem::path result_dir, ExportOptions options);
+  // Load, derive, evaluate (simulated sessions), plan the files, write them
+  // and the manifest into a staged folder, commit it.
   void Run() override;
   const ExportSummary& summary() const { return summary_; }
 
  private:
+  ExportInputs Load();
+  ExportMaps Derive(const ExportInputs& inputs);
+  void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
+  void Evaluate(const ExportInputs& inputs, const ExportMaps& maps);
+  // Records the time since the previous stage ended under `stage`.
+  void EndStage(const std::string& stage);
+
   std::filesystem::path result_dir_;
   ExportOptions options_;
   ExportSummary summary_;
+  std::chrono::steady_clock::time_point stage_start_;
 };
 
 }  // namespace scanbench

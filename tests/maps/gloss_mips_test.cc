@@ -15,6 +15,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "core/format.h"
+
 namespace scanbench {
 namespace {
 
@@ -184,6 +186,7 @@ TEST(GgxNormalLength, InverseRoundTrip) {
 // The mip chain.
 
 TEST(GlossMipChain, LevelSizesHalveRoundingUp) {
+  std::vector<GlossMipLevel> output;
   const std::vector<std::pair<int, int>> expected = {{37, 20}, {19, 10}, {10, 5}, {5, 3}, {3, 2}, {2, 1}, {1, 1}};
   EXPECT_EQ(GlossMipLevelSizes(37, 20), expected);
   EXPECT_EQ(GlossMipLevelSizes(37, 20, 3).size(), 3u);
@@ -197,7 +200,8 @@ TEST(GlossMipChain, LevelSizesHalveRoundingUp) {
     GlossMipOptions options;
     options.model = model;
     GlossMipSummary summary;
-    const std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, nullptr, options, &summary);
+    std::vector<GlossMipLevel> levels;
+    summary = BuildGlossMipChain(options, normals, nullptr, nullptr, &levels);
     ASSERT_EQ(levels.size(), expected.size());
     for (size_t l = 0; l < levels.size(); ++l) {
       EXPECT_TRUE(levels[l].normal_in_tangent.SameSize(expected[l].first, expected[l].second)) << l;
@@ -206,7 +210,8 @@ TEST(GlossMipChain, LevelSizesHalveRoundingUp) {
     EXPECT_EQ(summary.mean_roughness.size(), expected.size());
     EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
     options.max_levels = 2;
-    EXPECT_EQ(BuildGlossMipChain(normals, nullptr, options, nullptr).size(), 2u);
+    BuildGlossMipChain(options, normals, nullptr, nullptr, &output);
+    EXPECT_EQ(output.size(), 2u);
   }
 }
 
@@ -219,7 +224,8 @@ TEST(GlossMipChain, FlatMapKeepsBaseRoughnessAtEveryLevel) {
       options.model = model;
       options.base_roughness = base;
       GlossMipSummary summary;
-      const std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, nullptr, options, &summary);
+      std::vector<GlossMipLevel> levels;
+      summary = BuildGlossMipChain(options, normals, nullptr, nullptr, &levels);
       ExpectWellFormed(levels);
       for (size_t l = 0; l < levels.size(); ++l) {
         const GlossMipLevel& level = levels[l];
@@ -245,12 +251,13 @@ TEST(GlossMipChain, FlatMapCombinesARoughnessMapPerModel) {
   const double a0 = roughness(0, 0), a1 = roughness(1, 0);
   GlossMipOptions options;
   options.model = Model::kVmf;
-  std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, &roughness, options, nullptr);
+  std::vector<GlossMipLevel> levels;
+  BuildGlossMipChain(options, normals, &roughness, nullptr, &levels);
   ASSERT_EQ(levels.size(), 2u);
   EXPECT_FLOAT_EQ(levels[0].roughness(1, 0), 0.5f);  // mip 0 is the input
   EXPECT_FLOAT_EQ(levels[1].roughness(0, 0), static_cast<float>(std::sqrt((a0 * a0 + a1 * a1) / 2)));
   options.model = Model::kGgxNormalLength;
-  levels = BuildGlossMipChain(normals, &roughness, options, nullptr);
+  BuildGlossMipChain(options, normals, &roughness, nullptr, &levels);
   const double expected =
       NormalLengthToGgxAlpha((GgxAlphaToNormalLength(a0) + GgxAlphaToNormalLength(a1)) / 2);
   EXPECT_FLOAT_EQ(levels[1].roughness(0, 0), static_cast<float>(expected));
@@ -270,14 +277,16 @@ TEST(GlossMipChain, GgxDirectionFavoursTheGlossierTexel) {
   roughness(1, 0) = 0.9f;
   GlossMipOptions options;
   options.model = Model::kGgxNormalLength;
-  const std::vector<GlossMipLevel> ggx = BuildGlossMipChain(normals, &roughness, options, nullptr);
+  std::vector<GlossMipLevel> ggx;
+  BuildGlossMipChain(options, normals, &roughness, nullptr, &ggx);
   const double l0 = GgxAlphaToNormalLength(roughness(0, 0)), l1 = GgxAlphaToNormalLength(roughness(1, 0));
   const double mx = 0.3 * (l0 - l1), mz = 0.4 * (l0 + l1);
   EXPECT_GT(ggx[1].normal_in_tangent(0, 0, 0), 0.1f);
   EXPECT_NEAR(ggx[1].normal_in_tangent(0, 0, 0), mx / std::hypot(mx, mz), 1e-6);
   EXPECT_NEAR(ggx[1].roughness(0, 0), NormalLengthToGgxAlpha(std::hypot(mx, mz)), 1e-6);
   options.model = Model::kVmf;
-  const std::vector<GlossMipLevel> vmf = BuildGlossMipChain(normals, &roughness, options, nullptr);
+  std::vector<GlossMipLevel> vmf;
+  BuildGlossMipChain(options, normals, &roughness, nullptr, &vmf);
   EXPECT_NEAR(vmf[1].normal_in_tangent(0, 0, 0), 0.0f, 1e-7);
 }
 
@@ -293,7 +302,8 @@ TEST(GlossMipChain, OddSizesWeighEveryMipZeroTexelEqually) {
     GlossMipOptions options;
     options.model = model;
     options.base_roughness = 0.2;
-    const std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, nullptr, options, nullptr);
+    std::vector<GlossMipLevel> levels;
+    BuildGlossMipChain(options, normals, nullptr, nullptr, &levels);
     ASSERT_EQ(levels.size(), 3u);
     ExpectWellFormed(levels);
     // The edge texel of the 2x1 level covers only the third normal.
@@ -316,6 +326,7 @@ TEST(GlossMipChain, OddSizesWeighEveryMipZeroTexelEqually) {
 }
 
 TEST(GlossMipChain, MaskedPixelsCarryNoWeight) {
+  std::vector<GlossMipLevel> output;
   // Unsolved pixels read (0, 0, 1); the sample is tilted. Masked out, the
   // flat pixels must not widen the lobe of the texels they share.
   ImageF normals = ConstantNormals(9, 6, 0.0f, 0.0f, 1.0f);
@@ -332,7 +343,8 @@ TEST(GlossMipChain, MaskedPixelsCarryNoWeight) {
     options.model = model;
     options.base_roughness = 0.1;
     GlossMipSummary summary;
-    const std::vector<GlossMipLevel> masked = BuildGlossMipChain(normals, nullptr, options, &summary, &valid);
+    std::vector<GlossMipLevel> masked;
+    summary = BuildGlossMipChain(options, normals, nullptr, &valid, &masked);
     ExpectWellFormed(masked);
     EXPECT_EQ(summary.masked_pixels, 18u);
     EXPECT_EQ(summary.termination, Termination::kSuccess);
@@ -345,11 +357,12 @@ TEST(GlossMipChain, MaskedPixelsCarryNoWeight) {
       }
     }
     EXPECT_NEAR(masked.back().normal_in_tangent(0, 0, 0), 0.6f, 1e-6);
-    const std::vector<GlossMipLevel> unmasked = BuildGlossMipChain(normals, nullptr, options, nullptr);
+    std::vector<GlossMipLevel> unmasked;
+    BuildGlossMipChain(options, normals, nullptr, nullptr, &unmasked);
     EXPECT_GT(unmasked.back().roughness(0, 0), 0.15f) << GlossModelName(model);
   }
   const ImageU8 wrong(9, 5, 1);
-  EXPECT_THROW(BuildGlossMipChain(normals, nullptr, GlossMipOptions{}, nullptr, &wrong), std::invalid_argument);
+  EXPECT_THROW(BuildGlossMipChain(GlossMipOptions{}, normals, nullptr, &wrong, &output), std::invalid_argument);
 }
 
 TEST(GlossMipChain, GgxFieldPushesItsAlphaIntoTheDeepMips) {
@@ -372,7 +385,8 @@ TEST(GlossMipChain, GgxFieldPushesItsAlphaIntoTheDeepMips) {
       options.model = model;
       options.base_roughness = kBase;
       GlossMipSummary summary;
-      const std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, nullptr, options, &summary);
+      std::vector<GlossMipLevel> levels;
+      summary = BuildGlossMipChain(options, normals, nullptr, nullptr, &levels);
       ASSERT_EQ(levels.size(), 8u);
       ExpectWellFormed(levels);
       ASSERT_EQ(summary.mean_roughness.size(), levels.size());
@@ -409,7 +423,8 @@ TEST(GlossMipChain, DegenerateInputsGiveNoNan) {
     for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {1, 7}, {7, 1}}) {
       const ImageF normals = GgxNormalField(w, h, 0.5, 3);
       GlossMipSummary summary;
-      const std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, nullptr, options, &summary);
+      std::vector<GlossMipLevel> levels;
+      summary = BuildGlossMipChain(options, normals, nullptr, nullptr, &levels);
       ExpectWellFormed(levels);
       EXPECT_EQ(summary.termination, Termination::kSuccess);
       EXPECT_TRUE(levels.back().roughness.SameSize(1, 1));
@@ -424,7 +439,8 @@ TEST(GlossMipChain, DegenerateInputsGiveNoNan) {
     roughness(1, 1) = 2.0f;
     roughness(2, 1) = 0.0f;
     GlossMipSummary summary;
-    const std::vector<GlossMipLevel> levels = BuildGlossMipChain(normals, &roughness, options, &summary);
+    std::vector<GlossMipLevel> levels;
+    summary = BuildGlossMipChain(options, normals, &roughness, nullptr, &levels);
     ExpectWellFormed(levels);
     EXPECT_EQ(summary.invalid_normals, 2u);
     EXPECT_EQ(summary.clamped_roughness, 3u);
@@ -436,12 +452,14 @@ TEST(GlossMipChain, DegenerateInputsGiveNoNan) {
     ImageF opposed(2, 1, 3);
     opposed(0, 0, 2) = 1;
     opposed(1, 0, 2) = -1;
-    const std::vector<GlossMipLevel> opposed_levels = BuildGlossMipChain(opposed, nullptr, options, nullptr);
+    std::vector<GlossMipLevel> opposed_levels;
+    BuildGlossMipChain(options, opposed, nullptr, nullptr, &opposed_levels);
     ExpectWellFormed(opposed_levels);
     EXPECT_EQ(opposed_levels[1].roughness(0, 0), 1.0f);
     // Nothing valid at all: flat, base roughness, reported as a failure.
     const ImageF zeros(5, 3, 3, 0.0f);
-    const std::vector<GlossMipLevel> zero_levels = BuildGlossMipChain(zeros, nullptr, options, &summary);
+    std::vector<GlossMipLevel> zero_levels;
+    summary = BuildGlossMipChain(options, zeros, nullptr, nullptr, &zero_levels);
     ExpectWellFormed(zero_levels);
     EXPECT_EQ(summary.termination, Termination::kFailure);
     EXPECT_THAT(summary.message, ::testing::HasSubstr("no valid normal"));
@@ -450,10 +468,11 @@ TEST(GlossMipChain, DegenerateInputsGiveNoNan) {
 }
 
 TEST(GlossMipChain, BadOptionsAndShapesAreNamed) {
+  std::vector<GlossMipLevel> output;
   const ImageF normals = ConstantNormals(4, 4, 0, 0, 1);
   auto expect_error = [&](const GlossMipOptions& options, const ImageF& n, const ImageF* r, const std::string& text) {
     try {
-      BuildGlossMipChain(n, r, options, nullptr);
+      BuildGlossMipChain(options, n, r, nullptr, &output);
       ADD_FAILURE() << "no error for " << text;
     } catch (const std::invalid_argument& e) {
       EXPECT_THAT(e.what(), ::testing::HasSubstr(text));
@@ -482,6 +501,44 @@ TEST(GlossMipChain, BadOptionsAndShapesAreNamed) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("'phong'"));
   }
+}
+
+TEST(GlossMipChain, ProgressRisesToOneOverTheLevels) {
+  const ImageF normals = ConstantNormals(37, 20, 0, 0, 1);
+  std::vector<double> fractions;
+  std::vector<GlossMipLevel> levels;
+  const GlossMipSummary summary = BuildGlossMipChain({}, normals, nullptr, nullptr, &levels, [&](double f) {
+    fractions.push_back(f);
+    return true;
+  });
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
+  EXPECT_EQ(fractions.size(), levels.size()) << "one report per level";
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_EQ(fractions.back(), 1.0);
+}
+
+TEST(GlossMipChain, CancelLeavesNoLevels) {
+  const ImageF normals = ConstantNormals(37, 20, 0, 0, 1);
+  for (int allowed_calls : {0, 3}) {
+    int calls = 0;
+    std::vector<GlossMipLevel> levels(2);
+    const GlossMipSummary summary = BuildGlossMipChain({}, normals, nullptr, nullptr, &levels,
+                                                       [&](double) { return calls++ < allowed_calls; });
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
+    EXPECT_EQ(calls, allowed_calls + 1) << "no level after the cancel";
+    EXPECT_TRUE(levels.empty());
+    EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("cancelled"));
+  }
+}
+
+TEST(GlossMipChain, NullOutputThrowsAndBriefReportGivesTheFigures) {
+  const ImageF normals = ConstantNormals(9, 5, 0, 0, 1);
+  EXPECT_THROW(BuildGlossMipChain({}, normals, nullptr, nullptr, nullptr), std::invalid_argument);
+  std::vector<GlossMipLevel> levels;
+  const GlossMipSummary summary = BuildGlossMipChain({}, normals, nullptr, nullptr, &levels);
+  EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("(vmf): success, " + std::to_string(levels.size()) +
+                                                          " levels, mean GGX alpha " +
+                                                          Fixed(summary.mean_roughness.front(), 3)));
 }
 
 }  // namespace

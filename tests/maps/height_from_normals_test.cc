@@ -15,6 +15,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "core/format.h"
 #include "tests/util/option_check.h"
 
 namespace scanbench {
@@ -198,7 +199,8 @@ TEST_P(HeightMethods, PlaneRisingTowardsTheTopGetsHigherTowardsRowZero) {
   ASSERT_LT(scene.normal_in_tangent(10, 10, 1), 0.0f);
   ASSERT_LT(scene.normal_in_tangent(10, 10, 0), 0.0f);
   HeightFromNormalsSummary summary;
-  const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
+  ImageF height;
+  summary = HeightFromNormals(Options(GetParam(), kMmPerPixel), scene.normal_in_tangent, nullptr, &height);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_EQ(height.width(), kWidth);
   ASSERT_EQ(height.height(), kHeight);
@@ -221,7 +223,8 @@ TEST_P(HeightMethods, SumOfSinesMatchesTheTruth) {
   constexpr double kMmPerPixel = 0.1;
   const Scene scene = Render(SumOfSines(), kWidth, kHeight, kMmPerPixel);
   HeightFromNormalsSummary summary;
-  const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
+  ImageF height;
+  summary = HeightFromNormals(Options(GetParam(), kMmPerPixel), scene.normal_in_tangent, nullptr, &height);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   const double truth_rms = Rms(scene.height_mm);
   const double error = RmsDifference(height, scene.height_mm);
@@ -238,7 +241,8 @@ TEST_P(HeightMethods, GaussianBumpsMatchTheTruth) {
   constexpr double kMmPerPixel = 0.05;
   const Scene scene = Render(GaussianBumps(kWidth, kHeight), kWidth, kHeight, kMmPerPixel);
   HeightFromNormalsSummary summary;
-  const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
+  ImageF height;
+  summary = HeightFromNormals(Options(GetParam(), kMmPerPixel), scene.normal_in_tangent, nullptr, &height);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   const double truth_rms = Rms(scene.height_mm);
   const double error = RmsDifference(height, scene.height_mm);
@@ -263,7 +267,8 @@ TEST_P(HeightMethods, HolesAreFilledWithoutNanAndTheValidAreaStaysRight) {
     }
   }
   HeightFromNormalsSummary summary;
-  const ImageF height = HeightFromNormals(scene.normal_in_tangent, &valid, Options(GetParam(), kMmPerPixel), &summary);
+  ImageF height;
+  summary = HeightFromNormals(Options(GetParam(), kMmPerPixel), scene.normal_in_tangent, &valid, &height);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_TRUE(AllFinite(height));
   const double truth_rms = Rms(scene.height_mm, &valid);
@@ -299,7 +304,8 @@ TEST_P(HeightMethods, OddSizesWork) {
   constexpr double kMmPerPixel = 0.1;
   const Scene scene = Render(SumOfSines(), kWidth, kHeight, kMmPerPixel);
   HeightFromNormalsSummary summary;
-  const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), kMmPerPixel), &summary);
+  ImageF height;
+  summary = HeightFromNormals(Options(GetParam(), kMmPerPixel), scene.normal_in_tangent, nullptr, &height);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_LT(RmsDifference(height, scene.height_mm), 0.005 * Rms(scene.height_mm));
 }
@@ -309,8 +315,8 @@ TEST_P(HeightMethods, CancelFromTheProgressCallbackReturnsFiniteHeights) {
   const Scene scene = Render(SumOfSines(), kWidth, kHeight, 0.1);
   HeightFromNormalsSummary summary;
   int calls = 0;
-  const ImageF height =
-      HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), 0.1), &summary, [&](double) {
+  ImageF height;
+  summary = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr, &height, [&](double) {
         ++calls;
         return false;
       });
@@ -331,29 +337,33 @@ TEST_P(HeightMethods, CancelMidwayWithHolesStopsAskingAndReturnsFiniteHeights) {
   }
   int calls = 0;
   HeightFromNormalsSummary summary;
-  const ImageF height = HeightFromNormals(scene.normal_in_tangent, &valid, Options(GetParam(), 0.1), &summary,
-                                          [&](double) { return ++calls < 3; });
+  ImageF height;
+  summary = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, &valid, &height,
+                              [&](double) { return ++calls < 3; });
   EXPECT_EQ(summary.termination, Termination::kCancelled) << summary.message;
   EXPECT_EQ(calls, 3);
   EXPECT_TRUE(AllFinite(height));
 }
 
 TEST_P(HeightMethods, ProgressReachesOneWhenNotCancelled) {
+  ImageF output;
   const Scene scene = Render(SumOfSines(), 64, 48, 0.1);
   double last_fraction = -1;
   bool monotonic = true;
   HeightFromNormalsSummary summary;
-  HeightFromNormals(scene.normal_in_tangent, nullptr, Options(GetParam(), 0.1), &summary, [&](double fraction) {
+  auto progress = [&](double fraction) {
     monotonic = monotonic && fraction >= last_fraction && fraction <= 1.0;
     last_fraction = fraction;
     return true;
-  });
+  };
+  summary = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr, &output, progress);
   EXPECT_EQ(summary.termination, Termination::kSuccess);
   EXPECT_TRUE(monotonic);
   EXPECT_NEAR(last_fraction, 1.0, 1e-9);
 }
 
 TEST_P(HeightMethods, ProgressWithHolesIsThrottledAndReachesOne) {
+  ImageF output;
   const Scene scene = Render(SumOfSines(), 96, 64, 0.1);
   ImageU8 valid(96, 64, 1, 1);
   valid(40, 30) = 0;  // one pixel-sized hole: DCT re-solves stop early
@@ -362,7 +372,7 @@ TEST_P(HeightMethods, ProgressWithHolesIsThrottledAndReachesOne) {
   double last_fraction = -1;
   int calls = 0;
   HeightFromNormalsSummary summary;
-  HeightFromNormals(scene.normal_in_tangent, &valid, options, &summary, [&](double fraction) {
+  summary = HeightFromNormals(options, scene.normal_in_tangent, &valid, &output, [&](double fraction) {
     last_fraction = fraction;
     ++calls;
     return true;
@@ -380,9 +390,11 @@ INSTANTIATE_TEST_SUITE_P(Both, HeightMethods,
                          });
 
 TEST(HeightFromNormals, RelaxationReportsLevelsSweepsAndConvergence) {
+  ImageF output;
   const Scene scene = Render(SumOfSines(), 256, 160, 0.1);
   HeightFromNormalsSummary summary;
-  HeightFromNormals(scene.normal_in_tangent, nullptr, Options(Method::kMultiresolutionRelaxation, 0.1), &summary);
+  summary =
+      HeightFromNormals(Options(Method::kMultiresolutionRelaxation, 0.1), scene.normal_in_tangent, nullptr, &output);
   EXPECT_EQ(summary.method, "relaxation");
   // 256 -> 128 -> 64 -> 32 -> 16 -> 8 columns (coarsest_level_size 8): six levels.
   EXPECT_EQ(summary.levels, 6);
@@ -393,7 +405,8 @@ TEST(HeightFromNormals, RelaxationReportsLevelsSweepsAndConvergence) {
   HeightFromNormalsOptions few = Options(Method::kMultiresolutionRelaxation, 0.1);
   few.max_sweeps_per_level = 1;
   HeightFromNormalsSummary few_summary;
-  const ImageF rough = HeightFromNormals(scene.normal_in_tangent, nullptr, few, &few_summary);
+  ImageF rough;
+  few_summary = HeightFromNormals(few, scene.normal_in_tangent, nullptr, &rough);
   EXPECT_FALSE(few_summary.converged);
   EXPECT_EQ(few_summary.total_sweeps, few_summary.levels);
   EXPECT_GT(few_summary.rms_slope_residual, summary.rms_slope_residual);
@@ -405,9 +418,11 @@ TEST(HeightFromNormals, PlainGaussSeidelWorksAndOverRelaxationIsMoreAccurate) {
   HeightFromNormalsOptions plain = Options(Method::kMultiresolutionRelaxation, 0.05);
   plain.over_relaxation = 1.0;
   HeightFromNormalsSummary plain_summary, sor_summary;
-  const ImageF plain_height = HeightFromNormals(scene.normal_in_tangent, nullptr, plain, &plain_summary);
-  const ImageF sor_height = HeightFromNormals(scene.normal_in_tangent, nullptr,
-                                              Options(Method::kMultiresolutionRelaxation, 0.05), &sor_summary);
+  ImageF plain_height;
+  plain_summary = HeightFromNormals(plain, scene.normal_in_tangent, nullptr, &plain_height);
+  ImageF sor_height;
+  sor_summary = HeightFromNormals(Options(Method::kMultiresolutionRelaxation, 0.05), scene.normal_in_tangent, nullptr,
+                                  &sor_height);
   const double truth_rms = Rms(scene.height_mm);
   const double plain_error = RmsDifference(plain_height, scene.height_mm);
   const double sor_error = RmsDifference(sor_height, scene.height_mm);
@@ -423,7 +438,8 @@ TEST(HeightFromNormals, TinyAndThinImagesGiveFiniteHeights) {
     for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {1, 7}, {3, 2}, {300, 2}}) {
       const Scene scene = Render(TiltedPlane(0.01, 0.02), w, h, 0.1);
       HeightFromNormalsSummary summary;
-      const ImageF height = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(method, 0.1), &summary);
+      ImageF height;
+      summary = HeightFromNormals(Options(method, 0.1), scene.normal_in_tangent, nullptr, &height);
       EXPECT_EQ(summary.termination, Termination::kSuccess) << w << "x" << h << " " << summary.message;
       ASSERT_TRUE(AllFinite(height)) << w << "x" << h;
       if (w > 1) {
@@ -437,9 +453,10 @@ TEST(HeightFromNormals, TinyAndThinImagesGiveFiniteHeights) {
 }
 
 TEST(HeightFromNormals, DctReportsOneLevel) {
+  ImageF output;
   const Scene scene = Render(SumOfSines(), 64, 48, 0.1);
   HeightFromNormalsSummary summary;
-  HeightFromNormals(scene.normal_in_tangent, nullptr, Options(Method::kDctPoisson, 0.1), &summary);
+  summary = HeightFromNormals(Options(Method::kDctPoisson, 0.1), scene.normal_in_tangent, nullptr, &output);
   EXPECT_EQ(summary.method, "dct");
   EXPECT_EQ(summary.levels, 1);
   EXPECT_EQ(summary.total_sweeps, 0);
@@ -447,8 +464,10 @@ TEST(HeightFromNormals, DctReportsOneLevel) {
 
 TEST(HeightFromNormals, HeightScalesWithThePixelPitch) {
   const Scene scene = Render(SumOfSines(), 96, 64, 0.1);
-  const ImageF at_01 = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(Method::kDctPoisson, 0.1), nullptr);
-  const ImageF at_03 = HeightFromNormals(scene.normal_in_tangent, nullptr, Options(Method::kDctPoisson, 0.3), nullptr);
+  ImageF at_01;
+  HeightFromNormals(Options(Method::kDctPoisson, 0.1), scene.normal_in_tangent, nullptr, &at_01);
+  ImageF at_03;
+  HeightFromNormals(Options(Method::kDctPoisson, 0.3), scene.normal_in_tangent, nullptr, &at_03);
   for (int i = 0; i < 50; ++i) {
     const int x = (i * 37) % 96, y = (i * 11) % 64;
     EXPECT_NEAR(at_03(x, y), 3 * at_01(x, y), 1e-4);
@@ -456,6 +475,7 @@ TEST(HeightFromNormals, HeightScalesWithThePixelPitch) {
 }
 
 TEST(HeightFromNormalsOptions, CheckNamesTheField) {
+  ImageF output;
   HeightFromNormalsOptions options;
   EXPECT_NO_THROW(options.Check());
   options.mm_per_pixel = 0;
@@ -487,21 +507,22 @@ TEST(HeightFromNormalsOptions, CheckNamesTheField) {
   options = {};
   options.tolerance = -1;
   ImageF normals(4, 4, 3, 0.0f);
-  EXPECT_THROW(HeightFromNormals(normals, nullptr, options, nullptr), std::invalid_argument);
+  EXPECT_THROW(HeightFromNormals(options, normals, nullptr, &output), std::invalid_argument);
 }
 
 TEST(HeightFromNormals, BadShapesThrowNamingThem) {
+  ImageF output;
   const HeightFromNormalsOptions options;
   try {
-    HeightFromNormals(ImageF(8, 6, 1), nullptr, options, nullptr);
+    HeightFromNormals(options, ImageF(8, 6, 1), nullptr, &output);
     ADD_FAILURE() << "1-channel normals accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("normal_in_tangent is 8x6x1"));
   }
-  EXPECT_THROW(HeightFromNormals(ImageF(), nullptr, options, nullptr), std::invalid_argument);
+  EXPECT_THROW(HeightFromNormals(options, ImageF(), nullptr, &output), std::invalid_argument);
   const ImageU8 wrong_mask(7, 6, 1, 1);
   try {
-    HeightFromNormals(ImageF(8, 6, 3, 0.0f), &wrong_mask, options, nullptr);
+    HeightFromNormals(options, ImageF(8, 6, 3, 0.0f), &wrong_mask, &output);
     ADD_FAILURE() << "mask of the wrong size accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("valid mask is 7x6x1"));
@@ -514,7 +535,8 @@ TEST(HeightFromNormals, NoValidPixelFailsWithZeroHeight) {
   const ImageU8 nothing(16, 12, 1, 0);
   for (const Method method : {Method::kMultiresolutionRelaxation, Method::kDctPoisson}) {
     HeightFromNormalsSummary summary;
-    const ImageF height = HeightFromNormals(normals, &nothing, Options(method, 0.1), &summary);
+    ImageF height;
+    summary = HeightFromNormals(Options(method, 0.1), normals, &nothing, &height);
     EXPECT_EQ(summary.termination, Termination::kFailure);
     EXPECT_THAT(summary.message, HasSubstr("no valid pixel"));
     ASSERT_TRUE(AllFinite(height));
@@ -533,7 +555,8 @@ TEST(HeightFromNormals, GrazingNormalsAreClampedNotInfinite) {
   for (const Method method : {Method::kMultiresolutionRelaxation, Method::kDctPoisson}) {
     HeightFromNormalsOptions options = Options(method, 0.1);
     options.max_slope = 5;
-    const ImageF height = HeightFromNormals(normals, nullptr, options, nullptr);
+    ImageF height;
+    HeightFromNormals(options, normals, nullptr, &height);
     ASSERT_TRUE(AllFinite(height));
     // The wall steps down to the right by max_slope * mm_per_pixel over its
     // two trapezoid edges (half a step each).
@@ -572,7 +595,8 @@ TEST(HeightFromNormals, TextileSceneSeenOrthographicallyIsRecovered) {
   const double truth_rms = Rms(truth);
   for (const Method method : {Method::kMultiresolutionRelaxation, Method::kDctPoisson}) {
     HeightFromNormalsSummary summary;
-    const ImageF height = HeightFromNormals(normals, nullptr, Options(method, kPitchMm), &summary);
+    ImageF height;
+    summary = HeightFromNormals(Options(method, kPitchMm), normals, nullptr, &height);
     const double error = RmsDifference(height, truth);
     std::printf("  [%s] textile scene, orthographic %dx%d at %.2f mm/px: RMS error %.4f mm of %.3f mm RMS; %s\n",
                 HeightMethodName(method), kWidth, kHeight, kPitchMm, error, truth_rms, summary.message.c_str());
@@ -609,8 +633,8 @@ TEST(HeightFromNormals, SimulatedRigGroundTruthHeightIsRecovered) {
   }
   for (const Method method : {Method::kMultiresolutionRelaxation, Method::kDctPoisson}) {
     HeightFromNormalsSummary summary;
-    const ImageF height =
-        HeightFromNormals(truth.normal_in_table, &sample, Options(method, truth.mm_per_pixel), &summary);
+    ImageF height;
+    summary = HeightFromNormals(Options(method, truth.mm_per_pixel), truth.normal_in_table, &sample, &height);
     EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
     ASSERT_TRUE(AllFinite(height));
     const double error = RmsDifference(height, truth.height_mm, &sample, true);
@@ -631,6 +655,29 @@ TEST(HeightFromNormals, SimulatedRigGroundTruthHeightIsRecovered) {
     EXPECT_LT(error, 0.09 * truth_rms);
     EXPECT_LT(interior_error, 0.04);  // measured 0.0285 mm
   }
+}
+
+TEST(HeightFromNormals, NullOutputThrowsNamingIt) {
+  try {
+    HeightFromNormals({}, ImageF(8, 6, 3, 0.0f), nullptr, nullptr);
+    ADD_FAILURE() << "null output accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("height_mm"));
+  }
+}
+
+TEST_P(HeightMethods, BriefReportGivesTheMethodOutcomeAndResidual) {
+  const Scene scene = Render(SumOfSines(), 64, 48, 0.1);
+  ImageF height;
+  const HeightFromNormalsSummary done = HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr,
+                                                          &height);
+  ASSERT_EQ(done.termination, Termination::kSuccess) << done.message;
+  EXPECT_THAT(done.BriefReport(), HasSubstr("(" + done.method + "): success"));
+  EXPECT_THAT(done.BriefReport(), HasSubstr("RMS slope residual " + Fixed(done.rms_slope_residual, 3)));
+  const HeightFromNormalsSummary stopped =
+      HeightFromNormals(Options(GetParam(), 0.1), scene.normal_in_tangent, nullptr, &height,
+                        [](double) { return false; });
+  EXPECT_THAT(stopped.BriefReport(), HasSubstr("cancelled"));
 }
 
 }  // namespace

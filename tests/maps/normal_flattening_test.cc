@@ -15,6 +15,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "core/format.h"
 #include "tests/util/option_check.h"
 
 namespace scanbench {
@@ -137,7 +138,8 @@ TEST(FlattenNormals, TiltedPlaneBecomesFlat) {
     for (int x = 0; x < 120; ++x) SetSlopes(&normals, x, y, 0.2, -0.1);
   }
   NormalFlatteningSummary summary;
-  const ImageF flat = FlattenNormals(normals, nullptr, {}, &summary);
+  ImageF flat;
+  summary = FlattenNormals({}, normals, nullptr, &flat);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.valid_pixels, 120u * 80u);
   for (int y = 0; y < 80; y += 7) {
@@ -156,8 +158,10 @@ TEST(FlattenNormals, RemovesSlowTiltAndKeepsFineDetail) {
   NormalFlatteningOptions options;
   options.low_pass_sigma_px = 24;
   NormalFlatteningSummary summary;
-  const ImageF flat_tilted = FlattenNormals(tilted, nullptr, options, &summary);
-  const ImageF flat_clean = FlattenNormals(clean, nullptr, options, nullptr);
+  ImageF flat_tilted;
+  summary = FlattenNormals(options, tilted, nullptr, &flat_tilted);
+  ImageF flat_clean;
+  FlattenNormals(options, clean, nullptr, &flat_clean);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_TRUE(AllUnitOrFlat(flat_tilted));
   const double before = MeanAngleDeg(tilted, clean), after = MeanAngleDeg(flat_tilted, flat_clean);
@@ -188,7 +192,8 @@ TEST(FlattenNormals, CoarseGridLowPassMatchesTheFullGaussian) {
   }
   NormalFlatteningOptions options;
   options.low_pass_sigma_px = 40;
-  const ImageF flat = FlattenNormals(normals, &mask, options, nullptr);
+  ImageF flat;
+  FlattenNormals(options, normals, &mask, &flat);
   const std::vector<Eigen::Vector2d> reference = SlopeHighPass(normals, &mask, 40);
   double worst = 0, sum = 0;
   size_t count = 0;
@@ -225,7 +230,8 @@ TEST(FlattenNormals, InvalidPixelsAreFlatAndDoNotFeedTheLowPass) {
   }
   normals(10, 10, 2) = std::nanf("");  // a NaN inside the mask is skipped too
   NormalFlatteningSummary summary;
-  const ImageF flat = FlattenNormals(normals, &valid, {}, &summary);
+  ImageF flat;
+  summary = FlattenNormals({}, normals, &valid, &flat);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.valid_pixels, 60u * kHeight - 1);
   ASSERT_TRUE(AllUnitOrFlat(flat));
@@ -255,8 +261,10 @@ TEST(FlattenNormals, SimulatedRigMiscalibratedLightsAreFlattenedAway) {
   NormalFlatteningOptions options;
   options.low_pass_sigma_px = 24;  // ~8.6 mm at 0.36 mm/px: folds (>= 25 mm) partly, weave (2-3 mm) not at all
   NormalFlatteningSummary summary;
-  const ImageF flat_corrupted = FlattenNormals(corrupted, &sample, options, &summary);
-  const ImageF flat_clean = FlattenNormals(truth.normal_in_table, &sample, options, nullptr);
+  ImageF flat_corrupted;
+  summary = FlattenNormals(options, corrupted, &sample, &flat_corrupted);
+  ImageF flat_clean;
+  FlattenNormals(options, truth.normal_in_table, &sample, &flat_clean);
   EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_TRUE(AllUnitOrFlat(flat_corrupted));
   const double before = MeanAngleDeg(corrupted, truth.normal_in_table, &sample);
@@ -284,7 +292,8 @@ TEST(FlattenNormals, CancelReturnsTheNormalsUnchanged) {
   const ImageF tilted = DetailOnTilt(64, 48, 1.0);
   NormalFlatteningSummary summary;
   int calls = 0;
-  const ImageF out = FlattenNormals(tilted, nullptr, {}, &summary, [&](double) {
+  ImageF out;
+  summary = FlattenNormals({}, tilted, nullptr, &out, [&](double) {
     ++calls;
     return false;
   });
@@ -296,9 +305,10 @@ TEST(FlattenNormals, CancelReturnsTheNormalsUnchanged) {
 }
 
 TEST(FlattenNormals, ProgressEndsAtOne) {
+  ImageF output;
   const ImageF tilted = DetailOnTilt(64, 48, 1.0);
   std::vector<double> fractions;
-  FlattenNormals(tilted, nullptr, {}, nullptr, [&](double fraction) {
+  FlattenNormals({}, tilted, nullptr, &output, [&](double fraction) {
     fractions.push_back(fraction);
     return true;
   });
@@ -311,13 +321,15 @@ TEST(FlattenNormals, NoValidPixelFails) {
   const ImageF normals = DetailOnTilt(32, 24, 1.0);
   const ImageU8 nothing(32, 24, 1, 0);
   NormalFlatteningSummary summary;
-  const ImageF out = FlattenNormals(normals, &nothing, {}, &summary);
+  ImageF out;
+  summary = FlattenNormals({}, normals, &nothing, &out);
   EXPECT_EQ(summary.termination, Termination::kFailure);
   EXPECT_THAT(summary.message, HasSubstr("no valid pixel"));
   EXPECT_TRUE(AllUnitOrFlat(out));
 }
 
 TEST(NormalFlatteningOptions, CheckNamesTheField) {
+  ImageF output;
   NormalFlatteningOptions options;
   EXPECT_NO_THROW(options.Check());
   options.low_pass_sigma_px = 0;
@@ -327,23 +339,45 @@ TEST(NormalFlatteningOptions, CheckNamesTheField) {
   options = {};
   options.max_slope = -1;
   testing::ExpectCheckRejects(options, "NormalFlatteningOptions.max_slope");
-  EXPECT_THROW(FlattenNormals(ImageF(4, 4, 3, 0.0f), nullptr, options, nullptr), std::invalid_argument);
+  EXPECT_THROW(FlattenNormals(options, ImageF(4, 4, 3, 0.0f), nullptr, &output), std::invalid_argument);
 }
 
 TEST(FlattenNormals, BadShapesThrowNamingThem) {
+  ImageF output;
   try {
-    FlattenNormals(ImageF(8, 6, 4), nullptr, {}, nullptr);
+    FlattenNormals({}, ImageF(8, 6, 4), nullptr, &output);
     ADD_FAILURE() << "4-channel normals accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("normal_in_tangent is 8x6x4"));
   }
   const ImageU8 wrong_mask(8, 5, 1, 1);
   try {
-    FlattenNormals(ImageF(8, 6, 3, 0.0f), &wrong_mask, {}, nullptr);
+    FlattenNormals({}, ImageF(8, 6, 3, 0.0f), &wrong_mask, &output);
     ADD_FAILURE() << "mask of the wrong size accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("valid mask is 8x5x1"));
   }
+}
+
+TEST(FlattenNormals, NullOutputThrowsNamingIt) {
+  try {
+    FlattenNormals({}, ImageF(8, 6, 3, 0.0f), nullptr, nullptr);
+    ADD_FAILURE() << "null output accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("flat_normal_in_tangent"));
+  }
+}
+
+TEST(FlattenNormals, BriefReportGivesTheOutcomeAndTheFigures) {
+  const ImageF tilted = DetailOnTilt(64, 48, 1.0);
+  ImageF flat;
+  const NormalFlatteningSummary done = FlattenNormals({}, tilted, nullptr, &flat);
+  ASSERT_EQ(done.termination, Termination::kSuccess) << done.message;
+  EXPECT_THAT(done.BriefReport(), HasSubstr("success, removed tilt mean " + Fixed(done.mean_removed_tilt_deg, 3)));
+  EXPECT_THAT(done.BriefReport(), HasSubstr("over " + std::to_string(done.valid_pixels) + " px"));
+  const NormalFlatteningSummary stopped = FlattenNormals({}, tilted, nullptr, &flat, [](double) { return false; });
+  EXPECT_THAT(stopped.BriefReport(), HasSubstr("cancelled"));
+  EXPECT_THAT(stopped.BriefReport(), HasSubstr(stopped.message));
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace {
@@ -26,6 +27,21 @@ namespace {
 using ::testing::HasSubstr;
 
 constexpr double kPi = std::numbers::pi;
+
+// The map alone, for checks that look only at it; the call must succeed.
+ImageF Occlusion(const AmbientOcclusionOptions& options, const ImageF& height_mm) {
+  ImageF visibility;
+  const OcclusionSummary summary = AmbientOcclusionFromHeight(options, height_mm, &visibility);
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
+  return visibility;
+}
+
+ImageF Cavity(const CavityOptions& options, const ImageF& height_mm) {
+  ImageF cavity;
+  const OcclusionSummary summary = CavityFromHeight(options, height_mm, &cavity);
+  EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
+  return cavity;
+}
 
 double Radians(double degrees) { return degrees * kPi / 180.0; }
 
@@ -122,9 +138,11 @@ TEST(AmbientOcclusion, FlatHeightIsExactlyOneEverywhere) {
     OcclusionSummary summary;
     AmbientOcclusionOptions options = AoOptions(0.1, 1.0);
     options.around_pixel_normal = true;
-    const ImageF around_pixel_normal = AmbientOcclusionFromHeight(flat, options, nullptr);
+    ImageF around_pixel_normal;
+    AmbientOcclusionFromHeight(options, flat, &around_pixel_normal);
     for (size_t i = 0; i < around_pixel_normal.size(); ++i) ASSERT_EQ(around_pixel_normal.data()[i], 1.0f) << i;
-    const ImageF ao = AmbientOcclusionFromHeight(flat, AoOptions(0.1, 1.0), &summary);
+    ImageF ao;
+    summary = AmbientOcclusionFromHeight(AoOptions(0.1, 1.0), flat, &ao);
     ASSERT_TRUE(ao.SameSize(flat));
     ASSERT_EQ(ao.channels(), 1);
     for (size_t i = 0; i < ao.size(); ++i) ASSERT_EQ(ao.data()[i], 1.0f) << i;
@@ -150,7 +168,8 @@ TEST(AmbientOcclusion, VGrooveBottomSeesCosBeta) {
     AmbientOcclusionOptions options = AoOptions(mm_per_pixel, 2.0);
     for (bool around_pixel_normal : {false, true}) {  // the normal at the bottom is (0, 0, 1) either way
       options.around_pixel_normal = around_pixel_normal;
-      const ImageF ao = AmbientOcclusionFromHeight(height, options, nullptr);
+      ImageF ao;
+      AmbientOcclusionFromHeight(options, height, &ao);
       for (int y : {0, 30, 60}) {  // along the groove, edge rows included (clamp keeps the groove infinite)
         EXPECT_NEAR(ao(40, y), std::cos(Radians(beta_deg)), 3e-4) << beta_deg << " deg, row " << y;
       }
@@ -165,7 +184,7 @@ TEST(AmbientOcclusion, FewerDirectionsConvergeTowardsTheExactGroove) {
   for (int directions : {4, 8, 16, 32}) {
     AmbientOcclusionOptions options = AoOptions(mm_per_pixel, 1.0);
     options.num_directions = directions;
-    const double error = std::abs(AmbientOcclusionFromHeight(height, options, nullptr)(20, 20) - 0.5);
+    const double error = std::abs(Occlusion(options, height)(20, 20) - 0.5);
     EXPECT_LT(error, previous_error) << directions;
     previous_error = error;
   }
@@ -180,12 +199,12 @@ TEST(AmbientOcclusion, OpenSlopeSeesHalfPlusHalfCos) {
     const double slope = std::tan(Radians(a_deg));
     const ImageF height = MakeHeight(61, 61, mm_per_pixel, [&](double x, double y) { return (0.6 * x + 0.8 * y) * slope; });
     AmbientOcclusionOptions options = AoOptions(mm_per_pixel, 1.0);
-    EXPECT_NEAR(AmbientOcclusionFromHeight(height, options, nullptr)(30, 30), 0.5 * (1 + std::cos(Radians(a_deg))),
+    EXPECT_NEAR(Occlusion(options, height)(30, 30), 0.5 * (1 + std::cos(Radians(a_deg))),
                 2e-3) << a_deg;
     // Around its own normal an open plane sees its whole hemisphere (the
     // azimuth quadrature of GTAO's slice integral is 4e-7 off at 50 degrees).
     options.around_pixel_normal = true;
-    EXPECT_NEAR(AmbientOcclusionFromHeight(height, options, nullptr)(30, 30), 1.0, 1e-4) << a_deg;
+    EXPECT_NEAR(Occlusion(options, height)(30, 30), 1.0, 1e-4) << a_deg;
   }
 }
 
@@ -201,7 +220,8 @@ TEST(AmbientOcclusion, WellCentreSeesTheDiskViewFactor) {
     const ImageF height = MakeHeight(81, 81, mm_per_pixel, [&](double x, double y) {
       return std::hypot(x, y) <= r ? 0.0 : d;
     });
-    const ImageF ao = AmbientOcclusionFromHeight(height, AoOptions(mm_per_pixel, 3.0), nullptr);
+    ImageF ao;
+    AmbientOcclusionFromHeight(AoOptions(mm_per_pixel, 3.0), height, &ao);
     EXPECT_GE(ao(40, 40), view_factor(r, d)) << "depth " << d;
     EXPECT_LE(ao(40, 40), view_factor(r + 2.5 * mm_per_pixel, d)) << "depth " << d;
   }
@@ -212,7 +232,8 @@ TEST(AmbientOcclusion, OccludersBeyondTheRadiusAreIgnored) {
   const ImageF height = MakeHeight(81, 81, mm_per_pixel, [&](double x, double y) {
     return std::hypot(x, y) <= 2.05 ? 0.0 : 2.0;
   });
-  const ImageF ao = AmbientOcclusionFromHeight(height, AoOptions(mm_per_pixel, 1.9), nullptr);
+  ImageF ao;
+  AmbientOcclusionFromHeight(AoOptions(mm_per_pixel, 1.9), height, &ao);
   EXPECT_EQ(ao(40, 40), 1.0f);
 }
 
@@ -286,7 +307,7 @@ TEST(AmbientOcclusion, MatchesMonteCarloOnRandomBumps) {
   for (int max_steps : {32, 8}) {
     AmbientOcclusionOptions options = AoOptions(mm_per_pixel, radius_mm);
     options.max_steps = max_steps;
-    const double difference = MeanAbsDifference(AmbientOcclusionFromHeight(height, options, nullptr), pixels, reference);
+    const double difference = MeanAbsDifference(Occlusion(options, height), pixels, reference);
     std::printf("random bumps, %d steps: mean visibility %.4f, mean |AO - Monte Carlo| %.4f\n", max_steps,
                 Mean(reference), difference);
     EXPECT_LT(difference, kMonteCarloBound) << max_steps;
@@ -297,7 +318,7 @@ TEST(AmbientOcclusion, MatchesMonteCarloOnRandomBumps) {
   AmbientOcclusionOptions options = AoOptions(mm_per_pixel, radius_mm);
   options.around_pixel_normal = true;
   const double difference =
-      MeanAbsDifference(AmbientOcclusionFromHeight(height, options, nullptr), pixels, reference_pixel_normal);
+      MeanAbsDifference(Occlusion(options, height), pixels, reference_pixel_normal);
   std::printf("random bumps, pixel normal: mean visibility %.4f, mean |AO - Monte Carlo| %.4f\n",
               Mean(reference_pixel_normal), difference);
   EXPECT_GT(Mean(reference_pixel_normal), Mean(reference));  // slopes no longer count as occlusion
@@ -317,7 +338,7 @@ TEST(AmbientOcclusion, MatchesMonteCarloOnPixelScaleRelief) {
   const std::vector<std::pair<int, int>> pixels = RandomPixels(160, 160, 200, 29);
   const std::vector<double> reference = MonteCarloReference(height, mm_per_pixel, radius_mm, pixels, 31);
   const double difference = MeanAbsDifference(
-      AmbientOcclusionFromHeight(height, AoOptions(mm_per_pixel, radius_mm), nullptr), pixels, reference);
+      Occlusion(AoOptions(mm_per_pixel, radius_mm), height), pixels, reference);
   std::printf("pixel-scale relief: mean visibility %.4f, mean |AO - Monte Carlo| %.4f\n", Mean(reference), difference);
   EXPECT_LT(difference, kMonteCarloBound);
 }
@@ -342,7 +363,7 @@ TEST(AmbientOcclusion, MatchesMonteCarloOnTheSimulatedTextile) {
   const AmbientOcclusionOptions options = AoOptions(truth.mm_per_pixel, 1.5);
   const std::vector<std::pair<int, int>> pixels = RandomPixels(size, size, 300, 17);
   const std::vector<double> reference = MonteCarloReference(window, options.mm_per_pixel, options.radius_mm, pixels, 19);
-  const double difference = MeanAbsDifference(AmbientOcclusionFromHeight(window, options, nullptr), pixels, reference);
+  const double difference = MeanAbsDifference(Occlusion(options, window), pixels, reference);
   std::printf("textile at %.4f mm/px: mean visibility %.4f, mean |AO - Monte Carlo| %.4f\n", truth.mm_per_pixel,
               Mean(reference), difference);
   EXPECT_LT(Mean(reference), 0.985);  // thread relief is shallow, but it occludes
@@ -358,9 +379,11 @@ TEST(AmbientOcclusion, ResultDoesNotDependOnTheThreadCount) {
   for (size_t i = 0; i < height.size(); ++i) height.data()[i] = static_cast<float>(Uniform(engine));
   AmbientOcclusionOptions options = AoOptions(0.1, 1.2);
   options.num_threads = 1;
-  const ImageF one = AmbientOcclusionFromHeight(height, options, nullptr);
+  ImageF one;
+  AmbientOcclusionFromHeight(options, height, &one);
   options.num_threads = 3;
-  const ImageF three = AmbientOcclusionFromHeight(height, options, nullptr);
+  ImageF three;
+  AmbientOcclusionFromHeight(options, height, &three);
   for (size_t i = 0; i < one.size(); ++i) {
     ASSERT_EQ(one.data()[i], three.data()[i]) << i;
     ASSERT_GE(one.data()[i], 0.0f);
@@ -373,19 +396,20 @@ TEST(AmbientOcclusion, CancelReturnsCancelledAndAnEmptyImage) {
   for (int allowed_calls : {0, 1}) {
     int calls = 0;
     OcclusionSummary summary;
-    const ImageF ao = AmbientOcclusionFromHeight(flat, AoOptions(0.1, 1.0), &summary,
-                                                 [&](double) { return calls++ < allowed_calls; });
+    ImageF ao;
+    summary =
+        AmbientOcclusionFromHeight(AoOptions(0.1, 1.0), flat, &ao, [&](double) { return calls++ < allowed_calls; });
     EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
     EXPECT_TRUE(ao.empty());
   }
 }
 
 TEST(AmbientOcclusion, AnExceptionFromProgressReachesTheCaller) {
+  ImageF output;
   AmbientOcclusionOptions options = AoOptions(0.1, 0.5);
   options.num_threads = 2;
   int calls = 0;
-  EXPECT_THROW(AmbientOcclusionFromHeight(ImageF(20, 200, 1, 0.0f), options, nullptr,
-                                          [&](double) -> bool {
+  EXPECT_THROW(AmbientOcclusionFromHeight(options, ImageF(20, 200, 1, 0.0f), &output, [&](double) -> bool {
                                             if (++calls == 2) throw std::runtime_error("stop");
                                             return true;
                                           }),
@@ -393,8 +417,9 @@ TEST(AmbientOcclusion, AnExceptionFromProgressReachesTheCaller) {
 }
 
 TEST(AmbientOcclusion, ProgressRisesToOne) {
+  ImageF output;
   std::vector<double> fractions;
-  AmbientOcclusionFromHeight(ImageF(20, 50, 1, 0.0f), AoOptions(0.1, 0.5), nullptr, [&](double f) {
+  AmbientOcclusionFromHeight(AoOptions(0.1, 0.5), ImageF(20, 50, 1, 0.0f), &output, [&](double f) {
     fractions.push_back(f);
     return true;
   });
@@ -404,6 +429,7 @@ TEST(AmbientOcclusion, ProgressRisesToOne) {
 }
 
 TEST(AmbientOcclusion, CheckNamesTheBadField) {
+  ImageF output;
   auto message = [](const AmbientOcclusionOptions& options) {
     try {
       options.Check();
@@ -430,21 +456,22 @@ TEST(AmbientOcclusion, CheckNamesTheBadField) {
   EXPECT_THAT(message(options), HasSubstr("num_threads = -1"));
   options = {};
   options.num_directions = 2;
-  EXPECT_THROW(AmbientOcclusionFromHeight(ImageF(4, 4, 1), options, nullptr), std::invalid_argument);
+  EXPECT_THROW(AmbientOcclusionFromHeight(options, ImageF(4, 4, 1), &output), std::invalid_argument);
 }
 
 TEST(AmbientOcclusion, BadShapesAndNonFiniteHeightsAreNamed) {
+  ImageF output;
   try {
-    AmbientOcclusionFromHeight(ImageF(5, 4, 3), AmbientOcclusionOptions(), nullptr);
+    AmbientOcclusionFromHeight(AmbientOcclusionOptions(), ImageF(5, 4, 3), &output);
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("5x4x3"));
   }
-  EXPECT_THROW(AmbientOcclusionFromHeight(ImageF(), AmbientOcclusionOptions(), nullptr), std::invalid_argument);
+  EXPECT_THROW(AmbientOcclusionFromHeight(AmbientOcclusionOptions(), ImageF(), &output), std::invalid_argument);
   ImageF height(5, 4, 1);
   height(2, 3) = std::nanf("");
   try {
-    AmbientOcclusionFromHeight(height, AmbientOcclusionOptions(), nullptr);
+    AmbientOcclusionFromHeight(AmbientOcclusionOptions(), height, &output);
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("height_mm(2, 3) = nan"));
@@ -465,7 +492,8 @@ CavityOptions CavityOptionsFor(double mm_per_pixel, double radius_mm, double dep
 TEST(Cavity, FlatHeightIsExactlyOneEverywhere) {
   for (float level : {0.0f, 0.3f, -77.125f}) {
     OcclusionSummary summary;
-    const ImageF cavity = CavityFromHeight(ImageF(45, 31, 1, level), CavityOptions(), &summary);
+    ImageF cavity;
+    summary = CavityFromHeight(CavityOptions(), ImageF(45, 31, 1, level), &cavity);
     for (size_t i = 0; i < cavity.size(); ++i) ASSERT_EQ(cavity.data()[i], 1.0f) << i;
     EXPECT_EQ(summary.termination, Termination::kSuccess);
     EXPECT_EQ(summary.mean, 1.0);
@@ -482,7 +510,8 @@ TEST(Cavity, GaussianPitCentreMatchesTheBlurredGaussian) {
     const ImageF height = MakeHeight(161, 161, mm_per_pixel, [&](double x, double y) {
       return 1.0 - depth * std::exp(-(x * x + y * y) / (2 * s * s));
     });
-    const ImageF cavity = CavityFromHeight(height, CavityOptionsFor(mm_per_pixel, sigma, scale), nullptr);
+    ImageF cavity;
+    CavityFromHeight(CavityOptionsFor(mm_per_pixel, sigma, scale), height, &cavity);
     const double below = depth * sigma * sigma / (s * s + sigma * sigma);
     EXPECT_NEAR(cavity(80, 80), std::max(0.0, 1 - below / scale), 2e-3) << depth;
     EXPECT_NEAR(cavity(0, 0), 1.0, 1e-5);  // far away: flat
@@ -491,14 +520,15 @@ TEST(Cavity, GaussianPitCentreMatchesTheBlurredGaussian) {
   const ImageF deep = MakeHeight(161, 161, mm_per_pixel, [&](double x, double y) {
     return -1.0 * std::exp(-(x * x + y * y) / (2 * s * s));
   });
-  EXPECT_EQ(CavityFromHeight(deep, CavityOptionsFor(mm_per_pixel, sigma, scale), nullptr)(80, 80), 0.0f);
+  EXPECT_EQ(Cavity(CavityOptionsFor(mm_per_pixel, sigma, scale), deep)(80, 80), 0.0f);
   const ImageF bump = MakeHeight(161, 161, mm_per_pixel, [&](double x, double y) {
     return 1.0 * std::exp(-(x * x + y * y) / (2 * s * s));
   });
-  EXPECT_EQ(CavityFromHeight(bump, CavityOptionsFor(mm_per_pixel, sigma, scale), nullptr)(80, 80), 1.0f);
+  EXPECT_EQ(Cavity(CavityOptionsFor(mm_per_pixel, sigma, scale), bump)(80, 80), 1.0f);
 }
 
 TEST(Cavity, CheckNamesTheBadField) {
+  ImageF output;
   EXPECT_NO_THROW(CavityOptions().Check());
   CavityOptions options;
   options.depth_scale_mm = 0;
@@ -511,13 +541,13 @@ TEST(Cavity, CheckNamesTheBadField) {
   options = {};
   options.radius_mm = 200;  // 2000 px at 0.1 mm
   try {
-    CavityFromHeight(ImageF(4, 4, 1), options, nullptr);
+    CavityFromHeight(options, ImageF(4, 4, 1), &output);
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("CavityOptions.radius_mm = 200 must be at most 1000 pixels"));
   }
   try {
-    CavityFromHeight(ImageF(4, 6, 2), CavityOptions(), nullptr);
+    CavityFromHeight(CavityOptions(), ImageF(4, 6, 2), &output);
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("4x6x2"));
@@ -578,6 +608,57 @@ TEST(AdjustOcclusionForAlbedo, BadShapesAreNamed) {
   ImageF bad(4, 3, 1, 0.5f);
   bad(1, 1) = std::nanf("");
   EXPECT_THROW(AdjustOcclusionForAlbedo(bad, ImageF(4, 3, 1)), std::invalid_argument);
+}
+
+TEST(Cavity, CancelReturnsCancelledAndAnEmptyImage) {
+  const ImageF flat(32, 32, 1, 0.0f);
+  for (int allowed_calls : {0, 1}) {  // before and after the blur
+    int calls = 0;
+    ImageF cavity(4, 4, 1);
+    const OcclusionSummary summary =
+        CavityFromHeight(CavityOptionsFor(0.1, 0.5, 0.2), flat, &cavity,
+                         [&](double) { return calls++ < allowed_calls; });
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
+    EXPECT_TRUE(cavity.empty());
+  }
+}
+
+TEST(Cavity, ProgressRisesToOne) {
+  std::vector<double> fractions;
+  ImageF cavity;
+  CavityFromHeight(CavityOptionsFor(0.1, 0.5, 0.2), ImageF(20, 50, 1, 0.0f), &cavity, [&](double f) {
+    fractions.push_back(f);
+    return true;
+  });
+  ASSERT_GE(fractions.size(), 2u);
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_EQ(fractions.back(), 1.0);
+}
+
+TEST(Occlusion, NullOutputsThrowNamingThem) {
+  try {
+    AmbientOcclusionFromHeight(AmbientOcclusionOptions(), ImageF(4, 4, 1), nullptr);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("visibility must not be null"));
+  }
+  try {
+    CavityFromHeight(CavityOptions(), ImageF(4, 4, 1), nullptr);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cavity must not be null"));
+  }
+}
+
+TEST(Occlusion, BriefReportNamesTheMapAndItsFigures) {
+  const ImageF height = MakeHeight(40, 30, 0.1, [](double x, double y) { return 0.3 * std::sin(x) * std::cos(y); });
+  ImageF map;
+  const OcclusionSummary ao = AmbientOcclusionFromHeight(AoOptions(0.1, 0.5), height, &map);
+  EXPECT_THAT(ao.BriefReport(), HasSubstr("Ambient occlusion: success, mean " + Fixed(ao.mean, 3)));
+  EXPECT_THAT(ao.BriefReport(), HasSubstr(std::to_string(ao.steps_per_direction) + " steps per direction"));
+  const OcclusionSummary cavity = CavityFromHeight(CavityOptionsFor(0.1, 0.5, 0.2), height, &map);
+  EXPECT_THAT(cavity.BriefReport(), HasSubstr("Cavity: success, mean " + Fixed(cavity.mean, 3)));
+  EXPECT_THAT(cavity.BriefReport(), ::testing::Not(HasSubstr("steps per direction")));
 }
 
 }  // namespace

@@ -106,7 +106,7 @@ TEST(TileableCrop, PeriodicPatternWrapsLikeAnInteriorStep) {
   options.tile_width = 128;
   options.blend_width_px = 16;
   std::vector<ImageF> tiles;
-  const TileableCropSummary summary = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, nullptr, options, &tiles);
+  const TileableCropSummary summary = MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}}, nullptr, &tiles);
   ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_EQ(tiles.size(), 1u);
   ASSERT_TRUE(tiles[0].SameSize(128, 128));
@@ -154,9 +154,9 @@ TEST(TileableCrop, SearchFindsALowerSeamCostThanTheCentre) {
   options.blend_width_px = 12;
   std::vector<ImageF> searched, centred;
   const TileableCropSummary with_search =
-      MakeTileableCrop({{&image, TileMapKind::kLinear}}, nullptr, options, &searched);
+      MakeTileableCrop(options, {{&image, TileMapKind::kLinear}}, nullptr, &searched);
   options.search_position = false;
-  const TileableCropSummary without = MakeTileableCrop({{&image, TileMapKind::kLinear}}, nullptr, options, &centred);
+  const TileableCropSummary without = MakeTileableCrop(options, {{&image, TileMapKind::kLinear}}, nullptr, &centred);
   ASSERT_EQ(with_search.termination, Termination::kSuccess);
   ASSERT_EQ(without.termination, Termination::kSuccess);
   EXPECT_EQ(without.x0, (320 - 96 - 12) / 2);
@@ -174,7 +174,7 @@ TEST(TileableCrop, RequestedAndAutomaticSizes) {
     options.blend_width_px = band;
     std::vector<ImageF> tiles;
     const TileableCropSummary summary =
-        MakeTileableCrop({{&pattern, TileMapKind::kLinear}, {&pattern, TileMapKind::kNormal}}, nullptr, options,
+        MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}, {&pattern, TileMapKind::kNormal}}, nullptr,
                          &tiles);
     EXPECT_EQ(summary.termination, Termination::kSuccess) << summary.message;
     EXPECT_EQ(tiles.size(), 2u);
@@ -211,7 +211,7 @@ TEST(TileableCrop, ValidMaskBoundsTheWindow) {
   TileableCropOptions options;
   options.blend_width_px = 16;
   std::vector<ImageF> tiles;
-  const TileableCropSummary summary = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, &valid, options, &tiles);
+  const TileableCropSummary summary = MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}}, &valid, &tiles);
   ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.tile_width, 128);  // 144 fits in 150 rows beside the hole, 272 does not
   for (int y = summary.y0; y < summary.y0 + summary.tile_height + 16; ++y) {
@@ -222,7 +222,7 @@ TEST(TileableCrop, ValidMaskBoundsTheWindow) {
   // A hole in the middle of the only window that fits: nothing fits any more.
   valid(185, 105) = 0;
   options.tile_width = 150 - 16;
-  const TileableCropSummary failed = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, &valid, options, &tiles);
+  const TileableCropSummary failed = MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}}, &valid, &tiles);
   EXPECT_EQ(failed.termination, Termination::kFailure);
   EXPECT_THAT(failed.message, ::testing::HasSubstr("134x134 tile"));
   EXPECT_THAT(failed.message, ::testing::HasSubstr("150x150"));
@@ -235,7 +235,7 @@ TEST(TileableCrop, TooLargeRequestFailsNamingTheSizes) {
   options.tile_width = 512;
   options.tile_height = 100;
   std::vector<ImageF> tiles(1);
-  TileableCropSummary summary = MakeTileableCrop({{&pattern, TileMapKind::kLinear}}, nullptr, options, &tiles);
+  TileableCropSummary summary = MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}}, nullptr, &tiles);
   EXPECT_EQ(summary.termination, Termination::kFailure);
   EXPECT_THAT(summary.message, ::testing::HasSubstr("512x100 tile"));
   EXPECT_THAT(summary.message, ::testing::HasSubstr("544x132"));
@@ -244,7 +244,7 @@ TEST(TileableCrop, TooLargeRequestFailsNamingTheSizes) {
   // Automatic: the smallest power of two the band allows (32) plus the band is 64 rows; 40 rows cannot hold it.
   const ImageF thin = PeriodicPattern(200, 40, 2);
   options = {};
-  summary = MakeTileableCrop({{&thin, TileMapKind::kLinear}}, nullptr, options, &tiles);
+  summary = MakeTileableCrop(options, {{&thin, TileMapKind::kLinear}}, nullptr, &tiles);
   EXPECT_EQ(summary.termination, Termination::kFailure);
   EXPECT_THAT(summary.message, ::testing::HasSubstr("the smallest, 32x32"));
   EXPECT_THAT(summary.message, ::testing::HasSubstr("needs 64x64 valid pixels"));
@@ -273,7 +273,7 @@ TEST(TileableCrop, NormalsStayUnitThroughTheBand) {
   for (int c = 0; c < 3; ++c) normals(x0 + 64 + 2, y0 + 30, c) = 0.0f;  // zero, mixed into tile column 2
   normals(x0 + 3, y0 + 40, 2) = -0.5f;                                     // facing down, in the band
   std::vector<ImageF> tiles;
-  const TileableCropSummary summary = MakeTileableCrop({{&normals, TileMapKind::kNormal}}, nullptr, options, &tiles);
+  const TileableCropSummary summary = MakeTileableCrop(options, {{&normals, TileMapKind::kNormal}}, nullptr, &tiles);
   ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   EXPECT_EQ(summary.x0, x0);
   EXPECT_EQ(summary.y0, y0);
@@ -294,9 +294,8 @@ TEST(TileableCrop, SimulatedTwillTilesWithoutAVisibleSeam) {
   options.blend_width_px = 24;
   std::vector<ImageF> tiles;
   const TileableCropSummary summary =
-      MakeTileableCrop({{&truth.albedo, TileMapKind::kLinear}, {&truth.normal_in_table, TileMapKind::kNormal},
-                        {&truth.height_mm, TileMapKind::kLinear}},
-                       &truth.sample_mask, options, &tiles);
+      MakeTileableCrop(options, {{&truth.albedo, TileMapKind::kLinear}, {&truth.normal_in_table, TileMapKind::kNormal},
+                        {&truth.height_mm, TileMapKind::kLinear}}, &truth.sample_mask, &tiles);
   ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
   ASSERT_EQ(tiles.size(), 3u);
   EXPECT_EQ(summary.tile_width, 256) << summary.message;
@@ -333,7 +332,7 @@ TEST(TileableCrop, BadOptionsAndInputsAreNamed) {
   auto expect_error = [&](const std::vector<TileableMapInput>& maps, const ImageU8* valid,
                           const TileableCropOptions& options, std::vector<ImageF>* out, const std::string& text) {
     try {
-      MakeTileableCrop(maps, valid, options, out);
+      MakeTileableCrop(options, maps, valid, out);
       ADD_FAILURE() << "no error for " << text;
     } catch (const std::invalid_argument& e) {
       EXPECT_THAT(e.what(), ::testing::HasSubstr(text));
@@ -358,6 +357,43 @@ TEST(TileableCrop, BadOptionsAndInputsAreNamed) {
   expect_error({{&gray, TileMapKind::kNormal}}, nullptr, options, &tiles, "maps[0] is a normal map with 1 channels");
   expect_error({{&image}}, &small_mask, options, &tiles, "valid mask is 10x10x1, must be 64x64x1");
   expect_error({{&image}}, nullptr, options, nullptr, "tiles must not be null");
+}
+
+TEST(TileableCrop, CancelLeavesNoTiles) {
+  const ImageF pattern = PeriodicPattern(200, 150, 5);
+  TileableCropOptions options;
+  options.tile_width = 64;
+  options.blend_width_px = 8;
+  for (int allowed_calls : {0, 1}) {  // after the search, after the first map
+    int calls = 0;
+    std::vector<ImageF> tiles;
+    const TileableCropSummary summary =
+        MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}, {&pattern, TileMapKind::kLinear}}, nullptr,
+                         &tiles, [&](double) { return calls++ < allowed_calls; });
+    EXPECT_EQ(summary.termination, Termination::kCancelled) << allowed_calls;
+    EXPECT_TRUE(tiles.empty());
+    EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("cancelled"));
+  }
+}
+
+TEST(TileableCrop, ProgressRisesToOneAndBriefReportGivesThePlace) {
+  const ImageF pattern = PeriodicPattern(200, 150, 5);
+  TileableCropOptions options;
+  options.tile_width = 64;
+  options.blend_width_px = 8;
+  std::vector<double> fractions;
+  std::vector<ImageF> tiles;
+  const TileableCropSummary summary =
+      MakeTileableCrop(options, {{&pattern, TileMapKind::kLinear}}, nullptr, &tiles, [&](double f) {
+        fractions.push_back(f);
+        return true;
+      });
+  ASSERT_EQ(summary.termination, Termination::kSuccess) << summary.message;
+  ASSERT_FALSE(fractions.empty());
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_EQ(fractions.back(), 1.0);
+  EXPECT_THAT(summary.BriefReport(), ::testing::HasSubstr("success, 64x64 at (" + std::to_string(summary.x0) + ", " +
+                                                          std::to_string(summary.y0) + ")"));
 }
 
 }  // namespace
