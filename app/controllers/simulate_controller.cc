@@ -7,6 +7,7 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -72,7 +73,7 @@ void SimulateOptions::Check() const {
   rig.Check();
   scene.Check();
   measured.Check();
-  if (sample_name.empty()) throw std::invalid_argument("SimulateOptions.sample_name must not be empty");
+  if (sample_name.empty()) throw FieldError("SimulateOptions", "sample_name", "''", "must not be empty");
 }
 
 SimulateController::SimulateController(fs::path session_dir, SimulateOptions options)

@@ -15,6 +15,8 @@
 #include "app/session/session.h"
 #include "app/controllers/calibrated_lighting.h"  // issue #4
 #include "calibration/rig_light_field.h"
+#include "core/field_error.h"
+#include "core/summary.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -314,12 +316,10 @@ void SolveOptions::Check() const {
   develop.Check();
   static const std::regex kLabel("[A-Za-z0-9._-]+");
   if (!run_label.empty() && !std::regex_match(run_label, kLabel)) {
-    throw std::invalid_argument("SolveOptions.run_label = '" + run_label +
-                                "' must be letters, digits, '.', '_' or '-' only");
+    throw FieldError("SolveOptions", "run_label", "'" + run_label + "'", "must be letters, digits, '.', '_' or '-' only");
   }
   if (!(calibration_max_age_days > 0)) {  // issue #4
-    throw std::invalid_argument("SolveOptions.calibration_max_age_days = " + std::to_string(calibration_max_age_days) +
-                                " must be > 0");
+    throw FieldError("SolveOptions", "calibration_max_age_days", calibration_max_age_days, "must be > 0");
   }
 }
 
