@@ -109,20 +109,9 @@ void SimulateTargetsController::Run() {
     if (existing) {
       session = *existing;
     } else {
-      session.sample_name = "calibration target: " + job.name;
-      session.notes = "rendered by the scanbench simulated rig from its true parameters; rig = measured description";
-      session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-      session.software_version = "scanbench " SCANBENCH_VERSION;
-      session.rig = measured;
-      session.camera.make = "scanbench";
-      session.camera.model = "Simulated D5100";
-      session.camera.serial = "SIM-" + std::to_string(options_.rig.seed);
-      session.camera.lens = "simulated prime";
-      session.camera.iso = kSimulatedIso;
-      session.camera.exposure_time_s = kSimulatedExposureTimeS * job.render.exposure;
-      session.camera.f_number = kSimulatedFNumber;
-      session.camera.width = options_.rig.width;
-      session.camera.height = options_.rig.height;
+      session = NewSimulatedSession("calibration target: " + job.name,
+                                    "rendered by the scanbench simulated rig from its true parameters; rig = measured description",
+                                    measured, options_.rig, kSimulatedExposureTimeS * job.render.exposure);
       CreateSessionFolder(dir);
       WriteSessionManifest(dir, session);
     }
@@ -137,22 +126,7 @@ void SimulateTargetsController::Run() {
       // Every target gets its own noise: frame index 1000 * target + frame.
       const RawImage raw = renderer.RenderFrame(prepared, led ? std::vector<int>{*led} : std::vector<int>{},
                                                 1000 * (j + 1) + f, job.render);
-      FrameRecord record;
-      record.kind = led ? FrameKind::kLed : FrameKind::kDark;
-      record.led_index = led.value_or(-1);
-      record.file = FrameFileName(led, ".dng");
-      record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
-      record.exposure_time_s = session.camera.exposure_time_s;
-      record.width = raw.width();
-      record.height = raw.height();
-      DngMetadata metadata;
-      metadata.model = session.camera.model;
-      metadata.serial = session.camera.serial;
-      metadata.software = session.software_version;
-      metadata.exposure_time_s = session.camera.exposure_time_s;
-      metadata.iso = kSimulatedIso;
-      metadata.f_number = kSimulatedFNumber;
-      AddFrame(dir, session, record, EncodeDng(raw, metadata));
+      AddSimulatedFrame(dir, session, led, raw);
       ReportProgress("simulate targets", (j * num_frames + f + 1) / total);
     }
     session.capture_complete = true;
