@@ -10,7 +10,6 @@
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/batch_controller.h"
-#include "app/session/session.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -24,20 +23,6 @@ struct BatchState {
   BatchOptions options;
 };
 
-// ./batch-<UTC timestamp>[-N]: a name whose .csv and .json are both free.
-fs::path DefaultSummaryPrefix() {
-  std::string stamp = FormatUtcTimestamp(std::chrono::system_clock::now());  // 2024-05-01T12:34:56.789Z
-  std::string compact;
-  for (char c : stamp.substr(0, 19)) {
-    if (c != '-' && c != ':') compact += c;
-  }
-  const std::string base = "batch-" + compact + "Z";
-  for (int n = 1;; ++n) {
-    const fs::path prefix = n == 1 ? base : base + "-" + std::to_string(n);
-    if (!fs::exists(prefix.string() + ".csv") && !fs::exists(prefix.string() + ".json")) return prefix;
-  }
-}
-
 int Batch(BatchState& state) {
   if (state.inputs.empty() && state.list_files.empty()) {
     throw std::invalid_argument("batch: give session folders, glob patterns or --list FILE");
@@ -47,9 +32,11 @@ int Batch(BatchState& state) {
   }
   // --threads is per solve here: the solver's own option feeds the batch's.
   state.options.threads_per_solve = state.options.solve.solver.num_threads;
-  if (state.options.summary_prefix.empty()) state.options.summary_prefix = DefaultSummaryPrefix();
   state.options.Check();  // before the inputs are searched: option errors first
   const std::vector<fs::path> sessions = ResolveBatchSessions(state.inputs, state.list_files);
+  if (state.options.summary_prefix.empty()) {
+    state.options.summary_prefix = DefaultBatchSummaryPrefix(sessions, std::chrono::system_clock::now());
+  }
 
   BatchController batch(sessions, state.options);
   const int code = RunController(batch);
@@ -85,7 +72,8 @@ void RegisterBatchCommands(CLI::App& app, int* exit_code) {
   command->add_option("--shard", state->shard,
                       "k/N: solve only shard k (1-based) of N of the sorted sessions, e.g. $SLURM_ARRAY_TASK_ID/8");
   command->add_option("--summary", state->options.summary_prefix,
-                      "Write the summary to PREFIX.csv and PREFIX.json (default ./batch-<UTC time>); never overwritten");
+                      "Write the summary to PREFIX.csv and PREFIX.json (default batch-reports/batch-<UTC time> in the "
+                      "folder holding the sessions); never overwritten");
   command->callback([state, exit_code] { Guarded(exit_code, [&] { return Batch(*state); }); });
 }
 

@@ -6,12 +6,23 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
 
 #include "core/cancellation.h"
+#include "core/format.h"
 #include "core/progress.h"
 
 namespace scanbench {
+
+// The wall time of one step of a run, as a report's "timings_s" lists it.
+struct StageTiming {
+  std::string stage;  // "load", "decode_develop": a name for reports, not a progress stage
+  double seconds = 0;
+};
 
 class BaseController {
  public:
@@ -47,6 +58,27 @@ class BaseController {
       ReportProgress(stage, fraction);
       return !IsStopRequested();
     };
+  }
+  // Runs one step and appends its wall time to `timings` as `timing_name`;
+  // returns what step() returns. The step starts with BeginStage(stage), or
+  // only a stop check when it reports no progress of its own (stage "").
+  template <typename Step>
+  auto TimedStage(std::vector<StageTiming>& timings, const std::string& timing_name, const std::string& stage,
+                  Step&& step) const {
+    if (stage.empty()) {
+      ThrowIfStopRequested(timing_name);
+    } else {
+      BeginStage(stage);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    if constexpr (std::is_void_v<decltype(step())>) {
+      step();
+      timings.push_back({timing_name, SecondsSince(start)});
+    } else {
+      auto result = step();
+      timings.push_back({timing_name, SecondsSince(start)});
+      return result;
+    }
   }
 
  private:

@@ -10,6 +10,7 @@
 #include <iomanip>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -28,6 +29,9 @@ namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// <prefix>.csv, <prefix>.json: the prefix's name is extended, not its extension replaced.
+fs::path SummaryFile(const fs::path& prefix, const char* extension) { return prefix.string() + extension; }
 
 bool IsSessionFolder(const fs::path& path) {
   std::error_code error;
@@ -312,6 +316,169 @@ std::optional<fs::path> FindResultWithFingerprint(const fs::path& session_dir, c
   return newest;
 }
 
+fs::path DefaultBatchSummaryPrefix(const std::vector<fs::path>& sessions,
+                                   std::chrono::system_clock::time_point now) {
+  if (sessions.empty()) throw std::invalid_argument("batch summary: no sessions to place the summary beside");
+  // The deepest folder that holds every session.
+  fs::path common = fs::absolute(sessions.front()).lexically_normal().parent_path();
+  for (const fs::path& session : sessions) {
+    const fs::path parent = fs::absolute(session).lexically_normal().parent_path();
+    fs::path shared;
+    for (auto a = common.begin(), b = parent.begin(); a != common.end() && b != parent.end() && *a == *b; ++a, ++b) {
+      shared /= *a;
+    }
+    common = shared;
+  }
+  const fs::path folder = common / "batch-reports";
+  fs::create_directories(folder);
+  const std::string stamp = FormatUtcTimestamp(now);  // 2024-05-01T12:34:56.789Z
+  std::string compact;
+  for (char c : stamp.substr(0, 19)) {
+    if (c != '-' && c != ':') compact += c;
+  }
+  const std::string base = "batch-" + compact + "Z";
+  for (int n = 1;; ++n) {
+    const fs::path prefix = folder / (n == 1 ? base : base + "-" + std::to_string(n));
+    if (!fs::exists(prefix.string() + ".csv") && !fs::exists(prefix.string() + ".json")) return prefix;
+  }
+}
+
+namespace {
+
+// Refused before any work, not after hours of solving: a missing folder, an
+// existing file.
+void CheckSummaryFilesAreFree(const fs::path& prefix) {
+  const fs::path folder = fs::absolute(prefix).parent_path();
+  if (!fs::is_directory(folder)) {
+    throw std::runtime_error(folder.string() + ": the summary's folder does not exist (--summary " + prefix.string() +
+                             ")");
+  }
+  for (const fs::path& file : {SummaryFile(prefix, ".csv"), SummaryFile(prefix, ".json")}) {
+    if (fs::exists(file)) throw std::runtime_error(file.string() + ": exists; a batch summary is never overwritten");
+  }
+}
+
+// Whether the session still needs a solve: false when it already has a
+// result for the same inputs (then it is recorded as skipped) or cannot even
+// be read (failed).
+bool NeedsSolve(const BatchOptions& options, BatchSessionResult& result) {
+  const auto start = Clock::now();
+  bool needs_solve = false;
+  try {
+    SessionLoadOptions quick;
+    quick.verify_checksums = false;  // the solve re-hashes; the fingerprint uses the recorded checksums
+    const Session session = LoadSession(result.session_dir, quick);
+    result.inputs_fingerprint = SolveInputsFingerprint(session, options.solve);
+    const std::optional<fs::path> existing =
+        options.force ? std::nullopt : FindResultWithFingerprint(result.session_dir, result.inputs_fingerprint);
+    if (existing) {
+      result.status = BatchSessionResult::Status::kSkipped;
+      result.result_dir = *existing;
+      result.message = "a result for the same inputs exists";
+      FillFromReport(*existing / "report.json", result);
+    } else {
+      needs_solve = true;
+    }
+  } catch (const std::exception& error) {
+    result.status = BatchSessionResult::Status::kFailed;
+    result.message = error.what();
+  }
+  result.seconds = SecondsSince(start);
+  return needs_solve;
+}
+
+// The solves that run now: their progress, and where a stop is passed on.
+class RunningSolves {
+ public:
+  explicit RunningSolves(size_t num_sessions) : fractions_(num_sessions, 0.0) {}
+
+  // A stop of the batch that came while `solve` was being set up is passed on at once.
+  void Start(size_t index, SolveController* solve, const BaseController& batch) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    running_[index] = solve;
+    if (batch.IsStopRequested()) solve->RequestStop();
+  }
+  void SetFraction(size_t index, double fraction) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    fractions_[index] = fraction;
+  }
+  void Finish(size_t index) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    running_.erase(index);
+    fractions_[index] = 1.0;
+    ++finished_;
+  }
+  void StopAll() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& [index, solve] : running_) solve->RequestStop();
+  }
+  // The fraction of `indices` done (finished count whole, running ones by
+  // their own progress) and how many finished.
+  std::pair<double, size_t> Progress(const std::vector<size_t>& indices) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    double done = 0;
+    for (size_t index : indices) done += fractions_[index];
+    return {done / static_cast<double>(indices.size()), finished_};
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<size_t, SolveController*> running_;
+  std::vector<double> fractions_;
+  size_t finished_ = 0;
+};
+
+// One session through SolveController; its outcome goes into `result`, never
+// thrown.
+void SolveOneSession(const SolveOptions& options, size_t index, const BaseController& batch, RunningSolves& running,
+                     BatchSessionResult& result) {
+  const auto start = Clock::now();
+  SolveController solve(result.session_dir, options);
+  solve.SetProgressCallback([&running, index](const ProgressReport& report) {
+    const double overall = SolveFraction(report.stage, report.fraction);
+    if (overall >= 0) running.SetFraction(index, overall);
+  });
+  running.Start(index, &solve, batch);
+  try {
+    solve.Run();
+    const SolveSummary& solved = solve.summary();
+    result.status = BatchSessionResult::Status::kSolved;
+    result.result_dir = solved.result_dir;
+    result.inputs_fingerprint = solved.inputs_fingerprint;
+    result.pixels = solved.solver.num_pixels;
+    result.pixels_solved = solved.solver.num_solved();
+    if (solved.normal_error_deg) result.normal_error_mean_deg = solved.normal_error_deg->mean;
+    result.message = solved.solver.BriefReport();
+    for (const std::string& warning : solved.warnings) result.message += "; warning: " + warning;
+  } catch (const Cancelled& cancelled) {
+    result.status = BatchSessionResult::Status::kCancelled;
+    result.message = std::string(cancelled.what()) + "; no result folder was written";
+  } catch (const std::exception& error) {
+    result.status = BatchSessionResult::Status::kFailed;
+    result.message = error.what();
+  }
+  result.seconds = SecondsSince(start);
+  running.Finish(index);
+}
+
+// Sessions never started count as cancelled; the totals.
+void CountOutcomes(BatchSummary& summary) {
+  for (BatchSessionResult& result : summary.sessions) {
+    if (result.status == BatchSessionResult::Status::kPending) {
+      result.status = BatchSessionResult::Status::kCancelled;
+      result.message = "not started: the batch was cancelled";
+    }
+    switch (result.status) {
+      case BatchSessionResult::Status::kSolved: ++summary.solved; break;
+      case BatchSessionResult::Status::kSkipped: ++summary.skipped; break;
+      case BatchSessionResult::Status::kFailed: ++summary.failed; break;
+      default: ++summary.cancelled; break;
+    }
+  }
+}
+
+}  // namespace
+
 BatchController::BatchController(std::vector<fs::path> sessions, BatchOptions options)
     : sessions_(std::move(sessions)), options_(std::move(options)) {}
 
@@ -319,163 +486,71 @@ void BatchController::Run() {
   options_.Check();
   const auto batch_start = Clock::now();
   summary_ = BatchSummary();
-  const fs::path csv_file = options_.summary_prefix.string() + ".csv";
-  const fs::path json_file = options_.summary_prefix.string() + ".json";
-  if (!options_.summary_prefix.empty()) {
-    // Found out now, not after hours of solving.
-    const fs::path folder = fs::absolute(options_.summary_prefix).parent_path();
-    if (!fs::is_directory(folder)) {
-      throw std::runtime_error(folder.string() + ": the summary's folder does not exist (--summary " +
-                               options_.summary_prefix.string() + ")");
-    }
-    for (const fs::path& file : {csv_file, json_file}) {
-      if (fs::exists(file)) throw std::runtime_error(file.string() + ": exists; a batch summary is never overwritten");
-    }
-  }
-  const std::vector<fs::path> selected = SelectShard(sessions_, options_.shard_index, options_.shard_count);
+  if (!options_.summary_prefix.empty()) CheckSummaryFilesAreFree(options_.summary_prefix);
   summary_.sessions_before_shard = sessions_.size();
   summary_.shard_index = options_.shard_index;
   summary_.shard_count = options_.shard_count;
-  std::vector<BatchSessionResult>& results = summary_.sessions;
-  results.resize(selected.size());
-
-  // Check: which sessions already have a result for the same inputs.
-  std::vector<size_t> to_solve;
-  for (size_t i = 0; i < selected.size(); ++i) {
-    ReportProgress("check results", double(i) / std::max<size_t>(selected.size(), 1),
-                   std::to_string(i) + "/" + std::to_string(selected.size()));
-    if (IsStopRequested()) break;
-    BatchSessionResult& result = results[i];
-    result.session_dir = selected[i];
-    const auto start = Clock::now();
-    try {
-      SessionLoadOptions quick;
-      quick.verify_checksums = false;  // the solve re-hashes; the fingerprint uses the recorded checksums
-      const Session session = LoadSession(result.session_dir, quick);
-      result.inputs_fingerprint = SolveInputsFingerprint(session, options_.solve);
-      const std::optional<fs::path> existing =
-          options_.force ? std::nullopt : FindResultWithFingerprint(result.session_dir, result.inputs_fingerprint);
-      if (existing) {
-        result.status = BatchSessionResult::Status::kSkipped;
-        result.result_dir = *existing;
-        result.message = "a result for the same inputs exists";
-        FillFromReport(*existing / "report.json", result);
-      } else {
-        to_solve.push_back(i);
-      }
-    } catch (const std::exception& error) {
-      result.status = BatchSessionResult::Status::kFailed;
-      result.message = error.what();
-    }
-    result.seconds = SecondsSince(start);
+  for (const fs::path& session : SelectShard(sessions_, options_.shard_index, options_.shard_count)) {
+    summary_.sessions.emplace_back().session_dir = session;
   }
+  SolveSessions(SessionsToSolve());
+  CountOutcomes(summary_);
+  summary_.seconds = SecondsSince(batch_start);
+  if (!options_.summary_prefix.empty()) {
+    summary_.csv_file = SummaryFile(options_.summary_prefix, ".csv");
+    summary_.json_file = SummaryFile(options_.summary_prefix, ".json");
+    WriteFileAtomic(summary_.csv_file, summary_.Csv(), OverwritePolicy::kRefuse);
+    WriteFileAtomic(summary_.json_file, summary_.Json(), OverwritePolicy::kRefuse);
+  }
+  if (summary_.cancelled > 0) throw Cancelled("batch");
+}
 
-  // Solve: `jobs` workers take the next session; this thread reports progress
-  // and passes a stop request on to the running solves.
+std::vector<size_t> BatchController::SessionsToSolve() {
+  std::vector<BatchSessionResult>& results = summary_.sessions;
+  std::vector<size_t> to_solve;
+  for (size_t i = 0; i < results.size(); ++i) {
+    ReportProgress("check results", double(i) / std::max<size_t>(results.size(), 1),
+                   std::to_string(i) + "/" + std::to_string(results.size()));
+    if (IsStopRequested()) break;
+    if (NeedsSolve(options_, results[i])) to_solve.push_back(i);
+  }
+  return to_solve;
+}
+
+void BatchController::SolveSessions(const std::vector<size_t>& to_solve) {
   const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   const int jobs = std::max(1, std::min<int>(options_.jobs, static_cast<int>(to_solve.size())));
   summary_.jobs = jobs;
   summary_.threads_per_solve = options_.threads_per_solve > 0 ? options_.threads_per_solve : std::max(1, hardware / jobs);
+  if (to_solve.empty()) return;
   SolveOptions solve_options = options_.solve;
   solve_options.solver.num_threads = summary_.threads_per_solve;
 
-  std::mutex mutex;  // guards running, fractions and finished
-  std::map<size_t, SolveController*> running;
-  std::vector<double> fractions(results.size(), 0.0);
-  size_t finished = 0;
+  // `jobs` workers take the next session; this thread reports progress and
+  // passes a stop request on to the running solves.
+  RunningSolves running(summary_.sessions.size());
   std::atomic<size_t> next{0};
   std::atomic<int> workers_left{jobs};
-
-  auto solve_one = [&](size_t index) {
-    BatchSessionResult& result = results[index];
-    const auto start = Clock::now();
-    SolveController solve(result.session_dir, solve_options);
-    solve.SetProgressCallback([&, index](const ProgressReport& report) {
-      const double overall = SolveFraction(report.stage, report.fraction);
-      std::lock_guard<std::mutex> lock(mutex);
-      if (overall >= 0) fractions[index] = overall;
-    });
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      running[index] = &solve;
-      if (IsStopRequested()) solve.RequestStop();  // a stop that came while this one was being set up
-    }
-    try {
-      solve.Run();
-      const SolveSummary& solved = solve.summary();
-      result.status = BatchSessionResult::Status::kSolved;
-      result.result_dir = solved.result_dir;
-      result.inputs_fingerprint = solved.inputs_fingerprint;
-      result.pixels = solved.solver.num_pixels;
-      result.pixels_solved = solved.solver.num_solved();
-      if (solved.normal_error_deg) result.normal_error_mean_deg = solved.normal_error_deg->mean;
-      result.message = solved.solver.BriefReport();
-      for (const std::string& warning : solved.warnings) result.message += "; warning: " + warning;
-    } catch (const Cancelled& cancelled) {
-      result.status = BatchSessionResult::Status::kCancelled;
-      result.message = std::string(cancelled.what()) + "; no result folder was written";
-    } catch (const std::exception& error) {
-      result.status = BatchSessionResult::Status::kFailed;
-      result.message = error.what();
-    }
-    result.seconds = SecondsSince(start);
-    std::lock_guard<std::mutex> lock(mutex);
-    running.erase(index);
-    fractions[index] = 1.0;
-    ++finished;
-  };
-
   const auto solve_start = Clock::now();
   std::vector<std::thread> workers;
-  for (int w = 0; w < jobs && !to_solve.empty(); ++w) {
+  for (int w = 0; w < jobs; ++w) {
     workers.emplace_back([&] {
-      for (size_t k = next++; k < to_solve.size() && !IsStopRequested(); k = next++) solve_one(to_solve[k]);
+      for (size_t k = next++; k < to_solve.size() && !IsStopRequested(); k = next++) {
+        SolveOneSession(solve_options, to_solve[k], *this, running, summary_.sessions[to_solve[k]]);
+      }
       --workers_left;
     });
   }
-  while (workers_left > 0 && !workers.empty()) {
+  while (workers_left > 0) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    double done = 0;
-    size_t finished_now = 0;
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      for (size_t index : to_solve) done += fractions[index];
-      finished_now = finished;
-    }
-    const double fraction = done / static_cast<double>(to_solve.size());
+    const auto [fraction, finished] = running.Progress(to_solve);
     const double elapsed = SecondsSince(solve_start);
-    // From the work done so far: finished sessions count whole, running ones by their own progress.
     const std::string eta = fraction > 0.01 ? FormatDuration(elapsed * (1 - fraction) / fraction) : "--:--";
     ReportProgress("solve sessions", fraction,
-                   std::to_string(finished_now) + "/" + std::to_string(to_solve.size()) + " done, ETA " + eta);
-    if (IsStopRequested()) {  // also one requested from the progress callback just now
-      std::lock_guard<std::mutex> lock(mutex);
-      for (auto& [index, solve] : running) solve->RequestStop();
-    }
+                   std::to_string(finished) + "/" + std::to_string(to_solve.size()) + " done, ETA " + eta);
+    if (IsStopRequested()) running.StopAll();  // also one requested from the progress callback just now
   }
   for (std::thread& worker : workers) worker.join();
-
-  for (BatchSessionResult& result : results) {
-    if (result.status == BatchSessionResult::Status::kPending) {
-      result.status = BatchSessionResult::Status::kCancelled;
-      result.message = "not started: the batch was cancelled";
-    }
-    switch (result.status) {
-      case BatchSessionResult::Status::kSolved: ++summary_.solved; break;
-      case BatchSessionResult::Status::kSkipped: ++summary_.skipped; break;
-      case BatchSessionResult::Status::kFailed: ++summary_.failed; break;
-      default: ++summary_.cancelled; break;
-    }
-  }
-  for (size_t i = 0; i < selected.size(); ++i) results[i].session_dir = selected[i];  // also the unchecked ones
-  summary_.seconds = SecondsSince(batch_start);
-  if (!options_.summary_prefix.empty()) {
-    WriteFileAtomic(csv_file, summary_.Csv(), OverwritePolicy::kRefuse);
-    WriteFileAtomic(json_file, summary_.Json(), OverwritePolicy::kRefuse);
-    summary_.csv_file = csv_file;
-    summary_.json_file = json_file;
-  }
-  if (summary_.cancelled > 0) throw Cancelled("batch");
 }
 
 }  // namespace scanbench

@@ -5,9 +5,9 @@
 // written as CSV and JSON. docs/batch.md is the user's description.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <filesystem>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,7 +25,8 @@ struct BatchOptions {
   int shard_index = 1;         // which shard this run solves, [1, shard_count]
   int shard_count = 1;         // shards the sorted session list is dealt into, [1, 1000000]
   // Writes <prefix>.csv and <prefix>.json at the end (also when cancelled);
-  // an existing file is refused before any work. Empty = write none.
+  // an existing file is refused before any work. Empty = write none (the CLI
+  // defaults it to DefaultBatchSummaryPrefix).
   std::filesystem::path summary_prefix;
 
   void Check() const;  // throws std::invalid_argument naming the field
@@ -86,6 +87,13 @@ std::pair<int, int> ParseShard(const std::string& text);
 std::optional<std::filesystem::path> FindResultWithFingerprint(const std::filesystem::path& session_dir,
                                                                const std::string& fingerprint);
 
+// Where a batch's summary goes by default: <the deepest folder holding every
+// session>/batch-reports/batch-<UTC time, e.g. 20261122T110212Z>[-N], a name
+// whose .csv and .json are both free; batch-reports/ is created if missing.
+// Beside the library, not in whatever folder the command runs in.
+std::filesystem::path DefaultBatchSummaryPrefix(const std::vector<std::filesystem::path>& sessions,
+                                                std::chrono::system_clock::time_point now);
+
 class BatchController : public BaseController {
  public:
   // `sessions` as ResolveBatchSessions gives them; the shard is taken in Run().
@@ -98,6 +106,10 @@ class BatchController : public BaseController {
   const BatchSummary& summary() const { return summary_; }
 
  private:
+  // The steps of Run() after the options and summary files are checked.
+  std::vector<size_t> SessionsToSolve();  // indices into summary_.sessions; the rest skipped or failed
+  void SolveSessions(const std::vector<size_t>& to_solve);
+
   std::vector<std::filesystem::path> sessions_;
   BatchOptions options_;
   BatchSummary summary_;

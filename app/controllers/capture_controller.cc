@@ -6,6 +6,8 @@
 
 #include "app/io/raw_decoder.h"
 #include "app/session/session.h"
+#include "core/field_error.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -91,24 +93,211 @@ struct Shot {
   RawImage raw;
 };
 
+// Takes one frame: sets the LEDs, verifies them before and after the
+// exposure, decodes the RAW; retries the failures a second try can cure and
+// records each retry in the summary.
+class FrameTaker {
+ public:
+  FrameTaker(const RigDescription& rig, Camera* camera, LightController* lights, const CaptureOptions& options,
+             const BaseController& controller, CaptureSummary* summary)
+      : rig_(rig), camera_(camera), lights_(lights), options_(options), controller_(controller), summary_(summary) {}
+
+  // led: nullopt = the dark frame. stage: what a stop is reported as.
+  Shot Take(std::optional<int> led, const std::string& stage) {
+    const std::string name = FrameStem(led);
+    for (int attempt = 1;; ++attempt) {
+      if (controller_.IsStopRequested()) throw Cancelled(stage);
+      std::string reason;
+      try {
+        return TakeOnce(led, name);
+      } catch (const DeviceError& error) {
+        if (!IsRetryable(error) || attempt == options_.max_attempts) throw;
+        if (error.kind() == DeviceErrorKind::kDisconnected) lights_->Reconnect();
+        reason = error.what();
+      } catch (const CameraError& error) {
+        if (!IsRetryable(error) || attempt == options_.max_attempts) throw;
+        if (error.kind() == CameraErrorKind::kDisconnected) camera_->Reconnect();
+        reason = error.what();
+      } catch (const SpoiledFrame& error) {
+        if (attempt == options_.max_attempts) throw;
+        reason = error.what();
+      }
+      ++summary_->retries;
+      summary_->retry_reasons.push_back(name + " attempt " + std::to_string(attempt) + ": " + reason);
+    }
+  }
+
+ private:
+  Shot TakeOnce(std::optional<int> led, const std::string& name) {
+    if (led) {
+      lights_->LightOnly(rig_.leds[*led].id);
+    } else {
+      lights_->AllOff();
+    }
+    std::this_thread::sleep_for(options_.led_settle);
+    VerifyLights(led, "before");
+    Shot shot;
+    shot.frame = camera_->Capture();
+    VerifyLights(led, "after");
+    shot.raw = DecodeRaw(shot.frame.bytes, name + shot.frame.extension + " from " + camera_->description());
+    return shot;
+  }
+
+  void VerifyLights(std::optional<int> led, const char* when) {
+    const std::optional<int> expected = led ? std::optional<int>(rig_.leds[*led].id) : std::nullopt;
+    const LightStatus status = lights_->Status();
+    if (status.lit_led == expected) return;
+    auto text = [](std::optional<int> channel) {
+      return channel ? "LED channel " + std::to_string(*channel) + " lit" : std::string("all LEDs off");
+    };
+    throw SpoiledFrame(lights_->description() + " reports " + text(status.lit_led) + " " + when +
+                       " the exposure, expected " + text(expected));
+  }
+
+  const RigDescription& rig_;
+  Camera* camera_;
+  LightController* lights_;
+  const CaptureOptions& options_;
+  const BaseController& controller_;
+  CaptureSummary* summary_;
+};
+
+// The steps of CaptureController::Run, in order.
+
+void CheckLedChannels(const RigDescription& rig, const LightController& lights) {
+  for (size_t k = 0; k < rig.leds.size(); ++k) {
+    if (rig.leds[k].id < 0 || rig.leds[k].id >= lights.led_count()) {
+      throw std::invalid_argument("rig.leds[" + std::to_string(k) + "].id = " + std::to_string(rig.leds[k].id) +
+                                  " is not a channel of " + lights.description() + " (0.." +
+                                  std::to_string(lights.led_count() - 1) + ")");
+    }
+  }
+}
+
+// What an earlier, interrupted run journalled; resumed with the same camera
+// and LED count only. nullopt for a new session.
+std::optional<Session> LoadInterruptedSession(const fs::path& session_dir, const Camera& camera,
+                                              const CameraDeviceInfo& info, const RigDescription& rig) {
+  const fs::path manifest = session_dir / "session.json";
+  if (!fs::exists(manifest)) return std::nullopt;
+  Session session = LoadSession(session_dir);
+  if (session.capture_complete) {
+    throw SessionError(manifest.string() + ": capture_complete: the session is complete; capture into a new folder");
+  }
+  if (session.camera.model != info.model || session.camera.serial != info.serial) {
+    throw SessionError(manifest.string() + ": camera: recorded " + session.camera.model + " serial '" +
+                       session.camera.serial + "' but " + camera.description() + " has serial '" + info.serial +
+                       "'; resume with the camera that started the capture");
+  }
+  if (session.rig.leds.size() != rig.leds.size()) {
+    throw SessionError(manifest.string() + ": rig.leds: " + std::to_string(session.rig.leds.size()) +
+                       " LEDs recorded but the bench has " + std::to_string(rig.leds.size()));
+  }
+  return session;
+}
+
+// Refuses a camera that is not ready; applies the requested exposure.
+void PrepareCamera(Camera& camera, const ExposureSettings& exposure) {
+  const std::vector<std::string> problems = camera.CheckReady();
+  if (!problems.empty()) {
+    std::string message = camera.description() + " is not ready:";
+    for (const std::string& problem : problems) message += " " + problem + ";";
+    throw CameraError(CameraErrorKind::kWrongMode, camera.description(), message);
+  }
+  if (exposure.iso > 0) camera.SetIso(exposure.iso);
+  if (exposure.exposure_time_s > 0) camera.SetExposureTime(exposure.exposure_time_s);
+  if (exposure.f_number > 0) camera.SetFNumber(exposure.f_number);
+}
+
+// Why an exposure-check frame fails the check; "" when it passes.
+std::string ExposureProblem(const FrameExposure& exposure, const CaptureOptions& options) {
+  if (exposure.clipped_fraction > options.max_clipped_fraction) {
+    return " " + exposure.frame + ": " + std::to_string(100 * exposure.clipped_fraction) +
+           " % of raw samples clipped (limit " + std::to_string(100 * options.max_clipped_fraction) +
+           " %): shorten the exposure or close the aperture;";
+  }
+  if (exposure.signal_p99 < options.min_signal) {
+    return " " + exposure.frame + ": 99th percentile at " + std::to_string(100 * exposure.signal_p99) +
+           " % of the raw range (need " + std::to_string(100 * options.min_signal) +
+           " %): lengthen the exposure or open the aperture;";
+  }
+  return "";
+}
+
+// Every LED once, before anything is kept; throws naming every frame that fails.
+std::vector<FrameExposure> CheckExposure(FrameTaker& taker, int num_leds, const CaptureOptions& options,
+                                         const ProgressCallback& progress) {
+  std::vector<FrameExposure> exposures;
+  std::string failures;
+  for (int k = 0; k < num_leds; ++k) {
+    progress(double(k) / num_leds);  // a stop is noticed by Take
+    const Shot shot = taker.Take(k, "exposure check");
+    exposures.push_back(MeasureExposure(shot.raw, FrameStem(k), options.clip_fraction));
+    failures += ExposureProblem(exposures.back(), options);
+  }
+  progress(1);
+  if (!failures.empty()) throw std::runtime_error("exposure check failed, nothing was kept:" + failures);
+  return exposures;
+}
+
+// session.json of a new capture, written once its first frame has arrived
+// (which gives the image size).
+Session NewCaptureSession(const CaptureOptions& options, const RigDescription& rig, const CameraDeviceInfo& info,
+                          const ExposureSettings& settings, const RawImage& first_frame) {
+  Session session;
+  session.sample_name = options.sample_name;
+  session.notes = options.notes;
+  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
+  session.software_version = "scanbench " SCANBENCH_VERSION;
+  session.rig = rig;
+  session.camera.make = info.make;
+  session.camera.model = info.model;
+  session.camera.serial = info.serial;
+  session.camera.lens = info.lens;
+  session.camera.iso = settings.iso;
+  session.camera.exposure_time_s = settings.exposure_time_s;
+  session.camera.f_number = settings.f_number;
+  session.camera.width = first_frame.width();
+  session.camera.height = first_frame.height();
+  return session;
+}
+
+// Writes the frame into the session and journals it in session.json.
+void JournalFrame(const fs::path& session_dir, Session& session, std::optional<int> led, const Shot& shot) {
+  FrameRecord record;
+  record.kind = led ? FrameKind::kLed : FrameKind::kDark;
+  record.led_index = led.value_or(-1);
+  record.file = FrameFileName(led, shot.frame.extension.empty() ? ".raw" : shot.frame.extension);
+  record.capture_time = FormatUtcTimestamp(shot.frame.capture_time);
+  record.exposure_time_s = shot.frame.settings.exposure_time_s > 0 ? shot.frame.settings.exposure_time_s
+                                                                   : session.camera.exposure_time_s;
+  record.width = shot.raw.width();
+  record.height = shot.raw.height();
+  AddFrame(session_dir, session, record, shot.frame.bytes);
+}
+
 }  // namespace
 
 void CaptureOptions::Check() const {
-  auto fail = [](const std::string& field, double value, const std::string& rule) {
-    throw std::invalid_argument("CaptureOptions." + field + " = " + std::to_string(value) + " " + rule);
-  };
-  if (sample_name.empty()) throw std::invalid_argument("CaptureOptions.sample_name must not be empty");
-  if (exposure.iso < 0) fail("exposure.iso", exposure.iso, "must be >= 0");
-  if (exposure.exposure_time_s < 0) fail("exposure.exposure_time_s", exposure.exposure_time_s, "must be >= 0");
-  if (exposure.f_number < 0) fail("exposure.f_number", exposure.f_number, "must be >= 0");
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) fail("clip_fraction", clip_fraction, "must lie in (0, 1]");
-  if (!(max_clipped_fraction >= 0 && max_clipped_fraction <= 1)) {
-    fail("max_clipped_fraction", max_clipped_fraction, "must lie in [0, 1]");
+  const char* where = "CaptureOptions";
+  if (sample_name.empty()) throw FieldError(where, "sample_name", "''", "must not be empty");
+  if (exposure.iso < 0) throw FieldError(where, "exposure.iso", exposure.iso, "must be >= 0");
+  if (exposure.exposure_time_s < 0) {
+    throw FieldError(where, "exposure.exposure_time_s", exposure.exposure_time_s, "must be >= 0");
   }
-  if (!(min_signal >= 0 && min_signal < 1)) fail("min_signal", min_signal, "must lie in [0, 1)");
-  if (max_attempts < 1 || max_attempts > 10) fail("max_attempts", max_attempts, "must lie in [1, 10]");
+  if (exposure.f_number < 0) throw FieldError(where, "exposure.f_number", exposure.f_number, "must be >= 0");
+  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
+    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
+  }
+  if (!(max_clipped_fraction >= 0 && max_clipped_fraction <= 1)) {
+    throw FieldError(where, "max_clipped_fraction", max_clipped_fraction, "must lie in [0, 1]");
+  }
+  if (!(min_signal >= 0 && min_signal < 1)) throw FieldError(where, "min_signal", min_signal, "must lie in [0, 1)");
+  if (max_attempts < 1 || max_attempts > 10) {
+    throw FieldError(where, "max_attempts", max_attempts, "must lie in [1, 10]");
+  }
   if (led_settle.count() < 0 || led_settle.count() > 10000) {
-    fail("led_settle (ms)", static_cast<double>(led_settle.count()), "must lie in [0, 10000]");
+    throw FieldError(where, "led_settle", std::to_string(led_settle.count()) + " ms", "must lie in [0, 10000] ms");
   }
 }
 
@@ -123,119 +312,17 @@ void CaptureController::Run() {
   const auto start = std::chrono::steady_clock::now();
   summary_ = CaptureSummary();
   summary_.session_dir = session_dir_;
-  const int num_leds = static_cast<int>(rig_.leds.size());
-  for (int k = 0; k < num_leds; ++k) {
-    if (rig_.leds[k].id < 0 || rig_.leds[k].id >= lights_->led_count()) {
-      throw std::invalid_argument("rig.leds[" + std::to_string(k) + "].id = " + std::to_string(rig_.leds[k].id) +
-                                  " is not a channel of " + lights_->description() + " (0.." +
-                                  std::to_string(lights_->led_count() - 1) + ")");
-    }
-  }
-
-  // Resume what an earlier run journalled, with the same camera only.
-  const fs::path manifest = session_dir_ / "session.json";
-  std::optional<Session> session;
+  CheckLedChannels(rig_, *lights_);
   const CameraDeviceInfo info = camera_->Info();
-  if (fs::exists(manifest)) {
-    session = LoadSession(session_dir_);
-    if (session->capture_complete) {
-      throw SessionError(manifest.string() + ": capture_complete: the session is complete; capture into a new folder");
-    }
-    if (session->camera.model != info.model || session->camera.serial != info.serial) {
-      throw SessionError(manifest.string() + ": camera: recorded " + session->camera.model + " serial '" +
-                         session->camera.serial + "' but " + camera_->description() + " has serial '" + info.serial +
-                         "'; resume with the camera that started the capture");
-    }
-    if (session->rig.leds.size() != rig_.leds.size()) {
-      throw SessionError(manifest.string() + ": rig.leds: " + std::to_string(session->rig.leds.size()) +
-                         " LEDs recorded but the bench has " + std::to_string(num_leds));
-    }
-  }
+  std::optional<Session> session = LoadInterruptedSession(session_dir_, *camera_, info, rig_);
 
   AllOffOnExit lights_off(lights_);
   if (options_.watchdog_ms > 0) lights_->SetWatchdog(options_.watchdog_ms);
-  const std::vector<std::string> problems = camera_->CheckReady();
-  if (!problems.empty()) {
-    std::string message = camera_->description() + " is not ready:";
-    for (const std::string& problem : problems) message += " " + problem + ";";
-    throw CameraError(CameraErrorKind::kWrongMode, camera_->description(), message);
-  }
-  if (options_.exposure.iso > 0) camera_->SetIso(options_.exposure.iso);
-  if (options_.exposure.exposure_time_s > 0) camera_->SetExposureTime(options_.exposure.exposure_time_s);
-  if (options_.exposure.f_number > 0) camera_->SetFNumber(options_.exposure.f_number);
-
-  auto set_lights = [&](std::optional<int> led) {
-    if (led) {
-      lights_->LightOnly(rig_.leds[*led].id);
-    } else {
-      lights_->AllOff();
-    }
-  };
-  auto verify_lights = [&](std::optional<int> led, const char* when) {
-    const std::optional<int> expected = led ? std::optional<int>(rig_.leds[*led].id) : std::nullopt;
-    const LightStatus status = lights_->Status();
-    if (status.lit_led != expected) {
-      auto text = [](std::optional<int> channel) {
-        return channel ? "LED channel " + std::to_string(*channel) + " lit" : std::string("all LEDs off");
-      };
-      throw SpoiledFrame(lights_->description() + " reports " + text(status.lit_led) + " " + when +
-                         " the exposure, expected " + text(expected));
-    }
-  };
-  // One frame, verified before and after its exposure, retried on failures
-  // that a second try can cure.
-  auto take = [&](std::optional<int> led, const std::string& stage) {
-    const std::string name = FrameStem(led);
-    for (int attempt = 1;; ++attempt) {
-      ThrowIfStopRequested(stage);
-      std::string reason;
-      try {
-        set_lights(led);
-        std::this_thread::sleep_for(options_.led_settle);
-        verify_lights(led, "before");
-        Shot shot;
-        shot.frame = camera_->Capture();
-        verify_lights(led, "after");
-        shot.raw = DecodeRaw(shot.frame.bytes, name + shot.frame.extension + " from " + camera_->description());
-        return shot;
-      } catch (const DeviceError& error) {
-        if (!IsRetryable(error) || attempt == options_.max_attempts) throw;
-        if (error.kind() == DeviceErrorKind::kDisconnected) lights_->Reconnect();
-        reason = error.what();
-      } catch (const CameraError& error) {
-        if (!IsRetryable(error) || attempt == options_.max_attempts) throw;
-        if (error.kind() == CameraErrorKind::kDisconnected) camera_->Reconnect();
-        reason = error.what();
-      } catch (const SpoiledFrame& error) {
-        if (attempt == options_.max_attempts) throw;
-        reason = error.what();
-      }
-      ++summary_.retries;
-      summary_.retry_reasons.push_back(name + " attempt " + std::to_string(attempt) + ": " + reason);
-    }
-  };
-
-  // Exposure check: every LED once, before anything is kept.
-  const bool new_capture = !session || session->frames.empty();
-  if (options_.check_exposure && new_capture) {
-    std::string failures;
-    for (int k = 0; k < num_leds; ++k) {
-      ReportProgress("exposure check", double(k) / num_leds);
-      const Shot shot = take(k, "exposure check");
-      const FrameExposure exposure = MeasureExposure(shot.raw, FrameStem(k), options_.clip_fraction);
-      summary_.exposure_check.push_back(exposure);
-      if (exposure.clipped_fraction > options_.max_clipped_fraction) {
-        failures += " " + exposure.frame + ": " + std::to_string(100 * exposure.clipped_fraction) +
-                    " % of raw samples clipped (limit " + std::to_string(100 * options_.max_clipped_fraction) +
-                    " %): shorten the exposure or close the aperture;";
-      } else if (exposure.signal_p99 < options_.min_signal) {
-        failures += " " + exposure.frame + ": 99th percentile at " + std::to_string(100 * exposure.signal_p99) +
-                    " % of the raw range (need " + std::to_string(100 * options_.min_signal) +
-                    " %): lengthen the exposure or open the aperture;";
-      }
-    }
-    ReportProgress("exposure check", 1);
-    if (!failures.empty()) throw std::runtime_error("exposure check failed, nothing was kept:" + failures);
+  PrepareCamera(*camera_, options_.exposure);
+  FrameTaker taker(rig_, camera_, lights_, options_, *this, &summary_);
+  const int num_leds = static_cast<int>(rig_.leds.size());
+  if (options_.check_exposure && (!session || session->frames.empty())) {
+    summary_.exposure_check = CheckExposure(taker, num_leds, options_, StageCallback("exposure check"));
   }
 
   // Dark frame first, then one frame per LED; each journalled as it arrives.
@@ -249,45 +336,20 @@ void CaptureController::Run() {
       continue;
     }
     ReportProgress("capture", double(i) / total);
-    const Shot shot = take(led, "capture");
+    const Shot shot = taker.Take(led, "capture");
     if (!session) {
-      const ExposureSettings settings = camera_->CurrentExposure();
-      Session created;
-      created.sample_name = options_.sample_name;
-      created.notes = options_.notes;
-      created.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-      created.software_version = "scanbench " SCANBENCH_VERSION;
-      created.rig = rig_;
-      created.camera.make = info.make;
-      created.camera.model = info.model;
-      created.camera.serial = info.serial;
-      created.camera.lens = info.lens;
-      created.camera.iso = settings.iso;
-      created.camera.exposure_time_s = settings.exposure_time_s;
-      created.camera.f_number = settings.f_number;
-      created.camera.width = shot.raw.width();
-      created.camera.height = shot.raw.height();
+      session = NewCaptureSession(options_, rig_, info, camera_->CurrentExposure(), shot.raw);
       CreateSessionFolder(session_dir_);
-      WriteSessionManifest(session_dir_, created);
-      session = std::move(created);
+      WriteSessionManifest(session_dir_, *session);
     }
-    FrameRecord record;
-    record.kind = led ? FrameKind::kLed : FrameKind::kDark;
-    record.led_index = led.value_or(-1);
-    record.file = FrameFileName(led, shot.frame.extension.empty() ? ".raw" : shot.frame.extension);
-    record.capture_time = FormatUtcTimestamp(shot.frame.capture_time);
-    record.exposure_time_s = shot.frame.settings.exposure_time_s > 0 ? shot.frame.settings.exposure_time_s
-                                                                     : session->camera.exposure_time_s;
-    record.width = shot.raw.width();
-    record.height = shot.raw.height();
-    AddFrame(session_dir_, *session, record, shot.frame.bytes);
+    JournalFrame(session_dir_, *session, led, shot);
     ++summary_.frames_captured;
   }
   lights_->AllOff();
   session->capture_complete = true;
   WriteSessionManifest(session_dir_, *session);
   ReportProgress("capture", 1);
-  summary_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary_.seconds = SecondsSince(start);
 }
 
 }  // namespace scanbench

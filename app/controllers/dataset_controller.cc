@@ -18,8 +18,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double SecondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
 nlohmann::json StatisticsJson(const ErrorStatistics& stats) {
   return {{"pixels", stats.num_pixels}, {"mean", stats.mean}, {"median", stats.median},
           {"p95", stats.percentile_95}, {"max", stats.max}};

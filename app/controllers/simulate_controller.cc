@@ -7,35 +7,32 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "core/field_error.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
 
 namespace {
 
-bool HasFrame(const Session& session, std::optional<int> led_index) {
-  return led_index ? FindLedFrame(session, *led_index) != nullptr : FindDarkFrame(session) != nullptr;
+// session.json of an interrupted run, when there is one; a complete session is refused.
+std::optional<Session> LoadInterruptedSession(const fs::path& session_dir) {
+  const fs::path manifest = session_dir / "session.json";
+  if (!fs::exists(manifest)) return std::nullopt;
+  Session session = LoadSession(session_dir);
+  if (session.capture_complete) {
+    throw SessionError(manifest.string() + ": capture_complete: the session is complete; simulate into a new folder");
+  }
+  return session;
 }
 
-Session NewSession(const SimulateOptions& options, const SimulatedRig& rig) {
-  Session session;
-  session.sample_name = options.sample_name;
-  session.notes = options.notes;
-  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-  session.software_version = "scanbench " SCANBENCH_VERSION;
-  session.rig = options.rig_description == SimulateOptions::RigDescriptionKind::kMeasured
-                    ? MakeMeasuredRigDescription(rig.rig(), options.measured)
-                    : rig.rig();
-  session.camera.make = "scanbench";
-  session.camera.model = "Simulated D5100";
-  session.camera.serial = "SIM-" + std::to_string(options.rig.seed);
-  session.camera.lens = "simulated prime";
-  session.camera.iso = kSimulatedIso;
-  session.camera.exposure_time_s = kSimulatedExposureTimeS;
-  session.camera.f_number = kSimulatedFNumber;
-  session.camera.width = rig.width();
-  session.camera.height = rig.height();
-  return session;
+// An interrupted run is resumed with the same options only: its frames are of that size.
+void CheckResumedSize(const fs::path& session_dir, const Session& session, const SimulatedRig& rig) {
+  if (session.camera.width == rig.width() && session.camera.height == rig.height()) return;
+  throw SessionError((session_dir / "session.json").string() + ": camera.width/height: " +
+                     std::to_string(session.camera.width) + "x" + std::to_string(session.camera.height) +
+                     " differs from the requested " + std::to_string(rig.width()) + "x" +
+                     std::to_string(rig.height()) + "; resume with the options of the interrupted run");
 }
 
 // Ground truth files go beside the frames, checksummed like them.
@@ -68,11 +65,50 @@ GroundTruthFiles WriteGroundTruth(const fs::path& root, const GroundTruthMaps& t
 
 }  // namespace
 
+Session NewSimulatedSession(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
+                            const SimulatedRigOptions& rig_options, double exposure_time_s) {
+  Session session;
+  session.sample_name = sample_name;
+  session.notes = notes;
+  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
+  session.software_version = "scanbench " SCANBENCH_VERSION;
+  session.rig = rig;
+  session.camera.make = "scanbench";
+  session.camera.model = "Simulated D5100";
+  session.camera.serial = "SIM-" + std::to_string(rig_options.seed);
+  session.camera.lens = "simulated prime";
+  session.camera.iso = kSimulatedIso;
+  session.camera.exposure_time_s = exposure_time_s;
+  session.camera.f_number = kSimulatedFNumber;
+  session.camera.width = rig_options.width;
+  session.camera.height = rig_options.height;
+  return session;
+}
+
+void AddSimulatedFrame(const fs::path& session_dir, Session& session, std::optional<int> led, const RawImage& raw) {
+  FrameRecord record;
+  record.kind = led ? FrameKind::kLed : FrameKind::kDark;
+  record.led_index = led.value_or(-1);
+  record.file = FrameFileName(led, ".dng");
+  record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
+  record.exposure_time_s = session.camera.exposure_time_s;
+  record.width = raw.width();
+  record.height = raw.height();
+  DngMetadata metadata;
+  metadata.model = session.camera.model;
+  metadata.serial = session.camera.serial;
+  metadata.software = session.software_version;
+  metadata.exposure_time_s = session.camera.exposure_time_s;
+  metadata.iso = kSimulatedIso;
+  metadata.f_number = kSimulatedFNumber;
+  AddFrame(session_dir, session, record, EncodeDng(raw, metadata));
+}
+
 void SimulateOptions::Check() const {
   rig.Check();
   scene.Check();
   measured.Check();
-  if (sample_name.empty()) throw std::invalid_argument("SimulateOptions.sample_name must not be empty");
+  if (sample_name.empty()) throw FieldError("SimulateOptions", "sample_name", "''", "must not be empty");
 }
 
 SimulateController::SimulateController(fs::path session_dir, SimulateOptions options)
@@ -83,35 +119,19 @@ void SimulateController::Run() {
   const auto start = std::chrono::steady_clock::now();
   summary_ = SimulateSummary();
   summary_.session_dir = session_dir_;
+  const std::optional<Session> existing = LoadInterruptedSession(session_dir_);
 
-  const fs::path manifest = session_dir_ / "session.json";
-  std::optional<Session> existing;
-  if (fs::exists(manifest)) {
-    existing = LoadSession(session_dir_);
-    if (existing->capture_complete) {
-      throw SessionError(manifest.string() + ": capture_complete: the session is complete; simulate into a new folder");
-    }
-  }
+  BeginStage("prepare scene");
+  const SimulatedRig rig(options_.rig, TextileScene(options_.scene),
+                         MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height),
+                         RenderCallback("prepare scene", "prepare scene", 0, 1));
 
-  ReportProgress("prepare scene", 0);
-  std::optional<SimulatedRig> rig_storage;
-  try {
-    rig_storage.emplace(options_.rig, TextileScene(options_.scene),
-                        MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height), StageCallback("prepare scene"));
-  } catch (const Cancelled&) {
-    throw Cancelled("prepare scene");
-  }
-  const SimulatedRig& rig = *rig_storage;
-
-  Session session = existing ? *existing : NewSession(options_, rig);
-  if (!existing) {
+  Session session = existing ? *existing : NewSession(rig);
+  if (existing) {
+    CheckResumedSize(session_dir_, session, rig);
+  } else {
     CreateSessionFolder(session_dir_);
     WriteSessionManifest(session_dir_, session);
-  } else if (session.camera.width != rig.width() || session.camera.height != rig.height()) {
-    throw SessionError(manifest.string() + ": camera.width/height: " + std::to_string(session.camera.width) + "x" +
-                       std::to_string(session.camera.height) + " differs from the requested " +
-                       std::to_string(rig.width()) + "x" + std::to_string(rig.height()) +
-                       "; resume with the options of the interrupted run");
   }
 
   // Dark frame first, as on the bench; frame_index fixes each frame's noise.
@@ -120,37 +140,13 @@ void SimulateController::Run() {
   const int total = static_cast<int>(frames.size());
   for (int i = 0; i < total; ++i) {
     const std::optional<int> led = frames[i];
-    if (HasFrame(session, led)) {
+    if (led ? FindLedFrame(session, *led) != nullptr : FindDarkFrame(session) != nullptr) {
       ++summary_.frames_resumed;
       continue;
     }
     const std::string stage = "render frame " + std::to_string(i + 1) + "/" + std::to_string(total);
-    RawImage raw;
-    try {
-      raw = rig.RenderFrame(led, static_cast<uint64_t>(i), [&](double fraction) {
-        ReportProgress("simulate", (i + fraction) / total);
-        return !IsStopRequested();
-      });
-    } catch (const Cancelled&) {
-      throw Cancelled(stage);  // frames already written stay; a rerun resumes
-    }
-
-    FrameRecord record;
-    record.kind = led ? FrameKind::kLed : FrameKind::kDark;
-    record.led_index = led.value_or(-1);
-    record.file = FrameFileName(led, ".dng");
-    record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
-    record.exposure_time_s = kSimulatedExposureTimeS;
-    record.width = raw.width();
-    record.height = raw.height();
-    DngMetadata metadata;
-    metadata.model = session.camera.model;
-    metadata.serial = session.camera.serial;
-    metadata.software = session.software_version;
-    metadata.exposure_time_s = kSimulatedExposureTimeS;
-    metadata.iso = kSimulatedIso;
-    metadata.f_number = kSimulatedFNumber;
-    AddFrame(session_dir_, session, record, EncodeDng(raw, metadata));
+    const RawImage raw = rig.RenderFrame(led, static_cast<uint64_t>(i), RenderCallback(stage, "simulate", i, total));
+    AddSimulatedFrame(session_dir_, session, led, raw);
     ++summary_.frames_written;
   }
 
@@ -161,7 +157,23 @@ void SimulateController::Run() {
   session.capture_complete = true;
   WriteSessionManifest(session_dir_, session);
   ReportProgress("simulate", 1);
-  summary_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary_.seconds = SecondsSince(start);
+}
+
+ProgressCallback SimulateController::RenderCallback(const std::string& stage, const std::string& reported_stage,
+                                                    int part, int parts) const {
+  return [this, stage, reported_stage, part, parts](double fraction) {
+    ReportProgress(reported_stage, (part + fraction) / parts);
+    ThrowIfStopRequested(stage);  // from inside the render: frames already written stay, a rerun resumes
+    return true;
+  };
+}
+
+Session SimulateController::NewSession(const SimulatedRig& rig) const {
+  const RigDescription recorded = options_.rig_description == SimulateOptions::RigDescriptionKind::kMeasured
+                                      ? MakeMeasuredRigDescription(rig.rig(), options_.measured)
+                                      : rig.rig();
+  return NewSimulatedSession(options_.sample_name, options_.notes, recorded, options_.rig, kSimulatedExposureTimeS);
 }
 
 }  // namespace scanbench

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "app/controllers/base_controller.h"
@@ -17,6 +18,18 @@ namespace scanbench {
 inline constexpr double kSimulatedExposureTimeS = 0.1;
 inline constexpr double kSimulatedIso = 100;
 inline constexpr double kSimulatedFNumber = 8;
+
+struct Session;
+
+// A new session of the simulated camera (make, model, serial "SIM-<seed>",
+// lens, ISO, aperture, the rig options' size), not yet on disk.
+Session NewSimulatedSession(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
+                            const SimulatedRigOptions& rig_options, double exposure_time_s);
+
+// Encodes `raw` as a DNG of the session's camera and journals it as the frame
+// of LED `led` (nullopt = the dark frame), as the capture sequencer would.
+void AddSimulatedFrame(const std::filesystem::path& session_dir, Session& session, std::optional<int> led,
+                       const RawImage& raw);
 
 struct SimulateOptions {
   SimulatedRigOptions rig;                 // sensor, size, noise, seed
@@ -52,6 +65,13 @@ class SimulateController : public BaseController {
   const SimulateSummary& summary() const { return summary_; }
 
  private:
+  // session.json of a new run: the rig description the options ask for.
+  Session NewSession(const SimulatedRig& rig) const;
+  // A render's progress, reported as part `part` of `parts` of
+  // `reported_stage`; a stop throws Cancelled(stage) from inside the render.
+  ProgressCallback RenderCallback(const std::string& stage, const std::string& reported_stage, int part,
+                                  int parts) const;
+
   std::filesystem::path session_dir_;
   SimulateOptions options_;
   SimulateSummary summary_;

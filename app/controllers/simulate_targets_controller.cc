@@ -5,7 +5,6 @@
 #include <chrono>
 #include <optional>
 
-#include "app/io/dng_writer.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
 #include "core/field_error.h"
@@ -70,42 +69,9 @@ std::vector<TargetJob> PlanTargetJobs(const SimulateTargetsOptions& options, con
 // A new target session as the capture sequencer starts it: the measured rig,
 // the simulated camera at the job's exposure, no frames yet.
 Session NewTargetSession(const TargetJob& job, const RigDescription& measured, const SimulatedRigOptions& rig) {
-  Session session;
-  session.sample_name = "calibration target: " + job.name;
-  session.notes = "rendered by the scanbench simulated rig from its true parameters; rig = measured description";
-  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-  session.software_version = "scanbench " SCANBENCH_VERSION;
-  session.rig = measured;
-  session.camera.make = "scanbench";
-  session.camera.model = "Simulated D5100";
-  session.camera.serial = "SIM-" + std::to_string(rig.seed);
-  session.camera.lens = "simulated prime";
-  session.camera.iso = kSimulatedIso;
-  session.camera.exposure_time_s = kSimulatedExposureTimeS * job.render.exposure;
-  session.camera.f_number = kSimulatedFNumber;
-  session.camera.width = rig.width;
-  session.camera.height = rig.height;
-  return session;
-}
-
-// Journals `raw` as the session's dark frame (no LED) or LED frame.
-void AddTargetFrame(const fs::path& dir, Session& session, std::optional<int> led, const RawImage& raw) {
-  FrameRecord record;
-  record.kind = led ? FrameKind::kLed : FrameKind::kDark;
-  record.led_index = led.value_or(-1);
-  record.file = FrameFileName(led, ".dng");
-  record.capture_time = FormatUtcTimestamp(std::chrono::system_clock::now());
-  record.exposure_time_s = session.camera.exposure_time_s;
-  record.width = raw.width();
-  record.height = raw.height();
-  DngMetadata metadata;
-  metadata.model = session.camera.model;
-  metadata.serial = session.camera.serial;
-  metadata.software = session.software_version;
-  metadata.exposure_time_s = session.camera.exposure_time_s;
-  metadata.iso = kSimulatedIso;
-  metadata.f_number = kSimulatedFNumber;
-  AddFrame(dir, session, record, EncodeDng(raw, metadata));
+  return NewSimulatedSession("calibration target: " + job.name,
+                             "rendered by the scanbench simulated rig from its true parameters; rig = measured description",
+                             measured, rig, kSimulatedExposureTimeS * job.render.exposure);
 }
 
 }  // namespace
@@ -178,7 +144,7 @@ void SimulateTargetsController::RenderFrames(const TargetRenderer& renderer, con
     // Every target gets its own noise: frame index 1000 * target + frame.
     const RawImage raw = renderer.RenderFrame(prepared, led ? std::vector<int>{*led} : std::vector<int>{},
                                               1000 * (job_index + 1) + f, render);
-    AddTargetFrame(dir, session, led, raw);
+    AddSimulatedFrame(dir, session, led, raw);
     ReportProgress("simulate targets", (frames_before + f + 1) / total_frames);
   }
 }

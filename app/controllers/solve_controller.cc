@@ -15,13 +15,13 @@
 #include "app/session/session.h"
 #include "app/controllers/calibrated_lighting.h"  // issue #4
 #include "calibration/rig_light_field.h"
+#include "core/field_error.h"
+#include "core/summary.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 const char* DemosaicName(RawDevelopOptions::Demosaic demosaic) {
   return demosaic == RawDevelopOptions::Demosaic::kBilinear ? "bilinear" : "edge_aware";
@@ -93,6 +93,181 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"adaptive_robust_residual", solver.adaptive_robust_residual}};
 }
 
+// The steps of SolveController::Run, in order.
+
+// Load: the manifest is checked, every frame re-hashed when asked.
+Session LoadCompleteSession(const fs::path& session_dir, bool verify_checksums) {
+  SessionLoadOptions load_options;
+  load_options.verify_checksums = verify_checksums;
+  Session session = LoadSession(session_dir, load_options);
+  if (!session.capture_complete) {
+    throw SessionError((session_dir / "session.json").string() +
+                       ": capture_complete: false; resume the capture before solving");
+  }
+  return session;
+}
+
+// One developed RGB image and validity mask per LED, dark frame subtracted.
+struct DevelopedFrames {
+  std::vector<ImageF> rgb;
+  std::vector<ImageU8> valid;
+  size_t clipped_samples = 0;  // raw samples at the clip level, all frames
+  std::string dark_file;       // as session.json names it
+};
+
+// Decode and develop; `progress` gets the frames done, false from it stops
+// with Cancelled.
+DevelopedFrames DecodeAndDevelop(const fs::path& session_dir, const Session& session,
+                                 const RawDevelopOptions& develop, const ProgressCallback& progress) {
+  auto decode = [&](const FrameRecord& record) {
+    const fs::path path = session_dir / record.file;
+    RawImage raw = DecodeRawFile(path);
+    CheckRawSize(raw, session.camera.width, session.camera.height, path.string());
+    return raw;
+  };
+  const FrameRecord* dark_record = FindDarkFrame(session);
+  const RawImage dark = decode(*dark_record);
+  DevelopedFrames frames;
+  frames.dark_file = dark_record->file;
+  const int num_lights = static_cast<int>(session.rig.leds.size());
+  for (int k = 0; k < num_lights; ++k) {
+    const FrameRecord* record = FindLedFrame(session, k);
+    const RawImage raw = decode(*record);
+    if (raw.cfa != dark.cfa) {
+      throw std::runtime_error((session_dir / record->file).string() + ": CFA pattern " + CfaPatternName(raw.cfa) +
+                               " differs from the dark frame's " + CfaPatternName(dark.cfa));
+    }
+    DevelopedFrame developed = DevelopRaw(raw, &dark, develop);
+    frames.clipped_samples += developed.num_clipped_samples;
+    frames.rgb.push_back(std::move(developed.rgb));
+    frames.valid.push_back(std::move(developed.valid));
+    if (!progress(double(k + 1) / num_lights)) throw Cancelled("decode RAW");
+  }
+  return frames;
+}
+
+// The light at every pixel: from the calibration set when one is given (issue
+// #4), else from the rig description.
+struct Lighting {
+  std::unique_ptr<LightField> light_field;
+  std::string light_model;            // one line for reports
+  std::vector<std::string> warnings;  // e.g. a stale calibration set
+  nlohmann::json calibration_report;  // report.json's "calibration"
+};
+
+Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, const Session& session) {
+  Lighting lighting;
+  if (options.calibration_dir.empty()) {
+    lighting.light_field = MakeRigLightField(session.rig);
+    lighting.light_model =
+        "rig description: point LEDs (position, axis, mu, RGB intensity), surface on the table plane (no calibration "
+        "set given)";
+    lighting.calibration_report = {{"used", nullptr}};
+  } else {
+    CalibrationUseOptions use;
+    use.max_age_days = options.calibration_max_age_days;
+    CalibratedLighting calibrated =
+        MakeCalibratedLighting(options.calibration_dir, session, (session_dir / "session.json").string(), use);
+    lighting.light_field = std::move(calibrated.light_field);
+    lighting.light_model = calibrated.light_model;
+    lighting.warnings = calibrated.warnings;
+    lighting.calibration_report = nlohmann::json::parse(calibrated.report_json);
+  }
+  lighting.calibration_report["light_model"] = lighting.light_model;
+  return lighting;
+}
+
+// The solver's view of the frames; points into `frames`.
+PhotometricSolverInput SolverInput(const DevelopedFrames& frames, const LightField& light_field) {
+  PhotometricSolverInput input;
+  for (size_t k = 0; k < frames.rgb.size(); ++k) {
+    input.images.push_back(&frames.rgb[k]);
+    input.sample_valid.push_back(&frames.valid[k]);
+  }
+  input.light_field = &light_field;
+  return input;
+}
+
+// Against the session's ground truth (simulated rig), on the solved pixels of
+// the sample.
+struct GroundTruthComparison {
+  ErrorStatistics normal_error_deg;
+  ErrorStatistics albedo_error;
+  size_t unsolved_on_sample = 0;
+  ImageF angular_error_deg;  // per pixel, 0 off the evaluated pixels
+};
+
+GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth,
+                                             const PhotometricSolution& solution) {
+  const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
+  const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
+  const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir, truth);
+  GroundTruthComparison comparison;
+  ImageU8 solved_on_sample = on_sample;
+  for (size_t i = 0; i < on_sample.num_pixels(); ++i) {
+    const bool solved = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    solved_on_sample.data()[i] = on_sample.data()[i] && solved;
+    comparison.unsolved_on_sample += on_sample.data()[i] && !solved;
+  }
+  comparison.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+  comparison.albedo_error = AbsoluteError(solution.albedo, truth_albedo, solved_on_sample);
+  comparison.angular_error_deg = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+  return comparison;
+}
+
+// The maps, and the error map when there is one; returns report.json's "outputs".
+std::map<std::string, std::string> WriteMaps(const fs::path& folder, const PhotometricSolution& solution,
+                                             const ImageF& angular_error_deg) {
+  std::map<std::string, std::string> outputs = WriteSolutionMaps(folder, solution);
+  if (!angular_error_deg.empty()) {
+    WriteExr(folder / "angular_error_deg.exr", angular_error_deg, OverwritePolicy::kRefuse, {"Y"});
+    outputs["angular_error_deg"] = "angular_error_deg.exr";
+  }
+  return outputs;
+}
+
+nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& options, const fs::path& session_dir,
+                               const std::string& dark_file, const nlohmann::json& calibration_report,
+                               const std::map<std::string, std::string>& outputs) {
+  nlohmann::json report;
+  report["schema"] = "scanbench.solve_report/1";
+  report["software_version"] = "scanbench " SCANBENCH_VERSION;
+  report["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
+  report["run_id"] = summary.result_dir.filename().string();
+  report["inputs_fingerprint"] = summary.inputs_fingerprint;  // scanbench batch: same inputs, same result
+  report["session"] = {{"path", fs::absolute(session_dir).string()},
+                       {"sample_name", summary.sample_name},
+                       {"width", summary.width},
+                       {"height", summary.height},
+                       {"leds", summary.num_lights}};
+  report["solver"] = SolverOptionsJson(options.solver);
+  report["solver"]["num_threads"] = summary.solver.num_threads;
+  report["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
+                       {"clip_fraction", options.develop.clip_fraction},
+                       {"dark_frame", dark_file},
+                       {"clipped_raw_samples", summary.clipped_samples}};
+  report["calibration"] = calibration_report;  // issue #4: which calibration solved it, and why
+  nlohmann::json by_status;
+  for (int s = 0; s < kNumPixelStatuses; ++s) {
+    by_status[PixelStatusName(static_cast<PixelStatus>(s))] = summary.solver.pixels_by_status[s];
+  }
+  report["result"] = {{"termination", "success"},
+                      {"message", summary.solver.BriefReport()},
+                      {"pixels", summary.solver.num_pixels},
+                      {"pixels_by_status", by_status}};
+  if (summary.normal_error_deg) {
+    report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*summary.normal_error_deg)},
+                              {"albedo_abs_error", StatisticsJson(*summary.albedo_error)},
+                              {"unsolved_on_sample", summary.unsolved_on_sample},
+                              {"evaluated_on", "sample mask, solved pixels"}};
+  }
+  nlohmann::json timings;
+  for (const StageTiming& timing : summary.timings) timings[timing.stage] = timing.seconds;
+  report["timings_s"] = timings;
+  report["outputs"] = outputs;
+  return report;
+}
+
 }  // namespace
 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
@@ -141,12 +316,10 @@ void SolveOptions::Check() const {
   develop.Check();
   static const std::regex kLabel("[A-Za-z0-9._-]+");
   if (!run_label.empty() && !std::regex_match(run_label, kLabel)) {
-    throw std::invalid_argument("SolveOptions.run_label = '" + run_label +
-                                "' must be letters, digits, '.', '_' or '-' only");
+    throw FieldError("SolveOptions", "run_label", "'" + run_label + "'", "must be letters, digits, '.', '_' or '-' only");
   }
   if (!(calibration_max_age_days > 0)) {  // issue #4
-    throw std::invalid_argument("SolveOptions.calibration_max_age_days = " + std::to_string(calibration_max_age_days) +
-                                " must be > 0");
+    throw FieldError("SolveOptions", "calibration_max_age_days", calibration_max_age_days, "must be > 0");
   }
 }
 
@@ -189,164 +362,62 @@ SolveController::SolveController(fs::path session_dir, SolveOptions options)
 void SolveController::Run() {
   options_.Check();
   summary_ = SolveSummary();
-  auto stage_start = Clock::now();
-  auto end_stage = [&](const std::string& stage) {
-    const auto now = Clock::now();
-    summary_.timings.push_back({stage, std::chrono::duration<double>(now - stage_start).count()});
-    stage_start = now;
-  };
+  std::vector<StageTiming>& timings = summary_.timings;
 
-  // Load: the manifest is checked, every frame re-hashed.
-  ReportProgress("load session", 0);
-  SessionLoadOptions load_options;
-  load_options.verify_checksums = options_.verify_checksums;
-  const Session session = LoadSession(session_dir_, load_options);
-  if (!session.capture_complete) {
-    throw SessionError((session_dir_ / "session.json").string() +
-                       ": capture_complete: false; resume the capture before solving");
-  }
+  const Session session = TimedStage(timings, "load", "load session", [&] {
+    return LoadCompleteSession(session_dir_, options_.verify_checksums);
+  });
   summary_.sample_name = session.sample_name;
   summary_.width = session.camera.width;
   summary_.height = session.camera.height;
   summary_.num_lights = static_cast<int>(session.rig.leds.size());
-  end_stage("load");
-  ThrowIfStopRequested("load session");
 
-  // Decode and develop: one RGB image per LED, dark frame subtracted.
-  auto decode = [&](const FrameRecord& record) {
-    const fs::path path = session_dir_ / record.file;
-    RawImage raw = DecodeRawFile(path);
-    CheckRawSize(raw, session.camera.width, session.camera.height, path.string());
-    return raw;
-  };
-  const FrameRecord* dark_record = FindDarkFrame(session);
-  const RawImage dark = decode(*dark_record);
-  std::vector<ImageF> images;
-  std::vector<ImageU8> sample_valid;
-  for (int k = 0; k < summary_.num_lights; ++k) {
-    ReportProgress("decode RAW", double(k) / summary_.num_lights);
-    ThrowIfStopRequested("decode RAW");
-    const FrameRecord* record = FindLedFrame(session, k);
-    const RawImage raw = decode(*record);
-    if (raw.cfa != dark.cfa) {
-      throw std::runtime_error((session_dir_ / record->file).string() + ": CFA pattern " + CfaPatternName(raw.cfa) +
-                               " differs from the dark frame's " + CfaPatternName(dark.cfa));
-    }
-    DevelopedFrame developed = DevelopRaw(raw, &dark, options_.develop);
-    summary_.clipped_samples += developed.num_clipped_samples;
-    images.push_back(std::move(developed.rgb));
-    sample_valid.push_back(std::move(developed.valid));
-  }
-  ReportProgress("decode RAW", 1);
-  end_stage("decode_develop");
+  DevelopedFrames frames = TimedStage(timings, "decode_develop", "decode RAW", [&] {
+    return DecodeAndDevelop(session_dir_, session, options_.develop, StageCallback("decode RAW"));
+  });
+  summary_.clipped_samples = frames.clipped_samples;
 
-  // --- calibration (issue #4): the calibration set's lights when given, else the rig description ---
-  std::unique_ptr<LightField> light_field;
-  nlohmann::json calibration_report = {{"used", nullptr}};
-  if (options_.calibration_dir.empty()) {
-    light_field = MakeRigLightField(session.rig);
-    summary_.light_model =
-        "rig description: point LEDs (position, axis, mu, RGB intensity), surface on the table plane (no calibration "
-        "set given)";
-  } else {
-    CalibrationUseOptions use;
-    use.max_age_days = options_.calibration_max_age_days;
-    CalibratedLighting lighting =
-        MakeCalibratedLighting(options_.calibration_dir, session, (session_dir_ / "session.json").string(), use);
-    light_field = std::move(lighting.light_field);
-    summary_.light_model = lighting.light_model;
-    summary_.warnings = lighting.warnings;
-    calibration_report = nlohmann::json::parse(lighting.report_json);
-  }
-  calibration_report["light_model"] = summary_.light_model;
-  // --- end calibration ---
-  // After the calibration set was checked, so that its errors come from its loader.
-  summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
-  end_stage("light_field");
+  const Lighting lighting = TimedStage(timings, "light_field", "", [&] {
+    Lighting made = MakeLighting(options_, session_dir_, session);
+    // After the calibration set was checked, so that its errors come from its loader.
+    summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
+    return made;
+  });
+  summary_.light_model = lighting.light_model;
+  summary_.warnings = lighting.warnings;
 
-  PhotometricSolverInput input;
-  for (size_t k = 0; k < images.size(); ++k) {
-    input.images.push_back(&images[k]);
-    input.sample_valid.push_back(&sample_valid[k]);
-  }
-  input.light_field = light_field.get();
   PhotometricSolution solution;
-  summary_.solver = SolvePhotometricStereo(options_.solver, input, &solution, StageCallback("solve"));
-  if (summary_.solver.termination == Termination::kCancelled) throw Cancelled("solve");
-  end_stage("solve");
-  images.clear();
-  sample_valid.clear();
+  TimedStage(timings, "solve", "solve", [&] {
+    summary_.solver = SolvePhotometricStereo(options_.solver, SolverInput(frames, *lighting.light_field), &solution,
+                                             StageCallback("solve"));
+    RequireSuccess(summary_.solver, "solve");
+  });
+  frames.rgb.clear();  // a full-size session's frames hold gigabytes
+  frames.valid.clear();
 
-  // Ground truth, when the session has it (simulated rig).
-  ImageF error_map;
+  ImageF angular_error_deg;
   if (session.ground_truth) {
-    const ImageF truth_normals = ReadImageFloat(session_dir_ / session.ground_truth->normal_file);
-    const ImageF truth_albedo = ReadImageFloat(session_dir_ / session.ground_truth->albedo_file);
-    const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir_, *session.ground_truth);
-    ImageU8 solved_on_sample = on_sample;
-    for (size_t i = 0; i < on_sample.num_pixels(); ++i) {
-      const bool solved = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
-      solved_on_sample.data()[i] = on_sample.data()[i] && solved;
-      summary_.unsolved_on_sample += on_sample.data()[i] && !solved;
-    }
-    summary_.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
-    summary_.albedo_error = AbsoluteError(solution.albedo, truth_albedo, solved_on_sample);
-    error_map = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
-    end_stage("evaluate");
+    const GroundTruthComparison comparison = TimedStage(timings, "evaluate", "", [&] {
+      return CompareWithGroundTruth(session_dir_, *session.ground_truth, solution);
+    });
+    summary_.normal_error_deg = comparison.normal_error_deg;
+    summary_.albedo_error = comparison.albedo_error;
+    summary_.unsolved_on_sample = comparison.unsolved_on_sample;
+    angular_error_deg = comparison.angular_error_deg;
   }
 
-  // Write: maps, error map, report; the folder appears complete or not at all.
-  ReportProgress("write maps", 0);
+  // The folder appears complete or not at all.
   const fs::path result_dir = CreateResultFolder(
       session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label);
   StagedResultFolder staged(result_dir);
-  std::map<std::string, std::string> outputs = WriteSolutionMaps(staged.staging(), solution);
-  if (!error_map.empty()) {
-    WriteExr(staged.staging() / "angular_error_deg.exr", error_map, OverwritePolicy::kRefuse, {"Y"});
-    outputs["angular_error_deg"] = "angular_error_deg.exr";
-  }
-  end_stage("write_maps");
+  std::map<std::string, std::string> outputs = TimedStage(timings, "write_maps", "write maps", [&] {
+    return WriteMaps(staged.staging(), solution, angular_error_deg);
+  });
   summary_.result_dir = result_dir;
-
-  nlohmann::json report;
-  report["schema"] = "scanbench.solve_report/1";
-  report["software_version"] = "scanbench " SCANBENCH_VERSION;
-  report["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
-  report["run_id"] = result_dir.filename().string();
-  report["inputs_fingerprint"] = summary_.inputs_fingerprint;  // scanbench batch: same inputs, same result
-  report["session"] = {{"path", fs::absolute(session_dir_).string()},
-                       {"sample_name", session.sample_name},
-                       {"width", summary_.width},
-                       {"height", summary_.height},
-                       {"leds", summary_.num_lights}};
-  const PhotometricSolverOptions& solver = options_.solver;
-  report["solver"] = SolverOptionsJson(solver);
-  report["solver"]["num_threads"] = summary_.solver.num_threads;
-  report["develop"] = {{"demosaic", DemosaicName(options_.develop.demosaic)},
-                       {"clip_fraction", options_.develop.clip_fraction},
-                       {"dark_frame", dark_record->file},
-                       {"clipped_raw_samples", summary_.clipped_samples}};
-  report["calibration"] = calibration_report;  // issue #4: which calibration solved it, and why
-  nlohmann::json by_status;
-  for (int s = 0; s < kNumPixelStatuses; ++s) {
-    by_status[PixelStatusName(static_cast<PixelStatus>(s))] = summary_.solver.pixels_by_status[s];
-  }
-  report["result"] = {{"termination", "success"},
-                      {"message", summary_.solver.BriefReport()},
-                      {"pixels", summary_.solver.num_pixels},
-                      {"pixels_by_status", by_status}};
-  if (summary_.normal_error_deg) {
-    report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*summary_.normal_error_deg)},
-                              {"albedo_abs_error", StatisticsJson(*summary_.albedo_error)},
-                              {"unsolved_on_sample", summary_.unsolved_on_sample},
-                              {"evaluated_on", "sample mask, solved pixels"}};
-  }
-  nlohmann::json timings;
-  for (const StageTiming& timing : summary_.timings) timings[timing.stage] = timing.seconds;
-  report["timings_s"] = timings;
   outputs["report"] = "report.json";
   outputs["summary"] = "summary.txt";
-  report["outputs"] = outputs;
+  const nlohmann::json report =
+      SolveReportJson(summary_, options_, session_dir_, frames.dark_file, lighting.calibration_report, outputs);
   WriteFileAtomic(staged.staging() / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
   WriteFileAtomic(staged.staging() / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
   ThrowIfStopRequested("write maps");

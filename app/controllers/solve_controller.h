@@ -33,11 +33,6 @@ struct SolveOptions {
 
 struct Session;
 
-struct StageTiming {
-  std::string stage;
-  double seconds = 0;
-};
-
 struct SolveSummary {
   std::filesystem::path result_dir;
   std::string inputs_fingerprint;               // SolveInputsFingerprint, as in report.json
@@ -47,7 +42,7 @@ struct SolveSummary {
   std::vector<std::string> warnings;            // e.g. a stale calibration (issue #4)
   size_t clipped_samples = 0;                   // raw samples at the clip level, all frames
   PhotometricSolverSummary solver;
-  std::vector<StageTiming> timings;
+  std::vector<StageTiming> timings;             // per step of Run(), in order
   // Against the session's ground truth, on the sample, when it has one.
   std::optional<ErrorStatistics> normal_error_deg;
   std::optional<ErrorStatistics> albedo_error;

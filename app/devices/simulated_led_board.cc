@@ -132,7 +132,6 @@ class SimulatedLedBoard::Impl {
     std::lock_guard lock(mutex_);
     observer_ = std::move(observer);
   }
-  void ClearMaxLit() { max_lit_ = std::popcount(lit_.load()); }
   std::string failure() const {
     std::lock_guard lock(mutex_);
     return failure_;
@@ -571,7 +570,6 @@ bool SimulatedLedBoard::WaitForLitLeds(LedMask mask, std::chrono::milliseconds t
 }
 
 int SimulatedLedBoard::max_lit_at_once() const { return impl_->max_lit_; }
-void SimulatedLedBoard::ClearMaxLitAtOnce() { impl_->ClearMaxLit(); }
 void SimulatedLedBoard::SetLedObserver(LedObserver observer) { impl_->SetObserver(std::move(observer)); }
 void SimulatedLedBoard::Reset() { impl_->Reset(); }
 int SimulatedLedBoard::reset_count() const { return impl_->reset_count_; }

@@ -62,10 +62,9 @@ class SimulatedLedBoard {
   std::vector<int> LitLedIndices() const;
   // Waits until exactly `mask` is lit; false on timeout.
   bool WaitForLitLeds(LedMask mask, std::chrono::milliseconds timeout) const;
-  // Most LEDs lit at the same instant since the last restart or clear (the
-  // firmware promises 1).
+  // Most LEDs lit at the same instant since the last restart (the firmware
+  // promises 1).
   int max_lit_at_once() const;
-  void ClearMaxLitAtOnce();
   void SetLedObserver(LedObserver observer);
 
   // The reset button: returns once the CPU has restarted (the banner follows

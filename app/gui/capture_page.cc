@@ -29,6 +29,7 @@
 #include "app/gui/bench.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
+#include "app/gui/page_widgets.h"
 #include "app/gui/result_images.h"
 #include "app/session/session.h"
 
@@ -61,10 +62,7 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   folder_->setObjectName("sessionFolder");
   folder_->setPlaceholderText(tr("a new, empty folder (or an interrupted session to resume)"));
   auto* browse = new QPushButton(tr("Browse…"), session_box);
-  auto* folder_row = new QHBoxLayout;
-  folder_row->addWidget(folder_, 1);
-  folder_row->addWidget(browse);
-  form->addRow(tr("Folder"), folder_row);
+  form->addRow(tr("Folder"), FieldWithButton(folder_, browse));
   sample_name_ = new QLineEdit(session_box);
   sample_name_->setObjectName("sampleName");
   form->addRow(tr("Sample name"), sample_name_);
@@ -77,14 +75,10 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   check_exposure_->setChecked(true);
   form->addRow(QString(), check_exposure_);
 
-  start_ = new QPushButton(tr("Start capture"), this);
-  start_->setObjectName("startCapture");
-  resume_ = new QPushButton(tr("Resume"), this);
-  resume_->setObjectName("resumeCapture");
-  cancel_ = new QPushButton(tr("Cancel"), this);
-  cancel_->setObjectName("cancelCapture");
-  solve_ = new QPushButton(tr("Solve"), this);
-  solve_->setObjectName("solveCaptured");
+  start_ = NamedButton(tr("Start capture"), "startCapture", this);
+  resume_ = NamedButton(tr("Resume"), "resumeCapture", this);
+  cancel_ = NamedButton(tr("Cancel"), "cancelCapture", this);
+  solve_ = NamedButton(tr("Solve"), "solveCaptured", this);
   auto* buttons = new QHBoxLayout;
   for (QPushButton* button : {start_, resume_, cancel_, solve_}) buttons->addWidget(button);
   buttons->addStretch();

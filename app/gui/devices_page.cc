@@ -20,6 +20,7 @@
 #include "app/devices/camera/device_discovery.h"
 #include "app/devices/serial_port_list.h"
 #include "app/gui/controller_runner.h"
+#include "app/gui/page_widgets.h"
 #include "calibration/raw_develop.h"
 
 namespace scanbench {
@@ -34,20 +35,13 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   lights_choice_ = new QComboBox(choose);
   lights_choice_->setObjectName("lightsChoice");
   auto* refresh = new QPushButton(tr("Refresh ports"), choose);
-  auto* lights_row = new QHBoxLayout;
-  lights_row->addWidget(lights_choice_, 1);
-  lights_row->addWidget(refresh);
-  form->addRow(tr("LED board"), lights_row);
+  form->addRow(tr("LED board"), FieldWithButton(lights_choice_, refresh));
   camera_choice_ = new QComboBox(choose);
   camera_choice_->setObjectName("cameraChoice");
   camera_choice_->addItem(tr("Simulated camera"), kSimulated);
   camera_choice_->addItem(tr("Camera over USB (libgphoto2)"), QStringLiteral("gphoto2"));
-  auto* detect = new QPushButton(tr("Detect cameras"), choose);
-  detect->setObjectName("detectCameras");
-  auto* camera_row = new QHBoxLayout;
-  camera_row->addWidget(camera_choice_, 1);
-  camera_row->addWidget(detect);
-  form->addRow(tr("Camera"), camera_row);
+  auto* detect = NamedButton(tr("Detect cameras"), "detectCameras", choose);
+  form->addRow(tr("Camera"), FieldWithButton(camera_choice_, detect));
   camera_model_ = new QLineEdit(choose);
   camera_model_->setPlaceholderText(tr("autodetect, or e.g. Nikon DSC D5100 (PTP mode)"));
   form->addRow(tr("Camera model"), camera_model_);
@@ -57,10 +51,7 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   rig_file_ = new QLineEdit(choose);
   rig_file_->setPlaceholderText(tr("real camera: the bench's rig description (JSON)"));
   auto* rig_browse = new QPushButton(tr("Browse…"), choose);
-  auto* rig_row = new QHBoxLayout;
-  rig_row->addWidget(rig_file_, 1);
-  rig_row->addWidget(rig_browse);
-  form->addRow(tr("Rig file"), rig_row);
+  form->addRow(tr("Rig file"), FieldWithButton(rig_file_, rig_browse));
   sim_width_ = new QSpinBox(choose);
   sim_width_->setObjectName("simWidth");
   sim_width_->setRange(64, 4928);
@@ -75,8 +66,7 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   size_row->addWidget(sim_height_);
   size_row->addStretch();
   form->addRow(tr("Simulated image"), size_row);
-  connect_button_ = new QPushButton(tr("Connect"), choose);
-  connect_button_->setObjectName("connectButton");
+  connect_button_ = NamedButton(tr("Connect"), "connectButton", choose);
   form->addRow(QString(), connect_button_);
 
   auto* info = new QGroupBox(tr("Status"), this);

@@ -17,6 +17,7 @@
 #include "app/gui/colour_legend.h"
 #include "app/gui/export_dialog.h"
 #include "app/gui/image_view.h"
+#include "app/gui/page_widgets.h"
 #include "app/gui/relight_renderer.h"
 
 namespace scanbench {
@@ -34,8 +35,7 @@ ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   top->addWidget(open);
   top->addWidget(new QLabel(tr("Map"), this));
   top->addWidget(layer_);
-  export_ = new QPushButton(tr("Export…"), this);
-  export_->setObjectName("exportResult");
+  export_ = NamedButton(tr("Export…"), "exportResult", this);
   export_->setToolTip(tr("Derived maps (height, occlusion, cavity, roughness) in a preset for a material pipeline"));
   export_->setEnabled(false);
   top->addWidget(export_);

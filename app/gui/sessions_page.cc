@@ -22,6 +22,7 @@
 #include "app/controllers/solve_controller.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/export_dialog.h"
+#include "app/gui/page_widgets.h"
 #include "app/session/session.h"
 
 namespace scanbench {
@@ -71,8 +72,7 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   root_->setObjectName("sessionsRoot");
   root_->setPlaceholderText(tr("a folder holding session folders"));
   auto* browse = new QPushButton(tr("Browse…"), this);
-  auto* refresh = new QPushButton(tr("Refresh"), this);
-  refresh->setObjectName("refreshSessions");
+  auto* refresh = NamedButton(tr("Refresh"), "refreshSessions", this);
   auto* top = new QHBoxLayout;
   top->addWidget(new QLabel(tr("Folder"), this));
   top->addWidget(root_, 1);
@@ -137,14 +137,10 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   calibration_->setPlaceholderText(tr("none: the session's rig description"));
   solve_form->addRow(tr("Calibration set"), calibration_);
 
-  open_ = new QPushButton(tr("Open result"), this);
-  open_->setObjectName("openResult");
-  resolve_ = new QPushButton(tr("Re-solve"), this);
-  resolve_->setObjectName("resolveSession");
-  resume_ = new QPushButton(tr("Resume capture"), this);
-  resume_->setObjectName("resumeSession");
-  export_ = new QPushButton(tr("Export…"), this);
-  export_->setObjectName("exportSelectedResult");
+  open_ = NamedButton(tr("Open result"), "openResult", this);
+  resolve_ = NamedButton(tr("Re-solve"), "resolveSession", this);
+  resume_ = NamedButton(tr("Resume capture"), "resumeSession", this);
+  export_ = NamedButton(tr("Export…"), "exportSelectedResult", this);
   auto* cancel = new QPushButton(tr("Cancel"), this);
   auto* buttons = new QHBoxLayout;
   for (QPushButton* button : {open_, resolve_, export_, resume_, cancel}) buttons->addWidget(button);

@@ -214,6 +214,23 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
                            const ProgressCallback& progress)
     : options_(options), scene_(std::move(scene)), rig_(std::move(rig)) {
   options_.Check();
+  CheckRig();
+  // Progress: the shadow grid is ~10 % of the work, the ray tracing the rest
+  // (undistorting the rays in the calibration library reports nothing).
+  BuildShadowGrid(SubRange(progress, 0.0, 0.1));
+  const ImageF rays = ComputeRayDirectionsInTable(rig_.camera);
+  const Eigen::Vector3d camera_centre = CameraCentreInTable(rig_.camera);
+  mm_per_pixel_ = CentrePixelFootprintMm(rays, camera_centre);
+
+  const size_t num_pixels = static_cast<size_t>(options_.width) * options_.height;
+  point_in_table_.resize(3 * num_pixels);
+  normal_xy_in_table_.resize(2 * num_pixels);
+  albedo_.resize(3 * num_pixels);
+  ParallelRowsOrCancel("render", options_.height, NumThreads(), progress, 0.1, 1.0,
+                       [&](int y) { TraceRow(y, rays, camera_centre); });
+}
+
+void SimulatedRig::CheckRig() const {
   const CameraIntrinsics& k = rig_.camera.intrinsics;
   if (k.width != options_.width || k.height != options_.height) {
     throw std::invalid_argument("SimulatedRig: rig camera is " + std::to_string(k.width) + "x" +
@@ -248,121 +265,104 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
       }
     }
   }
+}
 
-  // Progress: the shadow grid is ~10 % of the work, the ray tracing the rest
-  // (undistorting the rays in the calibration library reports nothing).
-  BuildShadowGrid(progress ? ProgressCallback([&](double f) { return progress(0.1 * f); })
-                           : ProgressCallback());
-  const ImageF rays = ComputeRayDirectionsInTable(rig_.camera);
-
-  // Footprint of a pixel on the table plane at the image centre.
-  {
-    const int cx = options_.width / 2, cy = options_.height / 2;
-    auto ray = [&](int x, int y) {
-      return Eigen::Vector3d(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
-    };
-    const Eigen::Vector3d centre = TablePlanePoint(camera_centre, ray(cx, cy));
-    double sum = 0;
-    int count = 0;
-    if (cx + 1 < options_.width) {
-      sum += (TablePlanePoint(camera_centre, ray(cx + 1, cy)) - centre).norm();
-      ++count;
-    }
-    if (cy + 1 < options_.height) {
-      sum += (TablePlanePoint(camera_centre, ray(cx, cy + 1)) - centre).norm();
-      ++count;
-    }
-    mm_per_pixel_ = count > 0 ? sum / count : 0.0;
+double SimulatedRig::CentrePixelFootprintMm(const ImageF& rays, const Eigen::Vector3d& camera_centre) const {
+  const int cx = options_.width / 2, cy = options_.height / 2;
+  auto ray = [&](int x, int y) { return Eigen::Vector3d(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2)); };
+  const Eigen::Vector3d centre = TablePlanePoint(camera_centre, ray(cx, cy));
+  double sum = 0;
+  int count = 0;
+  if (cx + 1 < options_.width) {
+    sum += (TablePlanePoint(camera_centre, ray(cx + 1, cy)) - centre).norm();
+    ++count;
   }
+  if (cy + 1 < options_.height) {
+    sum += (TablePlanePoint(camera_centre, ray(cx, cy + 1)) - centre).norm();
+    ++count;
+  }
+  return count > 0 ? sum / count : 0.0;
+}
 
-  const size_t num_pixels = static_cast<size_t>(options_.width) * options_.height;
-  point_in_table_.resize(3 * num_pixels);
-  normal_xy_in_table_.resize(2 * num_pixels);
-  albedo_.resize(3 * num_pixels);
+void SimulatedRig::TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& camera_centre) {
+  for (int x = 0; x < options_.width; ++x) {
+    const size_t i = static_cast<size_t>(y) * options_.width + x;
+    const Eigen::Vector3d ray(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
+    if (!(ray.z() < -1e-9)) {
+      throw std::invalid_argument("SimulatedRig: the ray of pixel " + std::to_string(x) + "," + std::to_string(y) +
+                                  " does not reach the table");
+    }
+    const double z = SurfaceHeightAlongRay(camera_centre, ray);
+    Eigen::Vector3d point = camera_centre + ((camera_centre.z() - z) / -ray.z()) * ray;
+    const SurfaceSample s = scene_.Sample(point.x(), point.y(), true);
+    point.z() = s.height_mm;
+    const Eigen::Vector3d normal = Eigen::Vector3d(-s.gradient.x(), -s.gradient.y(), 1.0).normalized();
+    for (int c = 0; c < 3; ++c) {
+      point_in_table_[3 * i + c] = static_cast<float>(point[c]);
+      albedo_[3 * i + c] = static_cast<float>(s.albedo[c]);
+    }
+    normal_xy_in_table_[2 * i + 0] = static_cast<float>(normal.x());
+    normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
+  }
+}
 
-  // Ray / height-field intersection: fixed-point iteration on z over the
-  // shadow grid (cheap, to ~1e-4 mm), then Newton on the analytic field to
-  // well below 1e-6 mm (1-2 steps + 1 final evaluation). With the camera's half field of view (tan
-  // ~0.17) and slopes below ~2.5 the ray meets the surface exactly once.
+// Ray / height-field intersection: fixed-point iteration on z over the shadow
+// grid (cheap, to ~1e-4 mm), then Newton on the analytic field to well below
+// 1e-6 mm (1-2 steps + 1 final evaluation); a bisection where that does not
+// converge. With the camera's half field of view (tan ~0.17) and slopes below
+// ~2.5 the ray meets the surface exactly once.
+double SimulatedRig::SurfaceHeightAlongRay(const Eigen::Vector3d& camera_centre, const Eigen::Vector3d& ray) const {
   constexpr double kConvergedMm = 1e-7;
   constexpr double kNewtonFinalStepMm = 1e-4;
   constexpr int kMaxIterations = 200;
-  const double max_height = scene_.MaxHeightMm();
-  auto trace_row = [&](int y) {
-    for (int x = 0; x < options_.width; ++x) {
-      const size_t i = static_cast<size_t>(y) * options_.width + x;
-      const Eigen::Vector3d ray(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
-      if (!(ray.z() < -1e-9)) {
-        throw std::invalid_argument("SimulatedRig: the ray of pixel " + std::to_string(x) + "," +
-                                    std::to_string(y) + " does not reach the table");
-      }
-      auto point_at_height = [&](double z) {
-        return Eigen::Vector3d(camera_centre + ((camera_centre.z() - z) / -ray.z()) * ray);
-      };
-      // Coarse: on the grid (cheap) to ~1e-4 mm.
-      double z = 0;
-      for (int it = 0; it < 50; ++it) {
-        const Eigen::Vector3d p = point_at_height(z);
-        const double z_next = GridHeight(p.x(), p.y());
-        const bool done = std::abs(z_next - z) < 1e-4;
-        z = z_next;
-        if (done) break;
-      }
-      // Exact: Newton on g(z) = z - H(ray point at height z), whose slope
-      // g' = 1 - grad H . (ray_xy / ray_z) stays near 1 at this field of view;
-      // where it does not, a plain fixed-point step (z <- H) instead.
-      const Eigen::Vector2d ray_xy_per_z = ray.head<2>() / ray.z();
-      bool converged = false;
-      for (int it = 0; it < kMaxIterations; ++it) {
-        const Eigen::Vector3d p = point_at_height(z);
-        const SurfaceSample s = scene_.Sample(p.x(), p.y(), false);
-        const double g = z - s.height_mm;
-        const double g_slope = 1.0 - s.gradient.dot(ray_xy_per_z);
-        const bool newton = g_slope > 0.1;
-        const double step = newton ? g / g_slope : g;
-        z -= step;
-        // Newton's error after a step is ~ (g'' / 2 g') step^2 with g'' <~ 2 /mm
-        // here, so a step below 1e-4 mm leaves < 1e-8 mm; the fixed-point
-        // step only shrinks linearly, so it must itself be tiny.
-        if (std::abs(step) < (newton ? kNewtonFinalStepMm : kConvergedMm)) {
-          converged = true;
-          break;
-        }
-      }
-      if (!converged) {
-        // Steep spot where the iteration does not contract: bracket the first
-        // crossing from above, then bisect. f(z) = ray height - surface height.
-        auto f = [&](double zz) {
-          const Eigen::Vector3d p = point_at_height(zz);
-          return zz - scene_.HeightMm(p.x(), p.y());
-        };
-        double z_above = max_height + 1e-3;  // ray above the surface: f > 0
-        double z_below = z_above;
-        constexpr double kBracketStepMm = 0.01;
-        while (z_above > 0) {  // f(0) <= 0 always, so this finds a bracket
-          z_below = std::max(0.0, z_above - kBracketStepMm);
-          if (f(z_below) <= 0) break;
-          z_above = z_below;
-        }
-        for (int it = 0; it < 60 && z_above - z_below > 1e-9; ++it) {
-          const double mid = 0.5 * (z_below + z_above);
-          (f(mid) > 0 ? z_above : z_below) = mid;
-        }
-        z = 0.5 * (z_below + z_above);
-      }
-      Eigen::Vector3d point = point_at_height(z);
-      const SurfaceSample s = scene_.Sample(point.x(), point.y(), true);
-      point.z() = s.height_mm;
-      const Eigen::Vector3d normal = Eigen::Vector3d(-s.gradient.x(), -s.gradient.y(), 1.0).normalized();
-      for (int c = 0; c < 3; ++c) {
-        point_in_table_[3 * i + c] = static_cast<float>(point[c]);
-        albedo_[3 * i + c] = static_cast<float>(s.albedo[c]);
-      }
-      normal_xy_in_table_[2 * i + 0] = static_cast<float>(normal.x());
-      normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
-    }
+  auto point_at_height = [&](double z) {
+    return Eigen::Vector3d(camera_centre + ((camera_centre.z() - z) / -ray.z()) * ray);
   };
-  ParallelRowsOrCancel("render", options_.height, NumThreads(), progress, 0.1, 1.0, trace_row);
+  // Coarse: on the grid (cheap) to ~1e-4 mm.
+  double z = 0;
+  for (int it = 0; it < 50; ++it) {
+    const Eigen::Vector3d p = point_at_height(z);
+    const double z_next = GridHeight(p.x(), p.y());
+    const bool done = std::abs(z_next - z) < 1e-4;
+    z = z_next;
+    if (done) break;
+  }
+  // Exact: Newton on g(z) = z - H(ray point at height z), whose slope
+  // g' = 1 - grad H . (ray_xy / ray_z) stays near 1 at this field of view;
+  // where it does not, a plain fixed-point step (z <- H) instead.
+  const Eigen::Vector2d ray_xy_per_z = ray.head<2>() / ray.z();
+  for (int it = 0; it < kMaxIterations; ++it) {
+    const Eigen::Vector3d p = point_at_height(z);
+    const SurfaceSample s = scene_.Sample(p.x(), p.y(), false);
+    const double g = z - s.height_mm;
+    const double g_slope = 1.0 - s.gradient.dot(ray_xy_per_z);
+    const bool newton = g_slope > 0.1;
+    const double step = newton ? g / g_slope : g;
+    z -= step;
+    // Newton's error after a step is ~ (g'' / 2 g') step^2 with g'' <~ 2 /mm
+    // here, so a step below 1e-4 mm leaves < 1e-8 mm; the fixed-point
+    // step only shrinks linearly, so it must itself be tiny.
+    if (std::abs(step) < (newton ? kNewtonFinalStepMm : kConvergedMm)) return z;
+  }
+  // Steep spot where the iteration does not contract: bracket the first
+  // crossing from above, then bisect. f(z) = ray height - surface height.
+  auto f = [&](double zz) {
+    const Eigen::Vector3d p = point_at_height(zz);
+    return zz - scene_.HeightMm(p.x(), p.y());
+  };
+  double z_above = scene_.MaxHeightMm() + 1e-3;  // ray above the surface: f > 0
+  double z_below = z_above;
+  constexpr double kBracketStepMm = 0.01;
+  while (z_above > 0) {  // f(0) <= 0 always, so this finds a bracket
+    z_below = std::max(0.0, z_above - kBracketStepMm);
+    if (f(z_below) <= 0) break;
+    z_above = z_below;
+  }
+  for (int it = 0; it < 60 && z_above - z_below > 1e-9; ++it) {
+    const double mid = 0.5 * (z_below + z_above);
+    (f(mid) > 0 ? z_above : z_below) = mid;
+  }
+  return 0.5 * (z_below + z_above);
 }
 
 int SimulatedRig::NumThreads() const {

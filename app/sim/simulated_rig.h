@@ -135,6 +135,13 @@ class SimulatedRig {
   };
   static constexpr int kTileCells = 16;
 
+  // The steps of the constructor.
+  void CheckRig() const;  // the camera matches the options and clears the scene; finite LEDs
+  double CentrePixelFootprintMm(const ImageF& rays, const Eigen::Vector3d& camera_centre) const;
+  void TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& camera_centre);
+  // Table z where `ray` from `camera_centre` first meets the surface.
+  double SurfaceHeightAlongRay(const Eigen::Vector3d& camera_centre, const Eigen::Vector3d& ray) const;
+
   int NumThreads() const;
   void BuildShadowGrid(const ProgressCallback& progress);
   double GridHeight(double x_mm, double y_mm) const;

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
 #include "app/sim/split_mix.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 using sim_internal::Mix64;
@@ -15,16 +15,12 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-std::invalid_argument FieldError(const std::string& field, double value, const std::string& rule) {
-  std::ostringstream text;
-  text << "TextileSceneOptions: " << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
-}
+constexpr char kOptions[] = "TextileSceneOptions";
 
 void CheckRgb(const std::string& field, const Eigen::Vector3d& rgb) {
   for (int c = 0; c < 3; ++c) {
     if (!(rgb[c] >= 0.0 && rgb[c] <= 1.0)) {
-      throw FieldError(field + "[" + std::to_string(c) + "]", rgb[c], "must lie in [0, 1]");
+      throw FieldError(kOptions, field + "[" + std::to_string(c) + "]", rgb[c], "must lie in [0, 1]");
     }
   }
 }
@@ -62,55 +58,152 @@ double SmootherStepDerivative(double t) {
 constexpr double kWarpSlubPeriodMm = 9.7;
 constexpr double kWeftSlubPeriodMm = 7.3;
 
+// The weave relief at one point: both threads there, and how the visible
+// surface blends them. Warp thread i covers x in [i, i+1) * warp pitch, weft j
+// covers y in [j, j+1) * weft pitch.
+struct WeaveRelief {
+  int64_t warp_index = 0, weft_index = 0;
+  double fu = 0, fv = 0;                  // across the warp and weft thread, [-0.5, 0.5)
+  double period = 2;                      // wefts (warps) per over/under cycle
+  double warp_phase = 0, weft_phase = 0;  // rad, of the crowns' cos along the thread
+  double warp_crown = 0, weft_crown = 0;  // mm, of each thread's centre line
+  double profile_u = 0, profile_v = 0;    // cos^2 cross-section factors
+  double w_warp = 0, w_weft = 0;          // soft-maximum weights, sum 1
+  double relief = 0;                      // mm, the visible surface above the base
+};
+
+WeaveRelief WeaveAt(const TextileSceneOptions& o, double x_mm, double y_mm) {
+  WeaveRelief w;
+  const double u = x_mm / o.warp_pitch_mm;
+  const double v = y_mm / o.weft_pitch_mm;
+  const double iu = std::floor(u);
+  const double jv = std::floor(v);
+  w.warp_index = static_cast<int64_t>(iu);
+  w.weft_index = static_cast<int64_t>(jv);
+  w.fu = u - iu - 0.5;
+  w.fv = v - jv - 0.5;
+
+  // Over/under pattern: the crown of warp i follows cos(phase) along y with a
+  // period of `period` wefts, shifted one weft per warp; weft j is the mirror
+  // image, so at every crossing one thread is up where the other is down.
+  w.period = o.weave == WeavePattern::kPlain ? 2.0 : 4.0;
+  const double offset = o.weave == WeavePattern::kPlain ? 0.0 : 0.5;  // twill: crossings at +-45 deg
+  w.warp_phase = 2.0 * kPi * (v - 0.5 - iu - offset) / w.period;
+  w.weft_phase = 2.0 * kPi * (jv - (u - 0.5) - offset) / w.period;
+  const double amplitude = o.crossing_amplitude_mm;
+  w.warp_crown = o.thread_height_mm * (1.0 + o.thread_height_variation * HashSigned(o.seed, kWarpCrown, w.warp_index)) +
+                 amplitude * std::cos(w.warp_phase);
+  w.weft_crown = o.thread_height_mm * (1.0 + o.thread_height_variation * HashSigned(o.seed, kWeftCrown, w.weft_index)) -
+                 amplitude * std::cos(w.weft_phase);
+
+  // Rounded cross-section cos^2: zero height and slope at a thread's borders,
+  // so neighbouring threads with different crowns still meet continuously.
+  const double cos_u = std::cos(kPi * w.fu);
+  const double cos_v = std::cos(kPi * w.fv);
+  w.profile_u = cos_u * cos_u;
+  w.profile_v = cos_v * cos_v;
+  const double warp_z = w.profile_u * w.warp_crown;
+  const double weft_z = w.profile_v * w.weft_crown;
+
+  // Visible relief: soft maximum (log-sum-exp) of the two thread surfaces, so
+  // the normal stays continuous where one thread dives under the other.
+  const double k = o.smoothing_mm;
+  const double top = std::max(warp_z, weft_z);
+  const double e_other = std::exp(-std::abs(warp_z - weft_z) / k);  // the lower thread's term; the upper's is 1
+  const double e_sum = 1.0 + e_other;
+  w.w_warp = (warp_z >= weft_z ? 1.0 : e_other) / e_sum;
+  w.w_weft = 1.0 - w.w_warp;
+  w.relief = top + k * std::log1p(e_other);
+  return w;
+}
+
+// d relief / d (x, y), mm per mm, from the two threads' analytic slopes.
+Eigen::Vector2d WeaveGradient(const TextileSceneOptions& o, const WeaveRelief& w) {
+  const double amplitude = o.crossing_amplitude_mm;
+  const double profile_u_dx = -kPi * std::sin(2.0 * kPi * w.fu) / o.warp_pitch_mm;
+  const double profile_v_dy = -kPi * std::sin(2.0 * kPi * w.fv) / o.weft_pitch_mm;
+  const Eigen::Vector2d warp_grad(profile_u_dx * w.warp_crown,
+                                  w.profile_u * (-amplitude * std::sin(w.warp_phase)) * 2.0 * kPi /
+                                      (w.period * o.weft_pitch_mm));
+  const Eigen::Vector2d weft_grad(w.profile_v * (amplitude * std::sin(w.weft_phase)) * (-2.0 * kPi) /
+                                      (w.period * o.warp_pitch_mm),
+                                  profile_v_dy * w.weft_crown);
+  return w.w_warp * warp_grad + w.w_weft * weft_grad;
+}
+
+// Linear RGB in [0, 1]: each thread's colour with its shade, slubs and tint;
+// the thread on top shows its colour, the gaps between threads are darker.
+Eigen::Vector3d ThreadAlbedo(const TextileSceneOptions& o, const WeaveRelief& w, double x_mm, double y_mm) {
+  const double cv = o.color_variation;
+  Eigen::Vector3d warp_rgb = o.warp_rgb;
+  Eigen::Vector3d weft_rgb = o.weft_rgb;
+  const double warp_shade = 1.0 + cv * HashSigned(o.seed, kWarpShade, w.warp_index);
+  const double weft_shade = 1.0 + cv * HashSigned(o.seed, kWeftShade, w.weft_index);
+  // Slubs: slow brightness variation along each thread.
+  const double warp_slub =
+      1.0 + 0.5 * cv *
+                std::sin(2.0 * kPi * y_mm / kWarpSlubPeriodMm + kPi * HashSigned(o.seed, kWarpSlubPhase, w.warp_index));
+  const double weft_slub =
+      1.0 + 0.5 * cv *
+                std::sin(2.0 * kPi * x_mm / kWeftSlubPeriodMm + kPi * HashSigned(o.seed, kWeftSlubPhase, w.weft_index));
+  for (int c = 0; c < 3; ++c) {
+    warp_rgb[c] *= warp_shade * warp_slub * (1.0 + 0.3 * cv * HashSigned(o.seed, kWarpTint + c, w.warp_index));
+    weft_rgb[c] *= weft_shade * weft_slub * (1.0 + 0.3 * cv * HashSigned(o.seed, kWeftTint + c, w.weft_index));
+  }
+  const double cover = o.thread_height_mm > 0 ? std::min(1.0, w.relief / o.thread_height_mm) : 1.0;
+  const double gap_factor = 1.0 - o.gap_darkening * (1.0 - cover);
+  return ((w.w_warp * warp_rgb + w.w_weft * weft_rgb) * gap_factor).cwiseMax(0.0).cwiseMin(1.0);
+}
+
 }  // namespace
 
 void TextileSceneOptions::Check() const {
   if (!(sample_width_mm > 0) || !std::isfinite(sample_width_mm)) {
-    throw FieldError("sample_width_mm", sample_width_mm, "must be finite and > 0");
+    throw FieldError(kOptions, "sample_width_mm", sample_width_mm, "must be finite and > 0");
   }
   if (!(sample_height_mm > 0) || !std::isfinite(sample_height_mm)) {
-    throw FieldError("sample_height_mm", sample_height_mm, "must be finite and > 0");
+    throw FieldError(kOptions, "sample_height_mm", sample_height_mm, "must be finite and > 0");
   }
   const double half_smaller = 0.5 * std::min(sample_width_mm, sample_height_mm);
   if (!(edge_blend_mm > 0 && edge_blend_mm <= half_smaller)) {
-    throw FieldError("edge_blend_mm", edge_blend_mm,
+    throw FieldError(kOptions, "edge_blend_mm", edge_blend_mm,
                      "must lie in (0, " + std::to_string(half_smaller) + "] (half the smaller sample extent)");
   }
   if (weave != WeavePattern::kPlain && weave != WeavePattern::kTwill) {
-    throw FieldError("weave", static_cast<int>(weave), "must be kPlain or kTwill");
+    throw FieldError(kOptions, "weave", static_cast<int>(weave), "must be kPlain or kTwill");
   }
   if (!(warp_pitch_mm > 0) || !std::isfinite(warp_pitch_mm)) {
-    throw FieldError("warp_pitch_mm", warp_pitch_mm, "must be finite and > 0");
+    throw FieldError(kOptions, "warp_pitch_mm", warp_pitch_mm, "must be finite and > 0");
   }
   if (!(weft_pitch_mm > 0) || !std::isfinite(weft_pitch_mm)) {
-    throw FieldError("weft_pitch_mm", weft_pitch_mm, "must be finite and > 0");
+    throw FieldError(kOptions, "weft_pitch_mm", weft_pitch_mm, "must be finite and > 0");
   }
   if (!(thread_height_mm >= 0) || !std::isfinite(thread_height_mm)) {
-    throw FieldError("thread_height_mm", thread_height_mm, "must be finite and >= 0");
+    throw FieldError(kOptions, "thread_height_mm", thread_height_mm, "must be finite and >= 0");
   }
   if (!(crossing_amplitude_mm >= 0) || !std::isfinite(crossing_amplitude_mm)) {
-    throw FieldError("crossing_amplitude_mm", crossing_amplitude_mm, "must be finite and >= 0");
+    throw FieldError(kOptions, "crossing_amplitude_mm", crossing_amplitude_mm, "must be finite and >= 0");
   }
   if (!(thread_height_variation >= 0 && thread_height_variation < 1)) {
-    throw FieldError("thread_height_variation", thread_height_variation, "must lie in [0, 1)");
+    throw FieldError(kOptions, "thread_height_variation", thread_height_variation, "must lie in [0, 1)");
   }
   if (!(smoothing_mm > 0) || !std::isfinite(smoothing_mm)) {
-    throw FieldError("smoothing_mm", smoothing_mm, "must be finite and > 0");
+    throw FieldError(kOptions, "smoothing_mm", smoothing_mm, "must be finite and > 0");
   }
   if (!(base_thickness_mm >= 0) || !std::isfinite(base_thickness_mm)) {
-    throw FieldError("base_thickness_mm", base_thickness_mm, "must be finite and >= 0");
+    throw FieldError(kOptions, "base_thickness_mm", base_thickness_mm, "must be finite and >= 0");
   }
   if (!(fold_amplitude_mm >= 0) || !std::isfinite(fold_amplitude_mm)) {
-    throw FieldError("fold_amplitude_mm", fold_amplitude_mm, "must be finite and >= 0");
+    throw FieldError(kOptions, "fold_amplitude_mm", fold_amplitude_mm, "must be finite and >= 0");
   }
   if (num_fold_waves < 0 || num_fold_waves > 64) {
-    throw FieldError("num_fold_waves", num_fold_waves, "must lie in [0, 64]");
+    throw FieldError(kOptions, "num_fold_waves", num_fold_waves, "must lie in [0, 64]");
   }
   if (!(fold_min_wavelength_mm > 0) || !std::isfinite(fold_min_wavelength_mm)) {
-    throw FieldError("fold_min_wavelength_mm", fold_min_wavelength_mm, "must be finite and > 0");
+    throw FieldError(kOptions, "fold_min_wavelength_mm", fold_min_wavelength_mm, "must be finite and > 0");
   }
   if (!(fold_max_wavelength_mm >= fold_min_wavelength_mm) || !std::isfinite(fold_max_wavelength_mm)) {
-    throw FieldError("fold_max_wavelength_mm", fold_max_wavelength_mm,
+    throw FieldError(kOptions, "fold_max_wavelength_mm", fold_max_wavelength_mm,
                      "must be finite and >= fold_min_wavelength_mm (" + std::to_string(fold_min_wavelength_mm) +
                          ")");
   }
@@ -118,10 +211,10 @@ void TextileSceneOptions::Check() const {
   CheckRgb("weft_rgb", weft_rgb);
   CheckRgb("table_rgb", table_rgb);
   if (!(color_variation >= 0 && color_variation <= 0.5)) {
-    throw FieldError("color_variation", color_variation, "must lie in [0, 0.5]");
+    throw FieldError(kOptions, "color_variation", color_variation, "must lie in [0, 0.5]");
   }
   if (!(gap_darkening >= 0 && gap_darkening <= 1)) {
-    throw FieldError("gap_darkening", gap_darkening, "must lie in [0, 1]");
+    throw FieldError(kOptions, "gap_darkening", gap_darkening, "must lie in [0, 1]");
   }
 }
 
@@ -168,68 +261,12 @@ SurfaceSample TextileScene::Evaluate(double x_mm, double y_mm, bool with_gradien
     out.albedo = o.table_rgb;
     return out;
   }
+  const WeaveRelief weave = WeaveAt(o, x_mm, y_mm);
+  Eigen::Vector2d fold_gradient = Eigen::Vector2d::Zero();
+  const double fold = FoldHeightMm(x_mm, y_mm, with_gradient ? &fold_gradient : nullptr);
+  const double inner = o.base_thickness_mm + weave.relief + fold;
 
-  // --- Weave relief. Warp thread i covers x in [i, i+1) * warp pitch, weft j
-  // covers y in [j, j+1) * weft pitch; fu, fv in [-0.5, 0.5) across a thread.
-  const double u = x_mm / o.warp_pitch_mm;
-  const double v = y_mm / o.weft_pitch_mm;
-  const double iu = std::floor(u);
-  const double jv = std::floor(v);
-  const auto warp_index = static_cast<int64_t>(iu);
-  const auto weft_index = static_cast<int64_t>(jv);
-  const double fu = u - iu - 0.5;
-  const double fv = v - jv - 0.5;
-
-  // Over/under pattern: the crown of warp i follows cos(phase) along y with a
-  // period of `period` wefts, shifted one weft per warp; weft j is the mirror
-  // image, so at every crossing one thread is up where the other is down.
-  const double period = o.weave == WeavePattern::kPlain ? 2.0 : 4.0;
-  const double offset = o.weave == WeavePattern::kPlain ? 0.0 : 0.5;  // twill: crossings at +-45 deg
-  const double warp_phase = 2.0 * kPi * (v - 0.5 - iu - offset) / period;
-  const double weft_phase = 2.0 * kPi * (jv - (u - 0.5) - offset) / period;
-  const double amplitude = o.crossing_amplitude_mm;
-  const double warp_crown =
-      o.thread_height_mm * (1.0 + o.thread_height_variation * HashSigned(o.seed, kWarpCrown, warp_index)) +
-      amplitude * std::cos(warp_phase);
-  const double weft_crown =
-      o.thread_height_mm * (1.0 + o.thread_height_variation * HashSigned(o.seed, kWeftCrown, weft_index)) -
-      amplitude * std::cos(weft_phase);
-
-  // Rounded cross-section cos^2: zero height and slope at a thread's borders,
-  // so neighbouring threads with different crowns still meet continuously.
-  const double cos_u = std::cos(kPi * fu);
-  const double cos_v = std::cos(kPi * fv);
-  const double profile_u = cos_u * cos_u;
-  const double profile_v = cos_v * cos_v;
-  const double warp_z = profile_u * warp_crown;
-  const double weft_z = profile_v * weft_crown;
-
-  // Visible relief: soft maximum (log-sum-exp) of the two thread surfaces, so
-  // the normal stays continuous where one thread dives under the other.
-  const double k = o.smoothing_mm;
-  const double top = std::max(warp_z, weft_z);
-  const double e_other = std::exp(-std::abs(warp_z - weft_z) / k);  // the lower thread's term; the upper's is 1
-  const double e_sum = 1.0 + e_other;
-  const double w_warp = (warp_z >= weft_z ? 1.0 : e_other) / e_sum;
-  const double w_weft = 1.0 - w_warp;
-  const double relief = top + k * std::log1p(e_other);
-
-  // --- Folds.
-  double fold = 0;
-  Eigen::Vector2d fold_grad = Eigen::Vector2d::Zero();
-  if (!folds_.empty()) {
-    double sum = 0;
-    for (const FoldWave& wave : folds_) {
-      const double arg = wave.wave_vector.x() * x_mm + wave.wave_vector.y() * y_mm + wave.phase;
-      sum += wave.weight * std::sin(arg);
-      if (with_gradient) fold_grad += (o.fold_amplitude_mm * wave.weight * std::cos(arg)) * wave.wave_vector;
-    }
-    fold = o.fold_amplitude_mm * (1.0 + sum);
-  }
-
-  const double inner = o.base_thickness_mm + relief + fold;
-
-  // --- Edge blend: inner height times a C2 ramp in each direction.
+  // Edge blend: inner height times a C2 ramp in each direction.
   const double tx = (0.5 * o.sample_width_mm - std::abs(x_mm)) / o.edge_blend_mm;
   const double ty = (0.5 * o.sample_height_mm - std::abs(y_mm)) / o.edge_blend_mm;
   const double sx = SmootherStep(tx);
@@ -238,43 +275,25 @@ SurfaceSample TextileScene::Evaluate(double x_mm, double y_mm, bool with_gradien
   out.height_mm = blend * inner;
 
   if (with_gradient) {
-    const double profile_u_dx = -kPi * std::sin(2.0 * kPi * fu) / o.warp_pitch_mm;
-    const double profile_v_dy = -kPi * std::sin(2.0 * kPi * fv) / o.weft_pitch_mm;
-    const Eigen::Vector2d warp_grad(profile_u_dx * warp_crown,
-                                    profile_u * (-amplitude * std::sin(warp_phase)) * 2.0 * kPi /
-                                        (period * o.weft_pitch_mm));
-    const Eigen::Vector2d weft_grad(profile_v * (amplitude * std::sin(weft_phase)) * (-2.0 * kPi) /
-                                        (period * o.warp_pitch_mm),
-                                    profile_v_dy * weft_crown);
-    const Eigen::Vector2d inner_grad = w_warp * warp_grad + w_weft * weft_grad + fold_grad;
+    const Eigen::Vector2d inner_grad = WeaveGradient(o, weave) + fold_gradient;
     const double sx_dx = SmootherStepDerivative(tx) * (x_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
     const double sy_dy = SmootherStepDerivative(ty) * (y_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
     out.gradient = blend * inner_grad + inner * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
   }
-
-  if (with_albedo) {
-    const double cv = o.color_variation;
-    Eigen::Vector3d warp_rgb = o.warp_rgb;
-    Eigen::Vector3d weft_rgb = o.weft_rgb;
-    const double warp_shade = 1.0 + cv * HashSigned(o.seed, kWarpShade, warp_index);
-    const double weft_shade = 1.0 + cv * HashSigned(o.seed, kWeftShade, weft_index);
-    // Slubs: slow brightness variation along each thread.
-    const double warp_slub =
-        1.0 + 0.5 * cv *
-                  std::sin(2.0 * kPi * y_mm / kWarpSlubPeriodMm + kPi * HashSigned(o.seed, kWarpSlubPhase, warp_index));
-    const double weft_slub =
-        1.0 + 0.5 * cv *
-                  std::sin(2.0 * kPi * x_mm / kWeftSlubPeriodMm + kPi * HashSigned(o.seed, kWeftSlubPhase, weft_index));
-    for (int c = 0; c < 3; ++c) {
-      warp_rgb[c] *= warp_shade * warp_slub * (1.0 + 0.3 * cv * HashSigned(o.seed, kWarpTint + c, warp_index));
-      weft_rgb[c] *= weft_shade * weft_slub * (1.0 + 0.3 * cv * HashSigned(o.seed, kWeftTint + c, weft_index));
-    }
-    // The thread on top shows its colour; the gaps between threads are darker.
-    const double cover = o.thread_height_mm > 0 ? std::min(1.0, relief / o.thread_height_mm) : 1.0;
-    const double gap_factor = 1.0 - o.gap_darkening * (1.0 - cover);
-    out.albedo = ((w_warp * warp_rgb + w_weft * weft_rgb) * gap_factor).cwiseMax(0.0).cwiseMin(1.0);
-  }
+  if (with_albedo) out.albedo = ThreadAlbedo(o, weave, x_mm, y_mm);
   return out;
+}
+
+double TextileScene::FoldHeightMm(double x_mm, double y_mm, Eigen::Vector2d* gradient) const {
+  if (folds_.empty()) return 0;
+  const double amplitude = options_.fold_amplitude_mm;
+  double sum = 0;
+  for (const FoldWave& wave : folds_) {
+    const double arg = wave.wave_vector.x() * x_mm + wave.wave_vector.y() * y_mm + wave.phase;
+    sum += wave.weight * std::sin(arg);
+    if (gradient) *gradient += (amplitude * wave.weight * std::cos(arg)) * wave.wave_vector;
+  }
+  return amplitude * (1.0 + sum);
 }
 
 double TextileScene::HeightMm(double x_mm, double y_mm) const {

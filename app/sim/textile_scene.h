@@ -92,6 +92,9 @@ class TextileScene {
   };
 
   SurfaceSample Evaluate(double x_mm, double y_mm, bool with_gradient, bool with_albedo) const;
+  // The folds' height above the base at (x, y), mm; adds its gradient to
+  // *gradient when given.
+  double FoldHeightMm(double x_mm, double y_mm, Eigen::Vector2d* gradient) const;
 
   TextileSceneOptions options_;
   std::vector<FoldWave> folds_;

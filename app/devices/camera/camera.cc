@@ -293,15 +293,7 @@ bool IsRawFileName(const std::string& name) {
 }
 
 double ExposureValue(const ExposureSettings& settings, CameraSetting setting) {
-  switch (setting) {
-    case CameraSetting::kIso:
-      return settings.iso;
-    case CameraSetting::kShutter:
-      return settings.exposure_time_s;
-    case CameraSetting::kAperture:
-      return settings.f_number;
-  }
-  return 0;
+  return ForSetting(setting, settings.iso, settings.exposure_time_s, settings.f_number);
 }
 
 }  // namespace scanbench

@@ -72,6 +72,20 @@ struct ExposureSettings {
   double f_number = 0;
 };
 
+// The one of three per-setting values that `setting` names.
+template <typename T>
+const T& ForSetting(CameraSetting setting, const T& iso, const T& shutter, const T& aperture) {
+  switch (setting) {
+    case CameraSetting::kIso:
+      return iso;
+    case CameraSetting::kShutter:
+      return shutter;
+    case CameraSetting::kAperture:
+      return aperture;
+  }
+  return iso;
+}
+
 // The field of `settings` that `setting` names.
 double ExposureValue(const ExposureSettings& settings, CameraSetting setting);
 

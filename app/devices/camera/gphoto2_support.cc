@@ -316,15 +316,7 @@ const std::vector<std::string>& SettingWidgetNames(CameraSetting setting) {
   static const std::vector<std::string> iso = {"iso", "isospeed"};
   static const std::vector<std::string> shutter = {"shutterspeed2", "shutterspeed", "eos-shutterspeed"};
   static const std::vector<std::string> aperture = {"f-number", "aperture"};
-  switch (setting) {
-    case CameraSetting::kIso:
-      return iso;
-    case CameraSetting::kShutter:
-      return shutter;
-    case CameraSetting::kAperture:
-      return aperture;
-  }
-  return iso;
+  return ForSetting(setting, iso, shutter, aperture);
 }
 
 std::optional<CameraSettingState> ReadSetting(CameraWidget* root, CameraSetting setting) {

@@ -57,15 +57,7 @@ const std::vector<std::string>& SimulatedCameraChoices(CameraSetting setting) {
                                                     "f/3.5", "f/4",  "f/4.5", "f/5",   "f/5.6", "f/6.3",
                                                     "f/7.1", "f/8",  "f/9",   "f/10",  "f/11",  "f/13",
                                                     "f/14",  "f/16", "f/18",  "f/20",  "f/22"};
-  switch (setting) {
-    case CameraSetting::kIso:
-      return iso;
-    case CameraSetting::kShutter:
-      return shutter;
-    case CameraSetting::kAperture:
-      return aperture;
-  }
-  return iso;
+  return ForSetting(setting, iso, shutter, aperture);
 }
 
 void SimulatedCameraOptions::Check() const {

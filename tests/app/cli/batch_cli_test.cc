@@ -62,10 +62,15 @@ TEST(BatchCliTest, GlobListFileExitCodesAndSummary) {
   EXPECT_EQ(first.exit_code, 1) << first.output;
   EXPECT_THAT(first.output, HasSubstr("frames/led_05.dng"));
   EXPECT_THAT(first.output, HasSubstr("4 sessions: 3 solved, 0 skipped, 1 failed, 0 cancelled"));
-  const std::vector<fs::path> csv_files = FilesWithExtension(folder.path(), ".csv");
-  ASSERT_EQ(csv_files.size(), 1u) << "default summary ./batch-<UTC time>.csv";
+  EXPECT_TRUE(FilesWithExtension(folder.path(), ".csv").empty()) << "nothing written where the command runs";
+  EXPECT_TRUE(FilesWithExtension(folder.path(), ".json").empty());
+  const fs::path reports = folder / "lib" / "batch-reports";
+  ASSERT_TRUE(fs::is_directory(reports)) << "default summary lib/batch-reports/batch-<UTC time>.csv";
+  const std::vector<fs::path> csv_files = FilesWithExtension(reports, ".csv");
+  ASSERT_EQ(csv_files.size(), 1u);
   EXPECT_THAT(csv_files[0].filename().string(), ::testing::StartsWith("batch-"));
-  EXPECT_EQ(FilesWithExtension(folder.path(), ".json").size(), 1u);
+  EXPECT_EQ(FilesWithExtension(reports, ".json").size(), 1u);
+  EXPECT_THAT(first.output, HasSubstr("lib/batch-reports/" + csv_files[0].filename().string())) << "printed";
   const std::string csv = ReadText(csv_files[0]);
   EXPECT_THAT(csv, HasSubstr("/lib/s3,failed,"));
   EXPECT_THAT(csv, HasSubstr("/lib/s4,solved,"));

@@ -310,6 +310,23 @@ TEST_F(BatchControllerTest, InputsArePathsGlobsAndListFilesWithoutDuplicates) {
   }
 }
 
+// The default summary goes beside the library, in a batch-reports/ folder
+// created for it, under a name whose .csv and .json are both free.
+TEST(BatchSummaryPrefixTest, DefaultIsBesideTheSessionsAndNeverTaken) {
+  TemporaryFolder folder;
+  const fs::path library = fs::canonical(folder.path()) / "library";
+  const std::vector<fs::path> sessions = {library / "a" / "s1", library / "a" / "s2", library / "b" / "s3"};
+  const auto time = std::chrono::sys_days(std::chrono::year(2026) / 11 / 22) + std::chrono::hours(11) +
+                    std::chrono::minutes(2) + std::chrono::seconds(12);
+  const fs::path first = DefaultBatchSummaryPrefix(sessions, time);
+  EXPECT_EQ(first, library / "batch-reports" / "batch-20261122T110212Z");
+  EXPECT_TRUE(fs::is_directory(library / "batch-reports"));
+  std::ofstream(first.string() + ".json") << "{}";
+  EXPECT_EQ(DefaultBatchSummaryPrefix(sessions, time), library / "batch-reports" / "batch-20261122T110212Z-2");
+  EXPECT_EQ(DefaultBatchSummaryPrefix({library / "a" / "s1"}, time).parent_path(), library / "a" / "batch-reports");
+  EXPECT_THROW(DefaultBatchSummaryPrefix({}, time), std::invalid_argument);
+}
+
 TEST_F(BatchControllerTest, FingerprintCoversResultInputsOnly) {
   const Session session = LoadSession(*source_folder_ / "session");
   const SolveOptions defaults;
