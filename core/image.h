@@ -55,6 +55,13 @@ class Image {
   std::vector<T> data_;
 };
 
+// For error messages: "1232x816" and "1232x816x3".
+inline std::string SizeText(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
+template <typename T>
+std::string ShapeText(const Image<T>& image) {
+  return SizeText(image.width(), image.height()) + "x" + std::to_string(image.channels());
+}
+
 using ImageF = Image<float>;
 using ImageU8 = Image<uint8_t>;
 using ImageU16 = Image<uint16_t>;

@@ -21,11 +21,6 @@
 namespace scanbench {
 namespace {
 
-std::string ShapeText(const ImageF& image) {
-  return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" +
-         std::to_string(image.channels());
-}
-
 // Throws naming the caller and the shape, or the first non-finite pixel.
 void CheckFiniteHeight(const ImageF& height_mm, const char* where) {
   if (height_mm.empty() || height_mm.channels() != 1) {

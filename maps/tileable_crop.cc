@@ -21,8 +21,6 @@ namespace {
 
 constexpr double kMinNormalZ = 0.01;  // slope at most 100 (89.4 deg): keeps grazing normals finite
 
-std::string SizeText(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
-
 // Sums of a W x H image over boxes, by its (W + 1) x (H + 1) integral image.
 class BoxSums {
  public:

@@ -60,11 +60,6 @@ std::runtime_error FileError(const fs::path& path, const std::string& problem) {
   return std::runtime_error(path.string() + ": " + problem);
 }
 
-std::string ShapeText(const ImageF& image) {
-  return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" +
-         std::to_string(image.channels());
-}
-
 // A map of the result folder: readable, the expected channel count and size,
 // every value finite (bad input must never turn into NaN downstream).
 ImageF ReadResultMap(const fs::path& path, int channels, int width, int height) {
