@@ -76,15 +76,15 @@ void CheckImages(const std::vector<const ImageF*>& images, int channels, const L
   }
 }
 
-// ---------------------------------------------------------------------------
-// The tile loop every method shares, per thread: classify the tile's lights,
-// then per row fill the lights, accumulate the samples and let the method's
-// kernel solve the span.
 // A tile: [x0, x1) x [y0, y1).
 struct Tile {
   int x0, y0, x1, y1;
 };
 
+// ---------------------------------------------------------------------------
+// The tile loop every method shares, per thread: classify the tile's lights,
+// then per row fill the lights, accumulate the samples and let the method's
+// kernel (chosen once, at construction) solve the span.
 class TileWorker {
  public:
   explicit TileWorker(const tiled::SolveJob& job)
