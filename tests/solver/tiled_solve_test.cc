@@ -170,9 +170,9 @@ std::vector<ThreadCase> ThreadCases() {
 }
 
 INSTANTIATE_TEST_SUITE_P(Methods, ThreadCountTest, ::testing::ValuesIn(ThreadCases()),
-                         [](const ::testing::TestParamInfo<ThreadCase>& info) {
-                           return std::string(PhotometricMethodName(info.param.method)) +
-                                  (info.param.lights == SyntheticSceneOptions::Lights::kDistant ? "_Distant"
+                         [](const ::testing::TestParamInfo<ThreadCase>& param_info) {
+                           return std::string(PhotometricMethodName(param_info.param.method)) +
+                                  (param_info.param.lights == SyntheticSceneOptions::Lights::kDistant ? "_Distant"
                                                                                                  : "_NearField");
                          });
 
