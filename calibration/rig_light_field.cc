@@ -6,7 +6,7 @@
 
 namespace scanbench {
 
-std::unique_ptr<PointLightField> MakeRigLightField(const RigDescription& rig) {
+std::vector<PointLight> RigPointLights(const RigDescription& rig) {
   std::vector<PointLight> lights;
   for (size_t k = 0; k < rig.leds.size(); ++k) {
     const LedDescription& led = rig.leds[k];
@@ -23,7 +23,11 @@ std::unique_ptr<PointLightField> MakeRigLightField(const RigDescription& rig) {
     light.reference_distance = kLedReferenceDistanceMm;
     lights.push_back(light);
   }
-  return std::make_unique<PointLightField>(std::move(lights), ComputeTablePoints(rig.camera));
+  return lights;
+}
+
+std::unique_ptr<PointLightField> MakeRigLightField(const RigDescription& rig) {
+  return std::make_unique<PointLightField>(RigPointLights(rig), ComputeTablePoints(rig.camera));
 }
 
 }  // namespace scanbench

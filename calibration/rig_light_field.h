@@ -3,11 +3,16 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "calibration/rig.h"
 #include "solver/light_field.h"
 
 namespace scanbench {
+
+// The rig's LEDs as point lights, in the order of rig.leds. Throws
+// std::invalid_argument naming the LED that is unusable.
+std::vector<PointLight> RigPointLights(const RigDescription& rig);
 
 // Lights in the order of rig.leds. Throws std::invalid_argument naming the LED
 // or camera field that is unusable.

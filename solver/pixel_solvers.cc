@@ -271,6 +271,29 @@ PixelFit FitLeastSquares(DenseMethod method, const PixelSamples& samples, bool w
   return fit;
 }
 
+namespace {
+
+// The robust fits' last step: the weighted solve with the final weights
+// (luminance and, if asked, R, G, B), exact condition number and weighted
+// residual; plain least squares when that system is unusable.
+PixelFit FitWithFinalWeights(const PixelSamples& samples, const std::vector<double>& weights, bool with_albedo,
+                             const PixelFitLimits& limits) {
+  Matrix34d scaled;
+  double condition = 0;
+  int used = 0;
+  if (!SolveWeighted(samples, weights, with_albedo ? 4 : 1, limits, &scaled, &condition, &used)) {
+    return FitLeastSquares(DenseMethod::kNormalEquations, samples, with_albedo, limits);
+  }
+  PixelFit fit;
+  fit.lights_used = used;
+  fit.condition_number = ClampForStorage(condition);
+  FinishFit(scaled, with_albedo, limits, &fit);
+  if (fit.status == PixelStatus::kSolved) fit.residual = WeightedResidual(samples, weights, scaled.col(0));
+  return fit;
+}
+
+}  // namespace
+
 PixelFit FitRobustIrls(const PixelSamples& samples, bool with_albedo, const PixelFitLimits& limits,
                        const RobustFitOptions& options) {
   const int m = samples.count();
@@ -321,15 +344,7 @@ PixelFit FitRobustIrls(const PixelSamples& samples, bool with_albedo, const Pixe
     weights.swap(trial);
     if (change <= kConverged * normal.norm()) break;
   }
-  PixelFit fit;
-  if (!SolveWeighted(samples, weights, with_albedo ? 4 : 1, limits, &scaled, &condition, &used)) {
-    return FitLeastSquares(DenseMethod::kNormalEquations, samples, with_albedo, limits);
-  }
-  fit.lights_used = used;
-  fit.condition_number = ClampForStorage(condition);
-  FinishFit(scaled, with_albedo, limits, &fit);
-  if (fit.status == PixelStatus::kSolved) fit.residual = WeightedResidual(samples, weights, scaled.col(0));
-  return fit;
+  return FitWithFinalWeights(samples, weights, with_albedo, limits);
 }
 
 PixelFit FitSparseBayesian(const PixelSamples& samples, bool with_albedo, const PixelFitLimits& limits,
@@ -385,15 +400,7 @@ PixelFit FitSparseBayesian(const PixelSamples& samples, bool with_albedo, const 
   }
   // Final weights in [0, 1]: 1 for a sample with no learned error.
   for (int k = 0; k < m; ++k) weights[k] = base[k] > 0 ? noise / (gamma[k] + noise) : 0.0;
-  PixelFit fit;
-  if (!SolveWeighted(samples, weights, with_albedo ? 4 : 1, limits, &scaled, &condition, &used)) {
-    return FitLeastSquares(DenseMethod::kNormalEquations, samples, with_albedo, limits);
-  }
-  fit.lights_used = used;
-  fit.condition_number = ClampForStorage(condition);
-  FinishFit(scaled, with_albedo, limits, &fit);
-  if (fit.status == PixelStatus::kSolved) fit.residual = WeightedResidual(samples, weights, scaled.col(0));
-  return fit;
+  return FitWithFinalWeights(samples, weights, with_albedo, limits);
 }
 
 }  // namespace scanbench

@@ -5,12 +5,12 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/field_error.h"
+
 namespace scanbench {
 namespace {
 
-std::invalid_argument OptionError(const std::string& field, double value, const std::string& rule) {
-  return std::invalid_argument("SyntheticSceneOptions." + field + " = " + std::to_string(value) + " " + rule);
-}
+constexpr const char* kOptions = "SyntheticSceneOptions";
 
 // RGB intensities differ per light so that dividing them out is exercised.
 Eigen::Vector3d LightIntensity(int k) {
@@ -20,24 +20,24 @@ Eigen::Vector3d LightIntensity(int k) {
 }  // namespace
 
 void SyntheticSceneOptions::Check() const {
-  if (width < 8) throw OptionError("width", width, "must be >= 8");
-  if (height < 8) throw OptionError("height", height, "must be >= 8");
-  if (num_lights < 3) throw OptionError("num_lights", num_lights, "must be >= 3");
+  if (width < 8) throw FieldError(kOptions, "width", width, "must be >= 8");
+  if (height < 8) throw FieldError(kOptions, "height", height, "must be >= 8");
+  if (num_lights < 3) throw FieldError(kOptions, "num_lights", num_lights, "must be >= 3");
   if (!(min_elevation_deg > 0 && min_elevation_deg < 90)) {
-    throw OptionError("min_elevation_deg", min_elevation_deg, "must lie in (0, 90)");
+    throw FieldError(kOptions, "min_elevation_deg", min_elevation_deg, "must lie in (0, 90)");
   }
   if (!(max_elevation_deg >= min_elevation_deg && max_elevation_deg < 90)) {
-    throw OptionError("max_elevation_deg", max_elevation_deg, "must lie in [min_elevation_deg, 90)");
+    throw FieldError(kOptions, "max_elevation_deg", max_elevation_deg, "must lie in [min_elevation_deg, 90)");
   }
-  if (!(tilt_degrees >= 0 && tilt_degrees < 80)) throw OptionError("tilt_degrees", tilt_degrees, "must lie in [0, 80)");
+  if (!(tilt_degrees >= 0 && tilt_degrees < 80)) throw FieldError(kOptions, "tilt_degrees", tilt_degrees, "must lie in [0, 80)");
   for (int c = 0; c < 3; ++c) {
-    if (!(albedo[c] >= 0 && albedo[c] <= 1)) throw OptionError("albedo", albedo[c], "must lie in [0, 1]");
+    if (!(albedo[c] >= 0 && albedo[c] <= 1)) throw FieldError(kOptions, "albedo", albedo[c], "must lie in [0, 1]");
   }
-  if (!(light_distance > 0)) throw OptionError("light_distance", light_distance, "must be > 0");
-  if (!(pixel_pitch > 0)) throw OptionError("pixel_pitch", pixel_pitch, "must be > 0");
-  if (!(noise_stddev >= 0)) throw OptionError("noise_stddev", noise_stddev, "must be >= 0");
-  if (!(specular >= 0 && specular <= 10)) throw OptionError("specular", specular, "must lie in [0, 10]");
-  if (!(shininess >= 1 && shininess <= 10000)) throw OptionError("shininess", shininess, "must lie in [1, 10000]");
+  if (!(light_distance > 0)) throw FieldError(kOptions, "light_distance", light_distance, "must be > 0");
+  if (!(pixel_pitch > 0)) throw FieldError(kOptions, "pixel_pitch", pixel_pitch, "must be > 0");
+  if (!(noise_stddev >= 0)) throw FieldError(kOptions, "noise_stddev", noise_stddev, "must be >= 0");
+  if (!(specular >= 0 && specular <= 10)) throw FieldError(kOptions, "specular", specular, "must lie in [0, 10]");
+  if (!(shininess >= 1 && shininess <= 10000)) throw FieldError(kOptions, "shininess", shininess, "must lie in [1, 10000]");
 }
 
 std::vector<Eigen::Vector3d> RingLightDirections(int num_lights, double low_elevation_deg,

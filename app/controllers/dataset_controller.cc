@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <iomanip>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -10,6 +11,7 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -26,6 +28,59 @@ nlohmann::json StatisticsJson(const ErrorStatistics& stats) {
 const char* KindName(PhotometricDataset::Kind kind) {
   return kind == PhotometricDataset::Kind::kDistantLights ? "distant_lights (DiLiGenT)" : "near_field (LUCES-style)";
 }
+
+// report.json: the dataset, the solver options and result, the error against
+// the ground truth, timings and the files written.
+nlohmann::json DatasetReportJson(const fs::path& dataset_dir, const PhotometricDataset& dataset,
+                                 const PhotometricSolverOptions& solver, const DatasetSolveResult& result,
+                                 const DatasetSolveSummary& summary, const std::map<std::string, std::string>& outputs) {
+  nlohmann::json report;
+  report["schema"] = "scanbench.dataset_report/1";
+  report["software_version"] = "scanbench " SCANBENCH_VERSION;
+  report["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
+  report["dataset"] = {{"path", fs::absolute(dataset_dir).string()},
+                       {"name", dataset.name},
+                       {"kind", summary.kind},
+                       {"width", dataset.width},
+                       {"height", dataset.height},
+                       {"lights", dataset.num_lights()},
+                       {"mask_pixels", summary.mask_pixels}};
+  report["solver"] = {{"method", PhotometricMethodName(solver.method)},
+                      {"min_sample_value", solver.min_sample_value},
+                      {"max_condition_number", solver.max_condition_number},
+                      {"robust_loss", solver.robust_loss == PhotometricSolverOptions::RobustLoss::kTukey ? "tukey"
+                                                                                                          : "cauchy"},
+                      {"num_threads", result.solver.num_threads}};
+  nlohmann::json by_status, by_path;
+  for (int s = 0; s < kNumPixelStatuses; ++s) {
+    by_status[PixelStatusName(static_cast<PixelStatus>(s))] = result.solver.pixels_by_status[s];
+  }
+  for (int p = 0; p < kNumSolvePaths; ++p) {
+    by_path[SolvePathName(static_cast<SolvePath>(p))] = result.solver.pixels_by_path[p];
+  }
+  report["result"] = {{"message", result.solver.BriefReport()},
+                      {"pixels_by_status", by_status},
+                      {"pixels_by_path", by_path},
+                      {"unsolved_in_mask", result.unsolved_in_mask}};
+  if (result.normal_error_deg) {
+    report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*result.normal_error_deg)},
+                              {"evaluated_on", "mask.png, every pixel (unsolved ones as (0, 0, 1))"}};
+  }
+  report["timings_s"] = {{"load", summary.load_seconds}, {"solve", summary.solve_seconds},
+                         {"write_maps", summary.write_seconds}};
+  report["outputs"] = outputs;
+  return report;
+}
+
+// Removes a staging folder unless it was committed (renamed into place).
+struct StagingGuard {
+  fs::path path;
+  bool committed = false;
+  ~StagingGuard() {
+    std::error_code ignored;
+    if (!committed) fs::remove_all(path, ignored);
+  }
+};
 
 }  // namespace
 
@@ -89,9 +144,15 @@ DatasetController::DatasetController(fs::path dataset_dir, DatasetSolveOptions o
 void DatasetController::Run() {
   options_.Check();
   summary_ = DatasetSolveSummary();
-  auto start = Clock::now();
-  ReportProgress("load dataset", 0);
-  const PhotometricDataset dataset = LoadPhotometricDataset(dataset_dir_);
+  const PhotometricDataset dataset = LoadDataset();
+  const DatasetSolveResult result = Solve(dataset);
+  if (!options_.output_dir.empty()) WriteOutputs(dataset, result);
+}
+
+PhotometricDataset DatasetController::LoadDataset() {
+  const auto start = Clock::now();
+  BeginStage("load dataset");
+  PhotometricDataset dataset = LoadPhotometricDataset(dataset_dir_);
   summary_.dataset_name = dataset.name;
   summary_.kind = KindName(dataset.kind);
   summary_.width = dataset.width;
@@ -101,32 +162,31 @@ void DatasetController::Run() {
   summary_.load_seconds = SecondsSince(start);
   ReportProgress("load dataset", 1);
   ThrowIfStopRequested("load dataset");
+  return dataset;
+}
 
-  start = Clock::now();
-  const DatasetSolveResult result = SolveDataset(dataset, options_.solver, StageCallback("solve"));
-  if (result.solver.termination == Termination::kCancelled) throw Cancelled("solve");
+DatasetSolveResult DatasetController::Solve(const PhotometricDataset& dataset) {
+  const auto start = Clock::now();
+  DatasetSolveResult result = SolveDataset(dataset, options_.solver, StageCallback("solve"));
+  RequireSuccess(result.solver, "solve");
   summary_.solver = result.solver;
   summary_.normal_error_deg = result.normal_error_deg;
   summary_.unsolved_in_mask = result.unsolved_in_mask;
   summary_.solve_seconds = SecondsSince(start);
-  if (options_.output_dir.empty()) return;
+  return result;
+}
 
-  start = Clock::now();
-  ReportProgress("write maps", 0);
+// Maps and report into a staging folder renamed into place at the end: the
+// output folder appears complete or not at all.
+void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const DatasetSolveResult& result) {
+  const auto start = Clock::now();
+  BeginStage("write maps");
   const fs::path out = options_.output_dir;
   if (fs::exists(out)) fs::remove_all(out);  // Check() allowed it: overwrite
   const fs::path staging = out.parent_path() / ("." + out.filename().string() + ".partial");
   fs::remove_all(staging);
   fs::create_directories(staging);
-  // The output folder appears complete or not at all.
-  struct StagingGuard {
-    fs::path path;
-    bool committed = false;
-    ~StagingGuard() {
-      std::error_code ignored;
-      if (!committed) fs::remove_all(path, ignored);
-    }
-  } guard{staging};
+  StagingGuard guard{staging};
   std::map<std::string, std::string> outputs = WriteSolutionMaps(staging, result.solution);
   if (!result.error_map_deg.empty()) {
     WriteExr(staging / "angular_error_deg.exr", result.error_map_deg, OverwritePolicy::kRefuse, {"Y"});
@@ -134,45 +194,9 @@ void DatasetController::Run() {
   }
   summary_.output_dir = out;
   summary_.write_seconds = SecondsSince(start);
-
-  const PhotometricSolverOptions& solver = options_.solver;
-  nlohmann::json report;
-  report["schema"] = "scanbench.dataset_report/1";
-  report["software_version"] = "scanbench " SCANBENCH_VERSION;
-  report["created"] = FormatUtcTimestamp(std::chrono::system_clock::now());
-  report["dataset"] = {{"path", fs::absolute(dataset_dir_).string()},
-                       {"name", dataset.name},
-                       {"kind", summary_.kind},
-                       {"width", dataset.width},
-                       {"height", dataset.height},
-                       {"lights", dataset.num_lights()},
-                       {"mask_pixels", summary_.mask_pixels}};
-  report["solver"] = {{"method", PhotometricMethodName(solver.method)},
-                      {"min_sample_value", solver.min_sample_value},
-                      {"max_condition_number", solver.max_condition_number},
-                      {"robust_loss", solver.robust_loss == PhotometricSolverOptions::RobustLoss::kTukey ? "tukey"
-                                                                                                          : "cauchy"},
-                      {"num_threads", result.solver.num_threads}};
-  nlohmann::json by_status, by_path;
-  for (int s = 0; s < kNumPixelStatuses; ++s) {
-    by_status[PixelStatusName(static_cast<PixelStatus>(s))] = result.solver.pixels_by_status[s];
-  }
-  for (int p = 0; p < kNumSolvePaths; ++p) {
-    by_path[SolvePathName(static_cast<SolvePath>(p))] = result.solver.pixels_by_path[p];
-  }
-  report["result"] = {{"message", result.solver.BriefReport()},
-                      {"pixels_by_status", by_status},
-                      {"pixels_by_path", by_path},
-                      {"unsolved_in_mask", result.unsolved_in_mask}};
-  if (result.normal_error_deg) {
-    report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*result.normal_error_deg)},
-                              {"evaluated_on", "mask.png, every pixel (unsolved ones as (0, 0, 1))"}};
-  }
-  report["timings_s"] = {{"load", summary_.load_seconds}, {"solve", summary_.solve_seconds},
-                         {"write_maps", summary_.write_seconds}};
   outputs["report"] = "report.json";
   outputs["summary"] = "summary.txt";
-  report["outputs"] = outputs;
+  const nlohmann::json report = DatasetReportJson(dataset_dir_, dataset, options_.solver, result, summary_, outputs);
   WriteFileAtomic(staging / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
   WriteFileAtomic(staging / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
   ThrowIfStopRequested("write maps");

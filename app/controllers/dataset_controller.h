@@ -62,6 +62,10 @@ class DatasetController : public BaseController {
   const DatasetSolveSummary& summary() const { return summary_; }
 
  private:
+  PhotometricDataset LoadDataset();
+  DatasetSolveResult Solve(const PhotometricDataset& dataset);
+  void WriteOutputs(const PhotometricDataset& dataset, const DatasetSolveResult& result);
+
   std::filesystem::path dataset_dir_;
   DatasetSolveOptions options_;
   DatasetSolveSummary summary_;

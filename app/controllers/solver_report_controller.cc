@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <map>
 #include <memory>
@@ -14,6 +15,7 @@
 #include "app/sim/textile_scene.h"
 #include "calibration/raw_develop.h"
 #include "calibration/rig.h"
+#include "calibration/rig_light_field.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
 #include "solver/synthetic_scene.h"
@@ -55,17 +57,7 @@ ReportScene AnalyticScene(const std::string& name, const SyntheticSceneOptions& 
 // The simulated rig's LEDs shining on the true surface points: the exact
 // light field, so that the report measures the solver, not the light model.
 std::unique_ptr<LightField> RigLightsOnSurface(const RigDescription& rig, const ImageF& points) {
-  std::vector<PointLight> lights;
-  for (const LedDescription& led : rig.leds) {
-    PointLight light;
-    light.position = led.position_in_table_mm;
-    light.axis = led.axis_in_table;
-    light.mu = led.mu;
-    light.rgb_intensity = led.rgb_intensity;
-    light.reference_distance = kLedReferenceDistanceMm;
-    lights.push_back(light);
-  }
-  return std::make_unique<PointLightField>(std::move(lights), points);
+  return std::make_unique<PointLightField>(RigPointLights(rig), points);
 }
 
 ReportScene RigScene(bool raw_path, int num_threads) {
@@ -126,6 +118,147 @@ std::string XmlEscape(const std::string& text) {
     else out += c;
   }
   return out;
+}
+
+// A scene of the report, built only when its turn comes so that one scene
+// at a time is in memory.
+struct SceneBuilder {
+  std::string kind;  // "analytic", "rig", "16mp", "diligent"
+  std::function<ReportScene()> build;
+};
+
+// One solve of a scene: every method, the benchmark's baseline on DiLiGenT,
+// and the Bayer-domain default where the scene has mosaics.
+struct ReportRun {
+  std::string label;
+  PhotometricSolverOptions options;
+  bool bayer = false;
+};
+
+std::vector<ReportRun> RunsFor(const ReportScene& scene, bool diligent, int num_threads) {
+  std::vector<ReportRun> runs;
+  for (Method method : AllPhotometricMethods()) {
+    if (method == Method::kUniformPseudoInverse && !scene.field->IsUniform()) continue;
+    PhotometricSolverOptions options;
+    options.method = method;
+    runs.push_back({PhotometricMethodName(method), options});
+  }
+  if (diligent) {
+    // The benchmark's least-squares baseline: every sample kept.
+    PhotometricSolverOptions baseline;
+    baseline.method = Method::kJacobiSvd;
+    baseline.min_sample_value = 0;
+    runs.insert(runs.begin(), {"lsq baseline (jacobi_svd, all samples)", baseline});
+  }
+  if (!scene.mosaics.empty()) runs.push_back({"adaptive (Bayer domain)", PhotometricSolverOptions(), true});
+  for (ReportRun& run : runs) run.options.num_threads = num_threads;
+  return runs;
+}
+
+PhotometricSolverSummary SolveScene(const ReportScene& scene, const ReportRun& run, PhotometricSolution* solution,
+                                    const ProgressCallback& progress) {
+  if (run.bayer) {
+    BayerSolverInput input;
+    for (const ImageF& mosaic : scene.mosaics) input.mosaics.push_back(&mosaic);
+    input.cfa_channels = scene.cfa_channels;
+    input.light_field = scene.field.get();
+    return SolvePhotometricStereoBayer(run.options, input, solution, progress);
+  }
+  PhotometricSolverInput input;
+  for (const ImageF& image : scene.images) input.images.push_back(&image);
+  for (const ImageU8& valid : scene.sample_valid) input.sample_valid.push_back(&valid);
+  input.light_field = scene.field.get();
+  input.region = scene.region.empty() ? nullptr : &scene.region;
+  return SolvePhotometricStereo(run.options, input, solution, progress);
+}
+
+// The row of one solve: errors against the scene's truth, speed over the
+// pixels asked for (the region), the share re-solved robustly.
+SolverReportRow ScoreRun(const ReportScene& scene, const std::string& label, const PhotometricSolverSummary& solver,
+                         const PhotometricSolution& solution) {
+  SolverReportRow row;
+  row.scene = scene.name;
+  row.method = label;
+  if (!scene.normal_truth.empty()) {
+    const ErrorStatistics error = AngularErrorDegrees(solution.normal_in_table, scene.normal_truth, scene.mask);
+    row.mean_error_deg = error.mean;
+    row.median_error_deg = error.median;
+  }
+  if (!scene.albedo_truth.empty() && !solution.albedo.empty()) {
+    row.albedo_error = AbsoluteError(solution.albedo, scene.albedo_truth, scene.mask).mean;
+  }
+  size_t asked = solver.num_pixels;
+  if (!scene.region.empty()) {
+    asked = static_cast<size_t>(std::count_if(scene.region.data(), scene.region.data() + scene.region.size(),
+                                              [](uint8_t v) { return v != 0; }));
+  }
+  row.seconds = solver.seconds;
+  row.megapixels_per_second = solver.seconds > 0 ? asked / 1e6 / solver.seconds : 0;
+  row.threads = solver.num_threads;
+  row.robust_fraction =
+      solver.num_solved() > 0 ? double(solver.pixels_by_path[int(SolvePath::kRobust)]) / solver.num_solved() : 0;
+  return row;
+}
+
+// The scenes in report order; what is left out is noted in `skipped`.
+std::vector<SceneBuilder> SceneBuilders(const SolverReportOptions& options, std::vector<std::string>* skipped) {
+  std::vector<SceneBuilder> builders;
+  const int size = options.analytic_size;
+  for (double noise : {0.001, 0.005}) {
+    builders.push_back({"analytic", [size, noise] {
+      SyntheticSceneOptions o;
+      o.width = o.height = size;
+      o.noise_stddev = noise;
+      return AnalyticScene("sphere " + std::to_string(size) + "^2, distant, Lambertian, noise " + Fixed(noise, 3), o);
+    }});
+  }
+  builders.push_back({"analytic", [size] {
+    SyntheticSceneOptions o;
+    o.width = o.height = size;
+    o.noise_stddev = 0.002;
+    o.specular = 0.5;
+    o.shininess = 50;
+    o.num_lights = 20;
+    return AnalyticScene("sphere " + std::to_string(size) + "^2, 20 distant lights, specular sheen, noise 0.002", o);
+  }});
+  const int threads = options.num_threads;
+  builders.push_back({"rig", [threads] { return RigScene(false, threads); }});
+  builders.push_back({"rig", [threads] { return RigScene(true, threads); }});
+  if (options.include_16mp) {
+    builders.push_back({"16mp", [] {
+      SyntheticSceneOptions o;
+      o.width = kD5100Width;
+      o.height = kD5100Height;
+      o.lights = SyntheticSceneOptions::Lights::kNearField;
+      o.pixel_pitch = 150.0 / o.width;  // a 150 mm field of view, LEDs 500 mm away
+      o.light_distance = 500;
+      o.noise_stddev = 0.002;
+      return AnalyticScene("16 MP 4928x3264, 10 near-field LEDs, Lambertian, noise 0.002", o);
+    }});
+  } else {
+    skipped->push_back("the 16 MP scene (--no-16mp)");
+  }
+  for (const char* object : {"ballPNG", "bearPNG"}) {
+    const fs::path folder = options.diligent_dir / object;
+    if (!options.diligent_dir.empty() && fs::is_directory(folder)) {
+      builders.push_back({"diligent", [folder] { return DiligentScene(folder); }});
+    } else {
+      skipped->push_back(std::string("DiLiGenT ") + object + " (not found at " + folder.string() + ")");
+    }
+  }
+  return builders;
+}
+
+std::string ReportCsv(const std::vector<SolverReportRow>& rows) {
+  std::ostringstream csv;
+  csv << "scene,method,mean_error_deg,median_error_deg,albedo_error,megapixels_per_second,seconds,threads,"
+         "robust_fraction\n";
+  for (const SolverReportRow& row : rows) {
+    csv << '"' << row.scene << "\",\"" << row.method << "\"," << row.mean_error_deg << "," << row.median_error_deg
+        << "," << row.albedo_error << "," << row.megapixels_per_second << "," << row.seconds << "," << row.threads
+        << "," << row.robust_fraction << "\n";
+  }
+  return csv.str();
 }
 
 }  // namespace
@@ -246,132 +379,19 @@ void SolverReportController::Run() {
   options_.Check();
   summary_ = SolverReportSummary();
   fs::create_directories(options_.output_dir);
-
-  // Scene builders, run one at a time so that only one scene is in memory.
-  std::vector<std::pair<std::string, std::function<ReportScene()>>> builders;
-  const int size = options_.analytic_size;
-  for (double noise : {0.001, 0.005}) {
-    builders.emplace_back("analytic", [size, noise] {
-      SyntheticSceneOptions o;
-      o.width = o.height = size;
-      o.noise_stddev = noise;
-      return AnalyticScene("sphere " + std::to_string(size) + "^2, distant, Lambertian, noise " + Fixed(noise, 3), o);
-    });
-  }
-  builders.emplace_back("analytic", [size] {
-    SyntheticSceneOptions o;
-    o.width = o.height = size;
-    o.noise_stddev = 0.002;
-    o.specular = 0.5;
-    o.shininess = 50;
-    o.num_lights = 20;
-    return AnalyticScene("sphere " + std::to_string(size) + "^2, 20 distant lights, specular sheen, noise 0.002", o);
-  });
-  const int threads = options_.num_threads;
-  builders.emplace_back("rig", [threads] { return RigScene(false, threads); });
-  builders.emplace_back("rig", [threads] { return RigScene(true, threads); });
-  if (options_.include_16mp) {
-    builders.emplace_back("16mp", [] {
-      SyntheticSceneOptions o;
-      o.width = kD5100Width;
-      o.height = kD5100Height;
-      o.lights = SyntheticSceneOptions::Lights::kNearField;
-      o.pixel_pitch = 150.0 / o.width;  // a 150 mm field of view, LEDs 500 mm away
-      o.light_distance = 500;
-      o.noise_stddev = 0.002;
-      return AnalyticScene("16 MP 4928x3264, 10 near-field LEDs, Lambertian, noise 0.002", o);
-    });
-  } else {
-    summary_.skipped.push_back("the 16 MP scene (--no-16mp)");
-  }
-  for (const char* object : {"ballPNG", "bearPNG"}) {
-    const fs::path folder = options_.diligent_dir / object;
-    if (!options_.diligent_dir.empty() && fs::is_directory(folder)) {
-      builders.emplace_back("diligent", [folder] { return DiligentScene(folder); });
-    } else {
-      summary_.skipped.push_back(std::string("DiLiGenT ") + object + " (not found at " + folder.string() + ")");
-    }
-  }
-
+  const std::vector<SceneBuilder> builders = SceneBuilders(options_, &summary_.skipped);
   for (size_t b = 0; b < builders.size(); ++b) {
-    ThrowIfStopRequested("solver report");
-    ReportProgress("build scene " + std::to_string(b + 1) + "/" + std::to_string(builders.size()), 0);
-    const ReportScene scene = builders[b].second();
-    std::vector<std::pair<std::string, PhotometricSolverOptions>> runs;
-    for (Method method : AllPhotometricMethods()) {
-      if (method == Method::kUniformPseudoInverse && !scene.field->IsUniform()) continue;
-      PhotometricSolverOptions options;
-      options.method = method;
-      options.num_threads = options_.num_threads;
-      runs.emplace_back(PhotometricMethodName(method), options);
-    }
-    if (builders[b].first == "diligent") {
-      // The benchmark's least-squares baseline: every sample kept.
-      PhotometricSolverOptions baseline;
-      baseline.method = Method::kJacobiSvd;
-      baseline.min_sample_value = 0;
-      baseline.num_threads = options_.num_threads;
-      runs.insert(runs.begin(), {"lsq baseline (jacobi_svd, all samples)", baseline});
-    }
-    const size_t num_runs = runs.size() + (scene.mosaics.empty() ? 0 : 1);
-    for (size_t r = 0; r < num_runs; ++r) {
-      const bool bayer = r == runs.size();
-      const std::string label = bayer ? "adaptive (Bayer domain)" : runs[r].first;
-      const std::string stage = scene.name.substr(0, 40) + ": " + label;
-      PhotometricSolverOptions options = bayer ? PhotometricSolverOptions() : runs[r].second;
-      options.num_threads = options_.num_threads;
+    BeginStage("build scene " + std::to_string(b + 1) + "/" + std::to_string(builders.size()));
+    const ReportScene scene = builders[b].build();
+    for (const ReportRun& run : RunsFor(scene, builders[b].kind == "diligent", options_.num_threads)) {
+      const std::string stage = scene.name.substr(0, 40) + ": " + run.label;
       PhotometricSolution solution;
-      PhotometricSolverSummary solver;
-      if (bayer) {
-        BayerSolverInput input;
-        for (const ImageF& mosaic : scene.mosaics) input.mosaics.push_back(&mosaic);
-        input.cfa_channels = scene.cfa_channels;
-        input.light_field = scene.field.get();
-        solver = SolvePhotometricStereoBayer(options, input, &solution, StageCallback(stage));
-      } else {
-        PhotometricSolverInput input;
-        for (const ImageF& image : scene.images) input.images.push_back(&image);
-        for (const ImageU8& valid : scene.sample_valid) input.sample_valid.push_back(&valid);
-        input.light_field = scene.field.get();
-        input.region = scene.region.empty() ? nullptr : &scene.region;
-        solver = SolvePhotometricStereo(options, input, &solution, StageCallback(stage));
-      }
-      if (solver.termination == Termination::kCancelled) throw Cancelled(stage);
-      SolverReportRow row;
-      row.scene = scene.name;
-      row.method = label;
-      if (!scene.normal_truth.empty()) {
-        const ErrorStatistics error = AngularErrorDegrees(solution.normal_in_table, scene.normal_truth, scene.mask);
-        row.mean_error_deg = error.mean;
-        row.median_error_deg = error.median;
-      }
-      if (!scene.albedo_truth.empty() && !solution.albedo.empty()) {
-        row.albedo_error = AbsoluteError(solution.albedo, scene.albedo_truth, scene.mask).mean;
-      }
-      size_t asked = solver.num_pixels;
-      if (!scene.region.empty()) {
-        asked = static_cast<size_t>(std::count_if(scene.region.data(), scene.region.data() + scene.region.size(),
-                                                  [](uint8_t v) { return v != 0; }));
-      }
-      row.seconds = solver.seconds;
-      row.megapixels_per_second = solver.seconds > 0 ? asked / 1e6 / solver.seconds : 0;
-      row.threads = solver.num_threads;
-      row.robust_fraction = solver.num_solved() > 0
-                                ? double(solver.pixels_by_path[int(SolvePath::kRobust)]) / solver.num_solved()
-                                : 0;
-      summary_.rows.push_back(row);
+      const PhotometricSolverSummary solver = SolveScene(scene, run, &solution, StageCallback(stage));
+      RequireSuccess(solver, stage);
+      summary_.rows.push_back(ScoreRun(scene, run.label, solver, solution));
     }
   }
-
-  std::ostringstream csv;
-  csv << "scene,method,mean_error_deg,median_error_deg,albedo_error,megapixels_per_second,seconds,threads,"
-         "robust_fraction\n";
-  for (const SolverReportRow& row : summary_.rows) {
-    csv << '"' << row.scene << "\",\"" << row.method << "\"," << row.mean_error_deg << "," << row.median_error_deg
-        << "," << row.albedo_error << "," << row.megapixels_per_second << "," << row.seconds << "," << row.threads
-        << "," << row.robust_fraction << "\n";
-  }
-  WriteFileAtomic(options_.output_dir / "report.csv", csv.str(), OverwritePolicy::kReplace);
+  WriteFileAtomic(options_.output_dir / "report.csv", ReportCsv(summary_.rows), OverwritePolicy::kReplace);
   WriteFileAtomic(options_.output_dir / "report.md", summary_.MarkdownTable(), OverwritePolicy::kReplace);
   WriteFileAtomic(options_.output_dir / "error_vs_time.svg", ErrorVsTimeSvg(summary_.rows), OverwritePolicy::kReplace);
 }

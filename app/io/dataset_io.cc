@@ -126,6 +126,153 @@ ImageU8 ReadMask(const fs::path& path, int width, int height) {
   return mask;
 }
 
+// light_intensities.txt: one positive RGB triple per image.
+std::vector<Eigen::Vector3d> ReadLightIntensities(const fs::path& folder, size_t num_lights) {
+  const fs::path file = folder / "light_intensities.txt";
+  if (!fs::exists(file)) throw DatasetError(file, "is missing");
+  std::vector<Eigen::Vector3d> intensities = ReadVectors(file, num_lights);
+  for (size_t k = 0; k < num_lights; ++k) {
+    if ((intensities[k].array() <= 0).any()) {
+      throw DatasetError(file, "light " + std::to_string(k + 1) + ": every intensity must be > 0");
+    }
+  }
+  return intensities;
+}
+
+// One image as RGB (a grey file repeated in three channels), negatives clipped to 0.
+ImageF ReadDatasetImage(const fs::path& file) {
+  ImageF image = ReadImageFloat(file);
+  if (image.channels() == 1) {
+    ImageF rgb(image.width(), image.height(), 3);
+    for (size_t i = 0; i < image.num_pixels(); ++i) {
+      for (int c = 0; c < 3; ++c) rgb.data()[3 * i + c] = image.data()[i];
+    }
+    image = std::move(rgb);
+  } else if (image.channels() != 3) {
+    throw DatasetError(file, "has " + std::to_string(image.channels()) + " channels; 1 or 3 required");
+  }
+  for (size_t i = 0; i < image.size(); ++i) image.data()[i] = std::max(0.0f, image.data()[i]);
+  return image;
+}
+
+// Every image, all of the first one's size; sets the dataset's size.
+void ReadImages(PhotometricDataset* dataset) {
+  for (size_t k = 0; k < dataset->image_files.size(); ++k) {
+    const fs::path file = dataset->folder / dataset->image_files[k];
+    ImageF image = ReadDatasetImage(file);
+    if (k == 0) {
+      dataset->width = image.width();
+      dataset->height = image.height();
+    } else if (!image.SameSize(dataset->width, dataset->height)) {
+      throw DatasetError(file, "is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
+                                   " but " + dataset->image_files[0] + " is " + std::to_string(dataset->width) +
+                                   "x" + std::to_string(dataset->height));
+    }
+    dataset->images.push_back(std::move(image));
+  }
+}
+
+// light_directions.txt: one non-zero direction per light, normalised.
+std::vector<Eigen::Vector3d> ReadLightDirections(const fs::path& folder, size_t num_lights) {
+  const fs::path file = folder / "light_directions.txt";
+  if (!fs::exists(file)) throw DatasetError(file, "is missing");
+  std::vector<Eigen::Vector3d> directions = ReadVectors(file, num_lights);
+  for (size_t k = 0; k < num_lights; ++k) {
+    const double norm = directions[k].norm();
+    if (!(norm > 1e-9)) throw DatasetError(file, "light " + std::to_string(k + 1) + " is a zero vector");
+    directions[k] /= norm;
+  }
+  return directions;
+}
+
+// K.txt: the 3x3 camera matrix with positive focal lengths.
+Eigen::Matrix3d ReadCameraMatrix(const fs::path& folder) {
+  const fs::path file = folder / "K.txt";
+  const auto rows = ReadNumberRows(file, 3);
+  if (rows.size() != 3) throw DatasetError(file, "must hold 3 rows of 3 numbers (the camera matrix)");
+  Eigen::Matrix3d camera_matrix;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) camera_matrix(r, c) = rows[r][c];
+  }
+  if (!(camera_matrix(0, 0) > 0 && camera_matrix(1, 1) > 0)) {
+    throw DatasetError(file, "focal lengths K(0,0) and K(1,1) must be > 0");
+  }
+  return camera_matrix;
+}
+
+// mean_distance.txt, or without it a guess from the LEDs around the camera.
+double ReadSurfaceDistance(const fs::path& folder, const std::vector<Eigen::Vector3d>& positions_in_cam) {
+  const fs::path file = folder / "mean_distance.txt";
+  double mean_z = 0;
+  for (const Eigen::Vector3d& p : positions_in_cam) mean_z += p.z() / positions_in_cam.size();
+  double distance_mm = mean_z;
+  if (fs::exists(file)) {
+    const auto rows = ReadNumberRows(file, 1);
+    if (rows.size() != 1) throw DatasetError(file, "must hold one number (mm)");
+    distance_mm = rows[0][0];
+  } else {
+    // LEDs sit around the camera; without a distance use the LEDs' spread as a scale.
+    double spread = 0;
+    for (const Eigen::Vector3d& p : positions_in_cam) spread = std::max(spread, p.head<2>().norm());
+    distance_mm = std::max(mean_z, 0.0) + 2 * spread;
+  }
+  if (!(distance_mm > 0)) {
+    throw DatasetError(file, "surface distance " + std::to_string(distance_mm) + " mm must be > 0");
+  }
+  return distance_mm;
+}
+
+// light_mu.txt: one falloff exponent >= 0 for all lights or one per light; 0 without the file.
+std::vector<double> ReadLedMu(const fs::path& folder, size_t num_lights) {
+  std::vector<double> mu_per_led(num_lights, 0.0);
+  const fs::path file = folder / "light_mu.txt";
+  if (!fs::exists(file)) return mu_per_led;
+  const auto rows = ReadNumberRows(file, 1);
+  if (rows.size() != 1 && rows.size() != num_lights) {
+    throw DatasetError(file, std::to_string(rows.size()) + " values; 1 or one per light (" +
+                                 std::to_string(num_lights) + ") required");
+  }
+  for (size_t k = 0; k < num_lights; ++k) {
+    const double mu = rows.size() == 1 ? rows[0][0] : rows[k][0];
+    if (!(mu >= 0)) throw DatasetError(file, "mu = " + std::to_string(mu) + " must be >= 0");
+    mu_per_led[k] = mu;
+  }
+  return mu_per_led;
+}
+
+// The LUCES-style files: camera, LED positions and axes (converted from the
+// OpenCV camera frame to the solver frame), surface distance, falloff.
+void ReadNearFieldLights(PhotometricDataset* dataset) {
+  const fs::path& folder = dataset->folder;
+  const size_t num_lights = dataset->image_files.size();
+  dataset->camera_matrix = ReadCameraMatrix(folder);
+  const Eigen::Vector3d flip(1, -1, -1);  // OpenCV camera frame -> solver frame
+  const auto positions_in_cam = ReadVectors(folder / "light_positions.txt", num_lights);
+  for (const Eigen::Vector3d& p : positions_in_cam) dataset->light_positions_mm.push_back(p.cwiseProduct(flip));
+  dataset->surface_distance_mm = ReadSurfaceDistance(folder, positions_in_cam);
+  const fs::path directions_file = folder / "light_directions.txt";
+  if (fs::exists(directions_file)) {
+    for (const Eigen::Vector3d& axis : ReadVectors(directions_file, num_lights)) {
+      if (!(axis.norm() > 1e-9)) throw DatasetError(directions_file, "an LED axis is a zero vector");
+      dataset->led_axes.push_back(axis.cwiseProduct(flip).normalized());
+    }
+  } else {
+    const Eigen::Vector3d centre(0, 0, -dataset->surface_distance_mm);
+    for (const Eigen::Vector3d& p : dataset->light_positions_mm) dataset->led_axes.push_back((centre - p).normalized());
+  }
+  dataset->led_mu = ReadLedMu(folder, num_lights);
+}
+
+// Normal_gt.mat, of the images' size.
+ImageF ReadNormalGroundTruth(const fs::path& file, int width, int height) {
+  ImageF truth = ReadMatImage3(file, "Normal_gt");
+  if (!truth.SameSize(width, height)) {
+    throw DatasetError(file, "is " + std::to_string(truth.width()) + "x" + std::to_string(truth.height()) +
+                                 " but the images are " + std::to_string(width) + "x" + std::to_string(height));
+  }
+  return truth;
+}
+
 struct MatCloser {
   void operator()(mat_t* mat) const { Mat_Close(mat); }
 };
@@ -213,128 +360,28 @@ PhotometricDataset LoadPhotometricDataset(const fs::path& folder, const DatasetL
   dataset.kind = near_field ? PhotometricDataset::Kind::kNearField : PhotometricDataset::Kind::kDistantLights;
   dataset.image_files = ImageFileNames(folder);
   const size_t num_lights = dataset.image_files.size();
-
-  const fs::path intensities_file = folder / "light_intensities.txt";
-  if (!fs::exists(intensities_file)) throw DatasetError(intensities_file, "is missing");
-  dataset.light_intensities = ReadVectors(intensities_file, num_lights);
-  for (size_t k = 0; k < num_lights; ++k) {
-    if ((dataset.light_intensities[k].array() <= 0).any()) {
-      throw DatasetError(intensities_file, "light " + std::to_string(k + 1) + ": every intensity must be > 0");
-    }
-  }
+  dataset.light_intensities = ReadLightIntensities(folder, num_lights);
 
   // The image size: from the first image (also when the images are not loaded).
   if (options.load_images) {
-    for (size_t k = 0; k < num_lights; ++k) {
-      const fs::path file = folder / dataset.image_files[k];
-      ImageF image = ReadImageFloat(file);
-      if (image.channels() == 1) {
-        ImageF rgb(image.width(), image.height(), 3);
-        for (size_t i = 0; i < image.num_pixels(); ++i) {
-          for (int c = 0; c < 3; ++c) rgb.data()[3 * i + c] = image.data()[i];
-        }
-        image = std::move(rgb);
-      } else if (image.channels() != 3) {
-        throw DatasetError(file, "has " + std::to_string(image.channels()) + " channels; 1 or 3 required");
-      }
-      if (k == 0) {
-        dataset.width = image.width();
-        dataset.height = image.height();
-      } else if (!image.SameSize(dataset.width, dataset.height)) {
-        throw DatasetError(file, "is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
-                                     " but " + dataset.image_files[0] + " is " + std::to_string(dataset.width) +
-                                     "x" + std::to_string(dataset.height));
-      }
-      for (size_t i = 0; i < image.size(); ++i) image.data()[i] = std::max(0.0f, image.data()[i]);
-      dataset.images.push_back(std::move(image));
-    }
+    ReadImages(&dataset);
   } else {
     const ImageF first = ReadImageFloat(folder / dataset.image_files[0]);
     dataset.width = first.width();
     dataset.height = first.height();
   }
-
   const fs::path mask_file = folder / "mask.png";
   dataset.mask = fs::exists(mask_file) ? ReadMask(mask_file, dataset.width, dataset.height)
                                        : ImageU8(dataset.width, dataset.height, 1, 1);
 
-  const fs::path directions_file = folder / "light_directions.txt";
-  if (!near_field) {
-    if (!fs::exists(directions_file)) throw DatasetError(directions_file, "is missing");
-    dataset.light_directions = ReadVectors(directions_file, num_lights);
-    for (size_t k = 0; k < num_lights; ++k) {
-      const double norm = dataset.light_directions[k].norm();
-      if (!(norm > 1e-9)) throw DatasetError(directions_file, "light " + std::to_string(k + 1) + " is a zero vector");
-      dataset.light_directions[k] /= norm;
-    }
+  if (near_field) {
+    ReadNearFieldLights(&dataset);
   } else {
-    const fs::path positions_file = folder / "light_positions.txt";
-    const fs::path camera_file = folder / "K.txt";
-    const auto camera_rows = ReadNumberRows(camera_file, 3);
-    if (camera_rows.size() != 3) throw DatasetError(camera_file, "must hold 3 rows of 3 numbers (the camera matrix)");
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) dataset.camera_matrix(r, c) = camera_rows[r][c];
-    }
-    if (!(dataset.camera_matrix(0, 0) > 0 && dataset.camera_matrix(1, 1) > 0)) {
-      throw DatasetError(camera_file, "focal lengths K(0,0) and K(1,1) must be > 0");
-    }
-    const Eigen::Vector3d flip(1, -1, -1);  // OpenCV camera frame -> solver frame
-    const auto positions_in_cam = ReadVectors(positions_file, num_lights);
-    double mean_z = 0;
-    for (const Eigen::Vector3d& p : positions_in_cam) {
-      dataset.light_positions_mm.push_back(p.cwiseProduct(flip));
-      mean_z += p.z() / num_lights;
-    }
-    const fs::path distance_file = folder / "mean_distance.txt";
-    dataset.surface_distance_mm = mean_z;
-    if (fs::exists(distance_file)) {
-      const auto rows = ReadNumberRows(distance_file, 1);
-      if (rows.size() != 1) throw DatasetError(distance_file, "must hold one number (mm)");
-      dataset.surface_distance_mm = rows[0][0];
-    } else {
-      // LEDs sit around the camera; without a distance use the LEDs' spread as a scale.
-      double spread = 0;
-      for (const Eigen::Vector3d& p : positions_in_cam) spread = std::max(spread, p.head<2>().norm());
-      dataset.surface_distance_mm = std::max(mean_z, 0.0) + 2 * spread;
-    }
-    if (!(dataset.surface_distance_mm > 0)) {
-      throw DatasetError(distance_file, "surface distance " + std::to_string(dataset.surface_distance_mm) +
-                                            " mm must be > 0");
-    }
-    if (fs::exists(directions_file)) {
-      for (const Eigen::Vector3d& axis : ReadVectors(directions_file, num_lights)) {
-        if (!(axis.norm() > 1e-9)) throw DatasetError(directions_file, "an LED axis is a zero vector");
-        dataset.led_axes.push_back(axis.cwiseProduct(flip).normalized());
-      }
-    } else {
-      const Eigen::Vector3d centre(0, 0, -dataset.surface_distance_mm);
-      for (const Eigen::Vector3d& p : dataset.light_positions_mm) dataset.led_axes.push_back((centre - p).normalized());
-    }
-    dataset.led_mu.assign(num_lights, 0.0);
-    const fs::path mu_file = folder / "light_mu.txt";
-    if (fs::exists(mu_file)) {
-      const auto rows = ReadNumberRows(mu_file, 1);
-      if (rows.size() != 1 && rows.size() != num_lights) {
-        throw DatasetError(mu_file, std::to_string(rows.size()) + " values; 1 or one per light (" +
-                                        std::to_string(num_lights) + ") required");
-      }
-      for (size_t k = 0; k < num_lights; ++k) {
-        const double mu = rows.size() == 1 ? rows[0][0] : rows[k][0];
-        if (!(mu >= 0)) throw DatasetError(mu_file, "mu = " + std::to_string(mu) + " must be >= 0");
-        dataset.led_mu[k] = mu;
-      }
-    }
+    dataset.light_directions = ReadLightDirections(folder, num_lights);
   }
-
   const fs::path truth_file = folder / "Normal_gt.mat";
   if (options.load_ground_truth && fs::exists(truth_file)) {
-    ImageF truth = ReadMatImage3(truth_file, "Normal_gt");
-    if (!truth.SameSize(dataset.width, dataset.height)) {
-      throw DatasetError(truth_file, "is " + std::to_string(truth.width()) + "x" + std::to_string(truth.height()) +
-                                         " but the images are " + std::to_string(dataset.width) + "x" +
-                                         std::to_string(dataset.height));
-    }
-    dataset.normal_ground_truth = std::move(truth);
+    dataset.normal_ground_truth = ReadNormalGroundTruth(truth_file, dataset.width, dataset.height);
   }
   return dataset;
 }

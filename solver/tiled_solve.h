@@ -1,0 +1,129 @@
+// Internal to the solver library (not part of its API): what every method's
+// tiled solve shares. The tile loop (photometric_solver.cc) classifies a
+// tile's lights (tile_lights.h), accumulates each row's samples into
+// structure-of-arrays span buffers (AccumulateSpan, here), and hands the span
+// to the method's pixel kernel (pixel_kernels.h), which writes its fits
+// through a PixelWriter.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "solver/photometric_solver.h"
+#include "solver/pixel_solvers.h"
+
+namespace scanbench::tiled {
+
+// What the tile loop, the light sampler and the kernels need to know about
+// the job. `bayer` selects the input layout: one CFA channel per raw pixel
+// (mosaics) instead of RGB pixels.
+struct SolveJob {
+  const PhotometricSolverOptions* options = nullptr;
+  const LightField* field = nullptr;
+  const std::vector<const ImageF*>* images = nullptr;  // RGB images or mosaics
+  const std::vector<const ImageU8*>* sample_valid = nullptr;
+  const ImageU8* region = nullptr;
+  bool bayer = false;
+  std::array<int, 4> cfa_channels{};
+  int num_lights = 0;
+  bool with_albedo = true;  // RGB albedo solves per pixel (never in Bayer mode: see albedo_mosaic)
+  bool with_confidence = true;
+  PhotometricSolution* solution = nullptr;
+  ImageF* albedo_mosaic = nullptr;  // Bayer mode: the albedo of each raw pixel's own channel
+};
+
+// How a tile's pixels get their lights.
+enum class TileLights {
+  kUniform,       // one set of lights (and one light matrix) for the whole tile
+  kInterpolated,  // bilinear between nodes kLightCell apart, checked against the field
+  kExact,         // evaluated at every pixel
+};
+
+// What a method allows the light sampler to do with a tile.
+enum class LightSharing {
+  kNever,          // exact lights at every pixel
+  kAlways,         // the tile centre's lights for the whole tile (uniform_pinv)
+  kWithinTolerance,  // shared or interpolated where within light_tolerance (adaptive)
+};
+
+// Rows (per pixel) of the accumulated normal equations in SpanBuffers::acc.
+enum Acc : int {
+  kG00, kG01, kG02, kG11, kG12, kG22,  // Gram matrix
+  kB0, kB1, kB2,                       // L^T luminance
+  kR0, kR1, kR2, kGr0, kGr1, kGr2, kBl0, kBl1, kBl2,  // L^T red, green, blue
+  kCount,                              // samples used
+  kNumAcc
+};
+
+// Per-thread buffers of one span (up to `capacity` pixels of a row), planar:
+// per light and pixel at [(3k + c) * capacity + i] or [k * capacity + i].
+struct SpanBuffers {
+  SpanBuffers(int num_lights, int capacity);
+
+  int num_lights = 0;
+  int capacity = 0;
+  std::vector<float> dir, inv;  // light direction and 1 / intensity per channel (not for uniform tiles)
+  std::vector<float> lum, rgb;  // intensity-divided samples (0 where not used)
+  std::vector<float> ok;        // 1 where the sample is used, else 0
+  std::vector<uint8_t> ones;    // stands in for a missing sample mask
+  std::vector<float> planes;    // one light's R, G, B and validity for the span
+  std::vector<double> acc;      // [a * capacity + i], a in Acc
+  std::vector<uint8_t> light_bad;              // non-finite light at the pixel
+  std::vector<float> clipped;                  // 1 where a sample was marked invalid (clipped)
+  std::vector<double> all_lights_condition;    // interpolated tiles: condition number of all lights
+};
+
+// A uniform tile's lights: 3 per light, and the light matrix of every light
+// usable in all three channels.
+struct SharedLights {
+  std::vector<float> dir, inv;
+  int usable = 0;  // lights in `inverse`; -1: the matrix is never shared
+  Eigen::Matrix3d inverse = Eigen::Matrix3d::Identity();
+  double condition = 0;
+};
+
+// One row's stretch of a tile once its samples are accumulated: what a kernel reads.
+struct Span {
+  TileLights lights = TileLights::kExact;
+  int x0 = 0, y = 0, count = 0;
+  const uint8_t* region = nullptr;  // the region's row from x0; null = every pixel
+  const SpanBuffers* buffers = nullptr;
+  const SharedLights* shared = nullptr;
+
+  bool Wanted(int i) const { return region == nullptr || region[i] != 0; }
+  // The path of a least-squares fit on these lights.
+  SolvePath LightPath() const {
+    return lights == TileLights::kUniform        ? SolvePath::kSharedLights
+           : lights == TileLights::kInterpolated ? SolvePath::kInterpolatedLights
+                                                 : SolvePath::kExactLights;
+  }
+};
+
+// Divides one row's samples by the lights, decides which are usable and adds
+// them to the normal equations in `buffers` (acc, lum, rgb, ok, clipped).
+using AccumulateSpanFn = void (*)(const SolveJob& job, const SharedLights& shared, int x0, int count, int y,
+                                  SpanBuffers* buffers);
+// The instantiation of the hot loop for the job's layout (RGB or Bayer), its
+// RGB albedo and the tile's lights: chosen once per solve and tile kind.
+AccumulateSpanFn ChooseAccumulator(bool bayer, bool with_albedo, bool uniform_lights);
+
+// The used samples of pixel i of the span, for the per-pixel fits.
+void GatherSamples(const Span& span, int i, bool with_rgb, PixelSamples* samples);
+
+// Writes fits into the solution and counts them by path.
+class PixelWriter {
+ public:
+  explicit PixelWriter(const SolveJob& job) : job_(job) {}
+  // `path` is the path that produced the fit; an unsolved fit counts as kNone.
+  void Store(const PixelFit& fit, int x, int y, SolvePath path);
+  const std::array<size_t, kNumSolvePaths>& pixels_by_path() const { return pixels_by_path_; }
+
+ private:
+  const SolveJob& job_;
+  std::array<size_t, kNumSolvePaths> pixels_by_path_{};
+};
+
+}  // namespace scanbench::tiled
