@@ -30,6 +30,19 @@ const QString kSimulated = QStringLiteral("simulated");
 }
 
 DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
+  auto* left = new QVBoxLayout;
+  left->addWidget(MakeBenchBox());
+  left->addWidget(MakeStatusBox());
+  left->addWidget(MakeLedBox());
+  left->addStretch();
+  auto* layout = new QHBoxLayout(this);
+  layout->addLayout(left, 1);
+  layout->addWidget(MakeLiveBox(), 1);
+  RefreshPorts();
+}
+
+// Which LED board and camera, and Connect.
+QWidget* DevicesPage::MakeBenchBox() {
   auto* choose = new QGroupBox(tr("Bench"), this);
   auto* form = new QFormLayout(choose);
   lights_choice_ = new QComboBox(choose);
@@ -52,68 +65,9 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   rig_file_->setPlaceholderText(tr("real camera: the bench's rig description (JSON)"));
   auto* rig_browse = new QPushButton(tr("Browse…"), choose);
   form->addRow(tr("Rig file"), FieldWithButton(rig_file_, rig_browse));
-  sim_width_ = new QSpinBox(choose);
-  sim_width_->setObjectName("simWidth");
-  sim_width_->setRange(64, 4928);
-  sim_width_->setValue(1232);
-  sim_height_ = new QSpinBox(choose);
-  sim_height_->setObjectName("simHeight");
-  sim_height_->setRange(64, 3264);
-  sim_height_->setValue(816);
-  auto* size_row = new QHBoxLayout;
-  size_row->addWidget(sim_width_);
-  size_row->addWidget(new QLabel(QStringLiteral("×"), choose));
-  size_row->addWidget(sim_height_);
-  size_row->addStretch();
-  form->addRow(tr("Simulated image"), size_row);
+  form->addRow(tr("Simulated image"), MakeSimSizeRow(choose));
   connect_button_ = NamedButton(tr("Connect"), "connectButton", choose);
   form->addRow(QString(), connect_button_);
-
-  auto* info = new QGroupBox(tr("Status"), this);
-  auto* info_layout = new QVBoxLayout(info);
-  lights_info_ = new QLabel(tr("LED board: not connected"), info);
-  lights_info_->setObjectName("lightsInfo");
-  camera_info_ = new QLabel(tr("Camera: not connected"), info);
-  camera_info_->setObjectName("cameraInfo");
-  status_ = new QLabel(info);
-  status_->setObjectName("devicesStatus");
-  status_->setWordWrap(true);
-  for (QLabel* label : {lights_info_, camera_info_, status_}) {
-    label->setTextInteractionFlags(Qt::TextSelectableByMouse);
-    info_layout->addWidget(label);
-  }
-
-  led_box_ = new QGroupBox(tr("LED test"), this);
-  led_grid_ = new QGridLayout(led_box_);
-  led_box_->setEnabled(false);
-
-  auto* live_box = new QGroupBox(tr("Live view"), this);
-  auto* live_layout = new QVBoxLayout(live_box);
-  live_view_ = new QCheckBox(tr("Show the camera's preview (red: clipped; histogram below)"), live_box);
-  live_view_->setObjectName("liveView");
-  live_image_ = new QLabel(live_box);
-  live_image_->setObjectName("liveImage");
-  live_image_->setMinimumSize(320, 240);
-  live_image_->setAlignment(Qt::AlignCenter);
-  live_layout->addWidget(live_view_);
-  live_info_ = new QLabel(live_box);
-  live_info_->setObjectName("liveInfo");
-  live_info_->setWordWrap(true);
-  live_layout->addWidget(live_image_, 1);
-  live_layout->addWidget(live_info_);
-  live_timer_ = new QTimer(this);
-  live_timer_->setObjectName("liveTimer");
-  live_timer_->setInterval(500);
-  live_watcher_ = new QFutureWatcher<LiveFrame>(this);
-
-  auto* left = new QVBoxLayout;
-  left->addWidget(choose);
-  left->addWidget(info);
-  left->addWidget(led_box_);
-  left->addStretch();
-  auto* layout = new QHBoxLayout(this);
-  layout->addLayout(left, 1);
-  layout->addWidget(live_box, 1);
 
   connect(refresh, &QPushButton::clicked, this, &DevicesPage::RefreshPorts);
   connect(connect_button_, &QPushButton::clicked, this, &DevicesPage::Connect);
@@ -134,6 +88,74 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
                                                       tr("Rig description (*.json)"));
     if (!file.isEmpty()) rig_file_->setText(file);
   });
+  return choose;
+}
+
+// The simulated camera's image size: width × height.
+QLayout* DevicesPage::MakeSimSizeRow(QWidget* box) {
+  sim_width_ = new QSpinBox(box);
+  sim_width_->setObjectName("simWidth");
+  sim_width_->setRange(64, 4928);
+  sim_width_->setValue(1232);
+  sim_height_ = new QSpinBox(box);
+  sim_height_->setObjectName("simHeight");
+  sim_height_->setRange(64, 3264);
+  sim_height_->setValue(816);
+  auto* size_row = new QHBoxLayout;
+  size_row->addWidget(sim_width_);
+  size_row->addWidget(new QLabel(QStringLiteral("×"), box));
+  size_row->addWidget(sim_height_);
+  size_row->addStretch();
+  return size_row;
+}
+
+// The board and camera as they report themselves, and the last message.
+QWidget* DevicesPage::MakeStatusBox() {
+  auto* info = new QGroupBox(tr("Status"), this);
+  auto* info_layout = new QVBoxLayout(info);
+  lights_info_ = new QLabel(tr("LED board: not connected"), info);
+  lights_info_->setObjectName("lightsInfo");
+  camera_info_ = new QLabel(tr("Camera: not connected"), info);
+  camera_info_->setObjectName("cameraInfo");
+  status_ = new QLabel(info);
+  status_->setObjectName("devicesStatus");
+  status_->setWordWrap(true);
+  for (QLabel* label : {lights_info_, camera_info_, status_}) {
+    label->setTextInteractionFlags(Qt::TextSelectableByMouse);
+    info_layout->addWidget(label);
+  }
+  return info;
+}
+
+// One button per LED, filled in by RebuildLedButtons once connected.
+QWidget* DevicesPage::MakeLedBox() {
+  led_box_ = new QGroupBox(tr("LED test"), this);
+  led_grid_ = new QGridLayout(led_box_);
+  led_box_->setEnabled(false);
+  return led_box_;
+}
+
+// The camera's preview on a timer, fetched on a worker.
+QWidget* DevicesPage::MakeLiveBox() {
+  auto* live_box = new QGroupBox(tr("Live view"), this);
+  auto* live_layout = new QVBoxLayout(live_box);
+  live_view_ = new QCheckBox(tr("Show the camera's preview (red: clipped; histogram below)"), live_box);
+  live_view_->setObjectName("liveView");
+  live_image_ = new QLabel(live_box);
+  live_image_->setObjectName("liveImage");
+  live_image_->setMinimumSize(320, 240);
+  live_image_->setAlignment(Qt::AlignCenter);
+  live_layout->addWidget(live_view_);
+  live_info_ = new QLabel(live_box);
+  live_info_->setObjectName("liveInfo");
+  live_info_->setWordWrap(true);
+  live_layout->addWidget(live_image_, 1);
+  live_layout->addWidget(live_info_);
+  live_timer_ = new QTimer(this);
+  live_timer_->setObjectName("liveTimer");
+  live_timer_->setInterval(500);
+  live_watcher_ = new QFutureWatcher<LiveFrame>(this);
+
   connect(live_view_, &QCheckBox::toggled, this, [this](bool on) {
     if (on) {
       live_timer_->start();
@@ -143,7 +165,7 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   });
   connect(live_timer_, &QTimer::timeout, this, &DevicesPage::UpdateLiveView);
   connect(live_watcher_, &QFutureWatcher<LiveFrame>::finished, this, &DevicesPage::ShowLiveFrame);
-  RefreshPorts();
+  return live_box;
 }
 
 // A preview still being fetched uses the bench: it ends first.

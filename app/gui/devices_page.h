@@ -18,6 +18,7 @@ class QCheckBox;
 class QComboBox;
 class QGridLayout;
 class QLabel;
+class QLayout;
 class QLineEdit;
 class QPushButton;
 class QSpinBox;
@@ -58,6 +59,14 @@ class DevicesPage : public QWidget {
   void DetectUsbCameras();
 
  private:
+  // The constructor's steps; each builds one group box and connects its own
+  // widgets.
+  QWidget* MakeBenchBox();
+  QLayout* MakeSimSizeRow(QWidget* box);
+  QWidget* MakeStatusBox();
+  QWidget* MakeLedBox();
+  QWidget* MakeLiveBox();
+
   BenchOptions OptionsFromWidgets() const;
   void RebuildLedButtons();
   void RunDeviceJob(const QString& name, std::function<void()> work);

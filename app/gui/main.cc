@@ -88,115 +88,168 @@ bool Save(QWidget& window, const QDir& dir, const QString& name, double scale = 
   return saved;
 }
 
+// The screenshot tour, one step per page or group of shots. A step returns
+// false when a job it starts fails (the tour stops there); a picture that
+// cannot be saved only marks the tour failed.
+class ScreenshotTourSteps {
+ public:
+  ScreenshotTourSteps(MainWindow& window, const QDir& dir, QSize sim_size)
+      : window_(window), dir_(dir), sim_size_(sim_size) {}
+
+  bool all_saved() const { return saved_; }
+
+  // The simulated bench connected, one LED on, the live view with RAW clipping.
+  bool Devices() {
+    window_.ShowPage(MainWindow::kDevicesPage);
+    Find<QSpinBox>(window_, "simWidth")->setValue(sim_size_.width());
+    Find<QSpinBox>(window_, "simHeight")->setValue(sim_size_.height());
+    if (!ClickAndWait(window_, "connectButton", 60000)) return false;
+    if (!ClickAndWait(window_, "led3", 10000)) return false;
+    // Four times the reference exposure, so that the live view shows RAW
+    // clipping (the simulated camera's default exposure clips nothing).
+    Camera& camera = window_.devices()->bench()->camera();
+    const double exposure_s = camera.CurrentExposure().exposure_time_s;
+    camera.SetExposureTime(1.0 / 15);
+    Find<QCheckBox>(window_, "liveView")->setChecked(true);
+    Pause(1500);
+    Shot(window_, "devices");
+    Find<QCheckBox>(window_, "liveView")->setChecked(false);
+    window_.devices()->WaitForLiveFetch();
+    camera.SetExposureTime(exposure_s);
+    return ClickAndWait(window_, "allOff", 10000);
+  }
+
+  // A capture of a new session, then its solve (which opens the Results page).
+  bool Capture() {
+    window_.ShowPage(MainWindow::kCapturePage);
+    Find<QLineEdit>(window_, "sessionFolder")->setText(work_.filePath("twill-01"));
+    Find<QLineEdit>(window_, "sampleName")->setText("twill, navy");
+    Find<QPlainTextEdit>(window_, "notes")->setPlainText("screenshot tour on the simulated bench");
+    if (!ClickAndWait(window_, "startCapture", 300000)) return false;
+    QThreadPool::globalInstance()->waitForDone();  // the thumbnails decode there
+    Shot(window_, "capture");
+    return ClickAndWait(window_, "solveCaptured", 300000);
+  }
+
+  // The solved maps the result has, then the relight, Lambertian and with the GGX lobe.
+  void ResultLayers() {
+    ResultsPage* results = window_.results();
+    for (auto [layer, name] : {std::pair{ResultLayer::kAlbedo, "results-albedo"},
+                               std::pair{ResultLayer::kNormal, "results-normal"},
+                               std::pair{ResultLayer::kResidual, "results-confidence"},
+                               std::pair{ResultLayer::kAngularError, "results-error"}}) {
+      if (results->ShowLayer(layer)) Shot(window_, name);
+    }
+    if (!results->ShowLayer(ResultLayer::kRelight)) return;
+    results->light_pad()->SetDirectionXY(QPointF(-0.6, 0.45));
+    results->WaitForRelight(60000);
+    results->view()->ZoomBy(2.0, QPointF(results->view()->width() / 2.0, results->view()->height() / 2.0));
+    Shot(window_, "results-relight");
+    RelightShading glossy;
+    glossy.specular = true;
+    glossy.roughness = 0.35;
+    results->SetRelightShading(glossy);
+    results->WaitForRelight(60000);
+    Shot(window_, "results-relight-ggx");
+    results->SetRelightShading(RelightShading());
+  }
+
+  // A session with ground truth (as `scanbench simulate` writes it), re-solved
+  // from the Sessions page, for the angular error map.
+  bool ResolveSimulated() {
+    SimulateOptions simulate;
+    simulate.rig.width = sim_size_.width();
+    simulate.rig.height = sim_size_.height();
+    const QString simulated = work_.filePath("simulated-twill");
+    window_.runner()->Start(std::make_shared<SimulateController>(simulated.toStdString(), simulate), "Simulate");
+    if (!window_.runner()->Wait(300000)) return false;
+    window_.ShowPage(MainWindow::kSessionsPage);
+    window_.sessions()->Refresh();
+    if (!window_.sessions()->SelectSession(simulated)) return false;
+    if (!ClickAndWait(window_, "resolveSession", 300000)) return false;
+    ResultsPage* results = window_.results();
+    if (results->ShowLayer(ResultLayer::kAngularError)) {
+      results->view()->FitToWidget();  // the whole sample, not the relight's zoom
+      Shot(window_, "results-error");
+    }
+    return true;
+  }
+
+  // Export of that result (ground truth: the height error is reported).
+  bool Export() {
+    ExportDialog* dialog = window_.results()->OpenExportDialog();
+    if (!dialog) return true;
+    Find<QCheckBox>(*dialog, "tileable")->setChecked(true);
+    if (!ClickAndWait(window_, "startExport", 300000)) return false;
+    Shot(*dialog, "export", 1.0);
+    dialog->close();
+    return true;
+  }
+
+  // The Sessions page with both sessions and the re-solve's result folder.
+  void Sessions() {
+    window_.ShowPage(MainWindow::kSessionsPage);
+    Shot(window_, "sessions");
+  }
+
+  // Calibration: the simulated target sessions, then each step's figures.
+  bool Calibration() {
+    window_.ShowPage(MainWindow::kCalibrationPage);
+    Find<QSpinBox>(window_, "targetsWidth")->setValue(sim_size_.width());
+    Find<QSpinBox>(window_, "targetsHeight")->setValue(sim_size_.height());
+    Find<QLineEdit>(window_, "targetsFolder")->setText(work_.filePath("targets"));
+    window_.calibration()->SetCalibrationFolder(work_.filePath("calibration"));
+    if (!ClickAndWait(window_, "renderTargets", 300000)) return false;
+    for (auto [step, button, table, name] :
+         {std::tuple{CalibrationPage::kCameraStep, "cameraRun", "cameraFigures", "calibration-camera"},
+          std::tuple{CalibrationPage::kWhiteStep, "whiteRun", "whiteFigures", "calibration-white"},
+          std::tuple{CalibrationPage::kLightsStep, "lightsRun", "lightsFigures", "calibration-lights"}}) {
+      window_.calibration()->ShowStep(step);
+      if (!ClickAndWait(window_, button, 300000)) return false;
+      ExpandFirstWithChildren(Find<QTreeWidget>(window_, table));
+      Shot(window_, name);
+    }
+    return true;
+  }
+
+ private:
+  void Shot(QWidget& widget, const QString& name, double scale = 2.0 / 3) {
+    saved_ = Save(widget, dir_, name, scale) && saved_;
+  }
+
+  // One view or LED unfolded, to show the figures kept per view and per LED.
+  static void ExpandFirstWithChildren(QTreeWidget* figures) {
+    for (int i = 0; i < figures->topLevelItemCount(); ++i) {
+      if (figures->topLevelItem(i)->childCount() > 0) {
+        figures->topLevelItem(i)->setExpanded(true);
+        return;
+      }
+    }
+  }
+
+  MainWindow& window_;
+  const QDir dir_;
+  const QSize sim_size_;
+  QTemporaryDir work_;  // the sessions and the calibration set the tour makes
+  bool saved_ = true;
+};
+
 int ScreenshotTour(MainWindow& window, const QString& output_dir, QSize sim_size) {
   QDir dir(output_dir);
   if (!dir.mkpath(".")) {
     std::fprintf(stderr, "scanbench-gui: cannot create %s\n", qPrintable(output_dir));
     return 1;
   }
-  QTemporaryDir work;
+  ScreenshotTourSteps tour(window, dir, sim_size);
   window.resize(1280, 820);
   window.show();
   Pause(200);
-
-  window.ShowPage(MainWindow::kDevicesPage);
-  Find<QSpinBox>(window, "simWidth")->setValue(sim_size.width());
-  Find<QSpinBox>(window, "simHeight")->setValue(sim_size.height());
-  if (!ClickAndWait(window, "connectButton", 60000)) return 1;
-  if (!ClickAndWait(window, "led3", 10000)) return 1;
-  // Four times the reference exposure, so that the live view shows RAW
-  // clipping (the simulated camera's default exposure clips nothing).
-  Camera& camera = window.devices()->bench()->camera();
-  const double exposure_s = camera.CurrentExposure().exposure_time_s;
-  camera.SetExposureTime(1.0 / 15);
-  Find<QCheckBox>(window, "liveView")->setChecked(true);
-  Pause(1500);
-  bool ok = Save(window, dir, "devices");
-  Find<QCheckBox>(window, "liveView")->setChecked(false);
-  window.devices()->WaitForLiveFetch();
-  camera.SetExposureTime(exposure_s);
-  if (!ClickAndWait(window, "allOff", 10000)) return 1;
-
-  window.ShowPage(MainWindow::kCapturePage);
-  Find<QLineEdit>(window, "sessionFolder")->setText(work.filePath("twill-01"));
-  Find<QLineEdit>(window, "sampleName")->setText("twill, navy");
-  Find<QPlainTextEdit>(window, "notes")->setPlainText("screenshot tour on the simulated bench");
-  if (!ClickAndWait(window, "startCapture", 300000)) return 1;
-  QThreadPool::globalInstance()->waitForDone();  // the thumbnails decode there
-  ok = Save(window, dir, "capture") && ok;
-  if (!ClickAndWait(window, "solveCaptured", 300000)) return 1;
-
-  ResultsPage* results = window.results();
-  for (auto [layer, name] : {std::pair{ResultLayer::kAlbedo, "results-albedo"},
-                             std::pair{ResultLayer::kNormal, "results-normal"},
-                             std::pair{ResultLayer::kResidual, "results-confidence"},
-                             std::pair{ResultLayer::kAngularError, "results-error"}}) {
-    if (results->ShowLayer(layer)) ok = Save(window, dir, name) && ok;
-  }
-  if (results->ShowLayer(ResultLayer::kRelight)) {
-    results->light_pad()->SetDirectionXY(QPointF(-0.6, 0.45));
-    results->WaitForRelight(60000);
-    results->view()->ZoomBy(2.0, QPointF(results->view()->width() / 2.0, results->view()->height() / 2.0));
-    ok = Save(window, dir, "results-relight") && ok;
-    RelightShading glossy;
-    glossy.specular = true;
-    glossy.roughness = 0.35;
-    results->SetRelightShading(glossy);
-    results->WaitForRelight(60000);
-    ok = Save(window, dir, "results-relight-ggx") && ok;
-    results->SetRelightShading(RelightShading());
-  }
-
-  // A session with ground truth (as `scanbench simulate` writes it), re-solved
-  // from the Sessions page, for the angular error map.
-  SimulateOptions simulate;
-  simulate.rig.width = sim_size.width();
-  simulate.rig.height = sim_size.height();
-  const QString simulated = work.filePath("simulated-twill");
-  window.runner()->Start(std::make_shared<SimulateController>(simulated.toStdString(), simulate), "Simulate");
-  if (!window.runner()->Wait(300000)) return 1;
-  window.ShowPage(MainWindow::kSessionsPage);
-  window.sessions()->Refresh();
-  if (!window.sessions()->SelectSession(simulated)) return 1;
-  if (!ClickAndWait(window, "resolveSession", 300000)) return 1;
-  if (results->ShowLayer(ResultLayer::kAngularError)) {
-    results->view()->FitToWidget();  // the whole sample, not the relight's zoom
-    ok = Save(window, dir, "results-error") && ok;
-  }
-  // Export of that result (ground truth: the height error is reported).
-  if (ExportDialog* dialog = results->OpenExportDialog()) {
-    Find<QCheckBox>(*dialog, "tileable")->setChecked(true);
-    if (!ClickAndWait(window, "startExport", 300000)) return 1;
-    ok = Save(*dialog, dir, "export", 1.0) && ok;
-    dialog->close();
-  }
-  window.ShowPage(MainWindow::kSessionsPage);
-  ok = Save(window, dir, "sessions") && ok;
-
-  // Calibration: the simulated target sessions, then each step's figures.
-  window.ShowPage(MainWindow::kCalibrationPage);
-  Find<QSpinBox>(window, "targetsWidth")->setValue(sim_size.width());
-  Find<QSpinBox>(window, "targetsHeight")->setValue(sim_size.height());
-  Find<QLineEdit>(window, "targetsFolder")->setText(work.filePath("targets"));
-  window.calibration()->SetCalibrationFolder(work.filePath("calibration"));
-  if (!ClickAndWait(window, "renderTargets", 300000)) return 1;
-  for (auto [step, button, table, name] :
-       {std::tuple{CalibrationPage::kCameraStep, "cameraRun", "cameraFigures", "calibration-camera"},
-        std::tuple{CalibrationPage::kWhiteStep, "whiteRun", "whiteFigures", "calibration-white"},
-        std::tuple{CalibrationPage::kLightsStep, "lightsRun", "lightsFigures", "calibration-lights"}}) {
-    window.calibration()->ShowStep(step);
-    if (!ClickAndWait(window, button, 300000)) return 1;
-    // One view or LED unfolded, to show the figures kept per view and per LED.
-    auto* figures = Find<QTreeWidget>(window, table);
-    for (int i = 0; i < figures->topLevelItemCount(); ++i) {
-      if (figures->topLevelItem(i)->childCount() > 0) {
-        figures->topLevelItem(i)->setExpanded(true);
-        break;
-      }
-    }
-    ok = Save(window, dir, name) && ok;
-  }
-  return ok ? 0 : 1;
+  if (!tour.Devices() || !tour.Capture()) return 1;
+  tour.ResultLayers();
+  if (!tour.ResolveSimulated() || !tour.Export()) return 1;
+  tour.Sessions();
+  if (!tour.Calibration()) return 1;
+  return tour.all_saved() ? 0 : 1;
 }
 
 }  // namespace

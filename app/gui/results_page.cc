@@ -23,6 +23,23 @@
 namespace scanbench {
 
 ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
+  auto* layout = new QVBoxLayout(this);
+  layout->addLayout(MakeTopRow());
+  layout->addLayout(MakeMiddle(), 1);
+  status_ = new QLabel(tr("Wheel: zoom, drag: pan, double-click: fit."), this);
+  status_->setObjectName("resultStatus");
+  status_->setWordWrap(true);
+  layout->addWidget(status_);
+  MakeRenderer();
+  // The relight controls and the legend show with the layers that use them.
+  pad_->setVisible(false);
+  pad_label_->setVisible(false);
+  specular_box_->setVisible(false);
+  legend_->setVisible(false);
+}
+
+// The folder shown, the map chosen, export.
+QLayout* ResultsPage::MakeTopRow() {
   folder_ = new QLineEdit(this);
   folder_->setObjectName("resultFolder");
   folder_->setReadOnly(true);
@@ -40,39 +57,43 @@ ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   export_->setEnabled(false);
   top->addWidget(export_);
 
+  connect(open, &QPushButton::clicked, this, [this] {
+    QSettings settings;
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Result folder"),
+                                                          settings.value("results/last_folder").toString());
+    if (dir.isEmpty()) return;
+    settings.setValue("results/last_folder", dir);
+    OpenResult(dir);
+  });
+  connect(layer_, &QComboBox::currentIndexChanged, this, &ResultsPage::ShowSelectedLayer);
+  connect(export_, &QPushButton::clicked, this, &ResultsPage::OpenExportDialog);
+  return top;
+}
+
+// The map view with its legend below, the side panel beside them.
+QLayout* ResultsPage::MakeMiddle() {
   view_ = new ImageView(this);
   view_->setObjectName("resultView");
+  QWidget* side_widget = MakeSidePanel();
+  legend_ = new ColourLegend(this);
+  legend_->setObjectName("heatmapLegend");
+  auto* map_column = new QVBoxLayout;
+  map_column->addWidget(view_, 1);
+  map_column->addWidget(legend_);
+  auto* middle = new QHBoxLayout;
+  middle->addLayout(map_column, 1);
+  middle->addWidget(side_widget);
+  return middle;
+}
+
+// The light pad, the specular controls and the solver's summary.
+QWidget* ResultsPage::MakeSidePanel() {
   pad_ = new LightPad(this);
   pad_->setObjectName("lightPad");
   pad_->setFixedSize(170, 170);
   pad_label_ = new QLabel(tr("Drag the light (seen from above; centre = overhead)."), this);
   pad_label_->setWordWrap(true);
-  // UE4's specular lobe on top of the Lambertian term: how the fabric would
-  // look with a sheen; the solve itself is Lambertian only.
-  specular_box_ = new QWidget(this);
-  auto* specular_form = new QFormLayout(specular_box_);
-  specular_form->setContentsMargins(0, 0, 0, 0);
-  const RelightShading shading_defaults;
-  specular_ = new QCheckBox(tr("Specular lobe (GGX)"), specular_box_);
-  specular_->setObjectName("relightSpecular");
-  specular_->setChecked(shading_defaults.specular);
-  specular_form->addRow(specular_);
-  roughness_ = new QDoubleSpinBox(specular_box_);
-  roughness_->setObjectName("relightRoughness");
-  roughness_->setRange(0.02, 1.0);
-  roughness_->setSingleStep(0.05);
-  roughness_->setDecimals(2);
-  roughness_->setValue(shading_defaults.roughness);
-  roughness_->setToolTip(tr("Perceptual roughness: 0.02 mirror-like .. 1 matte; GGX alpha = roughness²"));
-  specular_form->addRow(tr("Roughness"), roughness_);
-  f0_ = new QDoubleSpinBox(specular_box_);
-  f0_->setObjectName("relightF0");
-  f0_->setRange(0.0, 1.0);
-  f0_->setSingleStep(0.01);
-  f0_->setDecimals(3);
-  f0_->setValue(shading_defaults.f0);
-  f0_->setToolTip(tr("Reflectance at normal incidence: about 0.04 for fibres and plastics, 0.5-1 for metal threads"));
-  specular_form->addRow(tr("F0"), f0_);
+  specular_box_ = MakeSpecularBox();
   summary_ = new QPlainTextEdit(this);
   summary_->setObjectName("resultSummary");
   summary_->setReadOnly(true);
@@ -89,32 +110,53 @@ ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   auto* side_widget = new QWidget(this);
   side_widget->setLayout(side);
   side_widget->setMaximumWidth(360);
+  return side_widget;
+}
 
-  legend_ = new ColourLegend(this);
-  legend_->setObjectName("heatmapLegend");
-  auto* map_column = new QVBoxLayout;
-  map_column->addWidget(view_, 1);
-  map_column->addWidget(legend_);
-  auto* middle = new QHBoxLayout;
-  middle->addLayout(map_column, 1);
-  middle->addWidget(side_widget);
-  status_ = new QLabel(tr("Wheel: zoom, drag: pan, double-click: fit."), this);
-  status_->setObjectName("resultStatus");
-  status_->setWordWrap(true);
-  auto* layout = new QVBoxLayout(this);
-  layout->addLayout(top);
-  layout->addLayout(middle, 1);
-  layout->addWidget(status_);
+// UE4's specular lobe on top of the Lambertian term: how the fabric would
+// look with a sheen; the solve itself is Lambertian only.
+QWidget* ResultsPage::MakeSpecularBox() {
+  auto* box = new QWidget(this);
+  auto* specular_form = new QFormLayout(box);
+  specular_form->setContentsMargins(0, 0, 0, 0);
+  const RelightShading shading_defaults;
+  specular_ = new QCheckBox(tr("Specular lobe (GGX)"), box);
+  specular_->setObjectName("relightSpecular");
+  specular_->setChecked(shading_defaults.specular);
+  specular_form->addRow(specular_);
+  roughness_ = new QDoubleSpinBox(box);
+  roughness_->setObjectName("relightRoughness");
+  roughness_->setRange(0.02, 1.0);
+  roughness_->setSingleStep(0.05);
+  roughness_->setDecimals(2);
+  roughness_->setValue(shading_defaults.roughness);
+  roughness_->setToolTip(tr("Perceptual roughness: 0.02 mirror-like .. 1 matte; GGX alpha = roughness²"));
+  specular_form->addRow(tr("Roughness"), roughness_);
+  f0_ = new QDoubleSpinBox(box);
+  f0_->setObjectName("relightF0");
+  f0_->setRange(0.0, 1.0);
+  f0_->setSingleStep(0.01);
+  f0_->setDecimals(3);
+  f0_->setValue(shading_defaults.f0);
+  f0_->setToolTip(tr("Reflectance at normal incidence: about 0.04 for fibres and plastics, 0.5-1 for metal threads"));
+  specular_form->addRow(tr("F0"), f0_);
 
-  connect(open, &QPushButton::clicked, this, [this] {
-    QSettings settings;
-    const QString dir = QFileDialog::getExistingDirectory(this, tr("Result folder"),
-                                                          settings.value("results/last_folder").toString());
-    if (dir.isEmpty()) return;
-    settings.setValue("results/last_folder", dir);
-    OpenResult(dir);
-  });
-  connect(layer_, &QComboBox::currentIndexChanged, this, &ResultsPage::ShowSelectedLayer);
+  auto rerender = [this] {
+    roughness_->setEnabled(specular_->isChecked());
+    f0_->setEnabled(specular_->isChecked());
+    const QPointF xy = pad_->direction_xy();
+    if (pad_->isVisible()) pad_->SetDirectionXY(xy);  // requests a render through UpdateRelight
+  };
+  connect(specular_, &QCheckBox::toggled, this, rerender);
+  connect(roughness_, &QDoubleSpinBox::valueChanged, this, rerender);
+  connect(f0_, &QDoubleSpinBox::valueChanged, this, rerender);
+  roughness_->setEnabled(specular_->isChecked());
+  f0_->setEnabled(specular_->isChecked());
+  return box;
+}
+
+// The relight renders on a worker as the light moves and is painted when it arrives.
+void ResultsPage::MakeRenderer() {
   connect(pad_, &LightPad::DirectionChanged, this, &ResultsPage::UpdateRelight);
   renderer_ = new RelightRenderer(RelightRendererOptions(), this);
   connect(renderer_, &RelightRenderer::Rendered, this, [this](const QImage& image) {
@@ -125,22 +167,6 @@ ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   });
   connect(renderer_, &RelightRenderer::Failed, this,
           [this](const QString& message) { status_->setText(tr("Cannot relight: %1").arg(message)); });
-  auto rerender = [this] {
-    roughness_->setEnabled(specular_->isChecked());
-    f0_->setEnabled(specular_->isChecked());
-    const QPointF xy = pad_->direction_xy();
-    if (pad_->isVisible()) pad_->SetDirectionXY(xy);  // requests a render through UpdateRelight
-  };
-  connect(specular_, &QCheckBox::toggled, this, rerender);
-  connect(roughness_, &QDoubleSpinBox::valueChanged, this, rerender);
-  connect(f0_, &QDoubleSpinBox::valueChanged, this, rerender);
-  connect(export_, &QPushButton::clicked, this, &ResultsPage::OpenExportDialog);
-  roughness_->setEnabled(specular_->isChecked());
-  f0_->setEnabled(specular_->isChecked());
-  pad_->setVisible(false);
-  pad_label_->setVisible(false);
-  specular_box_->setVisible(false);
-  legend_->setVisible(false);
 }
 
 RelightShading ResultsPage::relight_shading() const {

@@ -15,6 +15,7 @@ class QCheckBox;
 class QComboBox;
 class QDoubleSpinBox;
 class QLabel;
+class QLayout;
 class QPushButton;
 class QLineEdit;
 class QPlainTextEdit;
@@ -55,6 +56,14 @@ class ResultsPage : public QWidget {
   RelightRenderer* relight_renderer() const { return renderer_; }
 
  private:
+  // The constructor's steps; each builds one row or panel and connects its
+  // own widgets.
+  QLayout* MakeTopRow();
+  QLayout* MakeMiddle();
+  QWidget* MakeSidePanel();
+  QWidget* MakeSpecularBox();
+  void MakeRenderer();
+
   void ShowSelectedLayer();
   void UpdateRelight(double x, double y, double z);
 

@@ -68,6 +68,20 @@ QString MethodDescription(PhotometricSolverOptions::Method method) {
 }  // namespace
 
 SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
+  auto* layout = new QVBoxLayout(this);
+  layout->addLayout(MakeFolderRow());
+  layout->addWidget(MakeLists(), 1);
+  layout->addLayout(MakeSolveForm());
+  layout->addLayout(MakeButtonRow());
+  layout->addWidget(MakeProgressBar());
+  status_ = new QLabel(this);
+  status_->setObjectName("sessionsStatus");
+  status_->setWordWrap(true);
+  layout->addWidget(status_);
+}
+
+// The folder the sessions are listed from.
+QLayout* SessionsPage::MakeFolderRow() {
   root_ = new QLineEdit(this);
   root_->setObjectName("sessionsRoot");
   root_->setPlaceholderText(tr("a folder holding session folders"));
@@ -79,6 +93,17 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   top->addWidget(browse);
   top->addWidget(refresh);
 
+  connect(browse, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Sessions folder"), root_->text());
+    if (!dir.isEmpty()) SetRoot(dir);
+  });
+  connect(refresh, &QPushButton::clicked, this, &SessionsPage::Refresh);
+  connect(root_, &QLineEdit::returnPressed, this, &SessionsPage::Refresh);
+  return top;
+}
+
+// The sessions above the result folders of the one selected.
+QWidget* SessionsPage::MakeLists() {
   sessions_ = new QTreeWidget(this);
   sessions_->setObjectName("sessionList");
   sessions_->setColumnCount(kColumnCount);
@@ -96,10 +121,28 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   results_layout->addWidget(results_);
   splitter->addWidget(results_box);
 
-  // The solve's inputs the operator may change: the solver method (issue #3),
-  // the shadow level, and a calibration set (issue #4).
+  connect(sessions_, &QTreeWidget::itemSelectionChanged, this, &SessionsPage::ShowResults);
+  connect(results_, &QListWidget::itemDoubleClicked, this,
+          [this](QListWidgetItem* item) { emit OpenResult(item->data(kPathRole).toString()); });
+  return splitter;
+}
+
+// The solve's inputs the operator may change: the solver method (issue #3),
+// the shadow level, and a calibration set (issue #4).
+QLayout* SessionsPage::MakeSolveForm() {
   auto* solve_form = new QFormLayout;
   const SolveOptions defaults;
+  solve_form->addRow(tr("Solver method"), MakeMethodRow(defaults));
+  solve_form->addRow(tr("Shadow level"), MakeShadowRow(defaults));
+  calibration_ = new QLineEdit(this);
+  calibration_->setObjectName("calibrationFolder");
+  calibration_->setPlaceholderText(tr("none: the session's rig description"));
+  solve_form->addRow(tr("Calibration set"), calibration_);
+  return solve_form;
+}
+
+// The method list (default selected) and the chosen method's description.
+QLayout* SessionsPage::MakeMethodRow(const SolveOptions& defaults) {
   method_ = new QComboBox(this);
   method_->setObjectName("solverMethod");
   for (PhotometricSolverOptions::Method method : AllPhotometricMethods()) {
@@ -114,7 +157,15 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   auto* method_row = new QHBoxLayout;
   method_row->addWidget(method_);
   method_row->addWidget(method_description_, 1);
-  solve_form->addRow(tr("Solver method"), method_row);
+
+  auto describe_method = [this] { method_description_->setText(method_->currentData(Qt::ToolTipRole).toString()); };
+  connect(method_, &QComboBox::currentIndexChanged, this, describe_method);
+  describe_method();
+  return method_row;
+}
+
+// The shadow level and what it means.
+QLayout* SessionsPage::MakeShadowRow(const SolveOptions& defaults) {
   shadow_level_ = new QDoubleSpinBox(this);
   shadow_level_->setObjectName("shadowLevel");
   shadow_level_->setDecimals(4);
@@ -131,12 +182,11 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
                                        .arg(defaults.solver.min_sample_value),
                                    this),
                         1);
-  solve_form->addRow(tr("Shadow level"), shadow_row);
-  calibration_ = new QLineEdit(this);
-  calibration_->setObjectName("calibrationFolder");
-  calibration_->setPlaceholderText(tr("none: the session's rig description"));
-  solve_form->addRow(tr("Calibration set"), calibration_);
+  return shadow_row;
+}
 
+// Open, re-solve, export, resume and cancel.
+QLayout* SessionsPage::MakeButtonRow() {
   open_ = NamedButton(tr("Open result"), "openResult", this);
   resolve_ = NamedButton(tr("Re-solve"), "resolveSession", this);
   resume_ = NamedButton(tr("Resume capture"), "resumeSession", this);
@@ -145,40 +195,14 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   auto* buttons = new QHBoxLayout;
   for (QPushButton* button : {open_, resolve_, export_, resume_, cancel}) buttons->addWidget(button);
   buttons->addStretch();
-  progress_ = new QProgressBar(this);
-  progress_->setRange(0, 1000);
-  progress_->setTextVisible(false);
-  status_ = new QLabel(this);
-  status_->setObjectName("sessionsStatus");
-  status_->setWordWrap(true);
 
-  auto* layout = new QVBoxLayout(this);
-  layout->addLayout(top);
-  layout->addWidget(splitter, 1);
-  layout->addLayout(solve_form);
-  layout->addLayout(buttons);
-  layout->addWidget(progress_);
-  layout->addWidget(status_);
-
-  connect(browse, &QPushButton::clicked, this, [this] {
-    const QString dir = QFileDialog::getExistingDirectory(this, tr("Sessions folder"), root_->text());
-    if (!dir.isEmpty()) SetRoot(dir);
-  });
-  connect(refresh, &QPushButton::clicked, this, &SessionsPage::Refresh);
-  connect(root_, &QLineEdit::returnPressed, this, &SessionsPage::Refresh);
-  connect(sessions_, &QTreeWidget::itemSelectionChanged, this, &SessionsPage::ShowResults);
   connect(open_, &QPushButton::clicked, this, [this] {
     QListWidgetItem* item = results_->currentItem();
     if (!item && results_->count() > 0) item = results_->item(results_->count() - 1);
     if (item) emit OpenResult(item->data(kPathRole).toString());
   });
-  connect(results_, &QListWidget::itemDoubleClicked, this,
-          [this](QListWidgetItem* item) { emit OpenResult(item->data(kPathRole).toString()); });
   connect(resolve_, &QPushButton::clicked, this, &SessionsPage::Resolve);
   connect(export_, &QPushButton::clicked, this, &SessionsPage::ExportSelectedResult);
-  auto describe_method = [this] { method_description_->setText(method_->currentData(Qt::ToolTipRole).toString()); };
-  connect(method_, &QComboBox::currentIndexChanged, this, describe_method);
-  describe_method();
   connect(resume_, &QPushButton::clicked, this, [this] {
     const fs::path session = SelectedSession();
     if (!session.empty()) emit ResumeCapture(QString::fromStdString(session.string()));
@@ -186,9 +210,18 @@ SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(
   connect(cancel, &QPushButton::clicked, this, [this] {
     if (solving_) runner_->Cancel();
   });
+  return buttons;
+}
+
+// The re-solve's progress (other jobs' progress is not shown here).
+QProgressBar* SessionsPage::MakeProgressBar() {
+  progress_ = new QProgressBar(this);
+  progress_->setRange(0, 1000);
+  progress_->setTextVisible(false);
   connect(runner_, &ControllerRunner::Progress, this, [this](const QString&, double fraction) {
     if (solving_) progress_->setValue(int(fraction * 1000));
   });
+  return progress_;
 }
 
 void SessionsPage::SetStatus(const QString& text, bool error) {

@@ -11,6 +11,7 @@
 class QComboBox;
 class QDoubleSpinBox;
 class QLabel;
+class QLayout;
 class QLineEdit;
 class QListWidget;
 class QProgressBar;
@@ -50,6 +51,16 @@ class SessionsPage : public QWidget {
   void Resolve();
 
  private:
+  // The constructor's steps, top to bottom; each builds one row or panel
+  // and connects its own widgets.
+  QLayout* MakeFolderRow();
+  QWidget* MakeLists();
+  QLayout* MakeSolveForm();
+  QLayout* MakeMethodRow(const SolveOptions& defaults);
+  QLayout* MakeShadowRow(const SolveOptions& defaults);
+  QLayout* MakeButtonRow();
+  QProgressBar* MakeProgressBar();
+
   std::filesystem::path SelectedSession() const;
   void ShowResults();
   void SetStatus(const QString& text, bool error = false);
