@@ -26,8 +26,6 @@ std::invalid_argument InputError(const std::string& what) {
   return std::invalid_argument("photometric solver input: " + what);
 }
 
-std::string SizeText(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
-
 std::string NumberText(double value) {
   std::ostringstream out;
   out << value;

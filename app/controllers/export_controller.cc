@@ -778,38 +778,29 @@ std::string ExportSummary::FullReport() const {
 ExportController::ExportController(fs::path result_dir, ExportOptions options)
     : result_dir_(std::move(result_dir)), options_(std::move(options)) {}
 
-void ExportController::EndStage(const std::string& stage) {
-  const auto now = std::chrono::steady_clock::now();
-  summary_.stage_seconds.emplace_back(stage, std::chrono::duration<double>(now - stage_start_).count());
-  stage_start_ = now;
-}
-
 void ExportController::Run() {
   options_.Check();
   summary_ = ExportSummary();
   summary_.preset = ExportPresetName(options_.preset);
   summary_.normal_convention = NormalConventionName(options_.normal_convention);
   const auto start = std::chrono::steady_clock::now();
-  stage_start_ = start;
+  std::vector<StageTiming>& timings = summary_.stage_seconds;
 
-  const ExportInputs inputs = Load();
-  EndStage("load");
+  const ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
   const ExportMaps maps = Derive(inputs);
-  if (inputs.session.ground_truth) {
-    Evaluate(inputs, maps);
-    EndStage("evaluate");
-  }
-  std::vector<ExportFile> files = PlanFiles(options_, summary_, inputs, maps);
+  if (inputs.session.ground_truth) TimedStage(timings, "evaluate", "", [&] { Evaluate(inputs, maps); });
 
-  BeginStage("write files");
   const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
   StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
-  fs::create_directory(staged.staging() / summary_.material_name);
-  WriteFilesConcurrently(staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); });
-  ThrowIfStopRequested("write files");
-  RecordWrittenFiles(staged.staging(), &files, &summary_);
+  std::vector<ExportFile> files;
+  TimedStage(timings, "write_files", "write files", [&] {
+    files = PlanFiles(options_, summary_, inputs, maps);
+    fs::create_directory(staged.staging() / summary_.material_name);
+    WriteFilesConcurrently(staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); });
+    ThrowIfStopRequested("write files");
+    RecordWrittenFiles(staged.staging(), &files, &summary_);
+  });
   summary_.export_dir = staged.final_dir();
-  EndStage("write_files");
   summary_.seconds = SecondsSince(start);
 
   const nlohmann::json manifest = ManifestJson(options_, summary_, inputs, files);
@@ -857,56 +848,53 @@ ExportInputs ExportController::Load() {
 // optional tiles, each a stage of its own.
 ExportMaps ExportController::Derive(const ExportInputs& inputs) {
   const double mm = summary_.mm_per_pixel;
+  std::vector<StageTiming>& timings = summary_.stage_seconds;
   ExportMaps maps;
   if (options_.flatten_normals) {
-    BeginStage("flatten normals");
-    summary_.flattening = FlattenNormals(options_.flattening, inputs.solved_normals, &inputs.valid, &maps.normals,
-                                         StageCallback("flatten normals"));
-    RequireSuccess(summary_.flattening, "flatten normals");
-    EndStage("flatten");
+    TimedStage(timings, "flatten", "flatten normals", [&] {
+      summary_.flattening = FlattenNormals(options_.flattening, inputs.solved_normals, &inputs.valid,
+                                           &maps.normals, StageCallback("flatten normals"));
+      RequireSuccess(summary_.flattening, "flatten normals");
+    });
   } else {
     maps.normals = inputs.solved_normals;
   }
 
-  BeginStage("height from normals");
-  summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
-                                      &maps.height_mm, StageCallback("height from normals"));
-  RequireSuccess(summary_.height, "height from normals");
-  const float* heights = maps.height_mm.data();
-  const auto [lowest, highest] = std::minmax_element(heights, heights + maps.height_mm.size());
-  summary_.height_min_mm = *lowest;
-  summary_.height_max_mm = *highest;
-  EndStage("height");
+  TimedStage(timings, "height", "height from normals", [&] {
+    summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
+                                        &maps.height_mm, StageCallback("height from normals"));
+    RequireSuccess(summary_.height, "height from normals");
+    const float* heights = maps.height_mm.data();
+    const auto [lowest, highest] = std::minmax_element(heights, heights + maps.height_mm.size());
+    summary_.height_min_mm = *lowest;
+    summary_.height_max_mm = *highest;
+  });
 
-  AmbientOcclusionOptions occlusion_options = options_.occlusion;
-  occlusion_options.mm_per_pixel = mm;
-  BeginStage("ambient occlusion");
-  summary_.occlusion = AmbientOcclusionFromHeight(occlusion_options, maps.height_mm, &maps.occlusion,
-                                                  StageCallback("ambient occlusion"));
-  RequireSuccess(summary_.occlusion, "ambient occlusion");
-  CavityOptions cavity_options = options_.cavity;
-  cavity_options.mm_per_pixel = mm;
-  BeginStage("cavity");
-  summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, StageCallback("cavity"));
-  RequireSuccess(summary_.cavity, "cavity");
-  EndStage("occlusion_cavity");
+  TimedStage(timings, "occlusion_cavity", "ambient occlusion", [&] {
+    AmbientOcclusionOptions occlusion_options = options_.occlusion;
+    occlusion_options.mm_per_pixel = mm;
+    summary_.occlusion = AmbientOcclusionFromHeight(occlusion_options, maps.height_mm, &maps.occlusion,
+                                                    StageCallback("ambient occlusion"));
+    RequireSuccess(summary_.occlusion, "ambient occlusion");
+    CavityOptions cavity_options = options_.cavity;
+    cavity_options.mm_per_pixel = mm;
+    BeginStage("cavity");
+    summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, StageCallback("cavity"));
+    RequireSuccess(summary_.cavity, "cavity");
+  });
 
-  BeginStage("roughness mips");
-  summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals, nullptr, &inputs.valid, &maps.mips,
-                                      StageCallback("roughness mips"));
-  RequireSuccess(summary_.gloss, "roughness mips");
-  EndStage("gloss_mips");
+  TimedStage(timings, "gloss_mips", "roughness mips", [&] {
+    summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals, nullptr, &inputs.valid, &maps.mips,
+                                        StageCallback("roughness mips"));
+    RequireSuccess(summary_.gloss, "roughness mips");
+  });
 
-  if (options_.tileable) {
-    DeriveTile(inputs, &maps);
-    EndStage("tileable_crop");
-  }
+  if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
   return maps;
 }
 
 // A tile that does not fit is a warning, not a failure: the other maps stand.
 void ExportController::DeriveTile(const ExportInputs& inputs, ExportMaps* maps) {
-  BeginStage("tileable crop");
   const std::vector<TileableMapInput> tile_inputs = TileInputs(inputs, *maps);
   summary_.tile =
       MakeTileableCrop(options_.tile, tile_inputs, &inputs.valid, &maps->tiles, StageCallback("tileable crop"));

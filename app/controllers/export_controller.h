@@ -74,7 +74,7 @@ struct ExportSummary {
   std::optional<double> height_rms_error_mm;         // after removing the best-fit plane
   std::optional<double> flattened_normal_mean_error_deg;
   std::vector<std::string> warnings;
-  std::vector<std::pair<std::string, double>> stage_seconds;  // per stage, in order
+  std::vector<StageTiming> stage_seconds;            // per stage, in order
   double seconds = 0;
   std::string FullReport() const;
 };
@@ -96,13 +96,10 @@ class ExportController : public BaseController {
   ExportMaps Derive(const ExportInputs& inputs);
   void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
   void Evaluate(const ExportInputs& inputs, const ExportMaps& maps);
-  // Records the time since the previous stage ended under `stage`.
-  void EndStage(const std::string& stage);
 
   std::filesystem::path result_dir_;
   ExportOptions options_;
   ExportSummary summary_;
-  std::chrono::steady_clock::time_point stage_start_;
 };
 
 }  // namespace scanbench
