@@ -6,8 +6,10 @@
 // through a PixelWriter.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -125,5 +127,27 @@ class PixelWriter {
   const SolveJob& job_;
   std::array<size_t, kNumSolvePaths> pixels_by_path_{};
 };
+
+// Inline: called once per pixel from the kernels' translation unit.
+inline void PixelWriter::Store(const PixelFit& fit, int x, int y, SolvePath path) {
+  PhotometricSolution& s = *job_.solution;
+  for (int c = 0; c < 3; ++c) s.normal_in_table(x, y, c) = static_cast<float>(fit.normal[c]);
+  const bool solved = fit.status == PixelStatus::kSolved;
+  if (job_.bayer) {
+    (*job_.albedo_mosaic)(x, y) = solved ? static_cast<float>(fit.luminance_albedo) : 0.0f;
+  } else if (job_.with_albedo) {
+    for (int c = 0; c < 3; ++c) s.albedo(x, y, c) = solved ? static_cast<float>(fit.albedo[c]) : 0.0f;
+  }
+  s.status(x, y) = static_cast<uint8_t>(fit.status);
+  s.lights_used(x, y) = static_cast<uint8_t>(std::clamp(fit.lights_used, 0, 255));
+  if (job_.with_confidence) {
+    s.condition_number(x, y) =
+        static_cast<float>(std::min(fit.condition_number, double(std::numeric_limits<float>::max())));
+    s.residual(x, y) = solved ? static_cast<float>(std::min(fit.residual, 1e30)) : 0.0f;
+  }
+  const SolvePath stored = solved ? path : SolvePath::kNone;
+  s.solve_path(x, y) = static_cast<uint8_t>(stored);
+  ++pixels_by_path_[static_cast<int>(stored)];
+}
 
 }  // namespace scanbench::tiled
