@@ -101,6 +101,28 @@ int CalibrateLightsCommand(const LightsState& state) {
   return code;
 }
 
+struct ColorState {
+  std::vector<fs::path> targets;
+  fs::path calibration;
+  ColorCalibrationJobOptions options;
+  std::vector<double> corners;  // x0 y0 ... x3 y3, or empty
+};
+
+int CalibrateColorCommand(ColorState& state) {
+  if (!state.corners.empty()) {
+    ColorChartQuad quad;
+    for (int i = 0; i < 4; ++i) quad.corners_px[i] = Eigen::Vector2d(state.corners[2 * i], state.corners[2 * i + 1]);
+    state.options.detection.corners = quad;
+  }
+  ColorCalibrationController controller(state.targets, state.calibration, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) {
+    std::cout << controller.summary().FullReport() << "Colour calibration written into the calibration set "
+              << fs::absolute(state.calibration).string() << "\n";
+  }
+  return code;
+}
+
 struct DescribeState {
   std::vector<fs::path> sessions;
   std::string kind;
@@ -165,45 +187,62 @@ int CalibrationDemo(const DemoState& state) {
   const fs::path calibration = state.output / "calibration";
   const fs::path scan = state.output / "scan";
 
-  std::cout << "1/6 Rendering the calibration targets into " << targets.string() << "\n";
+  std::cout << "1/8 Rendering the calibration targets into " << targets.string() << "\n";
   SimulateTargetsOptions target_options;
   target_options.rig = sensor;
   if (int code = SimulateTargetsCommand({targets, target_options}); code != kExitSuccess) return code;
 
-  std::cout << "2/6 Camera calibration\n";
+  std::cout << "2/8 Camera calibration\n";
   std::vector<fs::path> boards;
   for (int i = 0; i < target_options.num_board_poses; ++i) boards.push_back(targets / ("checkerboard_" + std::to_string(i)));
   CameraState camera{boards, calibration, {}};
   camera.options.replace = true;
   if (int code = CalibrateCameraCommand(camera); code != kExitSuccess) return code;
 
-  std::cout << "3/6 White balance and linearity (gray chart)\n";
+  std::cout << "3/8 White balance and linearity (gray chart)\n";
   if (int code = CalibrateWhiteCommand({targets / "gray_chart", calibration, {}}); code != kExitSuccess) return code;
 
-  std::cout << "4/6 Light calibration (white sheet on the table and on a spacer)\n";
+  std::cout << "4/8 Light calibration (white sheet on the table and on a spacer)\n";
   if (int code = CalibrateLightsCommand(
           {{targets / "white_sheet_table", targets / "white_sheet_spacer"}, calibration, {}});
       code != kExitSuccess) {
     return code;
   }
 
-  std::cout << "5/6 A scan whose session records the measured (uncalibrated) rig, solved with the calibration\n";
-  if (!fs::exists(scan / "session.json") || !LoadSession(scan).capture_complete) {
-    SimulateOptions simulate;
-    simulate.rig = sensor;
-    simulate.rig_description = SimulateOptions::RigDescriptionKind::kMeasured;
-    SimulateController controller(scan, simulate);
-    if (int code = RunController(controller); code != kExitSuccess) return code;
-  }
-  SolveOptions solve;
-  solve.solver.num_threads = state.threads;
-  solve.calibration_dir = calibration;
-  solve.run_label = "calibrated";
-  SolveController solver(scan, solve);
-  if (int code = RunController(solver); code != kExitSuccess) return code;
-  std::cout << solver.summary().FullReport();
+  std::cout << "5/8 Colour calibration (ColorChecker target, through the light calibration)\n";
+  ColorState color{{targets / "color_chart"}, calibration, {}, {}};
+  if (int code = CalibrateColorCommand(color); code != kExitSuccess) return code;
 
-  std::cout << "6/6 Edge error: distant uniform lights against the calibration\n";
+  // Scans whose sessions record the measured (uncalibrated) rig, solved with the calibration.
+  auto scan_and_solve = [&](const fs::path& dir, SampleKind sample, const std::string& name) {
+    if (!fs::exists(dir / "session.json") || !LoadSession(dir).capture_complete) {
+      SimulateOptions simulate;
+      simulate.rig = sensor;
+      simulate.rig_description = SimulateOptions::RigDescriptionKind::kMeasured;
+      simulate.scene.sample = sample;
+      simulate.sample_name = name;
+      SimulateController controller(dir, simulate);
+      if (int code = RunController(controller); code != kExitSuccess) return code;
+    }
+    SolveOptions solve;
+    solve.solver.num_threads = state.threads;
+    solve.calibration_dir = calibration;
+    solve.run_label = "calibrated";
+    SolveController solver(dir, solve);
+    const int code = RunController(solver);
+    if (code == kExitSuccess) std::cout << solver.summary().FullReport();
+    return code;
+  };
+  std::cout << "6/8 A twill scan, solved with the calibration\n";
+  if (int code = scan_and_solve(scan, SampleKind::kTextile, "simulated twill"); code != kExitSuccess) return code;
+  std::cout << "7/8 A ColorChecker scan (other captures than the colour target), solved with the calibration\n";
+  if (int code = scan_and_solve(state.output / "colorchecker_scan", SampleKind::kColorChecker,
+                                "simulated ColorChecker Classic");
+      code != kExitSuccess) {
+    return code;
+  }
+
+  std::cout << "8/8 Edge error: distant uniform lights against the calibration\n";
   EdgeErrorOptions edge;
   edge.solver.num_threads = state.threads;
   edge.calibration_dir = calibration;
@@ -281,6 +320,33 @@ void AddLightsCommand(CLI::App& calibrate, int* exit_code) {
   command->callback([lights, exit_code] { Guarded(exit_code, [&] { return CalibrateLightsCommand(*lights); }); });
 }
 
+void AddColorCommand(CLI::App& calibrate, int* exit_code) {
+  auto color = std::make_shared<ColorState>();
+  CLI::App* command = calibrate.add_subcommand(
+      "color", "Colour correction from a ColorChecker Classic: colour chart target sessions (every LED, measured "
+               "through the set's light calibration: absolute) or RAW photos of the chart (balanced on its gray "
+               "row: relative), into a calibration set (a photo may start a new one)");
+  command->add_option("targets", color->targets, "Colour chart target sessions, or RAW files")
+      ->required()
+      ->check(CLI::ExistingPath);
+  command->add_option("--output,-o", color->calibration, "Calibration set folder")->required();
+  command
+      ->add_option_function<std::string>(
+          "--method",
+          [color](const std::string& name) {
+            color->options.correction.method = name == "opencv-ccm" ? ColorCorrectionOptions::Method::kOpenCvCcm
+                                                                     : ColorCorrectionOptions::Method::kCiede2000Fit;
+          },
+          "Fit: ciede2000 (weighted fit minimising CIEDE2000, default) or opencv-ccm (OpenCV's ColorCorrectionModel)")
+      ->check(CLI::IsMember({"ciede2000", "opencv-ccm"}));
+  command->add_option("--corners", color->corners,
+                      "The chart's corners in image pixels instead of the detector: x y of dark skin's corner, "
+                      "bluish green's, black's, white's (8 numbers)")
+      ->expected(8);
+  AddVerifyFlag(*command, color->options.verify_checksums);
+  command->callback([color, exit_code] { Guarded(exit_code, [&] { return CalibrateColorCommand(*color); }); });
+}
+
 void AddDescribeCommand(CLI::App& calibrate, int* exit_code) {
   auto describe = std::make_shared<DescribeState>();
   CLI::App* command = calibrate.add_subcommand(
@@ -342,7 +408,7 @@ void AddEdgeErrorCommand(CLI::App& calibrate, int* exit_code) {
 void AddDemoCommand(CLI::App& calibrate, int* exit_code) {
   auto demo = std::make_shared<DemoState>();
   CLI::App* command = calibrate.add_subcommand(
-      "demo", "On the simulated rig: render the targets, calibrate camera, white balance and lights, scan a sample "
+      "demo", "On the simulated rig: render the targets, calibrate camera, white balance, lights and colour, scan a sample "
               "whose session holds only the measured rig, solve it with the calibration and measure the edge error");
   command->add_option("--output", demo->output, "Folder for everything")->capture_default_str();
   command->add_option("--width", demo->width, "Image width in pixels")->capture_default_str();
@@ -362,6 +428,7 @@ void RegisterCalibrateCommands(CLI::App& app, int* exit_code) {
   AddCameraCommand(*calibrate, exit_code);
   AddWhiteCommand(*calibrate, exit_code);
   AddLightsCommand(*calibrate, exit_code);
+  AddColorCommand(*calibrate, exit_code);
   AddDescribeCommand(*calibrate, exit_code);
   AddSimulateTargetsCommand(*calibrate, exit_code);
   AddEdgeErrorCommand(*calibrate, exit_code);

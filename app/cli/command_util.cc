@@ -68,6 +68,13 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
   command.add_option("--calibration-max-age", options.calibration_max_age_days,
                      "Warn when the calibration set is older than this many days")
       ->capture_default_str();
+  command
+      .add_option_function<std::string>(
+          "--albedo-color",
+          [&options](const std::string& name) { options.albedo_color.source = AlbedoColorSourceFromName(name); },
+          "Albedo colour: auto (the calibration set's colour calibration, else the RAW files' camera matrix), chart, "
+          "camera-matrix, or none (white-balanced camera RGB)")
+      ->check(CLI::IsMember({"auto", "chart", "camera-matrix", "none"}));
 }
 
 }  // namespace scanbench

@@ -41,6 +41,13 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
           [&options](const std::string& name) { options.normal_convention = NormalConventionFromName(name); },
           "Normal map Y: opengl (+Y up, default) or directx (Y flipped)")
       ->check(NameCheck(NormalConventionFromName));
+  command
+      .add_option_function<std::string>(
+          "--basecolor-space",
+          [&options](const std::string& name) { options.basecolor_space = BasecolorSpaceFromName(name); },
+          "Primaries of the linear EXR base colour: rec709 (default) or acescg; PNG / TIFF base colour is always "
+          "sRGB")
+      ->check(NameCheck(BasecolorSpaceFromName));
   command.add_option("--material", options.material_name,
                      "Material name, the file-name prefix ([A-Za-z0-9._-]; default: from the sample name)");
   command.add_option("--output", options.output_root, "Folder for the export folders (default: <session>/exports)");

@@ -110,6 +110,7 @@ CalibratedLighting MakeCalibratedLighting(const CalibrationSet& set, const std::
   report["warnings"] = lighting.warnings;
   report["description"] = lighting.light_model;
   lighting.report_json = report.dump();
+  lighting.set = std::make_shared<const CalibrationSet>(set);
   return lighting;
 }
 

@@ -28,6 +28,7 @@ struct CalibratedLighting {
   std::string light_model;            // one line for reports: what and why
   std::vector<std::string> warnings;  // e.g. a stale set
   std::string report_json;            // the "calibration" object of report.json (JSON text)
+  std::shared_ptr<const CalibrationSet> set;  // the set it came from (its colour section, its white sheets)
 };
 
 // Loads and checks the set (SessionError naming file and field), refuses a set

@@ -1,11 +1,16 @@
 #include "app/controllers/calibration_controllers.h"
 
+#include <algorithm>
 #include <chrono>
+#include <sstream>
 #include <stdexcept>
 
+#include "app/controllers/calibrated_lighting.h"
+#include "app/io/file_util.h"
 #include "app/io/raw_decoder.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
+#include "calibration/color_checker.h"
 #include "core/summary.h"
 
 namespace scanbench {
@@ -333,6 +338,272 @@ void LightCalibrationController::WriteSet(Inputs& inputs) const {
   }
   WriteCalibrationSet(calibration_dir_, set);
   ReportProgress("calibrate lights", 1);
+}
+
+// ---------------------------------------------------------------------------
+// Colour
+
+namespace {
+
+// One thing the chart was shot in: a target session (every LED) or one RAW photo.
+struct ColorTarget {
+  std::string name;
+  std::optional<TargetSession> session;
+  DecodedRaw photo;  // when not a session
+};
+
+bool IsSessionFolder(const fs::path& path) { return fs::is_regular_file(path / "session.json"); }
+
+// What a perfect white (facing up) reads at each pixel of `box` under each LED of
+// `field`: the calibrated intensity times n.l. Zero outside the box.
+std::vector<ImageF> WhiteResponses(const LightField& field, const ColorChartQuad& quad) {
+  const int width = field.width(), height = field.height(), num_leds = field.num_lights();
+  double x0 = width, y0 = height, x1 = 0, y1 = 0;
+  for (const Eigen::Vector2d& c : quad.corners_px) {
+    x0 = std::min(x0, c.x()), y0 = std::min(y0, c.y()), x1 = std::max(x1, c.x()), y1 = std::max(y1, c.y());
+  }
+  const int bx0 = std::clamp(static_cast<int>(x0) - 2, 0, width), by0 = std::clamp(static_cast<int>(y0) - 2, 0, height);
+  const int bx1 = std::clamp(static_cast<int>(x1) + 3, 0, width), by1 = std::clamp(static_cast<int>(y1) + 3, 0, height);
+  std::vector<ImageF> responses(num_leds, ImageF(width, height, 3));
+  std::vector<float> dirs(3 * num_leds), intensities(3 * num_leds);
+  for (int y = by0; y < by1; ++y) {
+    for (int x = bx0; x < bx1; ++x) {
+      field.Evaluate(x, y, dirs.data(), intensities.data());
+      for (int k = 0; k < num_leds; ++k) {
+        const float n_dot_l = std::max(0.0f, dirs[3 * k + 2]);  // the chart lies flat: n = table up
+        float* out = responses[k].data() + (static_cast<size_t>(y) * width + x) * 3;
+        for (int c = 0; c < 3; ++c) out[c] = intensities[3 * k + c] * n_dot_l;
+      }
+    }
+  }
+  return responses;
+}
+
+// A photo under unknown light: per-channel gains that bring the chart's used gray
+// patches onto their reference (least squares through the origin).
+void BalanceOnNeutralPatches(std::vector<PatchSample>& patches, const std::string& name) {
+  const std::vector<ColorCheckerPatch>& reference = ColorCheckerClassic();
+  Eigen::Vector3d numerator = Eigen::Vector3d::Zero(), denominator = Eigen::Vector3d::Zero();
+  int neutrals = 0;
+  for (size_t p = 0; p < patches.size(); ++p) {
+    if (!reference[p].neutral || !patches[p].used) continue;
+    ++neutrals;
+    numerator += patches[p].value.cwiseProduct(reference[p].linear_rec709);
+    denominator += patches[p].value.cwiseProduct(patches[p].value);
+  }
+  if (neutrals < 2 || !(denominator.minCoeff() > 0)) {
+    throw std::runtime_error(name + ": only " + std::to_string(neutrals) +
+                             " of the chart's 6 gray patches are usable (neither clipped nor too dark); at least 2 "
+                             "are needed to balance a photo under unknown light: expose for the gray row");
+  }
+  const Eigen::Vector3d gains = numerator.cwiseQuotient(denominator);
+  for (PatchSample& patch : patches) patch.value = patch.value.cwiseProduct(gains);
+}
+
+// Per patch and channel, the median over the frames where the patch was used.
+std::vector<PatchSample> CombineFrames(const std::vector<std::vector<PatchSample>>& frames) {
+  const size_t num_patches = frames.front().size();
+  std::vector<PatchSample> combined(num_patches);
+  for (size_t p = 0; p < num_patches; ++p) {
+    PatchSample& out = combined[p];
+    out.clipped = true;
+    out.too_dark = true;
+    std::array<std::vector<double>, 3> values;
+    for (const std::vector<PatchSample>& frame : frames) {
+      const PatchSample& in = frame[p];
+      out.clipped = out.clipped && in.clipped;
+      out.too_dark = out.too_dark && in.too_dark;
+      if (!in.used) continue;
+      for (int c = 0; c < 3; ++c) {
+        values[c].push_back(in.value[c]);
+        out.samples[c] += in.samples[c];
+      }
+    }
+    out.used = !values[0].empty();
+    for (int c = 0; c < 3 && out.used; ++c) {
+      std::vector<double>& v = values[c];
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      out.value[c] = v[v.size() / 2];
+    }
+    if (out.used) out.clipped = out.too_dark = false;
+  }
+  return combined;
+}
+
+}  // namespace
+
+void ColorCalibrationJobOptions::Check() const {
+  detection.Check();
+  sampling.Check();
+  correction.Check();
+}
+
+std::string ColorCalibrationJobSummary::FullReport() const {
+  std::ostringstream out;
+  for (const std::string& detection : detections) out << "  " << detection << "\n";
+  out << "  white reference: "
+      << (white_reference == "light_field"
+              ? "the set's light calibration (absolute reflectance, the solver's albedo space)"
+              : "the chart's gray row per frame (relative: no light calibration)")
+      << ", " << num_frames << " frame(s)\n";
+  out << "  " << fit.BriefReport() << "\n" << fit.PatchTable();
+  return out.str();
+}
+
+struct ColorCalibrationController::Inputs {
+  std::vector<ColorTarget> targets;
+  CalibrationSet set;
+  bool new_set = false;
+};
+
+ColorCalibrationController::ColorCalibrationController(std::vector<fs::path> targets, fs::path calibration_dir,
+                                                       ColorCalibrationJobOptions options)
+    : targets_(std::move(targets)), calibration_dir_(std::move(calibration_dir)), options_(std::move(options)) {}
+
+void ColorCalibrationController::Run() {
+  options_.Check();
+  summary_ = ColorCalibrationJobSummary();
+  if (targets_.empty()) throw std::invalid_argument("colour calibration: no chart sessions or RAW photos given");
+  Inputs inputs = ReadTargets();
+  const std::vector<PatchSample> patches = MeasurePatches(inputs);
+  Fit(patches);
+  WriteSet(inputs);
+}
+
+ColorCalibrationController::Inputs ColorCalibrationController::ReadTargets() const {
+  const std::string stage = "read colour chart captures";
+  const fs::path manifest = calibration_dir_ / kCalibrationManifestName;
+  Inputs inputs;
+  inputs.new_set = !fs::exists(manifest);
+  if (!inputs.new_set) inputs.set = LoadCalibrationSet(calibration_dir_);
+  for (size_t i = 0; i < targets_.size(); ++i) {
+    ReportProgress(stage, double(i) / targets_.size(), targets_[i].filename().string());
+    ColorTarget target;
+    target.name = targets_[i].string();
+    if (IsSessionFolder(targets_[i])) {
+      if (inputs.new_set) {
+        throw SessionError(manifest.string() + ": does not exist; a colour chart session is calibrated into an "
+                                               "existing set (scanbench calibrate camera makes one)");
+      }
+      target.session = LoadTargetSession(targets_[i], CalibrationTargetDescription::Kind::kColorChart,
+                                         options_.verify_checksums, *this, stage);
+      CheckSameCamera(inputs.set.camera, manifest.string(), *target.session);
+    } else {
+      target.photo = DecodeRawFileWithInfo(targets_[i]);
+      CalibratedCameraIdentity id;
+      id.make = target.photo.make;
+      id.model = target.photo.model;
+      id.serial = target.photo.serial;
+      id.width = target.photo.image.width();
+      id.height = target.photo.image.height();
+      if (inputs.new_set && i == 0) {
+        inputs.set.created = Now();
+        inputs.set.software_version = "scanbench " SCANBENCH_VERSION;
+        inputs.set.camera = id;
+      } else if (id.make != inputs.set.camera.make || id.model != inputs.set.camera.model ||
+                 id.width != inputs.set.camera.width || id.height != inputs.set.camera.height) {
+        throw SessionError(target.name + ": a " + id.make + " " + id.model + " photo of " + std::to_string(id.width) +
+                           "x" + std::to_string(id.height) + " px, but " + manifest.string() + " is for a " +
+                           inputs.set.camera.make + " " + inputs.set.camera.model + " at " +
+                           std::to_string(inputs.set.camera.width) + "x" + std::to_string(inputs.set.camera.height) +
+                           ": a colour calibration serves one camera");
+      }
+    }
+    if (IsStopRequested()) throw Cancelled(stage);
+    inputs.targets.push_back(std::move(target));
+  }
+  return inputs;
+}
+
+std::vector<PatchSample> ColorCalibrationController::MeasurePatches(const Inputs& inputs) {
+  const std::string stage = "find and sample the chart";
+  BeginStage(stage);
+  const bool have_lights = inputs.set.lights.has_value();
+  std::vector<std::vector<PatchSample>> frames;
+  bool any_relative = false, any_absolute = false;
+  for (size_t t = 0; t < inputs.targets.size(); ++t) {
+    const ColorTarget& target = inputs.targets[t];
+    const ProgressCallback progress = SubRange(StageCallback(stage), double(t) / inputs.targets.size(),
+                                               double(t + 1) / inputs.targets.size());
+    if (!target.session) {
+      const ColorChartDetectionSummary found = DetectColorChart(options_.detection, target.photo.image, nullptr);
+      if (found.IsCancelled()) throw Cancelled(stage);
+      if (!found.IsUsable()) throw std::runtime_error(target.name + ": " + found.message);
+      summary_.detections.push_back(target.name + ": " + found.BriefReport());
+      std::vector<PatchSample> patches =
+          SampleColorChartPatches(options_.sampling, target.photo.image, nullptr, found.quad, nullptr);
+      BalanceOnNeutralPatches(patches, target.name);
+      frames.push_back(std::move(patches));
+      any_relative = true;
+      continue;
+    }
+    const TargetSession& s = *target.session;
+    // Camera and chart do not move between LEDs: find it once, in the first frame where it is found.
+    std::optional<ColorChartDetectionSummary> found;
+    std::string why;
+    for (const RawImage& frame : s.leds) {
+      ColorChartDetectionSummary attempt = DetectColorChart(options_.detection, frame, &s.dark);
+      if (attempt.IsUsable()) {
+        found = std::move(attempt);
+        break;
+      }
+      why = attempt.message;
+      ThrowIfStopRequested(stage);
+    }
+    if (!found) throw std::runtime_error(target.name + ": in none of its LED frames: " + why);
+    summary_.detections.push_back(target.name + ": " + found->BriefReport());
+    std::vector<ImageF> white;
+    if (have_lights) {
+      const CalibratedLighting lighting =
+          MakeCalibratedLighting(inputs.set, (calibration_dir_ / kCalibrationManifestName).string(), s.session,
+                                 (s.dir / "session.json").string());
+      white = WhiteResponses(*lighting.light_field, found->quad);
+      any_absolute = true;
+    } else {
+      any_relative = true;
+    }
+    for (size_t k = 0; k < s.leds.size(); ++k) {
+      std::vector<PatchSample> patches = SampleColorChartPatches(options_.sampling, s.leds[k], &s.dark, found->quad,
+                                                                 have_lights ? &white[k] : nullptr);
+      if (!have_lights) BalanceOnNeutralPatches(patches, target.name + " LED " + std::to_string(k));
+      frames.push_back(std::move(patches));
+      if (!progress(double(k + 1) / s.leds.size())) throw Cancelled(stage);
+    }
+  }
+  // Absolute (light field) and relative (gray row) values do not mix in one fit.
+  if (any_relative && any_absolute) {
+    throw std::invalid_argument("colour calibration: RAW photos (balanced on the gray row, relative) and chart "
+                                "sessions measured through the set's light calibration (absolute) cannot be fitted "
+                                "together; calibrate from one kind");
+  }
+  summary_.white_reference = any_absolute ? "light_field" : "neutral_patches";
+  summary_.num_frames = static_cast<int>(frames.size());
+  return CombineFrames(frames);
+}
+
+void ColorCalibrationController::Fit(const std::vector<PatchSample>& patches) {
+  const std::string stage = "fit colour correction";
+  BeginStage(stage);
+  summary_.fit = FitColorCorrection(options_.correction, patches, ColorCheckerClassic());
+  RequireSuccess(summary_.fit, "colour calibration failed");
+}
+
+void ColorCalibrationController::WriteSet(Inputs& inputs) const {
+  ColorSection section;
+  section.date = Now();
+  for (const ColorTarget& target : inputs.targets) {
+    if (target.session) {
+      section.targets.push_back(MakeTargetCaptureRecord(target.session->dir, target.session->session, "color_chart"));
+    } else {
+      section.raw_files.push_back({target.name, Sha256HexOfFile(target.name)});
+    }
+  }
+  section.white_reference = summary_.white_reference;
+  section.num_frames = summary_.num_frames;
+  section.summary = summary_.fit;
+  inputs.set.color = section;
+  WriteCalibrationSet(calibration_dir_, inputs.set);
+  ReportProgress("fit colour correction", 1);
 }
 
 }  // namespace scanbench

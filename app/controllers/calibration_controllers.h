@@ -5,6 +5,7 @@
 //   camera  checkerboard sessions -> a NEW set (intrinsics, distortion, table pose)
 //   white   one gray-chart session -> the set's white_balance section
 //   lights  white-sheet sessions   -> the set's lights section (+ per-pixel field files)
+//   color   colour chart sessions or RAW photos of a ColorChecker -> the set's color section
 //
 // white and lights need the set's camera section and refuse target sessions
 // of another camera, lens or resolution.
@@ -17,6 +18,7 @@
 #include "app/controllers/base_controller.h"
 #include "app/session/calibration_set.h"
 #include "calibration/camera_calibration.h"
+#include "calibration/color_calibration.h"
 #include "calibration/light_calibration.h"
 #include "calibration/raw_develop.h"
 #include "calibration/white_balance.h"
@@ -102,6 +104,53 @@ class LightCalibrationController : public BaseController {
   std::filesystem::path calibration_dir_;
   LightCalibrationJobOptions options_;
   LightCalibrationSummary summary_;
+};
+
+struct ColorCalibrationJobOptions {
+  ColorChartDetectionOptions detection;
+  ColorPatchSamplingOptions sampling;
+  ColorCorrectionOptions correction;
+  bool verify_checksums = true;
+
+  void Check() const;
+};
+
+struct ColorCalibrationJobSummary {
+  ColorCorrectionSummary fit;
+  std::vector<std::string> detections;  // per target: where the chart was found and how
+  std::string white_reference;          // "light_field" or "neutral_patches" (ColorSection)
+  int num_frames = 0;                   // frames sampled
+  bool new_set = false;                 // the set was created for a RAW photo
+
+  // The detections, the fit and the per-patch table, for the CLI.
+  std::string FullReport() const;
+};
+
+// Colour calibration (issue #12): each target is a colour chart target session
+// (every LED frame, the dark frame subtracted) or a single RAW photo of a
+// ColorChecker. With the set's light calibration, patch values are divided by
+// what a perfect white reads there under each LED (absolute reflectance in the
+// solver's albedo space); otherwise each frame is balanced on the chart's gray
+// row (relative). The colour correction fitted to the 24 patches goes into the
+// set's color section. A RAW photo may start a new set (its camera, no lens).
+class ColorCalibrationController : public BaseController {
+ public:
+  ColorCalibrationController(std::vector<std::filesystem::path> targets, std::filesystem::path calibration_dir,
+                             ColorCalibrationJobOptions options);
+  void Run() override;
+  const ColorCalibrationJobSummary& summary() const { return summary_; }
+
+ private:
+  struct Inputs;  // the targets, decoded, and the set they go into
+  Inputs ReadTargets() const;
+  std::vector<PatchSample> MeasurePatches(const Inputs& inputs);
+  void Fit(const std::vector<PatchSample>& patches);
+  void WriteSet(Inputs& inputs) const;
+
+  std::vector<std::filesystem::path> targets_;
+  std::filesystem::path calibration_dir_;
+  ColorCalibrationJobOptions options_;
+  ColorCalibrationJobSummary summary_;
 };
 
 }  // namespace scanbench

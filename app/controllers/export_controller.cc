@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/controllers/map_writer.h"
+#include "calibration/color_science.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
@@ -31,6 +32,37 @@
 namespace scanbench {
 namespace fs = std::filesystem;
 
+// The albedo's colour as the result's report.json states it (issue #12); results
+// older than that are white-balanced camera RGB of a relative scale.
+struct ExportedAlbedoColor {
+  std::string color_space = "camera_rgb";  // "linear_rec709" or "camera_rgb"
+  std::string scale = "relative";          // "absolute" or "relative"
+  std::string description = "not colour calibrated (the result's report names no colour space)";
+  std::string scale_source;
+};
+
+ExportedAlbedoColor AlbedoColorOfResult(const nlohmann::json& report) {
+  ExportedAlbedoColor color;
+  if (!report.contains("color")) return color;
+  const nlohmann::json& c = report.at("color");
+  color.color_space = c.value("color_space", color.color_space);
+  color.scale = c.value("scale", color.scale);
+  color.description = c.value("description", color.description);
+  color.scale_source = c.value("scale_source", color.scale_source);
+  return color;
+}
+
+// Linear Rec.709 -> linear ACEScg, per pixel.
+ImageF ToAcescg(const ImageF& linear_rec709) {
+  const Eigen::Matrix3f m = AcescgFromLinearRec709().cast<float>();
+  ImageF out = linear_rec709;
+  for (size_t i = 0; i < out.num_pixels(); ++i) {
+    Eigen::Map<Eigen::Vector3f> rgb(out.data() + 3 * i);
+    rgb = m * Eigen::Vector3f(rgb);
+  }
+  return out;
+}
+
 struct ExportInputs {
   fs::path result_dir;            // absolute, <session>/results/<run-id>
   fs::path session_dir;
@@ -38,7 +70,8 @@ struct ExportInputs {
   fs::path report_path;           // the result's report.json
   nlohmann::json result_report;
   ImageF solved_normals;          // normal.exr, tangent frame
-  ImageF albedo;                  // albedo.exr, linear RGB
+  ImageF albedo;                  // albedo.exr, linear (Rec.709 when colour calibrated)
+  ExportedAlbedoColor albedo_color;
   ImageF confidence;              // confidence.exr: lights used, condition number, residual
   ImageU8 valid;                  // solved_mask.png: 1 = solved
 };
@@ -230,9 +263,11 @@ std::vector<TileableMapInput> TileInputs(const ExportInputs& inputs, const Expor
 
 // --- Files of an export --------------------------------------------------
 
-// How a float map becomes 16-bit integers: clamp(value * scale + offset, 0, 1) * 65535.
+// How a float map becomes 16-bit integers: clamp(value * scale + offset, 0, 1) * 65535,
+// through the sRGB transfer curve when `srgb` (base colour).
 struct IntegerEncoding {
   double scale = 1, offset = 0;
+  bool srgb = false;
   std::string text;  // for the manifest, e.g. "value * 65535"
 };
 
@@ -258,7 +293,8 @@ struct ExportFile {
 ImageU16 Quantise16(const ImageF& image, const IntegerEncoding& encoding) {
   ImageU16 quantised(image.width(), image.height(), image.channels());
   for (size_t i = 0; i < image.size(); ++i) {
-    const double value = std::clamp(double(image.data()[i]) * encoding.scale + encoding.offset, 0.0, 1.0);
+    double value = std::clamp(double(image.data()[i]) * encoding.scale + encoding.offset, 0.0, 1.0);
+    if (encoding.srgb) value = SrgbEncode(value);
     quantised.data()[i] = static_cast<uint16_t>(std::lround(value * 65535.0));
   }
   return quantised;
@@ -337,6 +373,7 @@ nlohmann::json OptionsJson(const ExportOptions& options) {
   const auto& t = options.tile;
   return {{"preset", ExportPresetName(options.preset)},
           {"normal_convention", NormalConventionName(options.normal_convention)},
+          {"basecolor_space", BasecolorSpaceName(options.basecolor_space)},
           {"material_name", options.material_name},
           {"output_root", options.output_root.string()},
           {"mm_per_pixel", options.mm_per_pixel},
@@ -455,6 +492,29 @@ class FilePlanner {
     return &files_.emplace_back(std::move(file));
   }
 
+  // The albedo as base colour: linear EXR in Rec.709 or ACEScg primaries (with
+  // their chromaticities), or 16-bit through the sRGB transfer curve. An albedo
+  // that was not colour calibrated says so and carries no chromaticities.
+  void AddBasecolor(const std::string& kind, const ImageF& albedo_linear_rec709, const ExportedAlbedoColor& color,
+                    double pixel_mm) {
+    const bool calibrated = color.color_space == "linear_rec709";
+    const bool acescg = calibrated && options_.basecolor_space == ExportOptions::BasecolorSpace::kAcesCg;
+    const IntegerEncoding srgb{1, 0, true, "uint16 = srgb_transfer(value) * 65535, value in [0, 1]"};
+    const std::string space = !calibrated ? "white-balanced camera RGB (not colour calibrated)"
+                              : acescg    ? "linear ACEScg (AP1 primaries, ACES white)"
+                                          : "linear Rec.709 primaries, D65 white";
+    const std::string description = "diffuse albedo, " + space + ", " + color.scale + " reflectance";
+    ExportFile* file = AddMap(kind, acescg ? ToAcescg(albedo_linear_rec709) : albedo_linear_rec709,
+                              exr_ ? "Linear" : "sRGB", srgb, description, pixel_mm);
+    file->metadata.attributes["scanbench:albedo_color_space"] = acescg ? "acescg" : color.color_space;
+    file->metadata.attributes["scanbench:albedo_scale"] = color.scale;
+    if (calibrated) {
+      const Chromaticities c = acescg ? AcescgChromaticities() : Rec709Chromaticities();
+      file->metadata.chromaticities =
+          ImageChromaticities{c.red_x, c.red_y, c.green_x, c.green_y, c.blue_x, c.blue_y, c.white_x, c.white_y};
+    }
+  }
+
   // Unit normals in the export's convention.
   void AddNormal(const std::string& kind, const ImageF& normal_in_tangent, double pixel_mm) {
     static const IntegerEncoding kNormalEncoding{0.5, 0.5, "uint16 = (n + 1) / 2 * 65535 per component"};
@@ -532,8 +592,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   const IntegerEncoding unit_interval{1, 0, "uint16 = value * 65535, value in [0, 1]"};
   const double mm = summary.mm_per_pixel;
   FilePlanner plan(options, summary, inputs.result_dir.filename().string());
-  plan.AddMap("basecolor", inputs.albedo, "Linear", unit_interval,
-              "linear RGB albedo (camera raw channels, white balance from the light calibration)", mm);
+  plan.AddBasecolor("basecolor", inputs.albedo, inputs.albedo_color, mm);
   plan.AddNormal("normal", maps.normals, mm);
   plan.AddHeight("height", maps.height_mm, mm);
   plan.AddMap("ao", maps.occlusion, "Raw", unit_interval, "ambient occlusion, cosine-weighted visibility, 1 = open",
@@ -547,7 +606,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
     if (k > 0) plan.AddNormal("normal_mip" + std::to_string(k), maps.mips[k].normal_in_tangent, pixel_mm);
   }
   if (!maps.tiles.empty()) {
-    plan.AddMap("tile_basecolor", maps.tiles[0], "Linear", unit_interval, "tileable crop of basecolor", mm);
+    plan.AddBasecolor("tile_basecolor", maps.tiles[0], inputs.albedo_color, mm);
     plan.AddNormal("tile_normal", maps.tiles[1], mm);
     plan.AddHeight("tile_height", maps.tiles[2], mm);
     plan.AddMap("tile_ao", maps.tiles[3], "Raw", unit_interval, "tileable crop of ao", mm);
@@ -563,7 +622,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   plan.AddU8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
              "pixels the solver solved");
   plan.AddU8("basecolor_srgb_preview", EncodeSrgbPreview(inputs.albedo), "sRGB", "uint8 sRGB transfer curve",
-             "8-bit sRGB preview of the linear basecolor");
+             "8-bit sRGB preview of the basecolor (" + inputs.albedo_color.color_space + ")");
   return plan.Take();
 }
 
@@ -662,6 +721,17 @@ nlohmann::json ManifestJson(const ExportOptions& options, const ExportSummary& s
   manifest["mm_per_pixel"] = summary.mm_per_pixel;
   manifest["mm_per_pixel_source"] = summary.mm_per_pixel_source;
   manifest["source"] = SourceJson(inputs);
+  manifest["basecolor"] = {
+      {"color_space", inputs.albedo_color.color_space == "linear_rec709"
+                          ? (options.basecolor_space == ExportOptions::BasecolorSpace::kAcesCg &&
+                                     options.preset == ExportOptions::Preset::kLinearExr
+                                 ? "acescg"
+                                 : "linear_rec709")
+                          : "camera_rgb"},
+      {"encoding", options.preset == ExportOptions::Preset::kLinearExr ? "linear" : "srgb_transfer"},
+      {"color_calibration", inputs.albedo_color.description},
+      {"scale", inputs.albedo_color.scale},
+      {"scale_source", inputs.albedo_color.scale_source}};
   nlohmann::json file_entries = nlohmann::json::object();
   for (const ExportFile& file : files) file_entries[file.kind] = FileEntryJson(file);
   manifest["files"] = file_entries;
@@ -727,6 +797,16 @@ ExportOptions::NormalConvention NormalConventionFromName(const std::string& name
   if (name == "opengl") return ExportOptions::NormalConvention::kOpenGl;
   if (name == "directx") return ExportOptions::NormalConvention::kDirectX;
   throw std::invalid_argument("normal convention '" + name + "' must be opengl or directx");
+}
+
+const char* BasecolorSpaceName(ExportOptions::BasecolorSpace space) {
+  return space == ExportOptions::BasecolorSpace::kAcesCg ? "acescg" : "rec709";
+}
+
+ExportOptions::BasecolorSpace BasecolorSpaceFromName(const std::string& name) {
+  if (name == "rec709") return ExportOptions::BasecolorSpace::kLinearRec709;
+  if (name == "acescg") return ExportOptions::BasecolorSpace::kAcesCg;
+  throw std::invalid_argument("base colour space '" + name + "' must be rec709 or acescg");
 }
 
 std::string ExportSummary::FullReport() const {
@@ -830,6 +910,7 @@ ExportInputs ExportController::Load() {
 
   inputs.report_path = inputs.result_dir / "report.json";
   inputs.result_report = ReadJsonFile(inputs.report_path);
+  inputs.albedo_color = AlbedoColorOfResult(inputs.result_report);
   inputs.solved_normals = ReadResultMap(inputs.result_dir / "normal.exr", 3, width, height);
   ReportProgress("load result", 0.3);
   inputs.albedo = ReadResultMap(inputs.result_dir / "albedo.exr", 3, width, height);

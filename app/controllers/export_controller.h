@@ -26,7 +26,11 @@ namespace scanbench {
 struct ExportOptions {
   enum class Preset { kLinearExr, kPng16, kTiff16 };
   enum class NormalConvention { kOpenGl, kDirectX };  // +Y up (OpenGL) or +Y down (DirectX)
+  // Primaries of the linear EXR base colour (issue #12); integer presets are
+  // always sRGB (Rec.709 primaries, the sRGB transfer curve).
+  enum class BasecolorSpace { kLinearRec709, kAcesCg };
   Preset preset = Preset::kPng16;
+  BasecolorSpace basecolor_space = BasecolorSpace::kLinearRec709;
   NormalConvention normal_convention = NormalConvention::kOpenGl;
   std::string material_name;            // file-name prefix [A-Za-z0-9._-]+; "" = from the sample name
   std::filesystem::path output_root;    // "" = <session>/exports
@@ -47,6 +51,8 @@ struct ExportOptions {
 const char* ExportPresetName(ExportOptions::Preset preset);            // "exr", "png16", "tiff16"
 ExportOptions::Preset ExportPresetFromName(const std::string& name);   // throws std::invalid_argument
 const char* NormalConventionName(ExportOptions::NormalConvention convention);            // "opengl", "directx"
+const char* BasecolorSpaceName(ExportOptions::BasecolorSpace space);   // "rec709", "acescg"
+ExportOptions::BasecolorSpace BasecolorSpaceFromName(const std::string& name);  // throws std::invalid_argument
 ExportOptions::NormalConvention NormalConventionFromName(const std::string& name);
 
 // The manifest's schema (material.json): bump the version when its layout changes.

@@ -8,6 +8,7 @@
 
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
+#include "calibration/color_science.h"
 
 namespace scanbench {
 
@@ -23,15 +24,33 @@ ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent) {
 ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb) {
   ImageU8 encoded(linear_rgb.width(), linear_rgb.height(), linear_rgb.channels());
   for (size_t i = 0; i < encoded.size(); ++i) {
-    const double linear = std::clamp(double(linear_rgb.data()[i]), 0.0, 1.0);
-    const double srgb = linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
-    encoded.data()[i] = static_cast<uint8_t>(std::lround(srgb * 255.0));
+    encoded.data()[i] = static_cast<uint8_t>(std::lround(SrgbEncode(linear_rgb.data()[i]) * 255.0));
   }
   return encoded;
 }
 
+ImageMetadata AlbedoMetadata(const AlbedoColor& albedo_color, const std::string& color_space) {
+  ImageMetadata metadata;
+  metadata.color_space = color_space;
+  metadata.description = albedo_color.IsLinearRec709()
+                             ? "diffuse albedo, linear Rec.709 primaries, D65 white (" + albedo_color.scale + ")"
+                             : "diffuse albedo, white-balanced camera RGB: not colour calibrated (" +
+                                   albedo_color.scale + ")";
+  if (color_space == "sRGB") metadata.description += ", sRGB transfer curve";
+  metadata.attributes["scanbench:albedo_color_space"] = albedo_color.color_space;
+  metadata.attributes["scanbench:albedo_scale"] = albedo_color.scale;
+  metadata.attributes["scanbench:albedo_color_source"] = AlbedoColorSourceName(albedo_color.source);
+  if (albedo_color.IsLinearRec709()) {
+    const Chromaticities c = Rec709Chromaticities();
+    metadata.chromaticities =
+        ImageChromaticities{c.red_x, c.red_y, c.green_x, c.green_y, c.blue_x, c.blue_y, c.white_x, c.white_y};
+  }
+  return metadata;
+}
+
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
-                                                     const PhotometricSolution& solution) {
+                                                     const PhotometricSolution& solution,
+                                                     const AlbedoColor& albedo_color) {
   const auto policy = OverwritePolicy::kRefuse;
   ImageU8 solved(solution.status.width(), solution.status.height(), 1);
   for (size_t i = 0; i < solved.size(); ++i) {
@@ -55,9 +74,14 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
       {"normal_exr", "normal.exr", [&](const auto& path) { WriteExr(path, solution.normal_in_table, policy); }},
       {"normal_png16_opengl", "normal.png",
        [&](const auto& path) { WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy); }},
-      {"albedo_exr", "albedo.exr", [&](const auto& path) { WriteExr(path, solution.albedo, policy); }},
+      {"albedo_exr", "albedo.exr",
+       [&](const auto& path) {
+         WriteExr(path, solution.albedo, policy, {}, AlbedoMetadata(albedo_color, "Linear"));
+       }},
       {"albedo_srgb_preview", "albedo_srgb.png",
-       [&](const auto& path) { WritePng(path, EncodeSrgbPreview(solution.albedo), policy); }},
+       [&](const auto& path) {
+         WritePng(path, EncodeSrgbPreview(solution.albedo), policy, AlbedoMetadata(albedo_color, "sRGB"));
+       }},
       {"status", "status.png", [&](const auto& path) { WritePng(path, solution.status, policy); }},
       {"solved_mask", "solved_mask.png", [&](const auto& path) { WritePng(path, solved, policy); }},
       {"confidence", "confidence.exr",

@@ -5,6 +5,9 @@
 #include <map>
 #include <string>
 
+#include "app/io/image_io.h"
+
+#include "app/controllers/albedo_color.h"
 #include "solver/photometric_solver.h"
 
 namespace scanbench {
@@ -17,8 +20,15 @@ ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb);
 
 // Writes normal.exr, normal.png, albedo.exr, albedo_srgb.png, status.png,
 // solved_mask.png and confidence.exr into `folder` (never overwriting).
+// albedo.exr and albedo_srgb.png name their colour space (`albedo_color`):
+// linear Rec.709 carries the OpenEXR chromaticities of Rec.709 / D65.
 // Returns output kind -> file name.
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
-                                                     const PhotometricSolution& solution);
+                                                     const PhotometricSolution& solution,
+                                                     const AlbedoColor& albedo_color = {});
+
+// The metadata of an albedo file in `albedo_color`'s space; `color_space` as
+// ImageMetadata::color_space ("Linear" or "sRGB").
+ImageMetadata AlbedoMetadata(const AlbedoColor& albedo_color, const std::string& color_space);
 
 }  // namespace scanbench

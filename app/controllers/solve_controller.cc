@@ -113,21 +113,28 @@ struct DevelopedFrames {
   std::vector<ImageU8> valid;
   size_t clipped_samples = 0;  // raw samples at the clip level, all frames
   std::string dark_file;       // as session.json names it
+  // The RAW files' own colour matrix (XYZ -> camera native, D65), from the first LED frame.
+  std::optional<Eigen::Matrix3d> camera_from_xyz;
+  std::string first_led_file;
 };
 
 // Decode and develop; `progress` gets the frames done, false from it stops
 // with Cancelled.
 DevelopedFrames DecodeAndDevelop(const fs::path& session_dir, const Session& session,
                                  const RawDevelopOptions& develop, const ProgressCallback& progress) {
+  DevelopedFrames frames;
   auto decode = [&](const FrameRecord& record) {
     const fs::path path = session_dir / record.file;
-    RawImage raw = DecodeRawFile(path);
-    CheckRawSize(raw, session.camera.width, session.camera.height, path.string());
-    return raw;
+    DecodedRaw decoded = DecodeRawFileWithInfo(path);
+    CheckRawSize(decoded.image, session.camera.width, session.camera.height, path.string());
+    if (record.kind == FrameKind::kLed && frames.first_led_file.empty()) {
+      frames.first_led_file = path.string();
+      frames.camera_from_xyz = decoded.camera_from_xyz;
+    }
+    return std::move(decoded.image);
   };
   const FrameRecord* dark_record = FindDarkFrame(session);
   const RawImage dark = decode(*dark_record);
-  DevelopedFrames frames;
   frames.dark_file = dark_record->file;
   const int num_lights = static_cast<int>(session.rig.leds.size());
   for (int k = 0; k < num_lights; ++k) {
@@ -153,6 +160,8 @@ struct Lighting {
   std::string light_model;            // one line for reports
   std::vector<std::string> warnings;  // e.g. a stale calibration set
   nlohmann::json calibration_report;  // report.json's "calibration"
+  std::shared_ptr<const CalibrationSet> set;  // null without a calibration set
+  std::string set_name;
 };
 
 Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, const Session& session) {
@@ -172,6 +181,8 @@ Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, 
     lighting.light_model = calibrated.light_model;
     lighting.warnings = calibrated.warnings;
     lighting.calibration_report = nlohmann::json::parse(calibrated.report_json);
+    lighting.set = calibrated.set;
+    lighting.set_name = (options.calibration_dir / kCalibrationManifestName).string();
   }
   lighting.calibration_report["light_model"] = lighting.light_model;
   return lighting;
@@ -193,6 +204,7 @@ PhotometricSolverInput SolverInput(const DevelopedFrames& frames, const LightFie
 struct GroundTruthComparison {
   ErrorStatistics normal_error_deg;
   ErrorStatistics albedo_error;
+  AlbedoColorErrors albedo_color_error;
   size_t unsolved_on_sample = 0;
   ImageF angular_error_deg;  // per pixel, 0 off the evaluated pixels
 };
@@ -211,14 +223,15 @@ GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const 
   }
   comparison.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
   comparison.albedo_error = AbsoluteError(solution.albedo, truth_albedo, solved_on_sample);
+  comparison.albedo_color_error = CompareAlbedoColor(solution.albedo, truth_albedo, solved_on_sample);
   comparison.angular_error_deg = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
   return comparison;
 }
 
 // The maps, and the error map when there is one; returns report.json's "outputs".
 std::map<std::string, std::string> WriteMaps(const fs::path& folder, const PhotometricSolution& solution,
-                                             const ImageF& angular_error_deg) {
-  std::map<std::string, std::string> outputs = WriteSolutionMaps(folder, solution);
+                                             const AlbedoColor& albedo_color, const ImageF& angular_error_deg) {
+  std::map<std::string, std::string> outputs = WriteSolutionMaps(folder, solution, albedo_color);
   if (!angular_error_deg.empty()) {
     WriteExr(folder / "angular_error_deg.exr", angular_error_deg, OverwritePolicy::kRefuse, {"Y"});
     outputs["angular_error_deg"] = "angular_error_deg.exr";
@@ -247,6 +260,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
                        {"dark_frame", dark_file},
                        {"clipped_raw_samples", summary.clipped_samples}};
   report["calibration"] = calibration_report;  // issue #4: which calibration solved it, and why
+  report["color"] = nlohmann::json::parse(summary.albedo_color.ReportJson());  // issue #12
   nlohmann::json by_status;
   for (int s = 0; s < kNumPixelStatuses; ++s) {
     by_status[PixelStatusName(static_cast<PixelStatus>(s))] = summary.solver.pixels_by_status[s];
@@ -259,6 +273,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
     report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*summary.normal_error_deg)},
                               {"albedo_abs_error", StatisticsJson(*summary.albedo_error)},
                               {"unsolved_on_sample", summary.unsolved_on_sample},
+                              {"albedo_color", nlohmann::json::parse(summary.albedo_color_error->ReportJson())},
                               {"evaluated_on", "sample mask, solved pixels"}};
   }
   nlohmann::json timings;
@@ -303,6 +318,7 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
   text["solver"] = SolverOptionsJson(solver);
   text["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                      {"clip_fraction", options.develop.clip_fraction}};
+  text["albedo_color"] = AlbedoColorSourceName(options.albedo_color.source);
   return text.dump();  // nlohmann::json sorts object keys: canonical
 }
 
@@ -337,6 +353,9 @@ std::string SolveSummary::FullReport() const {
       << "  result:       " << result_dir.string() << "\n"
       << "  frames:       " << num_lights << " LEDs + dark, " << width << "x" << height << "\n"
       << "  light model:  " << light_model << "\n"
+      << "  albedo:       " << albedo_color.color_space << ", " << albedo_color.scale << "; "
+      << albedo_color.description << "\n"
+      << "  albedo scale: " << albedo_color.scale_source << "\n"
       << "  clipped raw samples: " << clipped_samples << "\n"
       << "  " << solver.BriefReport() << "\n";
   for (const std::string& warning : warnings) out << "  warning: " << warning << "\n";  // issue #4
@@ -348,6 +367,15 @@ std::string SolveSummary::FullReport() const {
   if (albedo_error) {
     out << "  albedo absolute error on the sample: mean " << albedo_error->mean << ", median "
         << albedo_error->median << ", p95 " << albedo_error->percentile_95 << "\n";
+  }
+  if (albedo_color_error) {
+    const AlbedoColorErrors& e = *albedo_color_error;
+    out << "  albedo CIEDE2000 vs ground truth (linear Rec.709) per pixel: mean " << e.delta_e.mean << ", median "
+        << e.delta_e.median << ", p95 " << e.delta_e.percentile_95 << "\n";
+    if (e.chart_patches > 0) {
+      out << "  albedo CIEDE2000 over " << e.chart_patches << " ColorChecker patches (median albedo per patch): mean "
+          << e.chart_mean_delta_e << ", max " << e.chart_max_delta_e << "\n";
+    }
   }
   if (normal_error_deg) out << "  unsolved pixels on the sample: " << unsolved_on_sample << "\n";
   out << "  time per stage (s):";
@@ -381,6 +409,9 @@ void SolveController::Run() {
     Lighting made = MakeLighting(options_, session_dir_, session);
     // After the calibration set was checked, so that its errors come from its loader.
     summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
+    // Before the solve, so that a colour source that is not there fails early.
+    summary_.albedo_color = ChooseAlbedoColor(options_.albedo_color, made.set.get(), made.set_name,
+                                              frames.camera_from_xyz, frames.first_led_file);
     return made;
   });
   summary_.light_model = lighting.light_model;
@@ -394,6 +425,13 @@ void SolveController::Run() {
   });
   frames.rgb.clear();  // a full-size session's frames hold gigabytes
   frames.valid.clear();
+  TimedStage(timings, "color", "", [&] {
+    ImageU8 solved(solution.status.width(), solution.status.height(), 1);
+    for (size_t i = 0; i < solved.size(); ++i) {
+      solved.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    }
+    ApplyAlbedoColor(summary_.albedo_color, solved, &solution.albedo);
+  });
 
   ImageF angular_error_deg;
   if (session.ground_truth) {
@@ -402,6 +440,7 @@ void SolveController::Run() {
     });
     summary_.normal_error_deg = comparison.normal_error_deg;
     summary_.albedo_error = comparison.albedo_error;
+    summary_.albedo_color_error = comparison.albedo_color_error;
     summary_.unsolved_on_sample = comparison.unsolved_on_sample;
     angular_error_deg = comparison.angular_error_deg;
   }
@@ -411,7 +450,7 @@ void SolveController::Run() {
       session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label);
   StagedResultFolder staged(result_dir);
   std::map<std::string, std::string> outputs = TimedStage(timings, "write_maps", "write maps", [&] {
-    return WriteMaps(staged.staging(), solution, angular_error_deg);
+    return WriteMaps(staged.staging(), solution, summary_.albedo_color, angular_error_deg);
   });
   summary_.result_dir = result_dir;
   outputs["report"] = "report.json";

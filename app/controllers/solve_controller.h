@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "app/controllers/albedo_color.h"
 #include "app/controllers/base_controller.h"
 #include "calibration/raw_develop.h"
 #include "solver/angular_error.h"
@@ -27,6 +28,9 @@ struct SolveOptions {
   std::filesystem::path calibration_dir;
   double calibration_max_age_days = 90;  // an older set warns, > 0
   // --- end calibration ---
+  // The albedo's colour space (issue #12): the set's colour calibration, else
+  // the RAW files' camera matrix, else white-balanced camera RGB.
+  AlbedoColorOptions albedo_color;
 
   void Check() const;
 };
@@ -46,6 +50,8 @@ struct SolveSummary {
   // Against the session's ground truth, on the sample, when it has one.
   std::optional<ErrorStatistics> normal_error_deg;
   std::optional<ErrorStatistics> albedo_error;
+  AlbedoColor albedo_color;                     // the albedo's colour space and scale, and where they came from
+  std::optional<AlbedoColorErrors> albedo_color_error;  // CIEDE2000 against the ground truth (linear Rec.709)
   size_t unsolved_on_sample = 0;
 
   double TotalSeconds() const;

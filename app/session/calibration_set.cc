@@ -339,6 +339,59 @@ void LightsSectionFields(Io& io, LightsSection& section, LightsFieldOnDisk* on_d
 }
 
 // ---------------------------------------------------------------------------
+// Colour
+
+Json Matrix3ToJson(const Eigen::Matrix3d& m) {
+  Json rows = Json::array();
+  for (int r = 0; r < 3; ++r) rows.push_back(Json::array({m(r, 0), m(r, 1), m(r, 2)}));
+  return rows;
+}
+
+Eigen::Matrix3d Matrix3FromJson(const JsonField& field) {
+  const std::vector<JsonField> rows = field.Elements();
+  if (rows.size() != 3) field.Fail("must be 3 rows of 3 numbers");
+  Eigen::Matrix3d m;
+  for (int r = 0; r < 3; ++r) m.row(r) = rows[r].Vector3().transpose();
+  return m;
+}
+
+template <typename Io>
+void ColorPatchFields(Io& io, ColorPatchResult& p) {
+  io.Field("name", p.name);
+  io.Field("used", p.used);
+  io.Field("measured_camera", p.measured_camera);
+  io.Field("reference_linear_rec709", p.reference_linear_rec709);
+  io.Field("corrected_linear_rec709", p.corrected_linear_rec709);
+  io.Field("delta_e_before", p.delta_e_before);
+  io.Field("delta_e_after", p.delta_e_after);
+}
+
+template <typename Io>
+void RawFileFields(Io& io, RawFileRecord& r) {
+  io.Field("path", r.path);
+  io.Field("sha256", r.sha256);
+}
+
+template <typename Io>
+void ColorSectionFields(Io& io, ColorSection& section) {
+  io.Field("date", section.date);
+  TargetsField(io, section.targets);
+  io.Array("raw_files", section.raw_files, [](auto& file_io, RawFileRecord& r) { RawFileFields(file_io, r); });
+  io.Field("white_reference", section.white_reference);
+  io.Field("num_frames", section.num_frames);
+  ColorCorrectionSummary& s = section.summary;
+  io.Field("method", s.method);
+  io.Custom(
+      "rec709_from_camera", [&] { return Matrix3ToJson(s.rec709_from_camera); },
+      [&](const JsonField& field) { s.rec709_from_camera = Matrix3FromJson(field); });
+  io.Field("mean_delta_e_before", s.mean_delta_e_before);
+  io.Field("max_delta_e_before", s.max_delta_e_before);
+  io.Field("mean_delta_e_after", s.mean_delta_e_after);
+  io.Field("max_delta_e_after", s.max_delta_e_after);
+  io.Array("patches", s.patches, [](auto& patch_io, ColorPatchResult& p) { ColorPatchFields(patch_io, p); });
+}
+
+// ---------------------------------------------------------------------------
 // The set
 
 template <typename Io>
@@ -363,6 +416,7 @@ void CalibrationSetFields(Io& io, CalibrationSet& set, LightsFieldOnDisk* on_dis
   io.Optional("lights", set.lights, [on_disk](auto& section_io, LightsSection& section) {
     LightsSectionFields(section_io, section, on_disk);
   });
+  io.Optional("color", set.color, [](auto& section_io, ColorSection& section) { ColorSectionFields(section_io, section); });
 }
 
 // The schema and its version say how to read the rest, so they come first.
@@ -404,6 +458,31 @@ void CheckTargets(const std::vector<TargetCaptureRecord>& targets, const char* e
     CheckSha256Format(t.target_sha256, file, MemberPath(element, "target_sha256"));
     for (size_t f = 0; f < t.frame_sha256.size(); ++f) {
       CheckSha256Format(t.frame_sha256[f], file, ElementPath(MemberPath(element, "frame_sha256"), f));
+    }
+  }
+}
+
+void CheckColorSection(const ColorSection& c, const std::string& file) {
+  CheckDate(c.date, file, "color.date");
+  if (c.targets.empty() && c.raw_files.empty()) {
+    ThrowFieldError(file, "color.targets", "[] and raw_files [] must list what the colour calibration read");
+  }
+  if (!c.targets.empty()) CheckTargets(c.targets, "color_chart", file, "color");
+  for (size_t i = 0; i < c.raw_files.size(); ++i) {
+    CheckSha256Format(c.raw_files[i].sha256, file, MemberPath(ElementPath("color.raw_files", i), "sha256"));
+  }
+  if (c.white_reference != "light_field" && c.white_reference != "neutral_patches") {
+    ThrowFieldError(file, "color.white_reference",
+                    FormatValue(c.white_reference) + " must be \"light_field\" or \"neutral_patches\"");
+  }
+  const Eigen::Matrix3d& m = c.summary.rec709_from_camera;
+  if (!m.allFinite() || !(std::abs(m.determinant()) > 1e-9)) {
+    ThrowFieldError(file, "color.rec709_from_camera", "must be 3x3 finite numbers with a non-zero determinant");
+  }
+  for (const double figure : {c.summary.mean_delta_e_before, c.summary.max_delta_e_before,
+                              c.summary.mean_delta_e_after, c.summary.max_delta_e_after}) {
+    if (!std::isfinite(figure) || figure < 0) {
+      ThrowFieldError(file, "color.mean_delta_e_after", FormatValue(figure) + " must be finite and >= 0");
     }
   }
 }
@@ -480,6 +559,7 @@ void CheckCalibrationSet(const CalibrationSet& set, const std::string& file) {
       }
     }
   }
+  if (set.color) CheckColorSection(*set.color, file);
 }
 
 CalibrationSet LoadCalibrationSet(const fs::path& dir, const CalibrationLoadOptions& options) {
@@ -500,6 +580,7 @@ CalibrationSet LoadCalibrationSet(const fs::path& dir, const CalibrationLoadOpti
   if (set.camera_calibration) set.camera_calibration->summary.termination = Termination::kSuccess;
   if (set.white_balance) set.white_balance->summary.termination = Termination::kSuccess;
   if (set.lights) set.lights->summary.termination = Termination::kSuccess;
+  if (set.color) set.color->summary.termination = Termination::kSuccess;
   const std::vector<FieldFileEntry>& files = on_disk.files;
   const std::optional<LightFieldGrid>& grid = on_disk.grid;
 
@@ -639,6 +720,7 @@ std::optional<std::string> CalibrationAgeWarning(const CalibrationSet& set, cons
   if (set.camera_calibration) consider(set.camera_calibration->date, "camera_calibration.date");
   if (set.white_balance) consider(set.white_balance->date, "white_balance.date");
   if (set.lights) consider(set.lights->date, "lights.date");
+  if (set.color) consider(set.color->date, "color.date");
   if (!oldest) return std::nullopt;
   const double age_days = std::chrono::duration<double>(now - *oldest).count() / 86400.0;
   if (age_days <= max_age_days) return std::nullopt;

@@ -10,7 +10,9 @@
 // calibration done: "camera", "white_balance", "lights". Each section has its
 // date, the checksums of its target captures (each session's session.json,
 // target.json and every frame) and every figure the calibration reported
-// (docs/calibration.md lists them). Sections are added by later calibrations
+// (docs/calibration.md lists them). "color" (issue #12) holds the colour
+// correction from the solver's white-balanced camera RGB to linear Rec.709
+// and its per-patch table. Sections are added by later calibrations
 // of the same set; a camera calibration starts a new set.
 //
 // The loader checks everything like the session loader (file, field, value,
@@ -28,6 +30,7 @@
 #include "app/session/session_error.h"
 #include "calibration/calibration_targets.h"
 #include "calibration/camera_calibration.h"
+#include "calibration/color_calibration.h"
 #include "calibration/light_calibration.h"
 #include "calibration/white_balance.h"
 
@@ -77,6 +80,25 @@ struct LightsSection {
   std::vector<std::string> field_sha256;     // per LED: direction file, then intensity file
 };
 
+// A single RAW photo a calibration read (a chart shot outside a target session).
+struct RawFileRecord {
+  std::string path;    // as given to the calibration
+  std::string sha256;  // of the file
+};
+
+struct ColorSection {
+  std::string date;
+  std::vector<TargetCaptureRecord> targets;  // colour chart target sessions ("color_chart")
+  std::vector<RawFileRecord> raw_files;      // single RAW photos of the chart
+  // What a perfect white reads, that the patch values were divided by:
+  // "light_field" (the set's calibrated lights, so values are absolute
+  // reflectances in the solver's albedo space) or "neutral_patches" (a photo
+  // under unknown light: per-channel gains from the chart's gray row, relative).
+  std::string white_reference;
+  int num_frames = 0;                        // frames (LEDs x targets, or photos) averaged per patch
+  ColorCorrectionSummary summary;            // the matrix, the method and the per-patch table
+};
+
 struct CalibrationSet {
   int schema_version = kCalibrationSetSchemaVersion;
   std::string created;                       // ISO 8601 UTC, when the set was started
@@ -85,6 +107,7 @@ struct CalibrationSet {
   std::optional<CameraCalibrationSection> camera_calibration;
   std::optional<WhiteBalanceSection> white_balance;
   std::optional<LightsSection> lights;
+  std::optional<ColorSection> color;
 };
 
 struct CalibrationLoadOptions {

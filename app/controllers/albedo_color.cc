@@ -1,0 +1,280 @@
+#include "app/controllers/albedo_color.h"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <map>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "app/session/calibration_set.h"
+#include "calibration/color_calibration.h"
+#include "calibration/color_checker.h"
+#include "calibration/color_science.h"
+#include "core/format.h"
+
+namespace scanbench {
+namespace {
+
+nlohmann::json MatrixJson(const Eigen::Matrix3d& m) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2)});
+  return rows;
+}
+
+// The albedo's scale follows the lights: a light calibration on a white sheet of
+// known reflectance makes it absolute, a rig description's intensities do not.
+void SetScale(const CalibrationSet* set, const std::string& set_name, AlbedoColor* color) {
+  if (set != nullptr && set->lights) {
+    std::string sheets;
+    for (const WhiteSheetTarget& sheet : set->lights->sheets) {
+      sheets += (sheets.empty() ? "" : ", ") + Fixed(100 * sheet.reflectance, 1) + " %";
+    }
+    color->scale = "absolute";
+    color->scale_source = "diffuse reflectance: the light calibration of " + set_name + " (" +
+                          set->lights->date + ") divided out its white sheets of " + sheets + " reflectance";
+    return;
+  }
+  color->scale = "relative";
+  color->scale_source =
+      "relative to the rig description's LED intensities (not measured); calibrate the lights on a white sheet "
+      "for absolute reflectance";
+}
+
+AlbedoColor FromChart(const CalibrationSet& set, const std::string& set_name) {
+  const ColorSection& section = *set.color;
+  AlbedoColor color;
+  color.source = AlbedoColorOptions::Source::kChart;
+  color.rec709_from_camera = section.summary.rec709_from_camera;
+  color.color_space = "linear_rec709";
+  color.chart_mean_delta_e = section.summary.mean_delta_e_after;
+  color.chart_max_delta_e = section.summary.max_delta_e_after;
+  color.description = "colour calibration of " + set_name + " (" + section.date + ", " + section.summary.method +
+                      " on a ColorChecker, " + section.white_reference + "): CIEDE2000 on the chart mean " +
+                      Fixed(section.summary.mean_delta_e_after, 2) + ", max " +
+                      Fixed(section.summary.max_delta_e_after, 2) + " (uncorrected mean " +
+                      Fixed(section.summary.mean_delta_e_before, 2) + ")";
+  return color;
+}
+
+AlbedoColor FromCameraMatrix(const Eigen::Matrix3d& camera_from_xyz, const std::string& file_name) {
+  AlbedoColor color;
+  color.source = AlbedoColorOptions::Source::kCameraMatrix;
+  color.rec709_from_camera = Rec709FromWhiteBalancedCamera(camera_from_xyz);
+  color.color_space = "linear_rec709";
+  color.description = "the RAW file's own camera matrix (" + file_name +
+                      ": XYZ -> camera under D65) to linear Rec.709; the weaker path: a maker's matrix for the "
+                      "model, not this sensor under these LEDs; calibrate on a ColorChecker (scanbench calibrate "
+                      "color) for accurate colour";
+  return color;
+}
+
+AlbedoColor Uncorrected(const std::string& why) {
+  AlbedoColor color;
+  color.source = AlbedoColorOptions::Source::kNone;
+  color.description = "not colour calibrated: white-balanced camera RGB (the sensor's own primaries), " + why;
+  return color;
+}
+
+}  // namespace
+
+const char* AlbedoColorSourceName(AlbedoColorOptions::Source source) {
+  switch (source) {
+    case AlbedoColorOptions::Source::kAuto: return "auto";
+    case AlbedoColorOptions::Source::kChart: return "chart";
+    case AlbedoColorOptions::Source::kCameraMatrix: return "camera-matrix";
+    case AlbedoColorOptions::Source::kNone: return "none";
+  }
+  return "?";
+}
+
+AlbedoColorOptions::Source AlbedoColorSourceFromName(const std::string& name) {
+  for (const auto source : {AlbedoColorOptions::Source::kAuto, AlbedoColorOptions::Source::kChart,
+                            AlbedoColorOptions::Source::kCameraMatrix, AlbedoColorOptions::Source::kNone}) {
+    if (name == AlbedoColorSourceName(source)) return source;
+  }
+  throw std::invalid_argument("albedo colour \"" + name + "\" must be auto, chart, camera-matrix or none");
+}
+
+AlbedoColor ChooseAlbedoColor(const AlbedoColorOptions& options, const CalibrationSet* set,
+                              const std::string& set_name,
+                              const std::optional<Eigen::Matrix3d>& file_camera_from_xyz,
+                              const std::string& file_name) {
+  using Source = AlbedoColorOptions::Source;
+  const bool has_chart = set != nullptr && set->color.has_value();
+  AlbedoColor color;
+  switch (options.source) {
+    case Source::kAuto:
+      if (has_chart) {
+        color = FromChart(*set, set_name);
+      } else if (file_camera_from_xyz) {
+        color = FromCameraMatrix(*file_camera_from_xyz, file_name);
+      } else {
+        color = Uncorrected("because there is no colour calibration and " + file_name + " carries no camera matrix");
+      }
+      break;
+    case Source::kChart:
+      if (!has_chart) {
+        throw std::runtime_error(set == nullptr ? std::string("albedo colour \"chart\" needs a calibration set "
+                                                              "(--calibration) with a colour section")
+                                                : set_name + ": color: missing; run `scanbench calibrate color` "
+                                                             "into this set, or choose another albedo colour");
+      }
+      color = FromChart(*set, set_name);
+      break;
+    case Source::kCameraMatrix:
+      if (!file_camera_from_xyz) {
+        throw std::runtime_error(file_name + ": carries no camera colour matrix (albedo colour \"camera-matrix\")");
+      }
+      color = FromCameraMatrix(*file_camera_from_xyz, file_name);
+      break;
+    case Source::kNone:
+      color = Uncorrected("as asked (albedo colour \"none\")");
+      break;
+  }
+  SetScale(set, set_name, &color);
+  return color;
+}
+
+void ApplyAlbedoColor(const AlbedoColor& color, const ImageU8& solved, ImageF* albedo) {
+  if (albedo->channels() != 3 || solved.width() != albedo->width() || solved.height() != albedo->height()) {
+    throw std::invalid_argument("ApplyAlbedoColor: albedo " + ShapeText(*albedo) + " and mask " + ShapeText(solved) +
+                                " must be 3 and 1 channels of one size");
+  }
+  if (color.source == AlbedoColorOptions::Source::kNone) return;
+  const Eigen::Matrix3f m = color.rec709_from_camera.cast<float>();
+  float* values = albedo->data();
+  for (size_t i = 0; i < solved.num_pixels(); ++i) {
+    if (solved.data()[i] == 0) continue;
+    Eigen::Map<Eigen::Vector3f> rgb(values + 3 * i);
+    rgb = m * Eigen::Vector3f(rgb);
+  }
+}
+
+std::string AlbedoColor::ReportJson() const {
+  nlohmann::json report;
+  report["color_space"] = color_space;
+  report["source"] = AlbedoColorSourceName(source);
+  report["description"] = description;
+  report["rec709_from_camera"] = MatrixJson(rec709_from_camera);
+  report["scale"] = scale;
+  report["scale_source"] = scale_source;
+  if (chart_mean_delta_e) report["chart_mean_delta_e"] = *chart_mean_delta_e;
+  if (chart_max_delta_e) report["chart_max_delta_e"] = *chart_max_delta_e;
+  return report.dump();
+}
+
+namespace {
+
+double Median(std::vector<float>& values) {
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  return values[mid];
+}
+
+// The ColorChecker patch whose reference the truth holds (float precision), if any.
+const ColorCheckerPatch* MatchingPatch(const Eigen::Vector3d& truth) {
+  for (const ColorCheckerPatch& patch : ColorCheckerClassic()) {
+    if ((patch.linear_rec709 - truth).cwiseAbs().maxCoeff() < 1e-5) return &patch;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const ImageF& truth_linear_rec709,
+                                     const ImageU8& mask, double min_region_fraction) {
+  if (albedo_linear_rec709.channels() != 3 || truth_linear_rec709.channels() != 3 ||
+      albedo_linear_rec709.width() != truth_linear_rec709.width() ||
+      albedo_linear_rec709.height() != truth_linear_rec709.height() || mask.width() != albedo_linear_rec709.width() ||
+      mask.height() != albedo_linear_rec709.height()) {
+    throw std::invalid_argument("CompareAlbedoColor: albedo " + ShapeText(albedo_linear_rec709) + ", truth " +
+                                ShapeText(truth_linear_rec709) + " and mask " + ShapeText(mask) +
+                                " must be 3, 3 and 1 channels of one size");
+  }
+  std::vector<double> per_pixel;
+  // Pixels by their exact truth value (its bits): a chart's patches.
+  std::map<std::array<uint32_t, 3>, std::vector<size_t>> by_value;
+  for (size_t i = 0; i < mask.num_pixels(); ++i) {
+    if (mask.data()[i] == 0) continue;
+    const float* t = truth_linear_rec709.data() + 3 * i;
+    const float* a = albedo_linear_rec709.data() + 3 * i;
+    const Eigen::Vector3d truth(t[0], t[1], t[2]);
+    per_pixel.push_back(Ciede2000(LabFromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2])), LabFromLinearRec709(truth)));
+    std::array<uint32_t, 3> key;
+    std::memcpy(key.data(), t, sizeof(key));
+    by_value[key].push_back(i);
+  }
+  AlbedoColorErrors errors;
+  const size_t evaluated = per_pixel.size();
+  errors.delta_e = SummarizeErrors(std::move(per_pixel));
+  const size_t min_pixels = std::max<size_t>(16, static_cast<size_t>(min_region_fraction * evaluated));
+  std::vector<const std::vector<size_t>*> regions;
+  for (const auto& [key, pixels] : by_value) {
+    if (pixels.size() >= min_pixels) regions.push_back(&pixels);
+  }
+  // A textile's truth varies from pixel to pixel: one big region is just its
+  // background, not a chart.
+  if (regions.size() < 2) return errors;
+  std::sort(regions.begin(), regions.end(), [](auto* a, auto* b) { return a->size() > b->size(); });
+  double sum = 0;
+  for (size_t r = 0; r < regions.size(); ++r) {
+    const std::vector<size_t>& pixels = *regions[r];
+    AlbedoRegionError region;
+    const float* t = truth_linear_rec709.data() + 3 * pixels.front();
+    region.truth_linear_rec709 = Eigen::Vector3d(t[0], t[1], t[2]);
+    std::vector<float> channel(pixels.size());
+    for (int c = 0; c < 3; ++c) {
+      for (size_t j = 0; j < pixels.size(); ++j) channel[j] = albedo_linear_rec709.data()[3 * pixels[j] + c];
+      region.solved_linear_rec709[c] = Median(channel);
+    }
+    region.delta_e = Ciede2000(LabFromLinearRec709(region.solved_linear_rec709),
+                               LabFromLinearRec709(region.truth_linear_rec709));
+    region.pixels = pixels.size();
+    const ColorCheckerPatch* patch = MatchingPatch(region.truth_linear_rec709);
+    region.chart_patch = patch != nullptr;
+    region.name = patch ? patch->name : "region " + std::to_string(r + 1);
+    if (patch) {
+      ++errors.chart_patches;
+      errors.chart_mean_delta_e += region.delta_e;
+      errors.chart_max_delta_e = std::max(errors.chart_max_delta_e, region.delta_e);
+    }
+    sum += region.delta_e;
+    errors.region_max_delta_e = std::max(errors.region_max_delta_e, region.delta_e);
+    errors.regions.push_back(region);
+  }
+  errors.region_mean_delta_e = sum / errors.regions.size();
+  if (errors.chart_patches > 0) errors.chart_mean_delta_e /= errors.chart_patches;
+  return errors;
+}
+
+std::string AlbedoColorErrors::ReportJson() const {
+  nlohmann::json report;
+  report["delta_e_2000_per_pixel"] = {{"mean", delta_e.mean},
+                                      {"median", delta_e.median},
+                                      {"p95", delta_e.percentile_95},
+                                      {"max", delta_e.max},
+                                      {"pixels", delta_e.num_pixels}};
+  if (!regions.empty()) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const AlbedoRegionError& r : regions) {
+      list.push_back({{"name", r.name},
+                      {"chart_patch", r.chart_patch},
+                      {"truth_linear_rec709", {r.truth_linear_rec709[0], r.truth_linear_rec709[1], r.truth_linear_rec709[2]}},
+                      {"solved_linear_rec709",
+                       {r.solved_linear_rec709[0], r.solved_linear_rec709[1], r.solved_linear_rec709[2]}},
+                      {"delta_e_2000", r.delta_e},
+                      {"pixels", r.pixels}});
+    }
+    report["regions"] = list;
+    report["region_mean_delta_e_2000"] = region_mean_delta_e;
+    report["region_max_delta_e_2000"] = region_max_delta_e;
+    report["chart_patches"] = chart_patches;
+    report["chart_mean_delta_e_2000"] = chart_mean_delta_e;
+    report["chart_max_delta_e_2000"] = chart_max_delta_e;
+  }
+  return report.dump();
+}
+
+}  // namespace scanbench

@@ -1,0 +1,90 @@
+// The colour space of the solved albedo (issue #12). The solver's albedo is
+// white-balanced camera RGB: per raw colour channel, divided by what a perfect
+// white would read under the same LED (the light calibration carries that), so
+// neutrals are neutral but every other colour is in the sensor's own primaries.
+// A 3x3 matrix takes it to linear Rec.709 (D65): the colour calibration's, fitted
+// on a ColorChecker, or (weaker) one made from the RAW file's own camera matrix.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "core/image.h"
+#include "solver/angular_error.h"
+
+namespace scanbench {
+
+struct CalibrationSet;
+
+struct AlbedoColorOptions {
+  enum class Source {
+    kAuto,          // the calibration set's colour section, else the RAW file's camera matrix, else none
+    kChart,         // the calibration set's colour section (an error without one)
+    kCameraMatrix,  // the RAW file's camera matrix (an error when the files carry none)
+    kNone,          // white-balanced camera RGB, as solved
+  };
+  Source source = Source::kAuto;
+};
+
+const char* AlbedoColorSourceName(AlbedoColorOptions::Source source);
+// Parses "auto", "chart", "camera-matrix", "none"; throws std::invalid_argument naming the text.
+AlbedoColorOptions::Source AlbedoColorSourceFromName(const std::string& name);
+
+struct AlbedoColor {
+  AlbedoColorOptions::Source source = AlbedoColorOptions::Source::kNone;  // what was used (never kAuto)
+  Eigen::Matrix3d rec709_from_camera = Eigen::Matrix3d::Identity();
+  std::string color_space = "camera_rgb";  // "linear_rec709" when a matrix was applied
+  std::string description;                 // one line for reports: what, from where, how good
+  // "absolute" (diffuse reflectance: a 99 % white sheet reads 0.99) or "relative".
+  std::string scale = "relative";
+  std::string scale_source;                // why, one line
+  std::optional<double> chart_mean_delta_e;  // the colour calibration's own fit, when used
+  std::optional<double> chart_max_delta_e;
+
+  bool IsLinearRec709() const { return color_space == "linear_rec709"; }
+  // report.json's "color".
+  std::string ReportJson() const;
+};
+
+// Decides the albedo's colour. `set` is the calibration set the solve uses (null
+// = none); `file_camera_from_xyz` is the RAW files' camera matrix (XYZ -> camera
+// native, D65) when they carry one, `file_name` the file it was read from.
+// Throws std::runtime_error when options ask for a source that is not there.
+AlbedoColor ChooseAlbedoColor(const AlbedoColorOptions& options, const CalibrationSet* set,
+                              const std::string& set_name,
+                              const std::optional<Eigen::Matrix3d>& file_camera_from_xyz,
+                              const std::string& file_name);
+
+// albedo (3 channels) <- rec709_from_camera * albedo on the pixels where
+// `solved` is non-zero; the rest keep their fill value.
+void ApplyAlbedoColor(const AlbedoColor& color, const ImageU8& solved, ImageF* albedo);
+
+// The solved albedo's colour against a ground truth in linear Rec.709: CIEDE2000
+// per pixel, and per uniform region of the truth (a colour chart's patches:
+// every region of one exact truth value covering at least min_region_fraction
+// of the evaluated pixels), where the region's median albedo is compared.
+struct AlbedoRegionError {
+  std::string name;                  // the ColorChecker patch it matches, else "region N"
+  bool chart_patch = false;          // matches a ColorChecker patch
+  Eigen::Vector3d truth_linear_rec709 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d solved_linear_rec709 = Eigen::Vector3d::Zero();  // median over the region
+  double delta_e = 0;                // CIEDE2000 of the two
+  size_t pixels = 0;
+};
+
+struct AlbedoColorErrors {
+  ErrorStatistics delta_e;                 // per pixel
+  std::vector<AlbedoRegionError> regions;  // largest first; empty for a textile
+  double region_mean_delta_e = 0, region_max_delta_e = 0;
+  // Over the regions that are ColorChecker patches (by their truth value).
+  int chart_patches = 0;
+  double chart_mean_delta_e = 0, chart_max_delta_e = 0;
+  std::string ReportJson() const;
+};
+
+AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const ImageF& truth_linear_rec709,
+                                     const ImageU8& mask, double min_region_fraction = 0.002);
+
+}  // namespace scanbench
