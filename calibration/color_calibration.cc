@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -724,14 +725,15 @@ std::string ColorCorrectionSummary::BriefReport() const {
 
 std::string ColorCorrectionSummary::PatchTable() const {
   std::ostringstream text;
-  text << "patch                 measured camera        reference rec709       corrected rec709       dE00 before  "
-          "after  status\n";
+  text << std::left << std::setw(22) << "patch" << std::setw(23) << "measured camera" << std::setw(23)
+       << "reference rec709" << std::setw(23) << "corrected rec709" << std::right << std::setw(8) << "dE00"
+       << std::setw(8) << "after" << "  status\n";
   for (const ColorPatchResult& patch : patches) {
-    std::string name = patch.name;
-    name.resize(std::max<size_t>(name.size(), 20), ' ');
-    text << name << "  " << VectorText(patch.measured_camera, 4) << "  " << VectorText(patch.reference_linear_rec709, 4)
-         << "  " << VectorText(patch.corrected_linear_rec709, 4) << "  " << Fixed(patch.delta_e_before, 2) << "  "
-         << Fixed(patch.delta_e_after, 2) << "  " << (patch.used ? "used" : "left out") << "\n";
+    text << std::left << std::setw(22) << patch.name << std::setw(23) << VectorText(patch.measured_camera, 4)
+         << std::setw(23) << VectorText(patch.reference_linear_rec709, 4) << std::setw(23)
+         << VectorText(patch.corrected_linear_rec709, 4) << std::right << std::setw(8)
+         << Fixed(patch.delta_e_before, 2) << std::setw(8) << Fixed(patch.delta_e_after, 2) << "  "
+         << (patch.used ? "used" : "left out: " + patch.status) << "\n";
   }
   return text.str();
 }
@@ -827,6 +829,7 @@ ColorCorrectionSummary FitColorCorrection(const ColorCorrectionOptions& options,
     ColorPatchResult result;
     result.name = reference[i].name;
     result.used = is_used[i];
+    result.status = measured[i].value.allFinite() ? WhyNotUsed(measured[i]) : "not finite";
     result.reference_linear_rec709 = reference[i].linear_rec709;
     result.measured_camera = measured[i].value.allFinite()
                                  ? Eigen::Vector3d(measured[i].value.cwiseProduct(summary.camera_balance_gains))

@@ -166,6 +166,7 @@ struct ColorPatchResult {
   double delta_e_before = 0;  // CIEDE2000, camera RGB taken as linear Rec.709
   double delta_e_after = 0;   // CIEDE2000 of the corrected value
   bool used = false;          // in the fit (and in the statistics)
+  std::string status;         // "used", or why not: "clipped", "too dark", "too few samples", "not finite"
 };
 
 struct ColorCorrectionSummary : AlgorithmSummary {
