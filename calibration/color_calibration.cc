@@ -214,9 +214,15 @@ OrientationChoice ChooseOrientation(const std::array<ColorChartQuad, 8>& candida
   return choice;
 }
 
+// "0.034", or why there is no figure.
+std::string ResidualText(const OrientationFit& fit) {
+  return std::isfinite(fit.residual) ? Fixed(fit.residual, 3)
+                                     : "none (" + std::to_string(fit.used) + " usable patches, 8 needed)";
+}
+
 void Record(const OrientationChoice& choice, ColorChartDetectionSummary* summary) {
   summary->quad = choice.quad;
-  summary->fit_residual = choice.best.residual;
+  summary->fit_residual = std::isfinite(choice.best.residual) ? choice.best.residual : 0.0;
   summary->next_fit_residual = std::isfinite(choice.next.residual) ? choice.next.residual : 0.0;
   summary->confidence = std::isfinite(choice.next.residual) && choice.next.residual > 0
                             ? std::clamp(1.0 - choice.best.residual / choice.next.residual, 0.0, 1.0)
@@ -543,7 +549,7 @@ ColorChartDetectionSummary DetectColorChart(const ColorChartDetectionOptions& op
     Record(choice, &summary);
     if (!(choice.best.residual <= options.max_fit_residual)) {
       summary.SetFailure("no ColorChecker found in " + frame_text + " at the given corners: the patches fit the " +
-                         "reference with a relative residual of " + Fixed(choice.best.residual, 3) +
+                         "reference with a relative residual of " + ResidualText(choice.best) +
                          " at best (must be <= " + Fixed(options.max_fit_residual, 3) + ", " +
                          std::to_string(choice.best.used) + " usable patches)");
       return summary;
@@ -596,7 +602,7 @@ ColorChartDetectionSummary DetectColorChart(const ColorChartDetectionOptions& op
   if (!(best.best.residual <= options.max_fit_residual)) {
     summary.SetFailure("no ColorChecker found in " + frame_text + ": mcc returned " +
                        std::to_string(boxes.size()) + " candidate(s), but their patches fit the reference with a " +
-                       "relative residual of " + Fixed(best.best.residual, 3) + " at best (must be <= " +
+                       "relative residual of " + ResidualText(best.best) + " at best (must be <= " +
                        Fixed(options.max_fit_residual, 3) + ")");
     return summary;
   }

@@ -31,7 +31,8 @@ namespace scanbench {
 // [0] dark skin (top left), [1] bluish green (top right), [2] black (bottom right), [3] white (bottom left).
 // Pixel centres sit at integer coordinates of the full-resolution mosaic.
 struct ColorChartQuad {
-  std::array<Eigen::Vector2d, 4> corners_px;
+  std::array<Eigen::Vector2d, 4> corners_px{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
+                                            Eigen::Vector2d::Zero()};
 };
 
 // Pixel position of chart point (u, v) (see the file comment) through the
