@@ -7,6 +7,7 @@ packages=(
   g++ cmake ninja-build pkg-config ccache git ca-certificates
   libeigen3-dev
   libopencv-dev
+  libopencv-contrib-dev  # opencv_mcc: ColorChecker detection and colour correction (calibration/color_calibration.cc)
   libraw-dev
   libtiff-dev
   libopenimageio-dev openimageio-tools  # OpenImageIO's CMake config checks for its tools
