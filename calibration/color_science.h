@@ -1,0 +1,54 @@
+// Colorimetry: CIE XYZ, linear Rec.709 (sRGB primaries), ACEScg, CIELAB, CIEDE2000 and the sRGB transfer
+// curve. XYZ is CIE 1931 2-degree with Y of the white = 1 throughout. Matrices are derived from the
+// primaries' chromaticities (not typed in), so each space's white maps exactly to (1, 1, 1).
+#pragma once
+
+#include <Eigen/Core>
+
+namespace scanbench {
+
+// The primaries and white of an RGB colour space, CIE 1931 xy.
+struct Chromaticities {
+  double red_x, red_y, green_x, green_y, blue_x, blue_y, white_x, white_y;
+};
+
+Chromaticities Rec709Chromaticities();  // (0.64,0.33) (0.30,0.60) (0.15,0.06), D65 (0.3127,0.3290)
+Chromaticities AcescgChromaticities();  // AP1 (0.713,0.293) (0.165,0.830) (0.128,0.044), (0.32168,0.33767)
+
+// XYZ (Y = 1) of the chromaticity (x, y).
+Eigen::Vector3d XyzFromChromaticity(double x, double y);
+// The normalised primary matrix: XYZ = M * rgb, white rgb (1, 1, 1) -> the white's XYZ with Y = 1.
+Eigen::Matrix3d XyzFromRgb(const Chromaticities& space);
+
+// Linear Rec.709 = linear sRGB primaries, D65 white (IEC 61966-2-1; ITU-R BT.709).
+Eigen::Matrix3d XyzFromLinearRec709();
+Eigen::Matrix3d LinearRec709FromXyz();
+// ACEScg (AP1 primaries, ACES white ~D60) from linear Rec.709 (D65), Bradford-adapted: the ACES CSC matrices.
+Eigen::Matrix3d AcescgFromLinearRec709();
+Eigen::Matrix3d LinearRec709FromAcescg();
+
+// The white of Rec.709, xy (0.3127, 0.3290) with Y = 1: (0.950456, 1, 1.089058). (The tabulated CIE D65
+// through the 1931 observer reads (0.95047, 1, 1.08883); using the xy white keeps Rec.709 neutrals at
+// a* = b* = 0.)
+Eigen::Vector3d D65WhiteXyz();
+// The ICC D50 white (0.9642, 1, 0.8249), the white of published ColorChecker Lab values.
+Eigen::Vector3d D50WhiteXyz();
+
+// Chromatic adaptation XYZ -> XYZ by the Bradford cone response (linear von Kries in the Bradford space).
+Eigen::Matrix3d BradfordAdaptation(const Eigen::Vector3d& from_white_xyz, const Eigen::Vector3d& to_white_xyz);
+
+// CIE 1976 L*a*b* (L* in [0, 100]) relative to white_xyz, and its inverse.
+Eigen::Vector3d LabFromXyz(const Eigen::Vector3d& xyz, const Eigen::Vector3d& white_xyz);
+Eigen::Vector3d XyzFromLab(const Eigen::Vector3d& lab, const Eigen::Vector3d& white_xyz);
+Eigen::Vector3d LabFromLinearRec709(const Eigen::Vector3d& rgb_linear_rec709);  // D65 white
+Eigen::Vector3d LinearRec709FromLab(const Eigen::Vector3d& lab_d65);             // D65 white
+
+// CIEDE2000 colour difference with kL = kC = kH = 1 (Sharma, Wu & Dalal 2005).
+double Ciede2000(const Eigen::Vector3d& lab1, const Eigen::Vector3d& lab2);
+
+// IEC 61966-2-1 sRGB transfer curve, linear -> encoded; clamps to [0, 1] (NaN reads 0).
+double SrgbEncode(double linear);
+// Its inverse, encoded -> linear; clamps to [0, 1] (NaN reads 0).
+double SrgbDecode(double encoded);
+
+}  // namespace scanbench

@@ -1,0 +1,176 @@
+#include "calibration/color_science.h"
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+namespace scanbench {
+namespace {
+
+void ExpectMatrixNear(const Eigen::Matrix3d& actual, const Eigen::Matrix3d& expected, double tolerance) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(actual(r, c), expected(r, c), tolerance) << "(" << r << ", " << c << ")";
+  }
+}
+
+TEST(ColorScience, Rec709MatrixEqualsIec61966) {
+  Eigen::Matrix3d iec;  // IEC 61966-2-1:1999, equation (F.7), four decimals
+  iec << 0.4124, 0.3576, 0.1805,  //
+      0.2126, 0.7152, 0.0722,     //
+      0.0193, 0.1192, 0.9505;
+  ExpectMatrixNear(XyzFromLinearRec709(), iec, 1e-4);
+  Eigen::Matrix3d iec_inverse;  // equation (F.8): rounded from a different derivation, hence 1e-3
+  iec_inverse << 3.2406, -1.5372, -0.4986,  //
+      -0.9689, 1.8758, 0.0415,              //
+      0.0557, -0.2040, 1.0570;
+  ExpectMatrixNear(LinearRec709FromXyz(), iec_inverse, 1e-3);
+}
+
+TEST(ColorScience, XyzRec709RoundTripAndWhite) {
+  std::mt19937 random(12);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::Vector3d rgb(unit(random), unit(random), unit(random));
+    EXPECT_LT((LinearRec709FromXyz() * (XyzFromLinearRec709() * rgb) - rgb).norm(), 1e-12);
+  }
+  EXPECT_LT((LinearRec709FromXyz() * D65WhiteXyz() - Eigen::Vector3d::Ones()).norm(), 1e-12);
+  EXPECT_NEAR(D65WhiteXyz().x(), 0.95047, 2e-5);
+  EXPECT_NEAR(D65WhiteXyz().z(), 1.08883, 3e-4);  // the xy white vs the tabulated D65 white
+  const Eigen::Vector3d lab_white = LabFromLinearRec709(Eigen::Vector3d::Ones());
+  EXPECT_NEAR(lab_white.x(), 100, 1e-9);
+  EXPECT_NEAR(lab_white.y(), 0, 1e-9);
+  EXPECT_NEAR(lab_white.z(), 0, 1e-9);
+  // A neutral gray stays neutral.
+  const Eigen::Vector3d lab_gray = LabFromLinearRec709(Eigen::Vector3d::Constant(0.18));
+  EXPECT_NEAR(lab_gray.x(), 49.496, 1e-3);
+  EXPECT_NEAR(lab_gray.y(), 0, 1e-9);
+  EXPECT_NEAR(lab_gray.z(), 0, 1e-9);
+}
+
+TEST(ColorScience, LabRoundTrip) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int i = 0; i < 100; ++i) {
+    // Includes dark colours, below the cube-root knee of CIELAB.
+    const Eigen::Vector3d rgb = Eigen::Vector3d(unit(random), unit(random), unit(random)) * (i % 2 ? 1.0 : 0.005);
+    EXPECT_LT((LinearRec709FromLab(LabFromLinearRec709(rgb)) - rgb).norm(), 1e-12);
+  }
+}
+
+TEST(ColorScience, AcescgMatchesAcesCscMatrices) {
+  // AP1 NPM from the ACES specification (S-2014-004, ACEScg).
+  Eigen::Matrix3d ap1_npm;
+  ap1_npm << 0.6624541811, 0.1340042065, 0.1561876870,  //
+      0.2722287168, 0.6740817658, 0.0536895174,         //
+      -0.0055746495, 0.0040607335, 1.0103391003;
+  ExpectMatrixNear(XyzFromRgb(AcescgChromaticities()), ap1_npm, 1e-9);
+  // AP0 NPM (S-2008-001, ACES2065-1) from the AP0 primaries and the same white.
+  const Chromaticities ap0{0.7347, 0.2653, 0.0, 1.0, 0.0001, -0.0770, 0.32168, 0.33767};
+  Eigen::Matrix3d ap0_npm;
+  ap0_npm << 0.9525523959, 0.0, 0.0000936786,  //
+      0.3439664498, 0.7281660966, -0.0721325464,   //
+      0.0, 0.0, 1.0088251844;
+  ExpectMatrixNear(XyzFromRgb(ap0), ap0_npm, 1e-9);
+  // AP0 -> AP1 as published.
+  Eigen::Matrix3d ap1_from_ap0;
+  ap1_from_ap0 << 1.4514393161, -0.2365107469, -0.2149285693,  //
+      -0.0765537734, 1.1762296998, -0.0996759264,              //
+      0.0083161484, -0.0060324498, 0.9977163014;
+  ExpectMatrixNear(XyzFromRgb(AcescgChromaticities()).inverse() * XyzFromRgb(ap0), ap1_from_ap0, 1e-9);
+  // Linear sRGB (D65) -> ACEScg, Bradford, as in the ACES OpenColorIO config ("Utility - Linear - sRGB").
+  Eigen::Matrix3d acescg_from_srgb;
+  acescg_from_srgb << 0.613097402, 0.339523146, 0.047379451,  //
+      0.070193722, 0.916353879, 0.013452398,                  //
+      0.020615593, 0.109569773, 0.869814634;
+  ExpectMatrixNear(AcescgFromLinearRec709(), acescg_from_srgb, 1e-4);
+  // Adapted neutral stays neutral: white -> (1, 1, 1).
+  EXPECT_LT((AcescgFromLinearRec709() * Eigen::Vector3d::Ones() - Eigen::Vector3d::Ones()).norm(), 1e-12);
+  EXPECT_LT((LinearRec709FromAcescg() * AcescgFromLinearRec709() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+}
+
+TEST(ColorScience, BradfordMapsWhiteToWhite) {
+  const Eigen::Matrix3d adapt = BradfordAdaptation(D65WhiteXyz(), D50WhiteXyz());
+  EXPECT_LT((adapt * D65WhiteXyz() - D50WhiteXyz()).norm(), 1e-12);
+  // The published Bradford D65 -> D50 matrix (Lindbloom), to its 4 decimals... of its own whites.
+  Eigen::Matrix3d lindbloom;
+  lindbloom << 1.0478112, 0.0228866, -0.0501270,  //
+      0.0295424, 0.9904844, -0.0170491,           //
+      -0.0092345, 0.0150436, 0.7521316;
+  ExpectMatrixNear(BradfordAdaptation(Eigen::Vector3d(0.95047, 1, 1.08883), Eigen::Vector3d(0.96422, 1, 0.82521)),
+                   lindbloom, 1e-6);
+}
+
+struct Ciede2000Pair {
+  double l1, a1, b1, l2, a2, b2, delta_e;
+};
+
+TEST(ColorScience, Ciede2000MatchesSharmaWuDalal2005) {
+  // Table 1 of Sharma, Wu & Dalal (2005), doi:10.1002/col.20070: all 34 pairs, delta E to 4 decimals.
+  const Ciede2000Pair pairs[] = {
+      {50.0000, 2.6772, -79.7751, 50.0000, 0.0000, -82.7485, 2.0425},
+      {50.0000, 3.1571, -77.2803, 50.0000, 0.0000, -82.7485, 2.8615},
+      {50.0000, 2.8361, -74.0200, 50.0000, 0.0000, -82.7485, 3.4412},
+      {50.0000, -1.3802, -84.2814, 50.0000, 0.0000, -82.7485, 1.0000},
+      {50.0000, -1.1848, -84.8006, 50.0000, 0.0000, -82.7485, 1.0000},
+      {50.0000, -0.9009, -85.5211, 50.0000, 0.0000, -82.7485, 1.0000},
+      {50.0000, 0.0000, 0.0000, 50.0000, -1.0000, 2.0000, 2.3669},
+      {50.0000, -1.0000, 2.0000, 50.0000, 0.0000, 0.0000, 2.3669},
+      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0009, 7.1792},
+      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0010, 7.1792},
+      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0011, 7.2195},
+      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0012, 7.2195},
+      {50.0000, -0.0010, 2.4900, 50.0000, 0.0009, -2.4900, 4.8045},
+      {50.0000, -0.0010, 2.4900, 50.0000, 0.0010, -2.4900, 4.8045},
+      {50.0000, -0.0010, 2.4900, 50.0000, 0.0011, -2.4900, 4.7461},
+      {50.0000, 2.5000, 0.0000, 50.0000, 0.0000, -2.5000, 4.3065},
+      {50.0000, 2.5000, 0.0000, 73.0000, 25.0000, -18.0000, 27.1492},
+      {50.0000, 2.5000, 0.0000, 61.0000, -5.0000, 29.0000, 22.8977},
+      {50.0000, 2.5000, 0.0000, 56.0000, -27.0000, -3.0000, 31.9030},
+      {50.0000, 2.5000, 0.0000, 58.0000, 24.0000, 15.0000, 19.4535},
+      {50.0000, 2.5000, 0.0000, 50.0000, 3.1736, 0.5854, 1.0000},
+      {50.0000, 2.5000, 0.0000, 50.0000, 3.2972, 0.0000, 1.0000},
+      {50.0000, 2.5000, 0.0000, 50.0000, 1.8634, 0.5757, 1.0000},
+      {50.0000, 2.5000, 0.0000, 50.0000, 3.2592, 0.3350, 1.0000},
+      {60.2574, -34.0099, 36.2677, 60.4626, -34.1751, 39.4387, 1.2644},
+      {63.0109, -31.0961, -5.8663, 62.8187, -29.7946, -4.0864, 1.2630},
+      {61.2901, 3.7196, -5.3901, 61.4292, 2.2480, -4.9620, 1.8731},
+      {35.0831, -44.1164, 3.7933, 35.0232, -40.0716, 1.5901, 1.8645},
+      {22.7233, 20.0904, -46.6940, 23.0331, 14.9730, -42.5619, 2.0373},
+      {36.4612, 47.8580, 18.3852, 36.2715, 50.5065, 21.2231, 1.4146},
+      {90.8027, -2.0831, 1.4410, 91.1528, -1.6435, 0.0447, 1.4441},
+      {90.9257, -0.5406, -0.9208, 88.6381, -0.8985, -0.7239, 1.5381},
+      {6.7747, -0.2908, -2.4247, 5.8714, -0.0985, -2.2286, 0.6377},
+      {2.0776, 0.0795, -1.1350, 0.9033, -0.0636, -0.5514, 0.9082},
+  };
+  int index = 0;
+  for (const Ciede2000Pair& pair : pairs) {
+    ++index;
+    const Eigen::Vector3d lab1(pair.l1, pair.a1, pair.b1), lab2(pair.l2, pair.a2, pair.b2);
+    EXPECT_NEAR(Ciede2000(lab1, lab2), pair.delta_e, 5e-5) << "pair " << index;
+    EXPECT_NEAR(Ciede2000(lab2, lab1), pair.delta_e, 5e-5) << "pair " << index << " swapped";
+  }
+  EXPECT_EQ(index, 34);
+  EXPECT_EQ(Ciede2000(Eigen::Vector3d(40, 10, -20), Eigen::Vector3d(40, 10, -20)), 0.0);
+}
+
+TEST(ColorScience, SrgbTransferCurveKnownValues) {
+  EXPECT_EQ(SrgbEncode(0), 0);
+  EXPECT_EQ(SrgbEncode(1), 1);
+  EXPECT_EQ(SrgbEncode(-0.5), 0);
+  EXPECT_EQ(SrgbEncode(2), 1);
+  EXPECT_EQ(SrgbEncode(std::nan("")), 0);
+  EXPECT_EQ(SrgbDecode(std::nan("")), 0);
+  EXPECT_NEAR(SrgbEncode(0.0031308), 0.0404500, 1e-6);  // the knee, continuous
+  EXPECT_NEAR(SrgbEncode(0.0031309), 0.0404512, 1e-6);
+  EXPECT_NEAR(SrgbEncode(0.18), 0.461356, 1e-6);         // 18 % gray reads 118 of 255
+  EXPECT_NEAR(SrgbEncode(0.5), 0.735357, 1e-6);
+  EXPECT_NEAR(SrgbDecode(0.5), 0.214041, 1e-6);
+  EXPECT_NEAR(SrgbDecode(0.04045), 0.0031308, 1e-7);
+  EXPECT_NEAR(SrgbDecode(128.0 / 255), 0.215861, 1e-6);
+  for (double v = 0; v <= 1; v += 0.01) EXPECT_NEAR(SrgbDecode(SrgbEncode(v)), v, 1e-12);
+}
+
+}  // namespace
+}  // namespace scanbench
