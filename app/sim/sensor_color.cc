@@ -30,7 +30,7 @@ std::vector<Spectrum> MatrixTrainingReflectances() {
   }
   auto spectrum_of = [](auto&& shape) {
     Spectrum s;
-    for (int i = 0; i < kSpectrumSamples; ++i) s[i] = 0.05 + 0.85 * shape(kSpectrumFirstNm + i * kSpectrumStepNm);
+    for (int i = 0; i < kSpectrumSamples; ++i) s[i] = 0.05 + 0.85 * shape(SpectrumWavelengthNm(i));
     return s;
   };
   for (double centre = 400; centre <= 700; centre += 20) {

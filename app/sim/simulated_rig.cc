@@ -644,6 +644,7 @@ GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
   maps.point_in_table = ImageF(w, h, 3);
   maps.normal_in_table = ImageF(w, h, 3);
   maps.albedo = ImageF(w, h, 3);
+  maps.albedo_white_balanced_camera = ImageF(w, h, 3);
   maps.height_mm = ImageF(w, h, 1);
   maps.sample_mask = ImageU8(w, h, 1);
   maps.mm_per_pixel = mm_per_pixel_;
@@ -655,6 +656,7 @@ GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
         maps.point_in_table(x, y, c) = point_in_table_[3 * i + c];
         maps.normal_in_table(x, y, c) = static_cast<float>(normal[c]);
         maps.albedo(x, y, c) = camera_is_rec709_ ? albedo_[3 * i + c] : albedo_linear_rec709_[3 * i + c];
+        maps.albedo_white_balanced_camera(x, y, c) = albedo_[3 * i + c];
       }
       maps.height_mm(x, y) = point_in_table_[3 * i + 2];
       maps.sample_mask(x, y) = scene_.OnSample(point_in_table_[3 * i], point_in_table_[3 * i + 1]) ? 1 : 0;

@@ -108,6 +108,7 @@ struct GroundTruthMaps {
   ImageF point_in_table;   // 3 channels, mm: where each pixel's ray meets the surface
   ImageF normal_in_table;  // 3 channels, unit, z > 0
   ImageF albedo;           // 3 channels, linear Rec.709 (D65) reflectance in [0, 1], whatever the camera
+  ImageF albedo_white_balanced_camera;  // 3 channels: what the sensor sees of it (the albedo_c of the light model)
   ImageF height_mm;        // 1 channel, surface height above the table
   ImageU8 sample_mask;     // 1 channel: 1 on the sample, 0 on the table
   double mm_per_pixel = 0; // footprint on the table plane of one pixel at the image centre

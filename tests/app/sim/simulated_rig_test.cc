@@ -13,6 +13,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "app/sim/sensor_color.h"
 #include "calibration/camera_model.h"
 
 namespace scanbench {
@@ -31,7 +32,8 @@ SimulatedRigOptions SmallOptions() {
 }
 
 SimulatedRig MakeRig(const SimulatedRigOptions& options, const TextileSceneOptions& scene_options = {}) {
-  return SimulatedRig(options, TextileScene(scene_options), MakeDefaultSimulatedRig(options.width, options.height));
+  return SimulatedRig(options, TextileScene(scene_options),
+                      MakeDefaultSimulatedRig(options.width, options.height, options.color));
 }
 
 double Range(const SimulatedRigOptions& o) { return o.white_level - o.black_level; }
@@ -296,7 +298,9 @@ TEST(SimulatedRig, FlatPatchMatchesTheLightModel) {
       const Eigen::Vector3d ray(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
       const Eigen::Vector3d point = camera_centre + ((plane_z - camera_centre.z()) / ray.z()) * ray;
       ASSERT_TRUE(scene.OnSample(point.x(), point.y()));
-      const Eigen::Vector3d albedo = scene.Albedo(point.x(), point.y());
+      // The sensor sees the Mallett upsampling of the scene's Rec.709 colour.
+      const Eigen::Vector3d albedo =
+          SimulatedSensorColor(options.color).camera_from_linear_rec709 * scene.Albedo(point.x(), point.y());
       for (int c = 0; c < 3; ++c) {
         const double expected =
             albedo[c] * (ExpectedDirect(sim.rig().leds[k], point, Eigen::Vector3d::UnitZ(), c) + options.ambient);
@@ -362,7 +366,7 @@ TEST(SimulatedRig, CastShadowsDarkenTheSlopeBehindAFoldCrest) {
     int shadowed = 0, clearly_shadowed = 0, checked_lit = 0;
     for (int y = 0; y < with.height; ++y) {
       for (int x = 0; x < with.width; ++x) {
-        const double ambient_only = truth.albedo(x, y, 1) * with.ambient;
+        const double ambient_only = truth.albedo_white_balanced_camera(x, y, 1) * with.ambient;
         ASSERT_LE(lit(x, y, 1), unshadowed(x, y, 1) + 1e-7);
         const Eigen::Vector3d p(truth.point_in_table(x, y, 0), truth.point_in_table(x, y, 1),
                                 truth.point_in_table(x, y, 2));
@@ -389,7 +393,7 @@ TEST(SimulatedRig, CastShadowsDarkenTheSlopeBehindAFoldCrest) {
   const ImageF lit0 = sim_with.RenderLinear(0);
   for (int y = 0; y < with.height; ++y) {
     for (int x = 0; x < with.width; ++x) {
-      const bool dark = lit0(x, y, 1) <= truth.albedo(x, y, 1) * with.ambient + 1e-7;
+      const bool dark = lit0(x, y, 1) <= truth.albedo_white_balanced_camera(x, y, 1) * with.ambient + 1e-7;
       ASSERT_EQ(mask(x, y), dark ? 1 : 0) << x << "," << y;
     }
   }
@@ -473,7 +477,7 @@ TEST(SimulatedRig, DarkFrameIsBlackPlusAmbient) {
     for (int x = 0; x < options.width; ++x) {
       const int c = CfaColorAt(options.cfa, x, y);
       sum[c] += dark.mosaic(x, y) - options.black_level;
-      expected[c] += truth.albedo(x, y, c) * options.ambient * Range(options);
+      expected[c] += truth.albedo_white_balanced_camera(x, y, c) * options.ambient * Range(options);
     }
   }
   for (int c = 0; c < 3; ++c) {
@@ -544,11 +548,13 @@ TEST(SimulatedRig, SameSeedAndFrameGiveIdenticalFramesWhateverTheThreadCount) {
 }
 
 TEST(SimulatedRig, CfaLayoutIsHonoured) {
-  // Red-only albedo everywhere: only red sites see light.
+  // Red-only albedo everywhere: only red sites see light (on the camera with
+  // Rec.709 primaries; a real sensor's green and blue see some of any red).
   TextileSceneOptions red;
   red.warp_rgb = red.weft_rgb = red.table_rgb = Eigen::Vector3d(0.6, 0, 0);
   for (CfaPattern pattern : {CfaPattern::kRGGB, CfaPattern::kBGGR, CfaPattern::kGRBG, CfaPattern::kGBRG}) {
     SimulatedRigOptions options = SmallOptions();
+    options.color = SensorColorModel::kSrgbPrimaries;
     options.cfa = pattern;
     options.add_noise = false;
     const SimulatedRig sim = MakeRig(options, red);
