@@ -3,11 +3,13 @@
 #include <tiffio.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include "app/io/file_util.h"
@@ -69,6 +71,9 @@ int CollectTiffError(TIFF*, void* user_data, const char* module, const char* for
   return 1;  // handled: keep libtiff from printing to stderr
 }
 
+constexpr uint32_t kTagForwardMatrix1 = 50964;
+constexpr uint16_t kIlluminantD65 = 21;  // EXIF LightSource code
+
 int IgnoreTiffWarning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
 
 struct TiffCloser {
@@ -103,6 +108,36 @@ bool IsCaptureTime(const std::string& text) {
     if (kLayout[i] == 'd' ? !digit : text[i] != kLayout[i]) return false;
   }
   return true;
+}
+
+std::string MatrixText(const Eigen::Matrix3d& m) {
+  std::string text = "[";
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) text += (r || c ? (c ? ", " : "; ") : "") + std::to_string(m(r, c));
+  }
+  return text + "]";
+}
+
+void CheckMatrix(const std::string& field, const std::optional<Eigen::Matrix3d>& matrix, bool may_be_zero) {
+  if (!matrix) return;
+  if (!matrix->allFinite()) throw Invalid("metadata." + field + " = " + MatrixText(*matrix) + " must be finite");
+  if (!may_be_zero && matrix->isZero(0)) {
+    throw Invalid("metadata." + field + " is all zeros; a colour matrix must map XYZ to the camera");
+  }
+}
+
+void CheckColorMetadata(const DngMetadata& metadata) {
+  CheckMatrix("camera_from_xyz_d65", metadata.camera_from_xyz_d65, false);
+  CheckMatrix("forward_matrix_d50", metadata.forward_matrix_d50, false);
+  if (metadata.as_shot_neutral) {
+    const Eigen::Vector3d& n = *metadata.as_shot_neutral;
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(n[c]) || n[c] <= 0) {
+        throw Invalid("metadata.as_shot_neutral[" + std::to_string(c) + "] = " + std::to_string(n[c]) +
+                      " must be finite and > 0 (the DNG AsShotNeutral rule)");
+      }
+    }
+  }
 }
 
 void Validate(const RawImage& raw, const DngMetadata& metadata) {
@@ -153,6 +188,7 @@ void Validate(const RawImage& raw, const DngMetadata& metadata) {
     throw Invalid("metadata.capture_time '" + metadata.capture_time +
                   "' is not in the form YYYY:MM:DD HH:MM:SS");
   }
+  CheckColorMetadata(metadata);
 }
 
 void Check(MemoryFile& file, int ok, const char* what) {
@@ -189,6 +225,44 @@ uint64_t WriteExifDirectory(TIFF* tif, MemoryFile& file, const DngMetadata& meta
   TIFFFreeDirectory(tif);
   TIFFCreateDirectory(tif);
   return offset;
+}
+
+// DNG stores a matrix row-major: rows are the output (camera channels for
+// ColorMatrix, XYZ for ForwardMatrix), columns the input.
+std::array<float, 9> RowMajor(const Eigen::Matrix3d& m) {
+  std::array<float, 9> values{};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) values[r * 3 + c] = static_cast<float>(m(r, c));
+  }
+  return values;
+}
+
+// libtiff 4.5 does not know ForwardMatrix1 (DNG 1.2); registered per image
+// directory because TIFFCreateDirectory drops merged fields.
+void RegisterForwardMatrix1(TIFF* tif, MemoryFile& file) {
+  static const TIFFFieldInfo kForwardMatrix1[] = {
+      {kTagForwardMatrix1, TIFF_VARIABLE, TIFF_VARIABLE, TIFF_SRATIONAL, FIELD_CUSTOM, 1, 1,
+       const_cast<char*>("ForwardMatrix1")}};
+  Check(file, TIFFMergeFieldInfo(tif, kForwardMatrix1, 1) == 0, "register ForwardMatrix1");
+}
+
+void SetColorTags(TIFF* tif, MemoryFile& file, const DngMetadata& metadata) {
+  // Without a camera model: a camera with sRGB primaries (XYZ -> linear sRGB
+  // under D65), so that LibRaw's colour pipeline has a sane matrix.
+  static const Eigen::Matrix3d kSrgbFromXyz =
+      (Eigen::Matrix3d() << 3.2406, -1.5372, -0.4986, -0.9689, 1.8758, 0.0415, 0.0557, -0.2040, 1.0570).finished();
+  std::array<float, 9> color_matrix = RowMajor(metadata.camera_from_xyz_d65.value_or(kSrgbFromXyz));
+  Check(file, TIFFSetField(tif, TIFFTAG_COLORMATRIX1, 9, color_matrix.data()), "set ColorMatrix1");
+  Check(file, TIFFSetField(tif, TIFFTAG_CALIBRATIONILLUMINANT1, kIlluminantD65), "set CalibrationIlluminant1");
+  const Eigen::Vector3d neutral_value = metadata.as_shot_neutral.value_or(Eigen::Vector3d::Ones());
+  float neutral[3];
+  for (int c = 0; c < 3; ++c) neutral[c] = static_cast<float>(neutral_value[c]);
+  Check(file, TIFFSetField(tif, TIFFTAG_ASSHOTNEUTRAL, 3, neutral), "set AsShotNeutral");
+  if (metadata.forward_matrix_d50) {
+    RegisterForwardMatrix1(tif, file);
+    std::array<float, 9> forward = RowMajor(*metadata.forward_matrix_d50);
+    Check(file, TIFFSetField(tif, kTagForwardMatrix1, 9, forward.data()), "set ForwardMatrix1");
+  }
 }
 
 void SetImageDirectory(TIFF* tif, MemoryFile& file, const RawImage& raw,
@@ -242,16 +316,7 @@ void SetImageDirectory(TIFF* tif, MemoryFile& file, const RawImage& raw,
   uint32_t white = raw.white_level;
   Check(file, TIFFSetField(tif, TIFFTAG_WHITELEVEL, 1, &white), "set WhiteLevel");
 
-  // A camera with sRGB primaries: XYZ -> linear sRGB under D65, so that
-  // LibRaw's colour pipeline has a sane matrix; the scanner itself does not
-  // rely on it.
-  float color_matrix[9] = {3.2406f, -1.5372f, -0.4986f, -0.9689f, 1.8758f,
-                           0.0415f, 0.0557f,  -0.2040f, 1.0570f};
-  Check(file, TIFFSetField(tif, TIFFTAG_COLORMATRIX1, 9, color_matrix), "set ColorMatrix1");
-  Check(file, TIFFSetField(tif, TIFFTAG_CALIBRATIONILLUMINANT1, 21), "set CalibrationIlluminant1");  // D65
-  float neutral[3] = {1.0f, 1.0f, 1.0f};
-  Check(file, TIFFSetField(tif, TIFFTAG_ASSHOTNEUTRAL, 3, neutral), "set AsShotNeutral");
-
+  SetColorTags(tif, file, metadata);
   Check(file, TIFFSetField(tif, TIFFTAG_EXIFIFD, exif_offset), "set ExifIFD");
 }
 

@@ -2,6 +2,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <regex>
@@ -92,11 +93,58 @@ std::string FormatNumber(double value, int digits = 9) {
   return text;
 }
 
+std::array<double, 8> ChromaticityValues(const ImageChromaticities& c) {
+  return {c.red_x, c.red_y, c.green_x, c.green_y, c.blue_x, c.blue_y, c.white_x, c.white_y};
+}
+
+ImageChromaticities ChromaticitiesFrom(const std::array<double, 8>& v) {
+  return {v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]};
+}
+
+constexpr const char* kChromaticityNames[8] = {"red_x",  "red_y",  "green_x", "green_y",
+                                               "blue_x", "blue_y", "white_x", "white_y"};
+constexpr const char* kChromaticitiesAttribute = "scanbench:chromaticities";
+
+void CheckChromaticities(const fs::path& path, const ImageChromaticities& chromaticities) {
+  const std::array<double, 8> values = ChromaticityValues(chromaticities);
+  for (int i = 0; i < 8; ++i) {
+    if (!std::isfinite(values[i])) {
+      throw std::invalid_argument(path.string() + ": ImageMetadata.chromaticities." + kChromaticityNames[i] + " = " +
+                                  FormatNumber(values[i]) + " must be finite");
+    }
+  }
+  if (chromaticities.white_y <= 0) {
+    throw std::invalid_argument(path.string() + ": ImageMetadata.chromaticities.white_y = " +
+                                FormatNumber(chromaticities.white_y) + " must be > 0 (Y of the white is 1)");
+  }
+}
+
+std::string ChromaticitiesText(const ImageChromaticities& chromaticities) {
+  std::string text;
+  for (double value : ChromaticityValues(chromaticities)) {
+    if (!text.empty()) text += ' ';
+    text += FormatNumber(value, 17);
+  }
+  return text;
+}
+
+std::optional<ImageChromaticities> ParseChromaticities(const std::string& text) {
+  std::istringstream stream(text);
+  std::array<double, 8> values{};
+  for (double& value : values) {
+    if (!(stream >> value) || !std::isfinite(value)) return std::nullopt;
+  }
+  std::string rest;
+  if (stream >> rest) return std::nullopt;
+  return ChromaticitiesFrom(values);
+}
+
 void CheckMetadata(const fs::path& path, const ImageMetadata& metadata) {
   if (!std::isfinite(metadata.mm_per_pixel) || metadata.mm_per_pixel < 0) {
     throw std::invalid_argument(path.string() + ": ImageMetadata.mm_per_pixel = " + FormatNumber(metadata.mm_per_pixel) +
                                 " must be finite and >= 0");
   }
+  if (metadata.chromaticities) CheckChromaticities(path, *metadata.chromaticities);
   static const std::regex kName("scanbench:[A-Za-z0-9_.]+");
   for (const auto& [name, value] : metadata.attributes) {
     if (!std::regex_match(name, kName)) {
@@ -126,6 +174,17 @@ void AddMetadata(const fs::path& path, const ImageMetadata& metadata, FileFormat
   if (!metadata.color_space.empty()) {
     spec.attribute("oiio:ColorSpace", metadata.color_space);
     attributes["scanbench:color_space"] = metadata.color_space;
+  }
+  if (metadata.chromaticities) {
+    if (format == FileFormat::kExr) {
+      // OpenImageIO turns exactly this (FLOAT[8], rx ry gx gy bx by wx wy) into
+      // OpenEXR's standard chromaticities attribute.
+      std::array<float, 8> values{};
+      const std::array<double, 8> exact = ChromaticityValues(*metadata.chromaticities);
+      for (int i = 0; i < 8; ++i) values[i] = static_cast<float>(exact[i]);
+      spec.attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), values.data());
+    }
+    attributes[kChromaticitiesAttribute] = ChromaticitiesText(*metadata.chromaticities);
   }
   std::string description = metadata.description;
   for (const auto& [name, value] : attributes) {
@@ -295,6 +354,23 @@ ImageFileInfo ReadImageFileInfo(const fs::path& path) {
     metadata.color_space = found->second;
     metadata.attributes.erase(found);
   }
+  // The string holds full precision; OpenEXR's attribute is float, so it only
+  // counts when the string is missing (a file written by another program).
+  if (auto found = metadata.attributes.find(kChromaticitiesAttribute); found != metadata.attributes.end()) {
+    metadata.chromaticities = ParseChromaticities(found->second);
+    if (!metadata.chromaticities) {
+      throw PathError(path, std::string(kChromaticitiesAttribute) + " = '" + found->second +
+                                "' is not 8 finite numbers (rx ry gx gy bx by wx wy)");
+    }
+    metadata.attributes.erase(found);
+  } else if (const OIIO::ParamValue* standard = spec.find_attribute("chromaticities");
+             standard != nullptr && standard->type().basetype == OIIO::TypeDesc::FLOAT &&
+             standard->type().basevalues() == 8) {
+    const float* values = static_cast<const float*>(standard->data());
+    std::array<double, 8> exact{};
+    for (int i = 0; i < 8; ++i) exact[i] = values[i];
+    metadata.chromaticities = ChromaticitiesFrom(exact);
+  }
   const float x_resolution = spec.get_float_attribute("XResolution", 0);
   const std::string unit = spec.get_string_attribute("ResolutionUnit");
   if (x_resolution > 0 && (unit == "cm" || unit == "in" || unit == "inch")) {
@@ -312,5 +388,7 @@ ImageFileInfo ReadImageFileInfo(const fs::path& path) {
   }
   return info;
 }
+
+ImageMetadata ReadImageMetadata(const fs::path& path) { return ReadImageFileInfo(path).metadata; }
 
 }  // namespace scanbench

@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,14 @@
 #include "core/image.h"
 
 namespace scanbench {
+
+// CIE 1931 xy chromaticities of the red, green and blue primaries and of the
+// white of the colour space the values are in (OpenEXR's `chromaticities`).
+// Declared here so that app/io needs nothing from calibration's colour science;
+// calibration/color_science.h's Chromaticities has the same layout.
+struct ImageChromaticities {
+  double red_x = 0, red_y = 0, green_x = 0, green_y = 0, blue_x = 0, blue_y = 0, white_x = 0, white_y = 0;
+};
 
 // Optional metadata stored in the image file itself, so that a file taken out
 // of its folder still says how large a pixel is and what its values mean.
@@ -30,6 +39,14 @@ struct ImageMetadata {
   // e.g. normals); "" = none. Stored as oiio:ColorSpace (PNG: gAMA / sRGB
   // chunks) and as "scanbench:color_space".
   std::string color_space;
+  // Primaries and white of the values (e.g. Rec.709 / D65 for linear sRGB);
+  // every entry finite, white_y > 0; nullopt = not recorded. OpenEXR: the
+  // standard `chromaticities` attribute. PNG and TIFF: OpenImageIO 2.4 writes no
+  // cHRM for arbitrary primaries (only the fixed sRGB chunk when color_space is
+  // "sRGB") and reads none back, so there it is carried only by the string
+  // attribute "scanbench:chromaticities" ("rx ry gx gy bx by wx wy"), which
+  // every format also gets.
+  std::optional<ImageChromaticities> chromaticities;
   // Further string attributes, names of the form "scanbench:name" (letters,
   // digits, '_', '.'); values without line breaks. TIFF keeps no attributes
   // of its own, so there they are also appended to ImageDescription as
@@ -84,5 +101,7 @@ struct ImageFileInfo {
   ImageMetadata metadata;
 };
 ImageFileInfo ReadImageFileInfo(const std::filesystem::path& path);
+// ReadImageFileInfo(path).metadata.
+ImageMetadata ReadImageMetadata(const std::filesystem::path& path);
 
 }  // namespace scanbench

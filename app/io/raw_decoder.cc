@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <array>
 #include <climits>
+#include <cmath>
 #include <ctime>
 #include <memory>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <vector>
@@ -394,6 +396,113 @@ void ReadCaptureInfo(const LibRaw& processor, DecodedRaw* decoded) {
   decoded->f_number = processor.imgdata.other.aperture;
 }
 
+// ---- colour data ------------------------------------------------------------
+
+// LibRaw's colour index (row of its matrices, entry of cam_mul) of camera R, G
+// and B, from its colour description ("RGBG"); nullopt for other CFAs.
+std::optional<std::array<int, 3>> RgbColorIndices(const LibRaw& processor) {
+  const std::string cdesc = processor.imgdata.idata.cdesc;
+  std::array<int, 3> index{};
+  for (int c = 0; c < 3; ++c) {
+    const size_t found = cdesc.find("RGB"[c]);
+    if (found == std::string::npos || found >= 4) return std::nullopt;
+    index[c] = static_cast<int>(found);
+  }
+  return index;
+}
+
+bool IsDaylightIlluminant(int illuminant) {
+  return illuminant == LIBRAW_WBI_D65 || illuminant == LIBRAW_WBI_Daylight || illuminant == LIBRAW_WBI_D55 ||
+         illuminant == LIBRAW_WBI_D75 || illuminant == LIBRAW_WBI_D50 || illuminant == LIBRAW_WBI_Flash;
+}
+
+template <int Rows, int Cols>
+bool AllZero(const float (&m)[Rows][Cols]) {
+  for (int r = 0; r < Rows; ++r) {
+    for (int c = 0; c < Cols; ++c) {
+      if (m[r][c] != 0) return false;
+    }
+  }
+  return true;
+}
+
+// Which of the DNG's two calibrations to use: D65, else another daylight
+// one, else the only matrix present; -1 if none.
+int ChooseDngCalibration(const libraw_colordata_t& color) {
+  const bool present[2] = {!AllZero(color.dng_color[0].colormatrix), !AllZero(color.dng_color[1].colormatrix)};
+  for (int i = 0; i < 2; ++i) {
+    if (present[i] && color.dng_color[i].illuminant == LIBRAW_WBI_D65) return i;
+  }
+  for (int i = 0; i < 2; ++i) {
+    if (present[i] && IsDaylightIlluminant(color.dng_color[i].illuminant)) return i;
+  }
+  return present[0] ? 0 : (present[1] ? 1 : -1);
+}
+
+// A DNG's rows are its colour planes, which LibRaw indexes like cdesc.
+void ReadDngColorMatrices(const LibRaw& processor, const std::array<int, 3>& rgb, DecodedRaw* decoded) {
+  const libraw_colordata_t& color = processor.imgdata.color;
+  const int chosen = ChooseDngCalibration(color);
+  if (chosen < 0) return;
+  const libraw_dng_color_t& dng = color.dng_color[chosen];
+  // XYZ -> camera = AnalogBalance * CameraCalibration * ColorMatrix (DNG 1.4, chapter 6).
+  const bool has_calibration = !AllZero(dng.calibration);
+  Eigen::Matrix3d color_matrix, calibration;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      color_matrix(r, c) = dng.colormatrix[rgb[r]][c];
+      calibration(r, c) = has_calibration ? dng.calibration[rgb[r]][rgb[c]] : (r == c ? 1.0 : 0.0);
+    }
+  }
+  Eigen::Vector3d analog_balance;
+  for (int c = 0; c < 3; ++c) {
+    const float balance = color.dng_levels.analogbalance[rgb[c]];
+    analog_balance[c] = (std::isfinite(balance) && balance > 0) ? balance : 1.0;
+  }
+  const Eigen::Matrix3d camera_from_xyz = analog_balance.asDiagonal() * calibration * color_matrix;
+  if (camera_from_xyz.allFinite()) {
+    decoded->camera_from_xyz = camera_from_xyz;
+    decoded->camera_from_xyz_illuminant = dng.illuminant;
+  }
+  if (!AllZero(dng.forwardmatrix)) {
+    Eigen::Matrix3d forward;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) forward(r, c) = dng.forwardmatrix[r][rgb[c]];
+    }
+    if (forward.allFinite()) decoded->forward_matrix_d50 = forward;
+  }
+}
+
+// Channel values normalised to green = 1; nullopt unless all are finite and > 0.
+std::optional<Eigen::Vector3d> RelativeToGreen(const float (&values)[4], const std::array<int, 3>& rgb) {
+  Eigen::Vector3d v(values[rgb[0]], values[rgb[1]], values[rgb[2]]);
+  if (!v.allFinite() || (v.array() <= 0).any()) return std::nullopt;
+  return v / v[1];
+}
+
+void ReadColorData(const LibRaw& processor, DecodedRaw* decoded) {
+  const std::optional<std::array<int, 3>> rgb = RgbColorIndices(processor);
+  if (!rgb) return;
+  const libraw_colordata_t& color = processor.imgdata.color;
+  if (processor.imgdata.idata.dng_version != 0) {
+    ReadDngColorMatrices(processor, *rgb, decoded);
+  } else if (!AllZero(color.cam_xyz)) {
+    Eigen::Matrix3d camera_from_xyz;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) camera_from_xyz(r, c) = color.cam_xyz[(*rgb)[r]][c];
+    }
+    if (camera_from_xyz.allFinite()) {
+      decoded->camera_from_xyz = camera_from_xyz;
+      decoded->camera_from_xyz_illuminant = LIBRAW_WBI_D65;  // LibRaw's table holds Adobe's D65 matrices
+    }
+  }
+  // cam_mul are multipliers (1 / neutral); inverting and normalising gives the neutral.
+  if (const auto multipliers = RelativeToGreen(color.cam_mul, *rgb)) {
+    decoded->as_shot_neutral = multipliers->cwiseInverse();
+  }
+  if (const auto daylight = RelativeToGreen(color.pre_mul, *rgb)) decoded->daylight_multipliers = *daylight;
+}
+
 }  // namespace
 
 DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& name) {
@@ -412,6 +521,7 @@ DecodedRaw DecodeRawWithInfo(std::span<const uint8_t> bytes, const std::string& 
   ReadLevels(*processor, name, &decoded.image);
   decoded.image.mosaic = CopyVisibleMosaic(*processor);
   ReadCaptureInfo(*processor, &decoded);
+  ReadColorData(*processor, &decoded);
   return decoded;
 }
 

@@ -5,8 +5,11 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
+
+#include <Eigen/Core>
 
 #include "calibration/raw_image.h"
 
@@ -22,6 +25,29 @@ struct DecodedRaw {
   double exposure_time_s = 0;  // 0 if unknown
   double iso = 0;
   double f_number = 0;
+
+  // Colour data (LibRaw's, rows and vector entries in the order camera R, G, B;
+  // the second green, LibRaw's fourth row, is dropped as it equals the first).
+  // camera_from_xyz: camera native R, G, B (rows) from CIE XYZ (columns, Y of
+  // the white = 1), under the illuminant `camera_from_xyz_illuminant` (EXIF
+  // LightSource code: 21 = D65, 17 = A, 0 = unknown). For a DNG it is
+  // AnalogBalance * CameraCalibration * ColorMatrix of the calibration
+  // illuminant that is D65 (else another daylight one, else the only one);
+  // note LibRaw 0.20's own cam_xyz is only its built-in table and stays empty
+  // for DNGs. For other formats it is LibRaw's built-in table for the model
+  // (Adobe's D65 matrices), nullopt when LibRaw has none.
+  std::optional<Eigen::Matrix3d> camera_from_xyz;
+  int camera_from_xyz_illuminant = 0;
+  // DNG ForwardMatrix for the same illuminant: XYZ under D50 (rows) from
+  // white-balanced camera R, G, B; nullopt when the file has none.
+  std::optional<Eigen::Matrix3d> forward_matrix_d50;
+  // The camera-native R, G, B a neutral read in this shot, green = 1: the
+  // inverse of LibRaw's cam_mul (as-shot white balance multipliers), i.e. the
+  // DNG AsShotNeutral; (1, 1, 1) when the file records none.
+  Eigen::Vector3d as_shot_neutral = Eigen::Vector3d::Ones();
+  // LibRaw's pre_mul, green = 1: daylight (D65) white balance multipliers
+  // derived from the colour matrix; (1, 1, 1) when unknown.
+  Eigen::Vector3d daylight_multipliers = Eigen::Vector3d::Ones();
 };
 
 // Decodes a RAW file held in memory. `name_for_errors` (usually the path)

@@ -9,6 +9,8 @@
 #include <limits>
 #include <random>
 
+#include <OpenImageIO/imageio.h>
+
 #include "tests/app/io/test_dng_util.h"
 
 namespace scanbench {
@@ -260,6 +262,110 @@ TEST(ImageIoTest, BadMetadataIsRejectedBeforeWriting) {
   EXPECT_THAT(ErrorOf([&] { WriteTiff(dir / "b.tif", ImageU16(2, 2, 1), OverwritePolicy::kRefuse, bad_name); }),
               HasSubstr("'Software' must be scanbench:"));
   EXPECT_TRUE(dir.List().empty());
+}
+
+// ---- chromaticities ---------------------------------------------------------
+
+ImageChromaticities Rec709() { return {0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290}; }
+ImageChromaticities Acescg() { return {0.713, 0.293, 0.165, 0.830, 0.128, 0.044, 0.32168, 0.33767}; }
+
+void ExpectSameChromaticities(const std::optional<ImageChromaticities>& actual, const ImageChromaticities& expected,
+                              double tolerance) {
+  ASSERT_TRUE(actual.has_value());
+  EXPECT_NEAR(actual->red_x, expected.red_x, tolerance);
+  EXPECT_NEAR(actual->red_y, expected.red_y, tolerance);
+  EXPECT_NEAR(actual->green_x, expected.green_x, tolerance);
+  EXPECT_NEAR(actual->green_y, expected.green_y, tolerance);
+  EXPECT_NEAR(actual->blue_x, expected.blue_x, tolerance);
+  EXPECT_NEAR(actual->blue_y, expected.blue_y, tolerance);
+  EXPECT_NEAR(actual->white_x, expected.white_x, tolerance);
+  EXPECT_NEAR(actual->white_y, expected.white_y, tolerance);
+}
+
+TEST(ImageIoChromaticitiesTest, RoundTripInExrPngAndTiff) {
+  TempDir dir;
+  ImageMetadata metadata;
+  metadata.color_space = "Linear";
+  metadata.chromaticities = Acescg();
+  WriteExr(dir / "a.exr", RandomImage<float>(9, 7, 3, 1), OverwritePolicy::kRefuse, {}, metadata);
+  WritePng(dir / "a.png", RandomImage<uint16_t>(9, 7, 3, 2), OverwritePolicy::kRefuse, metadata);
+  WriteTiff(dir / "a.tif", RandomImage<float>(9, 7, 3, 3), OverwritePolicy::kRefuse, metadata);
+  for (const char* name : {"a.exr", "a.png", "a.tif"}) {
+    SCOPED_TRACE(name);
+    const ImageMetadata read = ReadImageMetadata(dir / name);
+    ExpectSameChromaticities(read.chromaticities, Acescg(), 0);
+    EXPECT_EQ(read.color_space, "Linear");
+    EXPECT_EQ(read.attributes.count("scanbench:chromaticities"), 0u);  // consumed, not left as a string
+  }
+}
+
+// Other programs (OpenEXR viewers, Nuke, OCIO) read the standard attribute, so it must be there
+// on its own; a file carrying only it (not written by scanbench) reads back too.
+TEST(ImageIoChromaticitiesTest, ExrCarriesTheStandardAttribute) {
+  TempDir dir;
+  ImageMetadata metadata;
+  metadata.chromaticities = Rec709();
+  WriteExr(dir / "rec709.exr", RandomImage<float>(5, 4, 3, 4), OverwritePolicy::kRefuse, {}, metadata);
+  std::unique_ptr<OIIO::ImageInput> input = OIIO::ImageInput::open((dir / "rec709.exr").string());
+  ASSERT_TRUE(input);
+  const OIIO::ParamValue* standard = input->spec().find_attribute("chromaticities");
+  ASSERT_NE(standard, nullptr);
+  ASSERT_EQ(standard->type().basevalues(), 8u);
+  const float* values = static_cast<const float*>(standard->data());
+  EXPECT_FLOAT_EQ(values[0], 0.64f);
+  EXPECT_FLOAT_EQ(values[3], 0.60f);
+  EXPECT_FLOAT_EQ(values[7], 0.3290f);
+  input->close();
+
+  OIIO::ImageSpec spec(5, 4, 3, OIIO::TypeDesc::FLOAT);
+  const float acescg[8] = {0.713f, 0.293f, 0.165f, 0.830f, 0.128f, 0.044f, 0.32168f, 0.33767f};
+  spec.attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), acescg);
+  const std::vector<float> pixels(5 * 4 * 3, 0.5f);
+  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("openexr");
+  ASSERT_TRUE(out && out->open((dir / "foreign.exr").string(), spec));
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()));
+  out->close();
+  ExpectSameChromaticities(ReadImageMetadata(dir / "foreign.exr").chromaticities, Acescg(), 1e-7);
+}
+
+TEST(ImageIoChromaticitiesTest, AbsentUnlessGiven) {
+  TempDir dir;
+  WriteExr(dir / "plain.exr", RandomImage<float>(5, 4, 3, 5), OverwritePolicy::kRefuse);
+  WritePng(dir / "plain.png", RandomImage<uint8_t>(5, 4, 3, 6), OverwritePolicy::kRefuse);
+  EXPECT_FALSE(ReadImageMetadata(dir / "plain.exr").chromaticities.has_value());
+  EXPECT_FALSE(ReadImageMetadata(dir / "plain.png").chromaticities.has_value());
+}
+
+TEST(ImageIoChromaticitiesTest, InvalidChromaticitiesAreRejectedBeforeWriting) {
+  TempDir dir;
+  ImageMetadata nan_metadata;
+  nan_metadata.chromaticities = Rec709();
+  nan_metadata.chromaticities->green_y = std::numeric_limits<double>::quiet_NaN();
+  try {
+    WriteExr(dir / "nan.exr", RandomImage<float>(5, 4, 3, 7), OverwritePolicy::kRefuse, {}, nan_metadata);
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("nan.exr: ImageMetadata.chromaticities.green_y = nan must be finite"));
+  }
+  ImageMetadata black_white;
+  black_white.chromaticities = Rec709();
+  black_white.chromaticities->white_y = 0;
+  EXPECT_THROW(WritePng(dir / "w.png", RandomImage<uint8_t>(5, 4, 3, 8), OverwritePolicy::kRefuse, black_white),
+               std::invalid_argument);
+  EXPECT_TRUE(dir.List().empty());
+}
+
+TEST(ImageIoChromaticitiesTest, MalformedAttributeNamesTheFile) {
+  TempDir dir;
+  ImageMetadata metadata;
+  metadata.attributes["scanbench:chromaticities"] = "0.64 0.33 oops";
+  WritePng(dir / "bad.png", RandomImage<uint8_t>(5, 4, 3, 9), OverwritePolicy::kRefuse, metadata);
+  try {
+    ReadImageMetadata(dir / "bad.png");
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("bad.png: scanbench:chromaticities = '0.64 0.33 oops' is not 8 finite numbers"));
+  }
 }
 
 }  // namespace

@@ -284,5 +284,71 @@ TEST(RawDecoderTest, CheckRawSize) {
   }
 }
 
+// ---- colour data ----------------------------------------------------------
+
+Eigen::Matrix3d FromRowMajor(const std::vector<float>& v) {
+  Eigen::Matrix3d m;
+  for (int i = 0; i < 9; ++i) m(i / 3, i % 3) = v[i];
+  return m;
+}
+
+const std::vector<float> kMatrixA = {0.9, -0.3, -0.1, -0.5, 1.3, 0.2, -0.1, 0.3, 0.5};
+const std::vector<float> kMatrixD65 = {0.8, -0.2, -0.07, -0.49, 1.24, 0.28, -0.1, 0.2, 0.72};
+
+TEST(RawDecoderColorTest, DngWithoutColorMatrixHasNone) {
+  const DecodedRaw decoded = DecodeRawWithInfo(MakeTestDng({}), "plain.dng");
+  EXPECT_FALSE(decoded.camera_from_xyz.has_value());
+  EXPECT_EQ(decoded.camera_from_xyz_illuminant, 0);
+  EXPECT_FALSE(decoded.forward_matrix_d50.has_value());
+  EXPECT_EQ(decoded.as_shot_neutral, Eigen::Vector3d::Ones());
+}
+
+// Real camera DNGs carry illuminant A as matrix 1 and D65 as matrix 2; the D65 one is chosen,
+// whichever slot it is in.
+TEST(RawDecoderColorTest, DualIlluminantDngGivesTheD65Matrix) {
+  TestDngOptions options;
+  options.color_matrix1 = kMatrixA;
+  options.illuminant1 = 17;  // A
+  options.color_matrix2 = kMatrixD65;
+  options.illuminant2 = 21;  // D65
+  DecodedRaw decoded = DecodeRawWithInfo(MakeTestDng(options), "dual.dng");
+  ASSERT_TRUE(decoded.camera_from_xyz.has_value());
+  EXPECT_LT((*decoded.camera_from_xyz - FromRowMajor(kMatrixD65)).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_EQ(decoded.camera_from_xyz_illuminant, 21);
+
+  std::swap(options.color_matrix1, options.color_matrix2);
+  std::swap(options.illuminant1, options.illuminant2);
+  decoded = DecodeRawWithInfo(MakeTestDng(options), "swapped.dng");
+  ASSERT_TRUE(decoded.camera_from_xyz.has_value());
+  EXPECT_LT((*decoded.camera_from_xyz - FromRowMajor(kMatrixD65)).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_EQ(decoded.camera_from_xyz_illuminant, 21);
+}
+
+TEST(RawDecoderColorTest, OnlyAnIlluminantAMatrixIsReportedAsSuch) {
+  TestDngOptions options;
+  options.color_matrix1 = kMatrixA;
+  options.illuminant1 = 17;
+  const DecodedRaw decoded = DecodeRawWithInfo(MakeTestDng(options), "tungsten.dng");
+  ASSERT_TRUE(decoded.camera_from_xyz.has_value());
+  EXPECT_LT((*decoded.camera_from_xyz - FromRowMajor(kMatrixA)).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_EQ(decoded.camera_from_xyz_illuminant, 17);
+}
+
+TEST(RawDecoderColorTest, CameraCalibrationMultipliesTheColorMatrix) {
+  TestDngOptions options;
+  options.color_matrix1 = kMatrixA;
+  options.illuminant1 = 17;
+  options.color_matrix2 = kMatrixD65;
+  options.illuminant2 = 21;
+  options.camera_calibration2 = {1.05f, 0, 0, 0, 1, 0, 0, 0, 0.9f};
+  options.as_shot_neutral = {0.5f, 1.0f, 0.8f};
+  const DecodedRaw decoded = DecodeRawWithInfo(MakeTestDng(options), "calibrated.dng");
+  ASSERT_TRUE(decoded.camera_from_xyz.has_value());
+  const Eigen::Matrix3d expected = Eigen::Vector3d(1.05, 1.0, 0.9).asDiagonal() * FromRowMajor(kMatrixD65);
+  EXPECT_LT((*decoded.camera_from_xyz - expected).cwiseAbs().maxCoeff(), 1e-6) << *decoded.camera_from_xyz;
+  EXPECT_LT((decoded.as_shot_neutral - Eigen::Vector3d(0.5, 1.0, 0.8)).cwiseAbs().maxCoeff(), 1e-6)
+      << decoded.as_shot_neutral.transpose();
+}
+
 }  // namespace
 }  // namespace scanbench

@@ -41,6 +41,21 @@ std::vector<uint8_t> MakeTestDng(const TestDngOptions& o) {
   TIFFSetField(tif, TIFFTAG_BLACKLEVEL, static_cast<int>(o.black_levels.size()), o.black_levels.data());
   std::vector<uint32_t> white(static_cast<size_t>(o.samples_per_pixel), o.white_level);
   TIFFSetField(tif, TIFFTAG_WHITELEVEL, static_cast<int>(white.size()), white.data());
+  if (!o.color_matrix1.empty()) {
+    TIFFSetField(tif, TIFFTAG_COLORMATRIX1, static_cast<int>(o.color_matrix1.size()), o.color_matrix1.data());
+    TIFFSetField(tif, TIFFTAG_CALIBRATIONILLUMINANT1, o.illuminant1);
+  }
+  if (!o.color_matrix2.empty()) {
+    TIFFSetField(tif, TIFFTAG_COLORMATRIX2, static_cast<int>(o.color_matrix2.size()), o.color_matrix2.data());
+    TIFFSetField(tif, TIFFTAG_CALIBRATIONILLUMINANT2, o.illuminant2);
+  }
+  if (!o.camera_calibration2.empty()) {
+    TIFFSetField(tif, TIFFTAG_CAMERACALIBRATION2, static_cast<int>(o.camera_calibration2.size()),
+                 o.camera_calibration2.data());
+  }
+  if (!o.as_shot_neutral.empty()) {
+    TIFFSetField(tif, TIFFTAG_ASSHOTNEUTRAL, static_cast<int>(o.as_shot_neutral.size()), o.as_shot_neutral.data());
+  }
   std::vector<uint16_t> row(static_cast<size_t>(o.width) * o.samples_per_pixel);
   for (int y = 0; y < o.height; ++y) {
     for (size_t i = 0; i < row.size(); ++i) {

@@ -23,6 +23,12 @@ struct TestDngOptions {
   uint16_t black_cols = 1;
   std::vector<float> black_levels = {64};
   uint32_t white_level = 4095;
+  // Colour tags, row-major, written only when not empty (illuminants: EXIF
+  // LightSource codes, written with their matrix).
+  std::vector<float> color_matrix1, color_matrix2;
+  uint16_t illuminant1 = 0, illuminant2 = 0;
+  std::vector<float> camera_calibration2;  // CameraCalibration2, 3x3
+  std::vector<float> as_shot_neutral;
 };
 
 // A DNG 1.4 with the given layout and pixel values (x + y) % white_level.
