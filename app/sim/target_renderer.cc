@@ -74,11 +74,10 @@ PlaneView PlaneOf(const SimulatedTarget& target) {
   return view;
 }
 
-// Half extent of the colour chart card: the patch grid plus gap and border.
+// Half extent of the colour chart card: the patch grid plus the border.
 Eigen::Vector2d ChartHalfSizeMm(const SimulatedTarget& t) {
-  const double margin = t.chart_pitch_mm - t.chart_patch_mm + t.chart_border_mm;
-  return 0.5 * Eigen::Vector2d((kColorCheckerColumns - 1) * t.chart_pitch_mm + t.chart_patch_mm + 2 * margin,
-                               (kColorCheckerRows - 1) * t.chart_pitch_mm + t.chart_patch_mm + 2 * margin);
+  return 0.5 * Eigen::Vector2d((kColorCheckerColumns - 1) * t.chart_pitch_mm + t.chart_patch_mm + 2 * t.chart_border_mm,
+                               (kColorCheckerRows - 1) * t.chart_pitch_mm + t.chart_patch_mm + 2 * t.chart_border_mm);
 }
 
 // White-balanced camera RGB at (u, v) of the colour chart; std::nullopt off it.

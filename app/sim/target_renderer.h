@@ -61,7 +61,7 @@ struct SimulatedTarget {
   double chart_patch_mm = 16.0;          // side of a square patch, > 0
   double chart_pitch_mm = 20.0;          // patch centre spacing, >= chart_patch_mm
   double chart_height_mm = 0.0;          // the card's face above the table, [0, 200]
-  double chart_border_mm = 4.0;          // black surround beyond the outer patches' gaps, >= 0
+  double chart_border_mm = 4.0;          // black surround beyond the outer patches' edges, >= 0
   double chart_surround_reflectance = 0.03;  // the black surround (neutral), [0, 1]
   double chart_gloss = 0.02;             // specular reflectance added at the mirror direction, [0, 0.2]
   double chart_gloss_width_deg = 12.0;   // half-vector angle where the gloss falls to 1/e, (0, 45]

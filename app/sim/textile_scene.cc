@@ -158,10 +158,9 @@ Eigen::Vector3d ThreadAlbedo(const TextileSceneOptions& o, const WeaveRelief& w,
 
 // The card's outline: the patch grid plus the border on every side.
 Eigen::Vector2d ChartCardSizeMm(const TextileSceneOptions& o) {
-  const double gap = o.chart_pitch_mm - o.chart_patch_mm;
   return Eigen::Vector2d((kColorCheckerColumns - 1) * o.chart_pitch_mm + o.chart_patch_mm,
                          (kColorCheckerRows - 1) * o.chart_pitch_mm + o.chart_patch_mm) +
-         Eigen::Vector2d::Constant(2.0 * (gap + o.chart_border_mm));
+         Eigen::Vector2d::Constant(2.0 * o.chart_border_mm);
 }
 
 void CheckChart(const TextileSceneOptions& o) {

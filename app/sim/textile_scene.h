@@ -71,13 +71,13 @@ struct TextileSceneOptions {
   double color_variation = 0.08;         // relative per-thread albedo variation (and slubs along it), [0, 0.5]
   double gap_darkening = 0.3;            // relative albedo loss in the gaps between threads, [0, 1]
 
-  // kColorChecker. 16 mm patches on a 20 mm pitch make a 116 x 76 mm grid: the
-  // real chart (40 mm pitch) scaled to fit the default 143 x 95 mm field of
-  // view with the table visible around it, still ~140 px per patch side at the
-  // default quarter resolution.
+  // kColorChecker. 16 mm patches on a 20 mm pitch make a 116 x 76 mm grid, a
+  // 124 x 84 mm card with the border: the real chart (40 mm pitch) scaled to
+  // fit the default 143 x 95 mm field of view with the table visible around
+  // it, still ~140 px per patch side at the default quarter resolution.
   double chart_patch_mm = 16.0;          // side of a square patch, > 0
   double chart_pitch_mm = 20.0;          // patch centre spacing, >= chart_patch_mm
-  double chart_border_mm = 4.0;          // black surround beyond the outer patches' gaps, >= 0
+  double chart_border_mm = 4.0;          // black surround beyond the outer patches' edges, >= 0
   double chart_thickness_mm = 0.4;       // card thickness above the table, [0, 5]
   double chart_edge_blend_mm = 1.0;      // ramp of the card edge from the table to full thickness, (0, 10]
   Eigen::Vector3d chart_surround_rgb{0.03, 0.03, 0.03};  // the black surround, linear Rec.709, [0, 1]
