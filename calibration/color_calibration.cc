@@ -482,6 +482,8 @@ std::string WhyNotUsed(const PatchSample& sample) {
 
 // ---------------------------------------------------------------------------
 
+Eigen::Matrix3d ColorChartImageFromUv(const ColorChartQuad& quad) { return QuadFromUnitSquare(quad.corners_px); }
+
 Eigen::Vector2d ColorChartPointPx(const ColorChartQuad& quad, double u, double v) {
   return Apply(QuadFromUnitSquare(quad.corners_px), u, v);
 }

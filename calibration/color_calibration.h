@@ -35,6 +35,8 @@ struct ColorChartQuad {
                                             Eigen::Vector2d::Zero()};
 };
 
+// The homography from chart coordinates (u, v, 1) to image pixels (x, y, 1) * w.
+Eigen::Matrix3d ColorChartImageFromUv(const ColorChartQuad& quad);
 // Pixel position of chart point (u, v) (see the file comment) through the
 // quad's homography.
 Eigen::Vector2d ColorChartPointPx(const ColorChartQuad& quad, double u, double v);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/format.h"
+#include "app/cli/command_util.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/calibration_controllers.h"
@@ -174,6 +175,7 @@ struct DemoState {
   int width = kD5100Width / 4;
   int height = kD5100Height / 4;
   uint64_t seed = SimulatedRigOptions().seed;
+  SensorColorModel color = SimulatedRigOptions().color;
   int threads = 0;
 };
 
@@ -183,6 +185,7 @@ int CalibrationDemo(const DemoState& state) {
   sensor.width = state.width;
   sensor.height = state.height;
   sensor.seed = state.seed;
+  sensor.color = state.color;
   const fs::path targets = state.output / "targets";
   const fs::path calibration = state.output / "calibration";
   const fs::path scan = state.output / "scan";
@@ -358,9 +361,10 @@ void AddDescribeCommand(CLI::App& calibrate, int* exit_code) {
       ->required()
       ->check(CLI::ExistingDirectory);
   command->add_option("--as", describe->kind, "What they show: checkerboard (9 x 6 inner corners, 9 mm squares), "
-                                              "gray_chart (Munsell neutral scale) or white_sheet (99 %)")
+                                              "gray_chart (Munsell neutral scale), white_sheet (99 %) or color_chart "
+                                              "(ColorChecker Classic, real size: 40 mm pitch)")
       ->required()
-      ->check(CLI::IsMember({"checkerboard", "gray_chart", "white_sheet"}));
+      ->check(CLI::IsMember({"checkerboard", "gray_chart", "white_sheet", "color_chart"}));
   command->add_option("--spacer-mm", describe->options.spacer_mm,
                       "white_sheet: height of the raised sheet above the table, (0, 200] mm")
       ->capture_default_str();
@@ -370,8 +374,8 @@ void AddDescribeCommand(CLI::App& calibrate, int* exit_code) {
 void AddSimulateTargetsCommand(CLI::App& calibrate, int* exit_code) {
   auto targets = std::make_shared<TargetsState>();
   CLI::App* command = calibrate.add_subcommand(
-      "simulate-targets", "Render the calibration target sessions (checkerboards, gray chart, white sheets) on the "
-                          "simulated rig from its true parameters");
+      "simulate-targets", "Render the calibration target sessions (checkerboards, gray chart, white sheets, colour "
+                          "chart) on the simulated rig from its true parameters");
   command->add_option("output", targets->output, "Folder for the target sessions")->required();
   command->add_option("--width", targets->options.rig.width, "Image width in pixels")->capture_default_str();
   command->add_option("--height", targets->options.rig.height, "Image height in pixels")->capture_default_str();
@@ -382,6 +386,13 @@ void AddSimulateTargetsCommand(CLI::App& calibrate, int* exit_code) {
   command->add_option("--led-error-mm", targets->options.measured.led_position_error_mm,
                       "rms error per axis of the measured LED positions written into the sessions")
       ->capture_default_str();
+  AddCameraColorOption(*command, targets->options.rig.color);
+  command->add_option("--chart-patch-mm", targets->options.chart_patch_mm, "ColorChecker patch side of the colour chart")
+      ->capture_default_str();
+  command->add_option("--chart-pitch-mm", targets->options.chart_pitch_mm, "ColorChecker patch spacing")
+      ->capture_default_str();
+  command->add_flag("--no-color-chart", [targets](std::int64_t) { targets->options.color_chart = false; },
+                    "Skip the colour chart session");
   command->callback([targets, exit_code] { Guarded(exit_code, [&] { return SimulateTargetsCommand(*targets); }); });
 }
 
@@ -414,6 +425,7 @@ void AddDemoCommand(CLI::App& calibrate, int* exit_code) {
   command->add_option("--width", demo->width, "Image width in pixels")->capture_default_str();
   command->add_option("--height", demo->height, "Image height in pixels")->capture_default_str();
   command->add_option("--seed", demo->seed, "Sensor noise seed")->capture_default_str();
+  AddCameraColorOption(*command, demo->color);
   command->add_option("--threads", demo->threads, "Solver threads (0 = all cores)")->capture_default_str();
   command->callback([demo, exit_code] { Guarded(exit_code, [&] { return CalibrationDemo(*demo); }); });
 }

@@ -3,6 +3,8 @@
 #include <cstdint>
 #include <string>
 
+#include "app/sim/sensor_color.h"
+
 namespace scanbench {
 
 void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& options) {
@@ -75,6 +77,17 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
           "Albedo colour: auto (the calibration set's colour calibration, else the RAW files' camera matrix), chart, "
           "camera-matrix, or none (white-balanced camera RGB)")
       ->check(CLI::IsMember({"auto", "chart", "camera-matrix", "none"}));
+}
+
+void AddCameraColorOption(CLI::App& command, SensorColorModel& color) {
+  command
+      .add_option_function<std::string>(
+          "--camera-color", [&color](const std::string& name) { color = *SensorColorModelFromName(name); },
+          "Simulated camera colour: d5100 (default: measured Nikon D5100 sensitivities under a white LED, not "
+          "colorimetric, as a real camera) or srgb-primaries (camera RGB = linear Rec.709, the camera before "
+          "issue #12)")
+      ->check(CLI::IsMember({SensorColorModelName(SensorColorModel::kNikonD5100),
+                             SensorColorModelName(SensorColorModel::kSrgbPrimaries)}));
 }
 
 }  // namespace scanbench

@@ -8,6 +8,7 @@
 
 #include "app/cli/run_controller.h"
 #include "app/controllers/solve_controller.h"
+#include "app/sim/simulated_rig.h"
 #include "solver/photometric_solver.h"
 
 namespace scanbench {
@@ -31,5 +32,9 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
 // The solver options plus --label, --demosaic, --no-verify and the
 // calibration set: `solve` and `batch` take the same ones.
 void AddSolveOptions(CLI::App& command, SolveOptions& options);
+
+// --camera-color d5100|srgb-primaries: the simulated camera's colour model
+// (simulate, demo, calibrate simulate-targets, calibrate demo).
+void AddCameraColorOption(CLI::App& command, SensorColorModel& color);
 
 }  // namespace scanbench

@@ -43,6 +43,24 @@ void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
           "Rig description written into session.json: true (the simulator's, default) or measured (LED positions "
           "a few mm off, nominal LEDs and camera: solve it with --calibration)")
       ->check(CLI::IsMember({"true", "measured"}));
+  command  // issue #12
+      .add_option_function<std::string>(
+          "--sample",
+          [&options](const std::string& kind) {
+            options.scene.sample = kind == "colorchecker" ? SampleKind::kColorChecker : SampleKind::kTextile;
+          },
+          "What lies on the table: twill (the textile, default) or colorchecker (a ColorChecker Classic card, 16 mm "
+          "patches on a 20 mm pitch, rendered from its measured spectra; ground truth = each patch's linear Rec.709)")
+      ->check(CLI::IsMember({"twill", "colorchecker"}));
+  AddCameraColorOption(command, options.rig.color);
+}
+
+// The default sample name follows the sample unless one was given.
+SimulateOptions WithSampleName(SimulateOptions options) {
+  if (options.scene.sample == SampleKind::kColorChecker && options.sample_name == SimulateOptions().sample_name) {
+    options.sample_name = "simulated ColorChecker Classic";
+  }
+  return options;
 }
 
 int Solve(const fs::path& session_dir, const SolveOptions& options) {
@@ -53,7 +71,7 @@ int Solve(const fs::path& session_dir, const SolveOptions& options) {
 }
 
 int Simulate(const fs::path& session_dir, const SimulateOptions& options) {
-  SimulateController controller(session_dir, options);
+  SimulateController controller(session_dir, WithSampleName(options));
   const int code = RunController(controller);
   if (code == kExitSuccess) {
     std::cout << "Session written to " << fs::absolute(session_dir).string() << " ("

@@ -7,6 +7,7 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "app/sim/sensor_color.h"
 #include "core/field_error.h"
 #include "core/format.h"
 
@@ -28,6 +29,12 @@ std::optional<Session> LoadInterruptedSession(const fs::path& session_dir) {
 
 // An interrupted run is resumed with the same options only: its frames are of that size.
 void CheckResumedSize(const fs::path& session_dir, const Session& session, const SimulatedRig& rig) {
+  const std::string model = SimulatedCameraModel(rig.options().color);
+  if (session.camera.model != model) {
+    throw SessionError((session_dir / "session.json").string() + ": camera.model: '" + session.camera.model +
+                       "' differs from the requested '" + model +
+                       "' (--camera-color); resume with the options of the interrupted run");
+  }
   if (session.camera.width == rig.width() && session.camera.height == rig.height()) return;
   throw SessionError((session_dir / "session.json").string() + ": camera.width/height: " +
                      std::to_string(session.camera.width) + "x" + std::to_string(session.camera.height) +
@@ -65,6 +72,10 @@ GroundTruthFiles WriteGroundTruth(const fs::path& root, const GroundTruthMaps& t
 
 }  // namespace
 
+std::string SimulatedCameraModel(SensorColorModel color) {
+  return color == SensorColorModel::kSrgbPrimaries ? "Simulated D5100 (sRGB primaries)" : "Simulated D5100";
+}
+
 Session NewSimulatedSession(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
                             const SimulatedRigOptions& rig_options, double exposure_time_s) {
   Session session;
@@ -74,7 +85,7 @@ Session NewSimulatedSession(const std::string& sample_name, const std::string& n
   session.software_version = "scanbench " SCANBENCH_VERSION;
   session.rig = rig;
   session.camera.make = "scanbench";
-  session.camera.model = "Simulated D5100";
+  session.camera.model = SimulatedCameraModel(rig_options.color);
   session.camera.serial = "SIM-" + std::to_string(rig_options.seed);
   session.camera.lens = "simulated prime";
   session.camera.iso = kSimulatedIso;
@@ -85,7 +96,8 @@ Session NewSimulatedSession(const std::string& sample_name, const std::string& n
   return session;
 }
 
-void AddSimulatedFrame(const fs::path& session_dir, Session& session, std::optional<int> led, const RawImage& raw) {
+void AddSimulatedFrame(const fs::path& session_dir, Session& session, std::optional<int> led, const RawImage& raw,
+                       SensorColorModel color) {
   FrameRecord record;
   record.kind = led ? FrameKind::kLed : FrameKind::kDark;
   record.led_index = led.value_or(-1);
@@ -101,6 +113,8 @@ void AddSimulatedFrame(const fs::path& session_dir, Session& session, std::optio
   metadata.exposure_time_s = session.camera.exposure_time_s;
   metadata.iso = kSimulatedIso;
   metadata.f_number = kSimulatedFNumber;
+  metadata.camera_from_xyz_d65 = SimulatedCameraFromXyzD65(color);
+  metadata.as_shot_neutral = SimulatedAsShotNeutral(color);
   AddFrame(session_dir, session, record, EncodeDng(raw, metadata));
 }
 
@@ -123,7 +137,7 @@ void SimulateController::Run() {
 
   BeginStage("prepare scene");
   const SimulatedRig rig(options_.rig, TextileScene(options_.scene),
-                         MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height),
+                         MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height, options_.rig.color),
                          RenderCallback("prepare scene", "prepare scene", 0, 1));
 
   Session session = existing ? *existing : NewSession(rig);
@@ -146,7 +160,7 @@ void SimulateController::Run() {
     }
     const std::string stage = "render frame " + std::to_string(i + 1) + "/" + std::to_string(total);
     const RawImage raw = rig.RenderFrame(led, static_cast<uint64_t>(i), RenderCallback(stage, "simulate", i, total));
-    AddSimulatedFrame(session_dir_, session, led, raw);
+    AddSimulatedFrame(session_dir_, session, led, raw, options_.rig.color);
     ++summary_.frames_written;
   }
 

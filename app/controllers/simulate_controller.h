@@ -22,18 +22,27 @@ inline constexpr double kSimulatedFNumber = 8;
 struct Session;
 
 // A new session of the simulated camera (make, model, serial "SIM-<seed>",
-// lens, ISO, aperture, the rig options' size), not yet on disk.
+// lens, ISO, aperture, the rig options' size), not yet on disk. The model
+// names the colour model: "Simulated D5100" (the spectral D5100) or
+// "Simulated D5100 (sRGB primaries)", so a calibration set of one does not fit
+// the other.
 Session NewSimulatedSession(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
                             const SimulatedRigOptions& rig_options, double exposure_time_s);
 
+// The session camera model of a simulated camera with `color`.
+std::string SimulatedCameraModel(SensorColorModel color);
+
 // Encodes `raw` as a DNG of the session's camera and journals it as the frame
-// of LED `led` (nullopt = the dark frame), as the capture sequencer would.
+// of LED `led` (nullopt = the dark frame), as the capture sequencer would. The
+// DNG carries the camera's colour data as a real camera's file does:
+// ColorMatrix1 (D65) = SimulatedCameraFromXyzD65(color), AsShotNeutral = its
+// LEDs' white.
 void AddSimulatedFrame(const std::filesystem::path& session_dir, Session& session, std::optional<int> led,
-                       const RawImage& raw);
+                       const RawImage& raw, SensorColorModel color);
 
 struct SimulateOptions {
-  SimulatedRigOptions rig;                 // sensor, size, noise, seed
-  TextileSceneOptions scene;               // the sample
+  SimulatedRigOptions rig;                 // sensor, size, noise, seed, colour model (--camera-color)
+  TextileSceneOptions scene;               // the sample (scene.sample = kColorChecker: --sample colorchecker)
   std::string sample_name = "simulated twill";
   std::string notes = "rendered by the scanbench simulated rig";
   bool write_ground_truth = true;          // normal, albedo, height, mask beside the frames

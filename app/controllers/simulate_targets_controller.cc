@@ -63,6 +63,17 @@ std::vector<TargetJob> PlanTargetJobs(const SimulateTargetsOptions& options, con
       summary->white_sheet_sessions.push_back(output_dir / job.name);
     }
   }
+  if (options.color_chart) {
+    TargetJob job;
+    job.name = "color_chart";
+    job.target = SimulatedTarget::ColorChart(options.chart_patch_mm, options.chart_pitch_mm);
+    job.description.kind = CalibrationTargetDescription::Kind::kColorChart;
+    job.description.color_chart.patch_mm = options.chart_patch_mm;
+    job.description.color_chart.pitch_mm = options.chart_pitch_mm;
+    job.description.color_chart.height_mm = job.target.chart_height_mm;
+    jobs.push_back(job);
+    summary->color_chart_session = output_dir / job.name;
+  }
   return jobs;
 }
 
@@ -88,6 +99,13 @@ void SimulateTargetsOptions::Check() const {
     throw FieldError(where, "board_exposure", board_exposure, "must lie in (0, 100]");
   }
   if (!(spacer_mm > 0 && spacer_mm <= 200)) throw FieldError(where, "spacer_mm", spacer_mm, "must lie in (0, 200]");
+  if (!(chart_patch_mm > 0 && chart_patch_mm <= 100)) {
+    throw FieldError(where, "chart_patch_mm", chart_patch_mm, "must lie in (0, 100]");
+  }
+  if (!(chart_pitch_mm >= chart_patch_mm && chart_pitch_mm <= 200)) {
+    throw FieldError(where, "chart_pitch_mm", chart_pitch_mm,
+                     "must lie in [chart_patch_mm = " + std::to_string(chart_patch_mm) + ", 200]");
+  }
 }
 
 SimulateTargetsController::SimulateTargetsController(fs::path output_dir, SimulateTargetsOptions options)
@@ -97,7 +115,7 @@ void SimulateTargetsController::Run() {
   options_.Check();
   const auto start = std::chrono::steady_clock::now();
   summary_ = SimulateTargetsSummary();
-  const RigDescription truth = MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height);
+  const RigDescription truth = MakeDefaultSimulatedRig(options_.rig.width, options_.rig.height, options_.rig.color);
   const RigDescription measured = MakeMeasuredRigDescription(truth, options_.measured);
   const TargetRenderer renderer(options_.rig, truth);
   const std::vector<TargetJob> jobs = PlanTargetJobs(options_, output_dir_, &summary_);
@@ -144,7 +162,7 @@ void SimulateTargetsController::RenderFrames(const TargetRenderer& renderer, con
     // Every target gets its own noise: frame index 1000 * target + frame.
     const RawImage raw = renderer.RenderFrame(prepared, led ? std::vector<int>{*led} : std::vector<int>{},
                                               1000 * (job_index + 1) + f, render);
-    AddSimulatedFrame(dir, session, led, raw);
+    AddSimulatedFrame(dir, session, led, raw, renderer.sensor().color);
     ReportProgress("simulate targets", (frames_before + f + 1) / total_frames);
   }
 }

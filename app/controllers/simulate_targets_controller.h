@@ -6,6 +6,7 @@
 //   <output>/gray_chart                          Munsell neutral value scale lying flat
 //   <output>/white_sheet_table                   99 % white sheet on the table
 //   <output>/white_sheet_spacer                  the same on a spacer (default 40 mm)
+//   <output>/color_chart                         ColorChecker Classic lying flat (16 mm patches, 20 mm pitch)
 //
 // The frames come from the rig's TRUE parameters; session.json records the
 // rig as an operator would have measured it (MakeMeasuredRigDescription), the
@@ -24,7 +25,7 @@
 namespace scanbench {
 
 struct SimulateTargetsOptions {
-  SimulatedRigOptions rig;          // sensor, size, noise; seed also names the camera serial (as a scan's)
+  SimulatedRigOptions rig;          // sensor, size, noise, colour model; seed also names the camera serial (as a scan's)
   MeasuredRigOptions measured;      // the rig description written into each session.json
   CheckerboardTarget board;         // the board of the camera calibration
   int num_board_poses = 9;          // views, the first flat on the table, [4, 9]
@@ -33,6 +34,9 @@ struct SimulateTargetsOptions {
   bool checkerboard = true;         // render the board sessions
   bool gray_chart = true;           // render the chart session
   bool white_sheets = true;         // render both white sheet sessions
+  bool color_chart = true;          // render the colour chart session
+  double chart_patch_mm = 16.0;     // ColorChecker patch side, (0, 100]
+  double chart_pitch_mm = 20.0;     // ColorChecker patch spacing, [chart_patch_mm, 200]
 
   void Check() const;
 };
@@ -41,6 +45,7 @@ struct SimulateTargetsSummary {
   std::vector<std::filesystem::path> checkerboard_sessions;
   std::filesystem::path gray_chart_session;               // empty if not rendered
   std::vector<std::filesystem::path> white_sheet_sessions;
+  std::filesystem::path color_chart_session;              // empty if not rendered
   int sessions_written = 0;
   int sessions_skipped = 0;  // found complete from an earlier run
   double seconds = 0;

@@ -49,7 +49,8 @@ void CheckAs(const std::string& file, const std::string& path, Function&& check)
 std::optional<CalibrationTargetDescription::Kind> CalibrationTargetKindFromName(const std::string& name) {
   for (const auto kind : {CalibrationTargetDescription::Kind::kCheckerboard,
                           CalibrationTargetDescription::Kind::kGrayChart,
-                          CalibrationTargetDescription::Kind::kWhiteSheet}) {
+                          CalibrationTargetDescription::Kind::kWhiteSheet,
+                          CalibrationTargetDescription::Kind::kColorChart}) {
     if (name == CalibrationTargetKindName(kind)) return kind;
   }
   return std::nullopt;
@@ -60,8 +61,21 @@ const char* CalibrationTargetKindName(CalibrationTargetDescription::Kind kind) {
     case CalibrationTargetDescription::Kind::kCheckerboard: return "checkerboard";
     case CalibrationTargetDescription::Kind::kGrayChart: return "gray_chart";
     case CalibrationTargetDescription::Kind::kWhiteSheet: return "white_sheet";
+    case CalibrationTargetDescription::Kind::kColorChart: return "color_chart";
   }
   return "?";
+}
+
+void ColorChartDescription::Check() const {
+  const std::string where = "ColorChartDescription";
+  if (chart != kColorCheckerClassicChart) {
+    throw FieldError(where, "chart", "'" + chart + "'", std::string("must be \"") + kColorCheckerClassicChart + "\"");
+  }
+  if (!(patch_mm > 0 && patch_mm <= 100)) throw FieldError(where, "patch_mm", patch_mm, "must lie in (0, 100] mm");
+  if (!(pitch_mm >= patch_mm && pitch_mm <= 200)) {
+    throw FieldError(where, "pitch_mm", pitch_mm, "must lie in [patch_mm = " + std::to_string(patch_mm) + ", 200] mm");
+  }
+  if (!(height_mm >= 0 && height_mm <= 200)) throw FieldError(where, "height_mm", height_mm, "must lie in [0, 200] mm");
 }
 
 namespace {
@@ -109,8 +123,16 @@ void WhiteSheetFields(Io& io, WhiteSheetTarget& sheet) {
   io.Field("height_mm", sheet.height_mm);
 }
 
+template <typename Io>
+void ColorChartFields(Io& io, ColorChartDescription& chart) {
+  io.Field("chart", chart.chart);
+  io.Field("patch_mm", chart.patch_mm);
+  io.Field("pitch_mm", chart.pitch_mm);
+  io.Field("height_mm", chart.height_mm);
+}
+
 using Kind = CalibrationTargetDescription::Kind;
-constexpr Kind kKinds[] = {Kind::kCheckerboard, Kind::kGrayChart, Kind::kWhiteSheet};
+constexpr Kind kKinds[] = {Kind::kCheckerboard, Kind::kGrayChart, Kind::kWhiteSheet, Kind::kColorChart};
 
 // The section of `kind`, under the key CalibrationTargetKindName(kind); its
 // checks run on the section read. Only the target's own kind is written.
@@ -122,6 +144,7 @@ void SectionFields(Io& io, CalibrationTargetDescription& target, Kind kind, cons
       case Kind::kCheckerboard: CheckerboardFields(section_io, target); break;
       case Kind::kGrayChart: GrayChartFields(section_io, target.gray_chart); break;
       case Kind::kWhiteSheet: WhiteSheetFields(section_io, target.white_sheet); break;
+      case Kind::kColorChart: ColorChartFields(section_io, target.color_chart); break;
     }
   };
   io.Custom(
@@ -138,6 +161,7 @@ void SectionFields(Io& io, CalibrationTargetDescription& target, Kind kind, cons
             case Kind::kCheckerboard: target.checkerboard.Check(); break;
             case Kind::kGrayChart: target.gray_chart.Check(); break;
             case Kind::kWhiteSheet: target.white_sheet.Check(); break;
+            case Kind::kColorChart: target.color_chart.Check(); break;
           }
         });
       },
@@ -154,7 +178,7 @@ void TargetFields(Io& io, CalibrationTargetDescription& target, const std::strin
       "kind", [&] { return Json(CalibrationTargetKindName(target.kind)); },
       [&](const JsonField& kind) {
         const auto known = CalibrationTargetKindFromName(kind.String());
-        if (!known) kind.Fail("must be \"checkerboard\", \"gray_chart\" or \"white_sheet\"");
+        if (!known) kind.Fail("must be \"checkerboard\", \"gray_chart\", \"white_sheet\" or \"color_chart\"");
         target.kind = *known;
       });
   for (const Kind kind : kKinds) SectionFields(io, target, kind, file);
@@ -230,7 +254,8 @@ bool IsTableView(const CalibrationTargetDescription& target) {
   switch (target.kind) {
     case Kind::kCheckerboard: return target.on_table;
     case Kind::kWhiteSheet: return target.white_sheet.height_mm == 0;
-    case Kind::kGrayChart: break;
+    case Kind::kGrayChart:
+    case Kind::kColorChart: break;
   }
   return false;
 }
@@ -267,6 +292,11 @@ std::pair<CalibrationTargetDescription, std::string> StandardTarget(const Descri
     case Kind::kGrayChart:
       target.gray_chart = GrayChartTarget::MunsellNeutralScale();
       return {target, "the gray chart"};
+    case Kind::kColorChart:
+      // The real ColorChecker Classic: 279 x 216 mm on a 40 mm pitch, patches ~35 mm.
+      target.color_chart.patch_mm = 35.0;
+      target.color_chart.pitch_mm = 40.0;
+      return {target, "the ColorChecker Classic"};
     case Kind::kWhiteSheet:
       break;
   }

@@ -1,6 +1,7 @@
 // What a calibration target session shows: <session>/target.json beside
 // session.json. A target session is an ordinary capture session (a dark frame
-// and one frame per LED) of a checkerboard, a gray chart or a white sheet;
+// and one frame per LED) of a checkerboard, a gray chart, a white sheet or a
+// colour chart;
 // target.json says which, with the target's dimensions, so that the session
 // describes itself. session.json is left exactly as for a scan.
 //
@@ -11,6 +12,8 @@
 //   {"kind": "gray_chart", "gray_chart": {"height_mm": 0.0, "patches": [
 //       {"name": "N5", "reflectance": 0.193, "centre_in_table_mm": [0, 0], "size_mm": 14}, ...]}}
 //   {"kind": "white_sheet", "white_sheet": {"reflectance": 0.99, "height_mm": 40.0}}
+//   {"kind": "color_chart", "color_chart": {"chart": "colorchecker_classic", "patch_mm": 16.0,
+//                                           "pitch_mm": 20.0, "height_mm": 0.0}}
 #pragma once
 
 #include <filesystem>
@@ -27,8 +30,21 @@ namespace scanbench {
 inline constexpr int kCalibrationTargetSchemaVersion = 1;
 inline constexpr char kCalibrationTargetFileName[] = "target.json";
 
+// A colour chart lying flat, face up, anywhere in view (its detection finds
+// it): which chart and its patch grid.
+inline constexpr char kColorCheckerClassicChart[] = "colorchecker_classic";
+struct ColorChartDescription {
+  std::string chart = kColorCheckerClassicChart;  // the only chart known: the 24-patch ColorChecker Classic
+  double patch_mm = 16.0;   // side of a square patch, (0, 100]
+  double pitch_mm = 20.0;   // patch centre spacing, [patch_mm, 200]
+  double height_mm = 0.0;   // the chart's face above the table, [0, 200]
+
+  // Throws std::invalid_argument (FieldError) naming the field.
+  void Check() const;
+};
+
 struct CalibrationTargetDescription {
-  enum class Kind { kCheckerboard, kGrayChart, kWhiteSheet };
+  enum class Kind { kCheckerboard, kGrayChart, kWhiteSheet, kColorChart };
   Kind kind = Kind::kWhiteSheet;
   // kCheckerboard
   CheckerboardTarget checkerboard;
@@ -38,9 +54,11 @@ struct CalibrationTargetDescription {
   GrayChartTarget gray_chart;
   // kWhiteSheet
   WhiteSheetTarget white_sheet;
+  // kColorChart
+  ColorChartDescription color_chart;
 };
 
-// "checkerboard", "gray_chart", "white_sheet".
+// "checkerboard", "gray_chart", "white_sheet", "color_chart".
 const char* CalibrationTargetKindName(CalibrationTargetDescription::Kind kind);
 
 std::string CalibrationTargetToJson(const CalibrationTargetDescription& target);
@@ -64,7 +82,7 @@ std::map<CalibrationTargetDescription::Kind, std::vector<std::filesystem::path>>
 
 // Whether `target` is the view on the table its calibration needs once: the
 // board lying on the table (camera), the white sheet on the table (lights).
-// Always false for a gray chart.
+// Always false for a gray chart and a colour chart.
 bool IsTableView(const CalibrationTargetDescription& target);
 
 // Describing captures of the standard targets made on the real bench (plain
@@ -90,7 +108,8 @@ struct DescribedTargetSession {
 
 // Writes the standard target of options.kind into each of `sessions` (in
 // order) that has no target.json: the 9 x 6 checkerboard of 9 mm squares,
-// the Munsell neutral scale centred on the table, or the 99 % white sheet.
+// the Munsell neutral scale centred on the table, the 99 % white sheet, or a
+// ColorChecker Classic of the real size (40 mm pitch, 35 mm patches) on the table.
 // The first board / sheet written is the table view unless one of `sessions`
 // or `also_listed` (the other sessions of the calibration) already is one;
 // later ones are tilted board poses / sheets on the spacer. Throws

@@ -16,7 +16,9 @@
 
 #include "core/parallel_for.h"
 #include "calibration/camera_model.h"
+#include "app/sim/sensor_color.h"
 #include "app/sim/split_mix.h"
+#include "calibration/color_checker.h"
 #include "core/field_error.h"
 
 namespace scanbench {
@@ -125,12 +127,13 @@ void SimulatedRigOptions::Check() const {
 }
 
 // ---------------------------------------------------------------------------
-RigDescription MakeDefaultSimulatedRig(int width, int height) {
+RigDescription MakeDefaultSimulatedRig(int width, int height, SensorColorModel color) {
   if (width <= 0) throw FieldError("MakeDefaultSimulatedRig", "width", width, "must be > 0");
   if (height <= 0) throw FieldError("MakeDefaultSimulatedRig", "height", height, "must be > 0");
 
   RigDescription rig;
-  rig.name = "simulated D5100 + 85 mm, 10 x D65 LED";
+  rig.name = color == SensorColorModel::kSrgbPrimaries ? "simulated D5100 + 85 mm, 10 x D65 LED"
+                                                       : "simulated D5100 + 85 mm, 10 x LED-B5 white LED";
 
   // Camera. An 85 mm lens focused at 600 mm has its image plane at
   // f * s / (s - f) = 99 mm: that is the pinhole focal length. Binning keeps
@@ -183,9 +186,9 @@ RigDescription MakeDefaultSimulatedRig(int width, int height) {
       {59.6, 108.0, 504.0, 2.5, 0.97, 1.03, 0.98},  {60.1, 179.4, 498.0, 1.1, 1.09, 1.00, 0.97},
       {59.9, 252.2, 502.0, 2.3, 0.92, 1.01, 1.02},  {60.2, 323.7, 496.0, 1.7, 0.99, 0.99, 1.00},
   };
-  // Raw response of the sensor to D65 white relative to green (the inverse of
-  // the camera's daylight white-balance multipliers).
-  const Eigen::Vector3d kRawWhite(0.48, 1.0, 0.70);
+  // Raw response of the sensor to the LEDs' white relative to green (the
+  // inverse of the camera's white-balance multipliers for that light).
+  const Eigen::Vector3d kRawWhite = SimulatedSensorColor(color).raw_white_relative_to_green;
   // Brightest LED: an albedo-1 patch facing it at the centre reads 0.72 of the raw range.
   constexpr double kBrightestFraction = 0.72;
 
@@ -220,14 +223,38 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
   BuildShadowGrid(SubRange(progress, 0.0, 0.1));
   const ImageF rays = ComputeRayDirectionsInTable(rig_.camera);
   const Eigen::Vector3d camera_centre = CameraCentreInTable(rig_.camera);
+  camera_centre_in_table_ = camera_centre;
   mm_per_pixel_ = CentrePixelFootprintMm(rays, camera_centre);
+  PrepareColor();
 
   const size_t num_pixels = static_cast<size_t>(options_.width) * options_.height;
   point_in_table_.resize(3 * num_pixels);
   normal_xy_in_table_.resize(2 * num_pixels);
   albedo_.resize(3 * num_pixels);
+  if (!camera_is_rec709_) albedo_linear_rec709_.resize(3 * num_pixels);
+  if (scene_.options().sample == SampleKind::kColorChecker && scene_.options().chart_gloss > 0) {
+    gloss_.resize(num_pixels);
+  }
   ParallelRowsOrCancel("render", options_.height, NumThreads(), progress, 0.1, 1.0,
                        [&](int y) { TraceRow(y, rays, camera_centre); });
+}
+
+void SimulatedRig::PrepareColor() {
+  const SensorColor& color = SimulatedSensorColor(options_.color);
+  camera_is_rec709_ = options_.color == SensorColorModel::kSrgbPrimaries;
+  camera_from_linear_rec709_ = color.camera_from_linear_rec709;
+  patch_camera_rgb_.clear();
+  for (const ColorCheckerPatch& patch : ColorCheckerClassic()) {
+    patch_camera_rgb_.push_back(WhiteBalancedCameraRgbOf(options_.color, patch.reflectance));
+  }
+  const double width_rad = scene_.options().chart_gloss_width_deg * kPi / 180.0;
+  gloss_tan2_width_ = std::tan(width_rad) * std::tan(width_rad);
+}
+
+Eigen::Vector3d SimulatedRig::CameraRgbOf(const SurfaceSample& s) const {
+  if (camera_is_rec709_) return s.albedo;
+  if (s.spectral_patch >= 0) return patch_camera_rgb_[s.spectral_patch];
+  return camera_from_linear_rec709_ * s.albedo;
 }
 
 void SimulatedRig::CheckRig() const {
@@ -297,10 +324,13 @@ void SimulatedRig::TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& ca
     const SurfaceSample s = scene_.Sample(point.x(), point.y(), true);
     point.z() = s.height_mm;
     const Eigen::Vector3d normal = Eigen::Vector3d(-s.gradient.x(), -s.gradient.y(), 1.0).normalized();
+    const Eigen::Vector3d camera_rgb = CameraRgbOf(s);
     for (int c = 0; c < 3; ++c) {
       point_in_table_[3 * i + c] = static_cast<float>(point[c]);
-      albedo_[3 * i + c] = static_cast<float>(s.albedo[c]);
+      albedo_[3 * i + c] = static_cast<float>(camera_rgb[c]);
+      if (!camera_is_rec709_) albedo_linear_rec709_[3 * i + c] = static_cast<float>(s.albedo[c]);
     }
+    if (!gloss_.empty()) gloss_[i] = static_cast<float>(s.gloss);
     normal_xy_in_table_[2 * i + 0] = static_cast<float>(normal.x());
     normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
   }
@@ -371,13 +401,13 @@ int SimulatedRig::NumThreads() const {
 
 void SimulatedRig::BuildShadowGrid(const ProgressCallback& progress) {
   // The height is 0 off the sample, so the grid covers the sample only.
-  const TextileSceneOptions& so = scene_.options();
+  const Eigen::Vector2d extent = scene_.SampleExtentMm();
   ShadowGrid& g = grid_;
   g.spacing = options_.shadow_grid_mm;
-  g.origin_x = -0.5 * so.sample_width_mm;
-  g.origin_y = -0.5 * so.sample_height_mm;
-  g.nx = static_cast<int>(std::ceil(so.sample_width_mm / g.spacing)) + 1;
-  g.ny = static_cast<int>(std::ceil(so.sample_height_mm / g.spacing)) + 1;
+  g.origin_x = -0.5 * extent.x();
+  g.origin_y = -0.5 * extent.y();
+  g.nx = static_cast<int>(std::ceil(extent.x() / g.spacing)) + 1;
+  g.ny = static_cast<int>(std::ceil(extent.y() / g.spacing)) + 1;
   g.height.assign(static_cast<size_t>(g.nx) * g.ny, 0.0f);
   ParallelRowsOrCancel("render", g.ny, NumThreads(), progress, 0.0, 0.9, [&](int j) {
     for (int i = 0; i < g.nx; ++i) {
@@ -506,6 +536,17 @@ double SimulatedRig::DirectFactor(size_t i, const LedDescription& led, bool cast
   return factor;
 }
 
+double SimulatedRig::SpecularAt(size_t i, const LedDescription& led) const {
+  if (gloss_.empty() || gloss_[i] == 0) return 0.0;
+  const Eigen::Vector3d point = PointAt(i);
+  const Eigen::Vector3d half =
+      ((led.position_in_table_mm - point).normalized() + (camera_centre_in_table_ - point).normalized()).normalized();
+  const double cos_h = NormalAt(i).dot(half);
+  if (!(cos_h > 0)) return 0.0;
+  const double tan2_h = (1.0 - cos_h * cos_h) / (cos_h * cos_h);
+  return gloss_[i] * std::exp(-tan2_h / gloss_tan2_width_);
+}
+
 ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const ProgressCallback& progress) const {
   if (lit_led_index && (*lit_led_index < 0 || *lit_led_index >= num_leds())) {
     throw std::out_of_range("SimulatedRig: LED index " + std::to_string(*lit_led_index) + " is not in [0, " +
@@ -518,9 +559,11 @@ ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const Progre
     for (int x = 0; x < options_.width; ++x) {
       const size_t i = static_cast<size_t>(y) * options_.width + x;
       const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
+      const double specular = direct > 0 ? SpecularAt(i, *led) : 0.0;
       for (int c = 0; c < 3; ++c) {
         const double irradiance = direct * (led ? led->rgb_intensity[c] : 0.0) + options_.ambient;
         row[3 * x + c] = static_cast<float>(albedo_[3 * i + c] * irradiance);
+        if (specular > 0) row[3 * x + c] += static_cast<float>(specular * direct * led->rgb_intensity[c]);
       }
     }
   });
@@ -572,6 +615,8 @@ RawImage SimulatedRig::RenderFrame(std::optional<int> lit_led_index, uint64_t fr
           const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
           const double irradiance = direct * (led ? led->rgb_intensity[c] : 0.0) + options_.ambient;
           values[x] = albedo_[3 * i + c] * irradiance;
+          // Gloss: the LED's own colour (raw white), off the solver's Lambertian model.
+          if (direct > 0 && !gloss_.empty()) values[x] += SpecularAt(i, *led) * direct * led->rgb_intensity[c];
         }
       },
       progress);
@@ -599,6 +644,7 @@ GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
   maps.point_in_table = ImageF(w, h, 3);
   maps.normal_in_table = ImageF(w, h, 3);
   maps.albedo = ImageF(w, h, 3);
+  maps.albedo_white_balanced_camera = ImageF(w, h, 3);
   maps.height_mm = ImageF(w, h, 1);
   maps.sample_mask = ImageU8(w, h, 1);
   maps.mm_per_pixel = mm_per_pixel_;
@@ -609,7 +655,8 @@ GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
       for (int c = 0; c < 3; ++c) {
         maps.point_in_table(x, y, c) = point_in_table_[3 * i + c];
         maps.normal_in_table(x, y, c) = static_cast<float>(normal[c]);
-        maps.albedo(x, y, c) = albedo_[3 * i + c];
+        maps.albedo(x, y, c) = camera_is_rec709_ ? albedo_[3 * i + c] : albedo_linear_rec709_[3 * i + c];
+        maps.albedo_white_balanced_camera(x, y, c) = albedo_[3 * i + c];
       }
       maps.height_mm(x, y) = point_in_table_[3 * i + 2];
       maps.sample_mask(x, y) = scene_.OnSample(point_in_table_[3 * i], point_in_table_[3 * i + 1]) ? 1 : 0;

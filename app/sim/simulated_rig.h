@@ -8,7 +8,23 @@
 // with l the unit vector from the surface point to the LED, d its distance and
 // the angle off axis between the LED's axis and (point - LED); zero where the
 // height field casts a shadow. Ambient light adds albedo_c * ambient to every
-// frame, the dark frame included.
+// frame, the dark frame included. A glossy sample (the ColorChecker card) adds
+// a small specular term to albedo_c for the direct light only, which the
+// solver's Lambertian model does not know: as on a real card.
+//
+// Colour (issue #12). albedo_c above is the WHITE-BALANCED CAMERA RGB of the
+// surface: what the sensor reads of it under the LEDs, divided per channel by
+// what it reads of a perfect white (so a perfect white is (1, 1, 1) and the
+// LEDs' rgb_intensity carries the raw white balance). With
+// SensorColorModel::kNikonD5100 (default) the camera is spectral and not
+// colorimetric: every reflectance spectrum is integrated against the CIE
+// LED-B5 white LED and the measured Nikon D5100 sensitivities
+// (app/sim/sensor_color.h); textile colours, given in linear Rec.709, are
+// upsampled to smooth spectra first (Mallett & Yuksel 2019). With
+// kSrgbPrimaries (the camera before issue #12) camera RGB is linear Rec.709.
+// The ground truth albedo (GroundTruthMaps::albedo) is ALWAYS linear Rec.709
+// under D65 (the colour a solve with a correct colour calibration must give),
+// whatever the camera.
 #pragma once
 
 #include <cstdint>
@@ -34,13 +50,22 @@ inline constexpr int kD5100Height = 3264;           // pixels
 inline constexpr double kD5100SensorWidthMm = 23.6;
 inline constexpr double kD5100SensorHeightMm = 15.6;
 
+// The simulated camera's colour response (see the header comment).
+enum class SensorColorModel {
+  kNikonD5100,     // spectral: measured D5100 curves under the LED-B5 white LED
+  kSrgbPrimaries,  // camera RGB = linear Rec.709 (the camera before issue #12)
+};
+
 // The bench as built, the truth the calibration should recover: a D5100 with an
 // 85 mm prime focused at 600 mm looking straight down (1 deg tilt), 10 LEDs on
 // two rings (30 and 60 deg elevation, 500 mm from the sample centre), each aimed
 // at the centre. `width` x `height` keep the field of view of the full sensor
-// (a smaller size is a binned sensor). Throws std::invalid_argument if either
-// size is not positive.
-RigDescription MakeDefaultSimulatedRig(int width = 1232, int height = 816);
+// (a smaller size is a binned sensor). The LEDs' rgb_intensity channel ratios
+// are the raw white of `color` (its white LED through its sensor), times each
+// LED's own slight tint. Throws std::invalid_argument if either size is not
+// positive.
+RigDescription MakeDefaultSimulatedRig(int width = 1232, int height = 816,
+                                       SensorColorModel color = SensorColorModel::kNikonD5100);
 
 struct SimulatedRigOptions {
   int width = kD5100Width / 4;       // pixels; must equal the rig camera's intrinsics.width
@@ -57,6 +82,7 @@ struct SimulatedRigOptions {
   double shadow_grid_mm = 0.05;      // spacing of the height grid that shadow rays march over, (0, 1]
   double shadow_bias_mm = 0.01;      // a ray is occluded only if the surface is this much above it, [0, 1]
   int num_threads = 0;               // worker threads; 0 = std::thread::hardware_concurrency(), [0, 256]
+  SensorColorModel color = SensorColorModel::kNikonD5100;  // camera colour response; the rig's LEDs must match it
 
   // Throws std::invalid_argument naming the field, its value and the rule.
   void Check() const;
@@ -81,7 +107,8 @@ RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_i
 struct GroundTruthMaps {
   ImageF point_in_table;   // 3 channels, mm: where each pixel's ray meets the surface
   ImageF normal_in_table;  // 3 channels, unit, z > 0
-  ImageF albedo;           // 3 channels, linear RGB in [0, 1]
+  ImageF albedo;           // 3 channels, linear Rec.709 (D65) reflectance in [0, 1], whatever the camera
+  ImageF albedo_white_balanced_camera;  // 3 channels: what the sensor sees of it (the albedo_c of the light model)
   ImageF height_mm;        // 1 channel, surface height above the table
   ImageU8 sample_mask;     // 1 channel: 1 on the sample, 0 on the table
   double mm_per_pixel = 0; // footprint on the table plane of one pixel at the image centre
@@ -136,6 +163,7 @@ class SimulatedRig {
   static constexpr int kTileCells = 16;
 
   // The steps of the constructor.
+  void PrepareColor();    // the camera's colour response to the scene's albedo and the chart's spectra
   void CheckRig() const;  // the camera matches the options and clears the scene; finite LEDs
   double CentrePixelFootprintMm(const ImageF& rays, const Eigen::Vector3d& camera_centre) const;
   void TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& camera_centre);
@@ -149,6 +177,10 @@ class SimulatedRig {
                 double distance_mm) const;
   // LED irradiance factor n.l * cos^mu * (1000/d)^2 (times 0 in shadow) at pixel index i.
   double DirectFactor(size_t i, const LedDescription& led, bool cast_shadows) const;
+  // Specular reflectance the gloss adds at pixel index i for `led` (0 for a matte scene).
+  double SpecularAt(size_t i, const LedDescription& led) const;
+  // White-balanced camera RGB of a surface sample (see the header comment).
+  Eigen::Vector3d CameraRgbOf(const SurfaceSample& sample) const;
   Eigen::Vector3d PointAt(size_t i) const;
   Eigen::Vector3d NormalAt(size_t i) const;
 
@@ -157,11 +189,22 @@ class SimulatedRig {
   RigDescription rig_;
   ShadowGrid grid_;
   double mm_per_pixel_ = 0;
+  Eigen::Vector3d camera_centre_in_table_ = Eigen::Vector3d::Zero();
+  // Colour: camera RGB = linear Rec.709 (kSrgbPrimaries), or the Mallett
+  // matrix for textile colours and the patches' spectral camera RGB.
+  bool camera_is_rec709_ = true;
+  Eigen::Matrix3d camera_from_linear_rec709_ = Eigen::Matrix3d::Identity();
+  std::vector<Eigen::Vector3d> patch_camera_rgb_;  // per ColorCheckerClassic() patch
+  double gloss_tan2_width_ = 1;
   // Per pixel, compact (32 bytes): surface point xyz, normal xy (z > 0 is
-  // implied), albedo rgb.
+  // implied), albedo rgb as the camera sees it (white-balanced camera RGB).
+  // Only when the camera is not Rec.709: the ground-truth linear Rec.709
+  // albedo (12 bytes more); only for a glossy scene: the gloss.
   std::vector<float> point_in_table_;
   std::vector<float> normal_xy_in_table_;
   std::vector<float> albedo_;
+  std::vector<float> albedo_linear_rec709_;
+  std::vector<float> gloss_;
 };
 
 }  // namespace scanbench

@@ -8,7 +8,9 @@
 
 #include "core/parallel_for.h"
 #include "calibration/camera_model.h"
+#include "app/sim/sensor_color.h"
 #include "app/sim/split_mix.h"
+#include "calibration/color_checker.h"
 #include "core/field_error.h"
 
 namespace scanbench {
@@ -63,13 +65,32 @@ PlaneView PlaneOf(const SimulatedTarget& target) {
     case SimulatedTarget::Kind::kWhiteSheet:
       view.table_from_target = Eigen::Translation3d(0, 0, target.white_sheet.height_mm) * Eigen::Isometry3d::Identity();
       break;
+    case SimulatedTarget::Kind::kColorChart:
+      view.table_from_target = Eigen::Translation3d(0, 0, target.chart_height_mm) * Eigen::Isometry3d::Identity();
+      break;
   }
   view.target_from_table = view.table_from_target.inverse();
   view.normal_in_table = view.table_from_target.linear().col(2);
   return view;
 }
 
+// Half extent of the colour chart card: the patch grid plus the border.
+Eigen::Vector2d ChartHalfSizeMm(const SimulatedTarget& t) {
+  return 0.5 * Eigen::Vector2d((kColorCheckerColumns - 1) * t.chart_pitch_mm + t.chart_patch_mm + 2 * t.chart_border_mm,
+                               (kColorCheckerRows - 1) * t.chart_pitch_mm + t.chart_patch_mm + 2 * t.chart_border_mm);
+}
+
+// White-balanced camera RGB at (u, v) of the colour chart; std::nullopt off it.
+std::optional<Eigen::Vector3d> ChartCameraRgb(const SimulatedTarget& target, const std::vector<Eigen::Vector3d>& patch_rgb,
+                                              double u, double v) {
+  const Eigen::Vector2d half = ChartHalfSizeMm(target);
+  if (std::abs(u) > half.x() || std::abs(v) > half.y()) return std::nullopt;
+  const int patch = ColorCheckerPatchIndexAt(u, v, target.chart_patch_mm, target.chart_pitch_mm);
+  return patch >= 0 ? patch_rgb[patch] : Eigen::Vector3d::Constant(target.chart_surround_reflectance);
+}
+
 // Reflectance at (u, v) of the target plane; std::nullopt off the target.
+// The colour chart has no single reflectance: ChartCameraRgb.
 std::optional<double> TargetReflectance(const SimulatedTarget& target, double u, double v) {
   switch (target.kind) {
     case SimulatedTarget::Kind::kCheckerboard: {
@@ -106,6 +127,8 @@ std::optional<double> TargetReflectance(const SimulatedTarget& target, double u,
                                    : 0.0;
       return std::clamp(target.white_sheet.reflectance * (1.0 + texture), 0.0, 1.0);
     }
+    case SimulatedTarget::Kind::kColorChart:
+      break;
   }
   return std::nullopt;
 }
@@ -115,6 +138,7 @@ int DefaultSupersampling(SimulatedTarget::Kind kind) {
     case SimulatedTarget::Kind::kCheckerboard: return 4;
     case SimulatedTarget::Kind::kGrayChart: return 2;
     case SimulatedTarget::Kind::kWhiteSheet: return 1;
+    case SimulatedTarget::Kind::kColorChart: return 2;
   }
   return 1;
 }
@@ -174,6 +198,15 @@ SimulatedTarget SimulatedTarget::WhiteSheet(const WhiteSheetTarget& sheet) {
   return target;
 }
 
+SimulatedTarget SimulatedTarget::ColorChart(double patch_mm, double pitch_mm, double height_mm) {
+  SimulatedTarget target;
+  target.kind = Kind::kColorChart;
+  target.chart_patch_mm = patch_mm;
+  target.chart_pitch_mm = pitch_mm;
+  target.chart_height_mm = height_mm;
+  return target;
+}
+
 void SimulatedTarget::Check() const {
   const std::string where = "SimulatedTarget";
   auto check_reflectance = [&](const char* name, double value) {
@@ -208,6 +241,26 @@ void SimulatedTarget::Check() const {
         throw FieldError(where, "paper_texture", paper_texture, "must lie in [0, 0.2]");
       }
       if (!(paper_texture_mm > 0)) throw FieldError(where, "paper_texture_mm", paper_texture_mm, "must be > 0");
+      break;
+    case Kind::kColorChart:
+      if (!(chart_patch_mm > 0) || !std::isfinite(chart_patch_mm)) {
+        throw FieldError(where, "chart_patch_mm", chart_patch_mm, "must be finite and > 0");
+      }
+      if (!(chart_pitch_mm >= chart_patch_mm) || !std::isfinite(chart_pitch_mm)) {
+        throw FieldError(where, "chart_pitch_mm", chart_pitch_mm,
+                         "must be finite and >= chart_patch_mm (" + std::to_string(chart_patch_mm) + ")");
+      }
+      if (!(chart_height_mm >= 0 && chart_height_mm <= 200)) {
+        throw FieldError(where, "chart_height_mm", chart_height_mm, "must lie in [0, 200]");
+      }
+      if (!(chart_border_mm >= 0) || !std::isfinite(chart_border_mm)) {
+        throw FieldError(where, "chart_border_mm", chart_border_mm, "must be finite and >= 0");
+      }
+      check_reflectance("chart_surround_reflectance", chart_surround_reflectance);
+      if (!(chart_gloss >= 0 && chart_gloss <= 0.2)) throw FieldError(where, "chart_gloss", chart_gloss, "must lie in [0, 0.2]");
+      if (!(chart_gloss_width_deg > 0 && chart_gloss_width_deg <= 45)) {
+        throw FieldError(where, "chart_gloss_width_deg", chart_gloss_width_deg, "must lie in (0, 45]");
+      }
       break;
     default:
       throw FieldError(where, "kind", static_cast<int>(kind), "is not a SimulatedTarget::Kind");
@@ -273,10 +326,24 @@ PreparedTarget TargetRenderer::Prepare(const SimulatedTarget& target, const Targ
     }
   });
 
+  // The colour chart's patches through the sensor's colour model, from their measured spectra.
+  const bool colour = target.kind == SimulatedTarget::Kind::kColorChart;
+  std::vector<Eigen::Vector3d> patch_rgb;
+  if (colour) {
+    for (const ColorCheckerPatch& patch : ColorCheckerClassic()) {
+      patch_rgb.push_back(WhiteBalancedCameraRgbOf(sensor_.color, patch.reflectance));
+    }
+  }
+  const bool glossy = colour && target.chart_gloss > 0;
+
   PreparedTarget prepared;
-  prepared.reflectance = ImageF(w, h, 1);
+  prepared.reflectance = ImageF(w, h, colour ? 3 : 1);
   prepared.point_in_table = ImageF(w, h, 3);
   prepared.normal_in_table = ImageF(w, h, 3);
+  if (glossy) {
+    prepared.gloss = ImageF(w, h, 1);
+    prepared.gloss_width_deg = target.chart_gloss_width_deg;
+  }
   ParallelRowsOrCancel("render", h, num_threads, {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Eigen::Vector3d ray = ray_at(x, y);
@@ -290,17 +357,30 @@ PreparedTarget TargetRenderer::Prepare(const SimulatedTarget& target, const Targ
       const Eigen::Vector2d centre(plane_uv(x, y, 0), plane_uv(x, y, 1));
       const double t = RayPlaneT(camera, ray, plane.table_from_target.translation(), plane.normal_in_table);
       double reflectance_sum = 0;
+      Eigen::Vector3d rgb_sum = Eigen::Vector3d::Zero();
       int on_target = 0;
       for (int sy = 0; sy < samples; ++sy) {
         for (int sx = 0; sx < samples; ++sx) {
           const double ox = (sx + 0.5) / samples - 0.5, oy = (sy + 0.5) / samples - 0.5;
           const Eigen::Vector2d uv = centre + ox * du + oy * dv;
+          if (colour) {
+            const std::optional<Eigen::Vector3d> rgb =
+                t > 0 ? ChartCameraRgb(target, patch_rgb, uv.x(), uv.y()) : std::nullopt;
+            rgb_sum += rgb.value_or(Eigen::Vector3d::Constant(target.table_reflectance));
+            on_target += rgb.has_value();
+            continue;
+          }
           const std::optional<double> r = t > 0 ? TargetReflectance(target, uv.x(), uv.y()) : std::nullopt;
           reflectance_sum += r.value_or(target.table_reflectance);
           on_target += r.has_value();
         }
       }
-      prepared.reflectance(x, y) = static_cast<float>(reflectance_sum / (samples * samples));
+      if (colour) {
+        for (int c = 0; c < 3; ++c) prepared.reflectance(x, y, c) = static_cast<float>(rgb_sum[c] / (samples * samples));
+      } else {
+        prepared.reflectance(x, y) = static_cast<float>(reflectance_sum / (samples * samples));
+      }
+      if (glossy) prepared.gloss(x, y) = static_cast<float>(target.chart_gloss * on_target / (samples * samples));
       // Lit where the centre's ray lands: the target if it is there, else the table.
       Eigen::Vector3d point, normal;
       if (t > 0 && on_target * 2 >= samples * samples) {
@@ -334,6 +414,9 @@ ImageF TargetRenderer::RenderLinear(const PreparedTarget& target, const std::vec
                                 "x" + std::to_string(target.reflectance.height()) + ", the sensor " +
                                 std::to_string(w) + "x" + std::to_string(h));
   }
+  const int reflectance_channels = target.reflectance.channels();
+  const bool glossy = !target.gloss.empty();
+  const double gloss_tan2_width = std::pow(std::tan(target.gloss_width_deg * kPi / 180.0), 2);
   ImageF out(w, h, 3);
   ParallelRowsOrCancel("render", h, NumThreads(sensor_), {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
@@ -342,6 +425,7 @@ ImageF TargetRenderer::RenderLinear(const PreparedTarget& target, const std::vec
       const Eigen::Vector3d normal(target.normal_in_table(x, y, 0), target.normal_in_table(x, y, 1),
                                    target.normal_in_table(x, y, 2));
       Eigen::Vector3d irradiance = Eigen::Vector3d::Constant(sensor_.ambient);
+      Eigen::Vector3d specular = Eigen::Vector3d::Zero();  // added radiance of the gloss, per reflectance 1
       for (const int k : leds) {
         const LedDescription& led = rig_.leds[k];
         const Eigen::Vector3d to_led = led.position_in_table_mm - point;
@@ -355,11 +439,19 @@ ImageF TargetRenderer::RenderLinear(const PreparedTarget& target, const std::vec
           const double off_axis_deg = std::acos(std::min(1.0, cos_off_axis)) * 180.0 / kPi;
           falloff *= 1.0 + render.led_ripple * std::sin(2 * kPi * off_axis_deg / render.led_ripple_period_deg);
         }
-        irradiance += (n_dot_l * falloff * kLedReferenceDistanceMm * kLedReferenceDistanceMm / distance2) *
-                      led.rgb_intensity;
+        const Eigen::Vector3d direct =
+            (n_dot_l * falloff * kLedReferenceDistanceMm * kLedReferenceDistanceMm / distance2) * led.rgb_intensity;
+        irradiance += direct;
+        if (glossy && target.gloss(x, y) > 0) {
+          const Eigen::Vector3d half = (l + (camera_centre_in_table_ - point).normalized()).normalized();
+          const double cos_h = normal.dot(half);
+          const double tan2_h = (1.0 - cos_h * cos_h) / (cos_h * cos_h);
+          if (cos_h > 0) specular += target.gloss(x, y) * std::exp(-tan2_h / gloss_tan2_width) * direct;
+        }
       }
       for (int c = 0; c < 3; ++c) {
-        out(x, y, c) = static_cast<float>(render.exposure * target.reflectance(x, y) * irradiance[c]);
+        const double reflectance = target.reflectance(x, y, reflectance_channels == 3 ? c : 0);
+        out(x, y, c) = static_cast<float>(render.exposure * reflectance * irradiance[c] + render.exposure * specular[c]);
       }
     }
   });

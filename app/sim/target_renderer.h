@@ -1,12 +1,16 @@
 // Calibration targets on the simulated rig: a checkerboard held at any pose,
-// a matte gray chart and a white sheet lying flat, rendered from the rig's
+// a matte gray chart, a white sheet and a ColorChecker Classic colour chart
+// lying flat, rendered from the rig's
 // TRUE camera, LEDs and sensor, so that a calibration can be scored against
 // parameters it never sees. Plus the rig description an operator would write
 // down before calibrating ("measured": tape-measure LED positions, datasheet
 // falloff and brightness, nominal lens).
 //
 // Light model: the one of simulated_rig.h (near-field LEDs, cos^mu off axis,
-// inverse square, Lambertian target), on the target's plane; no shadows (a
+// inverse square, Lambertian target; reflectance as white-balanced camera RGB,
+// neutral for every target but the colour chart, whose patches come from
+// their measured spectra through the sensor's colour model, plus a little
+// gloss), on the target's plane; no shadows (a
 // raised target does not shade the table: the table is only seen around it).
 // Each pixel integrates the target's reflectance over its area (box filter,
 // supersampled), so that edges are anti-aliased as on a real sensor.
@@ -29,7 +33,7 @@ namespace scanbench {
 
 // What is in front of the camera, in the table frame.
 struct SimulatedTarget {
-  enum class Kind { kCheckerboard, kGrayChart, kWhiteSheet };
+  enum class Kind { kCheckerboard, kGrayChart, kWhiteSheet, kColorChart };
   Kind kind = Kind::kWhiteSheet;
 
   // kCheckerboard: the board and where it is. The visible face is the
@@ -52,11 +56,22 @@ struct SimulatedTarget {
   double paper_texture_mm = 0.2;         // correlation length of that variation, > 0
   uint64_t paper_seed = 99;
 
+  // kColorChart: a ColorChecker Classic card lying flat at chart_height_mm,
+  // centred on the table origin, dark skin at the image's top left (-x, +y).
+  double chart_patch_mm = 16.0;          // side of a square patch, > 0
+  double chart_pitch_mm = 20.0;          // patch centre spacing, >= chart_patch_mm
+  double chart_height_mm = 0.0;          // the card's face above the table, [0, 200]
+  double chart_border_mm = 4.0;          // black surround beyond the outer patches' edges, >= 0
+  double chart_surround_reflectance = 0.03;  // the black surround (neutral), [0, 1]
+  double chart_gloss = 0.02;             // specular reflectance added at the mirror direction, [0, 0.2]
+  double chart_gloss_width_deg = 12.0;   // half-vector angle where the gloss falls to 1/e, (0, 45]
+
   double table_reflectance = 0.35;       // the table seen around the target, [0, 1]
 
   static SimulatedTarget Checkerboard(const CheckerboardTarget& board, const Eigen::Isometry3d& table_from_target);
   static SimulatedTarget GrayChart(const GrayChartTarget& chart);
   static SimulatedTarget WhiteSheet(const WhiteSheetTarget& sheet);
+  static SimulatedTarget ColorChart(double patch_mm = 16.0, double pitch_mm = 20.0, double height_mm = 0.0);
 
   // Throws std::invalid_argument naming the field, its value and the rule.
   void Check() const;
@@ -79,9 +94,14 @@ struct TargetRenderOptions {
 // (area-averaged), the surface point and normal its centre's ray meets.
 // Lighting it for each LED is then cheap.
 struct PreparedTarget {
-  ImageF reflectance;       // 1 channel, [0, 1]
+  // [0, 1]: 1 channel for a neutral target (every camera channel alike), 3
+  // for the colour chart: white-balanced camera RGB per channel.
+  ImageF reflectance;
   ImageF point_in_table;    // 3 channels, mm
   ImageF normal_in_table;   // 3 channels, unit
+  // 1 channel: specular reflectance at the mirror direction; empty = matte.
+  ImageF gloss;
+  double gloss_width_deg = 12.0;  // half-vector angle where the gloss falls to 1/e
 };
 
 class TargetRenderer {

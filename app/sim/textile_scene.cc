@@ -7,6 +7,7 @@
 #include <string>
 
 #include "app/sim/split_mix.h"
+#include "calibration/color_checker.h"
 #include "core/field_error.h"
 
 namespace scanbench {
@@ -155,9 +156,59 @@ Eigen::Vector3d ThreadAlbedo(const TextileSceneOptions& o, const WeaveRelief& w,
   return ((w.w_warp * warp_rgb + w.w_weft * weft_rgb) * gap_factor).cwiseMax(0.0).cwiseMin(1.0);
 }
 
+// The card's outline: the patch grid plus the border on every side.
+Eigen::Vector2d ChartCardSizeMm(const TextileSceneOptions& o) {
+  return Eigen::Vector2d((kColorCheckerColumns - 1) * o.chart_pitch_mm + o.chart_patch_mm,
+                         (kColorCheckerRows - 1) * o.chart_pitch_mm + o.chart_patch_mm) +
+         Eigen::Vector2d::Constant(2.0 * o.chart_border_mm);
+}
+
+void CheckChart(const TextileSceneOptions& o) {
+  if (!(o.chart_patch_mm > 0) || !std::isfinite(o.chart_patch_mm)) {
+    throw FieldError(kOptions, "chart_patch_mm", o.chart_patch_mm, "must be finite and > 0");
+  }
+  if (!(o.chart_pitch_mm >= o.chart_patch_mm) || !std::isfinite(o.chart_pitch_mm)) {
+    throw FieldError(kOptions, "chart_pitch_mm", o.chart_pitch_mm,
+                     "must be finite and >= chart_patch_mm (" + std::to_string(o.chart_patch_mm) + ")");
+  }
+  if (!(o.chart_border_mm >= 0) || !std::isfinite(o.chart_border_mm)) {
+    throw FieldError(kOptions, "chart_border_mm", o.chart_border_mm, "must be finite and >= 0");
+  }
+  if (!(o.chart_thickness_mm >= 0 && o.chart_thickness_mm <= 5)) {
+    throw FieldError(kOptions, "chart_thickness_mm", o.chart_thickness_mm, "must lie in [0, 5]");
+  }
+  const double half_smaller = 0.5 * ChartCardSizeMm(o).minCoeff();
+  if (!(o.chart_edge_blend_mm > 0 && o.chart_edge_blend_mm <= std::min(10.0, half_smaller))) {
+    throw FieldError(kOptions, "chart_edge_blend_mm", o.chart_edge_blend_mm,
+                     "must lie in (0, " + std::to_string(std::min(10.0, half_smaller)) + "]");
+  }
+  CheckRgb("chart_surround_rgb", o.chart_surround_rgb);
+  if (!(o.chart_gloss >= 0 && o.chart_gloss <= 0.2)) {
+    throw FieldError(kOptions, "chart_gloss", o.chart_gloss, "must lie in [0, 0.2]");
+  }
+  if (!(o.chart_gloss_width_deg > 0 && o.chart_gloss_width_deg <= 45)) {
+    throw FieldError(kOptions, "chart_gloss_width_deg", o.chart_gloss_width_deg, "must lie in (0, 45]");
+  }
+}
+
 }  // namespace
 
+int ColorCheckerPatchIndexAt(double u_mm, double v_mm, double patch_mm, double pitch_mm) {
+  // Column 0 is leftmost (-u), row 0 the top (+v); centres at multiples of the pitch.
+  const double column = std::floor(u_mm / pitch_mm + 0.5 * kColorCheckerColumns);
+  const double row = std::floor(0.5 * kColorCheckerRows - v_mm / pitch_mm);
+  if (!(column >= 0 && column < kColorCheckerColumns && row >= 0 && row < kColorCheckerRows)) return -1;
+  const double centre_u = (column - 0.5 * (kColorCheckerColumns - 1)) * pitch_mm;
+  const double centre_v = (0.5 * (kColorCheckerRows - 1) - row) * pitch_mm;
+  if (std::abs(u_mm - centre_u) > 0.5 * patch_mm || std::abs(v_mm - centre_v) > 0.5 * patch_mm) return -1;
+  return static_cast<int>(row) * kColorCheckerColumns + static_cast<int>(column);
+}
+
 void TextileSceneOptions::Check() const {
+  if (sample != SampleKind::kTextile && sample != SampleKind::kColorChecker) {
+    throw FieldError(kOptions, "sample", static_cast<int>(sample), "must be kTextile or kColorChecker");
+  }
+  if (sample == SampleKind::kColorChecker) CheckChart(*this);
   if (!(sample_width_mm > 0) || !std::isfinite(sample_width_mm)) {
     throw FieldError(kOptions, "sample_width_mm", sample_width_mm, "must be finite and > 0");
   }
@@ -220,6 +271,12 @@ void TextileSceneOptions::Check() const {
 
 TextileScene::TextileScene(const TextileSceneOptions& options) : options_(options) {
   options_.Check();
+  if (options_.sample == SampleKind::kColorChecker) {
+    extent_mm_ = ChartCardSizeMm(options_);
+    max_height_mm_ = options_.chart_thickness_mm;
+    return;
+  }
+  extent_mm_ = Eigen::Vector2d(options_.sample_width_mm, options_.sample_height_mm);
   // Fold waves: random directions, log-uniform wavelengths, random phases and
   // weights normalised to 1 so the folds span exactly 0 .. 2 * amplitude at most.
   double weight_sum = 0;
@@ -247,7 +304,7 @@ TextileScene::TextileScene(const TextileSceneOptions& options) : options_(option
 }
 
 bool TextileScene::OnSample(double x_mm, double y_mm) const {
-  return std::abs(x_mm) <= 0.5 * options_.sample_width_mm && std::abs(y_mm) <= 0.5 * options_.sample_height_mm;
+  return std::abs(x_mm) <= 0.5 * extent_mm_.x() && std::abs(y_mm) <= 0.5 * extent_mm_.y();
 }
 
 SurfaceSample TextileScene::Sample(double x_mm, double y_mm, bool with_albedo) const {
@@ -261,6 +318,7 @@ SurfaceSample TextileScene::Evaluate(double x_mm, double y_mm, bool with_gradien
     out.albedo = o.table_rgb;
     return out;
   }
+  if (o.sample == SampleKind::kColorChecker) return EvaluateChart(x_mm, y_mm, with_gradient, with_albedo);
   const WeaveRelief weave = WeaveAt(o, x_mm, y_mm);
   Eigen::Vector2d fold_gradient = Eigen::Vector2d::Zero();
   const double fold = FoldHeightMm(x_mm, y_mm, with_gradient ? &fold_gradient : nullptr);
@@ -281,6 +339,29 @@ SurfaceSample TextileScene::Evaluate(double x_mm, double y_mm, bool with_gradien
     out.gradient = blend * inner_grad + inner * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
   }
   if (with_albedo) out.albedo = ThreadAlbedo(o, weave, x_mm, y_mm);
+  return out;
+}
+
+// A flat card: its thickness times the C2 edge ramp of the textile's, so the
+// normal tilts only within chart_edge_blend_mm of the card's edge.
+SurfaceSample TextileScene::EvaluateChart(double x_mm, double y_mm, bool with_gradient, bool with_albedo) const {
+  const TextileSceneOptions& o = options_;
+  SurfaceSample out;
+  const double tx = (0.5 * extent_mm_.x() - std::abs(x_mm)) / o.chart_edge_blend_mm;
+  const double ty = (0.5 * extent_mm_.y() - std::abs(y_mm)) / o.chart_edge_blend_mm;
+  const double sx = SmootherStep(tx), sy = SmootherStep(ty);
+  out.height_mm = o.chart_thickness_mm * sx * sy;
+  if (with_gradient) {
+    const double sx_dx = SmootherStepDerivative(tx) * (x_mm < 0 ? 1.0 : -1.0) / o.chart_edge_blend_mm;
+    const double sy_dy = SmootherStepDerivative(ty) * (y_mm < 0 ? 1.0 : -1.0) / o.chart_edge_blend_mm;
+    out.gradient = o.chart_thickness_mm * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
+  }
+  out.gloss = o.chart_gloss;
+  if (with_albedo) {
+    out.spectral_patch = ColorCheckerPatchIndexAt(x_mm, y_mm, o.chart_patch_mm, o.chart_pitch_mm);
+    out.albedo = out.spectral_patch >= 0 ? ColorCheckerClassic()[out.spectral_patch].linear_rec709
+                                         : o.chart_surround_rgb;
+  }
   return out;
 }
 

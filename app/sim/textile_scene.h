@@ -6,6 +6,14 @@
 // z = HeightMm(x, y) >= 0 over a rectangle; outside it lies the flat table
 // (z = 0). The field is C1 everywhere (the sample edge is blended down to the
 // table), so NormalInTable is defined and continuous everywhere.
+//
+// The sample is a woven textile (SampleKind::kTextile) or a ColorChecker
+// Classic card (kColorChecker, issue #12): a flat card of 24 patches in a 6 x 4
+// grid on a black surround, a few tenths of a mm thick with a blended edge,
+// slightly glossy. Albedo is linear Rec.709 (D65) reflectance either way; a
+// ColorChecker point also names its patch (SurfaceSample::spectral_patch), so
+// that a spectral camera renders it from the patch's measured spectrum rather
+// than from an upsampling of its Rec.709 colour.
 #pragma once
 
 #include <cstdint>
@@ -20,9 +28,21 @@ enum class WeavePattern {
   kTwill,  // 2/2 twill: over two, under two, shifted one weft per warp (diagonal ribs)
 };
 
+enum class SampleKind {
+  kTextile,       // the analytic weave below
+  kColorChecker,  // a ColorChecker Classic card lying flat (the chart_* fields)
+};
+
+// The ColorChecker patch (index into ColorCheckerClassic(), chart order) at
+// (u, v) mm from the centre of a 6 x 4 grid of `patch_mm` squares on a
+// `pitch_mm` pitch, +v towards the top row (dark skin at the top left); -1 in
+// the gaps and outside the grid.
+int ColorCheckerPatchIndexAt(double u_mm, double v_mm, double patch_mm, double pitch_mm);
+
 struct TextileSceneOptions {
+  SampleKind sample = SampleKind::kTextile;
   uint64_t seed = 20240611;              // seeds thread-to-thread variation and the folds
-  // Sample outline.
+  // Sample outline (kTextile; the ColorChecker card's follows from its grid).
   double sample_width_mm = 120.0;        // extent along table x, > 0
   double sample_height_mm = 80.0;        // extent along table y, > 0
   double edge_blend_mm = 5.0;            // ramp from 0 at the edge to full height inside, (0, half the smaller extent]
@@ -51,6 +71,19 @@ struct TextileSceneOptions {
   double color_variation = 0.08;         // relative per-thread albedo variation (and slubs along it), [0, 0.5]
   double gap_darkening = 0.3;            // relative albedo loss in the gaps between threads, [0, 1]
 
+  // kColorChecker. 16 mm patches on a 20 mm pitch make a 116 x 76 mm grid, a
+  // 124 x 84 mm card with the border: the real chart (40 mm pitch) scaled to
+  // fit the default 143 x 95 mm field of view with the table visible around
+  // it, still ~140 px per patch side at the default quarter resolution.
+  double chart_patch_mm = 16.0;          // side of a square patch, > 0
+  double chart_pitch_mm = 20.0;          // patch centre spacing, >= chart_patch_mm
+  double chart_border_mm = 4.0;          // black surround beyond the outer patches' edges, >= 0
+  double chart_thickness_mm = 0.4;       // card thickness above the table, [0, 5]
+  double chart_edge_blend_mm = 1.0;      // ramp of the card edge from the table to full thickness, (0, 10]
+  Eigen::Vector3d chart_surround_rgb{0.03, 0.03, 0.03};  // the black surround, linear Rec.709, [0, 1]
+  double chart_gloss = 0.02;             // specular reflectance added at the mirror direction, [0, 0.2]
+  double chart_gloss_width_deg = 12.0;   // half-vector angle where the gloss falls to 1/e, (0, 45]
+
   // Throws std::invalid_argument naming the field, its value and the rule.
   void Check() const;
 };
@@ -59,7 +92,9 @@ struct TextileSceneOptions {
 struct SurfaceSample {
   double height_mm = 0;                            // z of the surface
   Eigen::Vector2d gradient = Eigen::Vector2d::Zero();  // (dz/dx, dz/dy), dimensionless
-  Eigen::Vector3d albedo = Eigen::Vector3d::Zero();    // linear RGB, [0, 1]
+  Eigen::Vector3d albedo = Eigen::Vector3d::Zero();    // linear Rec.709 (D65), [0, 1]
+  int spectral_patch = -1;   // ColorCheckerClassic() index whose measured spectrum this is; -1 = none
+  double gloss = 0;          // specular reflectance added at the mirror direction (SimulatedRig), [0, 0.2]
 };
 
 class TextileScene {
@@ -74,8 +109,10 @@ class TextileScene {
   Eigen::Vector2d HeightGradient(double x_mm, double y_mm) const;
   // Unit upward normal (-dz/dx, -dz/dy, 1) / norm in the table frame; z > 0.
   Eigen::Vector3d NormalInTable(double x_mm, double y_mm) const;
-  // Linear RGB albedo, each channel in [0, 1].
+  // Linear Rec.709 albedo, each channel in [0, 1].
   Eigen::Vector3d Albedo(double x_mm, double y_mm) const;
+  // Width and height of the sample rectangle, mm (kColorChecker: the card).
+  Eigen::Vector2d SampleExtentMm() const { return extent_mm_; }
   // Inside the sample rectangle (edges included).
   bool OnSample(double x_mm, double y_mm) const;
   // All of the above at once (one evaluation; what the renderer uses).
@@ -92,6 +129,7 @@ class TextileScene {
   };
 
   SurfaceSample Evaluate(double x_mm, double y_mm, bool with_gradient, bool with_albedo) const;
+  SurfaceSample EvaluateChart(double x_mm, double y_mm, bool with_gradient, bool with_albedo) const;
   // The folds' height above the base at (x, y), mm; adds its gradient to
   // *gradient when given.
   double FoldHeightMm(double x_mm, double y_mm, Eigen::Vector2d* gradient) const;
@@ -99,6 +137,7 @@ class TextileScene {
   TextileSceneOptions options_;
   std::vector<FoldWave> folds_;
   double max_height_mm_ = 0;
+  Eigen::Vector2d extent_mm_ = Eigen::Vector2d::Zero();
 };
 
 }  // namespace scanbench

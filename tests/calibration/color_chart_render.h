@@ -67,21 +67,7 @@ inline RawImage RenderColorChart(const ChartRender& render) {
   const int w = render.width, h = render.height;
   // Chart-unit coordinates of each pixel through the inverse homography;
   // 4x4 supersampling for the patch edges.
-  std::array<Eigen::Vector2d, 4> unit = {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(1, 1),
-                                         Eigen::Vector2d(0, 1)};
-  Eigen::Matrix<double, 8, 8> a = Eigen::Matrix<double, 8, 8>::Zero();
-  Eigen::Matrix<double, 8, 1> b;
-  for (int i = 0; i < 4; ++i) {
-    const double u = unit[i].x(), v = unit[i].y(), x = render.quad.corners_px[i].x(), y = render.quad.corners_px[i].y();
-    a.row(2 * i) << u, v, 1, 0, 0, 0, -u * x, -v * x;
-    a.row(2 * i + 1) << 0, 0, 0, u, v, 1, -u * y, -v * y;
-    b(2 * i) = x;
-    b(2 * i + 1) = y;
-  }
-  const Eigen::Matrix<double, 8, 1> p = a.fullPivLu().solve(b);
-  Eigen::Matrix3d image_from_uv;
-  image_from_uv << p(0), p(1), p(2), p(3), p(4), p(5), p(6), p(7), 1.0;
-  const Eigen::Matrix3d uv_from_image = image_from_uv.inverse();
+  const Eigen::Matrix3d uv_from_image = ColorChartImageFromUv(render.quad).inverse();
   const double grid_w = 16.25, grid_h = 10.75, pitch = 2.75, side = 2.5;
   auto colour_at = [&](double x, double y) -> Eigen::Vector3d {
     const Eigen::Vector3d q = uv_from_image * Eigen::Vector3d(x, y, 1);

@@ -13,7 +13,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "app/sim/sensor_color.h"
 #include "calibration/camera_model.h"
+#include "calibration/color_checker.h"
+#include "calibration/color_science.h"
 
 namespace scanbench {
 namespace {
@@ -31,7 +34,8 @@ SimulatedRigOptions SmallOptions() {
 }
 
 SimulatedRig MakeRig(const SimulatedRigOptions& options, const TextileSceneOptions& scene_options = {}) {
-  return SimulatedRig(options, TextileScene(scene_options), MakeDefaultSimulatedRig(options.width, options.height));
+  return SimulatedRig(options, TextileScene(scene_options),
+                      MakeDefaultSimulatedRig(options.width, options.height, options.color));
 }
 
 double Range(const SimulatedRigOptions& o) { return o.white_level - o.black_level; }
@@ -296,7 +300,9 @@ TEST(SimulatedRig, FlatPatchMatchesTheLightModel) {
       const Eigen::Vector3d ray(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
       const Eigen::Vector3d point = camera_centre + ((plane_z - camera_centre.z()) / ray.z()) * ray;
       ASSERT_TRUE(scene.OnSample(point.x(), point.y()));
-      const Eigen::Vector3d albedo = scene.Albedo(point.x(), point.y());
+      // The sensor sees the Mallett upsampling of the scene's Rec.709 colour.
+      const Eigen::Vector3d albedo =
+          SimulatedSensorColor(options.color).camera_from_linear_rec709 * scene.Albedo(point.x(), point.y());
       for (int c = 0; c < 3; ++c) {
         const double expected =
             albedo[c] * (ExpectedDirect(sim.rig().leds[k], point, Eigen::Vector3d::UnitZ(), c) + options.ambient);
@@ -362,7 +368,7 @@ TEST(SimulatedRig, CastShadowsDarkenTheSlopeBehindAFoldCrest) {
     int shadowed = 0, clearly_shadowed = 0, checked_lit = 0;
     for (int y = 0; y < with.height; ++y) {
       for (int x = 0; x < with.width; ++x) {
-        const double ambient_only = truth.albedo(x, y, 1) * with.ambient;
+        const double ambient_only = truth.albedo_white_balanced_camera(x, y, 1) * with.ambient;
         ASSERT_LE(lit(x, y, 1), unshadowed(x, y, 1) + 1e-7);
         const Eigen::Vector3d p(truth.point_in_table(x, y, 0), truth.point_in_table(x, y, 1),
                                 truth.point_in_table(x, y, 2));
@@ -389,7 +395,7 @@ TEST(SimulatedRig, CastShadowsDarkenTheSlopeBehindAFoldCrest) {
   const ImageF lit0 = sim_with.RenderLinear(0);
   for (int y = 0; y < with.height; ++y) {
     for (int x = 0; x < with.width; ++x) {
-      const bool dark = lit0(x, y, 1) <= truth.albedo(x, y, 1) * with.ambient + 1e-7;
+      const bool dark = lit0(x, y, 1) <= truth.albedo_white_balanced_camera(x, y, 1) * with.ambient + 1e-7;
       ASSERT_EQ(mask(x, y), dark ? 1 : 0) << x << "," << y;
     }
   }
@@ -473,7 +479,7 @@ TEST(SimulatedRig, DarkFrameIsBlackPlusAmbient) {
     for (int x = 0; x < options.width; ++x) {
       const int c = CfaColorAt(options.cfa, x, y);
       sum[c] += dark.mosaic(x, y) - options.black_level;
-      expected[c] += truth.albedo(x, y, c) * options.ambient * Range(options);
+      expected[c] += truth.albedo_white_balanced_camera(x, y, c) * options.ambient * Range(options);
     }
   }
   for (int c = 0; c < 3; ++c) {
@@ -544,11 +550,13 @@ TEST(SimulatedRig, SameSeedAndFrameGiveIdenticalFramesWhateverTheThreadCount) {
 }
 
 TEST(SimulatedRig, CfaLayoutIsHonoured) {
-  // Red-only albedo everywhere: only red sites see light.
+  // Red-only albedo everywhere: only red sites see light (on the camera with
+  // Rec.709 primaries; a real sensor's green and blue see some of any red).
   TextileSceneOptions red;
   red.warp_rgb = red.weft_rgb = red.table_rgb = Eigen::Vector3d(0.6, 0, 0);
   for (CfaPattern pattern : {CfaPattern::kRGGB, CfaPattern::kBGGR, CfaPattern::kGRBG, CfaPattern::kGBRG}) {
     SimulatedRigOptions options = SmallOptions();
+    options.color = SensorColorModel::kSrgbPrimaries;
     options.cfa = pattern;
     options.add_noise = false;
     const SimulatedRig sim = MakeRig(options, red);
@@ -627,6 +635,123 @@ TEST(SimulatedRig, FullResolutionD5100FrameRenders) {
   EXPECT_NEAR(sim.mm_per_pixel(), 0.029, 0.002);
   RecordProperty("construct_seconds", std::to_string(std::chrono::duration<double>(built - start).count()));
   RecordProperty("frame_seconds", std::to_string(std::chrono::duration<double>(rendered - built).count()));
+}
+
+}  // namespace
+}  // namespace scanbench
+
+// ----------------------------------------------------------------------------
+// Colour (issue #12).
+namespace scanbench {
+namespace {
+
+SimulatedRig MakeColorCheckerRig(SensorColorModel color) {
+  SimulatedRigOptions options;
+  options.width = kD5100Width / 8;
+  options.height = kD5100Height / 8;
+  options.color = color;
+  TextileSceneOptions scene;
+  scene.sample = SampleKind::kColorChecker;
+  return MakeRig(options, scene);
+}
+
+// Pixels well inside each patch (the centre 10 x 10 mm of its 16 mm).
+std::vector<std::vector<std::pair<int, int>>> PatchPixels(const SimulatedRig& rig, const GroundTruthMaps& truth) {
+  std::vector<std::vector<std::pair<int, int>>> pixels(24);
+  for (int y = 0; y < rig.height(); ++y) {
+    for (int x = 0; x < rig.width(); ++x) {
+      const double u = truth.point_in_table(x, y, 0), v = truth.point_in_table(x, y, 1);
+      const int patch = ColorCheckerPatchIndexAt(u, v, 10.0, 20.0);
+      if (patch >= 0) pixels[patch].push_back({x, y});
+    }
+  }
+  return pixels;
+}
+
+TEST(SimulatedRigColor, ColorCheckerGroundTruthIsEachPatchsRec709AndTheCameraSeesItsSpectrum) {
+  const SimulatedRig rig = MakeColorCheckerRig(SensorColorModel::kNikonD5100);
+  const GroundTruthMaps truth = rig.RenderGroundTruth();
+  const auto pixels = PatchPixels(rig, truth);
+  for (int k = 0; k < 24; ++k) {
+    const ColorCheckerPatch& patch = ColorCheckerClassic()[k];
+    ASSERT_GT(pixels[k].size(), 1000u) << patch.name << ": the whole card is in view";
+    const Eigen::Vector3d camera = WhiteBalancedCameraRgbOf(SensorColorModel::kNikonD5100, patch.reflectance);
+    for (auto [x, y] : pixels[k]) {
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_FLOAT_EQ(truth.albedo(x, y, c), static_cast<float>(patch.linear_rec709[c])) << patch.name;
+        ASSERT_FLOAT_EQ(truth.albedo_white_balanced_camera(x, y, c), static_cast<float>(camera[c])) << patch.name;
+        ASSERT_NEAR(truth.normal_in_table(x, y, c), c == 2 ? 1.0 : 0.0, 1e-9) << "flat card";
+      }
+      ASSERT_EQ(truth.sample_mask(x, y), 1);
+    }
+  }
+  // The surround and the table around the card.
+  EXPECT_FLOAT_EQ(truth.albedo(rig.width() / 2, rig.height() / 2, 0), 0.03f);  // the gap at the card's centre
+  EXPECT_FLOAT_EQ(truth.albedo(2, rig.height() / 2, 1), 0.35f);                 // the table
+}
+
+TEST(SimulatedRigColor, TheD5100IsNotColorimetricButWhiteStaysWhite) {
+  const SimulatedRig rig = MakeColorCheckerRig(SensorColorModel::kNikonD5100);
+  const GroundTruthMaps truth = rig.RenderGroundTruth();
+  const auto pixels = PatchPixels(rig, truth);
+  auto camera_of = [&](int patch) {
+    const auto [x, y] = pixels[patch][0];
+    return Eigen::Vector3d(truth.albedo_white_balanced_camera(x, y, 0), truth.albedo_white_balanced_camera(x, y, 1),
+                           truth.albedo_white_balanced_camera(x, y, 2));
+  };
+  // Red (patch 15): the camera's red channel reads far less than Rec.709's, green and blue more.
+  const Eigen::Vector3d red_camera = camera_of(14);
+  const Eigen::Vector3d red_rec709 = ColorCheckerClassic()[14].linear_rec709;
+  EXPECT_GT((red_camera - red_rec709).cwiseAbs().maxCoeff(), 0.1) << red_camera.transpose();
+  EXPECT_GT(Ciede2000(LabFromLinearRec709(red_camera), ColorCheckerClassic()[14].lab_d65), 5.0);
+  // The neutral patches stay neutral (white balance): within 2 % of each other.
+  for (int patch = 18; patch < 24; ++patch) {
+    const Eigen::Vector3d rgb = camera_of(patch);
+    EXPECT_LT((rgb.maxCoeff() - rgb.minCoeff()) / rgb.mean(), 0.03) << ColorCheckerClassic()[patch].name;
+  }
+  // A perfect white textile reads (1, 1, 1) in camera space.
+  TextileSceneOptions white;
+  white.warp_rgb = white.weft_rgb = white.table_rgb = Eigen::Vector3d::Ones();
+  white.color_variation = 0;
+  white.gap_darkening = 0;
+  SimulatedRigOptions options = SmallOptions();
+  const GroundTruthMaps white_truth = MakeRig(options, white).RenderGroundTruth();
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(white_truth.albedo_white_balanced_camera(40, 30, c), 1.0, 2e-3) << c;
+    EXPECT_FLOAT_EQ(white_truth.albedo(40, 30, c), 1.0f) << c;
+  }
+}
+
+TEST(SimulatedRigColor, LedsCarryTheCamerasRawWhiteAndTheChartIsGlossy) {
+  const RigDescription d5100 = MakeDefaultSimulatedRig(616, 408, SensorColorModel::kNikonD5100);
+  const RigDescription srgb = MakeDefaultSimulatedRig(616, 408, SensorColorModel::kSrgbPrimaries);
+  const Eigen::Vector3d raw_white = SimulatedSensorColor(SensorColorModel::kNikonD5100).raw_white_relative_to_green;
+  // LED 7's tint is (1.00, 1, 0.97): its channel ratios are the raw white's.
+  EXPECT_NEAR(d5100.leds[7].rgb_intensity[0] / d5100.leds[7].rgb_intensity[1], raw_white[0], 1e-12);
+  EXPECT_NEAR(d5100.leds[7].rgb_intensity[2] / d5100.leds[7].rgb_intensity[1], 0.97 * raw_white[2], 1e-12);
+  EXPECT_NEAR(srgb.leds[7].rgb_intensity[0] / srgb.leds[7].rgb_intensity[1], 0.48, 1e-12);
+  EXPECT_GT(std::abs(raw_white[0] - 0.48), 0.02);
+
+  // Gloss: the same chart with and without it; the 60 deg LEDs' mirror
+  // direction lies near the camera, so some pixels gain up to a few % of white.
+  SimulatedRigOptions options;
+  options.width = kD5100Width / 8;
+  options.height = kD5100Height / 8;
+  TextileSceneOptions glossy;
+  glossy.sample = SampleKind::kColorChecker;
+  TextileSceneOptions matte = glossy;
+  matte.chart_gloss = 0;
+  const ImageF with = MakeRig(options, glossy).RenderLinear(7);
+  const ImageF without = MakeRig(options, matte).RenderLinear(7);
+  double most = 0;
+  for (int y = 0; y < options.height; ++y) {
+    for (int x = 0; x < options.width; ++x) {
+      ASSERT_GE(with(x, y, 1), without(x, y, 1) - 1e-7);
+      most = std::max(most, static_cast<double>(with(x, y, 1) - without(x, y, 1)));
+    }
+  }
+  EXPECT_GT(most, 0.003);
+  EXPECT_LT(most, 0.05);
 }
 
 }  // namespace

@@ -9,6 +9,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "calibration/color_checker.h"
+
 namespace scanbench {
 namespace {
 
@@ -230,6 +232,62 @@ TEST(TextileScene, CheckNamesTheFieldValueAndRule) {
   o = {};
   o.smoothing_mm = 0;
   expect_error(o, "smoothing_mm");
+  o = {};
+  o.sample = SampleKind::kColorChecker;
+  o.chart_pitch_mm = 10;  // below the 16 mm patch
+  expect_error(o, "chart_pitch_mm");
+  o.chart_pitch_mm = 20;
+  o.chart_gloss = 0.5;
+  expect_error(o, "chart_gloss");
+}
+
+// ----------------------------------------------------------------------------
+// The ColorChecker card.
+
+TEST(ColorCheckerScene, PatchGridIsInChartOrderWithDarkSkinTopLeft) {
+  // 16 mm patches, 20 mm pitch: centres at u = -50 .. 50, v = 30 .. -30.
+  EXPECT_EQ(ColorCheckerPatchIndexAt(-50, 30, 16, 20), 0);    // dark skin: image top left (-x, +y)
+  EXPECT_EQ(ColorCheckerPatchIndexAt(50, 30, 16, 20), 5);     // bluish green: top right
+  EXPECT_EQ(ColorCheckerPatchIndexAt(-50, -30, 16, 20), 18);  // white: bottom left
+  EXPECT_EQ(ColorCheckerPatchIndexAt(50, -30, 16, 20), 23);   // black: bottom right
+  EXPECT_EQ(ColorCheckerPatchIndexAt(-10 + 7.9, 10 - 7.9, 16, 20), 8);  // inside "moderate red"
+  EXPECT_EQ(ColorCheckerPatchIndexAt(-10 + 8.1, 10, 16, 20), -1);       // in the gap
+  EXPECT_EQ(ColorCheckerPatchIndexAt(62, 0, 16, 20), -1);               // beyond the grid
+  EXPECT_EQ(ColorCheckerClassic()[18].name.rfind("white", 0), 0u);
+}
+
+TEST(ColorCheckerScene, FlatCardWithPatchColoursSurroundAndABlendedEdge) {
+  TextileSceneOptions o;
+  o.sample = SampleKind::kColorChecker;
+  const TextileScene scene(o);
+  // 116 x 76 mm grid + the 4 mm border on each side.
+  EXPECT_NEAR(scene.SampleExtentMm().x(), 124.0, 1e-12);
+  EXPECT_NEAR(scene.SampleExtentMm().y(), 84.0, 1e-12);
+  EXPECT_DOUBLE_EQ(scene.MaxHeightMm(), o.chart_thickness_mm);
+  for (int k = 0; k < 24; ++k) {
+    const double u = (k % 6 - 2.5) * 20, v = (1.5 - k / 6) * 20;
+    const SurfaceSample s = scene.Sample(u + 3, v - 5);
+    EXPECT_EQ(s.spectral_patch, k);
+    EXPECT_EQ(s.albedo, ColorCheckerClassic()[k].linear_rec709) << k;
+    EXPECT_DOUBLE_EQ(s.height_mm, o.chart_thickness_mm);
+    EXPECT_EQ(s.gradient, Eigen::Vector2d::Zero());
+    EXPECT_DOUBLE_EQ(s.gloss, o.chart_gloss);
+  }
+  const SurfaceSample gap = scene.Sample(-40, 0);
+  EXPECT_EQ(gap.spectral_patch, -1);
+  EXPECT_EQ(gap.albedo, o.chart_surround_rgb);
+  const SurfaceSample table = scene.Sample(0, 43);
+  EXPECT_EQ(table.albedo, o.table_rgb);
+  EXPECT_EQ(table.height_mm, 0.0);
+  EXPECT_EQ(table.gloss, 0.0);
+  // The edge ramps within chart_edge_blend_mm, with the analytic gradient.
+  const double edge = 0.5 * scene.SampleExtentMm().x();
+  EXPECT_GT(scene.HeightMm(edge - 0.5, 0), 0.0);
+  EXPECT_LT(scene.HeightMm(edge - 0.5, 0), o.chart_thickness_mm);
+  for (const double x : {edge - 0.9, edge - 0.5, edge - 0.1}) {
+    const Eigen::Vector2d numeric = FiniteDifferenceGradient(scene, x, 1.0, 1e-6);
+    EXPECT_NEAR(scene.HeightGradient(x, 1.0).x(), numeric.x(), 1e-5) << x;
+  }
 }
 
 }  // namespace
