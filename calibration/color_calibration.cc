@@ -746,6 +746,41 @@ std::string ColorCorrectionSummary::PatchTable() const {
   return text.str();
 }
 
+std::optional<Eigen::Vector3d> NeutralPatchGains(const std::vector<PatchSample>& measured,
+                                                 const std::vector<ColorCheckerPatch>& reference, std::string* why) {
+  if (measured.size() != reference.size()) {
+    throw std::invalid_argument("NeutralPatchGains: " + std::to_string(measured.size()) + " measured patches for " +
+                                std::to_string(reference.size()) + " reference patches");
+  }
+  Eigen::Vector3d numerator = Eigen::Vector3d::Zero(), denominator = Eigen::Vector3d::Zero();
+  int neutrals = 0;
+  for (size_t i = 0; i < measured.size(); ++i) {
+    if (!reference[i].neutral || !measured[i].used || !measured[i].value.allFinite()) continue;
+    ++neutrals;
+    numerator += measured[i].value.cwiseProduct(reference[i].linear_rec709);
+    denominator += measured[i].value.cwiseProduct(measured[i].value);
+  }
+  if (neutrals < 2) {
+    if (why) {
+      *why = "only " + std::to_string(neutrals) + " of the chart's gray patches are usable (neither clipped nor too "
+             "dark); balancing on them needs at least 2: expose for the gray row";
+    }
+    return std::nullopt;
+  }
+  Eigen::Vector3d gains;
+  for (int c = 0; c < 3; ++c) {
+    if (!(numerator[c] > 0 && denominator[c] > 0)) {
+      if (why) {
+        *why = "the neutral patches read " + Fixed(std::sqrt(denominator[c]), 6) + " in colour " + std::to_string(c) +
+               ": cannot balance on them";
+      }
+      return std::nullopt;
+    }
+    gains[c] = numerator[c] / denominator[c];
+  }
+  return gains;
+}
+
 ColorCorrectionSummary FitColorCorrection(const ColorCorrectionOptions& options,
                                           const std::vector<PatchSample>& measured,
                                           const std::vector<ColorCheckerPatch>& reference) {
@@ -782,22 +817,13 @@ ColorCorrectionSummary FitColorCorrection(const ColorCorrectionOptions& options,
   }
 
   if (options.balance_on_neutral_patches) {
-    // Per colour, the gain that takes the used neutrals to their reference in
-    // least squares: fixes white balance and absolute scale from the chart.
-    Eigen::Vector3d numerator = Eigen::Vector3d::Zero(), denominator = Eigen::Vector3d::Zero();
-    for (const int i : used) {
-      if (!reference[i].neutral) continue;
-      numerator += measured[i].value.cwiseProduct(reference[i].linear_rec709);
-      denominator += measured[i].value.cwiseProduct(measured[i].value);
+    std::string why;
+    const std::optional<Eigen::Vector3d> gains = NeutralPatchGains(measured, reference, &why);
+    if (!gains) {
+      summary.SetFailure(why);
+      return summary;
     }
-    for (int c = 0; c < 3; ++c) {
-      if (!(numerator[c] > 0 && denominator[c] > 0)) {
-        summary.SetFailure("the neutral patches read " + Fixed(std::sqrt(denominator[c]), 6) + " in colour " +
-                           std::to_string(c) + ": cannot balance on them");
-        return summary;
-      }
-      summary.camera_balance_gains[c] = numerator[c] / denominator[c];
-    }
+    summary.camera_balance_gains = *gains;
   }
 
   FitData data;

@@ -189,6 +189,14 @@ struct ColorCorrectionSummary : AlgorithmSummary {
   std::string PatchTable() const;
 };
 
+// Per colour, the gain that takes the used neutral patches of `measured`
+// (chart order) to their reference in least squares: the white balance and
+// scale a photo's gray row gives. nullopt (and the reason in *why) with fewer
+// than 2 usable neutral patches or a colour they do not register in.
+std::optional<Eigen::Vector3d> NeutralPatchGains(const std::vector<PatchSample>& measured,
+                                                 const std::vector<ColorCheckerPatch>& reference,
+                                                 std::string* why = nullptr);
+
 // Fits rec709_from_camera on the used patches of `measured` (chart order, one
 // per reference patch). kFailure naming what is missing with fewer than
 // min_patches used patches or min_neutral_patches neutral ones among them.

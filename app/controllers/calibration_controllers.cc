@@ -379,25 +379,12 @@ std::vector<ImageF> WhiteResponses(const LightField& field, const ColorChartQuad
   return responses;
 }
 
-// A photo under unknown light: per-channel gains that bring the chart's used gray
-// patches onto their reference (least squares through the origin).
+// A photo under unknown light: per-channel gains from the chart's gray row.
 void BalanceOnNeutralPatches(std::vector<PatchSample>& patches, const std::string& name) {
-  const std::vector<ColorCheckerPatch>& reference = ColorCheckerClassic();
-  Eigen::Vector3d numerator = Eigen::Vector3d::Zero(), denominator = Eigen::Vector3d::Zero();
-  int neutrals = 0;
-  for (size_t p = 0; p < patches.size(); ++p) {
-    if (!reference[p].neutral || !patches[p].used) continue;
-    ++neutrals;
-    numerator += patches[p].value.cwiseProduct(reference[p].linear_rec709);
-    denominator += patches[p].value.cwiseProduct(patches[p].value);
-  }
-  if (neutrals < 2 || !(denominator.minCoeff() > 0)) {
-    throw std::runtime_error(name + ": only " + std::to_string(neutrals) +
-                             " of the chart's 6 gray patches are usable (neither clipped nor too dark); at least 2 "
-                             "are needed to balance a photo under unknown light: expose for the gray row");
-  }
-  const Eigen::Vector3d gains = numerator.cwiseQuotient(denominator);
-  for (PatchSample& patch : patches) patch.value = patch.value.cwiseProduct(gains);
+  std::string why;
+  const std::optional<Eigen::Vector3d> gains = NeutralPatchGains(patches, ColorCheckerClassic(), &why);
+  if (!gains) throw std::runtime_error(name + ": " + why);
+  for (PatchSample& patch : patches) patch.value = patch.value.cwiseProduct(*gains);
 }
 
 // Per patch and channel, the median over the frames where the patch was used.

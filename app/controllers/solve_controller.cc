@@ -288,7 +288,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 248,
+static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 256,
               "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
 #endif
 

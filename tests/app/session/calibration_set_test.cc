@@ -132,6 +132,31 @@ CalibrationSet MakeTestSet() {
   }
   s.per_pixel_field.emplace(grid, 3, dirs, intensities);
   set.lights = lights;
+
+  ColorSection color;
+  color.date = "2024-05-01T10:15:00Z";
+  color.targets = {Target("color_chart")};
+  color.raw_files = {{"/photos/chart.nef", std::string(64, 'e')}};
+  color.white_reference = "light_field";
+  color.num_frames = 3;
+  ColorCorrectionSummary& c = color.summary;
+  c.termination = Termination::kSuccess;
+  c.method = "ciede2000_fit";
+  c.rec709_from_camera << 1.61, -0.52, -0.09, -0.17, 1.31, -0.14, 0.02, -0.43, 1.41;
+  c.mean_delta_e_before = 6.6;
+  c.max_delta_e_before = 10.8;
+  c.mean_delta_e_after = 0.99;
+  c.max_delta_e_after = 3.25;
+  ColorPatchResult patch;
+  patch.name = "cyan";
+  patch.used = true;
+  patch.measured_camera = {0.12, 0.26, 0.37};
+  patch.reference_linear_rec709 = {-0.028, 0.249, 0.383};
+  patch.corrected_linear_rec709 = {-0.005, 0.246, 0.408};
+  patch.delta_e_before = 10.6;
+  patch.delta_e_after = 3.25;
+  c.patches = {patch};
+  set.color = color;
   return set;
 }
 
@@ -158,6 +183,14 @@ TEST(CalibrationSetTest, WritesAndLoadsEveryFigureAndTheField) {
             set.lights->summary.per_pixel_field->node_rgb_intensities());
   EXPECT_EQ(loaded.lights->summary.per_pixel_field->node_light_dirs(),
             set.lights->summary.per_pixel_field->node_light_dirs());
+  ASSERT_TRUE(loaded.color.has_value());
+  EXPECT_EQ(loaded.color->summary.rec709_from_camera, set.color->summary.rec709_from_camera);
+  EXPECT_EQ(loaded.color->raw_files[0].path, "/photos/chart.nef");
+  EXPECT_EQ(loaded.color->white_reference, "light_field");
+  ASSERT_EQ(loaded.color->summary.patches.size(), 1u);
+  EXPECT_EQ(loaded.color->summary.patches[0].reference_linear_rec709, set.color->summary.patches[0].reference_linear_rec709);
+  EXPECT_DOUBLE_EQ(loaded.color->summary.max_delta_e_after, 3.25);
+  EXPECT_EQ(loaded.color->summary.termination, Termination::kSuccess);
 }
 
 TEST(CalibrationSetTest, LoaderNamesTheFileFieldValueAndRule) {
@@ -180,6 +213,15 @@ TEST(CalibrationSetTest, LoaderNamesTheFileFieldValueAndRule) {
               ThrowsMessage<SessionError>(HasSubstr("lights.selected: \"both\" must be \"model\" or \"per_pixel\"")));
   EXPECT_THAT(load_after([](auto& j) { j["white_balance"]["leds"][1]["gains"] = {2, 1, -1}; }),
               ThrowsMessage<SessionError>(HasSubstr("white_balance.leds[1].gains: [2, 1, -1] must be finite and > 0")));
+  EXPECT_THAT(load_after([](auto& j) { j["color"]["white_reference"] = "sun"; }),
+              ThrowsMessage<SessionError>(
+                  HasSubstr("color.white_reference: \"sun\" must be \"light_field\" or \"neutral_patches\"")));
+  EXPECT_THAT(load_after([](auto& j) { j["color"]["rec709_from_camera"] = {{1, 0, 0}, {0, 1, 0}}; }),
+              ThrowsMessage<SessionError>(HasSubstr("color.rec709_from_camera: ")));
+  EXPECT_THAT(load_after([](auto& j) { j["color"]["rec709_from_camera"] = {{1, 0, 0}, {1, 0, 0}, {0, 0, 1}}; }),
+              ThrowsMessage<SessionError>(HasSubstr("non-zero determinant")));
+  EXPECT_THAT(load_after([](auto& j) { j["color"]["targets"][0]["kind"] = "gray_chart"; }),
+              ThrowsMessage<SessionError>(HasSubstr("color.targets[0].kind: \"gray_chart\" must be \"color_chart\"")));
   EXPECT_THAT(load_after([](auto& j) { j["lights"]["date"] = "yesterday"; }),
               ThrowsMessage<SessionError>(HasSubstr("lights.date: \"yesterday\" must be an ISO 8601 UTC time")));
   EXPECT_THAT(load_after([](auto& j) { j["camera_calibration"]["targets"][0]["manifest_sha256"] = "x"; }),

@@ -1,0 +1,157 @@
+// The solve's albedo colour: which matrix is chosen from what is there, where
+// it is applied, and how the colour is scored against a ground truth.
+#include "app/controllers/albedo_color.h"
+
+#include <random>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "app/session/calibration_set.h"
+#include "calibration/color_calibration.h"
+#include "calibration/color_checker.h"
+#include "calibration/color_science.h"
+
+namespace scanbench {
+namespace {
+
+using ::testing::HasSubstr;
+using Source = AlbedoColorOptions::Source;
+
+// XYZ -> camera native of a made-up but plausible camera (a DNG ColorMatrix).
+Eigen::Matrix3d CameraFromXyz() {
+  Eigen::Matrix3d m;
+  m << 0.89, -0.31, -0.08, -0.40, 1.19, 0.23, -0.05, 0.14, 0.56;
+  return m;
+}
+
+CalibrationSet SetWithColor(bool with_lights) {
+  CalibrationSet set;
+  ColorSection color;
+  color.date = "2026-01-02T03:04:05Z";
+  color.white_reference = "light_field";
+  color.summary.method = "ciede2000_fit";
+  color.summary.rec709_from_camera << 1.6, -0.5, -0.1, -0.2, 1.3, -0.1, 0.0, -0.4, 1.4;
+  color.summary.mean_delta_e_after = 0.9;
+  color.summary.max_delta_e_after = 2.5;
+  set.color = color;
+  if (with_lights) {
+    LightsSection lights;
+    lights.date = "2026-01-02T03:00:00Z";
+    lights.sheets = {WhiteSheetTarget()};
+    set.lights = lights;
+  }
+  return set;
+}
+
+TEST(AlbedoColorTest, AutoTakesTheChartThenTheFileMatrixThenNothing) {
+  const CalibrationSet set = SetWithColor(true);
+  const AlbedoColor chart = ChooseAlbedoColor({}, &set, "cal.json", CameraFromXyz(), "led_00.dng");
+  EXPECT_EQ(chart.source, Source::kChart);
+  EXPECT_TRUE(chart.IsLinearRec709());
+  EXPECT_EQ(chart.rec709_from_camera, set.color->summary.rec709_from_camera);
+  EXPECT_EQ(chart.scale, "absolute");
+  EXPECT_THAT(chart.scale_source, HasSubstr("99.0 %"));
+  EXPECT_THAT(chart.description, HasSubstr("ciede2000_fit"));
+
+  CalibrationSet no_color = set;
+  no_color.color.reset();
+  const AlbedoColor matrix = ChooseAlbedoColor({}, &no_color, "cal.json", CameraFromXyz(), "led_00.dng");
+  EXPECT_EQ(matrix.source, Source::kCameraMatrix);
+  EXPECT_TRUE(matrix.rec709_from_camera.isApprox(Rec709FromWhiteBalancedCamera(CameraFromXyz()), 1e-12));
+  EXPECT_THAT(matrix.description, HasSubstr("weaker"));
+  // White-balanced neutral stays neutral through the file's matrix.
+  EXPECT_TRUE((matrix.rec709_from_camera * Eigen::Vector3d::Ones()).isApprox(Eigen::Vector3d::Ones(), 1e-9));
+
+  const AlbedoColor none = ChooseAlbedoColor({}, nullptr, "", std::nullopt, "led_00.dng");
+  EXPECT_EQ(none.source, Source::kNone);
+  EXPECT_EQ(none.color_space, "camera_rgb");
+  EXPECT_EQ(none.scale, "relative");
+  EXPECT_THAT(none.description, HasSubstr("not colour calibrated"));
+}
+
+TEST(AlbedoColorTest, AnAbsentSourceAskedForIsAnErrorAndTheScaleFollowsTheLights) {
+  AlbedoColorOptions chart;
+  chart.source = Source::kChart;
+  EXPECT_THAT([&] { ChooseAlbedoColor(chart, nullptr, "", CameraFromXyz(), "a.dng"); },
+              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("--calibration")));
+  CalibrationSet no_color = SetWithColor(true);
+  no_color.color.reset();
+  EXPECT_THAT([&] { ChooseAlbedoColor(chart, &no_color, "cal.json", CameraFromXyz(), "a.dng"); },
+              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("cal.json: color: missing")));
+  AlbedoColorOptions matrix;
+  matrix.source = Source::kCameraMatrix;
+  EXPECT_THAT([&] { ChooseAlbedoColor(matrix, nullptr, "", std::nullopt, "frames/led_00.dng"); },
+              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("frames/led_00.dng: carries no camera colour")));
+  const CalibrationSet without_lights = SetWithColor(false);
+  EXPECT_EQ(ChooseAlbedoColor({}, &without_lights, "cal.json", std::nullopt, "a.dng").scale, "relative");
+  EXPECT_EQ(AlbedoColorSourceFromName("camera-matrix"), Source::kCameraMatrix);
+  EXPECT_THROW(AlbedoColorSourceFromName("srgb"), std::invalid_argument);
+}
+
+TEST(AlbedoColorTest, TheMatrixIsAppliedToSolvedPixelsOnly) {
+  const CalibrationSet set = SetWithColor(true);
+  const AlbedoColor color = ChooseAlbedoColor({}, &set, "cal.json", std::nullopt, "a.dng");
+  ImageF albedo(2, 1, 3);
+  for (size_t i = 0; i < albedo.size(); ++i) albedo.data()[i] = 0.1f * (i + 1);
+  ImageU8 solved(2, 1, 1);
+  solved.data()[0] = 1;
+  const ImageF before = albedo;
+  ApplyAlbedoColor(color, solved, &albedo);
+  const Eigen::Vector3d expected = color.rec709_from_camera * Eigen::Vector3d(0.1, 0.2, 0.3);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(albedo.data()[c], expected[c], 1e-6);
+  for (int c = 3; c < 6; ++c) EXPECT_EQ(albedo.data()[c], before.data()[c]);
+  ImageU8 wrong(3, 1, 1);
+  EXPECT_THROW(ApplyAlbedoColor(color, wrong, &albedo), std::invalid_argument);
+}
+
+// Two ColorChecker patches side by side, each 20 x 20 px.
+ImageF TwoPatchTruth() {
+  ImageF truth(40, 20, 3);
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      const Eigen::Vector3d& v = ColorCheckerClassic()[x < 20 ? 14 : 17].linear_rec709;  // red, cyan
+      for (int c = 0; c < 3; ++c) truth.data()[(y * 40 + x) * 3 + c] = static_cast<float>(v[c]);
+    }
+  }
+  return truth;
+}
+
+TEST(AlbedoColorTest, ChartPatchesAreScoredByTheirMedianAlbedo) {
+  const ImageF truth = TwoPatchTruth();
+  ImageU8 mask(40, 20, 1);
+  for (size_t i = 0; i < mask.size(); ++i) mask.data()[i] = 1;
+  const AlbedoColorErrors exact = CompareAlbedoColor(truth, truth, mask);
+  EXPECT_EQ(exact.chart_patches, 2);
+  EXPECT_NEAR(exact.chart_max_delta_e, 0.0, 1e-9);
+  EXPECT_NEAR(exact.delta_e.max, 0.0, 1e-9);
+
+  // The red patch 10 % too bright, and a few wild pixels the median ignores.
+  ImageF solved = truth;
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 20; ++x) {
+      for (int c = 0; c < 3; ++c) solved.data()[(y * 40 + x) * 3 + c] *= 1.1f;
+    }
+  }
+  for (int c = 0; c < 3; ++c) solved.data()[(5 * 40 + 30) * 3 + c] = 5.0f;
+  const AlbedoColorErrors errors = CompareAlbedoColor(solved, truth, mask);
+  ASSERT_EQ(errors.regions.size(), 2u);
+  const AlbedoRegionError& red = errors.regions[0].name == "red" ? errors.regions[0] : errors.regions[1];
+  const AlbedoRegionError& cyan = errors.regions[0].name == "cyan" ? errors.regions[0] : errors.regions[1];
+  EXPECT_TRUE(red.chart_patch && cyan.chart_patch);
+  const Eigen::Vector3d red_truth = ColorCheckerClassic()[14].linear_rec709;
+  EXPECT_NEAR(red.delta_e, Ciede2000(LabFromLinearRec709(1.1 * red_truth), LabFromLinearRec709(red_truth)), 1e-3);
+  EXPECT_NEAR(cyan.delta_e, 0.0, 1e-6);
+  EXPECT_NEAR(errors.chart_mean_delta_e, red.delta_e / 2, 1e-6);
+  EXPECT_GT(errors.delta_e.max, 20.0);  // the wild pixel counts per pixel
+
+  // A textile's truth varies per pixel: no regions.
+  ImageF textile(40, 20, 3);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> value(0.05f, 0.9f);
+  for (size_t i = 0; i < textile.size(); ++i) textile.data()[i] = value(random);
+  EXPECT_TRUE(CompareAlbedoColor(textile, textile, mask).regions.empty());
+}
+
+}  // namespace
+}  // namespace scanbench
