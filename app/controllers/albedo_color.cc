@@ -165,6 +165,19 @@ std::string AlbedoColor::ReportJson() const {
   return report.dump();
 }
 
+ResultAlbedoColor AlbedoColorOfReport(const std::string& report_json) {
+  const nlohmann::json report = nlohmann::json::parse(report_json, nullptr, /*allow_exceptions=*/false);
+  if (!report.is_object()) throw std::runtime_error("report.json: not a JSON object");
+  ResultAlbedoColor color;
+  if (!report.contains("color") || !report.at("color").is_object()) return color;
+  const nlohmann::json& c = report.at("color");
+  color.color_space = c.value("color_space", color.color_space);
+  color.scale = c.value("scale", color.scale);
+  color.description = c.value("description", color.description);
+  color.scale_source = c.value("scale_source", color.scale_source);
+  return color;
+}
+
 namespace {
 
 double Median(std::vector<float>& values) {

@@ -48,6 +48,18 @@ struct AlbedoColor {
   std::string ReportJson() const;
 };
 
+// The albedo's colour as a result's report.json states it (its "color" object);
+// results older than issue #12 (no "color") are white-balanced camera RGB of a
+// relative scale. Read by the export and by the GUI's results page.
+struct ResultAlbedoColor {
+  std::string color_space = "camera_rgb";  // "linear_rec709" or "camera_rgb"
+  std::string scale = "relative";          // "absolute" or "relative"
+  std::string description = "not colour calibrated (the result's report names no colour space)";
+  std::string scale_source;
+};
+// From report.json's text; throws std::runtime_error when it is no JSON object.
+ResultAlbedoColor AlbedoColorOfReport(const std::string& report_json);
+
 // Decides the albedo's colour. `set` is the calibration set the solve uses (null
 // = none); `file_camera_from_xyz` is the RAW files' camera matrix (XYZ -> camera
 // native, D65) when they carry one, `file_name` the file it was read from.

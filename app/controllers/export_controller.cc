@@ -18,6 +18,7 @@
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
+#include "app/controllers/albedo_color.h"
 #include "app/controllers/map_writer.h"
 #include "calibration/color_science.h"
 #include "app/io/file_util.h"
@@ -31,26 +32,6 @@
 
 namespace scanbench {
 namespace fs = std::filesystem;
-
-// The albedo's colour as the result's report.json states it (issue #12); results
-// older than that are white-balanced camera RGB of a relative scale.
-struct ExportedAlbedoColor {
-  std::string color_space = "camera_rgb";  // "linear_rec709" or "camera_rgb"
-  std::string scale = "relative";          // "absolute" or "relative"
-  std::string description = "not colour calibrated (the result's report names no colour space)";
-  std::string scale_source;
-};
-
-ExportedAlbedoColor AlbedoColorOfResult(const nlohmann::json& report) {
-  ExportedAlbedoColor color;
-  if (!report.contains("color")) return color;
-  const nlohmann::json& c = report.at("color");
-  color.color_space = c.value("color_space", color.color_space);
-  color.scale = c.value("scale", color.scale);
-  color.description = c.value("description", color.description);
-  color.scale_source = c.value("scale_source", color.scale_source);
-  return color;
-}
 
 // Linear Rec.709 -> linear ACEScg, per pixel.
 ImageF ToAcescg(const ImageF& linear_rec709) {
@@ -71,7 +52,7 @@ struct ExportInputs {
   nlohmann::json result_report;
   ImageF solved_normals;          // normal.exr, tangent frame
   ImageF albedo;                  // albedo.exr, linear (Rec.709 when colour calibrated)
-  ExportedAlbedoColor albedo_color;
+  ResultAlbedoColor albedo_color;
   ImageF confidence;              // confidence.exr: lights used, condition number, residual
   ImageU8 valid;                  // solved_mask.png: 1 = solved
 };
@@ -495,7 +476,7 @@ class FilePlanner {
   // The albedo as base colour: linear EXR in Rec.709 or ACEScg primaries (with
   // their chromaticities), or 16-bit through the sRGB transfer curve. An albedo
   // that was not colour calibrated says so and carries no chromaticities.
-  void AddBasecolor(const std::string& kind, const ImageF& albedo_linear_rec709, const ExportedAlbedoColor& color,
+  void AddBasecolor(const std::string& kind, const ImageF& albedo_linear_rec709, const ResultAlbedoColor& color,
                     double pixel_mm) {
     const bool calibrated = color.color_space == "linear_rec709";
     const bool acescg = calibrated && options_.basecolor_space == ExportOptions::BasecolorSpace::kAcesCg;
@@ -910,7 +891,7 @@ ExportInputs ExportController::Load() {
 
   inputs.report_path = inputs.result_dir / "report.json";
   inputs.result_report = ReadJsonFile(inputs.report_path);
-  inputs.albedo_color = AlbedoColorOfResult(inputs.result_report);
+  inputs.albedo_color = AlbedoColorOfReport(inputs.result_report.dump());
   inputs.solved_normals = ReadResultMap(inputs.result_dir / "normal.exr", 3, width, height);
   ReportProgress("load result", 0.3);
   inputs.albedo = ReadResultMap(inputs.result_dir / "albedo.exr", 3, width, height);

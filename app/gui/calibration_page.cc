@@ -10,16 +10,19 @@
 #include <QGroupBox>
 #include <QHBoxLayout>
 #include <QHeaderView>
+#include <QImage>
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
 #include <QProgressBar>
+#include <QPixmap>
 #include <QPushButton>
 #include <QScrollArea>
 #include <QSettings>
 #include <QSpinBox>
 #include <QSplitter>
 #include <QStackedWidget>
+#include <QTableWidget>
 #include <QTreeWidget>
 #include <QVBoxLayout>
 
@@ -47,6 +50,10 @@ namespace {
 enum FigureColumn { kFigureName, kFigureValue, kFigureLimit, kFigureMark, kFigureColumns };
 constexpr int kValueRole = Qt::UserRole;     // the figure's number (column kFigureValue)
 constexpr int kMarkRole = Qt::UserRole + 1;  // its QualityFigure::Mark (column kFigureMark)
+// The colour step's patch table; kValueRole holds the CIEDE2000 values.
+enum PatchColumn { kPatchName, kPatchMeasured, kPatchReference, kPatchCorrected, kPatchBefore, kPatchAfter, kPatchUsed,
+                   kPatchColumns };
+constexpr int kSwatchPx = 40;  // one patch of the before / after image
 
 // What the page needs to run a step: the target sessions, the set, and the
 // page's options.
@@ -56,16 +63,19 @@ struct StepRunInputs {
   bool replace_set = false;  // camera: "Replace an existing set"
 };
 
-// A started step: its controller and, once it has succeeded, its figures.
+// A started step: its controller and, once it has succeeded, its figures
+// (and the colour step's fit, for the patch table).
 struct StepRun {
   std::shared_ptr<BaseController> controller;
   std::function<std::vector<QualityFigure>()> figures;
+  std::function<ColorCorrectionSummary()> color;  // empty for the other steps
 };
 
 // A step's section of the set on disk: its figures and date.
 struct StoredStep {
   std::vector<QualityFigure> figures;
   std::string date;
+  std::optional<ColorCorrectionSummary> color;  // the colour step's fit
 };
 
 // The rig description a light calibration started from: the first white
@@ -90,6 +100,8 @@ struct StepSpec {
   int list_height;      // px: room for the sessions the step takes
   bool one_session;     // the gray chart: one session
   bool spacer;          // the white sheets: the spacer height to describe them with
+  bool optional;        // colour: the set serves solves without it
+  bool raw_photos;      // colour: RAW photo files may be added besides target sessions
   const char* describe_what;
   const char* describe_tooltip;
   const char* run_text;
@@ -108,7 +120,7 @@ const StepSpec kSteps[CalibrationPage::kStepCount] = {
              "table</b>, its rows along the image's x (this view places the table); then 5 to 8 more with the board "
              "<b>tilted 20–35°</b> in different directions, at different places in the view. The whole board must be "
              "visible and sharp in every pose. This step starts the calibration set."),
-     STEP_TR("Target sessions"), 84, false, false, STEP_TR("board poses"),
+     STEP_TR("Target sessions"), 84, false, false, false, false, STEP_TR("board poses"),
      STEP_TR("Writes target.json (9 × 6 inner corners, 9 mm squares) into each selected session without one; the "
              "first becomes the board lying on the table unless a listed session already is"),
      STEP_TR("Run camera calibration"), STEP_TR("Camera calibration"), STEP_TR("Camera calibrated: a new set in %1."),
@@ -116,34 +128,34 @@ const StepSpec kSteps[CalibrationPage::kStepCount] = {
        CameraCalibrationJobOptions options;
        options.replace = in.replace_set;
        auto controller = std::make_shared<CameraCalibrationController>(in.sessions, in.set_dir, options);
-       return {controller, [controller] { return CameraQuality(controller->summary()); }};
+       return {controller, [controller] { return CameraQuality(controller->summary()); }, {}};
      },
      [](const CalibrationSet& set) -> std::optional<StoredStep> {
        if (!set.camera_calibration) return std::nullopt;
-       return StoredStep{CameraQuality(set.camera_calibration->summary), set.camera_calibration->date};
+       return StoredStep{CameraQuality(set.camera_calibration->summary), set.camera_calibration->date, std::nullopt};
      }},
     {"white", STEP_TR("White balance"), CalibrationTargetDescription::Kind::kGrayChart, CalibrationStep::kWhiteBalance,
      STEP_TR("<b>Target:</b> the matte <b>gray chart</b> (Munsell neutral value scale, N2 to N9.5) lying flat at the "
              "centre of the table, where its target.json puts the patches. <b>Capture</b> one session, all LEDs, at "
              "the exposure of a scan. Keep the chart clean, without glare or shadow. Needs step 1 in this set."),
-     STEP_TR("Target session"), 30, true, false, STEP_TR("the gray chart"),
+     STEP_TR("Target session"), 30, true, false, false, false, STEP_TR("the gray chart"),
      STEP_TR("Writes target.json (the Munsell neutral scale, centred on the table) into the selected session"),
      STEP_TR("Run white balance"), STEP_TR("White balance"),
      STEP_TR("White balance and linearity measured into %1."),
      [](const StepRunInputs& in) -> StepRun {
        auto controller =
            std::make_shared<WhiteBalanceController>(in.sessions.front(), in.set_dir, WhiteBalanceJobOptions());
-       return {controller, [controller] { return WhiteBalanceQuality(controller->summary()); }};
+       return {controller, [controller] { return WhiteBalanceQuality(controller->summary()); }, {}};
      },
      [](const CalibrationSet& set) -> std::optional<StoredStep> {
        if (!set.white_balance) return std::nullopt;
-       return StoredStep{WhiteBalanceQuality(set.white_balance->summary), set.white_balance->date};
+       return StoredStep{WhiteBalanceQuality(set.white_balance->summary), set.white_balance->date, std::nullopt};
      }},
     {"lights", STEP_TR("Lights"), CalibrationTargetDescription::Kind::kWhiteSheet, CalibrationStep::kLights,
      STEP_TR("<b>Target:</b> a <b>99 % white sheet</b> (matte, no optical brighteners), flat and clean, filling the "
              "view. <b>Capture</b> two sessions, all LEDs: the sheet <b>on the table</b>, then on the <b>spacer</b> "
              "(40 mm, the height its target.json states). Nothing may clip at the scan's exposure. Needs step 1."),
-     STEP_TR("Target sessions"), 48, false, true, STEP_TR("white sheets"),
+     STEP_TR("Target sessions"), 48, false, true, false, false, STEP_TR("white sheets"),
      STEP_TR("Writes target.json (99 % sheet) into each selected session without one: the first on the table "
              "unless a listed session already is, the others on the spacer"),
      STEP_TR("Run light calibration"), STEP_TR("Light calibration"), STEP_TR("Lights calibrated into %1."),
@@ -151,13 +163,38 @@ const StepSpec kSteps[CalibrationPage::kStepCount] = {
        auto controller =
            std::make_shared<LightCalibrationController>(in.sessions, in.set_dir, LightCalibrationJobOptions());
        const std::string first = in.sessions.front().string();
-       return {controller, [controller, first] { return LightsQuality(controller->summary(), MeasuredLeds(first)); }};
+       return {controller, [controller, first] { return LightsQuality(controller->summary(), MeasuredLeds(first)); },
+               {}};
      },
      [](const CalibrationSet& set) -> std::optional<StoredStep> {
        if (!set.lights) return std::nullopt;
        const std::vector<LedDescription> measured =
            set.lights->targets.empty() ? std::vector<LedDescription>() : MeasuredLeds(set.lights->targets[0].session);
-       return StoredStep{LightsQuality(set.lights->summary, measured), set.lights->date};
+       return StoredStep{LightsQuality(set.lights->summary, measured), set.lights->date, std::nullopt};
+     }},
+    {"color", STEP_TR("Colour"), CalibrationTargetDescription::Kind::kColorChart, CalibrationStep::kColor,
+     STEP_TR("<b>Target:</b> an X-Rite <b>ColorChecker Classic</b> (24 patches) lying flat, face up and whole in "
+             "view anywhere on the table: the detector finds it. <b>Capture</b> one session, all LEDs, at the "
+             "exposure of a scan, without glare or shadow; no patch may clip. After steps 1 and 3 the patches are "
+             "measured as absolute reflectances in the solver's albedo space. Or add a <b>RAW photo</b> of the "
+             "chart (any light): a relative fit, balanced on its gray row. Optional: without it a solve takes the "
+             "RAW file's own camera matrix."),
+     STEP_TR("Target sessions or RAW photos"), 48, false, false, true, true, STEP_TR("the colour chart"),
+     STEP_TR("Writes target.json (a ColorChecker Classic of the real size on the table) into each selected session "
+             "without one"),
+     STEP_TR("Run colour calibration"), STEP_TR("Colour calibration"),
+     STEP_TR("Colour calibrated into %1: solves with this set write linear Rec.709 albedo."),
+     [](const StepRunInputs& in) -> StepRun {
+       auto controller =
+           std::make_shared<ColorCalibrationController>(in.sessions, in.set_dir, ColorCalibrationJobOptions());
+       return {controller,
+               [controller] { return ColorQuality(controller->summary().fit, controller->summary().white_reference); },
+               [controller] { return controller->summary().fit; }};
+     },
+     [](const CalibrationSet& set) -> std::optional<StoredStep> {
+       if (!set.color) return std::nullopt;
+       return StoredStep{ColorQuality(set.color->summary, set.color->white_reference), set.color->date,
+                         set.color->summary};
      }},
 };
 
@@ -210,6 +247,7 @@ void SetMark(QTreeWidgetItem* item, Mark mark) {
 
 CalibrationPage::CalibrationPage(ControllerRunner* runner, DevicesPage* devices, QWidget* parent)
     : QWidget(parent), runner_(runner), devices_(devices) {
+  worst_.fill(-1);
   auto* layout = new QVBoxLayout(this);
   layout->addWidget(MakeSetBox());
   layout->addWidget(MakeTargetsBox());
@@ -279,7 +317,7 @@ QWidget* CalibrationPage::MakeTargetsBox() {
   render_ = new QPushButton(tr("Render simulated targets"), targets_box);
   render_->setObjectName("renderTargets");
   render_->setToolTip(tr("Simulated bench: writes every target session (checkerboard poses, gray chart, white "
-                         "sheets) into the folder, as scanbench calibrate simulate-targets does"));
+                         "sheets, colour chart) into the folder, as scanbench calibrate simulate-targets does"));
   sim_width_ = MakeSizeBox("targetsWidth", 1232, targets_box);
   sim_height_ = MakeSizeBox("targetsHeight", 816, targets_box);
   auto* render_row = new QHBoxLayout;
@@ -397,8 +435,16 @@ QWidget* CalibrationPage::MakeStep(Step step) {
   w.status->setTextInteractionFlags(Qt::TextSelectableByMouse);
   layout->addWidget(w.status);
   MakeFigures(step, page);
-  layout->addWidget(w.figures, 1);
-  layout->addWidget(w.hints_area);
+  if (spec.kind == CalibrationTargetDescription::Kind::kColorChart) {
+    // The figures are few; the patch table below takes the room.
+    w.figures->setMaximumHeight(130);
+    layout->addWidget(w.figures);
+    layout->addWidget(w.hints_area);
+    layout->addLayout(MakeColorPatches(step, page), 1);
+  } else {
+    layout->addWidget(w.figures, 1);
+    layout->addWidget(w.hints_area);
+  }
   return page;
 }
 
@@ -415,6 +461,13 @@ QLayout* CalibrationPage::MakeSessionList(Step step, QWidget* page) {
   remove->setObjectName(prefix + "Remove");
   auto* list_buttons = new QVBoxLayout;
   list_buttons->addWidget(add);
+  if (kSteps[step].raw_photos) {
+    auto* add_raw = new QPushButton(tr("Add RAW photos…"), page);
+    add_raw->setObjectName(prefix + "AddRaw");
+    add_raw->setToolTip(tr("Single RAW photos (DNG, NEF, CR2, …) of the ColorChecker, taken with this camera"));
+    list_buttons->addWidget(add_raw);
+    connect(add_raw, &QPushButton::clicked, this, [this, step] { AddRawPhotos(step); });
+  }
   list_buttons->addWidget(remove);
   list_buttons->addStretch();
   auto* list_row = new QHBoxLayout;
@@ -496,8 +549,47 @@ void CalibrationPage::MakeFigures(Step step, QWidget* page) {
   w.hints_area->setFrameShape(QFrame::NoFrame);
 }
 
+// The per-patch table and the swatches beside it.
+QLayout* CalibrationPage::MakeColorPatches(Step step, QWidget* page) {
+  const QString prefix = QString::fromLatin1(kSteps[step].prefix);
+  StepWidgets& w = steps_[step];
+  w.patch_stats = new QLabel(page);
+  w.patch_stats->setObjectName(prefix + "PatchStats");
+  w.patch_stats->setWordWrap(true);
+  w.patch_stats->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  w.patches = new QTableWidget(0, kPatchColumns, page);
+  w.patches->setObjectName(prefix + "Patches");
+  w.patches->setHorizontalHeaderLabels({tr("Patch"), tr("Measured camera RGB"), tr("Reference linear Rec.709"),
+                                        tr("Corrected linear Rec.709"), tr("ΔE00 before"), tr("ΔE00 after"),
+                                        tr("Used")});
+  w.patches->setEditTriggers(QAbstractItemView::NoEditTriggers);
+  w.patches->setAlternatingRowColors(true);
+  w.patches->verticalHeader()->setDefaultSectionSize(w.patches->fontMetrics().height() + 4);
+  w.patches->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
+  w.patches->horizontalHeader()->setStretchLastSection(true);
+  w.swatches = new QLabel(page);
+  w.swatches->setObjectName(prefix + "Swatches");
+  w.swatches->setAlignment(Qt::AlignTop | Qt::AlignLeft);
+  auto* caption = new QLabel(tr("Each patch: before (camera RGB) | reference | after (corrected), sRGB."), page);
+  caption->setWordWrap(true);
+  auto* swatch_column = new QVBoxLayout;
+  swatch_column->addWidget(w.swatches);
+  swatch_column->addWidget(caption);
+  swatch_column->addStretch();
+  auto* row = new QHBoxLayout;
+  row->addWidget(w.patches, 1);
+  row->addLayout(swatch_column);
+  auto* column = new QVBoxLayout;
+  column->addWidget(w.patch_stats);
+  column->addLayout(row, 1);
+  return column;
+}
+
 bool CalibrationPage::SetComplete() const {
-  return std::all_of(done_.begin(), done_.end(), [](bool done) { return done; });
+  for (int step = 0; step < kStepCount; ++step) {
+    if (!kSteps[step].optional && !done_[step]) return false;
+  }
+  return true;
 }
 
 fs::path CalibrationPage::SetDir() const { return fs::path(set_folder_->text().trimmed().toStdString()); }
@@ -550,6 +642,14 @@ void CalibrationPage::AddFromFolder(Step step) {
   // A folder that is no target of this kind is added all the same: the run
   // then says what is wrong with it (a scan session has no target.json).
   AddSessions(step, it != found.end() ? ToStrings(it->second) : QStringList{dir});
+}
+
+void CalibrationPage::AddRawPhotos(Step step) {
+  const QStringList files = QFileDialog::getOpenFileNames(
+      this, tr("RAW photos of the ColorChecker"), targets_folder_->text(),
+      tr("RAW photos (*.dng *.DNG *.nef *.NEF *.cr2 *.CR2 *.cr3 *.CR3 *.arw *.ARW *.raf *.RAF *.orf *.ORF *.rw2 "
+         "*.RW2 *.pef *.PEF);;All files (*)"));
+  AddSessions(step, files);
 }
 
 void CalibrationPage::DescribeSelected(Step step) {
@@ -706,16 +806,21 @@ void CalibrationPage::RunStep(int step_index) {
   const StepRun run = spec.start({ToPaths(sessions), set_dir, replace_->isChecked()});
   const QString set_name = calibration_folder();
   StartJob(step, run.controller, Tr(spec.job_name),
-           [this, step, set_name, figures = run.figures](bool ok, bool cancelled, const QString& message) {
-             FinishStep(step, set_name, ok ? figures() : std::vector<QualityFigure>(), ok, cancelled, message);
+           [this, step, set_name, run](bool ok, bool cancelled, const QString& message) {
+             const std::optional<ColorCorrectionSummary> color =
+                 ok && run.color ? std::optional(run.color()) : std::nullopt;
+             FinishStep(step, set_name, ok ? run.figures() : std::vector<QualityFigure>(), color ? &*color : nullptr,
+                        ok, cancelled, message);
            });
 }
 
 // What every step does with the outcome of its run.
 void CalibrationPage::FinishStep(Step step, const QString& set_name, const std::vector<QualityFigure>& figures,
-                                 bool ok, bool cancelled, const QString& message) {
+                                 const ColorCorrectionSummary* color, bool ok, bool cancelled,
+                                 const QString& message) {
   if (ok) {
     ShowFigures(step, figures);
+    if (color) ShowColorPatches(step, *color);
     if (step == kCameraStep) {
       // A new set: the other steps' figures belonged to the old one.
       for (int other = kCameraStep + 1; other < kStepCount; ++other) {
@@ -748,10 +853,60 @@ void CalibrationPage::FinishStep(Step step, const QString& set_name, const std::
 // Figures
 
 void CalibrationPage::ClearFigures(Step step) {
-  steps_[step].figures->clear();
-  steps_[step].hints->clear();
-  steps_[step].hints->setStyleSheet(QString());
+  StepWidgets& w = steps_[step];
+  w.figures->clear();
+  w.hints->clear();
+  w.hints->setStyleSheet(QString());
   FitHints(step);
+  if (w.patches) {
+    w.patches->setRowCount(0);
+    w.patch_stats->clear();
+    w.swatches->clear();
+  }
+}
+
+void CalibrationPage::ShowColorPatches(Step step, const ColorCorrectionSummary& fit) {
+  StepWidgets& w = steps_[step];
+  if (!w.patches) return;
+  auto triple = [](const Eigen::Vector3d& v) {
+    return QStringLiteral("%1 %2 %3").arg(v[0], 0, 'f', 4).arg(v[1], 0, 'f', 4).arg(v[2], 0, 'f', 4);
+  };
+  w.patches->setRowCount(int(fit.patches.size()));
+  for (int row = 0; row < int(fit.patches.size()); ++row) {
+    const ColorPatchResult& patch = fit.patches[row];
+    const QString cells[kPatchColumns] = {
+        QString::fromStdString(patch.name),
+        triple(patch.measured_camera),
+        triple(patch.reference_linear_rec709),
+        triple(patch.corrected_linear_rec709),
+        QString::number(patch.delta_e_before, 'f', 2),
+        QString::number(patch.delta_e_after, 'f', 2),
+        patch.used ? tr("used") : tr("no: %1").arg(QString::fromStdString(ColorPatchStatusText(patch)))};
+    for (int column = 0; column < kPatchColumns; ++column) {
+      auto* item = new QTableWidgetItem(cells[column]);
+      if (column == kPatchBefore) item->setData(kValueRole, patch.delta_e_before);
+      if (column == kPatchAfter) item->setData(kValueRole, patch.delta_e_after);
+      if (column >= kPatchBefore && column <= kPatchAfter) item->setTextAlignment(Qt::AlignRight | Qt::AlignVCenter);
+      if (!patch.used && column == kPatchUsed) {
+        item->setBackground(MarkBackground(Mark::kFail));
+        item->setForeground(MarkForeground(Mark::kFail));
+      }
+      w.patches->setItem(row, column, item);
+    }
+  }
+  w.patch_stats->setText(tr("CIEDE2000 over %1 of %2 patches: mean %3 → %4, max %5 → %6 (before → after the "
+                            "correction; %7).")
+                             .arg(UsedColorPatches(fit))
+                             .arg(fit.patches.size())
+                             .arg(fit.mean_delta_e_before, 0, 'f', 2)
+                             .arg(fit.mean_delta_e_after, 0, 'f', 2)
+                             .arg(fit.max_delta_e_before, 0, 'f', 2)
+                             .arg(fit.max_delta_e_after, 0, 'f', 2)
+                             .arg(QString::fromStdString(fit.method)));
+  const ImageU8 swatches = ColorChartSwatches(fit, kSwatchPx);
+  const QImage image(swatches.data(), swatches.width(), swatches.height(), 3 * swatches.width(),
+                     QImage::Format_RGB888);
+  w.swatches->setPixmap(QPixmap::fromImage(image.copy()));  // copy: the pixels outlive `swatches`
 }
 
 void CalibrationPage::ShowFigures(Step step, const std::vector<QualityFigure>& figures) {
@@ -838,12 +993,15 @@ void CalibrationPage::ReloadSet() {
         done_[step] = stored.has_value();
         if (stored && worst_[step] < 0) {
           ShowFigures(Step(step), stored->figures);
+          if (stored->color) ShowColorPatches(Step(step), *stored->color);
           SetStepStatus(Step(step), tr("In the set since %1.").arg(QString::fromStdString(stored->date)));
         }
       }
       QStringList parts;
       for (int step = 0; step < kStepCount; ++step) {
-        parts << tr("%1 %2").arg(Tr(kSteps[step].title), done_[step] ? tr("done") : tr("missing"));
+        parts << tr("%1 %2").arg(Tr(kSteps[step].title), done_[step]             ? tr("done")
+                                                         : kSteps[step].optional ? tr("not done (optional)")
+                                                                                 : tr("missing"));
       }
       const bool complete = SetComplete();
       set_state_->setText(tr("%1: %2; %3 (%4, %5 × %6 px, created %7)")
@@ -863,7 +1021,7 @@ void CalibrationPage::ReloadSet() {
 
 void CalibrationPage::UpdateStepList() {
   for (int step = 0; step < kStepCount; ++step) {
-    QString state = done_[step] ? tr("done") : tr("not done");
+    QString state = done_[step] ? tr("done") : kSteps[step].optional ? tr("not done (optional)") : tr("not done");
     Mark mark = Mark::kInfo;
     if (worst_[step] >= 0) {
       mark = Mark(worst_[step]);
@@ -921,7 +1079,7 @@ void CalibrationPage::SaveSettings() const {
 void CalibrationPage::SetCalibrationFolder(const QString& folder) {
   set_folder_->setText(folder);
   loaded_folder_ = folder;
-  worst_ = {-1, -1, -1};  // another set: show what it holds
+  worst_.fill(-1);  // another set: show what it holds
   for (int step = 0; step < kStepCount; ++step) {
     ClearFigures(Step(step));
     SetStepStatus(Step(step), QString());

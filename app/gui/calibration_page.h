@@ -1,12 +1,15 @@
-// Calibration: the three calibrations of docs/calibration.md as steps of one
-// page — camera (checkerboard poses), white balance (gray chart), lights (white
-// sheet on the table and on a spacer) — into one calibration set folder. Each
+// Calibration: the calibrations of docs/calibration.md as steps of one page —
+// camera (checkerboard poses), white balance (gray chart), lights (white sheet
+// on the table and on a spacer) and, optional, colour (a ColorChecker session
+// or RAW photo; its patch table and before / after swatches) — into one
+// calibration set folder. Each
 // step says what target to place and how, takes its target sessions (rendered
 // on the simulated bench with one button, or found in / added from folders of
 // captured target sessions), runs its controller through ControllerRunner, and
 // shows the summary's figures, each marked pass / warn / fail against
 // calibration_quality.h's limits with what to fix when it is bad. A complete
-// set is offered to the solve (UseCalibrationSet).
+// set (camera, white balance, lights) is offered to the solve
+// (UseCalibrationSet).
 #pragma once
 
 #include <QString>
@@ -30,6 +33,7 @@ class QPushButton;
 class QScrollArea;
 class QSpinBox;
 class QStackedWidget;
+class QTableWidget;
 class QTreeWidget;
 
 namespace scanbench {
@@ -37,13 +41,14 @@ namespace scanbench {
 class BaseController;
 class ControllerRunner;
 class DevicesPage;
+struct ColorCorrectionSummary;
 struct QualityFigure;
 
 class CalibrationPage : public QWidget {
   Q_OBJECT
 
  public:
-  enum Step { kCameraStep, kWhiteStep, kLightsStep, kStepCount };
+  enum Step { kCameraStep, kWhiteStep, kLightsStep, kColorStep, kStepCount };
 
   CalibrationPage(ControllerRunner* runner, DevicesPage* devices, QWidget* parent = nullptr);
 
@@ -77,6 +82,10 @@ class CalibrationPage : public QWidget {
     QLabel* hints = nullptr;
     QScrollArea* hints_area = nullptr;
     QDoubleSpinBox* spacer_mm = nullptr;  // lights only
+    // Colour only: the per-patch table, its mean / max line, the swatches.
+    QTableWidget* patches = nullptr;
+    QLabel* patch_stats = nullptr;
+    QLabel* swatches = nullptr;
   };
 
   // The page's parts; each step's differences are its entry in the step table
@@ -92,19 +101,26 @@ class CalibrationPage : public QWidget {
   QLayout* MakeDescribeRow(Step step, QWidget* page);
   QLayout* MakeRunRow(Step step, QWidget* page);
   void MakeFigures(Step step, QWidget* page);
+  QLayout* MakeColorPatches(Step step, QWidget* page);
 
   void AddSessions(Step step, const QStringList& folders);
   void AddFromFolder(Step step);
+  // Colour: single RAW photos of a ColorChecker, beside (or instead of) sessions.
+  void AddRawPhotos(Step step);
   // Writes the standard target's target.json into each selected session that
   // has none (a capture made on the real bench): DescribeTargetSessions.
   void DescribeSelected(Step step);
-  // Figures (on success), status and hints of a finished run.
-  void FinishStep(Step step, const QString& set_name, const std::vector<QualityFigure>& figures, bool ok,
-                  bool cancelled, const QString& message);
-  // Every step's section is in the set on disk.
+  // Figures and (colour) the patch table on success, status and hints of a
+  // finished run.
+  void FinishStep(Step step, const QString& set_name, const std::vector<QualityFigure>& figures,
+                  const ColorCorrectionSummary* color, bool ok, bool cancelled, const QString& message);
+  // Every required step's section (camera, white balance, lights) is in the set on disk.
   bool SetComplete() const;
   QStringList Sessions(Step step) const;
   void ShowFigures(Step step, const std::vector<QualityFigure>& figures);
+  // The colour step's patch table, mean / max and swatches of `fit`.
+  void ShowColorPatches(Step step, const ColorCorrectionSummary& fit);
+  // Figures, hints and (colour) the patch table.
   void ClearFigures(Step step);
   // The hints' area as tall as its text, up to a few lines (then it scrolls).
   void FitHints(Step step);
@@ -141,7 +157,7 @@ class CalibrationPage : public QWidget {
   // What the set on disk holds, and the worst mark of each step's figures
   // (-1: none shown).
   std::array<bool, kStepCount> done_{};
-  std::array<int, kStepCount> worst_{-1, -1, -1};
+  std::array<int, kStepCount> worst_;
   // The step whose job runs, or kTargetsJob, or kNoJob (none of this page's).
   static constexpr int kTargetsJob = -1;
   static constexpr int kNoJob = -2;

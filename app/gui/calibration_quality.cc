@@ -1,11 +1,15 @@
 #include "app/gui/calibration_quality.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
+#include <stdexcept>
 
+#include "calibration/color_checker.h"
+#include "calibration/color_science.h"
 #include "core/format.h"
 
 namespace scanbench {
@@ -345,10 +349,133 @@ std::vector<QualityFigure> LightsQuality(const LightCalibrationSummary& s,
 }
 
 // ---------------------------------------------------------------------------
+// ---------------------------------------------------------------------------
+namespace {
+
+// What to do about a patch the fit left out, by its status.
+std::string PatchFix(const ColorPatchResult& patch) {
+  if (patch.status.empty()) return patch.name + " left out: check it for glare, shadow or clipping";
+  if (patch.status == "clipped") return patch.name + " clipped: shorten the exposure or dim the LEDs";
+  if (patch.status == "too dark") return patch.name + " too dark: lengthen the exposure";
+  if (patch.status == "too few samples") {
+    return patch.name + " has too few pixels: bring the camera closer or use a larger chart";
+  }
+  return patch.name + " " + patch.status + ": check the chart's corners and retake it";
+}
+
+}  // namespace
+
+int UsedColorPatches(const ColorCorrectionSummary& fit) {
+  return static_cast<int>(
+      std::count_if(fit.patches.begin(), fit.patches.end(), [](const ColorPatchResult& p) { return p.used; }));
+}
+
+std::string ColorPatchStatusText(const ColorPatchResult& patch) {
+  if (patch.used) return "used";
+  return patch.status.empty() ? "left out" : patch.status;
+}
+
+std::vector<QualityFigure> ColorQuality(const ColorCorrectionSummary& s, const std::string& white_reference) {
+  std::vector<QualityFigure> figures;
+  const int used = UsedColorPatches(s);
+  const std::string over = " over " + std::to_string(used) + " patches";
+  figures.push_back(Figure("", "CIEDE2000 mean, corrected", s.mean_delta_e_after,
+                           Fixed(s.mean_delta_e_after, 2) + " (before " + Fixed(s.mean_delta_e_before, 2) + ")" + over,
+                           Limit(Fixed(limits::kColorMeanDeltaEPass, 0), Fixed(limits::kColorMeanDeltaEWarn, 0)),
+                           Grade(s.mean_delta_e_after, limits::kColorMeanDeltaEPass, limits::kColorMeanDeltaEWarn),
+                           "the corrected patches are " + Fixed(s.mean_delta_e_after, 1) +
+                               " CIEDE2000 off on average: light the chart evenly (no glare, no shadow), keep it "
+                               "flat and clean, and calibrate the lights before this step"));
+
+  const ColorPatchResult* worst = nullptr;
+  for (const ColorPatchResult& patch : s.patches) {
+    if (patch.used && (!worst || patch.delta_e_after > worst->delta_e_after)) worst = &patch;
+  }
+  const std::string worst_name = worst ? worst->name : std::string("none");
+  figures.push_back(Figure("", "CIEDE2000 max, corrected", s.max_delta_e_after,
+                           Fixed(s.max_delta_e_after, 2) + " (" + worst_name + "; before " +
+                               Fixed(s.max_delta_e_before, 2) + ")",
+                           Limit(Fixed(limits::kColorMaxDeltaEPass, 0), Fixed(limits::kColorMaxDeltaEWarn, 0)),
+                           Grade(s.max_delta_e_after, limits::kColorMaxDeltaEPass, limits::kColorMaxDeltaEWarn),
+                           worst_name + " is " + Fixed(s.max_delta_e_after, 1) +
+                               " CIEDE2000 off after the correction: look for glare, dirt or a shadow on it"));
+
+  const int total = static_cast<int>(s.patches.size());
+  std::vector<std::string> fixes;
+  for (const ColorPatchResult& patch : s.patches) {
+    if (!patch.used) fixes.push_back(PatchFix(patch));
+  }
+  const Mark used_mark = used == total && total > 0                 ? Mark::kPass
+                         : used >= limits::kColorPatchesUsedWarn ? Mark::kWarn
+                                                                 : Mark::kFail;
+  figures.push_back(Figure("", "patches used", used, std::to_string(used) + " of " + std::to_string(total),
+                           "pass: all; fail < " + std::to_string(limits::kColorPatchesUsedWarn), used_mark,
+                           fixes.empty() ? std::string("too few patches in the fit") : JoinAnd(fixes)));
+
+  const bool absolute = white_reference == "light_field";
+  figures.push_back(Figure("", "white reference", absolute ? 1 : 0,
+                           absolute ? "the set's light calibration: absolute reflectance, the solver's albedo space"
+                                    : "the chart's gray row per frame: relative (no light calibration when it ran)",
+                           "", Mark::kInfo, ""));
+  figures.push_back(Figure("", "method", 0, s.method, "", Mark::kInfo, ""));
+  return figures;
+}
+
+int SwatchGapPx(int swatch_px) { return std::max(2, swatch_px / 8); }
+
+namespace {
+
+uint8_t SrgbByte(double linear) {
+  if (!std::isfinite(linear)) return 0;
+  return static_cast<uint8_t>(std::lround(255.0 * SrgbEncode(linear)));
+}
+
+void FillRect(ImageU8* image, int x0, int y0, int width, int height, const std::array<uint8_t, 3>& rgb) {
+  for (int y = std::max(0, y0); y < std::min(image->height(), y0 + height); ++y) {
+    for (int x = std::max(0, x0); x < std::min(image->width(), x0 + width); ++x) {
+      uint8_t* pixel = image->data() + (static_cast<size_t>(y) * image->width() + x) * 3;
+      std::copy(rgb.begin(), rgb.end(), pixel);
+    }
+  }
+}
+
+std::array<uint8_t, 3> SrgbBytes(const Eigen::Vector3d& linear) {
+  return {SrgbByte(linear[0]), SrgbByte(linear[1]), SrgbByte(linear[2])};
+}
+
+}  // namespace
+
+ImageU8 ColorChartSwatches(const ColorCorrectionSummary& fit, int swatch_px) {
+  if (swatch_px < 6) {
+    throw std::invalid_argument("ColorChartSwatches: swatch_px = " + std::to_string(swatch_px) + " must be >= 6");
+  }
+  const int s = swatch_px, g = SwatchGapPx(s);
+  const int num = static_cast<int>(fit.patches.size());
+  const int columns = kColorCheckerColumns;
+  const int rows = std::max(kColorCheckerRows, (num + columns - 1) / columns);
+  ImageU8 image(g + columns * (s + g), g + rows * (s + g), 3, uint8_t{0x30});
+  for (int i = 0; i < num; ++i) {
+    const ColorPatchResult& patch = fit.patches[i];
+    const int x0 = g + (i % columns) * (s + g), y0 = g + (i / columns) * (s + g);
+    if (!patch.used) {
+      const int frame = std::max(1, g / 2);
+      FillRect(&image, x0 - frame, y0 - frame, s + 2 * frame, s + 2 * frame, {0xe0, 0x20, 0x20});
+    }
+    const std::array<Eigen::Vector3d, 3> stripes = {patch.measured_camera, patch.reference_linear_rec709,
+                                                    patch.corrected_linear_rec709};
+    for (int k = 0; k < 3; ++k) {
+      const int begin = k * s / 3, end = (k + 1) * s / 3;
+      FillRect(&image, x0 + begin, y0, end - begin, s, SrgbBytes(stripes[k]));
+    }
+  }
+  return image;
+}
+
 std::string FixHintForError(CalibrationStep step, const std::string& message) {
   const char* target = step == CalibrationStep::kCamera         ? "checkerboard"
                        : step == CalibrationStep::kWhiteBalance ? "gray chart"
-                                                                : "white sheet";
+                       : step == CalibrationStep::kLights       ? "white sheet"
+                                                                : "colour chart";
   auto has = [&message](const char* text) { return message.find(text) != std::string::npos; };
   if (has("is no calibration target session")) {
     return std::string("That folder is a scan session, not a target capture: choose the ") + target +
@@ -374,6 +501,21 @@ std::string FixHintForError(CalibrationStep step, const std::string& message) {
   if (has("usable views, min_views")) {
     return "Too few usable views (the reasons are listed): the whole board must be visible, sharp and evenly lit "
            "in each; retake the rejected poses or add more.";
+  }
+  if (has("no ColorChecker found") || has("in none of its LED frames")) {
+    return "The ColorChecker was not found: lay the whole chart flat in view, face up and unobstructed, lit "
+           "evenly without glare; or give its corners (scanbench calibrate color --corners).";
+  }
+  if (has("a colour chart session is calibrated into an existing set")) {
+    return "A colour chart session needs the set's camera: run step 1 (camera), ideally step 3 (lights), first; a "
+           "RAW photo of the chart may start a set on its own.";
+  }
+  if (has("cannot be fitted together")) {
+    return "Calibrate from chart sessions or from RAW photos, not both: remove one kind from the list.";
+  }
+  if (has("neutral patches") || has("neutral ones") || has("gray patches are usable")) {
+    return "The chart's gray row must be usable: expose so that the white patch does not clip and the black one "
+           "is not lost in noise.";
   }
   if (has("lying flat on the table") || has("lying on the table was rejected")) {
     return "One checkerboard session must show the board lying flat on the table (on_table in its target.json), "

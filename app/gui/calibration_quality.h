@@ -17,9 +17,11 @@
 #include <vector>
 
 #include "calibration/camera_calibration.h"
+#include "calibration/color_calibration.h"
 #include "calibration/light_calibration.h"
 #include "calibration/rig.h"
 #include "calibration/white_balance.h"
+#include "core/image.h"
 
 namespace scanbench {
 
@@ -83,6 +85,19 @@ inline constexpr double kPositionStdWarnMm = 15.0;
 // Cells of the table sheet dropped (clipped, dark, dust or creases).
 inline constexpr double kCellsDroppedPass = 0.05;
 inline constexpr double kCellsDroppedWarn = 0.20;
+
+// Colour, CIEDE2000 of the corrected patches against the ColorChecker
+// reference. About 1 is the smallest difference an observer sees side by
+// side; the simulated D5100 fits to a mean of 1.0 and a max of 3.4 (cyan,
+// outside the Rec.709 gamut) with clean captures. A mean above 4 or a patch
+// above 10 means the chart, its light or the fit went wrong.
+inline constexpr double kColorMeanDeltaEPass = 2.0;
+inline constexpr double kColorMeanDeltaEWarn = 4.0;
+inline constexpr double kColorMaxDeltaEPass = 5.0;
+inline constexpr double kColorMaxDeltaEWarn = 10.0;
+// Patches in the fit: all 24 pass; a few left out (clipped white, a patch
+// in glare) warn; fewer than this fail (the fit's own minimum is 6).
+inline constexpr int kColorPatchesUsedWarn = 18;
 }  // namespace calibration_limits
 
 struct QualityFigure {
@@ -109,9 +124,31 @@ std::vector<QualityFigure> WhiteBalanceQuality(const WhiteBalanceSummary& summar
 std::vector<QualityFigure> LightsQuality(const LightCalibrationSummary& summary,
                                          const std::vector<LedDescription>& measured_leds);
 
+// Patches of `fit` in the fit, counted from the patches: a summary read back
+// from a calibration set keeps each patch's `used` but not `used_patches`.
+int UsedColorPatches(const ColorCorrectionSummary& fit);
+// "used", or why not ("clipped", ...; "left out" when the reason was not kept).
+std::string ColorPatchStatusText(const ColorPatchResult& patch);
+// `white_reference`: the colour section's ("light_field" or "neutral_patches").
+std::vector<QualityFigure> ColorQuality(const ColorCorrectionSummary& fit, const std::string& white_reference);
+
+// The before / after swatches of a colour calibration, 8-bit sRGB (3
+// channels), for the eye: the patches in chart order on a 6 x 4 grid (dark
+// skin top left), each a square of `swatch_px` split into three vertical
+// stripes — the measured camera RGB shown as if it were linear Rec.709
+// (before), the reference, the corrected value (after) — so that each of
+// before and after sits beside the reference. Swatch i's top left corner is at
+// (g + (i % 6) (swatch_px + g), g + (i / 6) (swatch_px + g)) with the gap
+// g = SwatchGapPx(swatch_px); stripe k covers x in [k s / 3, (k + 1) s / 3)
+// (integer division). The gaps are dark gray; a patch left out of the fit is
+// framed in red within the gap. Values are SrgbEncode'd (clamped to [0, 1]);
+// a non-finite value shows black. Throws std::invalid_argument for swatch_px < 6.
+ImageU8 ColorChartSwatches(const ColorCorrectionSummary& fit, int swatch_px = 48);
+int SwatchGapPx(int swatch_px);
+
 // A plain-language fix for a calibration that failed with `message` (the
 // controller's error), or "" when the message says it all.
-enum class CalibrationStep { kCamera, kWhiteBalance, kLights };
+enum class CalibrationStep { kCamera, kWhiteBalance, kLights, kColor };
 std::string FixHintForError(CalibrationStep step, const std::string& message);
 
 }  // namespace scanbench

@@ -14,6 +14,7 @@
 #include <QSettings>
 #include <QVBoxLayout>
 
+#include "app/controllers/albedo_color.h"
 #include "app/gui/colour_legend.h"
 #include "app/gui/export_dialog.h"
 #include "app/gui/image_view.h"
@@ -94,6 +95,10 @@ QWidget* ResultsPage::MakeSidePanel() {
   pad_label_ = new QLabel(tr("Drag the light (seen from above; centre = overhead)."), this);
   pad_label_->setWordWrap(true);
   specular_box_ = MakeSpecularBox();
+  albedo_color_ = new QLabel(this);
+  albedo_color_->setObjectName("resultAlbedoColor");
+  albedo_color_->setWordWrap(true);
+  albedo_color_->setTextInteractionFlags(Qt::TextSelectableByMouse);
   summary_ = new QPlainTextEdit(this);
   summary_->setObjectName("resultSummary");
   summary_->setReadOnly(true);
@@ -106,6 +111,7 @@ QWidget* ResultsPage::MakeSidePanel() {
   side->addWidget(pad_, 0, Qt::AlignHCenter);
   side->addWidget(pad_label_);
   side->addWidget(specular_box_);
+  side->addWidget(albedo_color_);
   side->addWidget(summary_, 1);
   auto* side_widget = new QWidget(this);
   side_widget->setLayout(side);
@@ -220,6 +226,7 @@ bool ResultsPage::OpenResult(const QString& dir) {
   QFile summary(dir + "/summary.txt");
   summary_->setPlainText(summary.open(QIODevice::ReadOnly) ? QString::fromUtf8(summary.readAll())
                                                            : tr("(no summary.txt in this folder)"));
+  ShowAlbedoColor();
   export_->setEnabled(!layers.isEmpty());
   if (layers.isEmpty()) {
     legend_->setVisible(false);
@@ -230,6 +237,25 @@ bool ResultsPage::OpenResult(const QString& dir) {
   }
   ShowSelectedLayer();
   return true;
+}
+
+void ResultsPage::ShowAlbedoColor() {
+  QFile report(QString::fromStdString((result_dir_ / "report.json").string()));
+  if (!report.open(QIODevice::ReadOnly)) {
+    albedo_color_->setText(tr("Albedo colour: unknown (no report.json in this folder)"));
+    albedo_color_->setToolTip(QString());
+    return;
+  }
+  try {
+    const ResultAlbedoColor color = AlbedoColorOfReport(report.readAll().toStdString());
+    albedo_color_->setText(tr("Albedo: %1, %2 — %3")
+                               .arg(QString::fromStdString(color.color_space), QString::fromStdString(color.scale),
+                                    QString::fromStdString(color.description)));
+    albedo_color_->setToolTip(QString::fromStdString(color.scale_source));
+  } catch (const std::exception& error) {
+    albedo_color_->setText(tr("Albedo colour: unknown (%1: %2)").arg(report.fileName(), error.what()));
+    albedo_color_->setToolTip(QString());
+  }
 }
 
 bool ResultsPage::ShowLayer(ResultLayer layer) {

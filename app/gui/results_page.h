@@ -1,7 +1,8 @@
 // Results: one result folder's maps (albedo, normal, status, confidence,
 // angular error when the session had ground truth) in a zoom-and-pan view,
-// the solver's summary beside them, and a relight preview driven by a light
-// the operator drags over a pad.
+// the solver's summary beside them with the albedo's colour space and scale
+// (report.json's "color"), and a relight preview driven by a light the
+// operator drags over a pad.
 #pragma once
 
 #include <QWidget>
@@ -65,6 +66,8 @@ class ResultsPage : public QWidget {
   void MakeRenderer();
 
   void ShowSelectedLayer();
+  // The albedo's colour line from the result's report.json.
+  void ShowAlbedoColor();
   void UpdateRelight(double x, double y, double z);
 
   ControllerRunner* runner_;
@@ -80,6 +83,7 @@ class ResultsPage : public QWidget {
   QDoubleSpinBox* f0_;
   ColourLegend* legend_;
   QPushButton* export_;
+  QLabel* albedo_color_;  // report.json's "color": colour space, scale, description
   QPlainTextEdit* summary_;
   QLabel* status_;
   std::shared_ptr<const RelightMaps> relight_;  // loaded when the relight is first shown

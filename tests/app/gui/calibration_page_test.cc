@@ -1,7 +1,9 @@
 // The Calibration page on the simulated bench through the real widgets:
 // render the target sessions (308 x 204), cancel a camera calibration (no set
 // is left), calibrate camera, white balance and lights into one set, compare
-// the figures shown with the set's, offer the set to the Sessions page, show
+// the figures shown with the set's, calibrate the colour on the ColorChecker
+// session (its patch table and swatches against the set's colour section),
+// offer the set to the Sessions page, show
 // the fix hint of a run on a session that is no target, describe that capture
 // as the gray chart and run on it, and reload the set in a new window from the
 // saved settings. The limits and hints of bad figures are checked on made-up
@@ -14,6 +16,7 @@
 #include <QSettings>
 #include <QSpinBox>
 #include <QTabWidget>
+#include <QTableWidget>
 #include <QTemporaryDir>
 #include <QTest>
 #include <QTreeWidget>
@@ -121,8 +124,10 @@ class CalibrationPageTest : public QObject {
     QCOMPARE(Find<QListWidget>("cameraSessions")->count(), 9);
     QCOMPARE(Find<QListWidget>("whiteSessions")->count(), 1);
     QCOMPARE(Find<QListWidget>("lightsSessions")->count(), 2);
+    QCOMPARE(Find<QListWidget>("colorSessions")->count(), 1);
     QVERIFY(Find<QListWidget>("whiteSessions")->item(0)->text().endsWith("gray_chart"));
-    QVERIFY2(Find<QLabel>("targetsStatus")->text().contains("12 target session(s) rendered"),
+    QVERIFY(Find<QListWidget>("colorSessions")->item(0)->text().endsWith("color_chart"));
+    QVERIFY2(Find<QLabel>("targetsStatus")->text().contains("13 target session(s) rendered"),
              qPrintable(Find<QLabel>("targetsStatus")->text()));
     // The sessions fit the simulated camera at that size.
     const Session board = LoadSession(Find<QListWidget>("cameraSessions")->item(0)->text().toStdString());
@@ -206,11 +211,82 @@ class CalibrationPageTest : public QObject {
       QCOMPARE(FigureValue("lightsFigures", group, "position change from the rig description"), change);
       QVERIFY(change > 0.5 && change < 20);  // the measured rig is a few mm off (docs/calibration.md)
     }
+    // Complete without the optional colour step.
+    QVERIFY2(Find<QLabel>("calibrationSetState")->text().contains("Colour not done (optional)"),
+             qPrintable(Find<QLabel>("calibrationSetState")->text()));
     QVERIFY(Find<QLabel>("calibrationSetState")->text().contains("complete, ready for solves"));
-
-    // The complete set goes to the solve on the Sessions page.
     QVERIFY(Find<QPushButton>("useCalibrationSet")->isEnabled());
     QTest::mouseClick(Find<QPushButton>("lightsNext"), Qt::LeftButton);
+    QCOMPARE(Find<QListWidget>("calibrationSteps")->currentRow(), int(CalibrationPage::kColorStep));
+  }
+
+  // The fourth step, after the lights: the ColorChecker session measured
+  // through the set's light calibration.
+  void CalibratesTheColour() {
+    QListWidget* steps = Find<QListWidget>("calibrationSteps");
+    QCOMPARE(steps->count(), int(CalibrationPage::kStepCount));
+    QCOMPARE(int(CalibrationPage::kColorStep), int(CalibrationPage::kLightsStep) + 1);
+    QVERIFY2(steps->item(CalibrationPage::kColorStep)->text().startsWith("4. Colour"),
+             qPrintable(steps->item(CalibrationPage::kColorStep)->text()));
+    QVERIFY(steps->item(CalibrationPage::kColorStep)->text().contains("not done (optional)"));
+    QTableWidget* table = Find<QTableWidget>("colorPatches");
+    QCOMPARE(table->rowCount(), 0);
+
+    QCOMPARE(ClickAndWait("colorRun"), ControllerRunner::Outcome::kSucceeded);
+    const CalibrationSet set = LoadCalibrationSet(CalibrationDir().toStdString());
+    QVERIFY(set.color.has_value());
+    QCOMPARE(set.color->white_reference, std::string("light_field"));
+    QCOMPARE(set.color->targets.at(0).session, Find<QListWidget>("colorSessions")->item(0)->text().toStdString());
+    const ColorCorrectionSummary& fit = set.color->summary;
+    QCOMPARE(fit.patches.size(), size_t(24));
+
+    // The table is the set's: one row per patch in chart order.
+    QCOMPARE(table->rowCount(), 24);
+    QCOMPARE(table->columnCount(), 7);
+    for (int row = 0; row < 24; ++row) {
+      const ColorPatchResult& patch = fit.patches[row];
+      QCOMPARE(table->item(row, 0)->text(), QString::fromStdString(patch.name));
+      QCOMPARE(table->item(row, 1)->text(), QStringLiteral("%1 %2 %3")
+                                                .arg(patch.measured_camera[0], 0, 'f', 4)
+                                                .arg(patch.measured_camera[1], 0, 'f', 4)
+                                                .arg(patch.measured_camera[2], 0, 'f', 4));
+      QCOMPARE(table->item(row, 4)->data(Qt::UserRole).toDouble(), patch.delta_e_before);
+      QCOMPARE(table->item(row, 5)->data(Qt::UserRole).toDouble(), patch.delta_e_after);
+      QCOMPARE(table->item(row, 6)->text(), patch.used ? QStringLiteral("used")
+                                                       : "no: " + QString::fromStdString(ColorPatchStatusText(patch)));
+    }
+    QCOMPARE(table->item(0, 0)->text(), QStringLiteral("dark skin"));
+    QCOMPARE(table->item(23, 0)->text(), QStringLiteral("black 2 (1.5 D)"));
+    const QString stats = Find<QLabel>("colorPatchStats")->text();
+    for (double value : {fit.mean_delta_e_before, fit.mean_delta_e_after, fit.max_delta_e_before,
+                         fit.max_delta_e_after}) {
+      QVERIFY2(stats.contains(QString::number(value, 'f', 2)), qPrintable(stats));
+    }
+    QVERIFY2(stats.contains(QStringLiteral("over %1 of 24 patches").arg(UsedColorPatches(fit))), qPrintable(stats));
+    // The simulated D5100 corrects to about 1 CIEDE2000 on average (docs/calibration.md).
+    QVERIFY2(fit.mean_delta_e_after < 2 && fit.mean_delta_e_before > 4, qPrintable(stats));
+    QCOMPARE(FigureValue("colorFigures", "", "CIEDE2000 mean, corrected"), fit.mean_delta_e_after);
+    QCOMPARE(FigureValue("colorFigures", "", "CIEDE2000 max, corrected"), fit.max_delta_e_after);
+    QCOMPARE(FigureValue("colorFigures", "", "patches used"), double(UsedColorPatches(fit)));
+    QCOMPARE(UsedColorPatches(fit), 24);  // the simulated chart is evenly lit: nothing clips
+    QCOMPARE(FigureItem("colorFigures", "", "CIEDE2000 mean, corrected")->text(3), QStringLiteral("pass"));
+
+    // The swatches are the set's fit, drawn by ColorChartSwatches.
+    const QPixmap swatches = Find<QLabel>("colorSwatches")->pixmap();
+    QVERIFY(!swatches.isNull());
+    const ImageU8 expected = ColorChartSwatches(fit, 40);
+    QCOMPARE(swatches.size(), QSize(expected.width(), expected.height()));
+    const QImage shown = swatches.toImage();
+    const int g = SwatchGapPx(40);
+    const int x = g + 2 * (40 + g) + 20, y = g + 3 * (40 + g) + 20;  // patch 20's reference stripe
+    QCOMPARE(shown.pixelColor(x, y), QColor(expected(x, y, 0), expected(x, y, 1), expected(x, y, 2)));
+    QVERIFY(steps->item(CalibrationPage::kColorStep)->text().contains("done"));
+    QVERIFY2(Find<QLabel>("colorStatus")->text().startsWith("Colour calibrated"),
+             qPrintable(Find<QLabel>("colorStatus")->text()));
+
+    // The set (complete, now with colour) goes to the solve on the Sessions page.
+    QVERIFY(Find<QLabel>("calibrationSetState")->text().contains("Colour done"));
+    QTest::mouseClick(Find<QPushButton>("colorNext"), Qt::LeftButton);
     QCOMPARE(window_->findChild<QTabWidget*>("pages")->currentIndex(), int(MainWindow::kSessionsPage));
     QCOMPARE(Find<QLineEdit>("calibrationFolder")->text(), CalibrationDir());
     window_->ShowPage(MainWindow::kCalibrationPage);
@@ -271,6 +347,10 @@ class CalibrationPageTest : public QObject {
     QCOMPARE(camera->topLevelItem(0)->data(1, Qt::UserRole).toDouble(),
              set.camera_calibration->summary.reprojection_rms_px);
     QVERIFY(again.findChild<QTreeWidget*>("lightsFigures")->topLevelItemCount() > 0);
+    QTableWidget* patches = again.findChild<QTableWidget*>("colorPatches");
+    QVERIFY(patches != nullptr);
+    QCOMPARE(patches->rowCount(), 24);
+    QCOMPARE(patches->item(5, 5)->data(Qt::UserRole).toDouble(), set.color->summary.patches[5].delta_e_after);
     QVERIFY(again.findChild<QPushButton*>("useCalibrationSet")->isEnabled());
   }
 

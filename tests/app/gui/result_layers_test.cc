@@ -1,7 +1,9 @@
 // Heatmap layers and their colour legend: the scale and the map's min / max
 // the legend states are the values in the files, with their unit; the legend
-// shows under heatmaps only.
+// shows under heatmaps only. The results page states the albedo's colour space
+// and scale from report.json.
 #include <QApplication>
+#include <QLabel>
 #include <QTest>
 
 #include <cmath>
@@ -132,6 +134,36 @@ class ResultLayersTest : public QObject {
     QCOMPARE(page.legend()->scale().max, 0.008f);
     QVERIFY(page.ShowLayer(ResultLayer::kAlbedo));
     QVERIFY(!page.legend()->isVisible());
+  }
+
+  // report.json's "color" (issue #12) on one line; a result from before it
+  // (no "color") is white-balanced camera RGB of a relative scale.
+  void ResultsPageStatesTheAlbedoColour() {
+    ControllerRunner runner;
+    ResultsPage page(&runner);
+    QLabel* line = page.findChild<QLabel*>("resultAlbedoColor");
+    QVERIFY(line != nullptr);
+    const std::filesystem::path report = dir_ / "report.json";
+    WriteFileAtomic(report,
+                    std::string_view("{\"color\": {\"color_space\": \"linear_rec709\", \"scale\": \"absolute\", "
+                                     "\"description\": \"ColorChecker fit in cal/calibration.json, CIEDE2000 mean 1.0\", "
+                                     "\"scale_source\": \"the set's light calibration\"}}"),
+                    OverwritePolicy::kReplace);
+    QVERIFY(page.OpenResult(QString::fromStdString(dir_.string())));
+    QCOMPARE(line->text(), QStringLiteral("Albedo: linear_rec709, absolute — ColorChecker fit in cal/calibration.json, "
+                                          "CIEDE2000 mean 1.0"));
+    QCOMPARE(line->toolTip(), QStringLiteral("the set's light calibration"));
+
+    WriteFileAtomic(report, std::string_view("{\"method\": \"adaptive\"}"), OverwritePolicy::kReplace);
+    QVERIFY(page.OpenResult(QString::fromStdString(dir_.string())));
+    QVERIFY2(line->text().startsWith("Albedo: camera_rgb, relative — not colour calibrated"), qPrintable(line->text()));
+
+    WriteFileAtomic(report, std::string_view("not json"), OverwritePolicy::kReplace);
+    QVERIFY(page.OpenResult(QString::fromStdString(dir_.string())));
+    QVERIFY2(line->text().contains("unknown") && line->text().contains("report.json"), qPrintable(line->text()));
+    std::filesystem::remove(report);
+    QVERIFY(page.OpenResult(QString::fromStdString(dir_.string())));
+    QVERIFY2(line->text().contains("no report.json"), qPrintable(line->text()));
   }
 };
 
