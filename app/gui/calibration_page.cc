@@ -7,6 +7,7 @@
 #include <QDir>
 #include <QDoubleSpinBox>
 #include <QFileDialog>
+#include <QFont>
 #include <QGroupBox>
 #include <QHBoxLayout>
 #include <QHeaderView>
@@ -22,6 +23,7 @@
 #include <QSpinBox>
 #include <QSplitter>
 #include <QStackedWidget>
+#include <QTabWidget>
 #include <QTableWidget>
 #include <QTreeWidget>
 #include <QVBoxLayout>
@@ -53,7 +55,7 @@ constexpr int kMarkRole = Qt::UserRole + 1;  // its QualityFigure::Mark (column 
 // The colour step's patch table; kValueRole holds the CIEDE2000 values.
 enum PatchColumn { kPatchName, kPatchMeasured, kPatchReference, kPatchCorrected, kPatchBefore, kPatchAfter, kPatchUsed,
                    kPatchColumns };
-constexpr int kSwatchPx = 40;  // one patch of the before / after image
+constexpr int kSwatchPx = 36;  // one patch of the before / after image
 
 // What the page needs to run a step: the target sessions, the set, and the
 // page's options.
@@ -436,10 +438,6 @@ QWidget* CalibrationPage::MakeStep(Step step) {
   layout->addWidget(w.status);
   MakeFigures(step, page);
   if (spec.kind == CalibrationTargetDescription::Kind::kColorChart) {
-    // The figures are few; the patch table below takes the room.
-    w.figures->setMaximumHeight(130);
-    layout->addWidget(w.figures);
-    layout->addWidget(w.hints_area);
     layout->addLayout(MakeColorPatches(step, page), 1);
   } else {
     layout->addWidget(w.figures, 1);
@@ -559,10 +557,16 @@ QLayout* CalibrationPage::MakeColorPatches(Step step, QWidget* page) {
   w.patch_stats->setTextInteractionFlags(Qt::TextSelectableByMouse);
   w.patches = new QTableWidget(0, kPatchColumns, page);
   w.patches->setObjectName(prefix + "Patches");
-  w.patches->setHorizontalHeaderLabels({tr("Patch"), tr("Measured camera RGB"), tr("Reference linear Rec.709"),
-                                        tr("Corrected linear Rec.709"), tr("ΔE00 before"), tr("ΔE00 after"),
-                                        tr("Used")});
+  w.patches->setHorizontalHeaderLabels({tr("Patch"), tr("Measured (camera)"), tr("Reference (Rec.709)"),
+                                        tr("Corrected (Rec.709)"), tr("ΔE00 before"), tr("after"), tr("Used")});
+  w.patches->horizontalHeaderItem(kPatchMeasured)->setToolTip(tr("White-balanced camera RGB, as measured"));
+  w.patches->horizontalHeaderItem(kPatchReference)->setToolTip(tr("The ColorChecker's linear Rec.709 (D65)"));
+  w.patches->horizontalHeaderItem(kPatchCorrected)->setToolTip(tr("The correction applied to the measured value"));
+  w.patches->horizontalHeaderItem(kPatchAfter)->setToolTip(tr("CIEDE2000 of the corrected value"));
   w.patches->setEditTriggers(QAbstractItemView::NoEditTriggers);
+  QFont small = w.patches->font();  // 24 rows of 7 columns beside the swatches
+  small.setPointSizeF(small.pointSizeF() * 0.9);
+  w.patches->setFont(small);
   w.patches->setAlternatingRowColors(true);
   w.patches->verticalHeader()->setDefaultSectionSize(w.patches->fontMetrics().height() + 4);
   w.patches->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
@@ -572,17 +576,26 @@ QLayout* CalibrationPage::MakeColorPatches(Step step, QWidget* page) {
   w.swatches->setAlignment(Qt::AlignTop | Qt::AlignLeft);
   auto* caption = new QLabel(tr("Each patch: before (camera RGB) | reference | after (corrected), sRGB."), page);
   caption->setWordWrap(true);
+  const int gap = SwatchGapPx(kSwatchPx);
+  caption->setMaximumWidth(gap + kColorCheckerColumns * (kSwatchPx + gap));  // as wide as the swatches
   auto* swatch_column = new QVBoxLayout;
   swatch_column->addWidget(w.swatches);
   swatch_column->addWidget(caption);
   swatch_column->addStretch();
-  auto* row = new QHBoxLayout;
-  row->addWidget(w.patches, 1);
-  row->addLayout(swatch_column);
+  // The page has room for one table: the patches first, the few figures (their
+  // marks summed up by the hints below) on the second tab; the swatches beside.
+  auto* tabs = new QTabWidget(page);
+  tabs->setObjectName(prefix + "Tabs");
+  tabs->addTab(w.patches, tr("Patches"));
+  tabs->addTab(w.figures, tr("Figures"));
   auto* column = new QVBoxLayout;
   column->addWidget(w.patch_stats);
-  column->addLayout(row, 1);
-  return column;
+  column->addWidget(tabs, 1);
+  column->addWidget(w.hints_area);
+  auto* row = new QHBoxLayout;
+  row->addLayout(column, 1);
+  row->addLayout(swatch_column);
+  return row;
 }
 
 bool CalibrationPage::SetComplete() const {
@@ -869,7 +882,7 @@ void CalibrationPage::ShowColorPatches(Step step, const ColorCorrectionSummary& 
   StepWidgets& w = steps_[step];
   if (!w.patches) return;
   auto triple = [](const Eigen::Vector3d& v) {
-    return QStringLiteral("%1 %2 %3").arg(v[0], 0, 'f', 4).arg(v[1], 0, 'f', 4).arg(v[2], 0, 'f', 4);
+    return QStringLiteral("%1 %2 %3").arg(v[0], 0, 'f', 3).arg(v[1], 0, 'f', 3).arg(v[2], 0, 'f', 3);
   };
   w.patches->setRowCount(int(fit.patches.size()));
   for (int row = 0; row < int(fit.patches.size()); ++row) {
@@ -894,8 +907,7 @@ void CalibrationPage::ShowColorPatches(Step step, const ColorCorrectionSummary& 
       w.patches->setItem(row, column, item);
     }
   }
-  w.patch_stats->setText(tr("CIEDE2000 over %1 of %2 patches: mean %3 → %4, max %5 → %6 (before → after the "
-                            "correction; %7).")
+  w.patch_stats->setText(tr("CIEDE2000 over %1 of %2 patches, before → after: mean %3 → %4, max %5 → %6 (%7).")
                              .arg(UsedColorPatches(fit))
                              .arg(fit.patches.size())
                              .arg(fit.mean_delta_e_before, 0, 'f', 2)

@@ -203,7 +203,8 @@ class ScreenshotTourSteps {
     for (auto [step, button, table, name] :
          {std::tuple{CalibrationPage::kCameraStep, "cameraRun", "cameraFigures", "calibration-camera"},
           std::tuple{CalibrationPage::kWhiteStep, "whiteRun", "whiteFigures", "calibration-white"},
-          std::tuple{CalibrationPage::kLightsStep, "lightsRun", "lightsFigures", "calibration-lights"}}) {
+          std::tuple{CalibrationPage::kLightsStep, "lightsRun", "lightsFigures", "calibration-lights"},
+          std::tuple{CalibrationPage::kColorStep, "colorRun", "colorFigures", "calibration-color"}}) {
       window_.calibration()->ShowStep(step);
       if (!ClickAndWait(window_, button, 300000)) return false;
       ExpandFirstWithChildren(Find<QTreeWidget>(window_, table));

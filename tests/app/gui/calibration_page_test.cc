@@ -247,9 +247,9 @@ class CalibrationPageTest : public QObject {
       const ColorPatchResult& patch = fit.patches[row];
       QCOMPARE(table->item(row, 0)->text(), QString::fromStdString(patch.name));
       QCOMPARE(table->item(row, 1)->text(), QStringLiteral("%1 %2 %3")
-                                                .arg(patch.measured_camera[0], 0, 'f', 4)
-                                                .arg(patch.measured_camera[1], 0, 'f', 4)
-                                                .arg(patch.measured_camera[2], 0, 'f', 4));
+                                                .arg(patch.measured_camera[0], 0, 'f', 3)
+                                                .arg(patch.measured_camera[1], 0, 'f', 3)
+                                                .arg(patch.measured_camera[2], 0, 'f', 3));
       QCOMPARE(table->item(row, 4)->data(Qt::UserRole).toDouble(), patch.delta_e_before);
       QCOMPARE(table->item(row, 5)->data(Qt::UserRole).toDouble(), patch.delta_e_after);
       QCOMPARE(table->item(row, 6)->text(), patch.used ? QStringLiteral("used")
@@ -274,11 +274,11 @@ class CalibrationPageTest : public QObject {
     // The swatches are the set's fit, drawn by ColorChartSwatches.
     const QPixmap swatches = Find<QLabel>("colorSwatches")->pixmap();
     QVERIFY(!swatches.isNull());
-    const ImageU8 expected = ColorChartSwatches(fit, 40);
+    const ImageU8 expected = ColorChartSwatches(fit, 36);
     QCOMPARE(swatches.size(), QSize(expected.width(), expected.height()));
     const QImage shown = swatches.toImage();
-    const int g = SwatchGapPx(40);
-    const int x = g + 2 * (40 + g) + 20, y = g + 3 * (40 + g) + 20;  // patch 20's reference stripe
+    const int g = SwatchGapPx(36);
+    const int x = g + 2 * (36 + g) + 18, y = g + 3 * (36 + g) + 18;  // patch 20's reference stripe
     QCOMPARE(shown.pixelColor(x, y), QColor(expected(x, y, 0), expected(x, y, 1), expected(x, y, 2)));
     QVERIFY(steps->item(CalibrationPage::kColorStep)->text().contains("done"));
     QVERIFY2(Find<QLabel>("colorStatus")->text().startsWith("Colour calibrated"),
