@@ -20,6 +20,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "app/controllers/albedo_color.h"
 #include "app/gui/capture_page.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
@@ -27,6 +28,7 @@
 #include "app/gui/main_window.h"
 #include "app/gui/results_page.h"
 #include "app/gui/sessions_page.h"
+#include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
 
@@ -196,6 +198,19 @@ class GuiScanTest : public QObject {
     for (size_t i = 0; i < mask.size(); ++i) solved += mask.data()[i] == 255;
     const double fraction = double(solved) / mask.num_pixels();
     QVERIFY2(fraction > 0.95, qPrintable(QString::number(fraction)));
+
+    // The albedo's colour as report.json states it (issue #12): the simulated
+    // DNGs carry the D5100's colour matrix, so without a colour calibration the
+    // solve takes that matrix.
+    const std::vector<uint8_t> report = ReadFileBytes(dir / "report.json");
+    const ResultAlbedoColor color = AlbedoColorOfReport(std::string(report.begin(), report.end()));
+    QCOMPARE(color.color_space, std::string("linear_rec709"));
+    QLabel* albedo_line = window_->findChild<QLabel*>("resultAlbedoColor");
+    QVERIFY(albedo_line != nullptr);
+    QCOMPARE(albedo_line->text(), QStringLiteral("Albedo: %1, %2 — %3")
+                                      .arg(QString::fromStdString(color.color_space),
+                                           QString::fromStdString(color.scale),
+                                           QString::fromStdString(color.description)));
 
     // Every map shows, at the result's size; zoom works on it.
     QCOMPARE(window_->findChild<QTabWidget*>("pages")->currentIndex(), int(MainWindow::kResultsPage));
