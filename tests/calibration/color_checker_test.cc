@@ -49,14 +49,16 @@ TEST(ColorChecker, OrderNamesAndNeutrals) {
 TEST(ColorChecker, SpectraReproduceBabelColorPublishedLab) {
   const std::vector<ColorCheckerPatch>& chart = ColorCheckerClassic();
   const Eigen::Vector3d white_d50 = XyzOfReflectance(Spectrum::Ones(), CieD50Spd());
-  double worst = 0;
+  double worst = 0, mean = 0;
   for (int i = 0; i < 24; ++i) {
     const Eigen::Vector3d lab = LabFromXyz(XyzOfReflectance(chart[i].reflectance, CieD50Spd()), white_d50);
     const Eigen::Vector3d published = LabFromXyz(XyzFromXyy(kBabelColorAverageXyyD50[i]), D50WhiteXyz());
     const double delta_e = Ciede2000(lab, published);
     EXPECT_LT(delta_e, 1.0) << chart[i].name << " Lab " << lab.transpose() << " published " << published.transpose();
     worst = std::max(worst, delta_e);
+    mean += delta_e / 24;
   }
+  EXPECT_LT(mean, 0.3);  // measured 0.08: the spectra are the ones BabelColor's values were computed from
   RecordProperty("worst_delta_e_2000", std::to_string(worst));
 }
 
