@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <random>
 #include <tuple>
 
@@ -348,6 +349,33 @@ TEST(RawDecoderColorTest, CameraCalibrationMultipliesTheColorMatrix) {
   EXPECT_LT((*decoded.camera_from_xyz - expected).cwiseAbs().maxCoeff(), 1e-6) << *decoded.camera_from_xyz;
   EXPECT_LT((decoded.as_shot_neutral - Eigen::Vector3d(0.5, 1.0, 0.8)).cwiseAbs().maxCoeff(), 1e-6)
       << decoded.as_shot_neutral.transpose();
+}
+
+// ---- a real camera file -----------------------------------------------------
+
+// No redistributable camera RAW of a ColorChecker small enough to vendor was
+// found (tests/data/raw/README.md lists where we looked and the candidates);
+// point SCANBENCH_REAL_CHART_RAW at one (e.g. a CC0 file from raw.pixls.us) to
+// check the decoder's colour data on a real camera.
+TEST(RawDecoderRealFileTest, RealCameraRawHasBayerDataAndAColorMatrix) {
+  const char* path = std::getenv("SCANBENCH_REAL_CHART_RAW");
+  if (path == nullptr || *path == '\0') {
+    GTEST_SKIP() << "SCANBENCH_REAL_CHART_RAW is not set: no real camera RAW is vendored "
+                    "(see tests/data/raw/README.md)";
+  }
+  const DecodedRaw decoded = DecodeRawFileWithInfo(path);
+  EXPECT_FALSE(decoded.make.empty());
+  EXPECT_FALSE(decoded.model.empty());
+  EXPECT_GE(decoded.image.width(), 640);
+  EXPECT_GE(decoded.image.height(), 480);
+  ASSERT_TRUE(decoded.camera_from_xyz.has_value()) << decoded.make << " " << decoded.model;
+  // A real sensor answers a white in every channel.
+  const Eigen::Vector3d camera_of_d65_white = *decoded.camera_from_xyz * Eigen::Vector3d(0.95047, 1.0, 1.08883);
+  EXPECT_TRUE((camera_of_d65_white.array() > 0).all()) << camera_of_d65_white.transpose();
+  EXPECT_TRUE(decoded.as_shot_neutral.allFinite());
+  EXPECT_TRUE((decoded.as_shot_neutral.array() > 0).all());
+  EXPECT_DOUBLE_EQ(decoded.as_shot_neutral[1], 1.0);
+  EXPECT_DOUBLE_EQ(decoded.daylight_multipliers[1], 1.0);
 }
 
 }  // namespace
