@@ -91,7 +91,7 @@ class CalibrationChain {
 void CalibrationChain::TargetSessionsDescribeThemselvesAndHoldTheMeasuredRig() const {
   const SimulateTargetsSummary& t = targets_->summary();
   EXPECT_EQ(t.checkerboard_sessions.size(), 6u);
-  EXPECT_EQ(t.sessions_written, 9);
+  EXPECT_EQ(t.sessions_written, 10);
   const Session session = LoadSession(t.white_sheet_sessions[1]);
   EXPECT_TRUE(session.capture_complete);
   EXPECT_EQ(session.frames.size(), 11u);
@@ -99,6 +99,18 @@ void CalibrationChain::TargetSessionsDescribeThemselvesAndHoldTheMeasuredRig() c
   EXPECT_EQ(target.kind, CalibrationTargetDescription::Kind::kWhiteSheet);
   EXPECT_DOUBLE_EQ(target.white_sheet.height_mm, 40.0);
   EXPECT_TRUE(LoadCalibrationTarget(t.checkerboard_sessions[0]).on_table);
+  // The colour chart (issue #12): a dark frame and one frame per LED, described as a ColorChecker.
+  ASSERT_EQ(t.color_chart_session, folder_->path() / "targets" / "color_chart");
+  const CalibrationTargetDescription chart = LoadCalibrationTarget(t.color_chart_session);
+  EXPECT_EQ(chart.kind, CalibrationTargetDescription::Kind::kColorChart);
+  EXPECT_EQ(chart.color_chart.chart, "colorchecker_classic");
+  EXPECT_DOUBLE_EQ(chart.color_chart.pitch_mm, 20.0);
+  const Session chart_session = LoadSession(t.color_chart_session);
+  EXPECT_TRUE(chart_session.capture_complete);
+  EXPECT_EQ(chart_session.frames.size(), 11u);
+  EXPECT_EQ(chart_session.camera.model, "Simulated D5100");
+  EXPECT_EQ(FindTargetSessions(folder_->path() / "targets").at(CalibrationTargetDescription::Kind::kColorChart),
+            std::vector<fs::path>{t.color_chart_session});
   // The session holds what an operator measured, never the truth.
   const RigDescription truth = MakeDefaultSimulatedRig(kWidth, kHeight);
   EXPECT_GT((session.rig.leds[0].position_in_table_mm - truth.leds[0].position_in_table_mm).norm(), 0.1);
@@ -108,7 +120,7 @@ void CalibrationChain::TargetSessionsDescribeThemselvesAndHoldTheMeasuredRig() c
   again.num_board_poses = 6;
   SimulateTargetsController rerun(folder_->path() / "targets", again);
   rerun.Run();
-  EXPECT_EQ(rerun.summary().sessions_skipped, 9);
+  EXPECT_EQ(rerun.summary().sessions_skipped, 10);
 }
 
 void CalibrationChain::TheSetRecordsTargetsAndRecoversTheRig() const {

@@ -122,7 +122,8 @@ class CalibrationPageTest : public QObject {
     QCOMPARE(Find<QListWidget>("whiteSessions")->count(), 1);
     QCOMPARE(Find<QListWidget>("lightsSessions")->count(), 2);
     QVERIFY(Find<QListWidget>("whiteSessions")->item(0)->text().endsWith("gray_chart"));
-    QVERIFY2(Find<QLabel>("targetsStatus")->text().contains("12 target session(s) rendered"),
+    // 9 boards, the gray chart, 2 white sheets and the colour chart (issue #12).
+    QVERIFY2(Find<QLabel>("targetsStatus")->text().contains("13 target session(s) rendered"),
              qPrintable(Find<QLabel>("targetsStatus")->text()));
     // The sessions fit the simulated camera at that size.
     const Session board = LoadSession(Find<QListWidget>("cameraSessions")->item(0)->text().toStdString());
