@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
-#include <map>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -13,6 +12,7 @@
 #include "calibration/color_checker.h"
 #include "calibration/color_science.h"
 #include "core/format.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 namespace {
@@ -206,27 +206,41 @@ AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const I
                                 ShapeText(truth_linear_rec709) + " and mask " + ShapeText(mask) +
                                 " must be 3, 3 and 1 channels of one size");
   }
-  std::vector<double> per_pixel;
-  // Pixels by their exact truth value (its bits): a chart's patches.
-  std::map<std::array<uint32_t, 3>, std::vector<size_t>> by_value;
+  // The evaluated pixels, and per pixel its truth value's bits: sorted, equal
+  // values (a chart's patches) form runs.
+  std::vector<std::pair<std::array<uint32_t, 3>, size_t>> keyed;
   for (size_t i = 0; i < mask.num_pixels(); ++i) {
     if (mask.data()[i] == 0) continue;
-    const float* t = truth_linear_rec709.data() + 3 * i;
-    const float* a = albedo_linear_rec709.data() + 3 * i;
-    const Eigen::Vector3d truth(t[0], t[1], t[2]);
-    per_pixel.push_back(Ciede2000(LabFromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2])), LabFromLinearRec709(truth)));
     std::array<uint32_t, 3> key;
-    std::memcpy(key.data(), t, sizeof(key));
-    by_value[key].push_back(i);
+    std::memcpy(key.data(), truth_linear_rec709.data() + 3 * i, sizeof(key));
+    keyed.emplace_back(key, i);
   }
+  std::vector<double> per_pixel(keyed.size());
+  ParallelFor(static_cast<int>(keyed.size()), 0, 4096, [&](int first, int last, int) {
+    for (int j = first; j < last; ++j) {
+      const float* t = truth_linear_rec709.data() + 3 * keyed[j].second;
+      const float* a = albedo_linear_rec709.data() + 3 * keyed[j].second;
+      per_pixel[j] = Ciede2000(LabFromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2])),
+                               LabFromLinearRec709(Eigen::Vector3d(t[0], t[1], t[2])));
+    }
+  });
   AlbedoColorErrors errors;
   const size_t evaluated = per_pixel.size();
   errors.delta_e = SummarizeErrors(std::move(per_pixel));
   const size_t min_pixels = std::max<size_t>(16, static_cast<size_t>(min_region_fraction * evaluated));
-  std::vector<const std::vector<size_t>*> regions;
-  for (const auto& [key, pixels] : by_value) {
-    if (pixels.size() >= min_pixels) regions.push_back(&pixels);
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<std::vector<size_t>> region_pixels;
+  for (size_t begin = 0; begin < keyed.size();) {
+    size_t end = begin + 1;
+    while (end < keyed.size() && keyed[end].first == keyed[begin].first) ++end;
+    if (end - begin >= min_pixels) {
+      std::vector<size_t>& pixels = region_pixels.emplace_back();
+      for (size_t j = begin; j < end; ++j) pixels.push_back(keyed[j].second);
+    }
+    begin = end;
   }
+  std::vector<const std::vector<size_t>*> regions;
+  for (const std::vector<size_t>& pixels : region_pixels) regions.push_back(&pixels);
   // A textile's truth varies from pixel to pixel: one big region is just its
   // background, not a chart.
   if (regions.size() < 2) return errors;

@@ -248,8 +248,8 @@ std::vector<TileableMapInput> TileInputs(const ExportInputs& inputs, const Expor
 // through the sRGB transfer curve when `srgb` (base colour).
 struct IntegerEncoding {
   double scale = 1, offset = 0;
-  bool srgb = false;
   std::string text;  // for the manifest, e.g. "value * 65535"
+  bool srgb = false;
 };
 
 struct ExportFile {
@@ -480,7 +480,7 @@ class FilePlanner {
                     double pixel_mm) {
     const bool calibrated = color.color_space == "linear_rec709";
     const bool acescg = calibrated && options_.basecolor_space == ExportOptions::BasecolorSpace::kAcesCg;
-    const IntegerEncoding srgb{1, 0, true, "uint16 = srgb_transfer(value) * 65535, value in [0, 1]"};
+    const IntegerEncoding srgb{1, 0, "uint16 = srgb_transfer(value) * 65535, value in [0, 1]", true};
     const std::string space = !calibrated ? "white-balanced camera RGB (not colour calibrated)"
                               : acescg    ? "linear ACEScg (AP1 primaries, ACES white)"
                                           : "linear Rec.709 primaries, D65 white";

@@ -381,6 +381,7 @@ void ColorSectionFields(Io& io, ColorSection& section) {
   io.Field("num_frames", section.num_frames);
   ColorCorrectionSummary& s = section.summary;
   io.Field("method", s.method);
+  io.Field("used_patches", s.used_patches);
   io.Custom(
       "rec709_from_camera", [&] { return Matrix3ToJson(s.rec709_from_camera); },
       [&](const JsonField& field) { s.rec709_from_camera = Matrix3FromJson(field); });

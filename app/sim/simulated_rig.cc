@@ -121,6 +121,9 @@ void SimulatedRigOptions::Check() const {
   if (!(shadow_bias_mm >= 0 && shadow_bias_mm <= 1)) {
     throw FieldError(where, "shadow_bias_mm", shadow_bias_mm, "must lie in [0, 1]");
   }
+  if (color != SensorColorModel::kNikonD5100 && color != SensorColorModel::kSrgbPrimaries) {
+    throw FieldError(where, "color", static_cast<int>(color), "must be kNikonD5100 or kSrgbPrimaries");
+  }
   if (num_threads < 0 || num_threads > 256) {
     throw FieldError(where, "num_threads", num_threads, "must lie in [0, 256] (0 = hardware concurrency)");
   }

@@ -9,6 +9,7 @@
 
 #include "app/devices/camera/raw_preview.h"
 #include "app/io/dng_writer.h"
+#include "app/sim/sensor_color.h"
 
 namespace scanbench {
 
@@ -168,6 +169,9 @@ CapturedFrame SimulatedCamera::Capture() {
   metadata.iso = frame.settings.iso;
   metadata.f_number = frame.settings.f_number;
   metadata.capture_time = ExifTime(frame.capture_time);
+  // The simulated camera's colour data, as a real camera's DNG carries it (issue #12).
+  metadata.camera_from_xyz_d65 = SimulatedCameraFromXyzD65(rig_->options().color);
+  metadata.as_shot_neutral = SimulatedAsShotNeutral(rig_->options().color);
   frame.bytes = EncodeDng(Render(led, frame_index), metadata);
   frame.extension = ".dng";
   char name[32];

@@ -28,7 +28,7 @@ fs::path MakeCapture(const fs::path& dir) {
 TEST(CalibrateDescribeCliTest, HelpListsEveryOption) {
   const CommandResult help = RunScanbench("calibrate describe --help");
   EXPECT_EQ(help.exit_code, 0);
-  for (const char* option : {"sessions", "--as", "--spacer-mm", "checkerboard", "gray_chart", "white_sheet"}) {
+  for (const char* option : {"sessions", "--as", "--spacer-mm", "checkerboard", "gray_chart", "white_sheet", "color_chart"}) {
     EXPECT_THAT(help.output, HasSubstr(option));
   }
   EXPECT_THAT(RunScanbench("calibrate --help").output, HasSubstr("describe"));

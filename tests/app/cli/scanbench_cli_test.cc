@@ -59,6 +59,23 @@ TEST(ScanbenchCliTest, DemoScansThenResolvesBesideTheFirstResult) {
   EXPECT_EQ(CountResults(session_dir), 2u);
 }
 
+// Issue #12: the sample and the camera colour from the command line.
+TEST(ScanbenchCliTest, SimulatesAColorCheckerWithEitherCameraColor) {
+  testing::TemporaryFolder folder;
+  const CommandResult chart = RunScanbench("simulate " + Quoted(folder / "chart") +
+                                           " --width 160 --height 106 --sample colorchecker --camera-color srgb-primaries");
+  ASSERT_EQ(chart.exit_code, 0) << chart.output;
+  const Session session = LoadSession(folder / "chart");
+  EXPECT_EQ(session.sample_name, "simulated ColorChecker Classic");
+  EXPECT_EQ(session.camera.model, "Simulated D5100 (sRGB primaries)");
+  const CommandResult bad = RunScanbench("simulate " + Quoted(folder / "x") + " --camera-color canon");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.output, HasSubstr("--camera-color"));
+  const CommandResult help = RunScanbench("calibrate simulate-targets --help");
+  EXPECT_THAT(help.output, HasSubstr("--camera-color"));
+  EXPECT_THAT(help.output, HasSubstr("--no-color-chart"));
+}
+
 TEST(ScanbenchCliTest, FailuresExitNonZeroNamingTheProblem) {
   testing::TemporaryFolder folder;
   const CommandResult not_a_session = RunScanbench("solve " + Quoted(folder.path()));

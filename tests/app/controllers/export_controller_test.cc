@@ -19,6 +19,7 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "calibration/color_science.h"
 #include "maps/gloss_mips.h"
 #include "tests/util/temporary_folder.h"
 
@@ -287,7 +288,7 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
   EXPECT_EQ(files + 2, summary.files.size()) << "plus material.json and summary.txt";
   // The png16 preset: 16-bit maps, float height beside a normalised one.
   EXPECT_EQ(manifest["files"]["normal"]["bits_per_sample"], 16);
-  EXPECT_EQ(manifest["files"]["basecolor"]["color_space"], "Linear");
+  EXPECT_EQ(manifest["files"]["basecolor"]["color_space"], "sRGB");  // integer base colour: sRGB transfer curve
   EXPECT_EQ(manifest["files"]["basecolor_srgb_preview"]["color_space"], "sRGB");
   EXPECT_EQ(manifest["files"]["height"]["format"], "exr");
   EXPECT_EQ(manifest["files"]["height_normalized"]["format"], "png");
@@ -311,6 +312,53 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
   }
   // Normal variance makes coarser mips rougher than the base.
   EXPECT_GT(summary.gloss.mean_roughness[4], summary.gloss.mean_roughness[0]);
+}
+
+TEST_F(ExportControllerTest, BasecolorNamesItsColourSpaceInEveryPreset) {
+  const ImageF albedo = ReadImageFloat(result_dir_ / "albedo.exr");
+  const nlohmann::json report = ReadJson(result_dir_ / "report.json");
+  // The simulated D5100 writes its colour matrix into the DNG: without a
+  // colour calibration the solve falls back to it, and says so.
+  ASSERT_EQ(report["color"]["source"], "camera-matrix");
+  EXPECT_EQ(report["color"]["color_space"], "linear_rec709");
+
+  // png16: the linear albedo through the sRGB transfer curve.
+  const ExportSummary png = Export({});
+  const nlohmann::json manifest = ReadJson(png.export_dir / "material.json");
+  EXPECT_EQ(manifest["basecolor"]["color_space"], "linear_rec709");
+  EXPECT_EQ(manifest["basecolor"]["encoding"], "srgb_transfer");
+  EXPECT_EQ(manifest["basecolor"]["scale"], "relative");
+  EXPECT_THAT(manifest["basecolor"]["color_calibration"].get<std::string>(), HasSubstr("camera matrix"));
+  const ImageU16 encoded = ReadImageU16(png.export_dir / png.files.at("basecolor"));
+  for (const auto& [x, y] : {std::pair{200, 130}, std::pair{90, 60}, std::pair{310, 200}}) {
+    for (int c = 0; c < 3; ++c) {
+      const double expected = SrgbEncode(std::clamp<double>(albedo(x, y, c), 0.0, 1.0)) * 65535.0;
+      EXPECT_NEAR(encoded(x, y, c), expected, 0.51) << x << "," << y << "," << c;
+    }
+  }
+
+  // exr: linear Rec.709 with its chromaticities; ACEScg on request.
+  ExportOptions exr;
+  exr.preset = ExportOptions::Preset::kLinearExr;
+  const ExportSummary rec709 = Export(exr);
+  const ImageFileInfo rec709_info = ReadImageFileInfo(rec709.export_dir / rec709.files.at("basecolor"));
+  ASSERT_TRUE(rec709_info.metadata.chromaticities.has_value());
+  EXPECT_NEAR(rec709_info.metadata.chromaticities->red_x, 0.64, 1e-6);
+  EXPECT_NEAR(rec709_info.metadata.chromaticities->white_x, 0.3127, 1e-6);
+  EXPECT_EQ(rec709_info.metadata.attributes.at("scanbench:albedo_color_space"), "linear_rec709");
+  exr.basecolor_space = ExportOptions::BasecolorSpace::kAcesCg;
+  const ExportSummary aces = Export(exr);
+  const ImageFileInfo aces_info = ReadImageFileInfo(aces.export_dir / aces.files.at("basecolor"));
+  ASSERT_TRUE(aces_info.metadata.chromaticities.has_value());
+  EXPECT_NEAR(aces_info.metadata.chromaticities->red_x, 0.713, 1e-6);
+  EXPECT_NEAR(aces_info.metadata.chromaticities->white_x, 0.32168, 1e-6);
+  EXPECT_EQ(ReadJson(aces.export_dir / "material.json")["basecolor"]["color_space"], "acescg");
+  const ImageF acescg = ReadImageFloat(aces.export_dir / aces.files.at("basecolor"));
+  const Eigen::Vector3d rgb(albedo(200, 130, 0), albedo(200, 130, 1), albedo(200, 130, 2));
+  const Eigen::Vector3d expected = AcescgFromLinearRec709() * rgb;
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(acescg(200, 130, c), expected[c], 1e-6);
+  // The solve's own albedo.exr carries the Rec.709 chromaticities too.
+  EXPECT_TRUE(ReadImageFileInfo(result_dir_ / "albedo.exr").metadata.chromaticities.has_value());
 }
 
 TEST_F(ExportControllerTest, DirectXFlipsTheGreenChannelOnly) {

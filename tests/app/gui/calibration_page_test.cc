@@ -127,6 +127,7 @@ class CalibrationPageTest : public QObject {
     QCOMPARE(Find<QListWidget>("colorSessions")->count(), 1);
     QVERIFY(Find<QListWidget>("whiteSessions")->item(0)->text().endsWith("gray_chart"));
     QVERIFY(Find<QListWidget>("colorSessions")->item(0)->text().endsWith("color_chart"));
+    // 9 boards, the gray chart, 2 white sheets and the colour chart (issue #12).
     QVERIFY2(Find<QLabel>("targetsStatus")->text().contains("13 target session(s) rendered"),
              qPrintable(Find<QLabel>("targetsStatus")->text()));
     // The sessions fit the simulated camera at that size.

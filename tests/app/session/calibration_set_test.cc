@@ -142,6 +142,7 @@ CalibrationSet MakeTestSet() {
   ColorCorrectionSummary& c = color.summary;
   c.termination = Termination::kSuccess;
   c.method = "ciede2000_fit";
+  c.used_patches = 1;
   c.rec709_from_camera << 1.61, -0.52, -0.09, -0.17, 1.31, -0.14, 0.02, -0.43, 1.41;
   c.mean_delta_e_before = 6.6;
   c.max_delta_e_before = 10.8;
@@ -190,6 +191,7 @@ TEST(CalibrationSetTest, WritesAndLoadsEveryFigureAndTheField) {
   ASSERT_EQ(loaded.color->summary.patches.size(), 1u);
   EXPECT_EQ(loaded.color->summary.patches[0].reference_linear_rec709, set.color->summary.patches[0].reference_linear_rec709);
   EXPECT_DOUBLE_EQ(loaded.color->summary.max_delta_e_after, 3.25);
+  EXPECT_EQ(loaded.color->summary.used_patches, 1);
   EXPECT_EQ(loaded.color->summary.termination, Termination::kSuccess);
 }
 

@@ -39,7 +39,7 @@ CalibrationTargetDescription Sheet(double height_mm) {
 }
 
 TEST(CalibrationTargetTest, KindNamesRoundTrip) {
-  for (const Kind kind : {Kind::kCheckerboard, Kind::kGrayChart, Kind::kWhiteSheet}) {
+  for (const Kind kind : {Kind::kCheckerboard, Kind::kGrayChart, Kind::kWhiteSheet, Kind::kColorChart}) {
     EXPECT_EQ(CalibrationTargetKindFromName(CalibrationTargetKindName(kind)), kind);
   }
   EXPECT_FALSE(CalibrationTargetKindFromName("white sheet").has_value());
@@ -53,12 +53,22 @@ TEST(CalibrationTargetTest, EachKindRoundTripsThroughTargetJson) {
   CalibrationTargetDescription chart;
   chart.kind = Kind::kGrayChart;
   chart.gray_chart = GrayChartTarget::MunsellNeutralScale();
-  for (const CalibrationTargetDescription& target : {board, chart, Sheet(40)}) {
+  CalibrationTargetDescription colour;
+  colour.kind = Kind::kColorChart;
+  colour.color_chart.patch_mm = 16;
+  colour.color_chart.pitch_mm = 20;
+  colour.color_chart.height_mm = 3;
+  for (const CalibrationTargetDescription& target : {board, chart, Sheet(40), colour}) {
     const std::string text = CalibrationTargetToJson(target);
     const CalibrationTargetDescription back = CalibrationTargetFromJson(text, "target.json");
     EXPECT_EQ(back.kind, target.kind);
     EXPECT_EQ(CalibrationTargetToJson(back), text) << "written again byte for byte";
   }
+  const CalibrationTargetDescription back = CalibrationTargetFromJson(CalibrationTargetToJson(colour), "t.json");
+  EXPECT_EQ(back.color_chart.chart, "colorchecker_classic");
+  EXPECT_EQ(back.color_chart.pitch_mm, 20);
+  EXPECT_EQ(back.color_chart.height_mm, 3);
+  EXPECT_THAT(CalibrationTargetToJson(colour), HasSubstr("\"kind\": \"color_chart\""));
   // Only the target's own section is written.
   EXPECT_THAT(CalibrationTargetToJson(Sheet(40)), Not(HasSubstr("checkerboard\":")));
 }
@@ -73,6 +83,36 @@ TEST(CalibrationTargetTest, UnknownKeysAndBadSectionsAreRefusedByName) {
   missing.replace(missing.find("\"white_sheet\": {"), 16, "\"gray_chart\": {");
   EXPECT_THAT([&] { CalibrationTargetFromJson(missing, "t.json"); },
               ThrowsMessage<SessionError>(HasSubstr("t.json: white_sheet: missing required field")));
+}
+
+TEST(CalibrationTargetTest, ColorChartFieldsAreCheckedByName) {
+  CalibrationTargetDescription colour;
+  colour.kind = Kind::kColorChart;
+  const std::string good = CalibrationTargetToJson(colour);
+  std::string other_chart = good;
+  other_chart.replace(other_chart.find("colorchecker_classic"), 20, "colorchecker_passpor");
+  EXPECT_THAT([&] { CalibrationTargetFromJson(other_chart, "t.json"); },
+              ThrowsMessage<SessionError>(HasSubstr("must be \"colorchecker_classic\"")));
+  std::string bad_pitch = good;
+  bad_pitch.replace(bad_pitch.find("\"pitch_mm\": 20.0"), 16, "\"pitch_mm\": 10.0");
+  EXPECT_THAT([&] { CalibrationTargetFromJson(bad_pitch, "t.json"); },
+              ThrowsMessage<SessionError>(HasSubstr("pitch_mm = 10 must lie in [patch_mm = 16")));
+  EXPECT_FALSE(IsTableView(colour));
+}
+
+TEST(CalibrationTargetTest, DescribesACaptureAsTheRealSizeColorChecker) {
+  TemporaryFolder folder;
+  const fs::path capture = MakeCapture(folder / "chart");
+  DescribeTargetsOptions options;
+  options.kind = Kind::kColorChart;
+  const auto described = DescribeTargetSessions(options, {capture});
+  ASSERT_EQ(described.size(), 1u);
+  EXPECT_TRUE(described[0].written);
+  EXPECT_EQ(described[0].what, "the ColorChecker Classic");
+  const CalibrationTargetDescription written = LoadCalibrationTarget(capture);
+  EXPECT_EQ(written.kind, Kind::kColorChart);
+  EXPECT_EQ(written.color_chart.pitch_mm, 40);
+  EXPECT_EQ(FindTargetSessions(folder.path()).at(Kind::kColorChart), std::vector<fs::path>{capture});
 }
 
 TEST(CalibrationTargetTest, FindsTheTargetSessionsOfEachKindSortedAndSkipsUnreadableOnes) {

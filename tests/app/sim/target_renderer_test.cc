@@ -5,7 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "app/sim/sensor_color.h"
 #include "calibration/camera_model.h"
+#include "calibration/color_checker.h"
 
 namespace scanbench {
 namespace {
@@ -78,6 +80,40 @@ TEST(TargetRendererTest, GrayChartPatchesReadTheirReflectance) {
                     static_cast<float>(patch.reflectance))
         << patch.name;
   }
+}
+
+TEST(TargetRendererTest, ColorChartPatchesReadTheirSpectralCameraRgbAndShowALittleGloss) {
+  const RigDescription truth = MakeDefaultSimulatedRig(kWidth, kHeight);
+  const TargetRenderer renderer(Sensor(), truth);
+  const SimulatedTarget target = SimulatedTarget::ColorChart(16, 20, 0);
+  const PreparedTarget prepared = renderer.Prepare(target);
+  ASSERT_EQ(prepared.reflectance.channels(), 3);
+  ASSERT_FALSE(prepared.gloss.empty());
+  for (int k = 0; k < 24; ++k) {
+    const Eigen::Vector3d centre((k % 6 - 2.5) * 20, (1.5 - k / 6) * 20, 0);
+    const Eigen::Vector2d pixel = ProjectToPixel(truth.camera.intrinsics, truth.camera.cam_from_table * centre);
+    const int x = int(std::lround(pixel.x())), y = int(std::lround(pixel.y()));
+    const Eigen::Vector3d expected =
+        WhiteBalancedCameraRgbOf(Sensor().color, ColorCheckerClassic()[k].reflectance);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_FLOAT_EQ(prepared.reflectance(x, y, c), static_cast<float>(expected[c])) << k << " " << c;
+    }
+  }
+  // Lit by LED 6 (60 deg ring), at the centre of "dark skin": the Lambertian
+  // value plus a gloss of at most chart_gloss of the white's.
+  const ImageF lit = renderer.RenderLinear(prepared, {6});
+  const Eigen::Vector3d p(-50, 30, 0);
+  const Eigen::Vector2d pixel = ProjectToPixel(truth.camera.intrinsics, truth.camera.cam_from_table * p);
+  const int x = int(std::lround(pixel.x())), y = int(std::lround(pixel.y()));
+  const Eigen::Vector3d dark_skin = WhiteBalancedCameraRgbOf(Sensor().color, ColorCheckerClassic()[0].reflectance);
+  for (int c = 0; c < 3; ++c) {
+    const double white = Direct(truth.leds[6], p, Eigen::Vector3d::UnitZ(), c);
+    const double lambert = dark_skin[c] * (white + Sensor().ambient);
+    EXPECT_GE(lit(x, y, c), lambert * (1 - 1e-3) - 1e-6) << c;
+    EXPECT_LE(lit(x, y, c), lambert + target.chart_gloss * white + 1e-6) << c;
+  }
+  // The card edge and the table: neutral.
+  EXPECT_FLOAT_EQ(prepared.reflectance(2, 2, 0), prepared.reflectance(2, 2, 2));
 }
 
 TEST(TargetRendererTest, EveryDefaultBoardPoseShowsAllCornersWellInsideTheImage) {
