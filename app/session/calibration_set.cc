@@ -359,6 +359,7 @@ template <typename Io>
 void ColorPatchFields(Io& io, ColorPatchResult& p) {
   io.Field("name", p.name);
   io.Field("used", p.used);
+  io.Field("status", p.status);
   io.Field("measured_camera", p.measured_camera);
   io.Field("reference_linear_rec709", p.reference_linear_rec709);
   io.Field("corrected_linear_rec709", p.corrected_linear_rec709);

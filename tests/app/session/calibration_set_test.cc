@@ -151,6 +151,7 @@ CalibrationSet MakeTestSet() {
   ColorPatchResult patch;
   patch.name = "cyan";
   patch.used = true;
+  patch.status = "used";
   patch.measured_camera = {0.12, 0.26, 0.37};
   patch.reference_linear_rec709 = {-0.028, 0.249, 0.383};
   patch.corrected_linear_rec709 = {-0.005, 0.246, 0.408};
@@ -192,6 +193,7 @@ TEST(CalibrationSetTest, WritesAndLoadsEveryFigureAndTheField) {
   EXPECT_EQ(loaded.color->summary.patches[0].reference_linear_rec709, set.color->summary.patches[0].reference_linear_rec709);
   EXPECT_DOUBLE_EQ(loaded.color->summary.max_delta_e_after, 3.25);
   EXPECT_EQ(loaded.color->summary.used_patches, 1);
+  EXPECT_EQ(loaded.color->summary.patches[0].status, "used");
   EXPECT_EQ(loaded.color->summary.termination, Termination::kSuccess);
 }
 
