@@ -419,8 +419,9 @@ void AddEdgeErrorCommand(CLI::App& calibrate, int* exit_code) {
 void AddDemoCommand(CLI::App& calibrate, int* exit_code) {
   auto demo = std::make_shared<DemoState>();
   CLI::App* command = calibrate.add_subcommand(
-      "demo", "On the simulated rig: render the targets, calibrate camera, white balance, lights and colour, scan a sample "
-              "whose session holds only the measured rig, solve it with the calibration and measure the edge error");
+      "demo", "On the simulated rig: render the targets, calibrate camera, white balance, lights and colour, scan a twill "
+              "and a ColorChecker whose sessions hold only the measured rig, solve them with the calibration and "
+              "measure the edge error");
   command->add_option("--output", demo->output, "Folder for everything")->capture_default_str();
   command->add_option("--width", demo->width, "Image width in pixels")->capture_default_str();
   command->add_option("--height", demo->height, "Image height in pixels")->capture_default_str();
