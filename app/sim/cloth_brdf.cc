@@ -20,6 +20,13 @@ double GgxLambda(const Eigen::Vector3d& w, double alpha_t, double alpha_b) {
   return 0.5 * (std::sqrt(1.0 + a2_tan2) - 1.0);
 }
 
+// Schlick's Fresnel: f0 + (1 - f0) (1 - cos)^5.
+double SchlickFresnel(double f0, double cos_theta) {
+  const double m = 1.0 - std::clamp(cos_theta, 0.0, 1.0);
+  const double m2 = m * m;
+  return f0 + (1.0 - f0) * m2 * m2 * m;
+}
+
 }  // namespace
 
 const char* SurfaceMaterialName(SurfaceMaterial material) {
@@ -36,12 +43,6 @@ std::optional<SurfaceMaterial> SurfaceMaterialFromName(const std::string& name) 
     if (name == SurfaceMaterialName(m)) return m;
   }
   return std::nullopt;
-}
-
-double SchlickFresnel(double f0, double cos_theta) {
-  const double m = 1.0 - std::clamp(cos_theta, 0.0, 1.0);
-  const double m2 = m * m;
-  return f0 + (1.0 - f0) * m2 * m2 * m;
 }
 
 double VelvetDistribution(double cos_h, double alpha) {

@@ -51,9 +51,6 @@ struct MaterialResponse {
   double specular = 0;
 };
 
-// Schlick's Fresnel: f0 + (1 - f0) (1 - cos)^5.
-double SchlickFresnel(double f0, double cos_theta);
-
 // The velvet distribution D(h) above; cos_h = n.h.
 double VelvetDistribution(double cos_h, double alpha);
 
