@@ -4,6 +4,7 @@
 #include <iostream>
 #include <memory>
 
+#include "app/cli/command_util.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/capture_controller.h"
@@ -26,6 +27,7 @@ struct CaptureState {
   // sim
   int width = 1232;
   int height = 816;
+  SurfaceMaterial material = SurfaceMaterial::kLambert;
   // hardware
   std::string port;
   fs::path rig_file;
@@ -50,7 +52,9 @@ int CaptureSimulated(CaptureState& state) {
   SimulatedRigOptions rig_options;
   rig_options.width = state.width;
   rig_options.height = state.height;
-  const auto rig = std::make_shared<SimulatedRig>(rig_options, TextileScene(),
+  TextileSceneOptions scene;
+  scene.material = state.material;
+  const auto rig = std::make_shared<SimulatedRig>(rig_options, TextileScene(scene),
                                                   MakeDefaultSimulatedRig(state.width, state.height));
   SimulatedLedBoard board;
   std::cout << "Simulated bench: LED firmware in simavr on " << board.port_path() << ", simulated camera "
@@ -96,6 +100,7 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
   command->add_option("--notes", state->options.notes, "Free text recorded in session.json");
   command->add_option("--width", state->width, "sim: image width in pixels")->capture_default_str();
   command->add_option("--height", state->height, "sim: image height in pixels")->capture_default_str();
+  AddMaterialOption(*command, state->material);
   command->add_option("--port", state->port, "hardware: LED board serial port (default: the one Arduino found)");
   command->add_option("--rig-file", state->rig_file, "hardware: rig description JSON (LED positions, camera)");
   command->add_option("--camera-model", state->camera_model, "hardware: camera model as libgphoto2 names it");

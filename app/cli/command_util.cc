@@ -90,4 +90,16 @@ void AddCameraColorOption(CLI::App& command, SensorColorModel& color) {
                              SensorColorModelName(SensorColorModel::kSrgbPrimaries)}));
 }
 
+void AddMaterialOption(CLI::App& command, SurfaceMaterial& material) {
+  command
+      .add_option_function<std::string>(
+          "--material", [&material](const std::string& name) { material = *SurfaceMaterialFromName(name); },
+          "Simulated textile material: lambert (default, diffuse only), cloth (the seed's velvet-distribution cloth "
+          "BRDF: sheen toward grazing light) or satin (an anisotropic gloss along the threads); ground truth stays "
+          "the geometric normal and the diffuse albedo")
+      ->check(CLI::IsMember({SurfaceMaterialName(SurfaceMaterial::kLambert),
+                             SurfaceMaterialName(SurfaceMaterial::kCloth),
+                             SurfaceMaterialName(SurfaceMaterial::kSatin)}));
+}
+
 }  // namespace scanbench

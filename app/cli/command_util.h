@@ -37,4 +37,8 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options);
 // (simulate, demo, calibrate simulate-targets, calibrate demo).
 void AddCameraColorOption(CLI::App& command, SensorColorModel& color);
 
+// --material lambert|cloth|satin: the simulated textile's material
+// (simulate, demo, capture --rig sim; issue #13).
+void AddMaterialOption(CLI::App& command, SurfaceMaterial& material);
+
 }  // namespace scanbench

@@ -53,12 +53,15 @@ void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
           "patches on a 20 mm pitch, rendered from its measured spectra; ground truth = each patch's linear Rec.709)")
       ->check(CLI::IsMember({"twill", "colorchecker"}));
   AddCameraColorOption(command, options.rig.color);
+  AddMaterialOption(command, options.scene.material);  // issue #13
 }
 
 // The default sample name follows the sample unless one was given.
 SimulateOptions WithSampleName(SimulateOptions options) {
   if (options.scene.sample == SampleKind::kColorChecker && options.sample_name == SimulateOptions().sample_name) {
     options.sample_name = "simulated ColorChecker Classic";
+  } else if (options.scene.material != SurfaceMaterial::kLambert && options.sample_name == SimulateOptions().sample_name) {
+    options.sample_name = std::string("simulated ") + SurfaceMaterialName(options.scene.material) + " twill";
   }
   return options;
 }

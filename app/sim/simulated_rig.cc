@@ -238,6 +238,20 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
   if (scene_.options().sample == SampleKind::kColorChecker && scene_.options().chart_gloss > 0) {
     gloss_.resize(num_pixels);
   }
+  const TextileSceneOptions& so = scene_.options();
+  if (so.sample == SampleKind::kTextile && so.material != SurfaceMaterial::kLambert) {
+    shading_normal_xy_.resize(2 * num_pixels);
+    warp_weight_.resize(num_pixels);
+    thread_index_.resize(2 * num_pixels);
+    // Per-thread parameters once, for every thread that meets the sample.
+    const Eigen::Vector2d half = 0.5 * scene_.SampleExtentMm();
+    warp_index_base_ = static_cast<int64_t>(std::floor(-half.x() / so.warp_pitch_mm)) - 1;
+    weft_index_base_ = static_cast<int64_t>(std::floor(-half.y() / so.weft_pitch_mm)) - 1;
+    const int64_t warps = static_cast<int64_t>(std::ceil(half.x() / so.warp_pitch_mm)) + 2 - warp_index_base_;
+    const int64_t wefts = static_cast<int64_t>(std::ceil(half.y() / so.weft_pitch_mm)) + 2 - weft_index_base_;
+    for (int64_t k = 0; k < warps; ++k) warp_brdf_.push_back(scene_.ThreadBrdfOf(true, warp_index_base_ + k));
+    for (int64_t k = 0; k < wefts; ++k) weft_brdf_.push_back(scene_.ThreadBrdfOf(false, weft_index_base_ + k));
+  }
   ParallelRowsOrCancel("render", options_.height, NumThreads(), progress, 0.1, 1.0,
                        [&](int y) { TraceRow(y, rays, camera_centre); });
 }
@@ -336,6 +350,18 @@ void SimulatedRig::TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& ca
     if (!gloss_.empty()) gloss_[i] = static_cast<float>(s.gloss);
     normal_xy_in_table_[2 * i + 0] = static_cast<float>(normal.x());
     normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
+    if (HasMaterial()) {
+      const Eigen::Vector3d shading =
+          Eigen::Vector3d(-s.shading_gradient.x(), -s.shading_gradient.y(), 1.0).normalized();
+      shading_normal_xy_[2 * i + 0] = static_cast<float>(shading.x());
+      shading_normal_xy_[2 * i + 1] = static_cast<float>(shading.y());
+      const bool thread = s.warp_weight >= 0 && scene_.OnSample(point.x(), point.y());
+      warp_weight_[i] = thread ? static_cast<float>(s.warp_weight) : -1.0f;
+      thread_index_[2 * i + 0] = static_cast<int32_t>(std::clamp<int64_t>(
+          s.warp_index - warp_index_base_, 0, static_cast<int64_t>(warp_brdf_.size()) - 1));
+      thread_index_[2 * i + 1] = static_cast<int32_t>(std::clamp<int64_t>(
+          s.weft_index - weft_index_base_, 0, static_cast<int64_t>(weft_brdf_.size()) - 1));
+    }
   }
 }
 
@@ -539,6 +565,42 @@ double SimulatedRig::DirectFactor(size_t i, const LedDescription& led, bool cast
   return factor;
 }
 
+void SimulatedRig::MaterialDirect(size_t i, const LedDescription& led, bool cast_shadows, double* diffuse,
+                                  double* specular) const {
+  *diffuse = 0;
+  *specular = 0;
+  const float warp_weight = warp_weight_[i];
+  if (warp_weight < 0) {  // the table: Lambertian
+    *diffuse = DirectFactor(i, led, cast_shadows);
+    return;
+  }
+  const Eigen::Vector3d point_in_table = PointAt(i);
+  const Eigen::Vector3d to_led = led.position_in_table_mm - point_in_table;
+  const double distance2 = to_led.squaredNorm();
+  const double distance = std::sqrt(distance2);
+  const Eigen::Vector3d l = to_led / distance;
+  // The geometry decides what is lit (attached and cast shadows), the
+  // fibre-tilted shading normal how it reflects.
+  if (!(NormalAt(i).dot(l) > 0)) return;
+  const double cos_off_axis = -led.axis_in_table.dot(l);
+  if (!(cos_off_axis > 0)) return;
+  const double falloff = led.mu == 0 ? 1.0 : std::pow(cos_off_axis, led.mu);
+  const double irradiance = falloff * (kLedReferenceDistanceMm * kLedReferenceDistanceMm / distance2);
+  if (cast_shadows && Occluded(point_in_table, l, distance)) return;
+  const double sx = shading_normal_xy_[2 * i], sy = shading_normal_xy_[2 * i + 1];
+  const Eigen::Vector3d n(sx, sy, std::sqrt(std::max(0.0, 1.0 - sx * sx - sy * sy)));
+  const Eigen::Vector3d v = (camera_centre_in_table_ - point_in_table).normalized();
+  const SurfaceMaterial material = scene_.options().material;
+  // Warp threads run along table y, weft threads along x.
+  const MaterialResponse warp = EvaluateMaterial(material, warp_brdf_[thread_index_[2 * i]], n,
+                                                 Eigen::Vector3d::UnitY(), l, v);
+  const MaterialResponse weft = EvaluateMaterial(material, weft_brdf_[thread_index_[2 * i + 1]], n,
+                                                 Eigen::Vector3d::UnitX(), l, v);
+  const double w = warp_weight;
+  *diffuse = irradiance * (w * warp.diffuse + (1 - w) * weft.diffuse);
+  *specular = irradiance * (w * warp.specular + (1 - w) * weft.specular);
+}
+
 double SimulatedRig::SpecularAt(size_t i, const LedDescription& led) const {
   if (gloss_.empty() || gloss_[i] == 0) return 0.0;
   const Eigen::Vector3d point = PointAt(i);
@@ -561,6 +623,15 @@ ImageF SimulatedRig::RenderLinear(std::optional<int> lit_led_index, const Progre
     float* row = out.row(y);
     for (int x = 0; x < options_.width; ++x) {
       const size_t i = static_cast<size_t>(y) * options_.width + x;
+      if (HasMaterial()) {
+        double diffuse = 0, white = 0;
+        if (led) MaterialDirect(i, *led, options_.cast_shadows, &diffuse, &white);
+        for (int c = 0; c < 3; ++c) {
+          const double e = led ? led->rgb_intensity[c] : 0.0;
+          row[3 * x + c] = static_cast<float>(albedo_[3 * i + c] * (diffuse * e + options_.ambient) + white * e);
+        }
+        continue;
+      }
       const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
       const double specular = direct > 0 ? SpecularAt(i, *led) : 0.0;
       for (int c = 0; c < 3; ++c) {
@@ -615,6 +686,14 @@ RawImage SimulatedRig::RenderFrame(std::optional<int> lit_led_index, uint64_t fr
         for (int x = 0; x < options_.width; ++x) {
           const size_t i = static_cast<size_t>(y) * options_.width + x;
           const int c = CfaColorAt(options_.cfa, x, y);
+          if (HasMaterial()) {
+            // The specular part is the LED's own white; the diffuse part the thread's colour.
+            double diffuse = 0, white = 0;
+            if (led) MaterialDirect(i, *led, options_.cast_shadows, &diffuse, &white);
+            const double e = led ? led->rgb_intensity[c] : 0.0;
+            values[x] = albedo_[3 * i + c] * (diffuse * e + options_.ambient) + white * e;
+            continue;
+          }
           const double direct = led ? DirectFactor(i, *led, options_.cast_shadows) : 0.0;
           const double irradiance = direct * (led ? led->rgb_intensity[c] : 0.0) + options_.ambient;
           values[x] = albedo_[3 * i + c] * irradiance;

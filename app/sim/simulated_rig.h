@@ -177,6 +177,13 @@ class SimulatedRig {
                 double distance_mm) const;
   // LED irradiance factor n.l * cos^mu * (1000/d)^2 (times 0 in shadow) at pixel index i.
   double DirectFactor(size_t i, const LedDescription& led, bool cast_shadows) const;
+  // Non-Lambertian textile (scene material kCloth, kSatin) at pixel index i:
+  // the LED's raw irradiance factor times the material's diffuse and specular
+  // response (app/sim/cloth_brdf.h), blended over the warp and weft by their
+  // share of the surface; the table pixels stay Lambertian. 0 in shadow.
+  void MaterialDirect(size_t i, const LedDescription& led, bool cast_shadows, double* diffuse,
+                      double* specular) const;
+  bool HasMaterial() const { return !warp_weight_.empty(); }
   // Specular reflectance the gloss adds at pixel index i for `led` (0 for a matte scene).
   double SpecularAt(size_t i, const LedDescription& led) const;
   // White-balanced camera RGB of a surface sample (see the header comment).
@@ -205,6 +212,13 @@ class SimulatedRig {
   std::vector<float> albedo_;
   std::vector<float> albedo_linear_rec709_;
   std::vector<float> gloss_;
+  // Only for a non-Lambertian textile: the shading normal's xy (fibre tilt
+  // included), the warp's share (-1 off the threads) and both thread indices.
+  std::vector<float> shading_normal_xy_;
+  std::vector<float> warp_weight_;
+  std::vector<int32_t> thread_index_;
+  std::vector<ThreadBrdf> warp_brdf_, weft_brdf_;  // per thread index - thread_index_base_
+  int64_t warp_index_base_ = 0, weft_index_base_ = 0;
 };
 
 }  // namespace scanbench

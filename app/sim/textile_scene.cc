@@ -43,6 +43,14 @@ enum Stream : uint64_t {
   kWarpSlubPhase = kWeftTint + 3,
   kWeftSlubPhase,
   kFolds,
+  kWarpF0,
+  kWeftF0,
+  kWarpRoughness,
+  kWeftRoughness,
+  kWarpFibreAcross,
+  kWeftFibreAcross,
+  kWarpFibreAlong,
+  kWeftFibreAlong,
 };
 
 // 0 -> 0, 1 -> 1 with zero first and second derivatives at both ends (C2).
@@ -156,6 +164,36 @@ Eigen::Vector3d ThreadAlbedo(const TextileSceneOptions& o, const WeaveRelief& w,
   return ((w.w_warp * warp_rgb + w.w_weft * weft_rgb) * gap_factor).cwiseMax(0.0).cwiseMin(1.0);
 }
 
+// The fibre tilt (a gradient, dimensionless) inside the threads at `w`: across
+// each thread's fibres a sine of fibres_per_thread periods, faded to zero at
+// the thread's borders by its cross-section so neighbouring threads join
+// continuously, and along them a sine of fibre_wavelength_mm; phases per thread.
+Eigen::Vector2d FibreTilt(const TextileSceneOptions& o, const WeaveRelief& w, double x_mm, double y_mm) {
+  const double amplitude = std::tan(o.fibre_tilt_deg * kPi / 180.0);
+  const double across = 2.0 * kPi * o.fibres_per_thread;
+  const double along = 2.0 * kPi / o.fibre_wavelength_mm;
+  // Warp fibres run along y: across them is x.
+  const Eigen::Vector2d warp(
+      amplitude * w.profile_u * std::sin(across * (w.fu + 0.5) + kPi * HashSigned(o.seed, kWarpFibreAcross, w.warp_index)),
+      0.5 * amplitude * std::sin(along * y_mm + kPi * HashSigned(o.seed, kWarpFibreAlong, w.warp_index)));
+  const Eigen::Vector2d weft(
+      0.5 * amplitude * std::sin(along * x_mm + kPi * HashSigned(o.seed, kWeftFibreAlong, w.weft_index)),
+      amplitude * w.profile_v * std::sin(across * (w.fv + 0.5) + kPi * HashSigned(o.seed, kWeftFibreAcross, w.weft_index)));
+  return w.w_warp * warp + w.w_weft * weft;
+}
+
+void CheckThreadBrdf(const std::string& field, const ThreadBrdf& b) {
+  if (!(b.specular_f0 >= 0 && b.specular_f0 <= 1)) {
+    throw FieldError(kOptions, field + ".specular_f0", b.specular_f0, "must lie in [0, 1]");
+  }
+  if (!(b.roughness > 0 && b.roughness <= 2)) {
+    throw FieldError(kOptions, field + ".roughness", b.roughness, "must lie in (0, 2]");
+  }
+  if (!(b.roughness_across > 0 && b.roughness_across <= 2)) {
+    throw FieldError(kOptions, field + ".roughness_across", b.roughness_across, "must lie in (0, 2]");
+  }
+}
+
 // The card's outline: the patch grid plus the border on every side.
 Eigen::Vector2d ChartCardSizeMm(const TextileSceneOptions& o) {
   return Eigen::Vector2d((kColorCheckerColumns - 1) * o.chart_pitch_mm + o.chart_patch_mm,
@@ -267,6 +305,39 @@ void TextileSceneOptions::Check() const {
   if (!(gap_darkening >= 0 && gap_darkening <= 1)) {
     throw FieldError(kOptions, "gap_darkening", gap_darkening, "must lie in [0, 1]");
   }
+  if (material != SurfaceMaterial::kLambert && material != SurfaceMaterial::kCloth &&
+      material != SurfaceMaterial::kSatin) {
+    throw FieldError(kOptions, "material", static_cast<int>(material), "must be kLambert, kCloth or kSatin");
+  }
+  CheckThreadBrdf("cloth_warp", cloth_warp);
+  CheckThreadBrdf("cloth_weft", cloth_weft);
+  CheckThreadBrdf("satin_warp", satin_warp);
+  CheckThreadBrdf("satin_weft", satin_weft);
+  if (!(material_variation >= 0 && material_variation <= 0.5)) {
+    throw FieldError(kOptions, "material_variation", material_variation, "must lie in [0, 0.5]");
+  }
+  if (!(fibre_tilt_deg >= 0 && fibre_tilt_deg <= 20)) {
+    throw FieldError(kOptions, "fibre_tilt_deg", fibre_tilt_deg, "must lie in [0, 20]");
+  }
+  if (fibres_per_thread < 1 || fibres_per_thread > 64) {
+    throw FieldError(kOptions, "fibres_per_thread", fibres_per_thread, "must lie in [1, 64]");
+  }
+  if (!(fibre_wavelength_mm > 0) || !std::isfinite(fibre_wavelength_mm)) {
+    throw FieldError(kOptions, "fibre_wavelength_mm", fibre_wavelength_mm, "must be finite and > 0");
+  }
+}
+
+ThreadBrdf TextileScene::ThreadBrdfOf(bool warp, int64_t index) const {
+  const TextileSceneOptions& o = options_;
+  ThreadBrdf b = o.material == SurfaceMaterial::kSatin ? (warp ? o.satin_warp : o.satin_weft)
+                                                       : (warp ? o.cloth_warp : o.cloth_weft);
+  const double f0_scale = 1.0 + o.material_variation * HashSigned(o.seed, warp ? kWarpF0 : kWeftF0, index);
+  const double rough_scale =
+      1.0 + o.material_variation * HashSigned(o.seed, warp ? kWarpRoughness : kWeftRoughness, index);
+  b.specular_f0 = std::clamp(b.specular_f0 * f0_scale, 0.0, 1.0);
+  b.roughness = std::clamp(b.roughness * rough_scale, 1e-3, 2.0);
+  b.roughness_across = std::clamp(b.roughness_across * rough_scale, 1e-3, 2.0);
+  return b;
 }
 
 TextileScene::TextileScene(const TextileSceneOptions& options) : options_(options) {
@@ -337,7 +408,14 @@ SurfaceSample TextileScene::Evaluate(double x_mm, double y_mm, bool with_gradien
     const double sx_dx = SmootherStepDerivative(tx) * (x_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
     const double sy_dy = SmootherStepDerivative(ty) * (y_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
     out.gradient = blend * inner_grad + inner * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
+    out.shading_gradient = out.gradient;
+    if (o.material != SurfaceMaterial::kLambert && o.fibre_tilt_deg > 0) {
+      out.shading_gradient += blend * FibreTilt(o, weave, x_mm, y_mm);
+    }
   }
+  out.warp_weight = weave.w_warp;
+  out.warp_index = weave.warp_index;
+  out.weft_index = weave.weft_index;
   if (with_albedo) out.albedo = ThreadAlbedo(o, weave, x_mm, y_mm);
   return out;
 }
@@ -355,6 +433,7 @@ SurfaceSample TextileScene::EvaluateChart(double x_mm, double y_mm, bool with_gr
     const double sx_dx = SmootherStepDerivative(tx) * (x_mm < 0 ? 1.0 : -1.0) / o.chart_edge_blend_mm;
     const double sy_dy = SmootherStepDerivative(ty) * (y_mm < 0 ? 1.0 : -1.0) / o.chart_edge_blend_mm;
     out.gradient = o.chart_thickness_mm * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
+    out.shading_gradient = out.gradient;
   }
   out.gloss = o.chart_gloss;
   if (with_albedo) {

@@ -21,6 +21,8 @@
 
 #include <Eigen/Core>
 
+#include "app/sim/cloth_brdf.h"
+
 namespace scanbench {
 
 enum class WeavePattern {
@@ -71,6 +73,22 @@ struct TextileSceneOptions {
   double color_variation = 0.08;         // relative per-thread albedo variation (and slubs along it), [0, 0.5]
   double gap_darkening = 0.3;            // relative albedo loss in the gaps between threads, [0, 1]
 
+  // Material of the textile (issue #13; app/sim/cloth_brdf.h). The table and
+  // the ColorChecker card stay as they are. kLambert renders exactly as before.
+  SurfaceMaterial material = SurfaceMaterial::kLambert;
+  // Per-thread specular parameters before the per-thread variation: the warp
+  // (indigo, the face of the twill) carries more sheen than the ecru weft.
+  ThreadBrdf cloth_warp{0.20, 1.0, 1.0};   // kCloth: white F0, velvet width (roughness_across unused)
+  ThreadBrdf cloth_weft{0.12, 0.8, 0.8};
+  ThreadBrdf satin_warp{0.30, 0.30, 0.10}; // kSatin: white F0, GGX alpha along / across the thread
+  ThreadBrdf satin_weft{0.15, 0.45, 0.20};
+  double material_variation = 0.15;      // relative per-thread random variation of F0 and roughness, [0, 0.5]
+  // Fibre-scale shading normal variation inside a thread (kCloth, kSatin): a
+  // smooth seeded tilt across the fibres and a slower one along them.
+  double fibre_tilt_deg = 4.0;           // tilt amplitude, [0, 20] deg
+  int fibres_per_thread = 6;             // fibre bundles across a thread (period of the across tilt), [1, 64]
+  double fibre_wavelength_mm = 1.1;      // period of the along-fibre tilt, > 0
+
   // kColorChecker. 16 mm patches on a 20 mm pitch make a 116 x 76 mm grid, a
   // 124 x 84 mm card with the border: the real chart (40 mm pitch) scaled to
   // fit the default 143 x 95 mm field of view with the table visible around
@@ -95,6 +113,13 @@ struct SurfaceSample {
   Eigen::Vector3d albedo = Eigen::Vector3d::Zero();    // linear Rec.709 (D65), [0, 1]
   int spectral_patch = -1;   // ColorCheckerClassic() index whose measured spectrum this is; -1 = none
   double gloss = 0;          // specular reflectance added at the mirror direction (SimulatedRig), [0, 0.2]
+  // Textile threads (kTextile, on the sample; warp_weight < 0 elsewhere): the
+  // share of the warp in the visible surface, both threads' indices, and the
+  // gradient of the SHADING surface (the geometric one plus the fibre tilt;
+  // equal to `gradient` for kLambert). Ground truth uses `gradient` only.
+  double warp_weight = -1;   // [0, 1], -1 = no thread here
+  int64_t warp_index = 0, weft_index = 0;
+  Eigen::Vector2d shading_gradient = Eigen::Vector2d::Zero();
 };
 
 class TextileScene {
@@ -117,6 +142,10 @@ class TextileScene {
   bool OnSample(double x_mm, double y_mm) const;
   // All of the above at once (one evaluation; what the renderer uses).
   SurfaceSample Sample(double x_mm, double y_mm, bool with_albedo = true) const;
+
+  // The specular parameters of warp (`warp` true) or weft thread `index` for
+  // options().material, with its seeded variation (lambert: cloth_warp/weft).
+  ThreadBrdf ThreadBrdfOf(bool warp, int64_t index) const;
 
   // Upper bound of HeightMm anywhere, mm.
   double MaxHeightMm() const { return max_height_mm_; }

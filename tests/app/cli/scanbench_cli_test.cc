@@ -76,6 +76,20 @@ TEST(ScanbenchCliTest, SimulatesAColorCheckerWithEitherCameraColor) {
   EXPECT_THAT(help.output, HasSubstr("--no-color-chart"));
 }
 
+TEST(ScanbenchCliTest, SimulateTakesAMaterialAndRefusesAnUnknownOneByName) {
+  testing::TemporaryFolder folder;
+  const CommandResult cloth =
+      RunScanbench("simulate " + Quoted(folder / "cloth") + " --width 160 --height 106 --material cloth");
+  ASSERT_EQ(cloth.exit_code, 0) << cloth.output;
+  EXPECT_EQ(LoadSession(folder / "cloth").sample_name, "simulated cloth twill");
+  const CommandResult bad = RunScanbench("simulate " + Quoted(folder / "x") + " --material velvet");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.output, HasSubstr("--material"));
+  EXPECT_THAT(bad.output, HasSubstr("velvet"));
+  EXPECT_THAT(RunScanbench("capture --help").output, HasSubstr("--material"));
+  EXPECT_THAT(RunScanbench("demo --help").output, HasSubstr("--material"));
+}
+
 TEST(ScanbenchCliTest, FailuresExitNonZeroNamingTheProblem) {
   testing::TemporaryFolder folder;
   const CommandResult not_a_session = RunScanbench("solve " + Quoted(folder.path()));

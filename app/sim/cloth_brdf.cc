@@ -1,0 +1,104 @@
+#include "app/sim/cloth_brdf.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+namespace scanbench {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+// Ashikhmin's amplitude of the inverted Gaussian, which the seed keeps.
+constexpr double kVelvetAmplitude = 4.0;
+
+// Smith's Lambda of anisotropic GGX for direction w in the (t, b, n) frame.
+double GgxLambda(const Eigen::Vector3d& w, double alpha_t, double alpha_b) {
+  const double wn2 = std::max(w.z() * w.z(), 1e-12);
+  const double a2_tan2 = (alpha_t * alpha_t * w.x() * w.x() + alpha_b * alpha_b * w.y() * w.y()) / wn2;
+  return 0.5 * (std::sqrt(1.0 + a2_tan2) - 1.0);
+}
+
+// Schlick's Fresnel: f0 + (1 - f0) (1 - cos)^5.
+double SchlickFresnel(double f0, double cos_theta) {
+  const double m = 1.0 - std::clamp(cos_theta, 0.0, 1.0);
+  const double m2 = m * m;
+  return f0 + (1.0 - f0) * m2 * m2 * m;
+}
+
+}  // namespace
+
+const char* SurfaceMaterialName(SurfaceMaterial material) {
+  switch (material) {
+    case SurfaceMaterial::kLambert: return "lambert";
+    case SurfaceMaterial::kCloth: return "cloth";
+    case SurfaceMaterial::kSatin: return "satin";
+  }
+  return "unknown";
+}
+
+std::optional<SurfaceMaterial> SurfaceMaterialFromName(const std::string& name) {
+  for (SurfaceMaterial m : {SurfaceMaterial::kLambert, SurfaceMaterial::kCloth, SurfaceMaterial::kSatin}) {
+    if (name == SurfaceMaterialName(m)) return m;
+  }
+  return std::nullopt;
+}
+
+double VelvetDistribution(double cos_h, double alpha) {
+  const double c2 = std::clamp(cos_h * cos_h, 0.0, 1.0);
+  const double s2 = 1.0 - c2;
+  const double norm = 1.0 / (kPi * (1.0 + kVelvetAmplitude * alpha * alpha));
+  // At th_h -> 0 the exponential vanishes faster than sin^4: the offset alone.
+  if (s2 < 1e-12) return norm;
+  const double cot2 = c2 / s2;
+  return norm * (1.0 + kVelvetAmplitude * std::exp(-cot2 / (alpha * alpha)) / (s2 * s2));
+}
+
+MaterialResponse EvaluateMaterial(SurfaceMaterial material, const ThreadBrdf& brdf, const Eigen::Vector3d& n,
+                                  const Eigen::Vector3d& tangent, const Eigen::Vector3d& l, const Eigen::Vector3d& v) {
+  MaterialResponse out;
+  const double nl = n.dot(l);
+  const double nv = n.dot(v);
+  if (!(nl > 0)) return out;
+  if (material == SurfaceMaterial::kLambert) {
+    out.diffuse = nl;
+    return out;
+  }
+  if (!(nv > 0)) return out;
+  const Eigen::Vector3d sum = l + v;
+  const double sum_norm = sum.norm();
+  if (!(sum_norm > 1e-12)) return out;
+  const Eigen::Vector3d h = sum / sum_norm;
+  const double vh = v.dot(h);
+  const double fresnel = SchlickFresnel(brdf.specular_f0, vh);
+  out.diffuse = (1.0 - fresnel) * nl;
+  if (material == SurfaceMaterial::kCloth) {
+    const double d = VelvetDistribution(n.dot(h), brdf.roughness);
+    out.specular = kPi * fresnel * d / (4.0 * (nl + nv - nl * nv)) * nl;
+    return out;
+  }
+  // kSatin: a sharp lobe takes most of the light at grazing view, where
+  // (1 - F(v.h)) would leave the diffuse part whole: the diffuse weight is the
+  // light that passes the interface both ways instead, (1 - F(n.l))(1 - F(n.v)),
+  // renormalised to (1 - f0) at normal incidence (keeps the albedo <= 1).
+  const double f0 = brdf.specular_f0;
+  out.diffuse = f0 < 1 ? (1.0 - SchlickFresnel(f0, nl)) * (1.0 - SchlickFresnel(f0, nv)) / (1.0 - f0) * nl : 0.0;
+  // The tangent frame (t along the thread, b across, n).
+  Eigen::Vector3d t = tangent - tangent.dot(n) * n;
+  if (!(t.squaredNorm() > 1e-12)) t = n.unitOrthogonal();
+  t.normalize();
+  const Eigen::Vector3d b = n.cross(t);
+  const Eigen::Vector3d hl(h.dot(t), h.dot(b), n.dot(h));
+  const Eigen::Vector3d ll(l.dot(t), l.dot(b), nl);
+  const Eigen::Vector3d vl(v.dot(t), v.dot(b), nv);
+  const double at = brdf.roughness, ab = brdf.roughness_across;
+  const double e = hl.x() * hl.x() / (at * at) + hl.y() * hl.y() / (ab * ab) + hl.z() * hl.z();
+  const double d = 1.0 / (kPi * at * ab * e * e);
+  const double g = 1.0 / (1.0 + GgxLambda(ll, at, ab) + GgxLambda(vl, at, ab));
+  // pi * F D G / (4 nl nv) * nl.
+  out.specular = kPi * fresnel * d * g / (4.0 * nv);
+  return out;
+}
+
+}  // namespace scanbench
