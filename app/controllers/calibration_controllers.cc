@@ -11,6 +11,7 @@
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
 #include "calibration/color_checker.h"
+#include "core/parallel_for.h"
 #include "core/summary.h"
 
 namespace scanbench {
@@ -354,29 +355,29 @@ struct ColorTarget {
 
 bool IsSessionFolder(const fs::path& path) { return fs::is_regular_file(path / "session.json"); }
 
-// What a perfect white (facing up) reads at each pixel of `box` under each LED of
-// `field`: the calibrated intensity times n.l. Zero outside the box.
-std::vector<ImageF> WhiteResponses(const LightField& field, const ColorChartQuad& quad) {
-  const int width = field.width(), height = field.height(), num_leds = field.num_lights();
+// What a perfect white (facing up) reads under LED `led` of `field` at each
+// pixel of the chart's bounding box: the calibrated intensity times n.l; zero
+// outside it. One LED at a time: ten full-size images would hold 2 GB at 16 MP.
+ImageF WhiteResponse(const LightField& field, const ColorChartQuad& quad, int led) {
+  const int width = field.width(), height = field.height();
   double x0 = width, y0 = height, x1 = 0, y1 = 0;
   for (const Eigen::Vector2d& c : quad.corners_px) {
     x0 = std::min(x0, c.x()), y0 = std::min(y0, c.y()), x1 = std::max(x1, c.x()), y1 = std::max(y1, c.y());
   }
   const int bx0 = std::clamp(static_cast<int>(x0) - 2, 0, width), by0 = std::clamp(static_cast<int>(y0) - 2, 0, height);
   const int bx1 = std::clamp(static_cast<int>(x1) + 3, 0, width), by1 = std::clamp(static_cast<int>(y1) + 3, 0, height);
-  std::vector<ImageF> responses(num_leds, ImageF(width, height, 3));
-  std::vector<float> dirs(3 * num_leds), intensities(3 * num_leds);
-  for (int y = by0; y < by1; ++y) {
+  ImageF response(width, height, 3);
+  ParallelRows(by1 - by0, 0, {}, 0.0, 1.0, [&](int row) {
+    const int y = by0 + row;
+    std::vector<float> dirs(3 * field.num_lights()), intensities(3 * field.num_lights());
     for (int x = bx0; x < bx1; ++x) {
       field.Evaluate(x, y, dirs.data(), intensities.data());
-      for (int k = 0; k < num_leds; ++k) {
-        const float n_dot_l = std::max(0.0f, dirs[3 * k + 2]);  // the chart lies flat: n = table up
-        float* out = responses[k].data() + (static_cast<size_t>(y) * width + x) * 3;
-        for (int c = 0; c < 3; ++c) out[c] = intensities[3 * k + c] * n_dot_l;
-      }
+      const float n_dot_l = std::max(0.0f, dirs[3 * led + 2]);  // the chart lies flat: n = table up
+      float* out = response.data() + (static_cast<size_t>(y) * width + x) * 3;
+      for (int c = 0; c < 3; ++c) out[c] = intensities[3 * led + c] * n_dot_l;
     }
-  }
-  return responses;
+  });
+  return response;
 }
 
 // A photo under unknown light: per-channel gains from the chart's gray row.
@@ -539,19 +540,19 @@ std::vector<PatchSample> ColorCalibrationController::MeasurePatches(const Inputs
     }
     if (!found) throw std::runtime_error(target.name + ": in none of its LED frames: " + why);
     summary_.detections.push_back(target.name + ": " + found->BriefReport());
-    std::vector<ImageF> white;
+    std::optional<CalibratedLighting> lighting;
     if (have_lights) {
-      const CalibratedLighting lighting =
-          MakeCalibratedLighting(inputs.set, (calibration_dir_ / kCalibrationManifestName).string(), s.session,
-                                 (s.dir / "session.json").string());
-      white = WhiteResponses(*lighting.light_field, found->quad);
+      lighting = MakeCalibratedLighting(inputs.set, (calibration_dir_ / kCalibrationManifestName).string(), s.session,
+                                        (s.dir / "session.json").string());
       any_absolute = true;
     } else {
       any_relative = true;
     }
     for (size_t k = 0; k < s.leds.size(); ++k) {
+      const ImageF white =
+          lighting ? WhiteResponse(*lighting->light_field, found->quad, static_cast<int>(k)) : ImageF();
       std::vector<PatchSample> patches = SampleColorChartPatches(options_.sampling, s.leds[k], &s.dark, found->quad,
-                                                                 have_lights ? &white[k] : nullptr);
+                                                                 lighting ? &white : nullptr);
       if (!have_lights) BalanceOnNeutralPatches(patches, target.name + " LED " + std::to_string(k));
       frames.push_back(std::move(patches));
       if (!progress(double(k + 1) / s.leds.size())) throw Cancelled(stage);
