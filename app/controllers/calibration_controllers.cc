@@ -489,12 +489,13 @@ ColorCalibrationController::Inputs ColorCalibrationController::ReadTargets() con
         inputs.set.software_version = "scanbench " SCANBENCH_VERSION;
         inputs.set.camera = id;
       } else if (id.make != inputs.set.camera.make || id.model != inputs.set.camera.model ||
-                 id.width != inputs.set.camera.width || id.height != inputs.set.camera.height) {
-        throw SessionError(target.name + ": a " + id.make + " " + id.model + " photo of " + std::to_string(id.width) +
-                           "x" + std::to_string(id.height) + " px, but " + manifest.string() + " is for a " +
-                           inputs.set.camera.make + " " + inputs.set.camera.model + " at " +
-                           std::to_string(inputs.set.camera.width) + "x" + std::to_string(inputs.set.camera.height) +
-                           ": a colour calibration serves one camera");
+                 id.width != inputs.set.camera.width || id.height != inputs.set.camera.height ||
+                 (!id.serial.empty() && !inputs.set.camera.serial.empty() && id.serial != inputs.set.camera.serial)) {
+        throw SessionError(target.name + ": a " + id.make + " " + id.model + " (serial \"" + id.serial + "\") photo of " +
+                           std::to_string(id.width) + "x" + std::to_string(id.height) + " px, but " + manifest.string() +
+                           " is for a " + inputs.set.camera.make + " " + inputs.set.camera.model + " (serial \"" +
+                           inputs.set.camera.serial + "\") at " + std::to_string(inputs.set.camera.width) + "x" +
+                           std::to_string(inputs.set.camera.height) + ": a colour calibration serves one camera body");
       }
     }
     if (IsStopRequested()) throw Cancelled(stage);
