@@ -9,17 +9,14 @@
 
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
+#include "calibration/color_science.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
 
 namespace {
 
-uint8_t ToSrgb8(double linear) {
-  linear = std::clamp(linear, 0.0, 1.0);
-  const double encoded = linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
-  return static_cast<uint8_t>(std::lround(encoded * 255));
-}
+uint8_t ToSrgb8(double linear) { return static_cast<uint8_t>(std::lround(SrgbEncode(linear) * 255)); }
 
 QImage LoadQtImage(const fs::path& path) {
   QImage image(QString::fromStdString(path.string()));
