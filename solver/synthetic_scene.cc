@@ -41,7 +41,7 @@ void SyntheticSceneOptions::Check() const {
 }
 
 std::vector<Eigen::Vector3d> RingLightDirections(int num_lights, double low_elevation_deg,
-                                                 double high_elevation_deg) {
+                                                 double high_elevation_deg, double azimuth_deg) {
   std::vector<Eigen::Vector3d> dirs;
   const int num_low = (num_lights + 1) / 2;
   const int num_high = num_lights - num_low;
@@ -50,7 +50,7 @@ std::vector<Eigen::Vector3d> RingLightDirections(int num_lights, double low_elev
     const int ring_count = low ? num_low : num_high;
     const int ring_index = low ? k : k - num_low;
     const double elevation = (low ? low_elevation_deg : high_elevation_deg) * M_PI / 180;
-    const double azimuth = 2 * M_PI * (ring_index + (low ? 0.0 : 0.5)) / ring_count;
+    const double azimuth = azimuth_deg * M_PI / 180 + 2 * M_PI * (ring_index + (low ? 0.0 : 0.5)) / ring_count;
     dirs.emplace_back(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
                       std::sin(elevation));
   }

@@ -56,9 +56,11 @@ struct SyntheticScene {
 
 SyntheticScene MakeSyntheticScene(const SyntheticSceneOptions& options);
 
-// Light directions (unit, z up) on two rings, the first half at the low
-// elevation, the rest at the high one, azimuths interleaved.
+// Light directions (unit, z up) on two rings like the simulated rig's LEDs:
+// the first ceil(num_lights / 2) at the low elevation, the rest at the high
+// one, each ring evenly spread in azimuth, the upper one turned half a step,
+// the first light at `azimuth_deg`.
 std::vector<Eigen::Vector3d> RingLightDirections(int num_lights, double low_elevation_deg,
-                                                 double high_elevation_deg);
+                                                 double high_elevation_deg, double azimuth_deg = 0);
 
 }  // namespace scanbench

@@ -14,8 +14,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-
-
 struct SolveDatasetState {
   fs::path dataset_dir;
   DatasetSolveOptions options;
@@ -64,6 +62,9 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
   command->add_flag("--overwrite", state->options.overwrite, "Replace an existing output folder");
   command->add_flag("--lsq-baseline", state->lsq_baseline,
                     "The benchmark's least-squares baseline (jacobi_svd, every sample kept)");
+  command->add_option("--ring-lights", state->options.ring_lights,
+                      "Solve with only this many lights, chosen like the scanner's two LED rings (0 = all)")
+      ->capture_default_str();
   AddPhotometricSolverOptions(*command, state->options.solver);
   command->callback([state, exit_code] { Guarded(exit_code, [&] { return SolveDatasetCommand(*state); }); });
 

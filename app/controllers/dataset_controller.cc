@@ -11,7 +11,9 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "core/field_error.h"
 #include "core/format.h"
+#include "solver/light_subset.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -44,7 +46,12 @@ nlohmann::json DatasetReportJson(const fs::path& dataset_dir, const PhotometricD
                        {"width", dataset.width},
                        {"height", dataset.height},
                        {"lights", dataset.num_lights()},
+                       {"lights_in_folder", summary.dataset_lights},
                        {"mask_pixels", summary.mask_pixels}};
+  if (!summary.light_files.empty()) {
+    report["dataset"]["light_subset"] = {{"rule", "ring (solver/light_subset.h SelectRingLights)"},
+                                         {"files", summary.light_files}};
+  }
   report["solver"] = {{"method", PhotometricMethodName(solver.method)},
                       {"min_sample_value", solver.min_sample_value},
                       {"max_condition_number", solver.max_condition_number},
@@ -86,6 +93,9 @@ struct StagingGuard {
 
 void DatasetSolveOptions::Check() const {
   solver.Check();
+  if (ring_lights != 0 && ring_lights < 3) {
+    throw FieldError("DatasetSolveOptions", "ring_lights", ring_lights, "must be 0 (every light) or at least 3");
+  }
   if (!output_dir.empty() && fs::exists(output_dir) && !overwrite) {
     throw std::invalid_argument("DatasetSolveOptions.output_dir = " + output_dir.string() +
                                 " already exists; choose a new folder or allow overwrite");
@@ -125,6 +135,11 @@ std::string DatasetSolveSummary::FullReport() const {
       << "  images:       " << num_lights << " lights, " << width << "x" << height << ", " << mask_pixels
       << " mask pixels\n"
       << "  " << solver.BriefReport() << "\n";
+  if (!light_files.empty()) {
+    out << "  lights:       " << num_lights << " of " << dataset_lights << " (ring subset):";
+    for (const std::string& file : light_files) out << " " << file;
+    out << "\n";
+  }
   if (normal_error_deg) {
     out << "  normal angular error vs Normal_gt over the mask (deg): mean " << normal_error_deg->mean << ", median "
         << normal_error_deg->median << ", p95 " << normal_error_deg->percentile_95 << ", max "
@@ -153,6 +168,16 @@ PhotometricDataset DatasetController::LoadDataset() {
   const auto start = Clock::now();
   BeginStage("load dataset");
   PhotometricDataset dataset = LoadPhotometricDataset(dataset_dir_);
+  summary_.dataset_lights = dataset.num_lights();
+  if (options_.ring_lights > 0) {
+    if (options_.ring_lights > dataset.num_lights()) {
+      throw FieldError("DatasetSolveOptions", "ring_lights", options_.ring_lights,
+                       "must not exceed the " + std::to_string(dataset.num_lights()) + " lights of " +
+                           dataset.folder.string());
+    }
+    dataset.KeepLights(SelectRingLights(dataset.CentralLightDirections(), options_.ring_lights));
+    summary_.light_files = dataset.image_files;
+  }
   summary_.dataset_name = dataset.name;
   summary_.kind = KindName(dataset.kind);
   summary_.width = dataset.width;

@@ -21,6 +21,9 @@ struct DatasetSolveOptions {
   // `overwrite`. Empty = no files written (figures only).
   std::filesystem::path output_dir;
   bool overwrite = false;  // replace an existing output_dir
+  // 0 = every light; else only this many, chosen like the scanner's two LED
+  // rings (SelectRingLights, solver/light_subset.h), in [3, the dataset's lights].
+  int ring_lights = 0;
 
   void Check() const;
 };
@@ -45,6 +48,8 @@ struct DatasetSolveSummary {
   std::string dataset_name;
   std::string kind;  // "distant_lights (DiLiGenT)" or "near_field (LUCES-style)"
   int width = 0, height = 0, num_lights = 0;
+  int dataset_lights = 0;                 // lights in the folder (num_lights = those solved with)
+  std::vector<std::string> light_files;   // with ring_lights: the images kept
   size_t mask_pixels = 0;
   PhotometricSolverSummary solver;
   std::optional<ErrorStatistics> normal_error_deg;

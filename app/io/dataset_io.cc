@@ -415,6 +415,41 @@ std::unique_ptr<LightField> PhotometricDataset::MakeLightField() const {
   return std::make_unique<PointLightField>(std::move(lights), std::move(points));
 }
 
+void PhotometricDataset::KeepLights(std::vector<int> indices) {
+  std::sort(indices.begin(), indices.end());
+  for (size_t k = 0; k < indices.size(); ++k) {
+    if (indices[k] < 0 || indices[k] >= num_lights()) {
+      throw std::invalid_argument("PhotometricDataset " + name + ": light index " + std::to_string(indices[k]) +
+                                  " is not in [0, " + std::to_string(num_lights()) + ")");
+    }
+    if (k > 0 && indices[k] == indices[k - 1]) {
+      throw std::invalid_argument("PhotometricDataset " + name + ": light index " + std::to_string(indices[k]) +
+                                  " is given twice");
+    }
+  }
+  const auto keep = [&](auto& table) {
+    if (table.empty()) return;
+    std::remove_reference_t<decltype(table)> kept;
+    for (int i : indices) kept.push_back(std::move(table[i]));
+    table = std::move(kept);
+  };
+  keep(image_files);
+  keep(images);
+  keep(light_intensities);
+  keep(light_directions);
+  keep(light_positions_mm);
+  keep(led_axes);
+  keep(led_mu);
+}
+
+std::vector<Eigen::Vector3d> PhotometricDataset::CentralLightDirections() const {
+  if (kind == Kind::kDistantLights) return light_directions;
+  const Eigen::Vector3d centre(0, 0, -surface_distance_mm);  // on the optical axis, camera at the origin
+  std::vector<Eigen::Vector3d> dirs;
+  for (const Eigen::Vector3d& p : light_positions_mm) dirs.push_back((p - centre).normalized());
+  return dirs;
+}
+
 std::vector<const ImageF*> PhotometricDataset::ImagePointers() const {
   std::vector<const ImageF*> pointers;
   for (const ImageF& image : images) pointers.push_back(&image);

@@ -69,6 +69,14 @@ struct PhotometricDataset {
   // The light field the solver needs: DirectionalLightField or PointLightField.
   std::unique_ptr<LightField> MakeLightField() const;
   std::vector<const ImageF*> ImagePointers() const;
+  // Keeps only the lights `indices` (into today's lights, each once, any
+  // order; kept in ascending order): images, file names and every per-light
+  // table. Throws std::invalid_argument naming an index out of range or repeated.
+  void KeepLights(std::vector<int> indices);
+  // Directions of the lights for choosing a subset: the distant directions,
+  // or for near-field LEDs the direction from the surface point on the
+  // optical axis to each LED.
+  std::vector<Eigen::Vector3d> CentralLightDirections() const;
 };
 
 struct DatasetLoadOptions {

@@ -223,6 +223,31 @@ TEST(DatasetControllerTest, WritesMapsConfidenceAndErrorReport) {
   EXPECT_THAT([&] { again.Run(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("already exists")));
 }
 
+TEST(DatasetControllerTest, RingLightsKeepsASubsetAndSaysWhichFiles) {
+  TemporaryFolder folder;
+  std::vector<Eigen::Vector3d> dirs, intensities;
+  const SyntheticScene scene = DistantSphere(&dirs, &intensities);
+  WriteDiligentFolder(folder / "sphere", scene, dirs, intensities);
+  DatasetSolveOptions options;
+  options.output_dir = folder / "out";
+  options.ring_lights = 6;
+  DatasetController controller(folder / "sphere", options);
+  controller.Run();
+  EXPECT_EQ(controller.summary().num_lights, 6);
+  EXPECT_EQ(controller.summary().dataset_lights, 12);
+  std::ifstream in(folder / "out" / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["dataset"]["lights"], 6);
+  EXPECT_EQ(report["dataset"]["light_subset"]["files"].size(), 6u);
+  // Six Lambertian lights still give the sphere exactly.
+  EXPECT_LT(report["ground_truth"]["normal_angular_error_deg"]["median"].get<double>(), 0.1);
+  options.output_dir = folder / "out2";
+  options.ring_lights = 13;
+  DatasetController too_many(folder / "sphere", options);
+  EXPECT_THAT([&] { too_many.Run(); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("ring_lights = 13")));
+}
+
 // The DiLiGenT benchmark itself (ball and bear), when the data are there.
 fs::path DiligentFolder() { return fs::path(SCANBENCH_SOURCE_DIR) / ".." / "shared" / "data" / "diligent"; }
 
