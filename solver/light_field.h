@@ -24,6 +24,13 @@ class LightField {
   // True when Evaluate gives the same values at every pixel (distant lights):
   // the solver then shares one light matrix between all pixels.
   virtual bool IsUniform() const { return false; }
+  // Unit direction from the pixel's surface point towards the camera, in the
+  // same frame (what a specular model needs). The default is an orthographic
+  // camera looking down -z, as in DiLiGenT; perspective fields override it.
+  virtual void ViewDirection(int x, int y, float* view_dir) const {
+    (void)x, (void)y;
+    view_dir[0] = 0, view_dir[1] = 0, view_dir[2] = 1;
+  }
 };
 
 // Distant lights: the same direction and intensity at every pixel.

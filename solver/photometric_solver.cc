@@ -338,6 +338,15 @@ const char* PixelStatusName(PixelStatus status) {
   return "unknown";
 }
 
+const char* SpecularStatusName(SpecularStatus status) {
+  switch (status) {
+    case SpecularStatus::kEstimated: return "estimated";
+    case SpecularStatus::kNotSolved: return "not_solved";
+    case SpecularStatus::kUnsupported: return "unsupported";
+  }
+  return "unknown";
+}
+
 const char* SolvePathName(SolvePath path) {
   switch (path) {
     case SolvePath::kNone: return "none";

@@ -60,6 +60,16 @@ enum class SolvePath : uint8_t {
 inline constexpr int kNumSolvePaths = 5;
 const char* SolvePathName(SolvePath path);
 
+// Whether a pixel's specular lobe (PhotometricSolution::specular) was
+// estimated. Stored per pixel in PhotometricSolution::specular_status.
+enum class SpecularStatus : uint8_t {
+  kEstimated = 0,    // the samples constrain a lobe: specular holds its F0 and roughness
+  kNotSolved = 1,    // the pixel itself is not solved (see status)
+  kUnsupported = 2,  // solved, but no sample near the mirror direction or the lobe is within the noise
+};
+inline constexpr int kNumSpecularStatuses = 3;
+const char* SpecularStatusName(SpecularStatus status);
+
 struct PhotometricSolverOptions {
   enum class Method {
     kAdaptive,              // default: see the file comment
@@ -110,6 +120,11 @@ struct PhotometricSolverOptions {
   // Fill the condition-number and residual maps (else they are left empty;
   // status, lights_used and solve_path are always filled).
   bool compute_confidence = true;
+
+  // Fill the specular maps (PhotometricSolution::specular) where the method
+  // estimates a specular lobe (else, and for methods that do not, they are
+  // left empty).
+  bool compute_specular = true;
 
   // Side of the square tiles the image is solved in, pixels, in [8, 4096].
   // Bounds the scratch memory per thread and is the unit of the light-field
@@ -190,6 +205,11 @@ struct PhotometricSolution {
   ImageF condition_number;  // of the light matrix; 0 where not computed
   ImageF residual;          // RMS luminance residual relative to the albedo
   ImageU8 solve_path;       // SolvePath per pixel
+  // Specular lobe, only from methods that estimate one (else both empty):
+  // 2 channels, specular_f0 (white reflectance at normal incidence, [0, 1])
+  // and roughness_alpha (GGX alpha, (0, 1]); both 0 unless kEstimated.
+  ImageF specular;
+  ImageU8 specular_status;  // SpecularStatus per pixel
 };
 
 struct PhotometricSolverSummary : AlgorithmSummary {
@@ -202,6 +222,7 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   size_t tiles_skipped = 0;           // tiles with no pixel in the region: not touched
   std::array<size_t, kNumPixelStatuses> pixels_by_status{};
   std::array<size_t, kNumSolvePaths> pixels_by_path{};
+  std::array<size_t, kNumSpecularStatuses> pixels_by_specular{};  // all 0 when no specular maps were made
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }
