@@ -75,6 +75,7 @@ nlohmann::json DatasetReportJson(const fs::path& dataset_dir, const PhotometricD
   }
   report["timings_s"] = {{"load", summary.load_seconds}, {"solve", summary.solve_seconds},
                          {"write_maps", summary.write_seconds}};
+  if (summary.specular) report["specular"] = nlohmann::json::parse(summary.specular->ReportJson());  // issue #13
   report["outputs"] = outputs;
   return report;
 }
@@ -148,6 +149,7 @@ std::string DatasetSolveSummary::FullReport() const {
   } else {
     out << "  no Normal_gt.mat: no error report\n";
   }
+  if (specular) out << "  " << specular->BriefReport() << "\n";
   out << "  time (s): load " << load_seconds << "; solve " << solve_seconds << "; write " << write_seconds << "\n";
   if (!output_dir.empty()) out << "  written to:   " << output_dir.string() << "\n";
   return out.str();
@@ -195,6 +197,7 @@ DatasetSolveResult DatasetController::Solve(const PhotometricDataset& dataset) {
   DatasetSolveResult result = SolveDataset(dataset, options_.solver, StageCallback("solve"));
   RequireSuccess(result.solver, "solve");
   summary_.solver = result.solver;
+  summary_.specular = SpecularMapStatisticsOf(result.solution);
   summary_.normal_error_deg = result.normal_error_deg;
   summary_.unsolved_in_mask = result.unsolved_in_mask;
   summary_.solve_seconds = SecondsSince(start);

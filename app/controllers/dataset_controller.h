@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "app/controllers/base_controller.h"
+#include "app/controllers/map_writer.h"
 #include "app/io/dataset_io.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
@@ -54,6 +55,7 @@ struct DatasetSolveSummary {
   PhotometricSolverSummary solver;
   std::optional<ErrorStatistics> normal_error_deg;
   size_t unsolved_in_mask = 0;
+  std::optional<SpecularMapStatistics> specular;  // when the method made a specular map (specular.exr)
   double load_seconds = 0, solve_seconds = 0, write_seconds = 0;
   std::filesystem::path output_dir;
 

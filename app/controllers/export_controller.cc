@@ -55,6 +55,7 @@ struct ExportInputs {
   ResultAlbedoColor albedo_color;
   ImageF confidence;              // confidence.exr: lights used, condition number, residual
   ImageU8 valid;                  // solved_mask.png: 1 = solved
+  ImageF specular_alpha;          // specular.exr's roughness_alpha (GGX, 0 = not estimated); empty without the file
 };
 
 struct ExportMaps {
@@ -94,6 +95,42 @@ ImageF ReadResultMap(const fs::path& path, int channels, int width, int height) 
     }
   }
   return image;
+}
+
+// specular.exr's roughness_alpha (issue #13): the channels by name (OpenEXR
+// stores them sorted), the session's size, every value finite and in [0, 1].
+ImageF ReadSpecularAlpha(const fs::path& path, int width, int height) {
+  std::vector<std::string> names;
+  const ImageF specular = ReadImageFloat(path, &names);  // names the file when unreadable
+  auto channel_of = [&](const std::string& name) {
+    const auto found = std::find(names.begin(), names.end(), name);
+    if (found == names.end()) {
+      std::string listed;
+      for (const std::string& n : names) listed += (listed.empty() ? "" : ", ") + n;
+      throw FileError(path, "has no channel '" + name + "' (channels: " + listed +
+                                "); specular.exr holds specular_f0 and roughness_alpha");
+    }
+    return static_cast<int>(found - names.begin());
+  };
+  const int f0_channel = channel_of("specular_f0"), alpha_channel = channel_of("roughness_alpha");
+  if (!specular.SameSize(width, height)) {
+    throw FileError(path, "is " + ShapeText(specular) + ", the session's images are " + std::to_string(width) + "x" +
+                              std::to_string(height));
+  }
+  ImageF alpha(width, height, 1);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      for (const auto& [channel, name] : {std::pair{f0_channel, "specular_f0"}, std::pair{alpha_channel, "roughness_alpha"}}) {
+        const float value = specular(x, y, channel);
+        if (!std::isfinite(value) || value < 0.0f || value > 1.0f) {
+          throw FileError(path, std::string(name) + " at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                    ") is " + std::to_string(value) + ", must be finite and in [0, 1]");
+        }
+      }
+      alpha(x, y) = specular(x, y, alpha_channel);
+    }
+  }
+  return alpha;
 }
 
 // 1 where the stored mask is above half, 0 elsewhere.
@@ -582,7 +619,8 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   for (size_t k = 0; k < maps.mips.size(); ++k) {
     const double pixel_mm = mm * std::ldexp(1.0, static_cast<int>(k));
     plan.AddMap("roughness_mip" + std::to_string(k), maps.mips[k].roughness, "Raw", unit_interval,
-                "GGX alpha (" + summary.gloss.model + " mip chain; normal variance below this level folded in)",
+                "GGX alpha (" + summary.gloss.model + " mip chain; normal variance below this level folded in" +
+                    (summary.specular_roughness ? "; mip 0 from specular.exr where estimated)" : ")"),
                 pixel_mm);
     if (k > 0) plan.AddNormal("normal_mip" + std::to_string(k), maps.mips[k].normal_in_tangent, pixel_mm);
   }
@@ -686,6 +724,27 @@ nlohmann::json GroundTruthJson(const ExportOptions& options, const ExportSummary
           {"simulated_rig_mm_per_pixel", truth.mm_per_pixel}};
 }
 
+// Where the roughness maps came from, with the share of solved pixels from
+// each source (only with a specular map; without one it is the normal-variance
+// chain alone).
+nlohmann::json RoughnessSourceJson(const ExportOptions& options, const ExportSummary& summary) {
+  const SpecularRoughnessSummary& s = *summary.specular_roughness;
+  const double solved = std::max<double>(1.0, double(s.from_specular + s.blended + s.from_fallback));
+  return {{"source", summary.roughness_source},
+          {"specular_map", "specular.exr roughness_alpha (GGX) where the solver estimated a lobe"},
+          {"normal_variance", "base_roughness " + Fixed(options.gloss.base_roughness, 3) + " at mip 0, the " +
+                                  summary.gloss.model + " mip chain's normal variance above it"},
+          {"blend", "feathered outside the estimated pixels over blend_width_px in perceptual roughness sqrt(alpha): "
+                    "weight smoothstep(1 - d / (w + 1)) on the mean of the estimates nearby"},
+          {"blend_width_px", options.specular_roughness.blend_width_px},
+          {"pixels", {{"specular_map", s.from_specular}, {"blended", s.blended}, {"normal_variance", s.from_fallback}}},
+          {"share_of_solved_pixels",
+           {{"specular_map", s.from_specular / solved},
+            {"blended", s.blended / solved},
+            {"normal_variance", s.from_fallback / solved}}},
+          {"encoding", "roughness maps hold GGX alpha; perceptual roughness = sqrt(alpha)"}};
+}
+
 nlohmann::json ManifestJson(const ExportOptions& options, const ExportSummary& summary, const ExportInputs& inputs,
                             const std::vector<ExportFile>& files) {
   nlohmann::json manifest;
@@ -718,6 +777,7 @@ nlohmann::json ManifestJson(const ExportOptions& options, const ExportSummary& s
   manifest["files"] = file_entries;
   manifest["options"] = OptionsJson(options);
   manifest["summaries"] = SummariesJson(summary);
+  if (summary.specular_roughness) manifest["roughness"] = RoughnessSourceJson(options, summary);
   if (summary.height_rms_error_mm) {
     manifest["ground_truth"] = GroundTruthJson(options, summary, *inputs.session.ground_truth);
   }
@@ -751,6 +811,7 @@ void ExportOptions::Check() const {
   occlusion_scaled.Check();
   cavity_scaled.Check();
   gloss.Check();
+  specular_roughness.Check();
   tile.Check();
 }
 
@@ -817,6 +878,10 @@ std::string ExportSummary::FullReport() const {
   for (size_t k = 0; k < gloss.mean_roughness.size() && k < 4; ++k) out << " " << gloss.mean_roughness[k];
   if (gloss.mean_roughness.size() > 4) out << " ... " << gloss.mean_roughness.back();
   out << "\n";
+  if (specular_roughness) {
+    out << "  roughness source: specular.exr at " << specular_roughness->from_specular << " px, blended at "
+        << specular_roughness->blended << ", normal variance at " << specular_roughness->from_fallback << "\n";
+  }
   if (tile) out << "  tileable crop: " << TerminationName(tile->termination) << ": " << tile->message << "\n";
   if (height_rms_error_mm) {
     out << "  vs ground truth on the sample: height RMS error " << std::setprecision(4) << *height_rms_error_mm
@@ -898,6 +963,9 @@ ExportInputs ExportController::Load() {
   ReportProgress("load result", 0.6);
   inputs.confidence = ReadResultMap(inputs.result_dir / "confidence.exr", 3, width, height);
   inputs.valid = ReadMask(inputs.result_dir / "solved_mask.png", width, height);
+  if (fs::exists(inputs.result_dir / "specular.exr")) {
+    inputs.specular_alpha = ReadSpecularAlpha(inputs.result_dir / "specular.exr", width, height);
+  }
   ReportProgress("load result", 1);
 
   ResolveScale(inputs.session, inputs.session_dir, options_.mm_per_pixel, &summary_);
@@ -945,9 +1013,24 @@ ExportMaps ExportController::Derive(const ExportInputs& inputs) {
     RequireSuccess(summary_.cavity, "cavity");
   });
 
+  ImageF mip0_roughness;  // with a specular map: its alpha feathered into the base roughness
+  if (!inputs.specular_alpha.empty()) {
+    TimedStage(timings, "specular_roughness", "specular roughness", [&] {
+      // Mip 0 of today's normal-variance chain is base_roughness everywhere;
+      // the chain folds the normal variance into the coarser levels on top of
+      // whatever mip 0 holds.
+      const ImageF base(summary_.image_width, summary_.image_height, 1,
+                        static_cast<float>(options_.gloss.base_roughness));
+      summary_.specular_roughness =
+          BlendSpecularRoughness(options_.specular_roughness, inputs.specular_alpha, base, &inputs.valid,
+                                 &mip0_roughness, StageCallback("specular roughness"));
+      RequireSuccess(*summary_.specular_roughness, "specular roughness");
+      summary_.roughness_source = "specular_map+normal_variance";
+    });
+  }
   TimedStage(timings, "gloss_mips", "roughness mips", [&] {
-    summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals, nullptr, &inputs.valid, &maps.mips,
-                                        StageCallback("roughness mips"));
+    summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals, mip0_roughness.empty() ? nullptr : &mip0_roughness,
+                                        &inputs.valid, &maps.mips, StageCallback("roughness mips"));
     RequireSuccess(summary_.gloss, "roughness mips");
   });
 

@@ -18,6 +18,7 @@
 #include "maps/gloss_mips.h"
 #include "maps/height_from_normals.h"
 #include "maps/normal_flattening.h"
+#include "maps/specular_roughness.h"
 #include "maps/surface_occlusion.h"
 #include "maps/tileable_crop.h"
 
@@ -45,6 +46,9 @@ struct ExportOptions {
   AmbientOcclusionOptions occlusion;    // ditto
   CavityOptions cavity;                 // ditto
   GlossMipOptions gloss;
+  // With the result's specular.exr (issue #13): its roughness where estimated,
+  // feathered into the normal-variance estimate (maps/specular_roughness.h).
+  SpecularRoughnessOptions specular_roughness;
   TileableCropOptions tile;
   void Check() const;
 };
@@ -75,6 +79,10 @@ struct ExportSummary {
   OcclusionSummary occlusion;
   OcclusionSummary cavity;
   GlossMipSummary gloss;
+  // Where mip 0's roughness came from: "normal_variance" (no specular.exr) or
+  // "specular_map+normal_variance"; the counts when a specular map was used.
+  std::string roughness_source = "normal_variance";
+  std::optional<SpecularRoughnessSummary> specular_roughness;
   std::optional<TileableCropSummary> tile;
   // Against the session's ground truth (simulated sessions), on solved sample pixels.
   std::optional<double> height_rms_error_mm;         // after removing the best-fit plane

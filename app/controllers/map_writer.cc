@@ -4,11 +4,15 @@
 #include <cmath>
 #include <functional>
 #include <future>
+#include <stdexcept>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "calibration/color_science.h"
+#include "core/format.h"
 
 namespace scanbench {
 
@@ -48,6 +52,99 @@ ImageMetadata AlbedoMetadata(const AlbedoColor& albedo_color, const std::string&
   return metadata;
 }
 
+namespace {
+
+void CheckSpecularShape(const PhotometricSolution& solution) {
+  const ImageU8& status = solution.status;
+  if (!solution.specular.SameSize(status) || solution.specular.channels() != 2) {
+    throw std::invalid_argument("PhotometricSolution.specular is " + ShapeText(solution.specular) + ", must be " +
+                                std::to_string(status.width()) + "x" + std::to_string(status.height()) +
+                                "x2 (specular_f0, roughness_alpha)");
+  }
+  if (!solution.specular_status.SameSize(status) || solution.specular_status.channels() != 1) {
+    throw std::invalid_argument("PhotometricSolution.specular_status is " + ShapeText(solution.specular_status) +
+                                ", must be " + std::to_string(status.width()) + "x" +
+                                std::to_string(status.height()) + "x1");
+  }
+}
+
+bool IsSpecularUnsupported(const PhotometricSolution& solution, size_t i) {
+  return solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved) &&
+         solution.specular_status.data()[i] == static_cast<uint8_t>(SpecularStatus::kUnsupported);
+}
+
+// specular.exr's pixels: both channels 0 wherever the lobe is not estimated,
+// and a non-finite value (never expected from the solver) as 0, so that no
+// NaN reaches the file and roughness_alpha > 0 alone marks an estimate.
+ImageF SpecularForFile(const PhotometricSolution& solution) {
+  ImageF out(solution.specular.width(), solution.specular.height(), 2);
+  for (size_t i = 0; i < out.num_pixels(); ++i) {
+    const bool estimated = solution.specular_status.data()[i] == static_cast<uint8_t>(SpecularStatus::kEstimated) &&
+                           solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    const float f0 = solution.specular.data()[2 * i], alpha = solution.specular.data()[2 * i + 1];
+    const bool usable = estimated && std::isfinite(f0) && std::isfinite(alpha) && alpha > 0;
+    out.data()[2 * i] = usable ? std::clamp(f0, 0.0f, 1.0f) : 0.0f;
+    out.data()[2 * i + 1] = usable ? std::min(alpha, 1.0f) : 0.0f;
+  }
+  return out;
+}
+
+}  // namespace
+
+ImageU8 StatusPngCodes(const PhotometricSolution& solution) {
+  ImageU8 codes = solution.status;
+  if (solution.specular.empty()) return codes;
+  CheckSpecularShape(solution);
+  for (size_t i = 0; i < codes.num_pixels(); ++i) {
+    if (IsSpecularUnsupported(solution, i)) codes.data()[i] = kStatusSolvedSpecularUnsupported;
+  }
+  return codes;
+}
+
+std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSolution& solution) {
+  if (solution.specular.empty()) return std::nullopt;
+  CheckSpecularShape(solution);
+  SpecularMapStatistics stats;
+  double f0_sum = 0, alpha_sum = 0;
+  for (size_t i = 0; i < solution.specular_status.num_pixels(); ++i) {
+    const int code = std::min<int>(solution.specular_status.data()[i], kNumSpecularStatuses - 1);
+    ++stats.pixels_by_status[code];
+    if (code == static_cast<int>(SpecularStatus::kEstimated)) {
+      const double f0 = solution.specular.data()[2 * i], alpha = solution.specular.data()[2 * i + 1];
+      if (std::isfinite(f0)) f0_sum += f0;
+      if (std::isfinite(alpha)) alpha_sum += alpha;
+    }
+  }
+  if (stats.estimated() > 0) {
+    stats.mean_specular_f0 = f0_sum / stats.estimated();
+    stats.mean_roughness_alpha = alpha_sum / stats.estimated();
+  }
+  return stats;
+}
+
+std::string SpecularMapStatistics::ReportJson() const {
+  nlohmann::json by_status;
+  for (int s = 0; s < kNumSpecularStatuses; ++s) {
+    by_status[SpecularStatusName(static_cast<SpecularStatus>(s))] = pixels_by_status[s];
+  }
+  const nlohmann::json json = {{"file", "specular.exr"},
+                               {"channels", {"specular_f0", "roughness_alpha"}},
+                               {"pixels_by_status", by_status},
+                               {"mean_specular_f0", mean_specular_f0},
+                               {"mean_roughness_alpha", mean_roughness_alpha},
+                               {"means_over", "estimated pixels"},
+                               {"status_png_code_unsupported", kStatusSolvedSpecularUnsupported}};
+  return json.dump();
+}
+
+std::string SpecularMapStatistics::BriefReport() const {
+  return "specular map: " + std::to_string(estimated()) + " estimated, " +
+         std::to_string(pixels_by_status[static_cast<int>(SpecularStatus::kUnsupported)]) + " unsupported, " +
+         std::to_string(pixels_by_status[static_cast<int>(SpecularStatus::kNotSolved)]) +
+         " not solved; mean F0 " + Fixed(mean_specular_f0, 3) + ", mean GGX alpha " +
+         Fixed(mean_roughness_alpha, 3) + " (specular.exr; status.png 7 = unsupported)";
+}
+
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
                                                      const PhotometricSolution& solution,
                                                      const AlbedoColor& albedo_color) {
@@ -63,6 +160,8 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
     confidence.data()[3 * i + 2] = solution.residual.data()[i];
   }
 
+  const ImageU8 status_codes = StatusPngCodes(solution);  // checks the specular maps' shape
+
   // Compression dominates at 16 MP (seconds per file) and the files are
   // independent, so they are written concurrently.
   struct MapFile {
@@ -70,7 +169,7 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
     const char* name;
     std::function<void(const std::filesystem::path&)> write;
   };
-  const std::vector<MapFile> files = {
+  std::vector<MapFile> files = {
       {"normal_exr", "normal.exr", [&](const auto& path) { WriteExr(path, solution.normal_in_table, policy); }},
       {"normal_png16_opengl", "normal.png",
        [&](const auto& path) { WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy); }},
@@ -82,13 +181,22 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
        [&](const auto& path) {
          WritePng(path, EncodeSrgbPreview(solution.albedo), policy, AlbedoMetadata(albedo_color, "sRGB"));
        }},
-      {"status", "status.png", [&](const auto& path) { WritePng(path, solution.status, policy); }},
+      {"status", "status.png", [&](const auto& path) { WritePng(path, status_codes, policy); }},
       {"solved_mask", "solved_mask.png", [&](const auto& path) { WritePng(path, solved, policy); }},
       {"confidence", "confidence.exr",
        [&](const auto& path) {
          WriteExr(path, confidence, policy, {"lights_used", "condition_number", "residual"});
        }},
   };
+  if (!solution.specular.empty()) {
+    files.push_back({"specular_exr", "specular.exr", [&](const auto& path) {
+                       ImageMetadata metadata;
+                       metadata.description =
+                           "specular lobe: specular_f0 (white reflectance at normal incidence, [0, 1]) and "
+                           "roughness_alpha (GGX alpha, (0, 1]); both 0 where not estimated";
+                       WriteExr(path, SpecularForFile(solution), policy, {"specular_f0", "roughness_alpha"}, metadata);
+                     }});
+  }
   std::vector<std::future<void>> pending;
   std::map<std::string, std::string> written;
   for (const MapFile& file : files) {

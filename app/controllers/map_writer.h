@@ -1,8 +1,11 @@
 // Writes a photometric solution as the files a material pipeline picks up.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "app/io/image_io.h"
@@ -18,8 +21,36 @@ ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent);
 // Linear RGB to 8-bit sRGB for a preview.
 ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb);
 
+// status.png's code for a solved pixel whose specular lobe the samples do not
+// support (SpecularStatus::kUnsupported): the codes 0 .. 6 are PixelStatus,
+// 7 is this. Only written when the solution has a specular map; solved_mask.png
+// counts these pixels as solved (their normal and albedo are).
+inline constexpr uint8_t kStatusSolvedSpecularUnsupported = 7;
+
+// status.png: PixelStatus per pixel, solved pixels with an unsupported
+// specular lobe as kStatusSolvedSpecularUnsupported when `specular` is non-empty.
+ImageU8 StatusPngCodes(const PhotometricSolution& solution);
+
+// The specular map of a solution in numbers (report.json's "specular",
+// summary.txt's specular line).
+struct SpecularMapStatistics {
+  std::array<size_t, kNumSpecularStatuses> pixels_by_status{};  // per SpecularStatus
+  double mean_specular_f0 = 0;      // over kEstimated pixels, white reflectance at normal incidence; 0 if none
+  double mean_roughness_alpha = 0;  // over kEstimated pixels, GGX alpha; 0 if none
+  size_t estimated() const { return pixels_by_status[static_cast<int>(SpecularStatus::kEstimated)]; }
+  std::string ReportJson() const;   // {"pixels_by_status": {...}, "mean_specular_f0": .., ...}
+  // "specular map: 1200 estimated, 300 unsupported, 50 not solved; mean F0 0.041, mean GGX alpha 0.210".
+  std::string BriefReport() const;
+};
+// nullopt when the solution has no specular map (`specular` empty); throws
+// std::invalid_argument when specular / specular_status do not fit the
+// solution's size (2 and 1 channels).
+std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSolution& solution);
+
 // Writes normal.exr, normal.png, albedo.exr, albedo_srgb.png, status.png,
-// solved_mask.png and confidence.exr into `folder` (never overwriting).
+// solved_mask.png and confidence.exr into `folder` (never overwriting), and
+// specular.exr (channels specular_f0, roughness_alpha; both 0 where the lobe
+// is not estimated) when the solution has a specular map.
 // albedo.exr and albedo_srgb.png name their colour space (`albedo_color`):
 // linear Rec.709 carries the OpenEXR chromaticities of Rec.709 / D65.
 // Returns output kind -> file name.

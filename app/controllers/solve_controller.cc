@@ -278,6 +278,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
   }
   nlohmann::json timings;
   for (const StageTiming& timing : summary.timings) timings[timing.stage] = timing.seconds;
+  if (summary.specular) report["specular"] = nlohmann::json::parse(summary.specular->ReportJson());  // issue #13
   report["timings_s"] = timings;
   report["outputs"] = outputs;
   return report;
@@ -378,6 +379,7 @@ std::string SolveSummary::FullReport() const {
     }
   }
   if (normal_error_deg) out << "  unsolved pixels on the sample: " << unsolved_on_sample << "\n";
+  if (specular) out << "  " << specular->BriefReport() << "\n";
   out << "  time per stage (s):";
   for (const StageTiming& timing : timings) out << " " << timing.stage << " " << timing.seconds << ";";
   out << " total " << TotalSeconds() << "\n";
@@ -423,6 +425,7 @@ void SolveController::Run() {
                                              StageCallback("solve"));
     RequireSuccess(summary_.solver, "solve");
   });
+  summary_.specular = SpecularMapStatisticsOf(solution);
   frames.rgb.clear();  // a full-size session's frames hold gigabytes
   frames.valid.clear();
   TimedStage(timings, "color", "", [&] {

@@ -10,6 +10,7 @@
 
 #include "app/controllers/albedo_color.h"
 #include "app/controllers/base_controller.h"
+#include "app/controllers/map_writer.h"
 #include "calibration/raw_develop.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
@@ -53,6 +54,7 @@ struct SolveSummary {
   AlbedoColor albedo_color;                     // the albedo's colour space and scale, and where they came from
   std::optional<AlbedoColorErrors> albedo_color_error;  // CIEDE2000 against the ground truth (linear Rec.709)
   size_t unsolved_on_sample = 0;
+  std::optional<SpecularMapStatistics> specular;  // when the method made a specular map (specular.exr)
 
   double TotalSeconds() const;
   std::string FullReport() const;               // the human-readable summary.txt

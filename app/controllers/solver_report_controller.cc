@@ -17,6 +17,7 @@
 #include "calibration/rig.h"
 #include "calibration/rig_light_field.h"
 #include "solver/angular_error.h"
+#include "solver/light_subset.h"
 #include "solver/photometric_solver.h"
 #include "solver/synthetic_scene.h"
 
@@ -26,6 +27,9 @@ namespace fs = std::filesystem;
 namespace {
 
 using Method = PhotometricSolverOptions::Method;
+
+constexpr int kDiligentLights = 96;   // every DiLiGenT object has 96 lights
+constexpr int kReportRingLights = 10;  // the DiLiGenT subsets: as many lights as the rig has LEDs
 
 // One scene of the report: what the solver gets and the truth to score it.
 struct ReportScene {
@@ -54,22 +58,38 @@ ReportScene AnalyticScene(const std::string& name, const SyntheticSceneOptions& 
   return out;
 }
 
+std::string RigSceneName(bool raw_path, SurfaceMaterial material) {
+  if (material == SurfaceMaterial::kCloth) return "rig cloth twill 1232x816, RAW: velvet sheen, sensor noise, demosaiced";
+  if (material == SurfaceMaterial::kSatin) return "rig satin 1232x816, RAW: anisotropic GGX lobe, sensor noise, demosaiced";
+  return raw_path ? "rig textile 1232x816, RAW: sensor noise, cast shadows, demosaiced"
+                  : "rig textile 1232x816, near-field LEDs, cast shadows, noise-free";
+}
+
+// "DiLiGenT ballPNG (96 lights)", "DiLiGenT ballPNG (10 ring lights)" (the folder name).
+std::string DiligentSceneName(const std::string& object, int num_lights, bool ring) {
+  return "DiLiGenT " + object + " (" + std::to_string(num_lights) + (ring ? " ring lights)" : " lights)");
+}
+
 // The simulated rig's LEDs shining on the true surface points: the exact
 // light field, so that the report measures the solver, not the light model.
 std::unique_ptr<LightField> RigLightsOnSurface(const RigDescription& rig, const ImageF& points) {
   return std::make_unique<PointLightField>(RigPointLights(rig), points);
 }
 
-ReportScene RigScene(bool raw_path, int num_threads) {
+// The simulated rig's default twill at the default size; `material` other
+// than kLambert only through the RAW path (issue #13: the cloth and satin
+// scenes are scored as the scanner would see them).
+ReportScene RigScene(bool raw_path, int num_threads, SurfaceMaterial material = SurfaceMaterial::kLambert) {
   SimulatedRigOptions options;
   options.num_threads = num_threads;
   if (!raw_path) options.ambient = 0;  // noise-free linear frames: Lambertian + cast shadows only
   const RigDescription rig = MakeDefaultSimulatedRig(options.width, options.height);
-  const SimulatedRig sim(options, TextileScene(TextileSceneOptions()), rig);
+  TextileSceneOptions textile;
+  textile.material = material;
+  const SimulatedRig sim(options, TextileScene(textile), rig);
   GroundTruthMaps truth = sim.RenderGroundTruth();
   ReportScene out;
-  out.name = raw_path ? "rig textile 1232x816, RAW: sensor noise, cast shadows, demosaiced"
-                      : "rig textile 1232x816, near-field LEDs, cast shadows, noise-free";
+  out.name = RigSceneName(raw_path, material);
   out.field = RigLightsOnSurface(rig, truth.point_in_table);
   if (!raw_path) {
     for (int k = 0; k < sim.num_leds(); ++k) out.images.push_back(sim.RenderLinear(k));
@@ -97,10 +117,13 @@ ReportScene RigScene(bool raw_path, int num_threads) {
   return out;
 }
 
-ReportScene DiligentScene(const fs::path& folder) {
+// `ring_lights` > 0 keeps that many lights chosen like the rig's two LED
+// rings (solve-dataset --ring-lights), else all of them.
+ReportScene DiligentScene(const fs::path& folder, int ring_lights) {
   PhotometricDataset dataset = LoadPhotometricDataset(folder);
+  if (ring_lights > 0) dataset.KeepLights(SelectRingLights(dataset.CentralLightDirections(), ring_lights));
   ReportScene out;
-  out.name = "DiLiGenT " + dataset.name + " (" + std::to_string(dataset.num_lights()) + " lights)";
+  out.name = DiligentSceneName(dataset.name, dataset.num_lights(), ring_lights > 0);
   out.field = dataset.MakeLightField();
   out.images = std::move(dataset.images);
   out.normal_truth = dataset.normal_ground_truth ? std::move(*dataset.normal_ground_truth) : ImageF();
@@ -124,6 +147,7 @@ std::string XmlEscape(const std::string& text) {
 // at a time is in memory.
 struct SceneBuilder {
   std::string kind;  // "analytic", "rig", "16mp", "diligent"
+  std::string name;  // ReportScene::name as built (DiLiGenT: from the folder)
   std::function<ReportScene()> build;
 };
 
@@ -205,27 +229,34 @@ std::vector<SceneBuilder> SceneBuilders(const SolverReportOptions& options, std:
   std::vector<SceneBuilder> builders;
   const int size = options.analytic_size;
   for (double noise : {0.001, 0.005}) {
-    builders.push_back({"analytic", [size, noise] {
+    const std::string name = "sphere " + std::to_string(size) + "^2, distant, Lambertian, noise " + Fixed(noise, 3);
+    builders.push_back({"analytic", name, [size, noise, name] {
       SyntheticSceneOptions o;
       o.width = o.height = size;
       o.noise_stddev = noise;
-      return AnalyticScene("sphere " + std::to_string(size) + "^2, distant, Lambertian, noise " + Fixed(noise, 3), o);
+      return AnalyticScene(name, o);
     }});
   }
-  builders.push_back({"analytic", [size] {
+  const std::string sheen = "sphere " + std::to_string(size) + "^2, 20 distant lights, specular sheen, noise 0.002";
+  builders.push_back({"analytic", sheen, [size, sheen] {
     SyntheticSceneOptions o;
     o.width = o.height = size;
     o.noise_stddev = 0.002;
     o.specular = 0.5;
     o.shininess = 50;
     o.num_lights = 20;
-    return AnalyticScene("sphere " + std::to_string(size) + "^2, 20 distant lights, specular sheen, noise 0.002", o);
+    return AnalyticScene(sheen, o);
   }});
   const int threads = options.num_threads;
-  builders.push_back({"rig", [threads] { return RigScene(false, threads); }});
-  builders.push_back({"rig", [threads] { return RigScene(true, threads); }});
+  builders.push_back({"rig", RigSceneName(false, SurfaceMaterial::kLambert), [threads] { return RigScene(false, threads); }});
+  for (SurfaceMaterial material : {SurfaceMaterial::kLambert, SurfaceMaterial::kCloth, SurfaceMaterial::kSatin}) {
+    builders.push_back({"rig", RigSceneName(true, material), [threads, material] {
+      return RigScene(true, threads, material);
+    }});
+  }
   if (options.include_16mp) {
-    builders.push_back({"16mp", [] {
+    const std::string name = "16 MP 4928x3264, 10 near-field LEDs, Lambertian, noise 0.002";
+    builders.push_back({"16mp", name, [name] {
       SyntheticSceneOptions o;
       o.width = kD5100Width;
       o.height = kD5100Height;
@@ -233,17 +264,24 @@ std::vector<SceneBuilder> SceneBuilders(const SolverReportOptions& options, std:
       o.pixel_pitch = 150.0 / o.width;  // a 150 mm field of view, LEDs 500 mm away
       o.light_distance = 500;
       o.noise_stddev = 0.002;
-      return AnalyticScene("16 MP 4928x3264, 10 near-field LEDs, Lambertian, noise 0.002", o);
+      return AnalyticScene(name, o);
     }});
   } else {
     skipped->push_back("the 16 MP scene (--no-16mp)");
   }
-  for (const char* object : {"ballPNG", "bearPNG"}) {
-    const fs::path folder = options.diligent_dir / object;
-    if (!options.diligent_dir.empty() && fs::is_directory(folder)) {
-      builders.push_back({"diligent", [folder] { return DiligentScene(folder); }});
-    } else {
-      skipped->push_back(std::string("DiLiGenT ") + object + " (not found at " + folder.string() + ")");
+  // Every light (the benchmark's setting), then 10 chosen like the rig's LED
+  // rings (the scanner's regime, issue #13).
+  for (int ring_lights : {0, kReportRingLights}) {
+    for (const char* object : {"ballPNG", "bearPNG"}) {
+      const fs::path folder = options.diligent_dir / object;
+      if (!options.diligent_dir.empty() && fs::is_directory(folder)) {
+        builders.push_back({"diligent",
+                            DiligentSceneName(object, ring_lights > 0 ? ring_lights : kDiligentLights, ring_lights > 0),
+                            [folder, ring_lights] { return DiligentScene(folder, ring_lights); }});
+      } else {
+        skipped->push_back(std::string("DiLiGenT ") + object + (ring_lights > 0 ? " with 10 ring lights" : "") +
+                           " (not found at " + folder.string() + ")");
+      }
     }
   }
   return builders;
@@ -262,6 +300,15 @@ std::string ReportCsv(const std::vector<SolverReportRow>& rows) {
 }
 
 }  // namespace
+
+std::vector<std::string> SolverReportSceneNames(const SolverReportOptions& options, std::vector<std::string>* skipped) {
+  std::vector<std::string> ignored;
+  std::vector<std::string> names;
+  for (const SceneBuilder& builder : SceneBuilders(options, skipped != nullptr ? skipped : &ignored)) {
+    names.push_back(builder.name);
+  }
+  return names;
+}
 
 void SolverReportOptions::Check() const {
   if (output_dir.empty()) throw std::invalid_argument("SolverReportOptions.output_dir is empty; a folder is required");

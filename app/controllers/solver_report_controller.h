@@ -1,8 +1,10 @@
 // The solver's error against run time: every method on simulated scenes
 // (analytic spheres: Lambertian at several noise levels and with specular
 // sheen; the simulated rig's textile with near-field LEDs and cast shadows,
-// noise-free and through the RAW path incl. the Bayer-domain mode; a 16 MP
-// 10-light near-field scene) and on the DiLiGenT objects when present.
+// noise-free and through the RAW path incl. the Bayer-domain mode, and its
+// cloth twill and satin through the RAW path; a 16 MP 10-light near-field
+// scene) and on the DiLiGenT ball and bear when present, with all 96 lights
+// and with 10 chosen like the rig's LED rings.
 // Writes report.md (the table docs/solver.md quotes), report.csv and
 // error_vs_time.svg (one panel per scene, Pareto front drawn).
 #pragma once
@@ -54,6 +56,11 @@ class SolverReportController : public BaseController {
   SolverReportOptions options_;
   SolverReportSummary summary_;
 };
+
+// The scenes Run solves, in report order, without building any (for tests
+// and --help); what is left out and why goes into *skipped when given.
+std::vector<std::string> SolverReportSceneNames(const SolverReportOptions& options,
+                                                std::vector<std::string>* skipped = nullptr);
 
 // The plot on its own (for tests): one panel per scene, seconds per
 // megapixel (log) against mean angular error, Pareto front as a line.

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 #include <vector>
 
+#include "app/controllers/map_writer.h"
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
 #include "calibration/color_science.h"
@@ -26,15 +28,21 @@ QImage LoadQtImage(const fs::path& path) {
   return image.convertToFormat(QImage::Format_RGB32);
 }
 
-// The colours of status.png's codes (see README: 0 solved ... 6 invalid input).
+// The colours of status.png's codes (see README: 0 solved ... 6 invalid input;
+// 7 solved without a specular estimate, kStatusSolvedSpecularUnsupported: pale
+// cyan, a solved colour that stands out from the green).
 QImage StatusImage(const fs::path& path) {
   const ImageU8 status = ReadImageU8(path);
   static const QRgb kColours[] = {qRgb(40, 170, 70),  qRgb(30, 30, 30),   qRgb(230, 160, 30), qRgb(200, 60, 200),
-                                  qRgb(60, 90, 200),  qRgb(220, 40, 40), qRgb(255, 255, 255)};
+                                  qRgb(60, 90, 200),  qRgb(220, 40, 40), qRgb(255, 255, 255), qRgb(150, 225, 235)};
+  static_assert(std::size(kColours) == kStatusSolvedSpecularUnsupported + 1);
   QImage image(status.width(), status.height(), QImage::Format_RGB32);
   for (int y = 0; y < status.height(); ++y) {
     auto* line = reinterpret_cast<QRgb*>(image.scanLine(y));
-    for (int x = 0; x < status.width(); ++x) line[x] = kColours[std::min<int>(status(x, y, 0), 6)];
+    for (int x = 0; x < status.width(); ++x) {
+      const int code = status(x, y, 0);
+      line[x] = kColours[code < int(std::size(kColours)) ? code : int(PixelStatus::kInvalidInput)];
+    }
   }
   return image;
 }

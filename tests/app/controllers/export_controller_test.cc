@@ -511,6 +511,98 @@ TEST_F(ExportControllerTest, UnsolvedPixelsAreHolesAndMarkedInTheMask) {
   EXPECT_LT(*summary.height_rms_error_mm, 0.05) << "the hole is left out of the comparison";
 }
 
+// Issue #13: a result with specular.exr (here hand-made: the left part of the
+// image estimated with a ramp of alphas, the rest unsupported) exports its
+// roughness there, today's estimate far from it, and a feather in between.
+TEST_F(ExportControllerTest, RoughnessUsesTheSpecularMapWhereEstimated) {
+  const fs::path result = CopyOfSession();
+  const ImageU8 solved = ReadImageU8(result / "solved_mask.png");
+  const int width = solved.width(), height = solved.height();
+  constexpr int kSeamX = 200;  // estimated at x < kSeamX
+  ImageF specular(width, height, 2);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < kSeamX; ++x) {
+      specular(x, y, 0) = 0.05f;
+      specular(x, y, 1) = 0.04f + 0.5f * x / kSeamX;  // GGX alpha 0.04 .. 0.54
+    }
+  }
+  WriteExr(result / "specular.exr", specular, OverwritePolicy::kRefuse, {"specular_f0", "roughness_alpha"});
+  ExportOptions options;
+  options.preset = ExportOptions::Preset::kLinearExr;
+  const ExportSummary summary = Export(options, result);
+  EXPECT_EQ(summary.roughness_source, "specular_map+normal_variance");
+  const ImageF roughness = ReadImageFloat(summary.export_dir / summary.files.at("roughness_mip0"));
+  const int w = options.specular_roughness.blend_width_px;
+  const double base = options.gloss.base_roughness;
+  size_t checked_specular = 0, checked_fallback = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      if (!solved(x, y)) continue;
+      if (x < kSeamX) {
+        // Perceptual roughness sqrt(alpha) of the map is the specular map's.
+        ASSERT_NEAR(std::sqrt(roughness(x, y)), std::sqrt(specular(x, y, 1)), 1e-6) << x << ", " << y;
+        ++checked_specular;
+      } else if (x > kSeamX + w) {
+        ASSERT_NEAR(roughness(x, y), base, 1e-6) << x << ", " << y;  // the old estimate
+        ++checked_fallback;
+      } else {
+        // In the feather: between the estimates nearby and the old value.
+        EXPECT_GT(roughness(x, y), base - 1e-6);
+        EXPECT_LT(roughness(x, y), 0.55);
+      }
+    }
+  }
+  EXPECT_GT(checked_specular, 30000u);
+  EXPECT_GT(checked_fallback, 30000u);
+  // No hard edge: along a solved row, perceptual roughness steps across the
+  // feather by much less than the 0.54 -> 0.3 jump (0.19 in sqrt(alpha)).
+  const int row = height / 2;
+  double largest_step = 0;
+  for (int x = kSeamX - 3; x < kSeamX + w + 3; ++x) {
+    if (solved(x, row) && solved(x + 1, row)) {
+      largest_step = std::max(largest_step, std::abs(std::sqrt(double(roughness(x + 1, row))) - std::sqrt(double(roughness(x, row)))));
+    }
+  }
+  EXPECT_LT(largest_step, 0.06);
+  EXPECT_GT(largest_step, 0.0);
+
+  const nlohmann::json manifest = ReadJson(summary.export_dir / "material.json");
+  ASSERT_TRUE(manifest.contains("roughness"));
+  const nlohmann::json& source = manifest["roughness"];
+  EXPECT_EQ(source["source"], "specular_map+normal_variance");
+  EXPECT_EQ(source["pixels"]["specular_map"].get<size_t>(), checked_specular);
+  const double shares = source["share_of_solved_pixels"]["specular_map"].get<double>() +
+                        source["share_of_solved_pixels"]["blended"].get<double>() +
+                        source["share_of_solved_pixels"]["normal_variance"].get<double>();
+  EXPECT_NEAR(shares, 1.0, 1e-9);
+  EXPECT_NEAR(source["share_of_solved_pixels"]["specular_map"].get<double>(), 0.5, 0.05);
+  EXPECT_THAT(source["encoding"].get<std::string>(), HasSubstr("sqrt(alpha)"));
+
+  // Without specular.exr nothing of this appears.
+  const ExportSummary plain = Export(options);
+  EXPECT_EQ(plain.roughness_source, "normal_variance");
+  EXPECT_FALSE(ReadJson(plain.export_dir / "material.json").contains("roughness"));
+  const ImageF plain_roughness = ReadImageFloat(plain.export_dir / plain.files.at("roughness_mip0"));
+  EXPECT_NEAR(plain_roughness(10, row), base, 1e-6);
+}
+
+TEST_F(ExportControllerTest, BadSpecularMapIsNamedAndLeavesNoExport) {
+  const fs::path result = CopyOfSession();
+  const fs::path exports = local_ / "exports";
+  WriteExr(result / "specular.exr", ImageF(400, 264, 1, 0.5f), OverwritePolicy::kRefuse, {"roughness_alpha"});
+  EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), result); }),
+              HasSubstr("specular.exr: has no channel 'specular_f0'"));
+  ImageF specular(400, 264, 2, 0.2f);
+  specular(7, 5, 1) = 1.5f;
+  WriteExr(result / "specular.exr", specular, OverwritePolicy::kReplace, {"specular_f0", "roughness_alpha"});
+  EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), result); }),
+              HasSubstr("specular.exr: roughness_alpha at pixel (7, 5) is 1.500000, must be finite and in [0, 1]"));
+  WriteExr(result / "specular.exr", ImageF(200, 264, 2, 0.2f), OverwritePolicy::kReplace,
+           {"specular_f0", "roughness_alpha"});
+  EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), result); }), HasSubstr("specular.exr: is 200x264x2"));
+  EXPECT_FALSE(fs::exists(exports));
+}
+
 TEST_F(ExportControllerTest, CancelLeavesNothingBehind) {
   for (const std::string stop_at : {"height from normals", "write files"}) {
     SCOPED_TRACE(stop_at);

@@ -313,6 +313,33 @@ TEST(SolverReportTest, TableAndPlotHoldEveryRow) {
   EXPECT_THAT(svg, HasSubstr("<path d=\"M"));  // the Pareto front
 }
 
+// The scene list, planned without building or solving anything (the full
+// report takes minutes): cloth and satin through the RAW path, and DiLiGenT
+// at 96 and at 10 ring lights when the folders exist.
+TEST(SolverReportTest, ScenesIncludeClothSatinAndRingSubsets) {
+  TemporaryFolder folder;
+  SolverReportOptions options;
+  options.output_dir = folder.path() / "out";
+  options.include_16mp = false;
+  options.diligent_dir = folder.path() / "diligent";
+  std::vector<std::string> skipped;
+  const std::vector<std::string> without = SolverReportSceneNames(options, &skipped);
+  EXPECT_EQ(without.size(), 7u);  // 3 analytic, 4 rig
+  EXPECT_EQ(skipped.size(), 5u);  // 16 MP, ball and bear at 96 and at 10 lights
+  EXPECT_THAT(without[5], HasSubstr("rig cloth twill 1232x816, RAW"));
+  EXPECT_THAT(without[6], HasSubstr("rig satin 1232x816, RAW"));
+  EXPECT_THAT(skipped.back(), HasSubstr("bearPNG with 10 ring lights"));
+
+  fs::create_directories(options.diligent_dir / "ballPNG");
+  fs::create_directories(options.diligent_dir / "bearPNG");
+  const std::vector<std::string> with = SolverReportSceneNames(options);
+  ASSERT_EQ(with.size(), 11u);
+  EXPECT_EQ(with[7], "DiLiGenT ballPNG (96 lights)");
+  EXPECT_EQ(with[8], "DiLiGenT bearPNG (96 lights)");
+  EXPECT_EQ(with[9], "DiLiGenT ballPNG (10 ring lights)");
+  EXPECT_EQ(with[10], "DiLiGenT bearPNG (10 ring lights)");
+}
+
 TEST(SolverReportTest, OptionsAreChecked) {
   SolverReportOptions options;
   EXPECT_THAT([&] { options.Check(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("output_dir")));

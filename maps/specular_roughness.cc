@@ -1,0 +1,134 @@
+#include "maps/specular_roughness.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/field_error.h"
+#include "core/format.h"
+#include "maps/gloss_mips.h"
+
+namespace scanbench {
+namespace {
+
+template <typename T>
+void CheckMap(const Image<T>& image, const ImageF& reference, const char* name) {
+  if (!image.SameSize(reference) || image.channels() != 1) {
+    throw std::invalid_argument(std::string("specular roughness: ") + name + " is " + ShapeText(image) +
+                                ", must be " + std::to_string(reference.width()) + "x" +
+                                std::to_string(reference.height()) + "x1");
+  }
+}
+
+double Smoothstep(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t * t * (3.0 - 2.0 * t);
+}
+
+}  // namespace
+
+void SpecularRoughnessOptions::Check() const {
+  if (blend_width_px < 0 || blend_width_px > 256) {
+    throw FieldError("SpecularRoughnessOptions", "blend_width_px", blend_width_px,
+                     "must lie in [0, 256] (pixels; 0 = a hard edge)");
+  }
+}
+
+std::string SpecularRoughnessSummary::BriefReport() const {
+  std::string report = "Specular roughness: " + std::string(TerminationName(termination)) + ", " +
+                       std::to_string(from_specular) + " px from the specular map, " + std::to_string(blended) +
+                       " blended, " + std::to_string(from_fallback) + " from the fallback, " + Fixed(seconds, 2) +
+                       " s";
+  if (termination != Termination::kSuccess && !message.empty()) report += " (" + message + ")";
+  return report;
+}
+
+SpecularRoughnessSummary BlendSpecularRoughness(const SpecularRoughnessOptions& options, const ImageF& specular_alpha,
+                                                const ImageF& fallback_alpha, const ImageU8* valid,
+                                                ImageF* roughness_alpha, const ProgressCallback& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  options.Check();
+  if (specular_alpha.empty() || specular_alpha.channels() != 1) {
+    throw std::invalid_argument("specular roughness: specular_alpha is " + ShapeText(specular_alpha) +
+                                ", must be non-empty with 1 channel");
+  }
+  CheckMap(fallback_alpha, specular_alpha, "fallback_alpha");
+  if (valid != nullptr) CheckMap(*valid, specular_alpha, "valid mask");
+  if (roughness_alpha == nullptr) throw std::invalid_argument("specular roughness: roughness_alpha must not be null");
+
+  const int width = specular_alpha.width(), height = specular_alpha.height();
+  const int w = options.blend_width_px;
+  auto is_valid = [&](int x, int y) { return valid == nullptr || (*valid)(x, y) != 0; };
+  auto estimated = [&](int x, int y) {
+    const float a = specular_alpha(x, y);
+    return is_valid(x, y) && std::isfinite(a) && a > 0.0f;
+  };
+  // Perceptual roughness of the estimates (0 elsewhere) and their indicator.
+  cv::Mat r_sum(height, width, CV_64F, cv::Scalar(0)), count(height, width, CV_64F, cv::Scalar(0));
+  cv::Mat not_estimated(height, width, CV_8U, cv::Scalar(1));
+  size_t any_estimated = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      if (!estimated(x, y)) continue;
+      r_sum.at<double>(y, x) = std::sqrt(std::clamp(double(specular_alpha(x, y)), kMinGgxAlpha, 1.0));
+      count.at<double>(y, x) = 1;
+      not_estimated.at<uint8_t>(y, x) = 0;
+      ++any_estimated;
+    }
+  }
+  cv::Mat distance;  // to the nearest estimated pixel, pixels (Euclidean)
+  if (any_estimated > 0 && w > 0) {
+    cv::distanceTransform(not_estimated, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+    // Window sums of both: their ratio is the mean r of the estimates nearby.
+    const cv::Size window(2 * w + 1, 2 * w + 1);
+    cv::boxFilter(r_sum, r_sum, CV_64F, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+    cv::boxFilter(count, count, CV_64F, window, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  }
+  SpecularRoughnessSummary s;
+  if (progress && !progress(0.5)) {
+    s.SetCancelled("specular roughness cancelled by the progress callback after the distance transform");
+    s.seconds = SecondsSince(start);
+    return s;
+  }
+
+  ImageF out(width, height, 1);
+  size_t bad_fallback = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      double fallback = fallback_alpha(x, y);
+      if (!std::isfinite(fallback)) {
+        fallback = 1.0;
+        ++bad_fallback;
+      }
+      fallback = std::clamp(fallback, kMinGgxAlpha, 1.0);
+      double alpha = fallback;
+      if (estimated(x, y)) {
+        alpha = std::clamp(double(specular_alpha(x, y)), kMinGgxAlpha, 1.0);
+        ++s.from_specular;
+      } else if (is_valid(x, y) && !distance.empty() && distance.at<float>(y, x) <= w &&
+                 count.at<double>(y, x) > 0.5) {
+        const double weight = Smoothstep(1.0 - distance.at<float>(y, x) / (w + 1.0));
+        const double r = weight * (r_sum.at<double>(y, x) / count.at<double>(y, x)) +
+                         (1.0 - weight) * std::sqrt(fallback);
+        alpha = std::clamp(r * r, kMinGgxAlpha, 1.0);
+        ++s.blended;
+      } else if (is_valid(x, y)) {
+        ++s.from_fallback;
+      }
+      out(x, y) = static_cast<float>(alpha);
+    }
+  }
+  *roughness_alpha = std::move(out);
+  s.termination = Termination::kSuccess;
+  s.message = std::to_string(s.from_specular) + " px from the specular map, " + std::to_string(s.blended) +
+              " blended over " + std::to_string(w) + " px, " + std::to_string(s.from_fallback) + " from the fallback";
+  if (bad_fallback > 0) s.message += "; " + std::to_string(bad_fallback) + " non-finite fallback values taken as 1";
+  s.seconds = SecondsSince(start);
+  return s;
+}
+
+}  // namespace scanbench
