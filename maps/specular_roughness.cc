@@ -19,8 +19,7 @@ template <typename T>
 void CheckMap(const Image<T>& image, const ImageF& reference, const char* name) {
   if (!image.SameSize(reference) || image.channels() != 1) {
     throw std::invalid_argument(std::string("specular roughness: ") + name + " is " + ShapeText(image) +
-                                ", must be " + std::to_string(reference.width()) + "x" +
-                                std::to_string(reference.height()) + "x1");
+                                ", must be " + SizeText(reference.width(), reference.height()) + "x1");
   }
 }
 

@@ -114,13 +114,13 @@ ImageF ReadSpecularAlpha(const fs::path& path, int width, int height) {
   };
   const int f0_channel = channel_of("specular_f0"), alpha_channel = channel_of("roughness_alpha");
   if (!specular.SameSize(width, height)) {
-    throw FileError(path, "is " + ShapeText(specular) + ", the session's images are " + std::to_string(width) + "x" +
-                              std::to_string(height));
+    throw FileError(path, "is " + ShapeText(specular) + ", the session's images are " + SizeText(width, height));
   }
   ImageF alpha(width, height, 1);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
-      for (const auto& [channel, name] : {std::pair{f0_channel, "specular_f0"}, std::pair{alpha_channel, "roughness_alpha"}}) {
+      for (const auto& [channel, name] :
+           {std::pair{f0_channel, "specular_f0"}, std::pair{alpha_channel, "roughness_alpha"}}) {
         const float value = specular(x, y, channel);
         if (!std::isfinite(value) || value < 0.0f || value > 1.0f) {
           throw FileError(path, std::string(name) + " at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
@@ -1029,8 +1029,9 @@ ExportMaps ExportController::Derive(const ExportInputs& inputs) {
     });
   }
   TimedStage(timings, "gloss_mips", "roughness mips", [&] {
-    summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals, mip0_roughness.empty() ? nullptr : &mip0_roughness,
-                                        &inputs.valid, &maps.mips, StageCallback("roughness mips"));
+    summary_.gloss =
+        BuildGlossMipChain(options_.gloss, maps.normals, mip0_roughness.empty() ? nullptr : &mip0_roughness,
+                           &inputs.valid, &maps.mips, StageCallback("roughness mips"));
     RequireSuccess(summary_.gloss, "roughness mips");
   });
 

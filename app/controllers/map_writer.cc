@@ -58,13 +58,11 @@ void CheckSpecularShape(const PhotometricSolution& solution) {
   const ImageU8& status = solution.status;
   if (!solution.specular.SameSize(status) || solution.specular.channels() != 2) {
     throw std::invalid_argument("PhotometricSolution.specular is " + ShapeText(solution.specular) + ", must be " +
-                                std::to_string(status.width()) + "x" + std::to_string(status.height()) +
-                                "x2 (specular_f0, roughness_alpha)");
+                                SizeText(status.width(), status.height()) + "x2 (specular_f0, roughness_alpha)");
   }
   if (!solution.specular_status.SameSize(status) || solution.specular_status.channels() != 1) {
     throw std::invalid_argument("PhotometricSolution.specular_status is " + ShapeText(solution.specular_status) +
-                                ", must be " + std::to_string(status.width()) + "x" +
-                                std::to_string(status.height()) + "x1");
+                                ", must be " + SizeText(status.width(), status.height()) + "x1");
   }
 }
 

@@ -59,8 +59,12 @@ ReportScene AnalyticScene(const std::string& name, const SyntheticSceneOptions& 
 }
 
 std::string RigSceneName(bool raw_path, SurfaceMaterial material) {
-  if (material == SurfaceMaterial::kCloth) return "rig cloth twill 1232x816, RAW: velvet sheen, sensor noise, demosaiced";
-  if (material == SurfaceMaterial::kSatin) return "rig satin 1232x816, RAW: anisotropic GGX lobe, sensor noise, demosaiced";
+  if (material == SurfaceMaterial::kCloth) {
+    return "rig cloth twill 1232x816, RAW: velvet sheen, sensor noise, demosaiced";
+  }
+  if (material == SurfaceMaterial::kSatin) {
+    return "rig satin 1232x816, RAW: anisotropic GGX lobe, sensor noise, demosaiced";
+  }
   return raw_path ? "rig textile 1232x816, RAW: sensor noise, cast shadows, demosaiced"
                   : "rig textile 1232x816, near-field LEDs, cast shadows, noise-free";
 }
@@ -248,7 +252,8 @@ std::vector<SceneBuilder> SceneBuilders(const SolverReportOptions& options, std:
     return AnalyticScene(sheen, o);
   }});
   const int threads = options.num_threads;
-  builders.push_back({"rig", RigSceneName(false, SurfaceMaterial::kLambert), [threads] { return RigScene(false, threads); }});
+  builders.push_back(
+      {"rig", RigSceneName(false, SurfaceMaterial::kLambert), [threads] { return RigScene(false, threads); }});
   for (SurfaceMaterial material : {SurfaceMaterial::kLambert, SurfaceMaterial::kCloth, SurfaceMaterial::kSatin}) {
     builders.push_back({"rig", RigSceneName(true, material), [threads, material] {
       return RigScene(true, threads, material);

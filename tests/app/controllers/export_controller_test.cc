@@ -560,7 +560,8 @@ TEST_F(ExportControllerTest, RoughnessUsesTheSpecularMapWhereEstimated) {
   double largest_step = 0;
   for (int x = kSeamX - 3; x < kSeamX + w + 3; ++x) {
     if (solved(x, row) && solved(x + 1, row)) {
-      largest_step = std::max(largest_step, std::abs(std::sqrt(double(roughness(x + 1, row))) - std::sqrt(double(roughness(x, row)))));
+      const double step = std::sqrt(double(roughness(x + 1, row))) - std::sqrt(double(roughness(x, row)));
+      largest_step = std::max(largest_step, std::abs(step));
     }
   }
   EXPECT_LT(largest_step, 0.06);
