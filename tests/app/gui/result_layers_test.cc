@@ -52,6 +52,24 @@ class ResultLayersTest : public QObject {
     WritePng(dir_ / "albedo_srgb.png", ImageU8(8, 4, 3, 128), OverwritePolicy::kRefuse);
   }
 
+  // Issue #13: status.png's code 7 (solved, specular map unsupported) has its
+  // own colour; solved stays green, unknown codes read as invalid input.
+  void StatusShowsSpecularUnsupportedApart() {
+    const std::filesystem::path dir = folder_ / "status_result";
+    std::filesystem::create_directories(dir);
+    ImageU8 status(4, 1, 1);
+    status(0, 0) = 0;
+    status(1, 0) = 7;
+    status(2, 0) = 6;
+    status(3, 0) = 200;
+    WritePng(dir / "status.png", status, OverwritePolicy::kRefuse);
+    const QImage image = LoadResultLayerImage(dir, ResultLayer::kStatus).image;
+    QCOMPARE(image.pixel(0, 0), qRgb(40, 170, 70));
+    QCOMPARE(image.pixel(1, 0), qRgb(150, 225, 235));
+    QCOMPARE(image.pixel(2, 0), qRgb(255, 255, 255));
+    QCOMPARE(image.pixel(3, 0), qRgb(255, 255, 255));
+  }
+
   void AngularErrorScaleStatesTheMapsRange() {
     const LayerImage layer = LoadResultLayerImage(dir_, ResultLayer::kAngularError);
     QVERIFY(layer.scale.has_value());
