@@ -7,6 +7,7 @@
 #include <limits>
 #include <mutex>
 #include <numbers>
+#include <span>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -390,7 +391,7 @@ void SimulatedRig::TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& ca
       FootprintOffsets(Mix64(scene_.options().seed ^ 0xF1B5E5ULL) ^ i, samples, &offsets);
       for (int k = 0; k < samples; ++k) {
         const Eigen::Vector2d at = point.head<2>() + mm_per_pixel_ * offsets[k];
-        const Eigen::Vector2d tilt = scene_.FibreTiltGradient(at.x(), at.y());
+        const Eigen::Vector2d tilt = scene_.FibreTiltGradient(at.x(), at.y(), s.warp_weight);
         for (int a = 0; a < 2; ++a) {
           fibre_tilt_[2 * (samples * i + k) + a] =
               static_cast<int16_t>(std::clamp(std::nearbyint(tilt[a] / kFibreTiltStep), -32767.0, 32767.0));
@@ -662,23 +663,23 @@ void SimulatedRig::MaterialDirect(size_t i, const LedDescription& led, bool cast
   const bool with_warp = w > 1e-6, with_weft = w < 1 - 1e-6;
   const Eigen::Vector2d gradient = GradientAt(i);
   const int samples = options_.footprint_samples;
-  double sum_diffuse = 0, sum_specular = 0;
-  for (int k = 0; k < samples; ++k) {
-    const Eigen::Vector3d n = FootprintNormal(i, k, gradient);
-    // Warp threads run along table y, weft threads along x.
-    if (with_warp) {
-      const MaterialResponse r = EvaluateMaterial(material, warp_brdf, n, Eigen::Vector3d::UnitY(), l, v);
-      sum_diffuse += w * r.diffuse;
-      sum_specular += w * r.specular;
-    }
-    if (with_weft) {
-      const MaterialResponse r = EvaluateMaterial(material, weft_brdf, n, Eigen::Vector3d::UnitX(), l, v);
-      sum_diffuse += (1 - w) * r.diffuse;
-      sum_specular += (1 - w) * r.specular;
-    }
+  Eigen::Vector3d normals[64];
+  for (int k = 0; k < samples; ++k) normals[k] = FootprintNormal(i, k, gradient);
+  const std::span<const Eigen::Vector3d> footprint(normals, samples);
+  // Warp threads run along table y, weft threads along x.
+  MaterialResponse mean;
+  if (with_warp) {
+    const MaterialResponse r = MeanMaterialResponse(material, warp_brdf, footprint, Eigen::Vector3d::UnitY(), l, v);
+    mean.diffuse += w * r.diffuse;
+    mean.specular += w * r.specular;
   }
-  *diffuse = irradiance * sum_diffuse / samples;
-  *specular = irradiance * sum_specular / samples;
+  if (with_weft) {
+    const MaterialResponse r = MeanMaterialResponse(material, weft_brdf, footprint, Eigen::Vector3d::UnitX(), l, v);
+    mean.diffuse += (1 - w) * r.diffuse;
+    mean.specular += (1 - w) * r.specular;
+  }
+  *diffuse = irradiance * mean.diffuse;
+  *specular = irradiance * mean.specular;
 }
 
 double SimulatedRig::SpecularAt(size_t i, const LedDescription& led) const {

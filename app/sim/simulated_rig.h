@@ -87,7 +87,7 @@ struct SimulatedRigOptions {
   // footprint, as a sensor integrates it: this many stratified (Latin
   // hypercube, seeded per pixel) sub-samples of the fibre tilt over a
   // mm_per_pixel square around the pixel's surface point.
-  int footprint_samples = 8;         // [1, 64]
+  int footprint_samples = 6;         // [1, 64]
   SensorColorModel color = SensorColorModel::kNikonD5100;  // camera colour response; the rig's LEDs must match it
 
   // Throws std::invalid_argument naming the field, its value and the rule.
@@ -231,7 +231,7 @@ class SimulatedRig {
   std::vector<float> gloss_;
   // Only for a non-Lambertian textile: the fibre tilt (a gradient offset) at
   // each footprint sub-sample, quantised to int16 (steps of kFibreTiltStep,
-  // ~6e-4 deg: 4 bytes a sub-sample, 32 a pixel at the default 8), the warp's
+  // ~6e-4 deg: 4 bytes a sub-sample, 24 a pixel at the default 6), the warp's
   // share (-1 off the threads) and both thread indices.
   std::vector<int16_t> fibre_tilt_;
   std::vector<float> warp_weight_;

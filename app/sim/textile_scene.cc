@@ -169,7 +169,7 @@ Eigen::Vector3d ThreadAlbedo(const TextileSceneOptions& o, const WeaveRelief& w,
 // the weft); along the thread it is inclined by a sine of fibre_wavelength_mm
 // with its own phase, sideways by its own constant. Both average to zero over
 // the ~100 fibres of a thread (and the sine over its wavelength).
-Eigen::Vector2d FibreTilt(const TextileSceneOptions& o, const WeaveRelief& w, double x_mm, double y_mm) {
+Eigen::Vector2d FibreTilt(const TextileSceneOptions& o, double warp_weight, double x_mm, double y_mm) {
   const double amplitude = std::tan(o.fibre_tilt_deg * kPi / 180.0);
   const double along = 2.0 * kPi / o.fibre_wavelength_mm;
   const auto warp_fibre = static_cast<int64_t>(std::floor(x_mm / o.fibre_diameter_mm));
@@ -179,7 +179,7 @@ Eigen::Vector2d FibreTilt(const TextileSceneOptions& o, const WeaveRelief& w, do
                              amplitude * std::sin(along * y_mm + kPi * HashSigned(o.seed, kWarpFibreAlong, warp_fibre)));
   const Eigen::Vector2d weft(amplitude * std::sin(along * x_mm + kPi * HashSigned(o.seed, kWeftFibreAlong, weft_fibre)),
                              amplitude * HashSigned(o.seed, kWeftFibreAcross, weft_fibre));
-  return w.w_warp * warp + w.w_weft * weft;
+  return warp_weight * warp + (1.0 - warp_weight) * weft;
 }
 
 void CheckThreadBrdf(const std::string& field, const ThreadBrdf& b) {
@@ -440,6 +440,10 @@ SurfaceSample TextileScene::EvaluateChart(double x_mm, double y_mm, bool with_gr
 }
 
 Eigen::Vector2d TextileScene::FibreTiltGradient(double x_mm, double y_mm) const {
+  return FibreTiltGradient(x_mm, y_mm, WeaveAt(options_, x_mm, y_mm).w_warp);
+}
+
+Eigen::Vector2d TextileScene::FibreTiltGradient(double x_mm, double y_mm, double warp_weight) const {
   const TextileSceneOptions& o = options_;
   if (o.sample != SampleKind::kTextile || o.material == SurfaceMaterial::kLambert || o.fibre_tilt_deg == 0 ||
       !OnSample(x_mm, y_mm)) {
@@ -448,7 +452,7 @@ Eigen::Vector2d TextileScene::FibreTiltGradient(double x_mm, double y_mm) const 
   // Faded with the edge blend, as the relief is, so the table edge stays clean.
   const double blend = SmootherStep((0.5 * o.sample_width_mm - std::abs(x_mm)) / o.edge_blend_mm) *
                        SmootherStep((0.5 * o.sample_height_mm - std::abs(y_mm)) / o.edge_blend_mm);
-  return blend * FibreTilt(o, WeaveAt(o, x_mm, y_mm), x_mm, y_mm);
+  return blend * FibreTilt(o, std::clamp(warp_weight, 0.0, 1.0), x_mm, y_mm);
 }
 
 double TextileScene::FoldHeightMm(double x_mm, double y_mm, Eigen::Vector2d* gradient) const {

@@ -161,6 +161,9 @@ class TextileScene {
   // fibres add to the geometric gradient of the SHADING surface, (d/dx,
   // d/dy), dimensionless. Zero for kLambert, off the sample and on the card.
   Eigen::Vector2d FibreTiltGradient(double x_mm, double y_mm) const;
+  // The same with the warp's share of the surface given (SurfaceSample::
+  // warp_weight; a pixel's, for all of its footprint's sub-samples).
+  Eigen::Vector2d FibreTiltGradient(double x_mm, double y_mm, double warp_weight) const;
 
   // The specular parameters of warp (`warp` true) or weft thread `index` for
   // options().material, with its seeded variation (lambert: cloth_warp/weft).
