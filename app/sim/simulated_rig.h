@@ -191,8 +191,9 @@ class SimulatedRig {
   double DirectFactor(size_t i, const LedDescription& led, bool cast_shadows) const;
   // Non-Lambertian textile (scene material kCloth, kSatin) at pixel index i:
   // the LED's raw irradiance factor times the material's diffuse and specular
-  // response (app/sim/cloth_brdf.h), blended over the warp and weft by their
-  // share of the surface; the table pixels stay Lambertian. 0 in shadow.
+  // response (app/sim/cloth_brdf.h), averaged over the pixel's footprint
+  // sub-samples and blended over the warp and weft by their share of the
+  // surface; the table pixels stay Lambertian. 0 in shadow (the geometry's).
   void MaterialDirect(size_t i, const LedDescription& led, bool cast_shadows, double* diffuse,
                       double* specular) const;
   bool HasMaterial() const { return !warp_weight_.empty(); }

@@ -109,16 +109,22 @@ TEST(ScanControllersTest, ColorCheckerSessionHasPatchTruthAndTheCamerasColorMatr
       << frame.as_shot_neutral.transpose();
 }
 
-TEST(ScanControllersTest, ResumingWithAnotherCameraColorIsRefused) {
-  TemporaryFolder folder;
-  const fs::path session_dir = folder / "session";
-  SimulateOptions options = SmallSimulation();
-  options.rig.color = SensorColorModel::kSrgbPrimaries;
+// Starts simulating into session_dir and stops it a third of the way: an
+// interrupted session with a few frames on disk.
+void InterruptSimulation(const fs::path& session_dir, const SimulateOptions& options) {
   SimulateController first(session_dir, options);
   first.SetProgressCallback([&](const ProgressReport& report) {
     if (report.stage == "simulate" && report.fraction > 0.3) first.RequestStop();
   });
   EXPECT_THROW(first.Run(), Cancelled);
+}
+
+TEST(ScanControllersTest, ResumingWithAnotherCameraColorIsRefused) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateOptions options = SmallSimulation();
+  options.rig.color = SensorColorModel::kSrgbPrimaries;
+  InterruptSimulation(session_dir, options);
   EXPECT_EQ(LoadSession(session_dir).camera.model, "Simulated D5100 (sRGB primaries)");
   options.rig.color = SensorColorModel::kNikonD5100;
   EXPECT_THAT([&] { SimulateController(session_dir, options).Run(); },
@@ -132,11 +138,7 @@ TEST(ScanControllersTest, ResumingWithAnotherMaterialIsRefused) {
   const fs::path session_dir = folder / "session";
   SimulateOptions options = SmallSimulation();
   options.scene.material = SurfaceMaterial::kSatin;
-  SimulateController first(session_dir, options);
-  first.SetProgressCallback([&](const ProgressReport& report) {
-    if (report.stage == "simulate" && report.fraction > 0.3) first.RequestStop();
-  });
-  EXPECT_THROW(first.Run(), Cancelled);
+  InterruptSimulation(session_dir, options);
   const Session partial = LoadSession(session_dir);
   ASSERT_TRUE(partial.simulation.has_value());
   EXPECT_EQ(partial.simulation->material, "satin");

@@ -266,6 +266,37 @@ TEST(SimulatedRigMaterial, SatinHighlightPeaksWellAboveTheDiffuseReading) {
   }
 }
 
+// At the default size a pixel's footprint holds ~6 fibres, so its mean
+// shading normal scatters about the geometric one (as a real pixel's does)
+// by about the fibres' rms tilt over sqrt(6): about a degree, not more.
+TEST(SimulatedRigMaterial, PixelMeanShadingNormalScattersAboutADegreeAtTheDefaultSize) {
+  SimulatedRigOptions options;
+  options.add_noise = false;
+  TextileSceneOptions scene;
+  scene.material = SurfaceMaterial::kSatin;
+  const SimulatedRig rig = MakeRig(options, scene);
+  const GroundTruthMaps truth = rig.RenderGroundTruth();
+  double sum2 = 0;
+  int count = 0;
+  for (int y = rig.height() / 4; y < 3 * rig.height() / 4; y += 7) {
+    for (int x = rig.width() / 4; x < 3 * rig.width() / 4; x += 7) {
+      const std::vector<Eigen::Vector3d> normals = rig.FootprintShadingNormals(x, y);
+      if (normals.empty()) continue;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const Eigen::Vector3d& n : normals) mean += n;
+      const Eigen::Vector3d geometric(truth.normal_in_table(x, y, 0), truth.normal_in_table(x, y, 1),
+                                      truth.normal_in_table(x, y, 2));
+      sum2 += std::pow(std::acos(std::min(1.0, mean.normalized().dot(geometric))), 2);
+      ++count;
+    }
+  }
+  ASSERT_GT(count, 1000);
+  const double rms_deg = std::sqrt(sum2 / count) * 180 / M_PI;
+  std::cout << "pixel mean shading normal vs geometric: " << rms_deg << " deg rms\n";
+  EXPECT_GT(rms_deg, 0.3);
+  EXPECT_LT(rms_deg, 2.0);
+}
+
 // A fibre as wide as a pixel would be resolved structure (geometry), not a
 // sub-pixel variation to integrate: refused, naming the field.
 TEST(SimulatedRigMaterial, FibresWiderThanThePixelAreRefused) {
