@@ -8,6 +8,7 @@
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/capture_controller.h"
+#include "app/controllers/simulate_controller.h"
 #include "app/devices/camera/gphoto2_camera.h"
 #include "app/devices/camera/simulated_camera.h"
 #include "app/devices/serial_light_controller.h"
@@ -54,6 +55,7 @@ int CaptureSimulated(CaptureState& state) {
   rig_options.height = state.height;
   TextileSceneOptions scene;
   scene.material = state.material;
+  state.options.simulation = SimulatedSceneOf(rig_options, scene);  // refuses a resume with another scene
   const auto rig = std::make_shared<SimulatedRig>(rig_options, TextileScene(scene),
                                                   MakeDefaultSimulatedRig(state.width, state.height));
   SimulatedLedBoard board;

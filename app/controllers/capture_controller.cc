@@ -177,7 +177,8 @@ void CheckLedChannels(const RigDescription& rig, const LightController& lights) 
 // What an earlier, interrupted run journalled; resumed with the same camera
 // and LED count only. nullopt for a new session.
 std::optional<Session> LoadInterruptedSession(const fs::path& session_dir, const Camera& camera,
-                                              const CameraDeviceInfo& info, const RigDescription& rig) {
+                                              const CameraDeviceInfo& info, const RigDescription& rig,
+                                              const std::optional<SimulatedSceneRecord>& simulation) {
   const fs::path manifest = session_dir / "session.json";
   if (!fs::exists(manifest)) return std::nullopt;
   Session session = LoadSession(session_dir);
@@ -193,6 +194,7 @@ std::optional<Session> LoadInterruptedSession(const fs::path& session_dir, const
     throw SessionError(manifest.string() + ": rig.leds: " + std::to_string(session.rig.leds.size()) +
                        " LEDs recorded but the bench has " + std::to_string(rig.leds.size()));
   }
+  if (simulation) CheckResumedSimulation(manifest, session, *simulation);
   return session;
 }
 
@@ -259,6 +261,7 @@ Session NewCaptureSession(const CaptureOptions& options, const RigDescription& r
   session.camera.f_number = settings.f_number;
   session.camera.width = first_frame.width();
   session.camera.height = first_frame.height();
+  session.simulation = options.simulation;
   return session;
 }
 
@@ -314,7 +317,7 @@ void CaptureController::Run() {
   summary_.session_dir = session_dir_;
   CheckLedChannels(rig_, *lights_);
   const CameraDeviceInfo info = camera_->Info();
-  std::optional<Session> session = LoadInterruptedSession(session_dir_, *camera_, info, rig_);
+  std::optional<Session> session = LoadInterruptedSession(session_dir_, *camera_, info, rig_, options_.simulation);
 
   AllOffOnExit lights_off(lights_);
   if (options_.watchdog_ms > 0) lights_->SetWatchdog(options_.watchdog_ms);

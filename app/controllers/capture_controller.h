@@ -8,12 +8,14 @@
 
 #include <chrono>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "app/controllers/base_controller.h"
 #include "app/devices/camera/camera.h"
 #include "app/devices/light_controller.h"
+#include "app/session/session.h"
 #include "calibration/rig.h"
 
 namespace scanbench {
@@ -30,6 +32,9 @@ struct CaptureOptions {
   int max_attempts = 3;                      // per frame, [1, 10]
   std::chrono::milliseconds led_settle{20};  // LED switched -> exposure, [0, 10 s]
   uint32_t watchdog_ms = 0;                  // board watchdog during the run; 0 keeps the board's
+  // capture --rig sim: the scene the simulated camera renders, recorded in
+  // session.json; a resume with another scene is refused. nullopt = a real bench.
+  std::optional<SimulatedSceneRecord> simulation;
 
   void Check() const;
 };

@@ -27,8 +27,11 @@ std::optional<Session> LoadInterruptedSession(const fs::path& session_dir) {
   return session;
 }
 
-// An interrupted run is resumed with the same options only: its frames are of that size.
+// An interrupted run is resumed with the same options only: its frames are of
+// that size, colour model and scene.
 void CheckResumedSize(const fs::path& session_dir, const Session& session, const SimulatedRig& rig) {
+  CheckResumedSimulation(session_dir / "session.json", session,
+                         SimulatedSceneOf(rig.options(), rig.scene().options()));
   const std::string model = SimulatedCameraModel(rig.options().color);
   if (session.camera.model != model) {
     throw SessionError((session_dir / "session.json").string() + ": camera.model: '" + session.camera.model +
@@ -71,6 +74,19 @@ GroundTruthFiles WriteGroundTruth(const fs::path& root, const GroundTruthMaps& t
 }
 
 }  // namespace
+
+SimulatedSceneRecord SimulatedSceneOf(const SimulatedRigOptions& rig, const TextileSceneOptions& scene) {
+  SimulatedSceneRecord record;
+  record.sample = scene.sample == SampleKind::kColorChecker ? "colorchecker" : "twill";
+  record.material = SurfaceMaterialName(scene.material);
+  record.scene_seed = std::to_string(scene.seed);
+  record.warp_pitch_mm = scene.warp_pitch_mm;
+  record.weft_pitch_mm = scene.weft_pitch_mm;
+  record.noise_seed = std::to_string(rig.seed);
+  record.noise = rig.add_noise;
+  record.cast_shadows = rig.cast_shadows;
+  return record;
+}
 
 std::string SimulatedCameraModel(SensorColorModel color) {
   return color == SensorColorModel::kSrgbPrimaries ? "Simulated D5100 (sRGB primaries)" : "Simulated D5100";
@@ -187,7 +203,10 @@ Session SimulateController::NewSession(const SimulatedRig& rig) const {
   const RigDescription recorded = options_.rig_description == SimulateOptions::RigDescriptionKind::kMeasured
                                       ? MakeMeasuredRigDescription(rig.rig(), options_.measured)
                                       : rig.rig();
-  return NewSimulatedSession(options_.sample_name, options_.notes, recorded, options_.rig, kSimulatedExposureTimeS);
+  Session session =
+      NewSimulatedSession(options_.sample_name, options_.notes, recorded, options_.rig, kSimulatedExposureTimeS);
+  session.simulation = SimulatedSceneOf(options_.rig, options_.scene);
+  return session;
 }
 
 }  // namespace scanbench

@@ -20,6 +20,7 @@ inline constexpr double kSimulatedIso = 100;
 inline constexpr double kSimulatedFNumber = 8;
 
 struct Session;
+struct SimulatedSceneRecord;
 
 // A new session of the simulated camera (make, model, serial "SIM-<seed>",
 // lens, ISO, aperture, the rig options' size), not yet on disk. The model
@@ -28,6 +29,10 @@ struct Session;
 // the other.
 Session NewSimulatedSession(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
                             const SimulatedRigOptions& rig_options, double exposure_time_s);
+
+// What session.json records of a simulated scene (Session::simulation), from
+// the options that render it.
+SimulatedSceneRecord SimulatedSceneOf(const SimulatedRigOptions& rig, const TextileSceneOptions& scene);
 
 // The session camera model of a simulated camera with `color`.
 std::string SimulatedCameraModel(SensorColorModel color);

@@ -258,6 +258,18 @@ void GroundTruthFields(Io& io, GroundTruthFiles& truth) {
 }
 
 template <typename Io>
+void SimulationFields(Io& io, SimulatedSceneRecord& scene) {
+  io.Field("sample", scene.sample);
+  io.Field("material", scene.material);
+  io.Field("scene_seed", scene.scene_seed);
+  io.Field("warp_pitch_mm", scene.warp_pitch_mm);
+  io.Field("weft_pitch_mm", scene.weft_pitch_mm);
+  io.Field("noise_seed", scene.noise_seed);
+  io.Field("noise", scene.noise);
+  io.Field("cast_shadows", scene.cast_shadows);
+}
+
+template <typename Io>
 void SessionFields(Io& io, Session& session) {
   io.Field("schema_version", session.schema_version);
   io.Field("sample_name", session.sample_name);
@@ -272,6 +284,9 @@ void SessionFields(Io& io, Session& session) {
       [&](const JsonField& rig) { session.rig = session_internal::RigFromJson(rig); });
   io.Optional("ground_truth", session.ground_truth, [](auto& truth_io, GroundTruthFiles& truth) {
     GroundTruthFields(truth_io, truth);
+  });
+  io.Optional("simulation", session.simulation, [](auto& scene_io, SimulatedSceneRecord& scene) {
+    SimulationFields(scene_io, scene);
   });
   io.Array("frames", session.frames, [](auto& frame_io, FrameRecord& frame) { FrameFields(frame_io, frame); });
 }
@@ -358,6 +373,29 @@ std::string SessionToJson(const Session& session) {
   return session_internal::DumpJson(session_internal::ToJsonObject(session, [](auto& io, Session& value) {
     SessionFields(io, value);
   }));
+}
+
+void CheckResumedSimulation(const fs::path& manifest, const Session& session, const SimulatedSceneRecord& requested) {
+  const std::string resume = "; resume with the options of the interrupted run, or simulate into a new folder";
+  if (!session.simulation) {
+    throw SessionError(manifest.string() + ": simulation: not recorded (a session from before scene options were "
+                       "recorded), so nothing shows its frames match the requested material '" +
+                       requested.material + "'" + resume);
+  }
+  const SimulatedSceneRecord& recorded = *session.simulation;
+  auto differs = [&](const std::string& field, const std::string& was, const std::string& now) {
+    if (was == now) return;
+    throw SessionError(manifest.string() + ": simulation." + field + ": recorded '" + was + "' but requested '" +
+                       now + "'" + resume);
+  };
+  differs("sample", recorded.sample, requested.sample);
+  differs("material", recorded.material, requested.material);
+  differs("scene_seed", recorded.scene_seed, requested.scene_seed);
+  differs("warp_pitch_mm", FormatValue(recorded.warp_pitch_mm), FormatValue(requested.warp_pitch_mm));
+  differs("weft_pitch_mm", FormatValue(recorded.weft_pitch_mm), FormatValue(requested.weft_pitch_mm));
+  differs("noise_seed", recorded.noise_seed, requested.noise_seed);
+  differs("noise", recorded.noise ? "true" : "false", requested.noise ? "true" : "false");
+  differs("cast_shadows", recorded.cast_shadows ? "true" : "false", requested.cast_shadows ? "true" : "false");
 }
 
 Session SessionFromJson(const std::string& text, const std::string& name_for_errors) {

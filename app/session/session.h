@@ -58,6 +58,21 @@ struct GroundTruthFiles {
   double mm_per_pixel = 0;
 };
 
+// What a simulated session renders (simulate, capture --rig sim): recorded so
+// that resuming an interrupted run with other scene options, whose frames
+// would not belong together, is refused (CheckResumedSimulation). Strings and
+// plain values, so the session does not depend on the simulator.
+struct SimulatedSceneRecord {
+  std::string sample;            // "twill" or "colorchecker"
+  std::string material;          // "lambert", "cloth", "satin" (SurfaceMaterialName)
+  std::string scene_seed;        // decimal uint64: the textile's variation and folds
+  double warp_pitch_mm = 0;
+  double weft_pitch_mm = 0;
+  std::string noise_seed;        // decimal uint64: the sensor noise
+  bool noise = true;             // sensor noise on
+  bool cast_shadows = true;
+};
+
 struct Session {
   int schema_version = kSessionSchemaVersion;
   std::string sample_name;
@@ -68,6 +83,7 @@ struct Session {
   CameraInfo camera;
   std::vector<FrameRecord> frames;
   std::optional<GroundTruthFiles> ground_truth;
+  std::optional<SimulatedSceneRecord> simulation;  // simulated sessions only ("simulation" in session.json)
   // False while capturing. Only a complete session must have a dark frame and
   // a frame for every LED of the rig.
   bool capture_complete = false;
@@ -127,6 +143,13 @@ void CheckSession(const Session& session, const std::string& name_for_errors);
 // session.json text, and back (parse + CheckSession, no files read).
 std::string SessionToJson(const Session& session);
 Session SessionFromJson(const std::string& text, const std::string& name_for_errors);
+
+// Throws SessionError unless the scene an interrupted simulated session
+// recorded equals `requested`, naming the file, the first field that differs
+// and both values; a session without a record (written before scene options
+// were recorded) is refused too, as nothing shows its frames match.
+void CheckResumedSimulation(const std::filesystem::path& manifest, const Session& session,
+                            const SimulatedSceneRecord& requested);
 
 // "2024-05-01T12:34:56.789Z", for Session::created and FrameRecord::capture_time.
 std::string FormatUtcTimestamp(std::chrono::system_clock::time_point time);

@@ -22,6 +22,7 @@
 #pragma once
 
 #include <optional>
+#include <span>
 #include <string>
 
 #include <Eigen/Core>
@@ -59,5 +60,12 @@ double VelvetDistribution(double cos_h, double alpha);
 // be orthogonal to n). Zero when l or v is below the shading horizon. Never NaN.
 MaterialResponse EvaluateMaterial(SurfaceMaterial material, const ThreadBrdf& brdf, const Eigen::Vector3d& n,
                                   const Eigen::Vector3d& tangent, const Eigen::Vector3d& l, const Eigen::Vector3d& v);
+
+// The MEAN of EvaluateMaterial over `normals` (a pixel's footprint sub-samples:
+// what a sensor pixel integrates over sub-pixel fibres); l, v and the half
+// vector's Fresnel are shared. Zero for no normals.
+MaterialResponse MeanMaterialResponse(SurfaceMaterial material, const ThreadBrdf& brdf,
+                                      std::span<const Eigen::Vector3d> normals, const Eigen::Vector3d& tangent,
+                                      const Eigen::Vector3d& l, const Eigen::Vector3d& v);
 
 }  // namespace scanbench

@@ -7,6 +7,7 @@
 #include <limits>
 #include <mutex>
 #include <numbers>
+#include <span>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -81,6 +82,29 @@ class RowRng {
   bool has_spare_ = false;
 };
 
+// The fibre tilt's int16 step: tan(20 deg), the largest tilt
+// TextileSceneOptions allows, a little under the int16 range.
+constexpr double kFibreTiltStep = 0.364 / 32000.0;
+
+// Footprint sub-sample offsets of one pixel, in units of its footprint side
+// and centred on the pixel: a Latin hypercube (one sample in each of the
+// `count` columns and rows), permuted and jittered by `seed`.
+void FootprintOffsets(uint64_t seed, int count, std::vector<Eigen::Vector2d>* offsets) {
+  offsets->resize(count);
+  uint64_t state = seed;
+  auto next = [&state] {
+    const uint64_t z = Mix64(state);
+    state += kSplitMixGamma;
+    return static_cast<double>(z >> 11) * 0x1.0p-53;  // [0, 1)
+  };
+  int rows[64];
+  for (int k = 0; k < count; ++k) rows[k] = k;
+  for (int k = count - 1; k > 0; --k) std::swap(rows[k], rows[std::min(k, static_cast<int>(next() * (k + 1)))]);
+  for (int k = 0; k < count; ++k) {
+    (*offsets)[k] = Eigen::Vector2d((k + next()) / count - 0.5, (rows[k] + next()) / count - 0.5);
+  }
+}
+
 uint64_t RowSeed(uint64_t seed, uint64_t frame_index, int row) {
   return Mix64(Mix64(Mix64(seed) ^ frame_index) ^ static_cast<uint64_t>(row));
 }
@@ -126,6 +150,9 @@ void SimulatedRigOptions::Check() const {
   }
   if (num_threads < 0 || num_threads > 256) {
     throw FieldError(where, "num_threads", num_threads, "must lie in [0, 256] (0 = hardware concurrency)");
+  }
+  if (footprint_samples < 1 || footprint_samples > 64) {
+    throw FieldError(where, "footprint_samples", footprint_samples, "must lie in [1, 64]");
   }
 }
 
@@ -240,7 +267,13 @@ SimulatedRig::SimulatedRig(const SimulatedRigOptions& options, TextileScene scen
   }
   const TextileSceneOptions& so = scene_.options();
   if (so.sample == SampleKind::kTextile && so.material != SurfaceMaterial::kLambert) {
-    shading_normal_xy_.resize(2 * num_pixels);
+    // A fibre as wide as the pixel would be resolved structure, i.e. geometry.
+    if (so.fibre_tilt_deg > 0 && !(so.fibre_diameter_mm < mm_per_pixel_)) {
+      throw FieldError("TextileSceneOptions", "fibre_diameter_mm", so.fibre_diameter_mm,
+                       "mm must be below the pixel footprint (" + std::to_string(mm_per_pixel_) +
+                           " mm) for its tilt to be integrated over the pixel");
+    }
+    fibre_tilt_.resize(2 * static_cast<size_t>(options_.footprint_samples) * num_pixels);
     warp_weight_.resize(num_pixels);
     thread_index_.resize(2 * num_pixels);
     // Per-thread parameters once, for every thread that meets the sample.
@@ -329,6 +362,7 @@ double SimulatedRig::CentrePixelFootprintMm(const ImageF& rays, const Eigen::Vec
 }
 
 void SimulatedRig::TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& camera_centre) {
+  std::vector<Eigen::Vector2d> offsets;
   for (int x = 0; x < options_.width; ++x) {
     const size_t i = static_cast<size_t>(y) * options_.width + x;
     const Eigen::Vector3d ray(rays(x, y, 0), rays(x, y, 1), rays(x, y, 2));
@@ -351,10 +385,18 @@ void SimulatedRig::TraceRow(int y, const ImageF& rays, const Eigen::Vector3d& ca
     normal_xy_in_table_[2 * i + 0] = static_cast<float>(normal.x());
     normal_xy_in_table_[2 * i + 1] = static_cast<float>(normal.y());
     if (HasMaterial()) {
-      const Eigen::Vector3d shading =
-          Eigen::Vector3d(-s.shading_gradient.x(), -s.shading_gradient.y(), 1.0).normalized();
-      shading_normal_xy_[2 * i + 0] = static_cast<float>(shading.x());
-      shading_normal_xy_[2 * i + 1] = static_cast<float>(shading.y());
+      // The fibres under the pixel's footprint (on the table plane around the
+      // surface point); the seed is the scene's, so frames agree pixel for pixel.
+      const int samples = options_.footprint_samples;
+      FootprintOffsets(Mix64(scene_.options().seed ^ 0xF1B5E5ULL) ^ i, samples, &offsets);
+      for (int k = 0; k < samples; ++k) {
+        const Eigen::Vector2d at = point.head<2>() + mm_per_pixel_ * offsets[k];
+        const Eigen::Vector2d tilt = scene_.FibreTiltGradient(at.x(), at.y(), s.warp_weight);
+        for (int a = 0; a < 2; ++a) {
+          fibre_tilt_[2 * (samples * i + k) + a] =
+              static_cast<int16_t>(std::clamp(std::nearbyint(tilt[a] / kFibreTiltStep), -32767.0, 32767.0));
+        }
+      }
       const bool thread = s.warp_weight >= 0 && scene_.OnSample(point.x(), point.y());
       warp_weight_[i] = thread ? static_cast<float>(s.warp_weight) : -1.0f;
       thread_index_[2 * i + 0] = static_cast<int32_t>(std::clamp<int64_t>(
@@ -548,6 +590,30 @@ Eigen::Vector3d SimulatedRig::NormalAt(size_t i) const {
   return Eigen::Vector3d(nx, ny, std::sqrt(std::max(0.0, 1.0 - nx * nx - ny * ny)));
 }
 
+Eigen::Vector2d SimulatedRig::GradientAt(size_t i) const {
+  const Eigen::Vector3d n = NormalAt(i);
+  return Eigen::Vector2d(-n.x() / n.z(), -n.y() / n.z());
+}
+
+Eigen::Vector3d SimulatedRig::FootprintNormal(size_t i, int k, const Eigen::Vector2d& gradient) const {
+  const int16_t* tilt = fibre_tilt_.data() + 2 * (static_cast<size_t>(options_.footprint_samples) * i + k);
+  return Eigen::Vector3d(-(gradient.x() + kFibreTiltStep * tilt[0]), -(gradient.y() + kFibreTiltStep * tilt[1]), 1.0)
+      .normalized();
+}
+
+std::vector<Eigen::Vector3d> SimulatedRig::FootprintShadingNormals(int x, int y) const {
+  std::vector<Eigen::Vector3d> normals;
+  if (x < 0 || y < 0 || x >= width() || y >= height()) {
+    throw std::out_of_range("SimulatedRig: pixel " + std::to_string(x) + "," + std::to_string(y) +
+                            " is outside the " + std::to_string(width()) + "x" + std::to_string(height()) + " image");
+  }
+  const size_t i = static_cast<size_t>(y) * options_.width + x;
+  if (!HasMaterial() || warp_weight_[i] < 0) return normals;
+  const Eigen::Vector2d gradient = GradientAt(i);
+  for (int k = 0; k < options_.footprint_samples; ++k) normals.push_back(FootprintNormal(i, k, gradient));
+  return normals;
+}
+
 double SimulatedRig::DirectFactor(size_t i, const LedDescription& led, bool cast_shadows) const {
   const Eigen::Vector3d point_in_table = PointAt(i);
   const Eigen::Vector3d to_led = led.position_in_table_mm - point_in_table;
@@ -580,25 +646,40 @@ void SimulatedRig::MaterialDirect(size_t i, const LedDescription& led, bool cast
   const double distance = std::sqrt(distance2);
   const Eigen::Vector3d l = to_led / distance;
   // The geometry decides what is lit (attached and cast shadows), the
-  // fibre-tilted shading normal how it reflects.
+  // fibre-tilted shading normals under the footprint how it reflects.
   if (!(NormalAt(i).dot(l) > 0)) return;
   const double cos_off_axis = -led.axis_in_table.dot(l);
   if (!(cos_off_axis > 0)) return;
   const double falloff = led.mu == 0 ? 1.0 : std::pow(cos_off_axis, led.mu);
   const double irradiance = falloff * (kLedReferenceDistanceMm * kLedReferenceDistanceMm / distance2);
   if (cast_shadows && Occluded(point_in_table, l, distance)) return;
-  const double sx = shading_normal_xy_[2 * i], sy = shading_normal_xy_[2 * i + 1];
-  const Eigen::Vector3d n(sx, sy, std::sqrt(std::max(0.0, 1.0 - sx * sx - sy * sy)));
   const Eigen::Vector3d v = (camera_centre_in_table_ - point_in_table).normalized();
   const SurfaceMaterial material = scene_.options().material;
-  // Warp threads run along table y, weft threads along x.
-  const MaterialResponse warp = EvaluateMaterial(material, warp_brdf_[thread_index_[2 * i]], n,
-                                                 Eigen::Vector3d::UnitY(), l, v);
-  const MaterialResponse weft = EvaluateMaterial(material, weft_brdf_[thread_index_[2 * i + 1]], n,
-                                                 Eigen::Vector3d::UnitX(), l, v);
+  const ThreadBrdf& warp_brdf = warp_brdf_[thread_index_[2 * i]];
+  const ThreadBrdf& weft_brdf = weft_brdf_[thread_index_[2 * i + 1]];
+  // The footprint average of the response over the fibres' shading normals;
+  // a thread with a negligible share of the surface is left out.
   const double w = warp_weight;
-  *diffuse = irradiance * (w * warp.diffuse + (1 - w) * weft.diffuse);
-  *specular = irradiance * (w * warp.specular + (1 - w) * weft.specular);
+  const bool with_warp = w > 1e-6, with_weft = w < 1 - 1e-6;
+  const Eigen::Vector2d gradient = GradientAt(i);
+  const int samples = options_.footprint_samples;
+  Eigen::Vector3d normals[64];
+  for (int k = 0; k < samples; ++k) normals[k] = FootprintNormal(i, k, gradient);
+  const std::span<const Eigen::Vector3d> footprint(normals, samples);
+  // Warp threads run along table y, weft threads along x.
+  MaterialResponse mean;
+  if (with_warp) {
+    const MaterialResponse r = MeanMaterialResponse(material, warp_brdf, footprint, Eigen::Vector3d::UnitY(), l, v);
+    mean.diffuse += w * r.diffuse;
+    mean.specular += w * r.specular;
+  }
+  if (with_weft) {
+    const MaterialResponse r = MeanMaterialResponse(material, weft_brdf, footprint, Eigen::Vector3d::UnitX(), l, v);
+    mean.diffuse += (1 - w) * r.diffuse;
+    mean.specular += (1 - w) * r.specular;
+  }
+  *diffuse = irradiance * mean.diffuse;
+  *specular = irradiance * mean.specular;
 }
 
 double SimulatedRig::SpecularAt(size_t i, const LedDescription& led) const {

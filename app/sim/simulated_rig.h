@@ -82,6 +82,12 @@ struct SimulatedRigOptions {
   double shadow_grid_mm = 0.05;      // spacing of the height grid that shadow rays march over, (0, 1]
   double shadow_bias_mm = 0.01;      // a ray is occluded only if the surface is this much above it, [0, 1]
   int num_threads = 0;               // worker threads; 0 = std::thread::hardware_concurrency(), [0, 256]
+  // Cloth and satin: the fibre-scale tilt (TextileSceneOptions::fibre_tilt_deg)
+  // is below the pixel, so each pixel reads the AVERAGE response over its
+  // footprint, as a sensor integrates it: this many stratified (Latin
+  // hypercube, seeded per pixel) sub-samples of the fibre tilt over a
+  // mm_per_pixel square around the pixel's surface point.
+  int footprint_samples = 6;         // [1, 64]
   SensorColorModel color = SensorColorModel::kNikonD5100;  // camera colour response; the rig's LEDs must match it
 
   // Throws std::invalid_argument naming the field, its value and the rule.
@@ -150,6 +156,12 @@ class SimulatedRig {
 
   GroundTruthMaps RenderGroundTruth() const;
 
+  // The shading normals (table frame, unit) of pixel (x, y)'s footprint
+  // sub-samples, whose material responses the pixel averages (see
+  // footprint_samples): the geometric normal tilted by the fibres at each
+  // sub-sample. Empty for kLambert and off the threads.
+  std::vector<Eigen::Vector3d> FootprintShadingNormals(int x, int y) const;
+
  private:
   struct ShadowGrid {
     double origin_x = 0, origin_y = 0;  // table mm of sample (0, 0)
@@ -179,8 +191,9 @@ class SimulatedRig {
   double DirectFactor(size_t i, const LedDescription& led, bool cast_shadows) const;
   // Non-Lambertian textile (scene material kCloth, kSatin) at pixel index i:
   // the LED's raw irradiance factor times the material's diffuse and specular
-  // response (app/sim/cloth_brdf.h), blended over the warp and weft by their
-  // share of the surface; the table pixels stay Lambertian. 0 in shadow.
+  // response (app/sim/cloth_brdf.h), averaged over the pixel's footprint
+  // sub-samples and blended over the warp and weft by their share of the
+  // surface; the table pixels stay Lambertian. 0 in shadow (the geometry's).
   void MaterialDirect(size_t i, const LedDescription& led, bool cast_shadows, double* diffuse,
                       double* specular) const;
   bool HasMaterial() const { return !warp_weight_.empty(); }
@@ -190,6 +203,11 @@ class SimulatedRig {
   Eigen::Vector3d CameraRgbOf(const SurfaceSample& sample) const;
   Eigen::Vector3d PointAt(size_t i) const;
   Eigen::Vector3d NormalAt(size_t i) const;
+  // Shading normal of footprint sub-sample `k` of pixel i; `gradient` is the
+  // pixel's geometric (dz/dx, dz/dy).
+  Eigen::Vector3d FootprintNormal(size_t i, int k, const Eigen::Vector2d& gradient) const;
+  // (dz/dx, dz/dy) of the geometric surface at pixel i.
+  Eigen::Vector2d GradientAt(size_t i) const;
 
   SimulatedRigOptions options_;
   TextileScene scene_;
@@ -212,9 +230,11 @@ class SimulatedRig {
   std::vector<float> albedo_;
   std::vector<float> albedo_linear_rec709_;
   std::vector<float> gloss_;
-  // Only for a non-Lambertian textile: the shading normal's xy (fibre tilt
-  // included), the warp's share (-1 off the threads) and both thread indices.
-  std::vector<float> shading_normal_xy_;
+  // Only for a non-Lambertian textile: the fibre tilt (a gradient offset) at
+  // each footprint sub-sample, quantised to int16 (steps of kFibreTiltStep,
+  // ~6e-4 deg: 4 bytes a sub-sample, 24 a pixel at the default 6), the warp's
+  // share (-1 off the threads) and both thread indices.
+  std::vector<int16_t> fibre_tilt_;
   std::vector<float> warp_weight_;
   std::vector<int32_t> thread_index_;
   std::vector<ThreadBrdf> warp_brdf_, weft_brdf_;  // per thread index - thread_index_base_

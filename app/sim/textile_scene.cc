@@ -164,22 +164,22 @@ Eigen::Vector3d ThreadAlbedo(const TextileSceneOptions& o, const WeaveRelief& w,
   return ((w.w_warp * warp_rgb + w.w_weft * weft_rgb) * gap_factor).cwiseMax(0.0).cwiseMin(1.0);
 }
 
-// The fibre tilt (a gradient, dimensionless) inside the threads at `w`: across
-// each thread's fibres a sine of fibres_per_thread periods, faded to zero at
-// the thread's borders by its cross-section so neighbouring threads join
-// continuously, and along them a sine of fibre_wavelength_mm; phases per thread.
-Eigen::Vector2d FibreTilt(const TextileSceneOptions& o, const WeaveRelief& w, double x_mm, double y_mm) {
+// The fibre tilt (a gradient, dimensionless) of the threads at `w`: fibre k
+// of a thread covers [k, k+1) fibre diameters across it (x for the warp, y for
+// the weft); along the thread it is inclined by a sine of fibre_wavelength_mm
+// with its own phase, sideways by its own constant. Both average to zero over
+// the ~100 fibres of a thread (and the sine over its wavelength).
+Eigen::Vector2d FibreTilt(const TextileSceneOptions& o, double warp_weight, double x_mm, double y_mm) {
   const double amplitude = std::tan(o.fibre_tilt_deg * kPi / 180.0);
-  const double across = 2.0 * kPi * o.fibres_per_thread;
   const double along = 2.0 * kPi / o.fibre_wavelength_mm;
-  // Warp fibres run along y: across them is x.
-  const Eigen::Vector2d warp(
-      amplitude * w.profile_u * std::sin(across * (w.fu + 0.5) + kPi * HashSigned(o.seed, kWarpFibreAcross, w.warp_index)),
-      0.5 * amplitude * std::sin(along * y_mm + kPi * HashSigned(o.seed, kWarpFibreAlong, w.warp_index)));
-  const Eigen::Vector2d weft(
-      0.5 * amplitude * std::sin(along * x_mm + kPi * HashSigned(o.seed, kWeftFibreAlong, w.weft_index)),
-      amplitude * w.profile_v * std::sin(across * (w.fv + 0.5) + kPi * HashSigned(o.seed, kWeftFibreAcross, w.weft_index)));
-  return w.w_warp * warp + w.w_weft * weft;
+  const auto warp_fibre = static_cast<int64_t>(std::floor(x_mm / o.fibre_diameter_mm));
+  const auto weft_fibre = static_cast<int64_t>(std::floor(y_mm / o.fibre_diameter_mm));
+  // Warp fibres run along y: their inclination tilts the normal along y.
+  const Eigen::Vector2d warp(amplitude * HashSigned(o.seed, kWarpFibreAcross, warp_fibre),
+                             amplitude * std::sin(along * y_mm + kPi * HashSigned(o.seed, kWarpFibreAlong, warp_fibre)));
+  const Eigen::Vector2d weft(amplitude * std::sin(along * x_mm + kPi * HashSigned(o.seed, kWeftFibreAlong, weft_fibre)),
+                             amplitude * HashSigned(o.seed, kWeftFibreAcross, weft_fibre));
+  return warp_weight * warp + (1.0 - warp_weight) * weft;
 }
 
 void CheckThreadBrdf(const std::string& field, const ThreadBrdf& b) {
@@ -319,8 +319,8 @@ void TextileSceneOptions::Check() const {
   if (!(fibre_tilt_deg >= 0 && fibre_tilt_deg <= 20)) {
     throw FieldError(kOptions, "fibre_tilt_deg", fibre_tilt_deg, "must lie in [0, 20]");
   }
-  if (fibres_per_thread < 1 || fibres_per_thread > 64) {
-    throw FieldError(kOptions, "fibres_per_thread", fibres_per_thread, "must lie in [1, 64]");
+  if (!(fibre_diameter_mm > 0 && fibre_diameter_mm <= 0.1)) {
+    throw FieldError(kOptions, "fibre_diameter_mm", fibre_diameter_mm, "must lie in (0, 0.1] mm");
   }
   if (!(fibre_wavelength_mm > 0) || !std::isfinite(fibre_wavelength_mm)) {
     throw FieldError(kOptions, "fibre_wavelength_mm", fibre_wavelength_mm, "must be finite and > 0");
@@ -408,10 +408,6 @@ SurfaceSample TextileScene::Evaluate(double x_mm, double y_mm, bool with_gradien
     const double sx_dx = SmootherStepDerivative(tx) * (x_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
     const double sy_dy = SmootherStepDerivative(ty) * (y_mm < 0 ? 1.0 : -1.0) / o.edge_blend_mm;
     out.gradient = blend * inner_grad + inner * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
-    out.shading_gradient = out.gradient;
-    if (o.material != SurfaceMaterial::kLambert && o.fibre_tilt_deg > 0) {
-      out.shading_gradient += blend * FibreTilt(o, weave, x_mm, y_mm);
-    }
   }
   out.warp_weight = weave.w_warp;
   out.warp_index = weave.warp_index;
@@ -433,7 +429,6 @@ SurfaceSample TextileScene::EvaluateChart(double x_mm, double y_mm, bool with_gr
     const double sx_dx = SmootherStepDerivative(tx) * (x_mm < 0 ? 1.0 : -1.0) / o.chart_edge_blend_mm;
     const double sy_dy = SmootherStepDerivative(ty) * (y_mm < 0 ? 1.0 : -1.0) / o.chart_edge_blend_mm;
     out.gradient = o.chart_thickness_mm * Eigen::Vector2d(sx_dx * sy, sx * sy_dy);
-    out.shading_gradient = out.gradient;
   }
   out.gloss = o.chart_gloss;
   if (with_albedo) {
@@ -442,6 +437,22 @@ SurfaceSample TextileScene::EvaluateChart(double x_mm, double y_mm, bool with_gr
                                          : o.chart_surround_rgb;
   }
   return out;
+}
+
+Eigen::Vector2d TextileScene::FibreTiltGradient(double x_mm, double y_mm) const {
+  return FibreTiltGradient(x_mm, y_mm, WeaveAt(options_, x_mm, y_mm).w_warp);
+}
+
+Eigen::Vector2d TextileScene::FibreTiltGradient(double x_mm, double y_mm, double warp_weight) const {
+  const TextileSceneOptions& o = options_;
+  if (o.sample != SampleKind::kTextile || o.material == SurfaceMaterial::kLambert || o.fibre_tilt_deg == 0 ||
+      !OnSample(x_mm, y_mm)) {
+    return Eigen::Vector2d::Zero();
+  }
+  // Faded with the edge blend, as the relief is, so the table edge stays clean.
+  const double blend = SmootherStep((0.5 * o.sample_width_mm - std::abs(x_mm)) / o.edge_blend_mm) *
+                       SmootherStep((0.5 * o.sample_height_mm - std::abs(y_mm)) / o.edge_blend_mm);
+  return blend * FibreTilt(o, std::clamp(warp_weight, 0.0, 1.0), x_mm, y_mm);
 }
 
 double TextileScene::FoldHeightMm(double x_mm, double y_mm, Eigen::Vector2d* gradient) const {

@@ -76,18 +76,35 @@ struct TextileSceneOptions {
   // Material of the textile (issue #13; app/sim/cloth_brdf.h). The table and
   // the ColorChecker card stay as they are. kLambert renders exactly as before.
   SurfaceMaterial material = SurfaceMaterial::kLambert;
-  // Per-thread specular parameters before the per-thread variation: the warp
-  // (indigo, the face of the twill) carries more sheen than the ecru weft.
-  ThreadBrdf cloth_warp{0.20, 1.0, 1.0};   // kCloth: white F0, velvet width (roughness_across unused)
-  ThreadBrdf cloth_weft{0.12, 0.8, 0.8};
-  ThreadBrdf satin_warp{0.30, 0.30, 0.10}; // kSatin: white F0, GGX alpha along / across the thread
-  ThreadBrdf satin_weft{0.15, 0.45, 0.20};
+  // Per-thread specular parameters before the per-thread variation.
+  // Textile fibres are dielectrics: F0 = ((n - 1) / (n + 1))^2 with silk n ~
+  // 1.54-1.56, polyester ~ 1.57-1.64 (birefringent), nylon ~ 1.53-1.57,
+  // cotton (cellulose) ~ 1.53-1.58 gives 0.044-0.058 (docs/simulated-rig.md
+  // names the sources); what differs between materials is the roughness.
+  // kCloth (the seed's velvet sheen): a dielectric F0 as well; the velvet
+  // width a is the seed's (Ashikhmin's) parameter.
+  ThreadBrdf cloth_warp{0.050, 1.0, 1.0};   // polyester/nylon-like warp, velvet width a (roughness_across unused)
+  ThreadBrdf cloth_weft{0.045, 0.8, 0.8};   // cotton-like weft
+  // kSatin: long aligned floats are smooth ALONG the fibres (a cylinder's
+  // normals spread only across it), so the GGX alpha along the thread is low
+  // and the one across high; the warp floats (silk / polyester filament) are
+  // the glossy face, the weft is rougher.
+  ThreadBrdf satin_warp{0.050, 0.07, 0.30}; // white F0, GGX alpha along / across the thread
+  ThreadBrdf satin_weft{0.045, 0.15, 0.40};
   double material_variation = 0.15;      // relative per-thread random variation of F0 and roughness, [0, 0.5]
-  // Fibre-scale shading normal variation inside a thread (kCloth, kSatin): a
-  // smooth seeded tilt across the fibres and a slower one along them.
+  // Fibre-scale shading normal variation (kCloth, kSatin). Fibres are 10-30 um
+  // across, below the pixel even at the full 16 MP (0.029 mm/px), so the
+  // variation is NOT geometry: the ground truth leaves it out and the rig
+  // integrates the response over each pixel's footprint (SimulatedRig). Each
+  // fibre (fibre_diameter_mm wide, across its thread) is inclined out of the
+  // thread surface along the thread by fibre_tilt_deg * sin(2 pi s /
+  // fibre_wavelength_mm + its own phase) (migration / crimp), and leans
+  // sideways by fibre_tilt_deg times its own uniform [-1, 1]. A few degrees:
+  // a migrating fibre's inclination ~ atan(2 pi r / L) for a radial excursion
+  // r ~ 0.05 mm (half a 0.2 mm yarn) over a migration length L ~ 3-5 mm.
   double fibre_tilt_deg = 4.0;           // tilt amplitude, [0, 20] deg
-  int fibres_per_thread = 6;             // fibre bundles across a thread (period of the across tilt), [1, 64]
-  double fibre_wavelength_mm = 1.1;      // period of the along-fibre tilt, > 0
+  double fibre_diameter_mm = 0.02;       // width of one fibre across its thread, (0, 0.1] mm
+  double fibre_wavelength_mm = 1.1;      // period of the along-fibre inclination, > 0
 
   // kColorChecker. 16 mm patches on a 20 mm pitch make a 116 x 76 mm grid, a
   // 124 x 84 mm card with the border: the real chart (40 mm pitch) scaled to
@@ -114,12 +131,9 @@ struct SurfaceSample {
   int spectral_patch = -1;   // ColorCheckerClassic() index whose measured spectrum this is; -1 = none
   double gloss = 0;          // specular reflectance added at the mirror direction (SimulatedRig), [0, 0.2]
   // Textile threads (kTextile, on the sample; warp_weight < 0 elsewhere): the
-  // share of the warp in the visible surface, both threads' indices, and the
-  // gradient of the SHADING surface (the geometric one plus the fibre tilt;
-  // equal to `gradient` for kLambert). Ground truth uses `gradient` only.
+  // share of the warp in the visible surface and both threads' indices.
   double warp_weight = -1;   // [0, 1], -1 = no thread here
   int64_t warp_index = 0, weft_index = 0;
-  Eigen::Vector2d shading_gradient = Eigen::Vector2d::Zero();
 };
 
 class TextileScene {
@@ -142,6 +156,14 @@ class TextileScene {
   bool OnSample(double x_mm, double y_mm) const;
   // All of the above at once (one evaluation; what the renderer uses).
   SurfaceSample Sample(double x_mm, double y_mm, bool with_albedo = true) const;
+
+  // The fibre-scale tilt at (x, y) (see fibre_tilt_deg): what the sub-pixel
+  // fibres add to the geometric gradient of the SHADING surface, (d/dx,
+  // d/dy), dimensionless. Zero for kLambert, off the sample and on the card.
+  Eigen::Vector2d FibreTiltGradient(double x_mm, double y_mm) const;
+  // The same with the warp's share of the surface given (SurfaceSample::
+  // warp_weight; a pixel's, for all of its footprint's sub-samples).
+  Eigen::Vector2d FibreTiltGradient(double x_mm, double y_mm, double warp_weight) const;
 
   // The specular parameters of warp (`warp` true) or weft thread `index` for
   // options().material, with its seeded variation (lambert: cloth_warp/weft).

@@ -27,6 +27,7 @@ namespace scanbench {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 using testing::TemporaryFolder;
 
@@ -171,6 +172,30 @@ TEST_F(CaptureControllerTest, CameraErrorMidCaptureStopsDarkAndResumes) {
   EXPECT_EQ(second.summary().frames_resumed, 5);
   EXPECT_EQ(second.summary().frames_captured, 6);
   ExpectEveryFrameShowsItsLed();
+}
+
+// capture --rig sim records the scene; resuming with another material is
+// refused, naming both, and the same scene resumes.
+TEST_F(CaptureControllerTest, ResumingASimulatedCaptureWithAnotherMaterialIsRefused) {
+  FaultyCamera unplugged(camera_.get(), [](int capture) {
+    if (capture == 5) throw CameraError(CameraErrorKind::kClaimed, "camera", "USB interface claimed by gvfs");
+  });
+  CaptureOptions satin = Options();
+  satin.simulation = SimulatedSceneRecord{"twill", "satin", "1", 2.4, 3.0, "2", true, true};
+  CaptureController first = Controller(&unplugged, satin);
+  EXPECT_THROW(first.Run(), CameraError);
+  ASSERT_TRUE(LoadSession(session_dir()).simulation.has_value());
+  EXPECT_EQ(LoadSession(session_dir()).simulation->material, "satin");
+
+  CaptureOptions cloth = satin;
+  cloth.simulation->material = "cloth";
+  CaptureController refused = Controller(camera_.get(), cloth);
+  EXPECT_THAT([&] { refused.Run(); },
+              ::testing::ThrowsMessage<SessionError>(AllOf(HasSubstr("simulation.material"), HasSubstr("'satin'"),
+                                                           HasSubstr("'cloth'"))));
+  CaptureController second = Controller(camera_.get(), satin);
+  second.Run();
+  EXPECT_EQ(second.summary().frames_resumed, 5);
 }
 
 TEST_F(CaptureControllerTest, TransientCameraErrorIsRetried) {

@@ -109,20 +109,53 @@ TEST(ScanControllersTest, ColorCheckerSessionHasPatchTruthAndTheCamerasColorMatr
       << frame.as_shot_neutral.transpose();
 }
 
-TEST(ScanControllersTest, ResumingWithAnotherCameraColorIsRefused) {
-  TemporaryFolder folder;
-  const fs::path session_dir = folder / "session";
-  SimulateOptions options = SmallSimulation();
-  options.rig.color = SensorColorModel::kSrgbPrimaries;
+// Starts simulating into session_dir and stops it a third of the way: an
+// interrupted session with a few frames on disk.
+void InterruptSimulation(const fs::path& session_dir, const SimulateOptions& options) {
   SimulateController first(session_dir, options);
   first.SetProgressCallback([&](const ProgressReport& report) {
     if (report.stage == "simulate" && report.fraction > 0.3) first.RequestStop();
   });
   EXPECT_THROW(first.Run(), Cancelled);
+}
+
+TEST(ScanControllersTest, ResumingWithAnotherCameraColorIsRefused) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateOptions options = SmallSimulation();
+  options.rig.color = SensorColorModel::kSrgbPrimaries;
+  InterruptSimulation(session_dir, options);
   EXPECT_EQ(LoadSession(session_dir).camera.model, "Simulated D5100 (sRGB primaries)");
   options.rig.color = SensorColorModel::kNikonD5100;
   EXPECT_THAT([&] { SimulateController(session_dir, options).Run(); },
               ::testing::ThrowsMessage<SessionError>(HasSubstr("camera.model")));
+}
+
+// session.json records the scene (material, sample, seeds, pitches, noise,
+// shadows); resuming with another material is refused, naming both values.
+TEST(ScanControllersTest, ResumingWithAnotherMaterialIsRefused) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  SimulateOptions options = SmallSimulation();
+  options.scene.material = SurfaceMaterial::kSatin;
+  InterruptSimulation(session_dir, options);
+  const Session partial = LoadSession(session_dir);
+  ASSERT_TRUE(partial.simulation.has_value());
+  EXPECT_EQ(partial.simulation->material, "satin");
+  EXPECT_EQ(partial.simulation->sample, "twill");
+  options.scene.material = SurfaceMaterial::kCloth;
+  EXPECT_THAT([&] { SimulateController(session_dir, options).Run(); },
+              ::testing::ThrowsMessage<SessionError>(::testing::AllOf(
+                  HasSubstr("simulation.material"), HasSubstr("recorded 'satin'"), HasSubstr("requested 'cloth'"))));
+  options.scene.material = SurfaceMaterial::kSatin;
+  options.scene.warp_pitch_mm = 1.2;
+  EXPECT_THAT([&] { SimulateController(session_dir, options).Run(); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("simulation.warp_pitch_mm: recorded '2.4'")));
+  options.scene.warp_pitch_mm = SimulateOptions().scene.warp_pitch_mm;
+  SimulateController resumed(session_dir, options);
+  resumed.Run();
+  EXPECT_GT(resumed.summary().frames_resumed, 0);
+  EXPECT_EQ(LoadSession(session_dir).simulation->material, "satin");
 }
 
 TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {

@@ -58,10 +58,33 @@ TEST(SessionJsonTest, RoundTripKeepsEveryField) {
   truth.normal_sha256 = truth.albedo_sha256 = truth.height_sha256 = truth.mask_sha256 = std::string(64, 'c');
   truth.mm_per_pixel = 0.1 / 3.0;
   session.ground_truth = truth;
+  session.simulation = SimulatedSceneRecord{"twill", "satin", "20240611", 2.4, 1.0 / 3.0, "1554628252", false, true};
 
   const std::string text = SessionToJson(session);
   const Session loaded = SessionFromJson(text, "mem");
   ExpectSameSession(session, loaded);
+}
+
+TEST(SessionJsonTest, ResumedSimulationMustMatchTheRecordedScene) {
+  Session session = MakeTestSession();
+  const SimulatedSceneRecord satin{"twill", "satin", "7", 2.4, 3.0, "9", true, true};
+  EXPECT_THAT([&] { CheckResumedSimulation("s/session.json", session, satin); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("s/session.json: simulation: not recorded")));
+  session.simulation = satin;
+  EXPECT_NO_THROW(CheckResumedSimulation("s/session.json", session, satin));
+  SimulatedSceneRecord other = satin;
+  other.material = "lambert";
+  EXPECT_THAT([&] { CheckResumedSimulation("s/session.json", session, other); },
+              ::testing::ThrowsMessage<SessionError>(
+                  HasSubstr("s/session.json: simulation.material: recorded 'satin' but requested 'lambert'")));
+  other = satin;
+  other.cast_shadows = false;
+  EXPECT_THAT([&] { CheckResumedSimulation("s/session.json", session, other); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("simulation.cast_shadows: recorded 'true'")));
+  other = satin;
+  other.weft_pitch_mm = 1.5;
+  EXPECT_THAT([&] { CheckResumedSimulation("s/session.json", session, other); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("simulation.weft_pitch_mm: recorded '3' but requested '1.5'")));
 }
 
 TEST(SessionJsonTest, WritesDocumentedLayout) {

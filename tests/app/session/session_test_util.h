@@ -187,6 +187,19 @@ inline void ExpectSameSession(const Session& expected, const Session& actual) {
     EXPECT_EQ(a.width, b.width);
     EXPECT_EQ(a.height, b.height);
   }
+  ASSERT_EQ(expected.simulation.has_value(), actual.simulation.has_value());
+  if (expected.simulation) {
+    const SimulatedSceneRecord& a = *expected.simulation;
+    const SimulatedSceneRecord& b = *actual.simulation;
+    EXPECT_EQ(a.sample, b.sample);
+    EXPECT_EQ(a.material, b.material);
+    EXPECT_EQ(a.scene_seed, b.scene_seed);
+    ExpectSameBits(a.warp_pitch_mm, b.warp_pitch_mm, "simulation.warp_pitch_mm");
+    ExpectSameBits(a.weft_pitch_mm, b.weft_pitch_mm, "simulation.weft_pitch_mm");
+    EXPECT_EQ(a.noise_seed, b.noise_seed);
+    EXPECT_EQ(a.noise, b.noise);
+    EXPECT_EQ(a.cast_shadows, b.cast_shadows);
+  }
   ASSERT_EQ(expected.ground_truth.has_value(), actual.ground_truth.has_value());
   if (expected.ground_truth) {
     const GroundTruthFiles& a = *expected.ground_truth;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "app/sim/textile_scene.h"
+
 namespace scanbench {
 namespace {
 
@@ -70,6 +72,18 @@ TEST(ClothBrdf, NoMaterialReflectsMoreThanItReceives) {
     EXPECT_LE(s, 1.0) << "satin, theta " << theta;
     EXPECT_GT(c, 0.5) << "cloth, theta " << theta;
     EXPECT_GT(s, 0.5) << "satin, theta " << theta;
+  }
+  // The scene's defaults too (satin's 0.07 alpha along the thread is sharper
+  // than the range above; off normal view, where the quadrature resolves it).
+  const TextileSceneOptions defaults;
+  for (double theta : {30.0, 60.0, 80.0}) {
+    const Eigen::Vector3d v = FromAngles(theta, 20.0);
+    for (const ThreadBrdf& b : {defaults.cloth_warp, defaults.cloth_weft}) {
+      EXPECT_LE(DirectionalAlbedo(SurfaceMaterial::kCloth, b, v), 1.0) << "cloth default, theta " << theta;
+    }
+    for (const ThreadBrdf& b : {defaults.satin_warp, defaults.satin_weft}) {
+      EXPECT_LE(DirectionalAlbedo(SurfaceMaterial::kSatin, b, v), 1.0) << "satin default, theta " << theta;
+    }
   }
 }
 

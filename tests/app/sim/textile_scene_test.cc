@@ -8,6 +8,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "calibration/color_checker.h"
 
@@ -288,6 +289,55 @@ TEST(ColorCheckerScene, FlatCardWithPatchColoursSurroundAndABlendedEdge) {
     const Eigen::Vector2d numeric = FiniteDifferenceGradient(scene, x, 1.0, 1e-6);
     EXPECT_NEAR(scene.HeightGradient(x, 1.0).x(), numeric.x(), 1e-5) << x;
   }
+}
+
+}  // namespace
+}  // namespace scanbench
+
+namespace scanbench {
+namespace {
+
+// Textile fibres are dielectrics: F0 = ((n - 1) / (n + 1))^2 for the fibres'
+// refractive indices (silk ~1.54-1.56, cotton ~1.53-1.58, nylon ~1.53-1.57,
+// polyester ~1.57-1.64) lies in ~[0.044, 0.058]; no default is metal-like.
+TEST(TextileMaterialDefaults, SpecularF0IsThatOfADielectricFibre) {
+  auto f0 = [](double n) { return std::pow((n - 1) / (n + 1), 2); };
+  const TextileSceneOptions o;
+  for (const ThreadBrdf& b : {o.cloth_warp, o.cloth_weft, o.satin_warp, o.satin_weft}) {
+    EXPECT_GE(b.specular_f0, f0(1.53) - 1e-9);
+    EXPECT_LE(b.specular_f0, f0(1.64) + 1e-9);
+  }
+  // With the per-thread variation the F0 still stays a dielectric's (< 0.07).
+  for (SurfaceMaterial m : {SurfaceMaterial::kCloth, SurfaceMaterial::kSatin}) {
+    TextileSceneOptions options;
+    options.material = m;
+    const TextileScene scene(options);
+    for (int64_t i = -30; i < 30; ++i) {
+      EXPECT_LT(scene.ThreadBrdfOf(true, i).specular_f0, 0.07);
+      EXPECT_LT(scene.ThreadBrdfOf(false, i).specular_f0, 0.07);
+    }
+  }
+}
+
+// Satin's gloss comes from smooth aligned floats, not from a high F0: at the
+// mirror direction (camera overhead, light 30 deg off the normal, the rig's
+// high ring) the default warp's specular reading is well above the diffuse
+// reading of its indigo thread and above a mid-grey's, and it falls off
+// sharply 10 deg away along the thread.
+TEST(TextileMaterialDefaults, SatinHighlightIsWellAboveTheDiffuseAtTheMirrorDirection) {
+  const TextileSceneOptions o;
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d v = Eigen::Vector3d(std::sin(0.2618), 0, std::cos(0.2618));   // 15 deg
+  const Eigen::Vector3d l = Eigen::Vector3d(-std::sin(0.2618), 0, std::cos(0.2618));  // mirror
+  const MaterialResponse r = EvaluateMaterial(SurfaceMaterial::kSatin, o.satin_warp, n, Eigen::Vector3d::UnitY(), l, v);
+  const double indigo_luminance = Eigen::Vector3d(0.2126, 0.7152, 0.0722).dot(o.warp_rgb);
+  EXPECT_GT(r.specular, 3.0 * r.diffuse * indigo_luminance) << r.specular << " vs " << r.diffuse;
+  EXPECT_GT(r.specular, 0.5 * r.diffuse) << r.specular << " vs " << r.diffuse;
+  // 10 deg off along the thread (y) the lobe is mostly gone.
+  const Eigen::Vector3d l_off = Eigen::AngleAxisd(0.1745, Eigen::Vector3d::UnitX()) * l;
+  const MaterialResponse off =
+      EvaluateMaterial(SurfaceMaterial::kSatin, o.satin_warp, n, Eigen::Vector3d::UnitY(), l_off, v);
+  EXPECT_LT(off.specular, 0.3 * r.specular);
 }
 
 }  // namespace
