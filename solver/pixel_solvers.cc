@@ -595,7 +595,6 @@ PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view
   const double min_log_alpha = std::log(kLobeMinAlpha), max_log_alpha = std::log(kLobeMaxAlpha);
   LobeParams p = best;
   double lambda = 1e-3;
-  double scale = floor_scale;
   thread_local std::vector<double> residual_of;
   residual_of.assign(m, 0.0);
   weights.assign(m, 0.0);
@@ -617,7 +616,7 @@ PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view
       const Eigen::Vector3d df_dn = p.rho_d * lk + p.rho_s * t.ds_dn;
       rows[k] << df_dn.dot(t1), df_dn.dot(t2), nl, t.s, p.rho_s * t.ds_dlog_alpha;
     }
-    scale = std::max(kMadToSigma * MedianAbs(&abs_residuals), floor_scale);
+    const double scale = std::max(kMadToSigma * MedianAbs(&abs_residuals), floor_scale);
     Eigen::Matrix<double, 5, 5> hessian = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
     double cost = 0;

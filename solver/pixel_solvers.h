@@ -97,7 +97,8 @@ PixelFit FitSparseBayesian(const PixelSamples& samples, bool with_albedo, const 
 // i.e. (n . l) (rho_d + rho_s pi D_GGX(n . h; alpha) / (4 (n . l)(n . v))) with
 // h_k = normalize(l_k + v), no shadowing-masking term and a constant Fresnel
 // factor (rho_s = F0). Fitted by Levenberg-Marquardt with analytic derivatives
-// (normal as two tangent angles, rho_d, rho_s >= 0, log alpha) from the robust
+// (normal as two tangent angles, rho_d, rho_s >= 0, log alpha; the two
+// amplitudes re-solved linearly at every trial step) from the robust
 // Lambertian fit (FitRobustIrls) and the best of a few alpha starts, with a
 // Tukey weight on every residual; samples with n . l <= 0 are out. The lobe is
 // kept only when BIC prefers it to the Lambertian fit on the same weighted
