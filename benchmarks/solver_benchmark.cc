@@ -49,13 +49,16 @@ const SyntheticScene& Scene(Lights lights, int width, int height) {
   return *found->second;
 }
 
-void BM_Solve(benchmark::State& state, Method method, Lights lights, int width, int height) {
+// adaptive_lobe = false: adaptive's robust pass as before the lobe fit (Lambertian IRLS).
+void BM_Solve(benchmark::State& state, Method method, Lights lights, int width, int height,
+              bool adaptive_lobe = PhotometricSolverOptions().adaptive_lobe) {
   const SyntheticScene& scene = Scene(lights, width, height);
   PhotometricSolverInput input;
   input.images = scene.ImagePointers();
   input.light_field = scene.light_field.get();
   PhotometricSolverOptions options;
   options.method = method;
+  options.adaptive_lobe = adaptive_lobe;
   options.num_threads = static_cast<int>(state.range(0));
   PhotometricSolution solution;
   PhotometricSolverSummary summary;
@@ -85,6 +88,7 @@ SCANBENCH_SOLVE_CASE(1MP_near_qr, Method::kQr, Lights::kNearField, 1024, 1024, -
 SCANBENCH_SOLVE_CASE(1MP_near_robust_irls, Method::kRobustIrls, Lights::kNearField, 1024, 1024, ->Arg(1)->Arg(2));
 SCANBENCH_SOLVE_CASE(1MP_near_sparse_bayesian, Method::kSparseBayesian, Lights::kNearField, 1024, 1024,
                      ->Arg(1)->Arg(2));
+SCANBENCH_SOLVE_CASE(1MP_near_diffuse_lobe, Method::kDiffuseLobe, Lights::kNearField, 1024, 1024, ->Arg(1)->Arg(2));
 SCANBENCH_SOLVE_CASE(1MP_distant_adaptive, Method::kAdaptive, Lights::kDistant, 1024, 1024, ->Arg(1)->Arg(2));
 SCANBENCH_SOLVE_CASE(1MP_distant_uniform_pinv, Method::kUniformPseudoInverse, Lights::kDistant, 1024, 1024,
                      ->Arg(1)->Arg(2));
@@ -92,6 +96,8 @@ SCANBENCH_SOLVE_CASE(1MP_distant_jacobi_svd, Method::kJacobiSvd, Lights::kDistan
 
 // 16 MP (4928 x 3264, the D5100's full sensor), 10 lights, 2 threads: the target.
 SCANBENCH_SOLVE_CASE(16MP_near_adaptive, Method::kAdaptive, Lights::kNearField, 4928, 3264, ->Arg(2));
+BENCHMARK_CAPTURE(BM_Solve, 16MP_near_adaptive_irls, Method::kAdaptive, Lights::kNearField, 4928, 3264, false)
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Arg(2);
 SCANBENCH_SOLVE_CASE(16MP_near_jacobi_svd, Method::kJacobiSvd, Lights::kNearField, 4928, 3264, ->Arg(2));
 SCANBENCH_SOLVE_CASE(16MP_near_normal_equations, Method::kNormalEquations, Lights::kNearField, 4928, 3264, ->Arg(2));
 SCANBENCH_SOLVE_CASE(16MP_near_qr, Method::kQr, Lights::kNearField, 4928, 3264, ->Arg(2));

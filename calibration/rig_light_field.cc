@@ -27,7 +27,8 @@ std::vector<PointLight> RigPointLights(const RigDescription& rig) {
 }
 
 std::unique_ptr<PointLightField> MakeRigLightField(const RigDescription& rig) {
-  return std::make_unique<PointLightField>(RigPointLights(rig), ComputeTablePoints(rig.camera));
+  return std::make_unique<PointLightField>(RigPointLights(rig), ComputeTablePoints(rig.camera),
+                                           CameraCentreInTable(rig.camera));
 }
 
 }  // namespace scanbench

@@ -170,4 +170,41 @@ void SampledLightField::EvaluateAt(double x, double y, float* light_dirs, float*
   }
 }
 
+void SampledLightField::SetViewDirections(std::vector<float> view_dirs_in_table) {
+  if (view_dirs_in_table.size() != grid_.num_nodes() * 3) {
+    throw FieldError("SampledLightField", "view_dirs_in_table", std::to_string(view_dirs_in_table.size()) + " values",
+                     "must hold 3 per grid node (" + std::to_string(grid_.num_nodes() * 3) + ")");
+  }
+  for (size_t n = 0; n < grid_.num_nodes(); ++n) {
+    const float* d = &view_dirs_in_table[3 * n];
+    const float norm2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if (!std::isfinite(norm2) || !(norm2 > 0)) {
+      throw FieldError("SampledLightField", "view_dirs_in_table[node " + std::to_string(n) + "]", "zero or non-finite",
+                       "must be a finite non-zero direction");
+    }
+  }
+  view_dirs_ = std::move(view_dirs_in_table);
+}
+
+void SampledLightField::ViewDirection(int x, int y, float* view_dir) const {
+  if (view_dirs_.empty()) {
+    LightField::ViewDirection(x, y, view_dir);
+    return;
+  }
+  int i, j;
+  double fx, fy;
+  Locate(x, grid_.origin_x, grid_.step, grid_.nodes_x, &i, &fx);
+  Locate(y, grid_.origin_y, grid_.step, grid_.nodes_y, &j, &fy);
+  const size_t n00 = (static_cast<size_t>(j) * grid_.nodes_x + i) * 3, n10 = n00 + 3;
+  const size_t n01 = n00 + static_cast<size_t>(grid_.nodes_x) * 3, n11 = n01 + 3;
+  double d[3], norm2 = 0;
+  for (int c = 0; c < 3; ++c) {
+    d[c] = (1 - fx) * (1 - fy) * view_dirs_[n00 + c] + fx * (1 - fy) * view_dirs_[n10 + c] +
+           (1 - fx) * fy * view_dirs_[n01 + c] + fx * fy * view_dirs_[n11 + c];
+    norm2 += d[c] * d[c];
+  }
+  const double norm = std::sqrt(norm2);
+  for (int c = 0; c < 3; ++c) view_dir[c] = norm > 1e-12 ? static_cast<float>(d[c] / norm) : (c == 2 ? 1.0f : 0.0f);
+}
+
 }  // namespace scanbench

@@ -56,6 +56,14 @@ class SampledLightField final : public LightField {
   // The same at a sub-pixel position.
   void EvaluateAt(double x, double y, float* light_dirs, float* rgb_intensities) const;
 
+  // View directions (surface towards the camera, table frame) at the nodes:
+  // num_nodes * 3 values, node-major like the lights, need not be unit. Empty
+  // (the default) = orthographic, +z. Throws std::invalid_argument on a wrong
+  // size, a non-finite value or a zero direction.
+  void SetViewDirections(std::vector<float> view_dirs_in_table);
+  // Bilinear between the nodes like the lights, renormalised.
+  void ViewDirection(int x, int y, float* view_dir) const override;
+
   const LightFieldGrid& grid() const { return grid_; }
   const std::vector<float>& node_light_dirs() const { return light_dirs_; }
   const std::vector<float>& node_rgb_intensities() const { return rgb_intensities_; }
@@ -66,6 +74,7 @@ class SampledLightField final : public LightField {
   int num_lights_;
   std::vector<float> light_dirs_;
   std::vector<float> rgb_intensities_;
+  std::vector<float> view_dirs_;  // per node, or empty
 };
 
 }  // namespace scanbench

@@ -44,8 +44,12 @@ void DirectionalLightField::Evaluate(int /*x*/, int /*y*/, float* light_dirs, fl
   }
 }
 
-PointLightField::PointLightField(std::vector<PointLight> lights, ImageF surface_points)
-    : lights_(std::move(lights)), surface_points_(std::move(surface_points)) {
+PointLightField::PointLightField(std::vector<PointLight> lights, ImageF surface_points,
+                                 std::optional<Eigen::Vector3d> camera_centre)
+    : lights_(std::move(lights)), surface_points_(std::move(surface_points)), camera_centre_(camera_centre) {
+  if (camera_centre_ && !AllFinite(*camera_centre_)) {
+    throw std::invalid_argument("point light field: camera_centre must be finite");
+  }
   if (surface_points_.channels() != 3) {
     throw std::invalid_argument("point light field: surface points have " +
                                 std::to_string(surface_points_.channels()) + " channels; 3 required");
@@ -86,6 +90,17 @@ void PointLightField::Evaluate(int x, int y, float* light_dirs, float* rgb_inten
       rgb_intensities[3 * k + c] = static_cast<float>(light.rgb_intensity[c] * falloff);
     }
   }
+}
+
+void PointLightField::ViewDirection(int x, int y, float* view_dir) const {
+  Eigen::Vector3d view = Eigen::Vector3d::UnitZ();
+  if (camera_centre_) {
+    const Eigen::Vector3d point(surface_points_(x, y, 0), surface_points_(x, y, 1), surface_points_(x, y, 2));
+    const Eigen::Vector3d to_camera = *camera_centre_ - point;
+    const double distance = to_camera.norm();
+    if (distance > 0 && std::isfinite(distance)) view = to_camera / distance;
+  }
+  for (int c = 0; c < 3; ++c) view_dir[c] = static_cast<float>(view[c]);
 }
 
 }  // namespace scanbench

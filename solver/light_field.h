@@ -1,6 +1,7 @@
 // The light each LED casts on each pixel: direction and RGB intensity.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -66,19 +67,24 @@ struct PointLight {
 // pixel's ray meets the table).
 class PointLightField final : public LightField {
  public:
-  // surface_points: 3 channels, one point per pixel. Throws
-  // std::invalid_argument on invalid light parameters.
-  PointLightField(std::vector<PointLight> lights, ImageF surface_points);
+  // surface_points: 3 channels, one point per pixel. camera_centre (same
+  // frame): where the view directions point; none = orthographic, +z. Throws
+  // std::invalid_argument on invalid light parameters or a non-finite centre.
+  PointLightField(std::vector<PointLight> lights, ImageF surface_points,
+                  std::optional<Eigen::Vector3d> camera_centre = std::nullopt);
   int num_lights() const override { return static_cast<int>(lights_.size()); }
   int width() const override { return surface_points_.width(); }
   int height() const override { return surface_points_.height(); }
   void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override;
+  // Towards the camera centre when one was given (else the orthographic default).
+  void ViewDirection(int x, int y, float* view_dir) const override;
 
   const std::vector<PointLight>& lights() const { return lights_; }
 
  private:
   std::vector<PointLight> lights_;
   ImageF surface_points_;
+  std::optional<Eigen::Vector3d> camera_centre_;
 };
 
 }  // namespace scanbench

@@ -190,6 +190,11 @@ void CheckUniformPinvField(const PhotometricSolverOptions& options, const LightF
   }
 }
 
+// Whether the method fits a specular lobe (and so fills the specular maps).
+bool MethodEstimatesLobe(const PhotometricSolverOptions& options) {
+  return options.method == Method::kDiffuseLobe || (options.method == Method::kAdaptive && options.adaptive_lobe);
+}
+
 // Every output at its "not solved" value, sized to the light field; the job
 // the workers get (Bayer: the per-raw-pixel albedo goes to `albedo_mosaic`).
 tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosaic) {
@@ -203,6 +208,10 @@ tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosai
   solution->condition_number = job.with_confidence ? ImageF(width, height, 1, 0.0f) : ImageF();
   solution->residual = job.with_confidence ? ImageF(width, height, 1, 0.0f) : ImageF();
   solution->solve_path = ImageU8(width, height, 1, static_cast<uint8_t>(SolvePath::kNone));
+  const bool lobe = job.options->compute_specular && MethodEstimatesLobe(*job.options);
+  solution->specular = lobe ? ImageF(width, height, 2, 0.0f) : ImageF();
+  solution->specular_status =
+      lobe ? ImageU8(width, height, 1, static_cast<uint8_t>(SpecularStatus::kNotSolved)) : ImageU8();
   tiled::SolveJob worker_job = job;
   if (job.bayer) {
     // Raw pixels carry one channel each: only the luminance solve runs per
@@ -311,6 +320,10 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   for (size_t i = 0; i < job.solution->status.num_pixels(); ++i) {
     ++summary.pixels_by_status[std::min<int>(job.solution->status.data()[i], kNumPixelStatuses - 1)];
   }
+  const ImageU8& specular_status = job.solution->specular_status;
+  for (size_t i = 0; i < specular_status.num_pixels(); ++i) {
+    ++summary.pixels_by_specular[std::min<int>(specular_status.data()[i], kNumSpecularStatuses - 1)];
+  }
   summary.pixels_by_path[0] = summary.num_pixels;
   for (int p = 1; p < kNumSolvePaths; ++p) summary.pixels_by_path[0] -= summary.pixels_by_path[p];
   summary.seconds = SecondsSince(start);
@@ -367,13 +380,14 @@ const char* PhotometricMethodName(Method method) {
     case Method::kUniformPseudoInverse: return "uniform_pinv";
     case Method::kRobustIrls: return "robust_irls";
     case Method::kSparseBayesian: return "sparse_bayesian";
+    case Method::kDiffuseLobe: return "diffuse_lobe";
   }
   return "unknown";
 }
 
 std::vector<Method> AllPhotometricMethods() {
   return {Method::kAdaptive,      Method::kJacobiSvd,           Method::kNormalEquations, Method::kQr,
-          Method::kUniformPseudoInverse, Method::kRobustIrls, Method::kSparseBayesian};
+          Method::kUniformPseudoInverse, Method::kRobustIrls, Method::kSparseBayesian, Method::kDiffuseLobe};
 }
 
 Method PhotometricMethodFromName(const std::string& name) {
@@ -451,6 +465,9 @@ std::string PhotometricSolverSummary::BriefReport() const {
   out << "; paths:";
   for (int p = 1; p < kNumSolvePaths; ++p) {
     if (pixels_by_path[p] > 0) out << " " << SolvePathName(static_cast<SolvePath>(p)) << " " << pixels_by_path[p];
+  }
+  if (pixels_by_specular[0] + pixels_by_specular[2] > 0) {
+    out << "; specular lobe estimated at " << pixels_by_specular[0] << ", unsupported at " << pixels_by_specular[2];
   }
   if (tiles_skipped > 0) out << "; " << tiles_skipped << " of " << num_tiles << " tiles outside the region";
   if (!message.empty()) out << " (" << message << ")";

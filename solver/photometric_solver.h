@@ -18,7 +18,10 @@
 //   robust_irls         per-pixel iteratively reweighted least squares
 //                       (Tukey or Cauchy) after shadow / clip rejection;
 //   sparse_bayesian     per-pixel sparse Bayesian learning of the non-
-//                       Lambertian errors (shadows, highlights).
+//                       Lambertian errors (shadows, highlights);
+//   diffuse_lobe        per-pixel diffuse + isotropic GGX lobe fit where BIC
+//                       prefers it to the robust Lambertian fit (FitDiffuseLobe
+//                       in pixel_solvers.h); fills the specular maps.
 // The work runs in tiles on a thread pool; the inner loops run over
 // structure-of-arrays spans that the compiler vectorises.
 #pragma once
@@ -79,6 +82,7 @@ struct PhotometricSolverOptions {
     kUniformPseudoInverse,  // one pseudo-inverse shared by all pixels; needs a uniform light field
     kRobustIrls,            // per-pixel iteratively reweighted least squares (robust_loss)
     kSparseBayesian,        // per-pixel sparse Bayesian learning of outlier samples
+    kDiffuseLobe,           // per-pixel diffuse + specular lobe fit (FitDiffuseLobe), robust Lambertian start
   };
   enum class RobustLoss {
     kTukey,   // biweight: samples beyond the width get weight 0 (hard rejection)
@@ -125,6 +129,12 @@ struct PhotometricSolverOptions {
   // estimates a specular lobe (else, and for methods that do not, they are
   // left empty).
   bool compute_specular = true;
+
+  // adaptive: its robust pass (see adaptive_robust_residual) fits the diffuse
+  // + specular lobe model (FitDiffuseLobe, as diffuse_lobe) instead of the
+  // Lambertian IRLS alone, and the specular maps are filled. (Kept beside the
+  // other flags: the struct's size is a tripwire in solve_controller.cc.)
+  bool adaptive_lobe = true;
 
   // Side of the square tiles the image is solved in, pixels, in [8, 4096].
   // Bounds the scratch memory per thread and is the unit of the light-field

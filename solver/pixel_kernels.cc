@@ -18,7 +18,8 @@ struct KernelSettings {
         limits{options.min_lights, options.max_condition_number, options.min_albedo},
         with_albedo(job.with_albedo && !job.bayer),
         with_confidence(job.with_confidence),
-        num_lights(job.num_lights) {
+        num_lights(job.num_lights),
+        field(job.field) {
     robust.loss = options.robust_loss;
     robust.width = options.robust_loss_width;
     robust.min_scale = options.robust_min_scale;
@@ -32,11 +33,20 @@ struct KernelSettings {
   bool with_albedo;  // RGB albedo solves
   bool with_confidence;
   int num_lights;
+  const LightField* field;  // for the view direction of the lobe fits
+
+  // Unit direction from pixel (x, y) towards the camera.
+  Eigen::Vector3d View(int x, int y) const {
+    float view[3];
+    field->ViewDirection(x, y, view);
+    return Eigen::Vector3d(view[0], view[1], view[2]);
+  }
 };
 
 // ---------------------------------------------------------------------------
-// jacobi_svd, qr, robust_irls, sparse_bayesian: each pixel's used samples are
-// gathered and handed to `fit` (a PixelFit(const PixelSamples&)).
+// jacobi_svd, qr, robust_irls, sparse_bayesian, diffuse_lobe: each pixel's
+// used samples are gathered and handed to `fit` (a
+// PixelFit(const PixelSamples&, int x, int y)).
 template <typename Fit>
 class PerPixelKernel final : public PixelKernel {
  public:
@@ -51,7 +61,7 @@ class PerPixelKernel final : public PixelKernel {
         fit.status = PixelStatus::kInvalidInput;
       } else {
         GatherSamples(span, i, with_albedo_, &samples_);
-        fit = fit_(samples_);
+        fit = fit_(samples_, span.x0 + i, span.y);
       }
       out->Store(fit, span.x0 + i, span.y, robust_ ? SolvePath::kRobust : span.LightPath());
     }
@@ -224,7 +234,8 @@ class NormalEquationsKernel final : public PixelKernel {
   NormalEquationsSolve solve_;
 };
 
-// adaptive: the normal-equations solve everywhere, then IRLS where the
+// adaptive: the normal-equations solve everywhere, then IRLS (or, with
+// adaptive_lobe, the diffuse-lobe fit) where the
 // least-squares residual (relative to the albedo) is above
 // adaptive_robust_residual or a sample was clipped; the robust fit is kept
 // when it solves the pixel or the least-squares one did not.
@@ -242,7 +253,11 @@ class AdaptiveKernel final : public PixelKernel {
       const PixelFit& fit = solve_.fits()[i];
       if (WantsRobust(span, i, fit)) {
         GatherSamples(span, i, settings_.with_albedo, &samples_);
-        const PixelFit refit = FitRobustIrls(samples_, settings_.with_albedo, settings_.limits, settings_.robust);
+        const PixelFit refit =
+            settings_.options.adaptive_lobe
+                ? FitDiffuseLobe(samples_, settings_.View(x, span.y), settings_.with_albedo, settings_.limits,
+                                 settings_.robust)
+                : FitRobustIrls(samples_, settings_.with_albedo, settings_.limits, settings_.robust);
         if (refit.status == PixelStatus::kSolved || fit.status != PixelStatus::kSolved) {
           out->Store(refit, x, span.y, SolvePath::kRobust);
           continue;
@@ -282,26 +297,32 @@ std::unique_ptr<PixelKernel> MakePixelKernel(const SolveJob& job, int capacity) 
     case Method::kUniformPseudoInverse: return std::make_unique<NormalEquationsKernel>(s, capacity);
     case Method::kJacobiSvd:
       return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples) {
+          s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples, int, int) {
             return FitLeastSquares(DenseMethod::kJacobiSvd, samples, albedo, limits);
           },
           false);
     case Method::kQr:
       return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples) {
+          s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples, int, int) {
             return FitLeastSquares(DenseMethod::kQr, samples, albedo, limits);
           },
           false);
     case Method::kRobustIrls:
       return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples) {
+          s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples, int, int) {
             return FitRobustIrls(samples, albedo, limits, robust);
           },
           true);
     case Method::kSparseBayesian:
       return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples) {
+          s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples, int, int) {
             return FitSparseBayesian(samples, albedo, limits, robust);
+          },
+          true);
+    case Method::kDiffuseLobe:
+      return MakePerPixelKernel(
+          s, [s](const PixelSamples& samples, int x, int y) {
+            return FitDiffuseLobe(samples, s.View(x, y), s.with_albedo, s.limits, s.robust);
           },
           true);
   }

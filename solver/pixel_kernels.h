@@ -11,7 +11,8 @@
 //                            only in how tiles share lights
 //   jacobi_svd, qr,          every pixel's samples gathered and fitted on
 //   robust_irls,             their own (PerPixelKernel with the method's
-//   sparse_bayesian          fit from pixel_solvers.h)
+//   sparse_bayesian,         fit from pixel_solvers.h)
+//   diffuse_lobe
 #pragma once
 
 #include <memory>

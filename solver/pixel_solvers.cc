@@ -403,4 +403,323 @@ PixelFit FitSparseBayesian(const PixelSamples& samples, bool with_albedo, const 
   return FitWithFinalWeights(samples, weights, with_albedo, limits);
 }
 
+namespace {
+
+// The diffuse-lobe model's settings: fixed, not tuned per data set.
+constexpr int kLobeMinSamples = 7;          // 5 parameters and two spare samples at the least
+constexpr double kLobeMinAlpha = 0.02;      // GGX alpha range of the fit: a sharper lobe needs
+constexpr double kLobeMaxAlpha = 1.0;       //   denser lights than any rig has
+constexpr double kLobeMinViewCosine = 0.1;  // n . v floor: near-grazing views only rescale rho_s
+constexpr int kLobeIterations = 30;         // Levenberg-Marquardt steps (weights refreshed each)
+constexpr double kLobeNormalStep = 2e-4;    // rad (0.01 deg): a smaller step of the normal has converged
+constexpr double kLobeLogAlphaStep = 1e-2;  // and of log alpha (1 %)
+constexpr double kLobeAlphaStarts[] = {0.04, 0.1, 0.25, 0.6};
+
+struct LobeParams {
+  Eigen::Vector3d normal;
+  double rho_d = 0, rho_s = 0, log_alpha = 0;
+};
+
+// The lobe's shape term S_k (so that b_k = rho_d (n . l_k) + rho_s S_k) and, if
+// asked, its derivatives by n (a vector) and by log alpha.
+struct LobeTerm {
+  double s = 0;
+  Eigen::Vector3d ds_dn = Eigen::Vector3d::Zero();
+  double ds_dlog_alpha = 0;
+};
+
+inline __attribute__((always_inline)) LobeTerm EvaluateLobe(const Eigen::Vector3d& n, const Eigen::Vector3d& h, const Eigen::Vector3d& view,
+                      double alpha2, bool derivatives) {
+  LobeTerm t;
+  const double raw_nv = n.dot(view);
+  const bool nv_clamped = !(raw_nv > kLobeMinViewCosine);
+  const double nv = nv_clamped ? kLobeMinViewCosine : raw_nv;
+  const double c = n.dot(h);
+  const double q = c * c * (alpha2 - 1) + 1;  // in [alpha^2, 1] for c in [0, 1]
+  t.s = alpha2 / (4 * nv * q * q);
+  if (derivatives) {
+    t.ds_dn = t.s * (-4 * c * (alpha2 - 1) / q) * h;
+    if (!nv_clamped) t.ds_dn -= (t.s / nv) * view;
+    t.ds_dlog_alpha = t.s * (2 - 4 * alpha2 * c * c / q);
+  }
+  return t;
+}
+
+double TukeyWeight(double r, double width_scale) {
+  const double u = r / width_scale;
+  const double t = 1 - u * u;
+  return t > 0 ? t * t : 0.0;
+}
+
+// Unit vectors t1, t2 completing n to an orthonormal basis.
+void TangentBasis(const Eigen::Vector3d& n, Eigen::Vector3d* t1, Eigen::Vector3d* t2) {
+  const Eigen::Vector3d helper = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  *t1 = n.cross(helper).normalized();
+  *t2 = n.cross(*t1);
+}
+
+// Weighted 2-parameter least squares b ~ x0 a + x1 c (the diffuse and lobe
+// amplitudes for a fixed normal and lobe shape); x1 held >= 0. False when singular.
+bool SolveAmplitudes(double aa, double ac, double cc, double ab, double cb, double* x0, double* x1) {
+  const double det = aa * cc - ac * ac;
+  if (det > 1e-12 * aa * cc && aa > 0) {
+    *x0 = (cc * ab - ac * cb) / det;
+    *x1 = (aa * cb - ac * ab) / det;
+    if (*x1 >= 0) return std::isfinite(*x0) && std::isfinite(*x1);
+  }
+  if (!(aa > 0)) return false;
+  *x0 = ab / aa;  // the lobe's amplitude at its bound: diffuse only
+  *x1 = 0;
+  return std::isfinite(*x0);
+}
+
+}  // namespace
+
+PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view_in, bool with_albedo,
+                        const PixelFitLimits& limits, const RobustFitOptions& options) {
+  PixelFit start = FitRobustIrls(samples, with_albedo, limits, options);
+  start.specular_status = start.status == PixelStatus::kSolved ? SpecularStatus::kUnsupported : SpecularStatus::kNotSolved;
+  const int m = samples.count();
+  if (start.status != PixelStatus::kSolved || m < kLobeMinSamples) return start;
+  const Eigen::Vector3d view = view_in.allFinite() && view_in.norm() > 0 ? view_in.normalized() : Eigen::Vector3d::UnitZ();
+  thread_local std::vector<double> base, weights;
+  thread_local std::vector<Eigen::Vector3d> halves;
+  BaseWeights(samples, options.dark_fraction, &base);
+  halves.resize(m);
+  const double* l = samples.light_data();
+  const double* v = samples.value_data();
+  for (int k = 0; k < m; ++k) {
+    const Eigen::Vector3d sum = Eigen::Vector3d(l[3 * k], l[3 * k + 1], l[3 * k + 2]) + view;
+    const double length = sum.norm();
+    if (length > 1e-6) {
+      halves[k] = sum / length;
+    } else {
+      halves[k] = view, base[k] = 0;  // light opposite the camera: no half vector
+    }
+  }
+  const double width = options.width > 0 ? options.width : kTukeyWidth;
+  const double floor_scale = options.min_scale * start.luminance_albedo;
+  auto light = [&](int k) { return Eigen::Vector3d(l[3 * k], l[3 * k + 1], l[3 * k + 2]); };
+
+  // Robust scale of the residuals of `p` (1.4826 MAD over the lit samples), floored.
+  thread_local std::vector<double> abs_residuals;
+  auto scale_of = [&](const LobeParams& p) {
+    abs_residuals.clear();
+    const double alpha2 = std::exp(2 * p.log_alpha);
+    for (int k = 0; k < m; ++k) {
+      const double nl = p.normal.dot(light(k));
+      if (!(base[k] > 0) || !(nl > 0)) continue;
+      const double f = p.rho_d * nl + p.rho_s * EvaluateLobe(p.normal, halves[k], view, alpha2, false).s;
+      abs_residuals.push_back(std::abs(f - v[4 * k]));
+    }
+    return std::max(kMadToSigma * MedianAbs(&abs_residuals), floor_scale);
+  };
+  // Tukey weights at `p` into `weights`, and the weighted squared residual.
+  auto reweight = [&](const LobeParams& p, double scale) {
+    weights.assign(m, 0.0);
+    const double alpha2 = std::exp(2 * p.log_alpha);
+    double cost = 0;
+    for (int k = 0; k < m; ++k) {
+      const double nl = p.normal.dot(light(k));
+      if (!(base[k] > 0) || !(nl > 0)) continue;
+      const double r = p.rho_d * nl + p.rho_s * EvaluateLobe(p.normal, halves[k], view, alpha2, false).s - v[4 * k];
+      weights[k] = TukeyWeight(r, width * scale);
+      cost += weights[k] * r * r;
+    }
+    return cost;
+  };
+  // The cost of `p` under the current weights, its two amplitudes first
+  // re-solved (variable projection: they are linear given n and alpha, and
+  // re-solving them keeps the steps out of the long rho_s-alpha valley).
+  auto projected_cost = [&](LobeParams* p) {
+    const double alpha2 = std::exp(2 * p->log_alpha);
+    double aa = 0, ac = 0, cc = 0, ab = 0, cb = 0, bb = 0;
+    for (int k = 0; k < m; ++k) {
+      const double w = weights[k];
+      if (!(w > 0)) continue;
+      const double b = v[4 * k];
+      bb += w * b * b;  // a sample that falls into attached shadow keeps its full residual
+      const double nl = p->normal.dot(light(k));
+      if (!(nl > 0)) continue;
+      const double s = EvaluateLobe(p->normal, halves[k], view, alpha2, false).s;
+      aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, ab += w * nl * b, cb += w * s * b;
+    }
+    if (!SolveAmplitudes(aa, ac, cc, ab, cb, &p->rho_d, &p->rho_s)) return std::numeric_limits<double>::infinity();
+    const double d = p->rho_d, sp = p->rho_s;
+    return std::max(0.0, bb - 2 * (d * ab + sp * cb) + d * d * aa + 2 * d * sp * ac + sp * sp * cc);
+  };
+
+  // Start: the robust normal; per alpha start the two amplitudes by plain
+  // least squares on the lit samples; the start with the lowest Tukey cost
+  // (at the Lambertian fit's residual scale) wins.
+  LobeParams best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  {
+    LobeParams lambert;
+    lambert.normal = start.normal;
+    lambert.rho_d = start.luminance_albedo;
+    lambert.log_alpha = std::log(kLobeAlphaStarts[0]);
+    const double scale = scale_of(lambert);
+    for (double alpha : kLobeAlphaStarts) {
+      const double alpha2 = alpha * alpha;
+      double aa = 0, ac = 0, cc = 0, ab = 0, cb = 0;
+      for (int k = 0; k < m; ++k) {
+        const double nl = start.normal.dot(light(k));
+        if (!(base[k] > 0) || !(nl > 0)) continue;
+        const double s = EvaluateLobe(start.normal, halves[k], view, alpha2, false).s;
+        aa += nl * nl, ac += nl * s, cc += s * s, ab += nl * v[4 * k], cb += s * v[4 * k];
+      }
+      LobeParams p = lambert;
+      p.log_alpha = std::log(alpha);
+      if (!SolveAmplitudes(aa, ac, cc, ab, cb, &p.rho_d, &p.rho_s) || !(p.rho_d > 0)) continue;
+      // Robust cost: Tukey's rho, in units of scale^2 (rejected samples count fully).
+      double rho = 0;
+      const double c2 = width * width * scale * scale / 6;
+      for (int k = 0; k < m; ++k) {
+        const double nl = p.normal.dot(light(k));
+        if (!(base[k] > 0) || !(nl > 0)) continue;
+        const double r = p.rho_d * nl + p.rho_s * EvaluateLobe(p.normal, halves[k], view, alpha2, false).s - v[4 * k];
+        const double u2 = r * r / (width * width * scale * scale);
+        const double t = 1 - u2;
+        rho += u2 < 1 ? c2 * (1 - t * t * t) : c2;
+      }
+      if (rho < best_cost) best_cost = rho, best = p;
+    }
+  }
+  if (!std::isfinite(best_cost)) return start;
+
+  // Levenberg-Marquardt. Each iteration's one pass over the samples gives
+  // the residuals, their Tukey weights (scale: 1.4826 MAD of the same
+  // residuals, floored), the cost and the damped normal equations; the step is
+  // accepted when it lowers the cost under those weights.
+  const double min_log_alpha = std::log(kLobeMinAlpha), max_log_alpha = std::log(kLobeMaxAlpha);
+  LobeParams p = best;
+  double lambda = 1e-3;
+  thread_local std::vector<double> residual_of;
+  residual_of.assign(m, 0.0);
+  weights.assign(m, 0.0);
+  for (int iteration = 0; iteration < kLobeIterations; ++iteration) {
+    Eigen::Vector3d t1, t2;
+    TangentBasis(p.normal, &t1, &t2);
+    const double alpha2 = std::exp(2 * p.log_alpha);
+    thread_local std::vector<Eigen::Matrix<double, 5, 1>> rows;
+    rows.resize(m);
+    abs_residuals.clear();
+    for (int k = 0; k < m; ++k) {
+      const Eigen::Vector3d lk = light(k);
+      const double nl = p.normal.dot(lk);
+      weights[k] = base[k] > 0 && nl > 0 ? 1.0 : 0.0;
+      if (!(weights[k] > 0)) continue;
+      const LobeTerm t = EvaluateLobe(p.normal, halves[k], view, alpha2, true);
+      residual_of[k] = p.rho_d * nl + p.rho_s * t.s - v[4 * k];
+      abs_residuals.push_back(std::abs(residual_of[k]));
+      const Eigen::Vector3d df_dn = p.rho_d * lk + p.rho_s * t.ds_dn;
+      rows[k] << df_dn.dot(t1), df_dn.dot(t2), nl, t.s, p.rho_s * t.ds_dlog_alpha;
+    }
+    const double scale = std::max(kMadToSigma * MedianAbs(&abs_residuals), floor_scale);
+    Eigen::Matrix<double, 5, 5> hessian = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
+    double cost = 0;
+    int active = 0;
+    for (int k = 0; k < m; ++k) {
+      if (!(weights[k] > 0)) continue;
+      const double r = residual_of[k];
+      const double w = TukeyWeight(r, width * scale);
+      weights[k] = w;
+      if (!(w > 0)) continue;
+      const Eigen::Matrix<double, 5, 1>& j = rows[k];
+      for (int a = 0; a < 5; ++a) {
+        const double wa = w * j[a];
+        for (int b = 0; b <= a; ++b) hessian(a, b) += wa * j[b];
+      }
+      gradient.noalias() += (w * r) * rows[k];
+      cost += w * r * r;
+      ++active;
+    }
+    if (active < kLobeMinSamples) break;
+    for (int a = 0; a < 5; ++a) {
+      for (int b = 0; b < a; ++b) hessian(b, a) = hessian(a, b);
+    }
+    bool accepted = false;
+    double change = 0;
+    for (int attempt = 0; attempt < 6 && !accepted; ++attempt) {
+      Eigen::Matrix<double, 5, 5> damped = hessian;
+      for (int i = 0; i < 5; ++i) damped(i, i) += lambda * std::max(hessian(i, i), 1e-12);
+      const Eigen::Matrix<double, 5, 1> step = damped.ldlt().solve(-gradient);
+      if (!step.allFinite()) {
+        lambda *= 10;
+        continue;
+      }
+      LobeParams trial = p;
+      trial.normal = (p.normal + step[0] * t1 + step[1] * t2).normalized();
+      trial.rho_d = p.rho_d + step[2];
+      trial.rho_s = std::max(0.0, p.rho_s + step[3]);
+      trial.log_alpha = std::clamp(p.log_alpha + step[4], min_log_alpha, max_log_alpha);
+      const double trial_cost = projected_cost(&trial);
+      if (trial_cost < cost && trial.rho_d > 0 && trial.normal.allFinite()) {
+        // Converged: the normal moves by less than 0.01 deg and alpha by less than 1 %.
+        change = std::max((trial.normal - p.normal).norm() / kLobeNormalStep,
+                          std::abs(trial.log_alpha - p.log_alpha) / kLobeLogAlphaStep);
+        accepted = (cost - trial_cost) > 1e-6 * cost || change > 1;  // else converged: keep p
+        if (accepted) p = trial;
+        lambda = std::max(lambda / 3, 1e-9);
+        if (!accepted) break;
+      } else {
+        lambda *= 4;
+      }
+    }
+    if (!accepted || change < 1) break;
+  }
+  // Model selection on the final weighted samples: the lobe's residual
+  // against the Lambertian fit's with the same weights, both floored at the
+  // noise level, by BIC (two more parameters).
+  const double lobe_rss = reweight(p, scale_of(p));
+  Matrix34d lambert_scaled;
+  double condition = 0;
+  int used = 0;
+  const bool lambert_ok = SolveWeighted(samples, weights, 1, limits, &lambert_scaled, &condition, &used, false);
+  double lambert_rss = 0, weight_sum = 0;
+  for (int k = 0; k < m; ++k) {
+    if (!(weights[k] > 0)) continue;
+    const double r = lambert_ok ? light(k).dot(lambert_scaled.col(0)) - v[4 * k] : v[4 * k];
+    lambert_rss += weights[k] * r * r;
+    weight_sum += weights[k];
+  }
+  const double noise_rss = weight_sum * floor_scale * floor_scale;
+  const double effective = weight_sum;
+  const bool lobe_pays = effective >= kLobeMinSamples && p.rho_s > 0 && p.normal.z() > 0 && p.normal.allFinite() &&
+                         p.rho_d >= limits.min_albedo &&
+                         effective * std::log(std::max(lambert_rss, noise_rss) / std::max(lobe_rss, noise_rss)) >
+                             2 * std::log(effective);
+  if (!lobe_pays) return start;
+
+  PixelFit fit = start;
+  fit.normal = p.normal;
+  fit.luminance_albedo = p.rho_d;
+  const double alpha = std::exp(p.log_alpha);
+  fit.specular_status = SpecularStatus::kEstimated;
+  fit.specular_f0 = std::clamp(p.rho_s, 0.0, 1.0);
+  fit.roughness_alpha = alpha;
+  fit.lights_used = 0;
+  for (int k = 0; k < m; ++k) fit.lights_used += weights[k] > kUsedWeight;
+  fit.residual = weight_sum > 0 ? std::sqrt(lobe_rss / weight_sum) / p.rho_d : 0.0;
+  if (with_albedo) {
+    // Per channel: rho_d,c and that channel's lobe amplitude, n and the lobe shape fixed.
+    double aa = 0, ac = 0, cc = 0, ab[3] = {0, 0, 0}, cb[3] = {0, 0, 0};
+    for (int k = 0; k < m; ++k) {
+      if (!(weights[k] > 0)) continue;
+      const double nl = p.normal.dot(light(k));
+      const double s = EvaluateLobe(p.normal, halves[k], view, alpha * alpha, false).s;
+      const double w = weights[k];
+      aa += w * nl * nl, ac += w * nl * s, cc += w * s * s;
+      for (int c = 0; c < 3; ++c) ab[c] += w * nl * v[4 * k + 1 + c], cb[c] += w * s * v[4 * k + 1 + c];
+    }
+    for (int c = 0; c < 3; ++c) {
+      double diffuse = 0, lobe = 0;
+      fit.albedo[c] = SolveAmplitudes(aa, ac, cc, ab[c], cb[c], &diffuse, &lobe) ? std::max(0.0, diffuse) : 0.0;
+    }
+  }
+  return fit;
+}
+
 }  // namespace scanbench

@@ -47,6 +47,11 @@ struct PixelFit {
   int lights_used = 0;                                // samples in the fit (robust: weight > 0.01)
   double condition_number = 0;                        // of the (weighted) light matrix
   double residual = 0;                                // (weighted) RMS luminance residual / albedo
+  // Specular lobe (FitDiffuseLobe only; the other fits leave kUnsupported when
+  // solved): white F0 in [0, 1] and GGX alpha in (0, 1], both 0 unless kEstimated.
+  SpecularStatus specular_status = SpecularStatus::kUnsupported;
+  double specular_f0 = 0;
+  double roughness_alpha = 0;
 };
 
 enum class DenseMethod {
@@ -86,5 +91,22 @@ PixelFit FitRobustIrls(const PixelSamples& samples, bool with_albedo, const Pixe
 // Outliers end with large gamma_k and so near-zero weight.
 PixelFit FitSparseBayesian(const PixelSamples& samples, bool with_albedo, const PixelFitLimits& limits,
                            const RobustFitOptions& options);
+
+// Diffuse plus one isotropic specular lobe, per pixel: the luminance is
+//   b_k = rho_d (n . l_k) + rho_s alpha^2 / (4 (n . v) ((n . h_k)^2 (alpha^2 - 1) + 1)^2),
+// i.e. (n . l) (rho_d + rho_s pi D_GGX(n . h; alpha) / (4 (n . l)(n . v))) with
+// h_k = normalize(l_k + v), no shadowing-masking term and a constant Fresnel
+// factor (rho_s = F0). Fitted by Levenberg-Marquardt with analytic derivatives
+// (normal as two tangent angles, rho_d, rho_s >= 0, log alpha; the two
+// amplitudes re-solved linearly at every trial step) from the robust
+// Lambertian fit (FitRobustIrls) and the best of a few alpha starts, with a
+// Tukey weight on every residual; samples with n . l <= 0 are out. The lobe is
+// kept only when BIC prefers it to the Lambertian fit on the same weighted
+// samples (residual floored at the noise level min_scale x albedo), else the
+// robust Lambertian fit is returned with kUnsupported. `view`: unit, surface
+// towards the camera. Colour albedo: rho_d per channel, solved linearly with
+// n and the lobe shape fixed.
+PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view, bool with_albedo,
+                        const PixelFitLimits& limits, const RobustFitOptions& options);
 
 }  // namespace scanbench

@@ -145,6 +145,13 @@ inline void PixelWriter::Store(const PixelFit& fit, int x, int y, SolvePath path
         static_cast<float>(std::min(fit.condition_number, double(std::numeric_limits<float>::max())));
     s.residual(x, y) = solved ? static_cast<float>(std::min(fit.residual, 1e30)) : 0.0f;
   }
+  if (!s.specular.empty()) {
+    const bool estimated = solved && fit.specular_status == SpecularStatus::kEstimated;
+    s.specular(x, y, 0) = estimated ? static_cast<float>(fit.specular_f0) : 0.0f;
+    s.specular(x, y, 1) = estimated ? static_cast<float>(fit.roughness_alpha) : 0.0f;
+    s.specular_status(x, y) = static_cast<uint8_t>(
+        !solved ? SpecularStatus::kNotSolved : estimated ? SpecularStatus::kEstimated : SpecularStatus::kUnsupported);
+  }
   const SolvePath stored = solved ? path : SolvePath::kNone;
   s.solve_path(x, y) = static_cast<uint8_t>(stored);
   ++pixels_by_path_[static_cast<int>(stored)];

@@ -11,7 +11,8 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
   command
       .add_option_function<std::string>(
           "--method", [&options](const std::string& name) { options.method = PhotometricMethodFromName(name); },
-          "Solver: adaptive (default), jacobi_svd, normal_equations, qr, uniform_pinv, robust_irls, sparse_bayesian")
+          "Solver: adaptive (default), jacobi_svd, normal_equations, qr, uniform_pinv, robust_irls, sparse_bayesian, "
+          "diffuse_lobe")
       ->check([](const std::string& name) {
         try {
           PhotometricMethodFromName(name);

@@ -8,11 +8,33 @@
 
 #include "app/io/file_util.h"
 #include "core/field_error.h"
+#include "calibration/camera_model.h"
 #include "calibration/rig_light_field.h"
 #include "calibration/sampled_light_field.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
+namespace {
+
+// The view direction (table point towards the camera centre) at every node of
+// the measured light field's grid, node-major: what the specular lobe fits need.
+std::vector<float> NodeViewDirections(const CameraGeometry& camera, const LightFieldGrid& grid) {
+  std::vector<Eigen::Vector2d> pixels;
+  pixels.reserve(grid.num_nodes());
+  for (int j = 0; j < grid.nodes_y; ++j) {
+    for (int i = 0; i < grid.nodes_x; ++i) pixels.emplace_back(grid.NodeX(i), grid.NodeY(j));
+  }
+  const std::vector<Eigen::Vector3d> points = ComputePlanePointsInTable(camera, pixels, 0.0);
+  const Eigen::Vector3d centre = CameraCentreInTable(camera);
+  std::vector<float> dirs(3 * points.size());
+  for (size_t n = 0; n < points.size(); ++n) {
+    const Eigen::Vector3d view = (centre - points[n]).normalized();
+    for (int c = 0; c < 3; ++c) dirs[3 * n + c] = static_cast<float>(view[c]);
+  }
+  return dirs;
+}
+
+}  // namespace
 
 void CalibrationUseOptions::Check() const {
   if (!(max_age_days > 0) || !std::isfinite(max_age_days)) {
@@ -82,8 +104,10 @@ CalibratedLighting MakeCalibratedLighting(const CalibrationSet& set, const std::
         }
       }
     }
-    lighting.light_field = std::make_unique<SampledLightField>(field.grid(), static_cast<int>(num_leds),
-                                                               field.node_light_dirs(), std::move(intensities));
+    auto sampled = std::make_unique<SampledLightField>(field.grid(), static_cast<int>(num_leds),
+                                                       field.node_light_dirs(), std::move(intensities));
+    sampled->SetViewDirections(NodeViewDirections(camera, field.grid()));
+    lighting.light_field = std::move(sampled);
   }
   lighting.light_model = std::string("calibration set ") + set_name + ": " +
                          (model ? "fitted point LEDs (position, axis, mu, RGB intensity)"

@@ -90,7 +90,8 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"robust_min_scale", solver.robust_min_scale},
           {"robust_max_iterations", solver.robust_max_iterations},
           {"robust_dark_fraction", solver.robust_dark_fraction},
-          {"adaptive_robust_residual", solver.adaptive_robust_residual}};
+          {"adaptive_robust_residual", solver.adaptive_robust_residual},
+          {"adaptive_lobe", solver.adaptive_lobe}};
 }
 
 // The steps of SolveController::Run, in order.

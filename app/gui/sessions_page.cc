@@ -62,6 +62,8 @@ QString MethodDescription(PhotometricSolverOptions::Method method) {
       return QObject::tr("robust per-pixel reweighting (Tukey): rejects shadows and highlights; slower");
     case Method::kSparseBayesian:
       return QObject::tr("sparse Bayesian outlier model: most robust to shadows and highlights; slowest");
+    case Method::kDiffuseLobe:
+      return QObject::tr("diffuse plus specular lobe per pixel: uses highlights and sheen, writes a specular map");
   }
   return {};
 }

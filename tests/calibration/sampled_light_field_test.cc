@@ -1,5 +1,6 @@
 #include "calibration/sampled_light_field.h"
 
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -82,6 +83,37 @@ TEST(SampledLightFieldTest, MemoryIsBoundedAtSixteenMegapixels) {
   field.Evaluate(4927, 3263, d, e);
   EXPECT_FLOAT_EQ(d[2], 1.0f);
   EXPECT_FLOAT_EQ(e[29], 0.5f);
+}
+
+// View directions per node (here from the rig's camera centre over the table):
+// interpolated like the lights, orthographic when none are set.
+TEST(SampledLightFieldTest, ViewDirectionsInterpolateTheNodes) {
+  const int width = 320, height = 240;
+  const RigDescription rig = NearFieldRig(width, height);
+  const std::unique_ptr<PointLightField> exact = MakeRigLightField(rig);
+  SampledLightField field = SampledLightField::Sample(*exact, 16);
+  float view[3], expected[3];
+  field.ViewDirection(100, 50, view);
+  EXPECT_EQ(view[2], 1.0f);
+  const LightFieldGrid& grid = field.grid();
+  std::vector<float> dirs;
+  for (int j = 0; j < grid.nodes_y; ++j) {
+    for (int i = 0; i < grid.nodes_x; ++i) {
+      // Nodes beyond the image: the border pixel's direction is close enough here.
+      exact->ViewDirection(std::min(width - 1, int(grid.NodeX(i))), std::min(height - 1, int(grid.NodeY(j))), expected);
+      dirs.insert(dirs.end(), expected, expected + 3);
+    }
+  }
+  field.SetViewDirections(dirs);
+  for (const auto& [x, y] : {std::pair{0, 0}, std::pair{100, 50}, std::pair{200, 170}}) {
+    field.ViewDirection(x, y, view);
+    exact->ViewDirection(x, y, expected);
+    EXPECT_LT(AngleDeg(view, expected), 0.01) << x << ", " << y;
+  }
+  EXPECT_GT(AngleDeg(view, std::array<float, 3>{0, 0, 1}.data()), 1.0) << "perspective, not orthographic";
+  EXPECT_THROW(field.SetViewDirections({1, 0, 0}), std::invalid_argument);
+  dirs[4] = NAN;
+  EXPECT_THROW(field.SetViewDirections(dirs), std::invalid_argument);
 }
 
 TEST(SampledLightFieldTest, RejectsBadInputNamingTheProblem) {

@@ -34,6 +34,21 @@ TEST(PointLightFieldTest, InverseSquareAndAngularFalloff) {
   EXPECT_NEAR(intensities[2], 0.25 * expected, 1e-5);
 }
 
+TEST(PointLightFieldTest, ViewDirectionPointsAtTheCameraCentreOrIsOrthographic) {
+  ImageF points(2, 1, 3, 0.0f);
+  points(1, 0, 0) = 300;
+  const PointLightField orthographic({PointLight()}, points);
+  float view[3];
+  orthographic.ViewDirection(1, 0, view);
+  EXPECT_THAT(Eigen::Vector3f(view[0], view[1], view[2]), testing::EigenNear(Eigen::Vector3f(0, 0, 1), 0));
+  const PointLightField perspective({PointLight()}, points, Eigen::Vector3d(0, 0, 400));
+  perspective.ViewDirection(0, 0, view);
+  EXPECT_THAT(Eigen::Vector3f(view[0], view[1], view[2]), testing::EigenNear(Eigen::Vector3f(0, 0, 1), 1e-7));
+  perspective.ViewDirection(1, 0, view);  // 300 mm to the side, 400 mm below: (-0.6, 0, 0.8)
+  EXPECT_THAT(Eigen::Vector3f(view[0], view[1], view[2]), testing::EigenNear(Eigen::Vector3f(-0.6f, 0, 0.8f), 1e-6));
+  EXPECT_THROW(PointLightField({PointLight()}, points, Eigen::Vector3d(NAN, 0, 1)), std::invalid_argument);
+}
+
 TEST(PointLightFieldTest, RejectsInvalidLights) {
   PointLight light;
   light.mu = -1;

@@ -28,7 +28,7 @@ inline ImageU8 ExactPixels(const SyntheticScene& scene) {
 // No NaN or infinity in any float map of the solution.
 inline void ExpectAllFinite(const PhotometricSolution& solution) {
   for (const ImageF* image : {&solution.normal_in_table, &solution.albedo, &solution.condition_number,
-                              &solution.residual}) {
+                              &solution.residual, &solution.specular}) {
     for (size_t i = 0; i < image->size(); ++i) ASSERT_TRUE(std::isfinite(image->data()[i])) << "at index " << i;
   }
 }
