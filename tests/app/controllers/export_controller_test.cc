@@ -83,8 +83,8 @@ class ExportControllerTest : public ::testing::Test {
   }
 
   // A copy of the session (frames, ground truth, the result) to damage.
-  fs::path CopyOfSession() {
-    const fs::path copy = local_ / "session_copy";
+  fs::path CopyOfSession(const std::string& name = "session_copy") {
+    const fs::path copy = local_ / name;
     fs::copy(session_dir_, copy, fs::copy_options::recursive);
     fs::remove_all(copy / "exports");
     return copy / "results" / result_dir_.filename();
@@ -526,7 +526,8 @@ TEST_F(ExportControllerTest, RoughnessUsesTheSpecularMapWhereEstimated) {
       specular(x, y, 1) = 0.04f + 0.5f * x / kSeamX;  // GGX alpha 0.04 .. 0.54
     }
   }
-  WriteExr(result / "specular.exr", specular, OverwritePolicy::kRefuse, {"specular_f0", "roughness_alpha"});
+  // Replaces the solver's own specular.exr (the default estimates lobes).
+  WriteExr(result / "specular.exr", specular, OverwritePolicy::kReplace, {"specular_f0", "roughness_alpha"});
   ExportOptions options;
   options.preset = ExportOptions::Preset::kLinearExr;
   const ExportSummary summary = Export(options, result);
@@ -580,7 +581,9 @@ TEST_F(ExportControllerTest, RoughnessUsesTheSpecularMapWhereEstimated) {
   EXPECT_THAT(source["encoding"].get<std::string>(), HasSubstr("sqrt(alpha)"));
 
   // Without specular.exr nothing of this appears.
-  const ExportSummary plain = Export(options);
+  const fs::path plain_result = CopyOfSession("plain_copy");
+  fs::remove(plain_result / "specular.exr");
+  const ExportSummary plain = Export(options, plain_result);
   EXPECT_EQ(plain.roughness_source, "normal_variance");
   EXPECT_FALSE(ReadJson(plain.export_dir / "material.json").contains("roughness"));
   const ImageF plain_roughness = ReadImageFloat(plain.export_dir / plain.files.at("roughness_mip0"));
@@ -590,7 +593,7 @@ TEST_F(ExportControllerTest, RoughnessUsesTheSpecularMapWhereEstimated) {
 TEST_F(ExportControllerTest, BadSpecularMapIsNamedAndLeavesNoExport) {
   const fs::path result = CopyOfSession();
   const fs::path exports = local_ / "exports";
-  WriteExr(result / "specular.exr", ImageF(400, 264, 1, 0.5f), OverwritePolicy::kRefuse, {"roughness_alpha"});
+  WriteExr(result / "specular.exr", ImageF(400, 264, 1, 0.5f), OverwritePolicy::kReplace, {"roughness_alpha"});
   EXPECT_THAT(ErrorOf([&] { Export(ExportOptions(), result); }),
               HasSubstr("specular.exr: has no channel 'specular_f0'"));
   ImageF specular(400, 264, 2, 0.2f);
