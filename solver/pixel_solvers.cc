@@ -418,7 +418,7 @@ constexpr double kLobeMinViewCosine = 0.1;  // n . v floor: near-grazing views o
 constexpr int kLobeIterations = 30;         // Levenberg-Marquardt steps (weights refreshed each)
 constexpr double kLobeNormalStep = 2e-4;    // rad (0.01 deg): a smaller step of the normal has converged
 constexpr double kLobeLogAlphaStep = 1e-2;  // and of log alpha (1 %)
-constexpr double kLobeAlphaStarts[] = {0.04, 0.1, 0.25, 0.6};
+constexpr double kLobeAlphaStarts[] = {0.04, 0.1, 0.25, 0.5};
 
 struct LobeParams {
   Eigen::Vector3d normal;
