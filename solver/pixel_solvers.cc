@@ -407,13 +407,18 @@ namespace {
 
 // The diffuse-lobe model's settings: fixed, not tuned per data set.
 constexpr int kLobeMinSamples = 7;          // 5 parameters and two spare samples at the least
-constexpr double kLobeMinAlpha = 0.02;      // GGX alpha range of the fit: a sharper lobe needs
-constexpr double kLobeMaxAlpha = 1.0;       //   denser lights than any rig has
+// GGX alpha range of the fit. A sharper lobe needs denser lights than any rig
+// has; a broader one hardly falls off over the lights' hemisphere (at 0.5 the
+// mirror direction is still 3x brighter than 30 deg off it, at 1 the lobe is
+// flat), so it is not identifiable against the diffuse term and would only
+// trade with the albedo (seen on the simulated velvet's grazing sheen).
+constexpr double kLobeMinAlpha = 0.02;
+constexpr double kLobeMaxAlpha = 0.5;
 constexpr double kLobeMinViewCosine = 0.1;  // n . v floor: near-grazing views only rescale rho_s
 constexpr int kLobeIterations = 30;         // Levenberg-Marquardt steps (weights refreshed each)
 constexpr double kLobeNormalStep = 2e-4;    // rad (0.01 deg): a smaller step of the normal has converged
 constexpr double kLobeLogAlphaStep = 1e-2;  // and of log alpha (1 %)
-constexpr double kLobeAlphaStarts[] = {0.04, 0.1, 0.25, 0.6};
+constexpr double kLobeAlphaStarts[] = {0.04, 0.1, 0.25, 0.5};
 
 struct LobeParams {
   Eigen::Vector3d normal;
