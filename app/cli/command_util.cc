@@ -49,6 +49,9 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
   command.add_option("--robust-trigger", options.adaptive_robust_residual,
                      "adaptive: re-solve robustly where the relative RMS residual is above this")
       ->capture_default_str();
+  command.add_flag("--no-lobe", [&options](std::int64_t) { options.adaptive_lobe = false; },
+                   "adaptive: the robust pass is Tukey IRLS alone, without the diffuse + specular lobe fit "
+                   "(the default before issue #13; no specular map)");
 }
 
 void AddSolveOptions(CLI::App& command, SolveOptions& options) {

@@ -74,7 +74,7 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
   CLI::App* report_command = app.add_subcommand(
       "solver-report",
       "Run every solver method on simulated scenes (Lambertian, cast shadows, specular sheen, noise levels, the "
-      "RAW path, 16 MP with 10 lights) and the DiLiGenT objects; write the error-against-run-time table "
+      "RAW path, cloth and satin, 16 MP with 10 lights) and the DiLiGenT objects with all and with 10 ring lights; write the error-against-run-time table "
       "(report.md, report.csv) and plot (error_vs_time.svg)");
   report_command->add_option("--output", report->output_dir, "Folder for report.md, report.csv, error_vs_time.svg")
       ->capture_default_str();

@@ -90,6 +90,34 @@ TEST(ScanbenchCliTest, SimulateTakesAMaterialAndRefusesAnUnknownOneByName) {
   EXPECT_THAT(RunScanbench("demo --help").output, HasSubstr("--material"));
 }
 
+// Issue #13: the default writes a specular map from its lobe fit; --no-lobe
+// restores the Lambertian robust pass and writes none.
+TEST(ScanbenchCliTest, SolveWritesASpecularMapUnlessTheLobeIsTurnedOff) {
+  testing::TemporaryFolder folder;
+  const fs::path session_dir = folder / "satin";
+  const CommandResult simulated =
+      RunScanbench("simulate " + Quoted(session_dir) + " --width 320 --height 212 --material satin");
+  ASSERT_EQ(simulated.exit_code, 0) << simulated.output;
+  const auto newest_result = [&] {
+    fs::path newest;
+    for (const auto& entry : fs::directory_iterator(session_dir / "results")) {
+      if (entry.is_directory() && entry.path().filename() > newest.filename()) newest = entry.path();
+    }
+    return newest;
+  };
+  const CommandResult with_lobe = RunScanbench("solve " + Quoted(session_dir) + " --label lobe");
+  ASSERT_EQ(with_lobe.exit_code, 0) << with_lobe.output;
+  EXPECT_THAT(with_lobe.output, HasSubstr("specular map:"));
+  EXPECT_TRUE(fs::is_regular_file(newest_result() / "specular.exr"));
+  const CommandResult without = RunScanbench("solve " + Quoted(session_dir) + " --no-lobe --label nolobe");
+  ASSERT_EQ(without.exit_code, 0) << without.output;
+  EXPECT_THAT(without.output, Not(HasSubstr("specular map:")));
+  const fs::path plain = newest_result();
+  EXPECT_THAT(plain.filename().string(), HasSubstr("nolobe"));
+  EXPECT_FALSE(fs::exists(plain / "specular.exr"));
+  EXPECT_THAT(ReadText(plain / "report.json"), HasSubstr("\"adaptive_lobe\": false"));
+}
+
 TEST(ScanbenchCliTest, FailuresExitNonZeroNamingTheProblem) {
   testing::TemporaryFolder folder;
   const CommandResult not_a_session = RunScanbench("solve " + Quoted(folder.path()));
