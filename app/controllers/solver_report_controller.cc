@@ -13,6 +13,7 @@
 #include "app/io/file_util.h"
 #include "app/sim/simulated_rig.h"
 #include "app/sim/textile_scene.h"
+#include "calibration/camera_model.h"
 #include "calibration/raw_develop.h"
 #include "calibration/rig.h"
 #include "calibration/rig_light_field.h"
@@ -75,9 +76,10 @@ std::string DiligentSceneName(const std::string& object, int num_lights, bool ri
 }
 
 // The simulated rig's LEDs shining on the true surface points: the exact
-// light field, so that the report measures the solver, not the light model.
+// light field, so that the report measures the solver, not the light model;
+// seen from the rig camera's centre, as `scanbench solve` sees them.
 std::unique_ptr<LightField> RigLightsOnSurface(const RigDescription& rig, const ImageF& points) {
-  return std::make_unique<PointLightField>(RigPointLights(rig), points);
+  return std::make_unique<PointLightField>(RigPointLights(rig), points, CameraCentreInTable(rig.camera));
 }
 
 // The simulated rig's default twill at the default size; `material` other

@@ -412,7 +412,8 @@ std::unique_ptr<LightField> PhotometricDataset::MakeLightField() const {
     light.reference_distance = 1.0;
     lights.push_back(light);
   }
-  return std::make_unique<PointLightField>(std::move(lights), std::move(points));
+  // The camera is the frame's origin: the view direction of the lobe fits.
+  return std::make_unique<PointLightField>(std::move(lights), std::move(points), Eigen::Vector3d::Zero());
 }
 
 void PhotometricDataset::KeepLights(std::vector<int> indices) {

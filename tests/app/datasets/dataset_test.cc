@@ -198,6 +198,14 @@ TEST(DatasetIoTest, NearFieldFolderSolvesWithPointLights) {
   EXPECT_EQ(result.unsolved_in_mask, 0u);
   // Distant lights instead (ignoring positions) would be far off.
   EXPECT_GT(dataset.light_positions_mm[0].norm(), 100.0);
+  // The view direction points from pixel (0, 0)'s surface point back to the
+  // camera at the origin, not +z: its ray K^-1 (0, 0, 1) = (-0.395, -0.295, 1)
+  // meets the plane at (-118.5, -88.5, 300) mm (camera frame), which is
+  // (-118.5, 88.5, -300) in the solver frame.
+  float view[3];
+  dataset.MakeLightField()->ViewDirection(0, 0, view);
+  const Eigen::Vector3d expected = Eigen::Vector3d(118.5, -88.5, 300).normalized();
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(view[c], expected[c], 1e-5) << c;
 }
 
 TEST(DatasetControllerTest, WritesMapsConfidenceAndErrorReport) {
