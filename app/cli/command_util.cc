@@ -99,8 +99,8 @@ void AddMaterialOption(CLI::App& command, SurfaceMaterial& material) {
       .add_option_function<std::string>(
           "--material", [&material](const std::string& name) { material = *SurfaceMaterialFromName(name); },
           "Simulated textile material: lambert (default, diffuse only), cloth (the seed's velvet-distribution cloth "
-          "BRDF: sheen toward grazing light) or satin (an anisotropic gloss along the threads); ground truth stays "
-          "the geometric normal and the diffuse albedo")
+          "BRDF: sheen toward grazing light) or satin (an anisotropic gloss along the threads); ground truth is "
+          "the diffuse albedo and the pixel-scale normal (on the threads the mean of the fibres' normals)")
       ->check(CLI::IsMember({SurfaceMaterialName(SurfaceMaterial::kLambert),
                              SurfaceMaterialName(SurfaceMaterial::kCloth),
                              SurfaceMaterialName(SurfaceMaterial::kSatin)}));

@@ -601,6 +601,16 @@ Eigen::Vector3d SimulatedRig::FootprintNormal(size_t i, int k, const Eigen::Vect
       .normalized();
 }
 
+Eigen::Vector3d SimulatedRig::TrueNormalAt(size_t i) const {
+  if (!HasMaterial() || warp_weight_[i] < 0) return NormalAt(i);
+  // The pixel-scale normal of a fibre-covered surface: the mean of the
+  // shading normals its footprint averages, as rendered.
+  const Eigen::Vector2d gradient = GradientAt(i);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int k = 0; k < options_.footprint_samples; ++k) sum += FootprintNormal(i, k, gradient);
+  return sum.normalized();
+}
+
 std::vector<Eigen::Vector3d> SimulatedRig::FootprintShadingNormals(int x, int y) const {
   std::vector<Eigen::Vector3d> normals;
   if (x < 0 || y < 0 || x >= width() || y >= height()) {
@@ -814,7 +824,7 @@ GroundTruthMaps SimulatedRig::RenderGroundTruth() const {
   ParallelRowsOrCancel("render", h, NumThreads(), {}, 0.0, 1.0, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
-      const Eigen::Vector3d normal = NormalAt(i);
+      const Eigen::Vector3d normal = TrueNormalAt(i);
       for (int c = 0; c < 3; ++c) {
         maps.point_in_table(x, y, c) = point_in_table_[3 * i + c];
         maps.normal_in_table(x, y, c) = static_cast<float>(normal[c]);

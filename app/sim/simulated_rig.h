@@ -112,7 +112,7 @@ RawImage RenderSensorMosaic(const SimulatedRigOptions& options, uint64_t frame_i
 
 struct GroundTruthMaps {
   ImageF point_in_table;   // 3 channels, mm: where each pixel's ray meets the surface
-  ImageF normal_in_table;  // 3 channels, unit, z > 0
+  ImageF normal_in_table;  // 3 channels, unit, z > 0; on cloth and satin threads the mean of the footprint's fibre shading normals
   ImageF albedo;           // 3 channels, linear Rec.709 (D65) reflectance in [0, 1], whatever the camera
   ImageF albedo_white_balanced_camera;  // 3 channels: what the sensor sees of it (the albedo_c of the light model)
   ImageF height_mm;        // 1 channel, surface height above the table
@@ -208,6 +208,10 @@ class SimulatedRig {
   Eigen::Vector3d FootprintNormal(size_t i, int k, const Eigen::Vector2d& gradient) const;
   // (dz/dx, dz/dy) of the geometric surface at pixel i.
   Eigen::Vector2d GradientAt(size_t i) const;
+  // The ground-truth normal of pixel i: the geometric normal, or on the
+  // threads of a non-Lambertian textile the normalised mean of its footprint's
+  // shading normals (the fibres the pixel resolves are geometry too).
+  Eigen::Vector3d TrueNormalAt(size_t i) const;
 
   SimulatedRigOptions options_;
   TextileScene scene_;
