@@ -299,6 +299,7 @@ std::vector<uint8_t> EncodePngInMemory(const ImageU8& image) {
   const fs::path name = "(in-memory PNG)";
   CheckWritable(name, image, "PNG", 4);
   OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT8);
+  spec.attribute("png:compressionLevel", kPngCompressionLevel);
   std::vector<unsigned char> bytes;
   OIIO::Filesystem::IOVecOutput proxy(bytes);
   std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <future>
 #include <span>
 #include <string_view>
 
@@ -86,6 +88,15 @@ ImageF Downsample(const ImageF& image, const ImageU8& valid, int out_width, int 
   return out;
 }
 
+template <typename T>
+Image<T> Crop(const Image<T>& image, int x0, int y0, int width, int height) {
+  Image<T> out(width, height, image.channels());
+  for (int y = 0; y < height; ++y) {
+    std::copy_n(image.row(y0 + y) + size_t(x0) * image.channels(), size_t(width) * image.channels(), out.row(y));
+  }
+  return out;
+}
+
 uint8_t ToByte(double unit) { return uint8_t(std::lround(std::clamp(unit, 0.0, 1.0) * 255.0)); }
 
 // Each float per pixel through `encode` (value -> [0, 1]) into 8 bits.
@@ -158,6 +169,12 @@ void PreviewPageOptions::Check() const {
   if (max_texture_px < 16 || max_texture_px > 8192) {
     throw FieldError(kWhere, "max_texture_px", max_texture_px, "must be in [16, 8192] px");
   }
+  if (max_sphere_texture_px < 16 || max_sphere_texture_px > 8192) {
+    throw FieldError(kWhere, "max_sphere_texture_px", max_sphere_texture_px, "must be in [16, 8192] px");
+  }
+  if (!(sphere_crop > 0 && sphere_crop <= 1)) {
+    throw FieldError(kWhere, "sphere_crop", sphere_crop, "must be in (0, 1]");
+  }
 }
 
 std::string PreviewPageSummary::BriefReport() const {
@@ -209,64 +226,93 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   const auto [tw, th] = TextureSize(width, height, options.max_texture_px);
   summary.texture_width = tw;
   summary.texture_height = th;
-  const std::string texture_note = SizeText(tw, th) + " 8-bit";
-  nlohmann::json map_entries = nlohmann::json::array();
-  int step = 0;
-  constexpr int kSteps = 6;
-  auto advance = [&]() { return !progress || progress(double(++step) / kSteps); };
-  auto add = [&](const char* use, const std::string& label, const std::string& note, const ImageU8& texture) {
-    map_entries.push_back({{"use", use}, {"label", label}, {"note", note}, {"uri", PngDataUri(texture)}});
-    return advance();
-  };
-  auto cancelled = [&]() {
-    summary.SetCancelled("preview page cancelled; nothing written");
-    return summary;
-  };
+  // The sphere's crop: centred, sphere_crop of each side, its own smaller texture.
+  const int crop_w = std::max(1, int(std::lround(width * options.sphere_crop)));
+  const int crop_h = std::max(1, int(std::lround(height * options.sphere_crop)));
+  const int crop_x = (width - crop_w) / 2, crop_y = (height - crop_h) / 2;
+  const auto [sw, sh] = TextureSize(crop_w, crop_h, options.max_sphere_texture_px);
+  const ImageU8 valid_crop = maps.valid.empty() ? ImageU8() : Crop(maps.valid, crop_x, crop_y, crop_w, crop_h);
 
-  const ImageF base_small = Downsample(base, maps.valid, tw, th);
-  if (!add("map", "base colour", (options.basecolor_note.empty() ? "linear RGB" : options.basecolor_note) +
-                                     ", shown through the sRGB curve",
-           Encode8(base_small, [](float v) { return SrgbEncode(v); }))) {
-    return cancelled();
-  }
-  if (!add("normalMap", "normal", "tangent frame, OpenGL (+Y up), (n + 1) / 2",
-           EncodeNormals8(Downsample(maps.normal_in_tangent, maps.valid, tw, th)))) {
-    return cancelled();
-  }
-  if (!maps.roughness_alpha.empty()) {
-    // Averaged as GGX alpha, then stored as three.js's perceptual roughness.
-    if (!add("roughnessMap", "roughness", "perceptual roughness sqrt(GGX alpha)",
-             Encode8(Downsample(maps.roughness_alpha, maps.valid, tw, th),
-                     [](float alpha) { return std::sqrt(std::max(0.0f, alpha)); }))) {
-      return cancelled();
-    }
-  }
-  if (!maps.occlusion.empty()) {
-    if (!add("aoMap", "ambient occlusion", "1 = open; darkens the ambient light",
-             Encode8(Downsample(maps.occlusion, maps.valid, tw, th), [](float v) { return v; }))) {
-      return cancelled();
-    }
-  }
   double height_min = 0, height_max = 0;
   if (!maps.height_mm.empty()) {
     const auto [low, high] = std::minmax_element(maps.height_mm.data(), maps.height_mm.data() + maps.height_mm.size());
     height_min = *low;
     height_max = *high;
-    const double range = height_max - height_min;
-    if (!add("", "height", "mm, " + Fixed(height_min, 3) + " .. " + Fixed(height_max, 3) + " (listed, not displaced)",
-             Encode8(Downsample(maps.height_mm, maps.valid, tw, th),
-                     [&](float h) { return range > 0 ? (h - height_min) / range : 0.5; }))) {
-      return cancelled();
-    }
   }
+  const double height_range = height_max - height_min;
+  ImageF solved;
   if (!maps.valid.empty()) {
-    ImageF solved(width, height, 1);
+    solved = ImageF(width, height, 1);
     for (size_t i = 0; i < solved.num_pixels(); ++i) solved.data()[i] = maps.valid.data()[i] ? 1.0f : 0.0f;
+  }
+  using Encoder = std::function<ImageU8(const ImageF&)>;
+  auto per_value = [](std::function<double(float)> encode) -> Encoder {
+    return [encode](const ImageF& image) { return Encode8(image, encode); };
+  };
+  struct Texture {
+    const char* use;         // the three.js material slot; "" = listed only
+    std::string label, note;
+    const ImageF* image;
+    bool solved_only;        // average the solved pixels only (the mask itself: all)
+    bool on_sphere;
+    Encoder encode;
+  };
+  std::vector<Texture> textures;
+  textures.push_back({"map", "base colour",
+                      (options.basecolor_note.empty() ? "linear RGB" : options.basecolor_note) +
+                          ", shown through the sRGB curve",
+                      &base, true, true, per_value([](float v) { return SrgbEncode(v); })});
+  textures.push_back({"normalMap", "normal", "tangent frame, OpenGL (+Y up), (n + 1) / 2", &maps.normal_in_tangent,
+                      true, true, EncodeNormals8});
+  if (!maps.roughness_alpha.empty()) {
+    // Averaged as GGX alpha, then stored as three.js's perceptual roughness.
+    textures.push_back({"roughnessMap", "roughness", "perceptual roughness sqrt(GGX alpha)", &maps.roughness_alpha,
+                        true, true, per_value([](float alpha) { return std::sqrt(std::max(0.0f, alpha)); })});
+  }
+  if (!maps.occlusion.empty()) {
+    textures.push_back({"aoMap", "ambient occlusion", "1 = open; darkens the ambient light", &maps.occlusion, true,
+                        true, per_value([](float v) { return v; })});
+  }
+  if (!maps.height_mm.empty()) {
+    textures.push_back({"", "height", "mm, " + Fixed(height_min, 3) + " .. " + Fixed(height_max, 3) +
+                                          " (listed, not displaced)",
+                        &maps.height_mm, true, false, per_value([&](float h) {
+                          return height_range > 0 ? (h - height_min) / height_range : 0.5;
+                        })});
+  }
+  if (!solved.empty()) {
     // Unweighted, so that a texel is kept when at least half its pixels were solved.
-    if (!add("alphaMap", "solved mask", "texels with under half their pixels solved are not drawn",
-             Encode8(Downsample(solved, {}, tw, th), [](float v) { return v >= 0.5f ? 1.0 : 0.0; }))) {
-      return cancelled();
-    }
+    textures.push_back({"alphaMap", "solved mask", "texels with under half their pixels solved are not drawn", &solved,
+                        false, false, per_value([](float v) { return v >= 0.5f ? 1.0 : 0.0; })});
+  }
+
+  // Each texture's PNGs concurrently (deflate dominates); progress as they finish.
+  std::vector<std::future<std::pair<std::string, std::string>>> encoded;
+  for (const Texture& texture : textures) {
+    encoded.push_back(std::async(std::launch::async, [&, texture] {
+      const ImageU8 no_mask;
+      const ImageF small = Downsample(*texture.image, texture.solved_only ? maps.valid : no_mask, tw, th);
+      std::string sphere_uri;
+      if (texture.on_sphere) {
+        const ImageF crop = Crop(*texture.image, crop_x, crop_y, crop_w, crop_h);
+        sphere_uri = PngDataUri(texture.encode(Downsample(crop, texture.solved_only ? valid_crop : no_mask, sw, sh)));
+      }
+      return std::pair{PngDataUri(texture.encode(small)), sphere_uri};
+    }));
+  }
+  nlohmann::json map_entries = nlohmann::json::array();
+  bool stop = false;
+  for (size_t i = 0; i < encoded.size(); ++i) {
+    const auto [uri, sphere_uri] = encoded[i].get();  // waits for every one, also after a stop
+    nlohmann::json entry = {{"use", textures[i].use}, {"label", textures[i].label}, {"note", textures[i].note},
+                            {"uri", uri}};
+    if (!sphere_uri.empty()) entry["sphere_uri"] = sphere_uri;
+    map_entries.push_back(std::move(entry));
+    if (progress && !progress(0.9 * (i + 1) / encoded.size())) stop = true;
+  }
+  if (stop) {
+    summary.SetCancelled("preview page cancelled; nothing written");
+    return summary;
   }
 
   nlohmann::json file_entries = nlohmann::json::array();
@@ -278,6 +324,9 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
                                {"height_mm", height * mm_per_pixel},
                                {"image", {{"width", width}, {"height", height}}},
                                {"texture", {{"width", tw}, {"height", th}}},
+                               {"sphere_crop", {{"fraction", options.sphere_crop},
+                                                {"width_mm", crop_w * mm_per_pixel},
+                                                {"height_mm", crop_h * mm_per_pixel}}},
                                {"height_range_mm", {height_min, height_max}},
                                {"maps", map_entries},
                                {"files", file_entries}};
@@ -287,7 +336,10 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
               Base64(std::span(reinterpret_cast<const uint8_t*>(three.data()), three.size())));
   ReplaceOnce(&page, "__SCANBENCH_PREVIEW_DATA__", ScriptSafeJson(data));
   ReplaceOnce(&page, "__SCANBENCH_TITLE__", HtmlEscaped(title + " — scanbench preview"));
-  if (progress && !progress(1.0)) return cancelled();
+  if (progress && !progress(1.0)) {
+    summary.SetCancelled("preview page cancelled; nothing written");
+    return summary;
+  }
   WriteFileAtomic(html_path, page, OverwritePolicy::kRefuse);
   summary.bytes = page.size();
   summary.termination = Termination::kSuccess;

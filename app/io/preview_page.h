@@ -4,7 +4,8 @@
 // the export's files. It opens from file:// with no network and no server:
 // three.js (third_party/three, compiled in) rides along as a data: module URL
 // and every texture as a data: PNG (8-bit, at most max_texture_px on the long
-// side), because Chrome refuses file:// textures in WebGL and file:// modules.
+// side; the sphere repeats a centred crop in smaller textures), because Chrome
+// refuses file:// textures in WebGL and file:// modules.
 //
 // Options after '#' in the URL: normal=off (render without the normal map),
 // light=AZ,EL (degrees; azimuth from the image's +x towards +y, elevation above
@@ -43,14 +44,19 @@ struct PreviewPageFile {
 };
 
 struct PreviewPageOptions {
-  int max_texture_px = 1024;   // long side of the embedded textures, px, [16, 8192]; smaller maps stay as they are
+  int max_texture_px = 1024;   // long side of the tile's textures, px, [16, 8192]; smaller maps stay as they are
+  // The sphere repeats a centred crop (the border of a scan is often the table
+  // or the sample's edge): this fraction of each side, (0, 1], in textures of
+  // at most max_sphere_texture_px, [16, 8192].
+  double sphere_crop = 0.6;
+  int max_sphere_texture_px = 512;
   std::string title;           // the page's heading, e.g. the material name; "" = "scanbench material"
   std::string basecolor_note;  // what the base colour is, e.g. "linear Rec.709 (D65), absolute"
   void Check() const;
 };
 
 struct PreviewPageSummary : AlgorithmSummary {
-  int texture_width = 0, texture_height = 0;  // of the embedded textures
+  int texture_width = 0, texture_height = 0;  // of the tile's textures
   uintmax_t bytes = 0;                        // of the page written
   double seconds = 0;
   // "preview.html: 5.1 MB, textures 1024x678".

@@ -12,7 +12,6 @@
 #include <cstdlib>
 #include <iostream>
 #include <numbers>
-#include <regex>
 
 #include <nlohmann/json.hpp>
 
@@ -70,10 +69,13 @@ PreviewPageSummary WriteRidgedPage(const fs::path& path, const PreviewPageMaps& 
 
 // The JSON block the page carries.
 nlohmann::json PageData(const std::string& page) {
-  static const std::regex kBlock("<script type=\"application/json\" id=\"scanbench-data\">([^<]*)</script>");
-  std::smatch match;
-  if (!std::regex_search(page, match, kBlock)) return {};
-  return nlohmann::json::parse(match[1].str());
+  // Not std::regex: it recurses per character and overflows the stack on megabytes.
+  const std::string open = "<script type=\"application/json\" id=\"scanbench-data\">";
+  const size_t begin = page.find(open);
+  if (begin == std::string::npos) return {};
+  const size_t end = page.find("</script>", begin);
+  if (end == std::string::npos) return {};
+  return nlohmann::json::parse(page.substr(begin + open.size(), end - begin - open.size()));
 }
 
 // A data: PNG decoded through a file.
