@@ -310,5 +310,34 @@ TEST(PreviewPageBrowserTest, RendersLitSphereAndNormalDetail) {
   EXPECT_GT(tile_on, tile_off + 10);
 }
 
+// Any export's page, e.g. the demo's: SCANBENCH_PREVIEW_PAGE=/path/preview.html.
+// The same measures as above, printed; only not blank and brighter on the lit
+// side are asserted (a real material's albedo has high frequencies of its own).
+TEST(PreviewPageBrowserTest, RendersAGivenPage) {
+  const char* given = std::getenv("SCANBENCH_PREVIEW_PAGE");
+  if (given == nullptr) GTEST_SKIP() << "set SCANBENCH_PREVIEW_PAGE=/path/preview.html to measure an export's page";
+  const std::string chromium = FindChromium();
+  if (chromium.empty()) GTEST_SKIP() << "chromium is not installed (Debian package `chromium`)";
+  const fs::path page = fs::absolute(given);
+  const nlohmann::json data = PageData(ReadText(page));
+  ASSERT_TRUE(data.is_object()) << page << ": no scanbench-data block";
+  TemporaryFolder dir;
+  const ImageU8 with_normals =
+      Screenshot(chromium, page, PreviewPageFragment(true, 90, 30, false), dir / "on.png", dir / "profile");
+  const ImageU8 without =
+      Screenshot(chromium, page, PreviewPageFragment(false, 90, 30, false), dir / "off.png", dir / "profile");
+  ASSERT_TRUE(with_normals.SameSize(kWindowWidth, kWindowHeight) && without.SameSize(kWindowWidth, kWindowHeight));
+  const Box tile = TileInterior(data["width_mm"].get<double>() / data["height_mm"].get<double>());
+  const double background = Luminance(with_normals, 5, 5);
+  const double upper = SphereHalfLuminance(with_normals, true), lower = SphereHalfLuminance(with_normals, false);
+  std::cout << page.string() << ": background " << background << ", tile mean with normal map "
+            << MeanLuminance(with_normals, tile) << ", without " << MeanLuminance(without, tile)
+            << "; sphere lit (upper) half " << upper << ", unlit (lower) half " << lower
+            << "; tile high-frequency energy with normal map " << HighFrequencyEnergy(with_normals, tile)
+            << ", without " << HighFrequencyEnergy(without, tile) << "\n";
+  EXPECT_GT(MeanLuminance(with_normals, tile), background + 30);
+  EXPECT_GT(upper, 1.5 * lower);
+}
+
 }  // namespace
 }  // namespace scanbench
