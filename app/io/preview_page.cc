@@ -97,7 +97,10 @@ Image<T> Crop(const Image<T>& image, int x0, int y0, int width, int height) {
   return out;
 }
 
-uint8_t ToByte(double unit) { return uint8_t(std::lround(std::clamp(unit, 0.0, 1.0) * 255.0)); }
+// A non-finite value (never from the export, which checks its inputs) reads 0.
+uint8_t ToByte(double unit) {
+  return std::isfinite(unit) ? uint8_t(std::lround(std::clamp(unit, 0.0, 1.0) * 255.0)) : 0;
+}
 
 // Each float per pixel through `encode` (value -> [0, 1]) into 8 bits.
 template <typename Encode>
@@ -199,26 +202,24 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   PreviewPageSummary summary;
   const ImageF& base = maps.basecolor_linear_rec709;
   const int width = base.width(), height = base.height();
-  auto fail = [&](const std::string& why) {
-    summary.SetFailure(html_path.string() + ": " + why);
-    return summary;
-  };
-  if (base.empty() || base.channels() != 3) return fail("basecolor_linear_rec709 must have 3 channels and pixels");
+  // Maps that do not fit together are the caller's mistake: thrown before any work.
+  auto fail = [&](const std::string& why) { return std::invalid_argument(html_path.string() + ": " + why); };
+  if (base.empty() || base.channels() != 3) throw fail("basecolor_linear_rec709 must have 3 channels and pixels");
   if (!maps.normal_in_tangent.SameSize(base) || maps.normal_in_tangent.channels() != 3) {
-    return fail("normal_in_tangent is " + ShapeText(maps.normal_in_tangent) + ", " + SizeText(width, height) +
+    throw fail("normal_in_tangent is " + ShapeText(maps.normal_in_tangent) + ", " + SizeText(width, height) +
                 "x3 expected");
   }
   for (const auto& [name, map] : {std::pair{"roughness_alpha", &maps.roughness_alpha},
                                   std::pair{"occlusion", &maps.occlusion}, std::pair{"height_mm", &maps.height_mm}}) {
     if (!map->empty() && (!map->SameSize(base) || map->channels() != 1)) {
-      return fail(std::string(name) + " is " + ShapeText(*map) + ", " + SizeText(width, height) + "x1 expected");
+      throw fail(std::string(name) + " is " + ShapeText(*map) + ", " + SizeText(width, height) + "x1 expected");
     }
   }
   if (!maps.valid.empty() && (!maps.valid.SameSize(base) || maps.valid.channels() != 1)) {
-    return fail("valid is " + ShapeText(maps.valid) + ", " + SizeText(width, height) + "x1 expected");
+    throw fail("valid is " + ShapeText(maps.valid) + ", " + SizeText(width, height) + "x1 expected");
   }
   if (!std::isfinite(mm_per_pixel) || !(mm_per_pixel > 0)) {
-    return fail("mm_per_pixel = " + std::to_string(mm_per_pixel) + " must be finite and > 0");
+    throw fail("mm_per_pixel = " + std::to_string(mm_per_pixel) + " must be finite and > 0");
   }
   const std::string_view page_template = RequiredAsset(kTemplateName, "app/io/preview_page.html");
   const std::string_view three = RequiredAsset(kThreeName, "third_party/three/three.module.min.js");
@@ -343,7 +344,7 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   WriteFileAtomic(html_path, page, OverwritePolicy::kRefuse);
   summary.bytes = page.size();
   summary.termination = Termination::kSuccess;
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
   return summary;
 }
 

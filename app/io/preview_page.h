@@ -65,9 +65,9 @@ struct PreviewPageSummary : AlgorithmSummary {
 
 // Writes the page to `html_path` (temporary name, fsync, rename; an existing
 // file is never overwritten). Maps of different sizes, a missing base colour
-// or normal map, or a non-positive mm_per_pixel end in a failure naming the
-// map; an empty roughness, occlusion or height map is left out of the page.
-// Progress over the textures; cancelling writes nothing.
+// or normal map, or a non-positive mm_per_pixel throw std::invalid_argument
+// naming the map before any work; an empty roughness, occlusion or height map
+// is left out of the page. Progress over the textures; cancelling writes nothing.
 PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageMaps& maps,
                                     double mm_per_pixel, const std::vector<PreviewPageFile>& files,
                                     const std::filesystem::path& html_path, const ProgressCallback& progress = {});

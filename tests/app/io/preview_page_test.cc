@@ -151,13 +151,18 @@ TEST(PreviewPageTest, SmallMapsKeepTheirSize) {
   EXPECT_EQ(summary.texture_height, kHeight);
 }
 
-TEST(PreviewPageTest, MismatchedMapFailsNamingIt) {
+TEST(PreviewPageTest, MismatchedMapIsAnErrorNamingIt) {
   TemporaryFolder dir;
   PreviewPageMaps maps = RidgedMaps();
   maps.roughness_alpha = ImageF(10, 10, 1);
-  const PreviewPageSummary summary = WriteRidgedPage(dir / "preview.html", maps);
-  EXPECT_EQ(summary.termination, Termination::kFailure);
-  EXPECT_THAT(summary.message, HasSubstr("roughness_alpha is 10x10x1, 256x192x1 expected"));
+  try {
+    WriteRidgedPage(dir / "preview.html", maps);
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_THAT(error.what(), HasSubstr("preview.html: roughness_alpha is 10x10x1, 256x192x1 expected"));
+  }
+  maps = RidgedMaps();
+  EXPECT_THROW(WritePreviewPage({}, maps, 0.0, {}, dir / "preview.html"), std::invalid_argument);
   EXPECT_FALSE(fs::exists(dir / "preview.html"));
 }
 
