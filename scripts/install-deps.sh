@@ -19,6 +19,7 @@ packages=(
   gcc-avr binutils-avr avr-libc arduino-core-avr libsimavr-dev libelf-dev libserialport-dev clang libclang-rt-14-dev  # LED board: firmware (avr-gcc, Arduino core), simavr firmware-in-the-loop, serial port listing, libFuzzer
   libmatio-dev  # solver datasets: reads DiLiGenT's Normal_gt.mat (MATLAB v5/v7.3)
   qt6-base-dev xvfb xauth  # operator GUI (app/gui): Qt 6 Widgets; xvfb-run for scripts/gui-screenshots.sh
+  chromium  # export's preview.html: tests/app/io/preview_page_test.cc renders it headless (WebGL via SwiftShader); skipped without it
   libgphoto2-dev libgphoto2-6 libgphoto2-port12 libusb-1.0-0-dev  # camera: libgphoto2 backend (libgphoto2-6 has the camera drivers incl. "Directory Browse" used by the tests, -port12 the usb and disk ports), libusb device discovery and hotplug
 )
 

@@ -60,6 +60,8 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
                      "Gaussian sigma of the slope low-pass that flattening removes, px")
       ->capture_default_str();
   command.add_flag("--tileable", options.tileable, "Also write a seamless tileable crop of every map");
+  command.add_flag("--no-preview", [&options](std::int64_t) { options.preview_page = false; },
+                   "Do not write preview.html (the material on a tile and a sphere, for a browser)");
   command.add_option("--tile-size", options.tile.tile_width,
                      "Tile width and height, px (0 = the largest power of two that fits)")
       ->capture_default_str();

@@ -397,6 +397,7 @@ nlohmann::json OptionsJson(const ExportOptions& options) {
           {"mm_per_pixel", options.mm_per_pixel},
           {"flatten_normals", options.flatten_normals},
           {"tileable", options.tileable},
+          {"preview_page", options.preview_page},
           {"flattening",
            {{"low_pass_sigma_px", options.flattening.low_pass_sigma_px}, {"max_slope", options.flattening.max_slope}}},
           {"height",
@@ -678,9 +679,47 @@ void RecordWrittenFiles(const fs::path& staging, std::vector<ExportFile>* files,
   }
 }
 
+// preview.html beside material.json: the base colour, flattened normals
+// (tangent frame, whatever the files' convention), mip 0's roughness, the
+// occlusion and height on a tile and a sphere, listing the files written.
+void WritePreview(const fs::path& staging, const ExportInputs& inputs, const ExportMaps& maps,
+                  const ProgressCallback& progress, std::vector<ExportFile>* files, ExportSummary* summary) {
+  PreviewPageMaps preview;
+  preview.basecolor_linear_rec709 = inputs.albedo;
+  preview.normal_in_tangent = maps.normals;
+  if (!maps.mips.empty()) preview.roughness_alpha = maps.mips[0].roughness;
+  preview.occlusion = maps.occlusion;
+  preview.height_mm = maps.height_mm;
+  preview.valid = inputs.valid;
+  std::vector<PreviewPageFile> listed;
+  for (const ExportFile& file : *files) listed.push_back({file.relative_path, file.bytes});
+  PreviewPageOptions options;
+  options.title = summary->material_name;
+  options.basecolor_note = inputs.albedo_color.color_space == "linear_rec709"
+                               ? "linear Rec.709, " + inputs.albedo_color.scale
+                               : "white-balanced camera RGB (not colour calibrated)";
+  ExportFile page;
+  page.kind = "preview";
+  page.relative_path = "preview.html";
+  page.format = "html";
+  page.encoding = "self-contained preview page (three.js inline, maps as 8-bit data: PNGs); open in a browser";
+  summary->preview = WritePreviewPage(options, preview, summary->mm_per_pixel, listed, staging / page.relative_path,
+                                      progress);
+  RequireSuccess(*summary->preview, "preview page");
+  page.sha256 = Sha256HexOfFile(staging / page.relative_path);
+  page.bytes = summary->preview->bytes;
+  summary->files[page.kind] = page.relative_path;
+  files->push_back(std::move(page));
+}
+
 // --- The manifest (material.json) --------------------------------------------
 
+// The preview page's entry (format "html"): what it is, no image layout.
 nlohmann::json FileEntryJson(const ExportFile& file) {
+  if (file.format == "html") {
+    return {{"path", file.relative_path}, {"format", file.format}, {"description", file.encoding},
+            {"sha256", file.sha256}, {"bytes", file.bytes}};
+  }
   nlohmann::json entry = {{"path", file.relative_path},
                           {"format", file.format},
                           {"bits_per_sample", file.bits_per_sample},
@@ -883,6 +922,7 @@ std::string ExportSummary::FullReport() const {
         << specular_roughness->blended << ", normal variance at " << specular_roughness->from_fallback << "\n";
   }
   if (tile) out << "  tileable crop: " << TerminationName(tile->termination) << ": " << tile->message << "\n";
+  if (preview) out << "  preview page: " << preview->BriefReport() << "\n";
   if (height_rms_error_mm) {
     out << "  vs ground truth on the sample: height RMS error " << std::setprecision(4) << *height_rms_error_mm
         << (flattening.termination == Termination::kSuccess
@@ -926,6 +966,11 @@ void ExportController::Run() {
     ThrowIfStopRequested("write files");
     RecordWrittenFiles(staged.staging(), &files, &summary_);
   });
+  if (options_.preview_page) {
+    TimedStage(timings, "preview", "preview page", [&] {
+      WritePreview(staged.staging(), inputs, maps, StageCallback("preview page"), &files, &summary_);
+    });
+  }
   summary_.export_dir = staged.final_dir();
   summary_.seconds = SecondsSince(start);
 

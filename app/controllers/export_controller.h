@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "app/controllers/base_controller.h"
+#include "app/io/preview_page.h"
 #include "maps/gloss_mips.h"
 #include "maps/height_from_normals.h"
 #include "maps/normal_flattening.h"
@@ -38,6 +39,7 @@ struct ExportOptions {
   double mm_per_pixel = 0;              // physical scale, mm, >= 0; 0 = from the session's rig at the image centre
   bool flatten_normals = true;          // take out low-frequency slope before everything derived
   bool tileable = false;                // also write a seamless tileable crop of every map
+  bool preview_page = true;             // also write preview.html, the maps in a browser (app/io/preview_page.h)
   NormalFlatteningOptions flattening;
   // DCT: the relaxation's least-squares answer (1.5e-4 mm RMS apart on 5.7 mm
   // in the tests) in a fraction of its time. mm_per_pixel is overwritten with
@@ -84,6 +86,7 @@ struct ExportSummary {
   std::string roughness_source = "normal_variance";
   std::optional<SpecularRoughnessSummary> specular_roughness;
   std::optional<TileableCropSummary> tile;
+  std::optional<PreviewPageSummary> preview;          // with options.preview_page
   // Against the session's ground truth (simulated sessions), on solved sample pixels.
   std::optional<double> height_rms_error_mm;         // after removing the best-fit plane
   std::optional<double> flattened_normal_mean_error_deg;

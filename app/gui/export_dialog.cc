@@ -52,6 +52,10 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   tileable_->setObjectName("tileable");
   tileable_->setChecked(defaults.tileable);
   form->addRow(QString(), tileable_);
+  preview_page_ = new QCheckBox(tr("Write preview.html: the material on a tile and a sphere, for a browser"), this);
+  preview_page_->setObjectName("previewPage");
+  preview_page_->setChecked(defaults.preview_page);
+  form->addRow(QString(), preview_page_);
   material_name_ = new QLineEdit(this);
   material_name_->setObjectName("materialName");
   material_name_->setPlaceholderText(tr("from the sample name"));
@@ -66,9 +70,13 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   open_folder_ = new QPushButton(tr("Open export folder"), this);
   open_folder_->setObjectName("openExportFolder");
   open_folder_->setEnabled(false);
+  open_preview_ = new QPushButton(tr("Open preview"), this);
+  open_preview_->setObjectName("openPreview");
+  open_preview_->setToolTip(tr("Opens the export's preview.html in the system's browser"));
+  open_preview_->setEnabled(false);
   auto* close = new QPushButton(tr("Close"), this);
   auto* buttons = new QHBoxLayout;
-  for (QPushButton* button : {start_, cancel_, open_folder_}) buttons->addWidget(button);
+  for (QPushButton* button : {start_, cancel_, open_folder_, open_preview_}) buttons->addWidget(button);
   buttons->addStretch();
   buttons->addWidget(close);
 
@@ -106,6 +114,7 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   }
   tileable_->setChecked(settings.value("tileable", tileable_->isChecked()).toBool());
   flatten_->setChecked(settings.value("flatten", flatten_->isChecked()).toBool());
+  preview_page_->setChecked(settings.value("preview_page", preview_page_->isChecked()).toBool());
 
   connect(start_, &QPushButton::clicked, this, &ExportDialog::StartExport);
   connect(cancel_, &QPushButton::clicked, this, [this] {
@@ -114,6 +123,9 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   connect(close, &QPushButton::clicked, this, &QDialog::close);
   connect(open_folder_, &QPushButton::clicked, this,
           [this] { QDesktopServices::openUrl(QUrl::fromLocalFile(QString::fromStdString(export_dir_.string()))); });
+  connect(open_preview_, &QPushButton::clicked, this, [this] {
+    if (!preview_path_.empty()) QDesktopServices::openUrl(PreviewUrl());
+  });
   connect(runner_, &ControllerRunner::Progress, this,
           [this](const QString& stage, double fraction, const QString& detail) {
     if (!exporting_) return;
@@ -128,8 +140,13 @@ ExportOptions ExportDialog::OptionsFromWidgets() const {
   options.normal_convention = ExportOptions::NormalConvention(convention_->currentData().toInt());
   options.tileable = tileable_->isChecked();
   options.flatten_normals = flatten_->isChecked();
+  options.preview_page = preview_page_->isChecked();
   options.material_name = material_name_->text().trimmed().toStdString();
   return options;
+}
+
+QUrl ExportDialog::PreviewUrl() const {
+  return preview_path_.empty() ? QUrl() : QUrl::fromLocalFile(QString::fromStdString(preview_path_.string()));
 }
 
 void ExportDialog::SetStatus(const QString& text, bool error) {
@@ -151,11 +168,14 @@ void ExportDialog::StartExport() {
   settings.setValue("convention", convention_->currentData());
   settings.setValue("tileable", tileable_->isChecked());
   settings.setValue("flatten", flatten_->isChecked());
+  settings.setValue("preview_page", preview_page_->isChecked());
 
   auto controller = std::make_shared<ExportController>(result_dir_, options);
   exporting_ = true;
   progress_->setValue(0);
   summary_->clear();
+  preview_path_.clear();
+  open_preview_->setEnabled(false);
   SetStatus(tr("Exporting into a new folder under the session's exports/…"));
   // The operator may close the dialog (deleting it) while the export runs;
   // the export then finishes on its own and the status bar tells its end.
@@ -179,6 +199,9 @@ void ExportDialog::StartExport() {
           SetStatus(text + '.');
           summary_->setPlainText(QString::fromStdString(summary.FullReport()));
           open_folder_->setEnabled(true);
+          const auto preview = summary.files.find("preview");
+          if (preview != summary.files.end()) preview_path_ = export_dir_ / preview->second;
+          open_preview_->setEnabled(!preview_path_.empty());
           emit Exported(QString::fromStdString(export_dir_.string()));
         } else if (outcome == ControllerRunner::Outcome::kCancelled) {
           progress_->setValue(0);

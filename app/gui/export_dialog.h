@@ -3,10 +3,12 @@
 // or DirectX +Y down), an optional tileable crop and the material name; runs
 // through the window's ControllerRunner with progress and Cancel, then shows
 // the new export folder and the export's summary (the height error against
-// ground truth for a simulated session).
+// ground truth for a simulated session); "Open preview" opens the export's
+// preview.html in the system browser.
 #pragma once
 
 #include <QDialog>
+#include <QUrl>
 #include <filesystem>
 
 #include "app/controllers/export_controller.h"
@@ -33,6 +35,9 @@ class ExportDialog : public QDialog {
   ExportOptions OptionsFromWidgets() const;
   // The folder the last export wrote; empty before one succeeded.
   const std::filesystem::path& export_dir() const { return export_dir_; }
+  // file:// URL of the last export's preview.html, what "Open preview" opens;
+  // empty before an export that wrote one.
+  QUrl PreviewUrl() const;
 
  signals:
   void Exported(const QString& export_dir);
@@ -46,14 +51,17 @@ class ExportDialog : public QDialog {
   ControllerRunner* runner_;
   std::filesystem::path result_dir_;
   std::filesystem::path export_dir_;
+  std::filesystem::path preview_path_;  // empty unless the last export wrote preview.html
   QComboBox* preset_;
   QComboBox* convention_;
   QCheckBox* tileable_;
   QCheckBox* flatten_;
+  QCheckBox* preview_page_;
   QLineEdit* material_name_;
   QPushButton* start_;
   QPushButton* cancel_;
   QPushButton* open_folder_;
+  QPushButton* open_preview_;
   QProgressBar* progress_;
   QLabel* stage_;
   QLabel* status_;

@@ -1,5 +1,6 @@
 #include "app/io/image_io.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <array>
@@ -292,6 +293,22 @@ void WritePng(const fs::path& path, const ImageU16& image, OverwritePolicy polic
 
 void WritePng(const fs::path& path, const ImageU8& image, OverwritePolicy policy, const ImageMetadata& metadata) {
   WritePngOrTiff(path, image, OIIO::TypeDesc::UINT8, FileFormat::kPng, policy, metadata);
+}
+
+std::vector<uint8_t> EncodePngInMemory(const ImageU8& image) {
+  const fs::path name = "(in-memory PNG)";
+  CheckWritable(name, image, "PNG", 4);
+  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT8);
+  spec.attribute("png:compressionLevel", kPngCompressionLevel);
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
+  if (!out) throw PathError(name, "no PNG writer (" + OiioMessage(OIIO::geterror()) + ")");
+  if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) || !out->write_image(spec.format, image.data()) ||
+      !out->close()) {
+    throw PathError(name, "encoding failed (" + OiioMessage(out->geterror()) + ")");
+  }
+  return std::vector<uint8_t>(bytes.begin(), bytes.end());
 }
 
 void WriteTiff(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {

@@ -67,6 +67,10 @@ void WritePng(const std::filesystem::path& path, const ImageU16& image, Overwrit
 void WritePng(const std::filesystem::path& path, const ImageU8& image, OverwritePolicy policy,
               const ImageMetadata& metadata = {});
 
+// An 8-bit PNG (1 to 4 channels) encoded in memory, no metadata: for pages
+// that carry their images as data: URIs (app/io/preview_page.h).
+std::vector<uint8_t> EncodePngInMemory(const ImageU8& image);
+
 // TIFF, zip (deflate) compression: 16-bit unsigned or 32-bit float samples.
 void WriteTiff(const std::filesystem::path& path, const ImageU16& image, OverwritePolicy policy,
                const ImageMetadata& metadata = {});

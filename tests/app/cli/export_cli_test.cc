@@ -57,14 +57,19 @@ TEST(ExportCliTest, ExportsASolvedSessionWithTheChosenPresetAndConvention) {
   EXPECT_EQ(manifest["normal_convention"], "directx");
   EXPECT_EQ(manifest["options"]["gloss"]["model"], "ggx");
   EXPECT_EQ(manifest["files"]["tile_normal"]["width"], 64);
+  EXPECT_TRUE(fs::is_regular_file(exports[0] / "preview.html")) << "written by default";
+  EXPECT_EQ(manifest["files"]["preview"]["path"], "preview.html");
+  EXPECT_THAT(exported.output, HasSubstr("preview page: preview.html: "));
 
   // Given scale, no flattening, into another folder.
   const CommandResult scaled = RunScanbench("export " + Quoted(results[0]) + " --preset exr --mm-per-pixel 0.2" +
-                                            " --no-flatten --height-method dct --output " + Quoted(folder / "out"));
+                                            " --no-flatten --height-method dct --no-preview --output " +
+                                            Quoted(folder / "out"));
   ASSERT_EQ(scaled.exit_code, 0) << scaled.output;
   EXPECT_THAT(scaled.output, HasSubstr("0.200000 mm per pixel (options)"));
   EXPECT_THAT(scaled.output, HasSubstr("flattening:   off"));
-  EXPECT_EQ(Subfolders(folder / "out").size(), 1u);
+  ASSERT_EQ(Subfolders(folder / "out").size(), 1u);
+  EXPECT_FALSE(fs::exists(Subfolders(folder / "out")[0] / "preview.html")) << "--no-preview";
 }
 
 TEST(ExportCliTest, BadArgumentsExitNonZeroNamingTheProblem) {
@@ -93,6 +98,7 @@ TEST(ExportCliTest, DemoExportsTheDerivedMaps) {
   ASSERT_EQ(exports.size(), 1u);
   EXPECT_TRUE(fs::is_regular_file(exports[0] / "material.json"));
   EXPECT_TRUE(fs::is_regular_file(exports[0] / "simulated_twill" / "simulated_twill_normal.png"));
+  EXPECT_TRUE(fs::is_regular_file(exports[0] / "preview.html"));
 
   const CommandResult solve_only =
       RunScanbench("demo --width 320 --height 212 --no-export --output " + Quoted(folder / "demo"));

@@ -35,6 +35,11 @@ nlohmann::json ReadJson(const fs::path& path) {
   return nlohmann::json::parse(in);
 }
 
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 std::string ErrorOf(const std::function<void()>& action) {
   try {
     action();
@@ -272,9 +277,14 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
     ++files;
     const fs::path path = summary.export_dir / entry["path"].get<std::string>();
     ASSERT_TRUE(fs::is_regular_file(path));
-    EXPECT_EQ(entry["path"].get<std::string>().rfind("test_twill/test_twill_" + kind + ".", 0), 0u);
     EXPECT_EQ(Sha256HexOfFile(path), entry["sha256"]);
     EXPECT_EQ(fs::file_size(path), entry["bytes"].get<uintmax_t>());
+    if (kind == "preview") {  // the page, not an image (tests/app/io/preview_page_test.cc)
+      EXPECT_EQ(entry["path"], "preview.html");
+      EXPECT_EQ(entry["format"], "html");
+      continue;
+    }
+    EXPECT_EQ(entry["path"].get<std::string>().rfind("test_twill/test_twill_" + kind + ".", 0), 0u);
     const ImageFileInfo info = ReadImageFileInfo(path);
     EXPECT_EQ(info.bits_per_sample, entry["bits_per_sample"]);
     EXPECT_EQ(info.channels, entry["channels"]);
@@ -608,7 +618,7 @@ TEST_F(ExportControllerTest, BadSpecularMapIsNamedAndLeavesNoExport) {
 }
 
 TEST_F(ExportControllerTest, CancelLeavesNothingBehind) {
-  for (const std::string stop_at : {"height from normals", "write files"}) {
+  for (const std::string stop_at : {"height from normals", "write files", "preview page"}) {
     SCOPED_TRACE(stop_at);
     ExportOptions options;
     options.output_root = local_ / "exports";
@@ -619,6 +629,42 @@ TEST_F(ExportControllerTest, CancelLeavesNothingBehind) {
     EXPECT_THROW(controller.Run(), Cancelled);
     EXPECT_THAT(Entries(local_ / "exports"), ::testing::IsEmpty());
   }
+}
+
+// preview.html (app/io/preview_page.h, rendered in tests/app/io/preview_page_test.cc):
+// its own stage, listed in the manifest, listing the map files; --no-preview
+// leaves it out.
+TEST_F(ExportControllerTest, PreviewPageIsWrittenListedAndOptional) {
+  std::vector<std::string> stages;
+  ExportOptions options;
+  options.output_root = local_ / "exports";
+  ExportController controller(result_dir_, options);
+  controller.SetProgressCallback([&](const ProgressReport& report) {
+    if (stages.empty() || stages.back() != report.stage) stages.push_back(report.stage);
+  });
+  controller.Run();
+  const ExportSummary& summary = controller.summary();
+  EXPECT_THAT(stages, ::testing::Contains("preview page"));
+  ASSERT_TRUE(summary.preview.has_value());
+  EXPECT_TRUE(summary.preview->IsUsable());
+  EXPECT_EQ(summary.preview->texture_width, 400);  // under 1024 px: as it is
+  EXPECT_EQ(summary.files.at("preview"), "preview.html");
+  const fs::path page = summary.export_dir / "preview.html";
+  ASSERT_TRUE(fs::is_regular_file(page));
+  const std::string text = ReadText(page);
+  EXPECT_THAT(text, HasSubstr("test_twill/test_twill_roughness_mip0.png"));
+  EXPECT_THAT(text, HasSubstr("\"title\":\"test_twill\""));
+  const nlohmann::json manifest = ReadJson(summary.export_dir / "material.json");
+  EXPECT_EQ(manifest["files"]["preview"]["bytes"].get<uintmax_t>(), fs::file_size(page));
+  EXPECT_EQ(manifest["timings_s"].count("preview"), 1u);
+  EXPECT_THAT(ReadText(summary.export_dir / "summary.txt"), HasSubstr("preview page: preview.html: "));
+
+  ExportOptions without = options;
+  without.preview_page = false;
+  const ExportSummary skipped = Export(without);
+  EXPECT_FALSE(fs::exists(skipped.export_dir / "preview.html"));
+  EXPECT_EQ(skipped.files.count("preview"), 0u);
+  EXPECT_FALSE(skipped.preview.has_value());
 }
 
 TEST_F(ExportControllerTest, OptionsAreCheckedAndNamed) {

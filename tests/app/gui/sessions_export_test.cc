@@ -130,6 +130,9 @@ class SessionsExportTest : public QObject {
     auto* convention = Find<QComboBox>(dialog, "normalConvention");
     convention->setCurrentIndex(convention->findData(int(ExportOptions::NormalConvention::kDirectX)));
     Find<QCheckBox>(dialog, "tileable")->setChecked(true);
+    QVERIFY(Find<QCheckBox>(dialog, "previewPage")->isChecked());  // on by default
+    QVERIFY(!Find<QPushButton>(dialog, "openPreview")->isEnabled());
+    QVERIFY(dialog->PreviewUrl().isEmpty());
 
     QCOMPARE(ClickAndWait(Find<QPushButton>(dialog, "startExport")), ControllerRunner::Outcome::kSucceeded);
     const fs::path export_dir = dialog->export_dir();
@@ -145,6 +148,27 @@ class SessionsExportTest : public QObject {
     QVERIFY2(status.contains(QString::fromStdString(export_dir.string())), qPrintable(status));
     QVERIFY2(status.contains("height error"), qPrintable(status));
     QVERIFY(Find<QPushButton>(dialog, "openExportFolder")->isEnabled());
+    // "Open preview" opens the export's preview.html (listed in material.json) as a file:// URL.
+    QVERIFY(Find<QPushButton>(dialog, "openPreview")->isEnabled());
+    const QUrl preview = dialog->PreviewUrl();
+    QVERIFY(preview.isLocalFile());
+    QCOMPARE(fs::path(preview.toLocalFile().toStdString()), export_dir / "preview.html");
+    QVERIFY(fs::is_regular_file(export_dir / "preview.html"));
+    QCOMPARE(material["files"].toObject()["preview"].toObject()["path"].toString(), QStringLiteral("preview.html"));
+  }
+
+  void ExportWithoutPreviewLeavesOpenPreviewDisabled() {
+    ResultsPage* results = window_->results();
+    ExportDialog* dialog = results->OpenExportDialog();
+    QVERIFY(dialog != nullptr);
+    Find<QCheckBox>(dialog, "previewPage")->setChecked(false);
+    QVERIFY(!dialog->OptionsFromWidgets().preview_page);
+    QCOMPARE(ClickAndWait(Find<QPushButton>(dialog, "startExport")), ControllerRunner::Outcome::kSucceeded);
+    QVERIFY(!fs::exists(dialog->export_dir() / "preview.html"));
+    QVERIFY(!Find<QPushButton>(dialog, "openPreview")->isEnabled());
+    QVERIFY(dialog->PreviewUrl().isEmpty());
+    QSettings().remove("export/preview_page");  // StartExport kept the choice; the next dialogs start from the default
+    dialog->close();
   }
 
   void ClosingTheDialogMidExportLetsTheExportFinish() {

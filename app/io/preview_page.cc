@@ -1,0 +1,351 @@
+#include "app/io/preview_page.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <future>
+#include <span>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "app/io/file_util.h"
+#include "app/io/image_io.h"
+#include "app/io/preview_page_assets.h"
+#include "calibration/color_science.h"
+#include "core/field_error.h"
+#include "core/format.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kWhere[] = "PreviewPageOptions";
+constexpr char kTemplateName[] = "preview_page.html";
+constexpr char kThreeName[] = "three.module.min.js";
+
+std::string Base64(std::span<const uint8_t> bytes) {
+  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const uint32_t v = (uint32_t(bytes[i]) << 16) | (uint32_t(bytes[i + 1]) << 8) | bytes[i + 2];
+    for (int shift : {18, 12, 6, 0}) out += kAlphabet[(v >> shift) & 63];
+  }
+  if (i < bytes.size()) {
+    const bool two = i + 1 < bytes.size();
+    const uint32_t v = (uint32_t(bytes[i]) << 16) | (two ? uint32_t(bytes[i + 1]) << 8 : 0);
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += two ? kAlphabet[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+std::string PngDataUri(const ImageU8& image) {
+  const std::vector<uint8_t> png = EncodePngInMemory(image);
+  return "data:image/png;base64," + Base64(png);
+}
+
+// The texture size: the long side at most max_px, the aspect kept.
+std::pair<int, int> TextureSize(int width, int height, int max_px) {
+  const double factor = std::max(1.0, double(std::max(width, height)) / max_px);
+  return {std::max(1, int(std::lround(width / factor))), std::max(1, int(std::lround(height / factor)))};
+}
+
+// Box average of each texture pixel's source pixels, the solved ones only
+// where there are any (unsolved pixels hold placeholders: normal (0, 0, 1),
+// albedo 0).
+ImageF Downsample(const ImageF& image, const ImageU8& valid, int out_width, int out_height) {
+  if (image.SameSize(out_width, out_height)) return image;
+  const int channels = image.channels();
+  std::vector<double> sum(size_t(out_width) * out_height * channels, 0.0), sum_all(sum.size(), 0.0);
+  std::vector<double> count(size_t(out_width) * out_height, 0.0), count_all(count.size(), 0.0);
+  for (int y = 0; y < image.height(); ++y) {
+    const int oy = int(int64_t(y) * out_height / image.height());
+    for (int x = 0; x < image.width(); ++x) {
+      const size_t o = size_t(oy) * out_width + int(int64_t(x) * out_width / image.width());
+      const bool solved = valid.empty() || valid(x, y) != 0;
+      for (int c = 0; c < channels; ++c) {
+        sum_all[o * channels + c] += image(x, y, c);
+        if (solved) sum[o * channels + c] += image(x, y, c);
+      }
+      count_all[o] += 1;
+      if (solved) count[o] += 1;
+    }
+  }
+  ImageF out(out_width, out_height, channels);
+  for (size_t o = 0; o < count.size(); ++o) {
+    for (int c = 0; c < channels; ++c) {
+      out.data()[o * channels + c] = float(count[o] > 0 ? sum[o * channels + c] / count[o]
+                                                         : sum_all[o * channels + c] / std::max(1.0, count_all[o]));
+    }
+  }
+  return out;
+}
+
+template <typename T>
+Image<T> Crop(const Image<T>& image, int x0, int y0, int width, int height) {
+  Image<T> out(width, height, image.channels());
+  for (int y = 0; y < height; ++y) {
+    std::copy_n(image.row(y0 + y) + size_t(x0) * image.channels(), size_t(width) * image.channels(), out.row(y));
+  }
+  return out;
+}
+
+// A non-finite value (never from the export, which checks its inputs) reads 0.
+uint8_t ToByte(double unit) {
+  return std::isfinite(unit) ? uint8_t(std::lround(std::clamp(unit, 0.0, 1.0) * 255.0)) : 0;
+}
+
+// Each float per pixel through `encode` (value -> [0, 1]) into 8 bits.
+template <typename Encode>
+ImageU8 Encode8(const ImageF& image, Encode encode) {
+  ImageU8 out(image.width(), image.height(), image.channels());
+  for (size_t i = 0; i < image.size(); ++i) out.data()[i] = ToByte(encode(image.data()[i]));
+  return out;
+}
+
+// Averaged normals renormalised, then (n + 1) / 2 per component.
+ImageU8 EncodeNormals8(const ImageF& normal) {
+  ImageU8 out(normal.width(), normal.height(), 3);
+  for (size_t i = 0; i < normal.num_pixels(); ++i) {
+    const float* n = normal.data() + 3 * i;
+    const double length = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+    for (int c = 0; c < 3; ++c) {
+      const double unit = length > 1e-6 ? n[c] / length : (c == 2 ? 1.0 : 0.0);
+      out.data()[3 * i + c] = ToByte((unit + 1) / 2);
+    }
+  }
+  return out;
+}
+
+std::string HtmlEscaped(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+// Inside <script>, "</" would end the element: JSON allows "<\/".
+std::string ScriptSafeJson(const nlohmann::json& json) {
+  const std::string text = json.dump();
+  std::string safe;
+  safe.reserve(text.size());
+  for (size_t i = 0; i < text.size(); ++i) {
+    safe += text[i];
+    if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') safe += '\\';
+  }
+  return safe;
+}
+
+void ReplaceOnce(std::string* text, std::string_view placeholder, const std::string& value) {
+  const size_t at = text->find(placeholder);
+  if (at == std::string::npos) {
+    throw std::logic_error(std::string(kTemplateName) + ": placeholder " + std::string(placeholder) + " is missing");
+  }
+  text->replace(at, placeholder.size(), value);
+}
+
+std::string_view RequiredAsset(const char* name, const char* source_path) {
+  const std::string_view text = PreviewPageAsset(name);
+  if (text.empty()) {
+    throw std::logic_error(std::string(source_path) + ": was not compiled into scanbench_io (see app/io/CMakeLists.txt)");
+  }
+  return text;
+}
+
+}  // namespace
+
+void PreviewPageOptions::Check() const {
+  if (max_texture_px < 16 || max_texture_px > 8192) {
+    throw FieldError(kWhere, "max_texture_px", max_texture_px, "must be in [16, 8192] px");
+  }
+  if (max_sphere_texture_px < 16 || max_sphere_texture_px > 8192) {
+    throw FieldError(kWhere, "max_sphere_texture_px", max_sphere_texture_px, "must be in [16, 8192] px");
+  }
+  if (!(sphere_crop > 0 && sphere_crop <= 1)) {
+    throw FieldError(kWhere, "sphere_crop", sphere_crop, "must be in (0, 1]");
+  }
+}
+
+std::string PreviewPageSummary::BriefReport() const {
+  if (termination != Termination::kSuccess) return std::string("preview page: ") + TerminationName(termination) + ": " + message;
+  return "preview.html: " + Fixed(bytes / 1e6, 1) + " MB, textures " + SizeText(texture_width, texture_height) +
+         ", " + Fixed(seconds, 2) + " s";
+}
+
+std::string PreviewPageFragment(bool normal_map, double light_azimuth_deg, double light_elevation_deg, bool panel) {
+  std::string fragment = "#";
+  if (!normal_map) fragment += "normal=off&";
+  fragment += "light=" + Fixed(light_azimuth_deg, 0) + "," + Fixed(light_elevation_deg, 0);
+  if (!panel) fragment += "&panel=off";
+  return fragment;
+}
+
+PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageMaps& maps,
+                                    double mm_per_pixel, const std::vector<PreviewPageFile>& files,
+                                    const fs::path& html_path, const ProgressCallback& progress) {
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  PreviewPageSummary summary;
+  const ImageF& base = maps.basecolor_linear_rec709;
+  const int width = base.width(), height = base.height();
+  // Maps that do not fit together are the caller's mistake: thrown before any work.
+  auto fail = [&](const std::string& why) { return std::invalid_argument(html_path.string() + ": " + why); };
+  if (base.empty() || base.channels() != 3) throw fail("basecolor_linear_rec709 must have 3 channels and pixels");
+  if (!maps.normal_in_tangent.SameSize(base) || maps.normal_in_tangent.channels() != 3) {
+    throw fail("normal_in_tangent is " + ShapeText(maps.normal_in_tangent) + ", " + SizeText(width, height) +
+                "x3 expected");
+  }
+  for (const auto& [name, map] : {std::pair{"roughness_alpha", &maps.roughness_alpha},
+                                  std::pair{"occlusion", &maps.occlusion}, std::pair{"height_mm", &maps.height_mm}}) {
+    if (!map->empty() && (!map->SameSize(base) || map->channels() != 1)) {
+      throw fail(std::string(name) + " is " + ShapeText(*map) + ", " + SizeText(width, height) + "x1 expected");
+    }
+  }
+  if (!maps.valid.empty() && (!maps.valid.SameSize(base) || maps.valid.channels() != 1)) {
+    throw fail("valid is " + ShapeText(maps.valid) + ", " + SizeText(width, height) + "x1 expected");
+  }
+  if (!std::isfinite(mm_per_pixel) || !(mm_per_pixel > 0)) {
+    throw fail("mm_per_pixel = " + std::to_string(mm_per_pixel) + " must be finite and > 0");
+  }
+  const std::string_view page_template = RequiredAsset(kTemplateName, "app/io/preview_page.html");
+  const std::string_view three = RequiredAsset(kThreeName, "third_party/three/three.module.min.js");
+
+  const auto [tw, th] = TextureSize(width, height, options.max_texture_px);
+  summary.texture_width = tw;
+  summary.texture_height = th;
+  // The sphere's crop: centred, sphere_crop of each side, its own smaller texture.
+  const int crop_w = std::max(1, int(std::lround(width * options.sphere_crop)));
+  const int crop_h = std::max(1, int(std::lround(height * options.sphere_crop)));
+  const int crop_x = (width - crop_w) / 2, crop_y = (height - crop_h) / 2;
+  const auto [sw, sh] = TextureSize(crop_w, crop_h, options.max_sphere_texture_px);
+  const ImageU8 valid_crop = maps.valid.empty() ? ImageU8() : Crop(maps.valid, crop_x, crop_y, crop_w, crop_h);
+
+  double height_min = 0, height_max = 0;
+  if (!maps.height_mm.empty()) {
+    const auto [low, high] = std::minmax_element(maps.height_mm.data(), maps.height_mm.data() + maps.height_mm.size());
+    height_min = *low;
+    height_max = *high;
+  }
+  const double height_range = height_max - height_min;
+  ImageF solved;
+  if (!maps.valid.empty()) {
+    solved = ImageF(width, height, 1);
+    for (size_t i = 0; i < solved.num_pixels(); ++i) solved.data()[i] = maps.valid.data()[i] ? 1.0f : 0.0f;
+  }
+  using Encoder = std::function<ImageU8(const ImageF&)>;
+  auto per_value = [](std::function<double(float)> encode) -> Encoder {
+    return [encode](const ImageF& image) { return Encode8(image, encode); };
+  };
+  struct Texture {
+    const char* use;         // the three.js material slot; "" = listed only
+    std::string label, note;
+    const ImageF* image;
+    bool solved_only;        // average the solved pixels only (the mask itself: all)
+    bool on_sphere;
+    Encoder encode;
+  };
+  std::vector<Texture> textures;
+  textures.push_back({"map", "base colour",
+                      (options.basecolor_note.empty() ? "linear RGB" : options.basecolor_note) +
+                          ", shown through the sRGB curve",
+                      &base, true, true, per_value([](float v) { return SrgbEncode(v); })});
+  textures.push_back({"normalMap", "normal", "tangent frame, OpenGL (+Y up), (n + 1) / 2", &maps.normal_in_tangent,
+                      true, true, EncodeNormals8});
+  if (!maps.roughness_alpha.empty()) {
+    // Averaged as GGX alpha, then stored as three.js's perceptual roughness.
+    textures.push_back({"roughnessMap", "roughness", "perceptual roughness sqrt(GGX alpha)", &maps.roughness_alpha,
+                        true, true, per_value([](float alpha) { return std::sqrt(std::max(0.0f, alpha)); })});
+  }
+  if (!maps.occlusion.empty()) {
+    textures.push_back({"aoMap", "ambient occlusion", "1 = open; darkens the ambient light", &maps.occlusion, true,
+                        true, per_value([](float v) { return v; })});
+  }
+  if (!maps.height_mm.empty()) {
+    textures.push_back({"", "height", "mm, " + Fixed(height_min, 3) + " .. " + Fixed(height_max, 3) +
+                                          " (listed, not displaced)",
+                        &maps.height_mm, true, false, per_value([&](float h) {
+                          return height_range > 0 ? (h - height_min) / height_range : 0.5;
+                        })});
+  }
+  if (!solved.empty()) {
+    // Unweighted, so that a texel is kept when at least half its pixels were solved.
+    textures.push_back({"alphaMap", "solved mask", "texels with under half their pixels solved are not drawn", &solved,
+                        false, false, per_value([](float v) { return v >= 0.5f ? 1.0 : 0.0; })});
+  }
+
+  // Each texture's PNGs concurrently (deflate dominates); progress as they finish.
+  std::vector<std::future<std::pair<std::string, std::string>>> encoded;
+  for (const Texture& texture : textures) {
+    encoded.push_back(std::async(std::launch::async, [&, texture] {
+      const ImageU8 no_mask;
+      const ImageF small = Downsample(*texture.image, texture.solved_only ? maps.valid : no_mask, tw, th);
+      std::string sphere_uri;
+      if (texture.on_sphere) {
+        const ImageF crop = Crop(*texture.image, crop_x, crop_y, crop_w, crop_h);
+        sphere_uri = PngDataUri(texture.encode(Downsample(crop, texture.solved_only ? valid_crop : no_mask, sw, sh)));
+      }
+      return std::pair{PngDataUri(texture.encode(small)), sphere_uri};
+    }));
+  }
+  nlohmann::json map_entries = nlohmann::json::array();
+  bool stop = false;
+  for (size_t i = 0; i < encoded.size(); ++i) {
+    const auto [uri, sphere_uri] = encoded[i].get();  // waits for every one, also after a stop
+    nlohmann::json entry = {{"use", textures[i].use}, {"label", textures[i].label}, {"note", textures[i].note},
+                            {"uri", uri}};
+    if (!sphere_uri.empty()) entry["sphere_uri"] = sphere_uri;
+    map_entries.push_back(std::move(entry));
+    if (progress && !progress(0.9 * (i + 1) / encoded.size())) stop = true;
+  }
+  if (stop) {
+    summary.SetCancelled("preview page cancelled; nothing written");
+    return summary;
+  }
+
+  nlohmann::json file_entries = nlohmann::json::array();
+  for (const PreviewPageFile& file : files) file_entries.push_back({{"path", file.path}, {"bytes", file.bytes}});
+  const std::string title = options.title.empty() ? "scanbench material" : options.title;
+  const nlohmann::json data = {{"title", title},
+                               {"mm_per_pixel", mm_per_pixel},
+                               {"width_mm", width * mm_per_pixel},
+                               {"height_mm", height * mm_per_pixel},
+                               {"image", {{"width", width}, {"height", height}}},
+                               {"texture", {{"width", tw}, {"height", th}}},
+                               {"sphere_crop", {{"fraction", options.sphere_crop},
+                                                {"width_mm", crop_w * mm_per_pixel},
+                                                {"height_mm", crop_h * mm_per_pixel}}},
+                               {"height_range_mm", {height_min, height_max}},
+                               {"maps", map_entries},
+                               {"files", file_entries}};
+  // In this order each placeholder is found in the template, never in what an earlier one put in.
+  std::string page(page_template);
+  ReplaceOnce(&page, "__SCANBENCH_THREE_MODULE_BASE64__",
+              Base64(std::span(reinterpret_cast<const uint8_t*>(three.data()), three.size())));
+  ReplaceOnce(&page, "__SCANBENCH_PREVIEW_DATA__", ScriptSafeJson(data));
+  ReplaceOnce(&page, "__SCANBENCH_TITLE__", HtmlEscaped(title + " — scanbench preview"));
+  if (progress && !progress(1.0)) {
+    summary.SetCancelled("preview page cancelled; nothing written");
+    return summary;
+  }
+  WriteFileAtomic(html_path, page, OverwritePolicy::kRefuse);
+  summary.bytes = page.size();
+  summary.termination = Termination::kSuccess;
+  summary.seconds = SecondsSince(start);
+  return summary;
+}
+
+}  // namespace scanbench

@@ -1,0 +1,80 @@
+// The material preview page of an export (issue #16): one self-contained
+// preview.html that shows the maps on a flat tile of the sample's physical
+// aspect and on a sphere under a light the mouse drags, and lists the maps and
+// the export's files. It opens from file:// with no network and no server:
+// three.js (third_party/three, compiled in) rides along as a data: module URL
+// and every texture as a data: PNG (8-bit, at most max_texture_px on the long
+// side; the sphere repeats a centred crop in smaller textures), because Chrome
+// refuses file:// textures in WebGL and file:// modules.
+//
+// Options after '#' in the URL: normal=off (render without the normal map),
+// light=AZ,EL (degrees; azimuth from the image's +x towards +y, elevation above
+// the sample plane; default 120,40), panel=off (the render alone).
+// Layout with panel=off, which the tests rely on: the tile is centred in the
+// left half of the window, fitted into 85 % of that half's width and of the
+// height; the sphere is centred in the right half, radius 40 % of
+// min(half width, height). Orthographic view down the sample's normal.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+
+namespace scanbench {
+
+// The maps as the export holds them in memory, all the same size.
+struct PreviewPageMaps {
+  ImageF basecolor_linear_rec709;  // 3 channels, linear RGB (the export's albedo); shown through the sRGB curve
+  ImageF normal_in_tangent;        // 3 channels, unit normals: x right, y up (OpenGL), z out of the sample
+  ImageF roughness_alpha;          // 1 channel, GGX alpha in [0, 1]; shown as perceptual roughness sqrt(alpha)
+  ImageF occlusion;                // 1 channel, ambient occlusion in [0, 1], 1 = open
+  ImageF height_mm;                // 1 channel, mm (listed with its range; not displaced)
+  ImageU8 valid;                   // 1 channel, nonzero = solved; empty = every pixel solved
+};
+
+// One file of the export, as the page lists it.
+struct PreviewPageFile {
+  std::string path;    // relative to the page, e.g. "twill/twill_normal.png"
+  uintmax_t bytes = 0;
+};
+
+struct PreviewPageOptions {
+  int max_texture_px = 1024;   // long side of the tile's textures, px, [16, 8192]; smaller maps stay as they are
+  // The sphere repeats a centred crop (the border of a scan is often the table
+  // or the sample's edge): this fraction of each side, (0, 1], in textures of
+  // at most max_sphere_texture_px, [16, 8192].
+  double sphere_crop = 0.6;
+  int max_sphere_texture_px = 512;
+  std::string title;           // the page's heading, e.g. the material name; "" = "scanbench material"
+  std::string basecolor_note;  // what the base colour is, e.g. "linear Rec.709 (D65), absolute"
+  void Check() const;
+};
+
+struct PreviewPageSummary : AlgorithmSummary {
+  int texture_width = 0, texture_height = 0;  // of the tile's textures
+  uintmax_t bytes = 0;                        // of the page written
+  double seconds = 0;
+  // "preview.html: 5.1 MB, textures 1024x678".
+  std::string BriefReport() const;
+};
+
+// Writes the page to `html_path` (temporary name, fsync, rename; an existing
+// file is never overwritten). Maps of different sizes, a missing base colour
+// or normal map, or a non-positive mm_per_pixel throw std::invalid_argument
+// naming the map before any work; an empty roughness, occlusion or height map
+// is left out of the page. Progress over the textures; cancelling writes nothing.
+PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageMaps& maps,
+                                    double mm_per_pixel, const std::vector<PreviewPageFile>& files,
+                                    const std::filesystem::path& html_path, const ProgressCallback& progress = {});
+
+// The URL fragment for the options above, e.g. PreviewPageFragment(false, 90, 30, false)
+// = "#normal=off&light=90,30&panel=off".
+std::string PreviewPageFragment(bool normal_map, double light_azimuth_deg, double light_elevation_deg,
+                                bool panel);
+
+}  // namespace scanbench
