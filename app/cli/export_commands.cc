@@ -63,6 +63,11 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
                      "Gaussian sigma of the slope low-pass that flattening removes, px")
       ->capture_default_str();
   command.add_flag("--tileable", options.tileable, "Also write a seamless tileable crop of every map");
+  command.add_flag("--gltf-displaced-mesh", options.gltf_displaced_mesh,
+                   "With --preset gltf: also a mesh displaced by the height map, beside the flat tile");
+  command.add_option("--gltf-mesh-vertices", options.gltf_mesh_max_vertices,
+                     "Vertex budget of the displaced mesh (4 .. 65536; the grid step is the coarsest that fits)")
+      ->capture_default_str();
   command.add_option("--tile-size", options.tile.tile_width,
                      "Tile width and height, px (0 = the largest power of two that fits)")
       ->capture_default_str();

@@ -403,6 +403,8 @@ nlohmann::json OptionsJson(const ExportOptions& options) {
           {"mm_per_pixel", options.mm_per_pixel},
           {"flatten_normals", options.flatten_normals},
           {"tileable", options.tileable},
+          {"gltf_displaced_mesh", options.gltf_displaced_mesh},
+          {"gltf_mesh_max_vertices", options.gltf_mesh_max_vertices},
           {"flattening",
            {{"low_pass_sigma_px", options.flattening.low_pass_sigma_px}, {"max_slope", options.flattening.max_slope}}},
           {"height",
@@ -811,9 +813,13 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
     tile.occlusion_roughness_metallic_uri = FileName(plan.Find("occlusion_roughness_metallic"));
     tile.buffer_uri = material + ".bin";
     tile.generator = "scanbench " SCANBENCH_VERSION;
-    GltfTileFiles gltf = BuildGltfTile(tile);
+    tile.displaced_max_vertices = options.gltf_mesh_max_vertices;
+    tile.height_unit_m = 0.001;  // the height map is in mm
+    GltfTileFiles gltf = BuildGltfTile(tile, options.gltf_displaced_mesh ? &maps.height_mm : nullptr);
+    const std::string displaced = options.gltf_displaced_mesh ? " and a mesh displaced by the height map" : "";
     plan.AddDocument("gltf", material + ".gltf", "gltf", std::move(gltf.json),
-                     "glTF 2.0: a flat tile of the sample's size in metres with its metallicRoughness material");
+                     "glTF 2.0: a flat tile of the sample's size in metres" + displaced +
+                         ", with its metallicRoughness material");
     plan.AddDocument("gltf_buffer", tile.buffer_uri, "bin",
                      std::string(gltf.buffer.begin(), gltf.buffer.end()),
                      "glTF buffer: positions, normals, tangents, UVs (float32), indices (uint16)");
@@ -985,6 +991,13 @@ void ExportOptions::Check() const {
   }
   if (!std::isfinite(mm_per_pixel) || mm_per_pixel < 0) {
     throw FieldError(kWhere, "mm_per_pixel", mm_per_pixel, "must be finite and >= 0 (0 = from the session's rig)");
+  }
+  if (gltf_displaced_mesh && preset != Preset::kGltf) {
+    throw FieldError(kWhere, "gltf_displaced_mesh", "true",
+                     std::string("needs preset gltf (the preset is ") + ExportPresetName(preset) + ")");
+  }
+  if (gltf_mesh_max_vertices < 4 || gltf_mesh_max_vertices > 65536) {
+    throw FieldError(kWhere, "gltf_mesh_max_vertices", gltf_mesh_max_vertices, "must be in [4, 65536]");
   }
   flattening.Check();
   // Their mm_per_pixel is replaced by the export's scale: checked at that

@@ -41,6 +41,9 @@ struct ExportOptions {
   double mm_per_pixel = 0;              // physical scale, mm, >= 0; 0 = from the session's rig at the image centre
   bool flatten_normals = true;          // take out low-frequency slope before everything derived
   bool tileable = false;                // also write a seamless tileable crop of every map
+  // gltf preset only: also a mesh displaced by the height map, beside the flat tile.
+  bool gltf_displaced_mesh = false;
+  int gltf_mesh_max_vertices = 65536;   // the displaced grid's vertex budget, [4, 65536] (16-bit indices)
   NormalFlatteningOptions flattening;
   // DCT: the relaxation's least-squares answer (1.5e-4 mm RMS apart on 5.7 mm
   // in the tests) in a fraction of its time. mm_per_pixel is overwritten with

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "core/image.h"
+
 namespace scanbench {
 
 struct GltfTileOptions {
@@ -19,6 +21,10 @@ struct GltfTileOptions {
   std::string occlusion_roughness_metallic_uri;  // R occlusion, G perceptual roughness, B metallic
   std::string buffer_uri;                   // the .bin, relative to the .gltf
   std::string generator = "scanbench";      // asset.generator
+  // The displaced mesh (when BuildGltfTile gets a height map): at most this
+  // many grid vertices, [4, 65536] (16-bit indices); metres per height unit.
+  int displaced_max_vertices = 65536;
+  double height_unit_m = 0.001;             // the export's heights are mm; finite, > 0
   void Check() const;                       // FieldError naming the field
 };
 
@@ -32,6 +38,21 @@ struct GltfTileFiles {
 // image's top-left corner as glTF samples it. Every vertex has the normal +Y
 // and the tangent (+X, w = +1): the bitangent cross(N, T) * w = -Z points to
 // the image's top, which is where an OpenGL normal map's +Y points.
-GltfTileFiles BuildGltfTile(const GltfTileOptions& options);
+//
+// With `height` (one channel, the maps' size) the file gets a second node,
+// beside the tile at +X (1.1 tile widths): a grid decimated from the height
+// map to at most displaced_max_vertices vertices (each the box mean of the
+// pixels around it), heights along +Y, with normals from the grid itself. Its
+// material is the tile's without the normal map: the grid carries the relief
+// to its own resolution, and the normal map's tilts would count twice.
+// Throws std::invalid_argument when `height` is not one channel.
+GltfTileFiles BuildGltfTile(const GltfTileOptions& options, const ImageF* height = nullptr);
+
+// The displaced grid's size for a `width` x `height` map: the coarsest whole
+// pixel step that keeps nodes_x * nodes_y <= max_vertices.
+struct GltfGridSize {
+  int nodes_x = 0, nodes_y = 0, step_px = 0;
+};
+GltfGridSize DisplacedGridSize(int width, int height, int max_vertices);
 
 }  // namespace scanbench

@@ -117,6 +117,14 @@ class EnginePresetExportTest : public ::testing::Test {
       controller.Run();
       (*exports_)[ExportPresetName(preset)] = controller.summary();
     }
+    ExportOptions displaced;
+    displaced.preset = ExportOptions::Preset::kGltf;
+    displaced.gltf_displaced_mesh = true;
+    displaced.gltf_mesh_max_vertices = 5000;
+    displaced.output_root = *folder_ / "exports";
+    ExportController controller(*result_dir_, displaced);
+    controller.Run();
+    (*exports_)["gltf-displaced"] = controller.summary();
   }
   static void TearDownTestSuite() {
     delete exports_;
@@ -328,6 +336,27 @@ TEST_F(EnginePresetExportTest, GltfTileHasTheSampleSizeAndReferencesItsMaps) {
   }
 }
 
+TEST_F(EnginePresetExportTest, DisplacedMeshFollowsTheHeightMapWithinItsBudget) {
+  const nlohmann::json gltf = ReadJson(FileOf("gltf-displaced", "gltf"));
+  ASSERT_EQ(gltf["meshes"].size(), 2u);
+  ASSERT_EQ(gltf["scenes"][0]["nodes"].size(), 2u);
+  EXPECT_FALSE(gltf["materials"][1].contains("normalTexture")) << "the grid carries the relief itself";
+  EXPECT_TRUE(gltf["materials"][1]["pbrMetallicRoughness"].contains("metallicRoughnessTexture"));
+  const nlohmann::json& attributes = gltf["meshes"][1]["primitives"][0]["attributes"];
+  const nlohmann::json& position = gltf["accessors"][attributes["POSITION"].get<int>()];
+  EXPECT_LE(position["count"].get<int>(), 5000);
+  EXPECT_GE(position["count"].get<int>(), 2500) << "the coarsest step that fits, not coarser";
+  // Heights in metres: within the height map's range, and spanning most of it
+  // (the box mean over a grid step smooths the extremes).
+  const ExportSummary& summary = Of("gltf-displaced");
+  const double low = position["min"][1].get<double>() * 1000, high = position["max"][1].get<double>() * 1000;
+  EXPECT_GE(low, summary.height_min_mm - 1e-4);
+  EXPECT_LE(high, summary.height_max_mm + 1e-4);
+  EXPECT_GT(high - low, 0.5 * (summary.height_max_mm - summary.height_min_mm));
+  const double width_m = 400 * summary.mm_per_pixel / 1000;
+  EXPECT_NEAR(position["min"][0].get<double>(), 1.1 * width_m - width_m / 2, 1e-6) << "beside the flat tile";
+}
+
 // Node and the pinned npm packages of tests/web (scripts/test.sh installs them).
 std::string MissingForValidator() {
   if (RunShell("command -v node").exit_code != 0) return "node is not installed (scripts/install-deps.sh installs it)";
@@ -345,14 +374,17 @@ CommandResult Validate(const fs::path& gltf) {
 TEST_F(EnginePresetExportTest, GltfPassesTheKhronosValidator) {
   const std::string missing = MissingForValidator();
   if (!missing.empty()) GTEST_SKIP() << "glTF-Validator not run: " << missing;
-  const CommandResult result = Validate(FileOf("gltf", "gltf"));
-  ASSERT_EQ(result.exit_code, 0) << result.output;
-  const nlohmann::json report = nlohmann::json::parse(result.output);
-  EXPECT_EQ(report["numErrors"], 0) << result.output;
-  EXPECT_EQ(report["numWarnings"], 0) << result.output;
-  std::cout << "glTF-Validator " << report["validator"].get<std::string>() << ": " << report["numErrors"]
-            << " errors, " << report["numWarnings"] << " warnings, " << report["numInfos"] << " infos, "
-            << report["numHints"] << " hints\n";
+  for (const std::string preset : {"gltf", "gltf-displaced"}) {
+    SCOPED_TRACE(preset);
+    const CommandResult result = Validate(FileOf(preset, "gltf"));
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    const nlohmann::json report = nlohmann::json::parse(result.output);
+    EXPECT_EQ(report["numErrors"], 0) << result.output;
+    EXPECT_EQ(report["numWarnings"], 0) << result.output;
+    std::cout << preset << ": glTF-Validator " << report["validator"].get<std::string>() << ": "
+              << report["numErrors"] << " errors, " << report["numWarnings"] << " warnings, " << report["numInfos"]
+              << " infos, " << report["numHints"] << " hints\n";
+  }
 
   // The validator does look: without its buffer the same tile fails.
   TemporaryFolder broken;
