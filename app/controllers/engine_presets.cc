@@ -20,6 +20,17 @@ void CheckOneChannelPair(const ImageF& occlusion, const ImageF& ggx_alpha) {
 
 float Perceptual(float ggx_alpha) { return std::sqrt(std::clamp(ggx_alpha, 0.0f, 1.0f)); }
 
+// A `channels` image, zero but where `set(pixel, occlusion, perceptual roughness)` writes.
+template <typename SetPixel>
+ImageF Pack(const ImageF& occlusion, const ImageF& ggx_alpha, int channels, SetPixel set) {
+  CheckOneChannelPair(occlusion, ggx_alpha);
+  ImageF packed(occlusion.width(), occlusion.height(), channels, 0.0f);
+  for (size_t i = 0; i < packed.num_pixels(); ++i) {
+    set(packed.data() + channels * i, occlusion.data()[i], Perceptual(ggx_alpha.data()[i]));
+  }
+  return packed;
+}
+
 }  // namespace
 
 EngineTextureNames EngineTextureNamesOf(EngineTarget target, const std::string& stem) {
@@ -43,24 +54,18 @@ ImageF PerceptualRoughnessFromGgxAlpha(const ImageF& ggx_alpha) {
 }
 
 ImageF PackOcclusionRoughnessMetallic(const ImageF& occlusion, const ImageF& ggx_alpha) {
-  CheckOneChannelPair(occlusion, ggx_alpha);
-  ImageF packed(occlusion.width(), occlusion.height(), 3, 0.0f);
-  for (size_t i = 0; i < packed.num_pixels(); ++i) {
-    packed.data()[3 * i + 0] = occlusion.data()[i];
-    packed.data()[3 * i + 1] = Perceptual(ggx_alpha.data()[i]);
-  }
-  return packed;
+  return Pack(occlusion, ggx_alpha, 3, [](float* rgb, float ao, float perceptual) {
+    rgb[0] = ao;
+    rgb[1] = perceptual;
+  });
 }
 
 ImageF PackHdrpMaskMap(const ImageF& occlusion, const ImageF& ggx_alpha) {
-  CheckOneChannelPair(occlusion, ggx_alpha);
-  ImageF packed(occlusion.width(), occlusion.height(), 4, 0.0f);
-  for (size_t i = 0; i < packed.num_pixels(); ++i) {
-    packed.data()[4 * i + 1] = occlusion.data()[i];
-    packed.data()[4 * i + 2] = 1.0f;
-    packed.data()[4 * i + 3] = 1.0f - Perceptual(ggx_alpha.data()[i]);
-  }
-  return packed;
+  return Pack(occlusion, ggx_alpha, 4, [](float* rgba, float ao, float perceptual) {
+    rgba[1] = ao;
+    rgba[2] = 1.0f;
+    rgba[3] = 1.0f - perceptual;
+  });
 }
 
 }  // namespace scanbench

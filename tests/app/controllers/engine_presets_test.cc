@@ -24,12 +24,11 @@
 #include <nlohmann/json.hpp>
 
 #include "app/controllers/export_controller.h"
-#include "app/controllers/simulate_controller.h"
-#include "app/controllers/solve_controller.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "calibration/color_science.h"
 #include "tests/util/command_runner.h"
+#include "tests/util/solved_session.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -37,12 +36,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using testing::ReadJsonFile;
 using testing::TemporaryFolder;
-
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
 
 std::string ReadText(const fs::path& path) {
   std::ifstream in(path);
@@ -97,15 +92,7 @@ class EnginePresetExportTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     folder_ = new TemporaryFolder();
-    SimulateOptions simulate;
-    simulate.rig.width = 400;
-    simulate.rig.height = 264;
-    simulate.sample_name = "test twill";
-    const fs::path session = *folder_ / "session";
-    SimulateController(session, simulate).Run();
-    SolveController solve(session, SolveOptions());
-    solve.Run();
-    result_dir_ = new fs::path(solve.summary().result_dir);
+    result_dir_ = new fs::path(testing::SimulateAndSolve(*folder_ / "session", 400, 264, "test twill"));
     exports_ = new std::map<std::string, ExportSummary>;
     for (const auto preset : {ExportOptions::Preset::kPng16, ExportOptions::Preset::kLinearExr,
                               ExportOptions::Preset::kUnreal, ExportOptions::Preset::kUnityHdrp,
@@ -152,7 +139,7 @@ TEST_F(EnginePresetExportTest, EveryEngineFileIsListedWithItsLayoutAndColourSpac
     SCOPED_TRACE(preset);
     const ExportSummary& summary = Of(preset);
     EXPECT_EQ(summary.export_dir.filename().string(), result_dir_->filename().string() + "-" + preset);
-    const nlohmann::json manifest = ReadJson(summary.export_dir / "material.json");
+    const nlohmann::json manifest = ReadJsonFile(summary.export_dir / "material.json");
     EXPECT_EQ(manifest["preset"], preset);
     EXPECT_EQ(manifest["normal_convention"], preset == "unreal" ? "directx" : "opengl");
     EXPECT_THAT(manifest["engine"]["roughness"].get<std::string>(), HasSubstr("sqrt(GGX alpha)"));
@@ -287,7 +274,7 @@ TEST_F(EnginePresetExportTest, PackedMapsHoldOcclusionAndPerceptualRoughness) {
 TEST_F(EnginePresetExportTest, GltfTileHasTheSampleSizeAndReferencesItsMaps) {
   const ExportSummary& summary = Of("gltf");
   const fs::path gltf_path = FileOf("gltf", "gltf");
-  const nlohmann::json gltf = ReadJson(gltf_path);
+  const nlohmann::json gltf = ReadJsonFile(gltf_path);
   EXPECT_EQ(gltf["asset"]["version"], "2.0");
   const auto image_of_texture = [&](const nlohmann::json& texture_info) {
     const int texture = texture_info["index"];
@@ -337,7 +324,7 @@ TEST_F(EnginePresetExportTest, GltfTileHasTheSampleSizeAndReferencesItsMaps) {
 }
 
 TEST_F(EnginePresetExportTest, DisplacedMeshFollowsTheHeightMapWithinItsBudget) {
-  const nlohmann::json gltf = ReadJson(FileOf("gltf-displaced", "gltf"));
+  const nlohmann::json gltf = ReadJsonFile(FileOf("gltf-displaced", "gltf"));
   ASSERT_EQ(gltf["meshes"].size(), 2u);
   ASSERT_EQ(gltf["scenes"][0]["nodes"].size(), 2u);
   EXPECT_FALSE(gltf["materials"][1].contains("normalTexture")) << "the grid carries the relief itself";

@@ -21,6 +21,7 @@
 #include "app/session/session.h"
 #include "calibration/color_science.h"
 #include "maps/gloss_mips.h"
+#include "tests/util/solved_session.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -30,10 +31,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::TemporaryFolder;
 
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+nlohmann::json ReadJson(const fs::path& path) { return testing::ReadJsonFile(path); }
 
 std::string ErrorOf(const std::function<void()>& action) {
   try {
@@ -59,15 +57,8 @@ class ExportControllerTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     folder_ = new TemporaryFolder();
-    SimulateOptions simulate;
-    simulate.rig.width = 400;
-    simulate.rig.height = 264;
-    simulate.sample_name = "test twill";
     session_dir_ = *folder_ / "session";
-    SimulateController(session_dir_, simulate).Run();
-    SolveController solve(session_dir_, SolveOptions());
-    solve.Run();
-    result_dir_ = solve.summary().result_dir;
+    result_dir_ = testing::SimulateAndSolve(session_dir_, 400, 264, "test twill");
   }
   static void TearDownTestSuite() {
     delete folder_;
