@@ -744,26 +744,20 @@ std::string MaterialXOf(const ExportOptions& options, const ExportSummary& summa
   mtlx.normal_y_down = options.normal_convention == ExportOptions::NormalConvention::kDirectX;
   mtlx.height_file = FileName(plan.Find("height"));
   mtlx.height_scale = 0.001;  // mm -> metres
-  switch (EngineTargetOf(options.preset).value_or(EngineTarget::kGltf)) {
-    case EngineTarget::kUnityHdrp:
-      mtlx.roughness_file = FileName(plan.Find("mask_map"));
-      mtlx.roughness_channels = 4;
-      mtlx.roughness_channel = 3;
-      mtlx.roughness = MaterialXMaterialOptions::Roughness::kSmoothness;
-      break;
-    case EngineTarget::kUnreal:
-    case EngineTarget::kGltf:
-      if (IsEnginePreset(options.preset)) {
-        mtlx.roughness_file =
-            FileName(plan.Find(options.preset == ExportOptions::Preset::kUnreal ? "orm" : "occlusion_roughness_metallic"));
-        mtlx.roughness_channels = 3;
-        mtlx.roughness_channel = 1;
-        mtlx.roughness = MaterialXMaterialOptions::Roughness::kPerceptual;
-      } else {
-        mtlx.roughness_file = FileName(plan.Find("roughness_mip0"));
-        mtlx.roughness = MaterialXMaterialOptions::Roughness::kGgxAlpha;
-      }
-      break;
+  const std::optional<EngineTarget> engine = EngineTargetOf(options.preset);
+  if (!engine) {
+    mtlx.roughness_file = FileName(plan.Find("roughness_mip0"));
+    mtlx.roughness = MaterialXMaterialOptions::Roughness::kGgxAlpha;
+  } else if (*engine == EngineTarget::kUnityHdrp) {
+    mtlx.roughness_file = FileName(plan.Find("mask_map"));
+    mtlx.roughness_channels = 4;
+    mtlx.roughness_channel = 3;
+    mtlx.roughness = MaterialXMaterialOptions::Roughness::kSmoothness;
+  } else {
+    mtlx.roughness_file = FileName(plan.Find(*engine == EngineTarget::kUnreal ? "orm" : "occlusion_roughness_metallic"));
+    mtlx.roughness_channels = 3;
+    mtlx.roughness_channel = 1;
+    mtlx.roughness = MaterialXMaterialOptions::Roughness::kPerceptual;
   }
   return MaterialXDocument(mtlx);
 }
