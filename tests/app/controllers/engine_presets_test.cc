@@ -344,6 +344,49 @@ TEST_F(EnginePresetExportTest, DisplacedMeshFollowsTheHeightMapWithinItsBudget) 
   EXPECT_NEAR(position["min"][0].get<double>(), 1.1 * width_m - width_m / 2, 1e-6) << "beside the flat tile";
 }
 
+TEST_F(EnginePresetExportTest, TileIsWrittenInTheEngineLayoutToo) {
+  TemporaryFolder local;
+  ExportOptions options;
+  options.preset = ExportOptions::Preset::kUnityHdrp;
+  options.tileable = true;
+  options.tile.tile_width = 128;
+  options.output_root = local / "exports";
+  ExportController controller(*result_dir_, options);
+  controller.Run();
+  const ExportSummary& summary = controller.summary();
+  ASSERT_TRUE(summary.tile.has_value());
+  EXPECT_EQ(summary.files.at("tile_mask_map"), "test_twill/test_twill_Tile_MaskMap.png");
+  EXPECT_EQ(summary.files.at("tile_normal"), "test_twill/test_twill_Tile_Normal.png");
+  const ImageU16 tile_mask = ReadImageU16(summary.export_dir / summary.files.at("tile_mask_map"));
+  EXPECT_EQ(tile_mask.width(), 128);
+  EXPECT_EQ(tile_mask.channels(), 4);
+  EXPECT_EQ(tile_mask(64, 64, 2), 65535) << "detail mask";
+}
+
+TEST(EnginePresetOptionsTest, DisplacedMeshOptionsAreCheckedAndNamed) {
+  ExportOptions options;
+  options.gltf_displaced_mesh = true;
+  try {
+    options.Check();
+    FAIL() << "a displaced mesh without the gltf preset";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_THAT(error.what(), HasSubstr("ExportOptions.gltf_displaced_mesh"));
+    EXPECT_THAT(error.what(), HasSubstr("needs preset gltf (the preset is png16)"));
+  }
+  options.preset = ExportOptions::Preset::kGltf;
+  EXPECT_NO_THROW(options.Check());
+  options.gltf_mesh_max_vertices = 70000;
+  try {
+    options.Check();
+    FAIL() << "more vertices than 16-bit indices address";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_THAT(error.what(), HasSubstr("gltf_mesh_max_vertices = 70000 must be in [4, 65536]"));
+  }
+  EXPECT_EQ(ExportPresetFromName("unity-hdrp"), ExportOptions::Preset::kUnityHdrp);
+  EXPECT_TRUE(IsEnginePreset(ExportOptions::Preset::kGltf));
+  EXPECT_FALSE(IsEnginePreset(ExportOptions::Preset::kTiff16));
+}
+
 // Node and the pinned npm packages of tests/web (scripts/test.sh installs them).
 std::string MissingForValidator() {
   if (RunShell("command -v node").exit_code != 0) return "node is not installed (scripts/install-deps.sh installs it)";
