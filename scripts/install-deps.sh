@@ -21,7 +21,13 @@ packages=(
   qt6-base-dev xvfb xauth  # operator GUI (app/gui): Qt 6 Widgets; xvfb-run for scripts/gui-screenshots.sh
   chromium  # export's preview.html: tests/app/io/preview_page_test.cc renders it headless (WebGL via SwiftShader); skipped without it
   libgphoto2-dev libgphoto2-6 libgphoto2-port12 libusb-1.0-0-dev  # camera: libgphoto2 backend (libgphoto2-6 has the camera drivers incl. "Directory Browse" used by the tests, -port12 the usb and disk ports), libusb device discovery and hotplug
+  libexpat1-dev  # export test: parses the MaterialX .mtlx as XML
 )
+# Node and npm run the Khronos glTF-Validator of the export test (tests/web, npm
+# gltf-validator); by command, as a Node from another source is as good as Debian's.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for package in "${packages[@]}"; do

@@ -4,6 +4,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
+# The pinned npm packages of tests/web (glTF-Validator): npm ci when node_modules
+# is missing or older than package-lock.json.
+lock_sum=$(sha256sum tests/web/package-lock.json | cut -d' ' -f1)
+if [ "$(cat tests/web/node_modules/.scanbench-lock 2>/dev/null)" != "$lock_sum" ]; then
+  (cd tests/web && npm ci --no-audit --no-fund) && echo "$lock_sum" > tests/web/node_modules/.scanbench-lock
+fi
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j2
 ctest --test-dir build -j2 --output-on-failure

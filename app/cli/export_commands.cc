@@ -32,14 +32,17 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
   command
       .add_option_function<std::string>(
           "--preset", [&options](const std::string& name) { options.preset = ExportPresetFromName(name); },
-          "File formats: png16 (16-bit PNG, default), tiff16 (16-bit TIFF) or exr (32-bit float OpenEXR); height is "
-          "always also float EXR")
+          "File formats: png16 (16-bit PNG, default), tiff16 (16-bit TIFF) or exr (32-bit float OpenEXR); or an "
+          "engine's own names, packing and normals: unreal (T_<material>_BC/_N/_ORM/_H, DirectX normals), unity-hdrp "
+          "(_BaseMap/_Normal/_MaskMap/_HeightMap) or gltf (a .gltf tile with its maps); height is always also float "
+          "EXR, and every export writes a MaterialX <material>.mtlx")
       ->check(NameCheck(ExportPresetFromName));
   command
       .add_option_function<std::string>(
           "--normal-convention",
           [&options](const std::string& name) { options.normal_convention = NormalConventionFromName(name); },
-          "Normal map Y: opengl (+Y up, default) or directx (Y flipped)")
+          "Normal map Y for png16/tiff16/exr: opengl (+Y up, default) or directx (Y flipped); the engine presets use "
+          "their engine's (unreal: directx, unity-hdrp and gltf: opengl)")
       ->check(NameCheck(NormalConventionFromName));
   command
       .add_option_function<std::string>(
@@ -62,6 +65,11 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
   command.add_flag("--tileable", options.tileable, "Also write a seamless tileable crop of every map");
   command.add_flag("--no-preview", [&options](std::int64_t) { options.preview_page = false; },
                    "Do not write preview.html (the material on a tile and a sphere, for a browser)");
+  command.add_flag("--gltf-displaced-mesh", options.gltf_displaced_mesh,
+                   "With --preset gltf: also a mesh displaced by the height map, beside the flat tile");
+  command.add_option("--gltf-mesh-vertices", options.gltf_mesh_max_vertices,
+                     "Vertex budget of the displaced mesh (4 .. 65536; the grid step is the coarsest that fits)")
+      ->capture_default_str();
   command.add_option("--tile-size", options.tile.tile_width,
                      "Tile width and height, px (0 = the largest power of two that fits)")
       ->capture_default_str();

@@ -19,10 +19,13 @@
 #include <nlohmann/json.hpp>
 
 #include "app/controllers/albedo_color.h"
+#include "app/controllers/engine_presets.h"
 #include "app/controllers/map_writer.h"
 #include "calibration/color_science.h"
 #include "app/io/file_util.h"
+#include "app/io/gltf_document.h"
 #include "app/io/image_io.h"
+#include "app/io/materialx_document.h"
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
 #include "solver/angular_error.h"
@@ -302,6 +305,7 @@ struct ExportFile {
   std::vector<std::string> channel_names; // EXR only
   std::shared_ptr<const ImageF> float_image;
   std::shared_ptr<const ImageU8> u8_image;  // stored as it is (mask, sRGB preview)
+  std::shared_ptr<const std::string> document;  // a text or binary document (.gltf, .bin, .mtlx), stored as it is
   IntegerEncoding integer;
   ImageMetadata metadata;
   std::string sha256;
@@ -320,7 +324,9 @@ ImageU16 Quantise16(const ImageF& image, const IntegerEncoding& encoding) {
 
 void WriteExportFile(const fs::path& path, const ExportFile& file) {
   const auto policy = OverwritePolicy::kRefuse;
-  if (file.u8_image) {
+  if (file.document) {
+    WriteFileAtomic(path, *file.document, policy);
+  } else if (file.u8_image) {
     WritePng(path, *file.u8_image, policy, file.metadata);
   } else if (file.format == "exr") {
     WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata);
@@ -398,6 +404,8 @@ nlohmann::json OptionsJson(const ExportOptions& options) {
           {"flatten_normals", options.flatten_normals},
           {"tileable", options.tileable},
           {"preview_page", options.preview_page},
+          {"gltf_displaced_mesh", options.gltf_displaced_mesh},
+          {"gltf_mesh_max_vertices", options.gltf_mesh_max_vertices},
           {"flattening",
            {{"low_pass_sigma_px", options.flattening.low_pass_sigma_px}, {"max_slope", options.flattening.max_slope}}},
           {"height",
@@ -484,7 +492,7 @@ class FilePlanner {
       : options_(options),
         summary_(summary),
         exr_(options.preset == ExportOptions::Preset::kLinearExr),
-        format_(exr_ ? "exr" : options.preset == ExportOptions::Preset::kPng16 ? "png" : "tiff"),
+        format_(exr_ ? "exr" : options.preset == ExportOptions::Preset::kTiff16 ? "tiff" : "png"),
         extension_(exr_ ? ".exr" : format_ == "png" ? ".png" : ".tif"),
         source_result_(source_result) {}
 
@@ -561,8 +569,8 @@ class FilePlanner {
   }
 
   // An 8-bit PNG stored as it is (mask, sRGB preview).
-  void AddU8(const std::string& kind, ImageU8 image, const std::string& color_space, const std::string& encoding,
-             const std::string& description) {
+  ExportFile* AddU8(const std::string& kind, ImageU8 image, const std::string& color_space,
+                    const std::string& encoding, const std::string& description) {
     ExportFile file;
     file.kind = kind;
     file.format = "png";
@@ -576,7 +584,31 @@ class FilePlanner {
     file.mm_per_pixel = summary_.mm_per_pixel;
     file.u8_image = std::make_shared<const ImageU8>(std::move(image));
     file.metadata = Metadata(file, description);
+    return &files_.emplace_back(std::move(file));
+  }
+
+  // A document stored as it is, at <material>/<file_name>.
+  void AddDocument(const std::string& kind, const std::string& file_name, const std::string& format,
+                   std::string content, const std::string& description) {
+    ExportFile file;
+    file.kind = kind;
+    file.format = format;
+    file.relative_path = InMaterialFolder(file_name);
+    file.encoding = description;
+    file.mm_per_pixel = summary_.mm_per_pixel;
+    file.document = std::make_shared<const std::string>(std::move(content));
     files_.push_back(std::move(file));
+  }
+
+  // The file planned as `kind` (which must exist), e.g. to reference it from a document.
+  const ExportFile& Find(const std::string& kind) const {
+    const auto found = std::find_if(files_.begin(), files_.end(), [&](const ExportFile& f) { return f.kind == kind; });
+    if (found == files_.end()) throw std::logic_error("export plan has no file '" + kind + "'");
+    return *found;
+  }
+  ExportFile& Find(const std::string& kind) { return const_cast<ExportFile&>(std::as_const(*this).Find(kind)); }
+  std::string InMaterialFolder(const std::string& file_name) const {
+    return summary_.material_name + "/" + file_name;
   }
 
   std::vector<ExportFile> Take() { return std::move(files_); }
@@ -604,13 +636,23 @@ class FilePlanner {
   std::vector<ExportFile> files_;
 };
 
-// Every file of the export: the maps, their mips, the tiles, the solver's
-// confidence, the mask and the sRGB preview.
-std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSummary& summary,
-                                  const ExportInputs& inputs, const ExportMaps& maps) {
-  const IntegerEncoding unit_interval{1, 0, "uint16 = value * 65535, value in [0, 1]"};
+const IntegerEncoding kUnitInterval{1, 0, "uint16 = value * 65535, value in [0, 1]"};
+
+std::optional<EngineTarget> EngineTargetOf(ExportOptions::Preset preset) {
+  switch (preset) {
+    case ExportOptions::Preset::kUnreal: return EngineTarget::kUnreal;
+    case ExportOptions::Preset::kUnityHdrp: return EngineTarget::kUnityHdrp;
+    case ExportOptions::Preset::kGltf: return EngineTarget::kGltf;
+    default: return std::nullopt;
+  }
+}
+
+// The generic presets' maps: base colour, normals, height, occlusion,
+// cavity, the roughness and normal mip chains and the tiles.
+void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, const ExportMaps& maps,
+                     FilePlanner& plan) {
+  const IntegerEncoding& unit_interval = kUnitInterval;
   const double mm = summary.mm_per_pixel;
-  FilePlanner plan(options, summary, inputs.result_dir.filename().string());
   plan.AddBasecolor("basecolor", inputs.albedo, inputs.albedo_color, mm);
   plan.AddNormal("normal", maps.normals, mm);
   plan.AddHeight("height", maps.height_mm, mm);
@@ -633,6 +675,114 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
     plan.AddMap("tile_cavity", maps.tiles[4], "Raw", unit_interval, "tileable crop of cavity", mm);
     plan.AddMap("tile_roughness", maps.tiles[5], "Raw", unit_interval, "tileable crop of roughness_mip0", mm);
   }
+}
+
+// What the engine presets pack, for one set of maps (the full image or the tile).
+struct EngineMapSet {
+  const ImageF& albedo;
+  const ImageF& normals;
+  const ImageF& height_mm;
+  const ImageF& occlusion;
+  const ImageF& ggx_alpha;
+};
+
+// One engine's textures under its own names: 8-bit sRGB base colour, 16-bit
+// normals in its convention, its packed linear texture with perceptual
+// roughness, the float height (mm) and the 16-bit normalised height. Kinds
+// start with `kind_prefix` ("" or "tile_").
+void PlanEngineMaps(EngineTarget target, const std::string& kind_prefix, const std::string& stem,
+                    const EngineMapSet& set, const ExportSummary& summary, const ResultAlbedoColor& color,
+                    FilePlanner& plan) {
+  const double mm = summary.mm_per_pixel;
+  const EngineTextureNames names = EngineTextureNamesOf(target, stem);
+  ExportFile* basecolor = plan.AddU8(kind_prefix + "basecolor", EncodeSrgbPreview(set.albedo), "sRGB",
+                                     "uint8 = srgb_transfer(value) * 255, value in [0, 1]",
+                                     "diffuse albedo (" + color.color_space + ", " + color.scale +
+                                         " reflectance), sRGB transfer curve");
+  basecolor->relative_path = plan.InMaterialFolder(names.basecolor);
+  basecolor->metadata.attributes["scanbench:albedo_color_space"] = color.color_space;
+  basecolor->metadata.attributes["scanbench:albedo_scale"] = color.scale;
+
+  plan.AddNormal(kind_prefix + "normal", set.normals, mm);
+  plan.Find(kind_prefix + "normal").relative_path = plan.InMaterialFolder(names.normal);
+
+  const bool hdrp = target == EngineTarget::kUnityHdrp;
+  const std::string packed_kind = kind_prefix + (hdrp                              ? "mask_map"
+                                                 : target == EngineTarget::kUnreal ? "orm"
+                                                                                   : "occlusion_roughness_metallic");
+  const std::string layout = hdrp ? "R metallic = 0, G ambient occlusion, B detail mask = 1, A smoothness = "
+                                    "1 - perceptual roughness"
+                                  : "R ambient occlusion, G perceptual roughness, B metallic = 0";
+  ExportFile* packed = plan.AddMap(packed_kind,
+                                   hdrp ? PackHdrpMaskMap(set.occlusion, set.ggx_alpha)
+                                        : PackOcclusionRoughnessMetallic(set.occlusion, set.ggx_alpha),
+                                   "Raw", kUnitInterval,
+                                   layout + " (perceptual roughness = sqrt(GGX alpha)), linear", mm);
+  packed->relative_path = plan.InMaterialFolder(names.packed);
+  packed->metadata.attributes["scanbench:channels"] = layout;
+
+  plan.AddHeight(kind_prefix + "height", set.height_mm, mm);
+  if (!names.height_normalized.empty()) {
+    plan.Find(kind_prefix + "height_normalized").relative_path =
+        plan.InMaterialFolder(names.height_normalized);
+  }
+}
+
+std::string FileName(const ExportFile& file) { return fs::path(file.relative_path).filename().string(); }
+
+// The .mtlx of every export, beside the maps it reads.
+std::string MaterialXOf(const ExportOptions& options, const ExportSummary& summary, const ExportInputs& inputs,
+                        const FilePlanner& plan) {
+  MaterialXMaterialOptions mtlx;
+  mtlx.name = summary.material_name;
+  mtlx.basecolor_file = FileName(plan.Find("basecolor"));
+  const bool calibrated = inputs.albedo_color.color_space == "linear_rec709";
+  mtlx.basecolor_colorspace = options.preset != ExportOptions::Preset::kLinearExr ? "srgb_texture"
+                              : calibrated && options.basecolor_space == ExportOptions::BasecolorSpace::kAcesCg
+                                  ? "acescg"
+                                  : "lin_rec709";
+  mtlx.normal_file = FileName(plan.Find("normal"));
+  mtlx.normal_y_down = options.normal_convention == ExportOptions::NormalConvention::kDirectX;
+  mtlx.height_file = FileName(plan.Find("height"));
+  mtlx.height_scale = 0.001;  // mm -> metres
+  const std::optional<EngineTarget> engine = EngineTargetOf(options.preset);
+  if (!engine) {
+    mtlx.roughness_file = FileName(plan.Find("roughness_mip0"));
+    mtlx.roughness = MaterialXMaterialOptions::Roughness::kGgxAlpha;
+  } else if (*engine == EngineTarget::kUnityHdrp) {
+    mtlx.roughness_file = FileName(plan.Find("mask_map"));
+    mtlx.roughness_channels = 4;
+    mtlx.roughness_channel = 3;
+    mtlx.roughness = MaterialXMaterialOptions::Roughness::kSmoothness;
+  } else {
+    mtlx.roughness_file = FileName(plan.Find(*engine == EngineTarget::kUnreal ? "orm" : "occlusion_roughness_metallic"));
+    mtlx.roughness_channels = 3;
+    mtlx.roughness_channel = 1;
+    mtlx.roughness = MaterialXMaterialOptions::Roughness::kPerceptual;
+  }
+  return MaterialXDocument(mtlx);
+}
+
+// Every file of the export: the maps (generic or in an engine's layout), the
+// solver's confidence, the mask, the sRGB preview (generic presets), the
+// MaterialX document and, for gltf, the .gltf and its .bin.
+std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSummary& summary,
+                                  const ExportInputs& inputs, const ExportMaps& maps) {
+  const double mm = summary.mm_per_pixel;
+  FilePlanner plan(options, summary, inputs.result_dir.filename().string());
+  const std::optional<EngineTarget> engine = EngineTargetOf(options.preset);
+  if (engine) {
+    PlanEngineMaps(*engine, "", summary.material_name,
+                   {inputs.albedo, maps.normals, maps.height_mm, maps.occlusion, maps.mips.front().roughness},
+                   summary, inputs.albedo_color, plan);
+    if (!maps.tiles.empty()) {
+      PlanEngineMaps(*engine, "tile_", summary.material_name + "_Tile",
+                     {maps.tiles[0], maps.tiles[1], maps.tiles[2], maps.tiles[3], maps.tiles[5]}, summary,
+                     inputs.albedo_color, plan);
+    }
+  } else {
+    PlanGenericMaps(summary, inputs, maps, plan);
+  }
   ExportFile* confidence =
       plan.AddMap("confidence", inputs.confidence, "Raw", {},
                   "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
@@ -641,8 +791,34 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = inputs.valid.data()[i] ? 255 : 0;
   plan.AddU8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
              "pixels the solver solved");
-  plan.AddU8("basecolor_srgb_preview", EncodeSrgbPreview(inputs.albedo), "sRGB", "uint8 sRGB transfer curve",
+  if (!engine) {
+    plan.AddU8("basecolor_srgb_preview", EncodeSrgbPreview(inputs.albedo), "sRGB", "uint8 sRGB transfer curve",
              "8-bit sRGB preview of the basecolor (" + inputs.albedo_color.color_space + ")");
+  }
+  const std::string& material = summary.material_name;
+  plan.AddDocument("materialx", material + ".mtlx", "mtlx", MaterialXOf(options, summary, inputs, plan),
+                   "MaterialX 1.38: standard_surface + displacement reading this folder's maps");
+  if (options.preset == ExportOptions::Preset::kGltf) {
+    GltfTileOptions tile;
+    tile.name = material;
+    tile.width_m = summary.image_width * mm / 1000;
+    tile.height_m = summary.image_height * mm / 1000;
+    tile.basecolor_uri = FileName(plan.Find("basecolor"));
+    tile.normal_uri = FileName(plan.Find("normal"));
+    tile.occlusion_roughness_metallic_uri = FileName(plan.Find("occlusion_roughness_metallic"));
+    tile.buffer_uri = material + ".bin";
+    tile.generator = "scanbench " SCANBENCH_VERSION;
+    tile.displaced_max_vertices = options.gltf_mesh_max_vertices;
+    tile.height_unit_m = 0.001;  // the height map is in mm
+    GltfTileFiles gltf = BuildGltfTile(tile, options.gltf_displaced_mesh ? &maps.height_mm : nullptr);
+    const std::string displaced = options.gltf_displaced_mesh ? " and a mesh displaced by the height map" : "";
+    plan.AddDocument("gltf", material + ".gltf", "gltf", std::move(gltf.json),
+                     "glTF 2.0: a flat tile of the sample's size in metres" + displaced +
+                         ", with its metallicRoughness material");
+    plan.AddDocument("gltf_buffer", tile.buffer_uri, "bin",
+                     std::string(gltf.buffer.begin(), gltf.buffer.end()),
+                     "glTF buffer: positions, normals, tangents, UVs (float32), indices (uint16)");
+  }
   return plan.Take();
 }
 
@@ -702,6 +878,7 @@ void WritePreview(const fs::path& staging, const ExportInputs& inputs, const Exp
   page.kind = "preview";
   page.relative_path = "preview.html";
   page.format = "html";
+  page.document = true;
   page.encoding = "self-contained preview page (three.js inline, maps as 8-bit data: PNGs); open in a browser";
   summary->preview = WritePreviewPage(options, preview, summary->mm_per_pixel, listed, staging / page.relative_path,
                                       progress);
@@ -714,10 +891,9 @@ void WritePreview(const fs::path& staging, const ExportInputs& inputs, const Exp
 
 // --- The manifest (material.json) --------------------------------------------
 
-// The preview page's entry (format "html"): what it is, no image layout.
 nlohmann::json FileEntryJson(const ExportFile& file) {
-  if (file.format == "html") {
-    return {{"path", file.relative_path}, {"format", file.format}, {"description", file.encoding},
+  if (file.document) {
+    return {{"path", file.relative_path}, {"format", file.format}, {"content", file.encoding},
             {"sha256", file.sha256}, {"bytes", file.bytes}};
   }
   nlohmann::json entry = {{"path", file.relative_path},
@@ -817,6 +993,13 @@ nlohmann::json ManifestJson(const ExportOptions& options, const ExportSummary& s
   manifest["options"] = OptionsJson(options);
   manifest["summaries"] = SummariesJson(summary);
   if (summary.specular_roughness) manifest["roughness"] = RoughnessSourceJson(options, summary);
+  if (IsEnginePreset(options.preset)) {
+    manifest["engine"] = {{"preset", summary.preset},
+                          {"roughness", "perceptual roughness = sqrt(GGX alpha) of roughness mip 0"},
+                          {"basecolor", "8-bit, sRGB transfer curve"},
+                          {"data_maps", "16-bit, linear (import with sRGB off)"},
+                          {"documentation", "docs/export.md, Engine presets"}};
+  }
   if (summary.height_rms_error_mm) {
     manifest["ground_truth"] = GroundTruthJson(options, summary, *inputs.session.ground_truth);
   }
@@ -837,6 +1020,13 @@ void ExportOptions::Check() const {
   }
   if (!std::isfinite(mm_per_pixel) || mm_per_pixel < 0) {
     throw FieldError(kWhere, "mm_per_pixel", mm_per_pixel, "must be finite and >= 0 (0 = from the session's rig)");
+  }
+  if (gltf_displaced_mesh && preset != Preset::kGltf) {
+    throw FieldError(kWhere, "gltf_displaced_mesh", "true",
+                     std::string("needs preset gltf (the preset is ") + ExportPresetName(preset) + ")");
+  }
+  if (gltf_mesh_max_vertices < 4 || gltf_mesh_max_vertices > 65536) {
+    throw FieldError(kWhere, "gltf_mesh_max_vertices", gltf_mesh_max_vertices, "must be in [4, 65536]");
   }
   flattening.Check();
   // Their mm_per_pixel is replaced by the export's scale: checked at that
@@ -859,15 +1049,21 @@ const char* ExportPresetName(ExportOptions::Preset preset) {
     case ExportOptions::Preset::kLinearExr: return "exr";
     case ExportOptions::Preset::kPng16: return "png16";
     case ExportOptions::Preset::kTiff16: return "tiff16";
+    case ExportOptions::Preset::kUnreal: return "unreal";
+    case ExportOptions::Preset::kUnityHdrp: return "unity-hdrp";
+    case ExportOptions::Preset::kGltf: return "gltf";
   }
   return "unknown";
 }
 
+bool IsEnginePreset(ExportOptions::Preset preset) { return EngineTargetOf(preset).has_value(); }
+
 ExportOptions::Preset ExportPresetFromName(const std::string& name) {
-  for (auto preset : {ExportOptions::Preset::kLinearExr, ExportOptions::Preset::kPng16, ExportOptions::Preset::kTiff16}) {
+  using P = ExportOptions::Preset;
+  for (auto preset : {P::kLinearExr, P::kPng16, P::kTiff16, P::kUnreal, P::kUnityHdrp, P::kGltf}) {
     if (name == ExportPresetName(preset)) return preset;
   }
-  throw std::invalid_argument("export preset '" + name + "' must be exr, png16 or tiff16");
+  throw std::invalid_argument("export preset '" + name + "' must be exr, png16, tiff16, unreal, unity-hdrp or gltf");
 }
 
 const char* NormalConventionName(ExportOptions::NormalConvention convention) {
@@ -946,6 +1142,10 @@ ExportController::ExportController(fs::path result_dir, ExportOptions options)
 
 void ExportController::Run() {
   options_.Check();
+  if (const auto engine = EngineTargetOf(options_.preset)) {  // the engine's convention, whatever was asked
+    options_.normal_convention = EngineNormalIsDirectX(*engine) ? ExportOptions::NormalConvention::kDirectX
+                                                                : ExportOptions::NormalConvention::kOpenGl;
+  }
   summary_ = ExportSummary();
   summary_.preset = ExportPresetName(options_.preset);
   summary_.normal_convention = NormalConventionName(options_.normal_convention);

@@ -26,20 +26,26 @@
 namespace scanbench {
 
 struct ExportOptions {
-  enum class Preset { kLinearExr, kPng16, kTiff16 };
+  // Generic file formats (exr, png16, tiff16) or an engine's own naming,
+  // channel packing and normal convention (unreal, unity-hdrp, gltf; see
+  // app/controllers/engine_presets.h and docs/export.md).
+  enum class Preset { kLinearExr, kPng16, kTiff16, kUnreal, kUnityHdrp, kGltf };
   enum class NormalConvention { kOpenGl, kDirectX };  // +Y up (OpenGL) or +Y down (DirectX)
   // Primaries of the linear EXR base colour (issue #12); integer presets are
   // always sRGB (Rec.709 primaries, the sRGB transfer curve).
   enum class BasecolorSpace { kLinearRec709, kAcesCg };
   Preset preset = Preset::kPng16;
   BasecolorSpace basecolor_space = BasecolorSpace::kLinearRec709;
-  NormalConvention normal_convention = NormalConvention::kOpenGl;
+  NormalConvention normal_convention = NormalConvention::kOpenGl;  // generic presets; an engine preset sets its own
   std::string material_name;            // file-name prefix [A-Za-z0-9._-]+; "" = from the sample name
   std::filesystem::path output_root;    // "" = <session>/exports
   double mm_per_pixel = 0;              // physical scale, mm, >= 0; 0 = from the session's rig at the image centre
   bool flatten_normals = true;          // take out low-frequency slope before everything derived
   bool tileable = false;                // also write a seamless tileable crop of every map
   bool preview_page = true;             // also write preview.html, the maps in a browser (app/io/preview_page.h)
+  // gltf preset only: also a mesh displaced by the height map, beside the flat tile.
+  bool gltf_displaced_mesh = false;
+  int gltf_mesh_max_vertices = 65536;   // the displaced grid's vertex budget, [4, 65536] (16-bit indices)
   NormalFlatteningOptions flattening;
   // DCT: the relaxation's least-squares answer (1.5e-4 mm RMS apart on 5.7 mm
   // in the tests) in a fraction of its time. mm_per_pixel is overwritten with
@@ -54,7 +60,9 @@ struct ExportOptions {
   TileableCropOptions tile;
   void Check() const;
 };
-const char* ExportPresetName(ExportOptions::Preset preset);            // "exr", "png16", "tiff16"
+// "exr", "png16", "tiff16", "unreal", "unity-hdrp", "gltf".
+const char* ExportPresetName(ExportOptions::Preset preset);
+bool IsEnginePreset(ExportOptions::Preset preset);                     // unreal, unity-hdrp, gltf
 ExportOptions::Preset ExportPresetFromName(const std::string& name);   // throws std::invalid_argument
 const char* NormalConventionName(ExportOptions::NormalConvention convention);            // "opengl", "directx"
 const char* BasecolorSpaceName(ExportOptions::BasecolorSpace space);   // "rec709", "acescg"

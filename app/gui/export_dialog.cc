@@ -36,6 +36,11 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   preset_->addItem(tr("exr — linear 32-bit float OpenEXR"), int(ExportOptions::Preset::kLinearExr));
   preset_->addItem(tr("png16 — 16-bit PNG (linear; plus an sRGB albedo preview)"), int(ExportOptions::Preset::kPng16));
   preset_->addItem(tr("tiff16 — 16-bit TIFF (linear; plus an sRGB albedo preview)"), int(ExportOptions::Preset::kTiff16));
+  preset_->addItem(tr("unreal — Unreal Engine: T_*_BC / _N (DirectX) / _ORM / _H"), int(ExportOptions::Preset::kUnreal));
+  preset_->addItem(tr("unity-hdrp — Unity HDRP Lit: _BaseMap / _Normal / _MaskMap / _HeightMap"),
+                   int(ExportOptions::Preset::kUnityHdrp));
+  preset_->addItem(tr("gltf — glTF 2.0 tile (.gltf + .bin) with its metallicRoughness maps"),
+                   int(ExportOptions::Preset::kGltf));
   preset_->setCurrentIndex(preset_->findData(int(defaults.preset)));
   form->addRow(tr("Preset"), preset_);
   convention_ = new QComboBox(this);
@@ -116,6 +121,12 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   flatten_->setChecked(settings.value("flatten", flatten_->isChecked()).toBool());
   preview_page_->setChecked(settings.value("preview_page", preview_page_->isChecked()).toBool());
 
+  // An engine preset writes its engine's normal convention whatever is chosen here.
+  const auto follow_preset = [this] {
+    convention_->setEnabled(!IsEnginePreset(ExportOptions::Preset(preset_->currentData().toInt())));
+  };
+  connect(preset_, &QComboBox::currentIndexChanged, this, follow_preset);
+  follow_preset();
   connect(start_, &QPushButton::clicked, this, &ExportDialog::StartExport);
   connect(cancel_, &QPushButton::clicked, this, [this] {
     if (exporting_) runner_->Cancel();

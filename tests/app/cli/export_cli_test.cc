@@ -70,13 +70,26 @@ TEST(ExportCliTest, ExportsASolvedSessionWithTheChosenPresetAndConvention) {
   EXPECT_THAT(scaled.output, HasSubstr("flattening:   off"));
   ASSERT_EQ(Subfolders(folder / "out").size(), 1u);
   EXPECT_FALSE(fs::exists(Subfolders(folder / "out")[0] / "preview.html")) << "--no-preview";
+
+  // An engine preset: its names and its normal convention, whatever was asked.
+  std::string engine_export = "export " + Quoted(results[0]);
+  engine_export += " --preset unreal --normal-convention opengl --material denim --output ";
+  engine_export += Quoted(folder / "engine");
+  const CommandResult unreal = RunScanbench(engine_export);
+  ASSERT_EQ(unreal.exit_code, 0) << unreal.output;
+  EXPECT_THAT(unreal.output, HasSubstr("denim (unreal, normals directx -Y)"));
+  const std::vector<fs::path> engine = Subfolders(folder / "engine");
+  ASSERT_EQ(engine.size(), 1u);
+  for (const char* name : {"T_denim_BC.png", "T_denim_N.png", "T_denim_ORM.png", "T_denim_H.png", "denim.mtlx"}) {
+    EXPECT_TRUE(fs::is_regular_file(engine[0] / "denim" / name)) << name;
+  }
 }
 
 TEST(ExportCliTest, BadArgumentsExitNonZeroNamingTheProblem) {
   testing::TemporaryFolder folder;
   const CommandResult bad_preset = RunScanbench("export " + Quoted(folder.path()) + " --preset jpeg");
   EXPECT_NE(bad_preset.exit_code, 0);
-  EXPECT_THAT(bad_preset.output, HasSubstr("'jpeg' must be exr, png16 or tiff16"));
+  EXPECT_THAT(bad_preset.output, HasSubstr("'jpeg' must be exr, png16, tiff16, unreal, unity-hdrp or gltf"));
   const CommandResult bad_convention = RunScanbench("export " + Quoted(folder.path()) + " --normal-convention up");
   EXPECT_NE(bad_convention.exit_code, 0);
   EXPECT_THAT(bad_convention.output, HasSubstr("'up' must be opengl or directx"));

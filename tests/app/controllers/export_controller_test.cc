@@ -21,6 +21,7 @@
 #include "app/session/session.h"
 #include "calibration/color_science.h"
 #include "maps/gloss_mips.h"
+#include "tests/util/solved_session.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -30,10 +31,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::TemporaryFolder;
 
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+nlohmann::json ReadJson(const fs::path& path) { return testing::ReadJsonFile(path); }
 
 std::string ReadText(const fs::path& path) {
   std::ifstream in(path);
@@ -64,15 +62,8 @@ class ExportControllerTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     folder_ = new TemporaryFolder();
-    SimulateOptions simulate;
-    simulate.rig.width = 400;
-    simulate.rig.height = 264;
-    simulate.sample_name = "test twill";
     session_dir_ = *folder_ / "session";
-    SimulateController(session_dir_, simulate).Run();
-    SolveController solve(session_dir_, SolveOptions());
-    solve.Run();
-    result_dir_ = solve.summary().result_dir;
+    result_dir_ = testing::SimulateAndSolve(session_dir_, 400, 264, "test twill");
   }
   static void TearDownTestSuite() {
     delete folder_;
@@ -282,6 +273,11 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
     if (kind == "preview") {  // the page, not an image (tests/app/io/preview_page_test.cc)
       EXPECT_EQ(entry["path"], "preview.html");
       EXPECT_EQ(entry["format"], "html");
+      continue;
+    }
+    if (kind == "materialx") {  // a document, not an image (tests/app/controllers/engine_presets_test.cc)
+      EXPECT_EQ(entry["path"], "test_twill/test_twill.mtlx");
+      EXPECT_EQ(entry["format"], "mtlx");
       continue;
     }
     EXPECT_EQ(entry["path"].get<std::string>().rfind("test_twill/test_twill_" + kind + ".", 0), 0u);
@@ -676,7 +672,7 @@ TEST_F(ExportControllerTest, OptionsAreCheckedAndNamed) {
   EXPECT_THAT(ErrorOf([&] { Export(bad_scale); }), HasSubstr("ExportOptions.mm_per_pixel = -1"));
   EXPECT_EQ(ExportPresetFromName("tiff16"), ExportOptions::Preset::kTiff16);
   EXPECT_STREQ(ExportPresetName(ExportPresetFromName("exr")), "exr");
-  EXPECT_THAT(ErrorOf([] { ExportPresetFromName("jpeg"); }), HasSubstr("'jpeg' must be exr, png16 or tiff16"));
+  EXPECT_THAT(ErrorOf([] { ExportPresetFromName("jpeg"); }), HasSubstr("'jpeg' must be exr, png16, tiff16, unreal, unity-hdrp or gltf"));
   EXPECT_EQ(NormalConventionFromName("directx"), ExportOptions::NormalConvention::kDirectX);
   EXPECT_THAT(ErrorOf([] { NormalConventionFromName("vulkan"); }), HasSubstr("'vulkan' must be opengl or directx"));
   ExportOptions named;

@@ -171,6 +171,34 @@ class SessionsExportTest : public QObject {
     dialog->close();
   }
 
+  void ExportOffersTheEnginePresets() {
+    ResultsPage* results = window_->results();
+    ExportDialog* dialog = results->OpenExportDialog();
+    QVERIFY(dialog != nullptr);
+    auto* preset = Find<QComboBox>(dialog, "exportPreset");
+    auto* convention = Find<QComboBox>(dialog, "normalConvention");
+    for (const auto engine : {ExportOptions::Preset::kUnreal, ExportOptions::Preset::kUnityHdrp,
+                              ExportOptions::Preset::kGltf}) {
+      const int index = preset->findData(int(engine));
+      QVERIFY2(index >= 0, ExportPresetName(engine));
+      preset->setCurrentIndex(index);
+      QVERIFY2(!convention->isEnabled(), "the engine decides the normal convention");
+    }
+    preset->setCurrentIndex(preset->findData(int(ExportOptions::Preset::kPng16)));
+    QVERIFY(convention->isEnabled());
+    preset->setCurrentIndex(preset->findData(int(ExportOptions::Preset::kGltf)));
+    QCOMPARE(ClickAndWait(Find<QPushButton>(dialog, "startExport")), ControllerRunner::Outcome::kSucceeded);
+    const fs::path export_dir = dialog->export_dir();
+    QVERIFY2(fs::is_directory(export_dir), qPrintable(last_message_));
+    const QJsonObject material = ReadJson(export_dir / "material.json");
+    QCOMPARE(material["preset"].toString(), QStringLiteral("gltf"));
+    QCOMPARE(material["normal_convention"].toString(), QStringLiteral("opengl"));
+    const QJsonObject files = material["files"].toObject();
+    for (const char* kind : {"gltf", "gltf_buffer", "materialx", "occlusion_roughness_metallic"}) {
+      QVERIFY2(fs::is_regular_file(export_dir / files[kind].toObject()["path"].toString().toStdString()), kind);
+    }
+  }
+
   void ClosingTheDialogMidExportLetsTheExportFinish() {
     ResultsPage* results = window_->results();
     ExportDialog* dialog = results->OpenExportDialog();
