@@ -77,10 +77,10 @@ RigDescription MakeBenchTemplate(const BenchTemplateOptions& options) {
 
   // Straight down: a half turn about table x makes image x = table +x and
   // image up = table +y; the camera centre is above the table origin.
-  Eigen::Isometry3d table_from_cam = Eigen::Isometry3d::Identity();
-  table_from_cam.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  table_from_cam.translation() = Eigen::Vector3d(0, 0, s);
-  rig.camera.cam_from_table = table_from_cam.inverse();
+  // The half turn is its own inverse; written out so the JSON holds exact zeros.
+  rig.camera.cam_from_table = Eigen::Isometry3d::Identity();
+  rig.camera.cam_from_table.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  rig.camera.cam_from_table.translation() = Eigen::Vector3d(0, 0, s);
 
   const int rings = static_cast<int>(options.ring_radii_mm.size());
   for (int i = 0; i < options.num_leds; ++i) {
@@ -102,23 +102,21 @@ RigDescription MakeBenchTemplate(const BenchTemplateOptions& options) {
 }
 
 std::vector<std::string> BenchFieldsToMeasure(const RigDescription& rig) {
-  std::vector<std::string> fields = {
+  const std::string leds = "leds[0.." + std::to_string(rig.leds.size() - 1) + "]";
+  return {
       "camera.intrinsics (fx, fy, cx, cy, k1, k2, k3, p1, p2): nominal (thin lens, no distortion); "
       "`scanbench calibrate camera` on checkerboard captures",
-      "camera.cam_from_table: nominal (straight down, centred); measure the lens height above the table, "
-      "or `scanbench calibrate camera` with the board flat at the sample position",
+      "camera.cam_from_table: nominal (straight down, lens " + std::to_string(static_cast<int>(std::lround(
+          rig.camera.cam_from_table.translation().z()))) + " mm above the table centre); measure the height, or "
+      "`scanbench calibrate camera` with the board flat at the sample position",
+      leds + ".id: the firmware channel the LED's driver is wired to (channel k = Arduino pin D(2 + k))",
+      leds + ".position_in_table_mm: the LED's centre from the sample centre, x right and y up in the image, z up, "
+      "mm: measure each with a tape or rule",
+      leds + ".axis_in_table: where each LED points (nominal: at the sample centre); correct it if one is aimed "
+      "elsewhere",
+      leds + ".mu, .rgb_intensity: nominal (mu from the LED's datasheet, intensity 1, 1, 1); `scanbench "
+      "calibrate white` and `scanbench calibrate lights` measure them",
   };
-  for (size_t k = 0; k < rig.leds.size(); ++k) {
-    const std::string led = "leds[" + std::to_string(k) + "]";
-    fields.push_back(led + ".id: the firmware channel whose driver this LED is wired to (pin D" +
-                     std::to_string(2 + rig.leds[k].id) + " for id " + std::to_string(rig.leds[k].id) + ")");
-    fields.push_back(led + ".position_in_table_mm: measure the LED's centre from the sample centre (x right, "
-                           "y up in the image, z up), mm");
-    fields.push_back(led + ".axis_in_table: where the LED points (nominal: at the sample centre)");
-    fields.push_back(led + ".mu, .rgb_intensity: nominal (1 and 1, 1, 1); `scanbench calibrate white` and "
-                           "`scanbench calibrate lights` measure them");
-  }
-  return fields;
 }
 
 }  // namespace scanbench

@@ -32,7 +32,7 @@ struct BenchTemplateOptions {
 RigDescription MakeBenchTemplate(const BenchTemplateOptions& options);
 
 // What the builder must measure (or calibrate) for `rig`, one line per field
-// as a JSON path with how: "leds[3].position_in_table_mm: ...".
+// (JSON path, then how): "leds[0..9].position_in_table_mm: ...".
 std::vector<std::string> BenchFieldsToMeasure(const RigDescription& rig);
 
 }  // namespace scanbench
