@@ -73,9 +73,7 @@ int CaptureHardware(CaptureState& state) {
   if (state.rig_file.empty()) {
     throw std::invalid_argument("capture --rig hardware needs --rig-file: the bench's rig description (JSON)");
   }
-  const std::vector<uint8_t> bytes = ReadFileBytes(state.rig_file);
-  const RigDescription rig =
-      RigDescriptionFromJson(std::string(bytes.begin(), bytes.end()), state.rig_file.string());
+  const RigDescription rig = LoadRigDescriptionFile(state.rig_file.string());
   SerialLightController lights(state.port.empty() ? FindArduinoPort() : state.port);
   GPhotoCameraOptions camera_options;
   camera_options.model = state.camera_model;

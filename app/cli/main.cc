@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   scanbench::RegisterScanCommands(app, &exit_code);
   scanbench::RegisterDeviceCommands(app, &exit_code);
   scanbench::RegisterCaptureCommands(app, &exit_code);
+  scanbench::RegisterImportCommands(app, &exit_code);
   scanbench::RegisterDatasetCommands(app, &exit_code);
   scanbench::RegisterBatchCommands(app, &exit_code);
   scanbench::RegisterExportCommands(app, &exit_code);

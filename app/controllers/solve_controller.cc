@@ -16,6 +16,7 @@
 #include "app/controllers/calibrated_lighting.h"  // issue #4
 #include "calibration/rig_light_field.h"
 #include "core/field_error.h"
+#include "core/format.h"
 #include "core/summary.h"
 
 namespace scanbench {
@@ -117,6 +118,8 @@ struct DevelopedFrames {
   // The RAW files' own colour matrix (XYZ -> camera native, D65), from the first LED frame.
   std::optional<Eigen::Matrix3d> camera_from_xyz;
   std::string first_led_file;
+  // One line per frame whose exposure differs from the session's (imports).
+  std::vector<std::string> exposure_notes;
 };
 
 // Decode and develop; `progress` gets the frames done, false from it stops
@@ -146,6 +149,15 @@ DevelopedFrames DecodeAndDevelop(const fs::path& session_dir, const Session& ses
                                " differs from the dark frame's " + CfaPatternName(dark.cfa));
     }
     DevelopedFrame developed = DevelopRaw(raw, &dark, develop);
+    // The rig's intensities are for the session's exposure; a frame exposed
+    // longer reads proportionally brighter (the RAW is linear).
+    if (const double scale = FrameExposureScale(session, *record); scale != 1) {
+      float* values = developed.rgb.data();
+      for (size_t i = 0; i < developed.rgb.size(); ++i) values[i] = static_cast<float>(values[i] * scale);
+      frames.exposure_notes.push_back(record->file + ": exposed " + Fixed(record->exposure_time_s, 6) +
+                                      " s, scaled by " + Fixed(scale, 6) + " to the session's " +
+                                      Fixed(session.camera.exposure_time_s, 6) + " s");
+    }
     frames.clipped_samples += developed.num_clipped_samples;
     frames.rgb.push_back(std::move(developed.rgb));
     frames.valid.push_back(std::move(developed.valid));
@@ -301,6 +313,8 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
                       {"kind", frame.kind == FrameKind::kDark ? "dark" : "led"},
                       {"led_index", frame.led_index},
                       {"sha256", frame.sha256}});
+    // Only where it changes the result, so one-exposure sessions keep their fingerprints.
+    if (const double scale = FrameExposureScale(session, frame); scale != 1) frames.back()["exposure_scale"] = scale;
   }
   // The rig and camera exactly as session.json stores them.
   const nlohmann::json manifest = nlohmann::json::parse(SessionToJson(session));
@@ -419,6 +433,7 @@ void SolveController::Run() {
   });
   summary_.light_model = lighting.light_model;
   summary_.warnings = lighting.warnings;
+  summary_.warnings.insert(summary_.warnings.end(), frames.exposure_notes.begin(), frames.exposure_notes.end());
 
   PhotometricSolution solution;
   TimedStage(timings, "solve", "solve", [&] {

@@ -112,8 +112,9 @@ std::string FindArduinoPort() {
   if (boards.size() == 1) return boards.front().path;
   if (boards.empty()) {
     throw std::runtime_error(
-        "no Arduino board found among the serial ports (`scanbench devices` lists them): plug the LED board in, "
-        "or name its port with --port, or use the simulated rig");
+        "no LED board found: no Arduino among the serial ports (`scanbench devices` lists them). Connect the LED "
+        "board, an Arduino Uno flashed with firmware/ (docs/bench.md), to this computer by USB, with its LED "
+        "drivers on pins D2..D11 and their supply on; or name its port with --port, or use --rig sim");
   }
   std::string list;
   for (const SerialPortInfo& port : boards) list += " " + port.path + " (" + port.board + ")";

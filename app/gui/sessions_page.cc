@@ -19,10 +19,12 @@
 #include <algorithm>
 #include <vector>
 
+#include "app/controllers/import_controller.h"
 #include "app/controllers/solve_controller.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/export_dialog.h"
 #include "app/gui/page_widgets.h"
+#include "app/session/rig_json.h"
 #include "app/session/session.h"
 
 namespace scanbench {
@@ -187,15 +189,16 @@ QLayout* SessionsPage::MakeShadowRow(const SolveOptions& defaults) {
   return shadow_row;
 }
 
-// Open, re-solve, export, resume and cancel.
+// Open, re-solve, export, resume, import and cancel.
 QLayout* SessionsPage::MakeButtonRow() {
   open_ = NamedButton(tr("Open result"), "openResult", this);
   resolve_ = NamedButton(tr("Re-solve"), "resolveSession", this);
   resume_ = NamedButton(tr("Resume capture"), "resumeSession", this);
   export_ = NamedButton(tr("Export…"), "exportSelectedResult", this);
+  import_ = NamedButton(tr("Import RAW folder…"), "importRawFolder", this);
   auto* cancel = new QPushButton(tr("Cancel"), this);
   auto* buttons = new QHBoxLayout;
-  for (QPushButton* button : {open_, resolve_, export_, resume_, cancel}) buttons->addWidget(button);
+  for (QPushButton* button : {open_, resolve_, export_, resume_, import_, cancel}) buttons->addWidget(button);
   buttons->addStretch();
 
   connect(open_, &QPushButton::clicked, this, [this] {
@@ -208,6 +211,13 @@ QLayout* SessionsPage::MakeButtonRow() {
   connect(resume_, &QPushButton::clicked, this, [this] {
     const fs::path session = SelectedSession();
     if (!session.empty()) emit ResumeCapture(QString::fromStdString(session.string()));
+  });
+  connect(import_, &QPushButton::clicked, this, [this] {
+    const QString raw = QFileDialog::getExistingDirectory(this, tr("Folder of RAW files to import"), root_->text());
+    if (raw.isEmpty()) return;
+    const QString rig = QFileDialog::getOpenFileName(this, tr("Rig description of the bench"), raw,
+                                                     tr("Rig description (*.json)"));
+    if (!rig.isEmpty()) ImportRawFolder(raw, rig);
   });
   connect(cancel, &QPushButton::clicked, this, [this] {
     if (solving_) runner_->Cancel();
@@ -340,6 +350,54 @@ void SessionsPage::Resolve() {
     solving_ = false;
     SetStatus(tr("%1 is running; re-solve when it has finished").arg(runner_->job_name()), true);
   }
+}
+
+bool SessionsPage::ImportRawFolder(const QString& raw_folder, const QString& rig_file, const QString& pattern) {
+  const fs::path root = root_->text().trimmed().toStdString();
+  if (root.empty()) {
+    SetStatus(tr("Choose the sessions folder first: the import becomes a session in it."), true);
+    return false;
+  }
+  const fs::path raw = fs::absolute(raw_folder.toStdString()).lexically_normal();
+  const fs::path session = root / raw.filename();
+  std::shared_ptr<ImportController> controller;
+  try {
+    ImportOptions options;
+    options.sample_name = raw.filename().string();
+    options.pattern = pattern.toStdString();
+    controller = std::make_shared<ImportController>(raw, session, LoadRigDescriptionFile(rig_file.toStdString()),
+                                                    options);
+  } catch (const std::exception& error) {
+    SetStatus(tr("Import: %1").arg(error.what()), true);
+    return false;
+  }
+  solving_ = true;
+  progress_->setValue(0);
+  SetStatus(tr("Importing %1 into %2…").arg(QString::fromStdString(raw.string()), QString::fromStdString(session.string())));
+  const bool started = runner_->Start(
+      controller, tr("Import"), [this, controller, session](ControllerRunner::Outcome outcome, const QString& message) {
+        solving_ = false;
+        if (outcome == ControllerRunner::Outcome::kSucceeded) {
+          Refresh();
+          SelectSession(QString::fromStdString(session.string()));
+          QString text = tr("Imported %1 frames into %2").arg(controller->summary().frames_copied).arg(
+              QString::fromStdString(session.string()));
+          for (const std::string& warning : controller->summary().warnings) {
+            text += "\n" + tr("warning: %1").arg(QString::fromStdString(warning));
+          }
+          SetStatus(text);
+        } else if (outcome == ControllerRunner::Outcome::kCancelled) {
+          Refresh();
+          SetStatus(tr("Import cancelled; import again to resume it."), true);
+        } else {
+          SetStatus(tr("Import refused: %1").arg(message), true);
+        }
+      });
+  if (!started) {
+    solving_ = false;
+    SetStatus(tr("%1 is running; import when it has finished").arg(runner_->job_name()), true);
+  }
+  return started;
 }
 
 void SessionsPage::SetCalibrationSet(const QString& calibration_dir) { calibration_->setText(calibration_dir); }

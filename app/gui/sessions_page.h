@@ -1,6 +1,7 @@
 // Sessions: the sessions in a folder (sample, frames, complete, results),
 // their result folders, open one in Results, re-solve into a new result
-// folder, or resume an interrupted capture.
+// folder, resume an interrupted capture, or import a folder of RAW files
+// (ImportController) as a new session of the listed folder.
 #pragma once
 
 #include <QWidget>
@@ -41,6 +42,11 @@ class SessionsPage : public QWidget {
   void SetCalibrationSet(const QString& calibration_dir);
   // Opens the export dialog for the selected result folder (nullptr if none).
   ExportDialog* ExportSelectedResult();
+  // Imports `raw_folder` (capture order, or `pattern` when not empty) with the
+  // rig description `rig_file` into <listed folder>/<raw folder's name>, or
+  // resumes that import; false (with the reason in the status line) when it
+  // could not start. The "Import RAW folder…" button asks for the two paths.
+  bool ImportRawFolder(const QString& raw_folder, const QString& rig_file, const QString& pattern = {});
 
  signals:
   void OpenResult(const QString& result_dir);
@@ -77,9 +83,10 @@ class SessionsPage : public QWidget {
   QPushButton* open_;
   QPushButton* resolve_;
   QPushButton* resume_;
+  QPushButton* import_;
   QProgressBar* progress_;
   QLabel* status_;
-  bool solving_ = false;
+  bool solving_ = false;  // a re-solve or an import of this page runs (its progress is shown)
 };
 
 }  // namespace scanbench

@@ -394,6 +394,8 @@ void ReadCaptureInfo(const LibRaw& processor, DecodedRaw* decoded) {
   decoded->exposure_time_s = processor.imgdata.other.shutter;
   decoded->iso = processor.imgdata.other.iso_speed;
   decoded->f_number = processor.imgdata.other.aperture;
+  decoded->lens = processor.imgdata.lens.Lens;
+  decoded->orientation = processor.imgdata.sizes.flip;
 }
 
 // ---- colour data ------------------------------------------------------------

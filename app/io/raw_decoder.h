@@ -25,6 +25,11 @@ struct DecodedRaw {
   double exposure_time_s = 0;  // 0 if unknown
   double iso = 0;
   double f_number = 0;
+  std::string lens;          // empty if the file records none
+  // How the camera was held (LibRaw's sizes.flip): 0 as stored, 3 = 180 deg,
+  // 5 = 90 deg counter-clockwise, 6 = 90 deg clockwise. The mosaic itself is
+  // never rotated.
+  int orientation = 0;
 
   // Colour data (LibRaw's, rows and vector entries in the order camera R, G, B;
   // the second green, LibRaw's fourth row, is dropped as it equals the first).

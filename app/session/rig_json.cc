@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include "app/io/file_util.h"
 #include "app/session/json_field.h"
 #include "calibration/camera_model.h"
 
@@ -217,6 +218,11 @@ RigDescription RigDescriptionFromJson(const std::string& text, const std::string
   RigDescription rig = RigFromJson(JsonField(json, "", name_for_errors));
   CheckRig(rig, name_for_errors, "");
   return rig;
+}
+
+RigDescription LoadRigDescriptionFile(const std::string& path) {
+  const std::vector<uint8_t> bytes = ReadFileBytes(path);
+  return RigDescriptionFromJson(std::string(bytes.begin(), bytes.end()), path);
 }
 
 void CheckRigDescription(const RigDescription& rig, const std::string& name_for_errors) {

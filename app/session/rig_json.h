@@ -29,4 +29,9 @@ RigDescription RigDescriptionFromJson(const std::string& text, const std::string
 // mu < 0, negative intensity, duplicate or negative LED ids, no LEDs.
 void CheckRigDescription(const RigDescription& rig, const std::string& name_for_errors);
 
+// Reads a rig description file (capture --rig-file, import --rig); errors
+// start with the path. Throws SessionError, or std::runtime_error when the
+// file cannot be read.
+RigDescription LoadRigDescriptionFile(const std::string& path);
+
 }  // namespace scanbench

@@ -229,6 +229,14 @@ void FrameFields(Io& io, FrameRecord& frame) {
   io.Field("exposure_time_s", frame.exposure_time_s);
   io.Field("width", frame.width);
   io.Field("height", frame.height);
+  // Written for imported frames only, so captured sessions keep their layout.
+  io.Custom(
+      "source",
+      [&]() -> std::optional<Json> {
+        if (frame.source.empty()) return std::nullopt;
+        return Json(frame.source);
+      },
+      [&](const JsonField& source) { frame.source = source.String(); }, Presence::kOptionalOnRead);
 }
 
 template <typename Io>
@@ -287,6 +295,10 @@ void SessionFields(Io& io, Session& session) {
   });
   io.Optional("simulation", session.simulation, [](auto& scene_io, SimulatedSceneRecord& scene) {
     SimulationFields(scene_io, scene);
+  });
+  io.Optional("import", session.import, [](auto& import_io, ImportRecord& import) {
+    import_io.Field("source_folder", import.source_folder);
+    import_io.Field("match", import.match);
   });
   io.Array("frames", session.frames, [](auto& frame_io, FrameRecord& frame) { FrameFields(frame_io, frame); });
 }
@@ -518,6 +530,11 @@ std::string FrameStem(std::optional<int> led_index) {
 
 std::string FrameFileName(std::optional<int> led_index, const std::string& extension) {
   return std::string(kFramesFolder) + "/" + FrameStem(led_index) + extension;
+}
+
+double FrameExposureScale(const Session& session, const FrameRecord& frame) {
+  if (!(session.camera.exposure_time_s > 0) || frame.exposure_time_s == session.camera.exposure_time_s) return 1;
+  return session.camera.exposure_time_s / frame.exposure_time_s;
 }
 
 const FrameRecord* FindDarkFrame(const Session& session) {

@@ -36,6 +36,9 @@ struct FrameRecord {
   double exposure_time_s = 0;
   int width = 0;             // RAW image size, pixels
   int height = 0;
+  // scanbench import: the absolute path of the file this frame was copied
+  // from ("source" in session.json); empty for frames a capture wrote.
+  std::string source;
 };
 
 // What took the frames, as the camera reported it. 0 means unknown for iso,
@@ -73,6 +76,15 @@ struct SimulatedSceneRecord {
   bool cast_shadows = true;
 };
 
+// A session made by `scanbench import` from a folder of RAW files
+// ("import" in session.json): where the frames came from and how they were
+// matched to LEDs, so that an interrupted import resumes only from the same
+// folder.
+struct ImportRecord {
+  std::string source_folder;  // absolute path
+  std::string match;          // "capture order", "pattern 'led_{led}'" or "list /abs/path/list.txt"
+};
+
 struct Session {
   int schema_version = kSessionSchemaVersion;
   std::string sample_name;
@@ -84,6 +96,7 @@ struct Session {
   std::vector<FrameRecord> frames;
   std::optional<GroundTruthFiles> ground_truth;
   std::optional<SimulatedSceneRecord> simulation;  // simulated sessions only ("simulation" in session.json)
+  std::optional<ImportRecord> import;              // imported sessions only ("import" in session.json)
   // False while capturing. Only a complete session must have a dark frame and
   // a frame for every LED of the rig.
   bool capture_complete = false;
@@ -129,6 +142,13 @@ std::filesystem::path CreateResultFolder(
 // messages), and "frames/dark.dng" with the camera's extension.
 std::string FrameStem(std::optional<int> led_index);
 std::string FrameFileName(std::optional<int> led_index, const std::string& extension);
+
+// What a frame's developed values are multiplied by to read as if exposed
+// for the session's exposure (camera.settings.exposure_time_s): that
+// exposure over the frame's. Exactly 1 when they are equal or the session's
+// is unknown (0), so a session of one exposure is solved unscaled. The rig's
+// LED intensities refer to the session's exposure.
+double FrameExposureScale(const Session& session, const FrameRecord& frame);
 
 const FrameRecord* FindDarkFrame(const Session& session);
 const FrameRecord* FindLedFrame(const Session& session, int led_index);
