@@ -1,8 +1,7 @@
 #include "app/controllers/bench_template.h"
 
-#include <cmath>
-
 #include <Eigen/Geometry>
+#include <cmath>
 
 #include "app/sim/simulated_rig.h"
 #include "core/field_error.h"
@@ -14,7 +13,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 struct CameraPreset {
-  int width, height;          // full RAW size, pixels
+  int width, height;  // full RAW size, pixels
   double sensor_width_mm, sensor_height_mm;
 };
 
@@ -40,7 +39,8 @@ void BenchTemplateOptions::Check() const {
   }
   for (size_t r = 0; r < ring_radii_mm.size(); ++r) {
     if (!(ring_radii_mm[r] > 0 && ring_radii_mm[r] < 10000)) {
-      throw FieldError(where, "ring_radii_mm[" + std::to_string(r) + "]", ring_radii_mm[r], "must lie in (0, 10000) mm");
+      throw FieldError(where, "ring_radii_mm[" + std::to_string(r) + "]", ring_radii_mm[r],
+                       "must lie in (0, 10000) mm");
     }
     if (!(ring_heights_mm[r] > 0 && ring_heights_mm[r] < 10000)) {
       throw FieldError(where, "ring_heights_mm[" + std::to_string(r) + "]", ring_heights_mm[r],
@@ -90,9 +90,9 @@ RigDescription MakeBenchTemplate(const BenchTemplateOptions& options) {
     const double azimuth = 2 * kPi * (slot + 0.5 * ring) / on_ring;
     LedDescription led;
     led.id = i;  // firmware channel i: Arduino pin D(2 + i)
-    led.position_in_table_mm = Eigen::Vector3d(options.ring_radii_mm[ring] * std::cos(azimuth),
-                                               options.ring_radii_mm[ring] * std::sin(azimuth),
-                                               options.ring_heights_mm[ring]);
+    led.position_in_table_mm =
+        Eigen::Vector3d(options.ring_radii_mm[ring] * std::cos(azimuth),
+                        options.ring_radii_mm[ring] * std::sin(azimuth), options.ring_heights_mm[ring]);
     led.axis_in_table = -led.position_in_table_mm.normalized();  // aimed at the sample centre
     led.mu = options.mu;
     led.rgb_intensity = Eigen::Vector3d::Ones();  // unknown until calibrated
@@ -106,16 +106,20 @@ std::vector<std::string> BenchFieldsToMeasure(const RigDescription& rig) {
   return {
       "camera.intrinsics (fx, fy, cx, cy, k1, k2, k3, p1, p2): nominal (thin lens, no distortion); "
       "`scanbench calibrate camera` on checkerboard captures",
-      "camera.cam_from_table: nominal (straight down, lens " + std::to_string(static_cast<int>(std::lround(
-          rig.camera.cam_from_table.translation().z()))) + " mm above the table centre); measure the height, or "
-      "`scanbench calibrate camera` with the board flat at the sample position",
+      "camera.cam_from_table: nominal (straight down, lens " +
+          std::to_string(static_cast<int>(std::lround(rig.camera.cam_from_table.translation().z()))) +
+          " mm above the table centre); measure the height, or "
+          "`scanbench calibrate camera` with the board flat at the sample position",
       leds + ".id: the firmware channel the LED's driver is wired to (channel k = Arduino pin D(2 + k))",
-      leds + ".position_in_table_mm: the LED's centre from the sample centre, x right and y up in the image, z up, "
-      "mm: measure each with a tape or rule",
-      leds + ".axis_in_table: where each LED points (nominal: at the sample centre); correct it if one is aimed "
-      "elsewhere",
-      leds + ".mu, .rgb_intensity: nominal (mu from the LED's datasheet, intensity 1, 1, 1); `scanbench "
-      "calibrate white` and `scanbench calibrate lights` measure them",
+      leds +
+          ".position_in_table_mm: the LED's centre from the sample centre, x right and y up in the image, z up, "
+          "mm: measure each with a tape or rule",
+      leds +
+          ".axis_in_table: where each LED points (nominal: at the sample centre); correct it if one is aimed "
+          "elsewhere",
+      leds +
+          ".mu, .rgb_intensity: nominal (mu from the LED's datasheet, intensity 1, 1, 1); `scanbench "
+          "calibrate white` and `scanbench calibrate lights` measure them",
   };
 }
 

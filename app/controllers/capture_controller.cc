@@ -246,21 +246,17 @@ std::vector<FrameExposure> CheckExposure(FrameTaker& taker, int num_leds, const 
 // (which gives the image size).
 Session NewCaptureSession(const CaptureOptions& options, const RigDescription& rig, const CameraDeviceInfo& info,
                           const ExposureSettings& settings, const RawImage& first_frame) {
-  Session session;
-  session.sample_name = options.sample_name;
-  session.notes = options.notes;
-  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-  session.software_version = "scanbench " SCANBENCH_VERSION;
-  session.rig = rig;
-  session.camera.make = info.make;
-  session.camera.model = info.model;
-  session.camera.serial = info.serial;
-  session.camera.lens = info.lens;
-  session.camera.iso = settings.iso;
-  session.camera.exposure_time_s = settings.exposure_time_s;
-  session.camera.f_number = settings.f_number;
-  session.camera.width = first_frame.width();
-  session.camera.height = first_frame.height();
+  CameraInfo camera;
+  camera.make = info.make;
+  camera.model = info.model;
+  camera.serial = info.serial;
+  camera.lens = info.lens;
+  camera.iso = settings.iso;
+  camera.exposure_time_s = settings.exposure_time_s;
+  camera.f_number = settings.f_number;
+  camera.width = first_frame.width();
+  camera.height = first_frame.height();
+  Session session = NewSessionManifest(options.sample_name, options.notes, rig, camera);
   session.simulation = options.simulation;
   return session;
 }

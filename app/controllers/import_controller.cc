@@ -27,8 +27,8 @@ std::string Lower(std::string text) {
 
 // Files a camera or a RAW tool writes beside the RAWs; never frames.
 bool IsSidecar(const fs::path& file) {
-  static const std::set<std::string> kSidecars = {".xmp", ".txt", ".json", ".md", ".csv", ".pp3", ".dop",
-                                                  ".thm", ".log", ".ini", ".nksc"};
+  static const std::set<std::string> kSidecars = {".xmp", ".txt", ".json", ".md",  ".csv", ".pp3",
+                                                  ".dop", ".thm", ".log",  ".ini", ".nksc"};
   return kSidecars.count(Lower(file.extension().string())) != 0;
 }
 
@@ -61,7 +61,8 @@ std::vector<fs::path> ListFolder(const fs::path& folder, const fs::path& skip) {
 // `given` is a file name of the folder or a path to a file in it.
 fs::path ResolveInFolder(const fs::path& folder, const fs::path& given, const std::string& what) {
   const fs::path path = given.has_parent_path() ? fs::absolute(given) : folder / given;
-  if (!fs::is_regular_file(path)) throw std::runtime_error(what + " " + given.string() + ": no such file in " + folder.string());
+  if (!fs::is_regular_file(path))
+    throw std::runtime_error(what + " " + given.string() + ": no such file in " + folder.string());
   if (fs::weakly_canonical(path).parent_path() != fs::weakly_canonical(folder)) {
     throw std::runtime_error(what + " " + given.string() + ": is not a file of the RAW folder " + folder.string());
   }
@@ -77,7 +78,8 @@ std::optional<int> MatchPattern(const std::string& pattern, const std::string& s
     return std::nullopt;
   }
   const std::string digits = stem.substr(prefix.size(), stem.size() - prefix.size() - suffix.size());
-  if (digits.size() > 6 || !std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); })) {
+  if (digits.size() > 6 ||
+      !std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); })) {
     return std::nullopt;
   }
   return std::stoi(digits);
@@ -101,10 +103,11 @@ void Assign(std::map<int, fs::path>& frames, int key, const fs::path& file, cons
   }
 }
 
-ImportPlan Finish(std::map<int, fs::path> frames, int num_leds, const std::vector<fs::path>& files,
-                  ImportPlan plan, const std::string& hint) {
+ImportPlan Finish(std::map<int, fs::path> frames, int num_leds, const std::vector<fs::path>& files, ImportPlan plan,
+                  const std::string& hint) {
   if (frames.count(-1) == 0) {
-    throw std::runtime_error("no dark frame in " + (files.empty() ? std::string("the folder") : files.front().parent_path().string()) +
+    throw std::runtime_error("no dark frame in " +
+                             (files.empty() ? std::string("the folder") : files.front().parent_path().string()) +
                              ": name it with --dark FILE (" + plan.match + ")");
   }
   for (int k = 0; k < num_leds; ++k) {
@@ -146,7 +149,8 @@ std::map<int, fs::path> ListFileFrames(const fs::path& folder, const fs::path& l
     if (!(fields >> key)) continue;
     std::getline(fields >> std::ws, file);
     while (!file.empty() && std::isspace(static_cast<unsigned char>(file.back()))) file.pop_back();
-    if (file.empty()) throw std::runtime_error(where + ": '" + key + "' names no file (expected 'dark FILE' or 'INDEX FILE')");
+    if (file.empty())
+      throw std::runtime_error(where + ": '" + key + "' names no file (expected 'dark FILE' or 'INDEX FILE')");
     int led = -1;
     if (key != "dark") {
       if (!std::all_of(key.begin(), key.end(), [](unsigned char c) { return std::isdigit(c); }) || key.size() > 6) {
@@ -165,9 +169,8 @@ std::map<int, fs::path> ListFileFrames(const fs::path& folder, const fs::path& l
 struct FileFacts {
   fs::path file;
   std::string sha256;
-  std::string make, model, serial, lens;
-  int width = 0, height = 0, orientation = 0;
-  double iso = 0, exposure_time_s = 0, f_number = 0;
+  CameraInfo camera;         // as session.json records it: make ... exposure, RAW size
+  int orientation = 0;       // DecodedRaw::orientation
   std::string capture_time;  // "YYYY:MM:DD HH:MM:SS" or ""
 };
 
@@ -182,34 +185,34 @@ FileFacts OpenRawFile(const fs::path& file) {
   FileFacts facts;
   facts.file = file;
   facts.sha256 = Sha256Hex(bytes);
-  facts.make = decoded.make;
-  facts.model = decoded.model;
-  facts.serial = decoded.serial;
-  facts.lens = decoded.lens;
-  facts.width = decoded.image.width();
-  facts.height = decoded.image.height();
+  facts.camera = {decoded.make,     decoded.model,         decoded.serial,
+                  decoded.lens,     decoded.iso,           decoded.exposure_time_s,
+                  decoded.f_number, decoded.image.width(), decoded.image.height()};
   facts.orientation = decoded.orientation;
-  facts.iso = decoded.iso;
-  facts.exposure_time_s = decoded.exposure_time_s;
-  facts.f_number = decoded.f_number;
   facts.capture_time = decoded.capture_time;
-  if (!(facts.exposure_time_s > 0)) {
+  if (!(facts.camera.exposure_time_s > 0)) {
     throw std::runtime_error(file.string() + ": records no exposure time; the solve needs it to compare frames");
   }
   return facts;
 }
 
 std::string CameraText(const FileFacts& facts) {
-  return facts.make + " " + facts.model + (facts.serial.empty() ? "" : " (serial " + facts.serial + ")");
+  return facts.camera.make + " " + facts.camera.model +
+         (facts.camera.serial.empty() ? "" : " (serial " + facts.camera.serial + ")");
 }
 
 std::string OrientationText(int flip) {
   switch (flip) {
-    case 0: return "as stored";
-    case 3: return "rotated 180 deg";
-    case 5: return "rotated 90 deg counter-clockwise";
-    case 6: return "rotated 90 deg clockwise";
-    default: return "orientation code " + std::to_string(flip);
+    case 0:
+      return "as stored";
+    case 3:
+      return "rotated 180 deg";
+    case 5:
+      return "rotated 90 deg counter-clockwise";
+    case 6:
+      return "rotated 90 deg clockwise";
+    default:
+      return "orientation code " + std::to_string(flip);
   }
 }
 
@@ -222,36 +225,37 @@ std::vector<std::string> CheckFramesAgree(const std::vector<FileFacts>& facts, c
   for (size_t i = 1; i < facts.size(); ++i) {
     const FileFacts& f = facts[i];
     const std::string file = f.file.string();
-    if (f.make != ref.make || f.model != ref.model || f.serial != ref.serial) {
+    if (f.camera.make != ref.camera.make || f.camera.model != ref.camera.model ||
+        f.camera.serial != ref.camera.serial) {
       throw std::runtime_error(file + ": mixed cameras: taken with " + CameraText(f) + " but " + ref_name + " with " +
                                CameraText(ref));
     }
-    if (f.width != ref.width || f.height != ref.height) {
-      throw std::runtime_error(file + ": mixed sizes: " + std::to_string(f.width) + "x" + std::to_string(f.height) +
-                               " but " + ref_name + " is " + std::to_string(ref.width) + "x" +
-                               std::to_string(ref.height));
+    if (f.camera.width != ref.camera.width || f.camera.height != ref.camera.height) {
+      throw std::runtime_error(file + ": mixed sizes: " + std::to_string(f.camera.width) + "x" +
+                               std::to_string(f.camera.height) + " but " + ref_name + " is " +
+                               std::to_string(ref.camera.width) + "x" + std::to_string(ref.camera.height));
     }
     if (f.orientation != ref.orientation) {
       throw std::runtime_error(file + ": mixed orientations: " + OrientationText(f.orientation) + " but " + ref_name +
                                " is " + OrientationText(ref.orientation) + "; the camera moved between frames");
     }
-    if (f.iso != ref.iso) {
-      throw std::runtime_error(file + ": differing ISO: " + Number(f.iso) + " but " + ref_name + " has " +
-                               Number(ref.iso) + "; capture every frame at one ISO (the camera's base ISO)");
+    if (f.camera.iso != ref.camera.iso) {
+      throw std::runtime_error(file + ": differing ISO: " + Number(f.camera.iso) + " but " + ref_name + " has " +
+                               Number(ref.camera.iso) + "; capture every frame at one ISO (the camera's base ISO)");
     }
-    if (f.f_number != ref.f_number) {
-      throw std::runtime_error(file + ": differing aperture: f/" + Number(f.f_number) + " but " + ref_name +
-                               " has f/" + Number(ref.f_number) + "; fix the aperture for the whole set");
+    if (f.camera.f_number != ref.camera.f_number) {
+      throw std::runtime_error(file + ": differing aperture: f/" + Number(f.camera.f_number) + " but " + ref_name +
+                               " has f/" + Number(ref.camera.f_number) + "; fix the aperture for the whole set");
     }
   }
   // Exposure: the LED frames against the first LED frame, and the dark frame.
   const FileFacts& first_led = facts.size() > 1 ? facts[1] : ref;
   for (size_t i = 0; i < facts.size(); ++i) {
-    if (facts[i].exposure_time_s != first_led.exposure_time_s) {
+    if (facts[i].camera.exposure_time_s != first_led.camera.exposure_time_s) {
       warnings.push_back(facts[i].file.string() + " (" + names[i] + "): exposure " +
-                         Number(facts[i].exposure_time_s) + " s differs from " + first_led.file.string() +
-                         " (" + Number(first_led.exposure_time_s) + " s); the solve scales each frame to " +
-                         Number(first_led.exposure_time_s) + " s");
+                         Number(facts[i].camera.exposure_time_s) + " s differs from " + first_led.file.string() + " (" +
+                         Number(first_led.camera.exposure_time_s) + " s); the solve scales each frame to " +
+                         Number(first_led.camera.exposure_time_s) + " s");
     }
   }
   return warnings;
@@ -299,24 +303,11 @@ std::optional<Session> LoadInterruptedImport(const fs::path& session_dir, const 
   return session;
 }
 
+// The session's camera and exposure are LED 0's frame's: the exposure the
+// solve scales every frame to (FrameExposureScale).
 Session NewImportSession(const ImportOptions& options, const RigDescription& rig, const FileFacts& first_led,
                          const fs::path& folder, const std::string& match) {
-  Session session;
-  session.sample_name = options.sample_name;
-  session.notes = options.notes;
-  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-  session.software_version = "scanbench " SCANBENCH_VERSION;
-  session.rig = rig;
-  session.camera.make = first_led.make;
-  session.camera.model = first_led.model;
-  session.camera.serial = first_led.serial;
-  session.camera.lens = first_led.lens;
-  session.camera.iso = first_led.iso;
-  // The exposure the solve scales every frame to (FrameExposureScale).
-  session.camera.exposure_time_s = first_led.exposure_time_s;
-  session.camera.f_number = first_led.f_number;
-  session.camera.width = first_led.width;
-  session.camera.height = first_led.height;
+  Session session = NewSessionManifest(options.sample_name, options.notes, rig, first_led.camera);
   session.import = ImportRecord{folder.string(), match};
   return session;
 }
@@ -399,17 +390,19 @@ ImportPlan PlanImport(const fs::path& folder_given, int num_leds, const ImportOp
   }
   if (ordered.size() > expected) {
     throw std::runtime_error(ordered[expected].second.string() + ": one file more than the rig's " +
-                             std::to_string(num_leds) + " LEDs and a dark frame (in capture order); remove it or "
+                             std::to_string(num_leds) +
+                             " LEDs and a dark frame (in capture order); remove it or "
                              "match with --pattern or --list");
   }
   for (int k = 0; k < num_leds; ++k) Assign(frames, k, ordered[next + k].second, "capture order");
   return Finish(std::move(frames), num_leds, files, std::move(plan), "");
 }
 
-ImportController::ImportController(fs::path raw_folder, fs::path session_dir, RigDescription rig,
-                                   ImportOptions options)
-    : raw_folder_(fs::absolute(raw_folder).lexically_normal()), session_dir_(std::move(session_dir)),
-      rig_(std::move(rig)), options_(std::move(options)) {}
+ImportController::ImportController(fs::path raw_folder, fs::path session_dir, RigDescription rig, ImportOptions options)
+    : raw_folder_(fs::absolute(raw_folder).lexically_normal()),
+      session_dir_(std::move(session_dir)),
+      rig_(std::move(rig)),
+      options_(std::move(options)) {}
 
 void ImportController::Run() {
   options_.Check();
@@ -434,8 +427,8 @@ void ImportController::Run() {
     }
     return it->second;
   };
-  const ImportPlan plan = PlanImport(raw_folder_, num_leds, options_,
-                                     [&](const fs::path& file) { return open(file).capture_time; });
+  const ImportPlan plan =
+      PlanImport(raw_folder_, num_leds, options_, [&](const fs::path& file) { return open(file).capture_time; });
   summary_.match = plan.match;
   summary_.ignored = plan.ignored;
   summary_.warnings = plan.warnings;
@@ -470,7 +463,7 @@ void ImportController::Run() {
   for (size_t i = 0; i < plan.entries.size(); ++i) {
     const ImportPlanEntry& entry = plan.entries[i];
     const FileFacts& f = facts[i];
-    ImportedFrame imported{names[i], entry.file.string(), f.exposure_time_s, false};
+    ImportedFrame imported{names[i], entry.file.string(), f.camera.exposure_time_s, false};
     const FrameRecord* done = entry.led ? FindLedFrame(*session, *entry.led) : FindDarkFrame(*session);
     if (done != nullptr) {
       if (done->source != entry.file.string() || done->sha256 != f.sha256) {
@@ -496,9 +489,9 @@ void ImportController::Run() {
     const std::string extension = Lower(entry.file.extension().string());
     record.file = FrameFileName(entry.led, extension.empty() ? ".raw" : extension);
     record.capture_time = CaptureTimeOf(f);
-    record.exposure_time_s = f.exposure_time_s;
-    record.width = f.width;
-    record.height = f.height;
+    record.exposure_time_s = f.camera.exposure_time_s;
+    record.width = f.camera.width;
+    record.height = f.camera.height;
     record.source = entry.file.string();
     AddFrame(session_dir_, *session, record, bytes);
     ++summary_.frames_copied;

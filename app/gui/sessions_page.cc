@@ -373,7 +373,8 @@ bool SessionsPage::ImportRawFolder(const QString& raw_folder, const QString& rig
   }
   solving_ = true;
   progress_->setValue(0);
-  SetStatus(tr("Importing %1 into %2…").arg(QString::fromStdString(raw.string()), QString::fromStdString(session.string())));
+  SetStatus(tr("Importing %1 into %2…")
+                .arg(QString::fromStdString(raw.string()), QString::fromStdString(session.string())));
   const bool started = runner_->Start(
       controller, tr("Import"), [this, controller, session](ControllerRunner::Outcome outcome, const QString& message) {
         solving_ = false;

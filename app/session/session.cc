@@ -532,6 +532,18 @@ std::string FrameFileName(std::optional<int> led_index, const std::string& exten
   return std::string(kFramesFolder) + "/" + FrameStem(led_index) + extension;
 }
 
+Session NewSessionManifest(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
+                           const CameraInfo& camera) {
+  Session session;
+  session.sample_name = sample_name;
+  session.notes = notes;
+  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
+  session.software_version = "scanbench " SCANBENCH_VERSION;
+  session.rig = rig;
+  session.camera = camera;
+  return session;
+}
+
 double FrameExposureScale(const Session& session, const FrameRecord& frame) {
   if (!(session.camera.exposure_time_s > 0) || frame.exposure_time_s == session.camera.exposure_time_s) return 1;
   return session.camera.exposure_time_s / frame.exposure_time_s;

@@ -116,6 +116,11 @@ Session LoadSession(const std::filesystem::path& root, const SessionLoadOptions&
 // A manifest that LoadSession would reject is never written.
 void WriteSessionManifest(const std::filesystem::path& root, const Session& session);
 
+// The manifest of a new session, before any frame: `created` now, this
+// scanbench's software_version; capture_complete false.
+Session NewSessionManifest(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
+                           const CameraInfo& camera);
+
 // Makes <root>, <root>/frames and <root>/results. Refuses if <root>/session.json
 // exists, so that an existing session is never mixed with a new one. The caller
 // writes the first manifest with WriteSessionManifest. Returns <root> made absolute.

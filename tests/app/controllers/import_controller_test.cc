@@ -3,15 +3,15 @@
 // every refusal names the file at fault.
 #include "app/controllers/import_controller.h"
 
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iostream>
 #include <map>
 #include <random>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 
 #include "app/controllers/simulate_controller.h"
 #include "app/controllers/solve_controller.h"
@@ -200,7 +200,8 @@ TEST(ImportControllerTest, CaptureTimeOrdersShuffledNamesAndSolvesExactly) {
   ImportController import(folder / "card", folder / "imported", Rig(), Options());
   import.Run();
   for (size_t i = 0; i < originals.size(); ++i) {
-    EXPECT_EQ(import.summary().frames[i].source, (folder / "card" / ("IMG_" + std::to_string(numbers[i]) + ".dng")).string());
+    EXPECT_EQ(import.summary().frames[i].source,
+              (folder / "card" / ("IMG_" + std::to_string(numbers[i]) + ".dng")).string());
   }
   EXPECT_TRUE(import.summary().warnings.empty());
   const Session session = LoadSession(folder / "imported");
@@ -225,7 +226,8 @@ TEST(ImportControllerTest, PatternAndListMatchFramesToLeds) {
   by_pattern.Run();
   EXPECT_EQ(by_pattern.summary().ignored, std::vector<std::string>{"notes-extra.dng"});
   const Session from_pattern = LoadSession(folder / "from_pattern");
-  for (int k = 0; k < kNumLeds; ++k) EXPECT_EQ(FindLedFrame(from_pattern, k)->sha256, FindLedFrame(Original(), k)->sha256);
+  for (int k = 0; k < kNumLeds; ++k)
+    EXPECT_EQ(FindLedFrame(from_pattern, k)->sha256, FindLedFrame(Original(), k)->sha256);
   EXPECT_EQ(from_pattern.import->match, "pattern 'shot-led{led}-x'");
 
   // A list naming the files of a card in any order, the dark frame by path.
@@ -307,7 +309,8 @@ TEST(ImportControllerTest, RefusesDuplicates) {
   const std::vector<fs::path> card = WriteCard(folder / "card");
   // Two names for LED 3 under the pattern.
   fs::create_directories(folder / "pattern");
-  for (int k = 0; k < kNumLeds; ++k) fs::copy_file(card[k + 1], folder / "pattern" / ("led_" + std::to_string(k) + ".dng"));
+  for (int k = 0; k < kNumLeds; ++k)
+    fs::copy_file(card[k + 1], folder / "pattern" / ("led_" + std::to_string(k) + ".dng"));
   fs::copy_file(card[0], folder / "pattern" / "dark.dng");
   fs::copy_file(card[4], folder / "pattern" / "led_03.dng");
   ImportOptions options = Options();
@@ -419,7 +422,8 @@ TEST(ImportControllerTest, DifferingExposureWarnsAndTheSolveCompensates) {
 
   const double compensated_deg = MeanAngleDeg(original, compensated);
   const double wrong_deg = MeanAngleDeg(original, wrong);
-  std::cout << "mean normal difference from the original: compensated " << compensated_deg << " deg, uncompensated " << wrong_deg << " deg\n";
+  std::cout << "mean normal difference from the original: compensated " << compensated_deg << " deg, uncompensated "
+            << wrong_deg << " deg\n";
   EXPECT_LT(compensated_deg, 0.05) << "only the halved frame's rounding differs";
   EXPECT_GT(wrong_deg, 10 * compensated_deg);
   EXPECT_GT(wrong_deg, 0.5);
