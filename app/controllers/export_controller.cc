@@ -878,7 +878,6 @@ void WritePreview(const fs::path& staging, const ExportInputs& inputs, const Exp
   page.kind = "preview";
   page.relative_path = "preview.html";
   page.format = "html";
-  page.document = true;
   page.encoding = "self-contained preview page (three.js inline, maps as 8-bit data: PNGs); open in a browser";
   summary->preview = WritePreviewPage(options, preview, summary->mm_per_pixel, listed, staging / page.relative_path,
                                       progress);
@@ -892,7 +891,8 @@ void WritePreview(const fs::path& staging, const ExportInputs& inputs, const Exp
 // --- The manifest (material.json) --------------------------------------------
 
 nlohmann::json FileEntryJson(const ExportFile& file) {
-  if (file.document) {
+  // Documents (.gltf, .bin, .mtlx, the preview page): what each is, no image layout.
+  if (file.document || file.format == "html") {
     return {{"path", file.relative_path}, {"format", file.format}, {"content", file.encoding},
             {"sha256", file.sha256}, {"bytes", file.bytes}};
   }
