@@ -94,22 +94,17 @@ std::string SimulatedCameraModel(SensorColorModel color) {
 
 Session NewSimulatedSession(const std::string& sample_name, const std::string& notes, const RigDescription& rig,
                             const SimulatedRigOptions& rig_options, double exposure_time_s) {
-  Session session;
-  session.sample_name = sample_name;
-  session.notes = notes;
-  session.created = FormatUtcTimestamp(std::chrono::system_clock::now());
-  session.software_version = "scanbench " SCANBENCH_VERSION;
-  session.rig = rig;
-  session.camera.make = "scanbench";
-  session.camera.model = SimulatedCameraModel(rig_options.color);
-  session.camera.serial = "SIM-" + std::to_string(rig_options.seed);
-  session.camera.lens = "simulated prime";
-  session.camera.iso = kSimulatedIso;
-  session.camera.exposure_time_s = exposure_time_s;
-  session.camera.f_number = kSimulatedFNumber;
-  session.camera.width = rig_options.width;
-  session.camera.height = rig_options.height;
-  return session;
+  CameraInfo camera;
+  camera.make = "scanbench";
+  camera.model = SimulatedCameraModel(rig_options.color);
+  camera.serial = "SIM-" + std::to_string(rig_options.seed);
+  camera.lens = "simulated prime";
+  camera.iso = kSimulatedIso;
+  camera.exposure_time_s = exposure_time_s;
+  camera.f_number = kSimulatedFNumber;
+  camera.width = rig_options.width;
+  camera.height = rig_options.height;
+  return NewSessionManifest(sample_name, notes, rig, camera);
 }
 
 void AddSimulatedFrame(const fs::path& session_dir, Session& session, std::optional<int> led, const RawImage& raw,
