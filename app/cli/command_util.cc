@@ -82,6 +82,9 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
   command.add_option("--depth-min-range", options.depth.min_height_range_mm,
                      "Refine only when the first pass's integrated height range (p99 - p1) exceeds this, mm")
       ->capture_default_str();
+  command.add_option("--depth-anchor-percentile", options.depth.anchor_percentile,
+                     "Depth refinement: this percentile of the integrated height is put on the table plane")
+      ->capture_default_str();
   command.add_flag("--no-depth-refine", [&options](std::int64_t) { options.depth.enabled = false; },
                    "Keep every surface point on the table plane (the default before issue #15)");
   command.add_option("--calibration-max-age", options.calibration_max_age_days,

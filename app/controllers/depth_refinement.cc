@@ -171,14 +171,15 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
   const auto start = std::chrono::steady_clock::now();
   DepthRefinementSummary summary;
   summary.termination = Termination::kSuccess;
-  ImageF points = ComputeTablePoints(camera);
+  ImageF points;  // the table points, once the loop runs
   auto finish = [&](std::string reason) {
     summary.stop_reason = std::move(reason);
     summary.seconds = SecondsSince(start);
-    if (surface_points_in_table) *surface_points_in_table = points;
+    if (surface_points_in_table) *surface_points_in_table = points.empty() ? ComputeTablePoints(camera) : points;
     return summary;
   };
   if (!options.enabled) return finish("disabled (the table plane only)");
+  points = ComputeTablePoints(camera);
   const Eigen::Vector3d centre = CameraCentreInTable(camera);
   const int cap = options.max_iterations;
   for (int iteration = 0; iteration < cap; ++iteration) {

@@ -33,7 +33,7 @@ struct DepthRefinementOptions {
   int max_iterations = 4;            // re-solves at most, [1, 20] (solve --depth-iterations)
   double tolerance_mm = 0.5;         // converged when no surface point moved more than this, mm, > 0
   double min_height_range_mm = 8.0;  // refine only when the first pass's height range (p99 - p1) exceeds this, mm, >= 0
-  double anchor_percentile = 2.0;    // this percentile of the solved pixels' height is put on the table, [0, 50]
+  double anchor_percentile = 0.5;    // this percentile of the solved pixels' height is put on the table, [0, 50]
   void Check() const;
 };
 
