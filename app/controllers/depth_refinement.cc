@@ -114,7 +114,8 @@ std::string DepthRefinementSummary::BriefReport() const {
     for (size_t i = 0; i < iterations.size(); ++i) out << (i ? "/" : " ") << iterations[i].mean_move_mm;
     out << " mm";
   }
-  out << "; first-pass height range " << first_height_range_mm << " mm; stopped: " << stop_reason;
+  if (first_height_range_mm > 0) out << "; first-pass height range " << first_height_range_mm << " mm";
+  out << "; stopped: " << stop_reason;
   if (!message.empty() && termination != Termination::kSuccess) out << " (" << message << ")";
   out << ", " << std::setprecision(2) << seconds << " s";
   return out.str();

@@ -87,6 +87,8 @@ TEST(DepthRefinementTest, SurfacePointsLieOnTheRaysAtTheHeight) {
 
 // The integration's frame and anchor: the ground-truth normals of the +-25 mm
 // scene give its ground-truth height back (table at 0, folds up to 50 mm).
+// Measured: 0.53 mm low on the sample on average, 2.3 mm mean absolute shape
+// error about that (most of it at the steep edge blend).
 TEST(DepthRefinementTest, GroundTruthNormalsIntegrateToTheGroundTruthHeight) {
   TemporaryFolder folder;
   const fs::path session_dir = SimulateFolds(folder, "draped", 25);
@@ -117,7 +119,7 @@ TEST(DepthRefinementTest, GroundTruthNormalsIntegrateToTheGroundTruthHeight) {
             << " mm, truth max " << truth_max << " mm\n";
   EXPECT_GT(truth_max, 30.0) << "the folds must be tens of mm high";
   EXPECT_LT(shape_error, 3.0) << "mean absolute height error about the mean offset, mm";
-  EXPECT_LT(std::abs(offset), 8.0) << "the anchor, mm";
+  EXPECT_LT(std::abs(offset), 2.0) << "the anchor, mm";
 }
 
 // The target: on folds of +-25 mm the default solve (with the loop)
@@ -154,7 +156,6 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   const double flat_error = flat_default.normal_error_deg->mean;
   const double plane_error = draped_plane.normal_error_deg->mean;
   const double depth_error = draped_default.normal_error_deg->mean;
-  RecordProperty("flat_mean_deg", std::to_string(flat_error));
   std::cout << "mean error (deg): flat " << flat_error << " (" << flat_default.depth.BriefReport()
             << "); draped on the table plane " << plane_error << "; draped with the loop " << depth_error << " ("
             << draped_default.depth.BriefReport() << ")\n";
@@ -175,7 +176,9 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   // The surface moved by centimetres first, then less.
   const std::vector<DepthIteration>& iterations = draped_default.depth.iterations;
   EXPECT_GT(iterations.front().max_move_mm, 20.0);
-  if (iterations.size() > 1) EXPECT_LT(iterations.back().max_move_mm, iterations.front().max_move_mm);
+  if (iterations.size() > 1) {
+    EXPECT_LT(iterations.back().max_move_mm, iterations.front().max_move_mm);
+  }
 
   // The report line and report.json say what ran.
   EXPECT_THAT(draped_default.FullReport(), HasSubstr("Depth refinement: success, " +
