@@ -143,4 +143,11 @@ ImageF ComputeTablePoints(const CameraGeometry& camera) {
   return points;
 }
 
+double TablePixelFootprintMm(const CameraGeometry& camera) {
+  const double cx = camera.intrinsics.width / 2, cy = camera.intrinsics.height / 2;
+  const std::vector<Eigen::Vector3d> points =
+      ComputePlanePointsInTable(camera, {{cx, cy}, {cx + 1, cy}, {cx, cy + 1}}, 0.0);
+  return 0.5 * ((points[1] - points[0]).norm() + (points[2] - points[0]).norm());
+}
+
 }  // namespace scanbench

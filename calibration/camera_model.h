@@ -38,6 +38,11 @@ ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera);
 
 Eigen::Vector3d CameraCentreInTable(const CameraGeometry& camera);
 
+// Footprint on the table plane (z = 0) of one pixel at the image centre, mm:
+// the mean distance to the right and lower neighbours' table points (as the
+// simulated rig computes it). The scale height maps are integrated at.
+double TablePixelFootprintMm(const CameraGeometry& camera);
+
 // Where every pixel's ray meets the table plane z = 0, in mm: 3 channels.
 // Throws std::invalid_argument if the camera does not look at the table.
 ImageF ComputeTablePoints(const CameraGeometry& camera);

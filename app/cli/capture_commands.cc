@@ -29,6 +29,7 @@ struct CaptureState {
   int width = 1232;
   int height = 816;
   SurfaceMaterial material = SurfaceMaterial::kLambert;
+  double fold_amplitude_mm = TextileSceneOptions().fold_amplitude_mm;  // issue #15
   // hardware
   std::string port;
   fs::path rig_file;
@@ -55,6 +56,7 @@ int CaptureSimulated(CaptureState& state) {
   rig_options.height = state.height;
   TextileSceneOptions scene;
   scene.material = state.material;
+  scene.fold_amplitude_mm = state.fold_amplitude_mm;
   state.options.simulation = SimulatedSceneOf(rig_options, scene);  // refuses a resume with another scene
   const auto rig = std::make_shared<SimulatedRig>(rig_options, TextileScene(scene),
                                                   MakeDefaultSimulatedRig(state.width, state.height));
@@ -101,6 +103,10 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
   command->add_option("--width", state->width, "sim: image width in pixels")->capture_default_str();
   command->add_option("--height", state->height, "sim: image height in pixels")->capture_default_str();
   AddMaterialOption(*command, state->material);
+  command->add_option("--fold-amplitude", state->fold_amplitude_mm,
+                      "--rig sim: fold amplitude, mm (folds lift the cloth by 0 .. 2x this)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   command->add_option("--port", state->port, "hardware: LED board serial port (default: the one Arduino found)");
   command->add_option("--rig-file", state->rig_file, "hardware: rig description JSON (LED positions, camera)");
   command->add_option("--camera-model", state->camera_model, "hardware: camera model as libgphoto2 names it");

@@ -71,6 +71,22 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
   command.add_option("--calibration", options.calibration_dir,
                      "Calibration set (scanbench calibrate ...) to take the lights and camera from")
       ->check(CLI::ExistingDirectory);
+  command  // issue #15: draped samples
+      .add_option("--depth-iterations", options.depth.max_iterations,
+                  "Depth-aware re-solves at most: integrate the height, move the surface points along the camera "
+                  "rays, re-evaluate the LEDs there, re-solve [1, 20]")
+      ->capture_default_str();
+  command.add_option("--depth-tolerance", options.depth.tolerance_mm,
+                     "Depth refinement converged when no surface point would move more than this, mm")
+      ->capture_default_str();
+  command.add_option("--depth-min-range", options.depth.min_height_range_mm,
+                     "Refine only when the first pass's integrated height range (p99 - p1) exceeds this, mm")
+      ->capture_default_str();
+  command.add_option("--depth-anchor-percentile", options.depth.anchor_percentile,
+                     "Depth refinement: this percentile of the integrated height is put on the table plane")
+      ->capture_default_str();
+  command.add_flag("--no-depth-refine", [&options](std::int64_t) { options.depth.enabled = false; },
+                   "Keep every surface point on the table plane (the default before issue #15)");
   command.add_option("--calibration-max-age", options.calibration_max_age_days,
                      "Warn when the calibration set is older than this many days")
       ->capture_default_str();

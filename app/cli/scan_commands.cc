@@ -25,6 +25,12 @@ void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
   command.add_option("--scene-seed", options.scene.seed, "Textile variation seed")->capture_default_str();
   command.add_option("--warp-pitch", options.scene.warp_pitch_mm, "Warp thread spacing, mm")->capture_default_str();
   command.add_option("--weft-pitch", options.scene.weft_pitch_mm, "Weft thread spacing, mm")->capture_default_str();
+  command  // issue #15: draped samples
+      .add_option("--fold-amplitude", options.scene.fold_amplitude_mm,
+                  "Fold amplitude, mm: the folds lift the cloth by 0 .. 2x this (the default 2.5 = +-2.5 mm about "
+                  "their mean; 25 = a draped sample, +-25 mm)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   command.add_option("--sample-name", options.sample_name, "Sample name recorded in session.json")
       ->capture_default_str();
   command.add_flag("--no-noise", [&options](std::int64_t) { options.rig.add_noise = false; },

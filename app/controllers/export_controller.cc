@@ -148,16 +148,6 @@ ImageU8 ReadMask(const fs::path& path, int width, int height) {
   return mask;
 }
 
-// Footprint on the table plane (z = 0) of one pixel at the image centre, mm:
-// the mean distance to the right and lower neighbours' table points, as the
-// simulated rig computes it.
-double MmPerPixelAtImageCentre(const CameraGeometry& camera) {
-  const double cx = camera.intrinsics.width / 2, cy = camera.intrinsics.height / 2;
-  const std::vector<Eigen::Vector3d> points =
-      ComputePlanePointsInTable(camera, {{cx, cy}, {cx + 1, cy}, {cx, cy + 1}}, 0.0);
-  return 0.5 * ((points[1] - points[0]).norm() + (points[2] - points[0]).norm());
-}
-
 std::string MaterialNameFromSample(const std::string& sample_name) {
   std::string name;
   for (char c : sample_name) {
@@ -182,7 +172,7 @@ void ResolveScale(const Session& session, const fs::path& session_dir, double mm
     summary->mm_per_pixel = mm_per_pixel_option;
     summary->mm_per_pixel_source = "options";
   } else {
-    summary->mm_per_pixel = MmPerPixelAtImageCentre(session.rig.camera);
+    summary->mm_per_pixel = TablePixelFootprintMm(session.rig.camera);
     summary->mm_per_pixel_source = "session rig at the image centre";
     if (!std::isfinite(summary->mm_per_pixel) || !(summary->mm_per_pixel > 0)) {
       throw FileError(session_dir / "session.json",

@@ -85,6 +85,7 @@ SimulatedSceneRecord SimulatedSceneOf(const SimulatedRigOptions& rig, const Text
   record.noise_seed = std::to_string(rig.seed);
   record.noise = rig.add_noise;
   record.cast_shadows = rig.cast_shadows;
+  record.fold_amplitude_mm = scene.fold_amplitude_mm;
   return record;
 }
 

@@ -14,6 +14,7 @@
 #include "app/session/calibration_set.h"
 #include "app/session/session.h"
 #include "app/controllers/calibrated_lighting.h"  // issue #4
+#include "calibration/camera_model.h"
 #include "calibration/rig_light_field.h"
 #include "core/field_error.h"
 #include "core/format.h"
@@ -93,6 +94,14 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"robust_dark_fraction", solver.robust_dark_fraction},
           {"adaptive_robust_residual", solver.adaptive_robust_residual},
           {"adaptive_lobe", solver.adaptive_lobe}};
+}
+
+nlohmann::json DepthOptionsJson(const DepthRefinementOptions& depth) {
+  return {{"enabled", depth.enabled},
+          {"max_iterations", depth.max_iterations},
+          {"tolerance_mm", depth.tolerance_mm},
+          {"min_height_range_mm", depth.min_height_range_mm},
+          {"anchor_percentile", depth.anchor_percentile}};
 }
 
 // The steps of SolveController::Run, in order.
@@ -175,12 +184,14 @@ struct Lighting {
   nlohmann::json calibration_report;  // report.json's "calibration"
   std::shared_ptr<const CalibrationSet> set;  // null without a calibration set
   std::string set_name;
+  CameraGeometry camera;              // whose rays meet the surface (issue #15)
 };
 
 Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, const Session& session) {
   Lighting lighting;
   if (options.calibration_dir.empty()) {
     lighting.light_field = MakeRigLightField(session.rig);
+    lighting.camera = session.rig.camera;
     lighting.light_model =
         "rig description: point LEDs (position, axis, mu, RGB intensity), surface on the table plane (no calibration "
         "set given)";
@@ -196,6 +207,7 @@ Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, 
     lighting.calibration_report = nlohmann::json::parse(calibrated.report_json);
     lighting.set = calibrated.set;
     lighting.set_name = (options.calibration_dir / kCalibrationManifestName).string();
+    lighting.camera = lighting.set->camera_calibration->summary.camera;
   }
   lighting.calibration_report["light_model"] = lighting.light_model;
   return lighting;
@@ -210,6 +222,41 @@ PhotometricSolverInput SolverInput(const DevelopedFrames& frames, const LightFie
   }
   input.light_field = &light_field;
   return input;
+}
+
+// The depth-aware re-solves (issue #15): only point LEDs can be moved off the
+// table plane; a measured per-pixel field is sampled on it only.
+DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const DevelopedFrames& frames,
+                                     const Lighting& lighting, PhotometricSolution* solution,
+                                     const ProgressCallback& progress) {
+  const auto* point_field = dynamic_cast<const PointLightField*>(lighting.light_field.get());
+  if (options.depth.enabled && point_field == nullptr) {
+    DepthRefinementSummary skipped;
+    skipped.termination = Termination::kSuccess;
+    skipped.stop_reason =
+        "not applicable: the calibration set's measured per-pixel light field is sampled on the table plane only";
+    return skipped;
+  }
+  const std::vector<PointLight> no_lights;
+  return RefineDepth(options.depth, options.solver, SolverInput(frames, *lighting.light_field),
+                     point_field ? point_field->lights() : no_lights, lighting.camera, solution, nullptr, progress);
+}
+
+nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const DepthRefinementOptions& options) {
+  nlohmann::json iterations = nlohmann::json::array();
+  for (const DepthIteration& it : depth.iterations) {
+    iterations.push_back({{"max_move_mm", it.max_move_mm},
+                          {"mean_move_mm", it.mean_move_mm},
+                          {"height_range_mm", it.height_range_mm},
+                          {"seconds", it.seconds}});
+  }
+  return {{"enabled", options.enabled},
+          {"refined", depth.refined},
+          {"iterations", iterations},
+          {"first_height_range_mm", depth.first_height_range_mm},
+          {"stop_reason", depth.stop_reason},
+          {"seconds", depth.seconds},
+          {"message", depth.BriefReport()}};
 }
 
 // Against the session's ground truth (simulated rig), on the solved pixels of
@@ -268,6 +315,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
                        {"leds", summary.num_lights}};
   report["solver"] = SolverOptionsJson(options.solver);
   report["solver"]["num_threads"] = summary.solver.num_threads;
+  report["solver"]["depth_refinement"] = DepthOptionsJson(options.depth);
   report["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                        {"clip_fraction", options.develop.clip_fraction},
                        {"dark_frame", dark_file},
@@ -292,6 +340,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
   nlohmann::json timings;
   for (const StageTiming& timing : summary.timings) timings[timing.stage] = timing.seconds;
   if (summary.specular) report["specular"] = nlohmann::json::parse(summary.specular->ReportJson());  // issue #13
+  report["depth_refinement"] = DepthRefinementJson(summary.depth, options.depth);  // issue #15
   report["timings_s"] = timings;
   report["outputs"] = outputs;
   return report;
@@ -302,7 +351,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 256,
+static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 288,
               "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
 #endif
 
@@ -335,6 +384,7 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
   text["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                      {"clip_fraction", options.develop.clip_fraction}};
   text["albedo_color"] = AlbedoColorSourceName(options.albedo_color.source);
+  text["depth_refinement"] = DepthOptionsJson(options.depth);  // issue #15
   return text.dump();  // nlohmann::json sorts object keys: canonical
 }
 
@@ -346,6 +396,7 @@ std::string SolveInputsFingerprint(const Session& session, const SolveOptions& o
 void SolveOptions::Check() const {
   solver.Check();
   develop.Check();
+  depth.Check();
   static const std::regex kLabel("[A-Za-z0-9._-]+");
   if (!run_label.empty() && !std::regex_match(run_label, kLabel)) {
     throw FieldError("SolveOptions", "run_label", "'" + run_label + "'", "must be letters, digits, '.', '_' or '-' only");
@@ -395,6 +446,7 @@ std::string SolveSummary::FullReport() const {
   }
   if (normal_error_deg) out << "  unsolved pixels on the sample: " << unsolved_on_sample << "\n";
   if (specular) out << "  " << specular->BriefReport() << "\n";
+  out << "  " << depth.BriefReport() << "\n";  // issue #15
   out << "  time per stage (s):";
   for (const StageTiming& timing : timings) out << " " << timing.stage << " " << timing.seconds << ";";
   out << " total " << TotalSeconds() << "\n";
@@ -440,6 +492,12 @@ void SolveController::Run() {
     summary_.solver = SolvePhotometricStereo(options_.solver, SolverInput(frames, *lighting.light_field), &solution,
                                              StageCallback("solve"));
     RequireSuccess(summary_.solver, "solve");
+  });
+  summary_.depth = TimedStage(timings, "depth_refine", "depth refine", [&] {
+    DepthRefinementSummary depth =
+        RefineOnDepth(options_, frames, lighting, &solution, StageCallback("depth refine"));
+    RequireSuccess(depth, "depth refine");
+    return depth;
   });
   summary_.specular = SpecularMapStatisticsOf(solution);
   frames.rgb.clear();  // a full-size session's frames hold gigabytes

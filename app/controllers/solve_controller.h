@@ -10,6 +10,7 @@
 
 #include "app/controllers/albedo_color.h"
 #include "app/controllers/base_controller.h"
+#include "app/controllers/depth_refinement.h"
 #include "app/controllers/map_writer.h"
 #include "calibration/raw_develop.h"
 #include "solver/angular_error.h"
@@ -32,6 +33,9 @@ struct SolveOptions {
   // The albedo's colour space (issue #12): the set's colour calibration, else
   // the RAW files' camera matrix, else white-balanced camera RGB.
   AlbedoColorOptions albedo_color;
+  // Draped samples (issue #15): re-solve with the surface points moved to the
+  // integrated height (app/controllers/depth_refinement.h).
+  DepthRefinementOptions depth;
 
   void Check() const;
 };
@@ -55,6 +59,7 @@ struct SolveSummary {
   std::optional<AlbedoColorErrors> albedo_color_error;  // CIEDE2000 against the ground truth (linear Rec.709)
   size_t unsolved_on_sample = 0;
   std::optional<SpecularMapStatistics> specular;  // when the method made a specular map (specular.exr)
+  DepthRefinementSummary depth;                 // issue #15: the depth-aware re-solves
 
   double TotalSeconds() const;
   std::string FullReport() const;               // the human-readable summary.txt

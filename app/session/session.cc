@@ -275,6 +275,7 @@ void SimulationFields(Io& io, SimulatedSceneRecord& scene) {
   io.Field("noise_seed", scene.noise_seed);
   io.Field("noise", scene.noise);
   io.Field("cast_shadows", scene.cast_shadows);
+  io.Field("fold_amplitude_mm", scene.fold_amplitude_mm, Presence::kOptionalOnRead);  // issue #15
 }
 
 template <typename Io>
@@ -408,6 +409,7 @@ void CheckResumedSimulation(const fs::path& manifest, const Session& session, co
   differs("noise_seed", recorded.noise_seed, requested.noise_seed);
   differs("noise", recorded.noise ? "true" : "false", requested.noise ? "true" : "false");
   differs("cast_shadows", recorded.cast_shadows ? "true" : "false", requested.cast_shadows ? "true" : "false");
+  differs("fold_amplitude_mm", FormatValue(recorded.fold_amplitude_mm), FormatValue(requested.fold_amplitude_mm));
 }
 
 Session SessionFromJson(const std::string& text, const std::string& name_for_errors) {

@@ -74,6 +74,7 @@ struct SimulatedSceneRecord {
   std::string noise_seed;        // decimal uint64: the sensor noise
   bool noise = true;             // sensor noise on
   bool cast_shadows = true;
+  double fold_amplitude_mm = 2.5;  // issue #15: the folds' amplitude (absent in older sessions: their 2.5 mm)
 };
 
 // A session made by `scanbench import` from a folder of RAW files

@@ -350,6 +350,9 @@ TEST_F(BatchControllerTest, FingerprintCoversResultInputsOnly) {
   EXPECT_NE(SolveInputsFingerprint(session, demosaic), fingerprint);
   EXPECT_NE(SolveInputsFingerprint(other_frame, defaults), fingerprint);
   EXPECT_NE(SolveInputsFingerprint(other_rig, defaults), fingerprint);
+  SolveOptions no_depth;  // issue #15: the depth-aware re-solves change the result
+  no_depth.depth.enabled = false;
+  EXPECT_NE(SolveInputsFingerprint(session, no_depth), fingerprint);
   EXPECT_THAT(SolveInputsCanonicalText(session, defaults), HasSubstr(session.frames[3].sha256));
   EXPECT_THAT(SolveInputsCanonicalText(session, defaults), HasSubstr("scanbench " SCANBENCH_VERSION));
 }

@@ -58,7 +58,7 @@ TEST(SessionJsonTest, RoundTripKeepsEveryField) {
   truth.normal_sha256 = truth.albedo_sha256 = truth.height_sha256 = truth.mask_sha256 = std::string(64, 'c');
   truth.mm_per_pixel = 0.1 / 3.0;
   session.ground_truth = truth;
-  session.simulation = SimulatedSceneRecord{"twill", "satin", "20240611", 2.4, 1.0 / 3.0, "1554628252", false, true};
+  session.simulation = SimulatedSceneRecord{"twill", "satin", "20240611", 2.4, 1.0 / 3.0, "1554628252", false, true, 25.0};
 
   const std::string text = SessionToJson(session);
   const Session loaded = SessionFromJson(text, "mem");
@@ -77,6 +77,11 @@ TEST(SessionJsonTest, ResumedSimulationMustMatchTheRecordedScene) {
   EXPECT_THAT([&] { CheckResumedSimulation("s/session.json", session, other); },
               ::testing::ThrowsMessage<SessionError>(
                   HasSubstr("s/session.json: simulation.material: recorded 'satin' but requested 'lambert'")));
+  other = satin;
+  other.fold_amplitude_mm = 25;  // issue #15: a draped sample's frames do not continue a flat one's
+  EXPECT_THAT([&] { CheckResumedSimulation("s/session.json", session, other); },
+              ::testing::ThrowsMessage<SessionError>(
+                  HasSubstr("s/session.json: simulation.fold_amplitude_mm: recorded '2.5' but requested '25'")));
   other = satin;
   other.cast_shadows = false;
   EXPECT_THAT([&] { CheckResumedSimulation("s/session.json", session, other); },

@@ -198,6 +198,7 @@ inline void ExpectSameSession(const Session& expected, const Session& actual) {
     ExpectSameBits(a.weft_pitch_mm, b.weft_pitch_mm, "simulation.weft_pitch_mm");
     EXPECT_EQ(a.noise_seed, b.noise_seed);
     EXPECT_EQ(a.noise, b.noise);
+    ExpectSameBits(a.fold_amplitude_mm, b.fold_amplitude_mm, "simulation.fold_amplitude_mm");
     EXPECT_EQ(a.cast_shadows, b.cast_shadows);
   }
   ASSERT_EQ(expected.ground_truth.has_value(), actual.ground_truth.has_value());

@@ -1,0 +1,81 @@
+// Draped samples (issue #15): a depth-aware light field. The first solve
+// assumes every pixel's surface point lies on the table plane; a sample a few
+// centimetres high then gets wrong light directions and falloff. The loop (as
+// in Queau et al.'s near-field photometric stereo, "near_ps"):
+//   1. integrate the solved normals to a height map (maps' DCT solver, scale
+//      from the camera's pixel footprint on the table);
+//   2. anchor it: the height at anchor_percentile of the solved pixels is put
+//      on the table (z = 0) -- the table around the sample when it is in view,
+//      else the lowest folds, which rest on the table;
+//   3. move each pixel's surface point along its camera ray to that height;
+//   4. re-evaluate the point LEDs there (directions, inverse square, angular
+//      falloff) and re-solve;
+// until no surface point moved more than tolerance_mm or max_iterations
+// re-solves ran. Only point-LED light fields can be moved (the rig
+// description, a calibration set's fitted LEDs); a measured per-pixel field is
+// sampled on the table plane only and is left as it is (the summary says so).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "calibration/rig.h"
+#include "core/image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+#include "solver/light_field.h"
+#include "solver/photometric_solver.h"
+
+namespace scanbench {
+
+struct DepthRefinementOptions {
+  bool enabled = true;               // false = the table plane only (solve --no-depth-refine)
+  int max_iterations = 4;            // re-solves at most, [1, 20] (solve --depth-iterations)
+  double tolerance_mm = 0.5;         // converged when no surface point moved more than this, mm, > 0
+  double min_height_range_mm = 8.0;  // refine only when the first pass's height range (p99 - p1) exceeds this, mm, >= 0
+  double anchor_percentile = 0.5;    // this percentile of the solved pixels' height is put on the table, [0, 50]
+  void Check() const;
+};
+
+// One re-solve: how far the surface points moved to get there.
+struct DepthIteration {
+  double max_move_mm = 0;       // over the solved pixels
+  double mean_move_mm = 0;
+  double height_range_mm = 0;   // p99 - p1 of the anchored height the points moved to
+  double seconds = 0;           // integration, new light field and re-solve
+};
+
+struct DepthRefinementSummary : AlgorithmSummary {
+  bool refined = false;                  // at least one re-solve ran
+  double first_height_range_mm = 0;      // p99 - p1 of the first pass's integrated height (0 when not integrated)
+  std::vector<DepthIteration> iterations;
+  double final_move_max_mm = -1;         // converged: the move not made (< tolerance), mm; -1 otherwise
+  std::string stop_reason;               // "converged (...)", "iteration cap", "height range ... below ...", ...
+  double seconds = 0;
+  // "Depth refinement: 3 iteration(s), moved max 21.4/1.2/0.3 mm, mean 9.8/0.4/0.1 mm; converged (...)".
+  std::string BriefReport() const;
+};
+
+// `input` is the first pass's input (its light_field is not used);
+// `solution` holds the first pass's result on entry and the last re-solve's on
+// return. `lights` and `camera` are those of the light field the first pass
+// used. Writes the final surface points (3 channels, table mm) into
+// *surface_points_in_table when given (the table points when nothing ran).
+// Throws std::invalid_argument on bad options (naming the field); a cancelled
+// progress callback returns kCancelled with the last complete solution.
+DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const PhotometricSolverOptions& solver,
+                                   const PhotometricSolverInput& input, const std::vector<PointLight>& lights,
+                                   const CameraGeometry& camera, PhotometricSolution* solution,
+                                   ImageF* surface_points_in_table = nullptr, const ProgressCallback& progress = {});
+
+// Steps of RefineDepth, exposed for tests.
+
+// Height (mm, table z) of every pixel's surface from the solved normals,
+// anchored as the options say; unsolved pixels are filled smoothly.
+ImageF AnchoredHeightFromSolution(const DepthRefinementOptions& options, const PhotometricSolution& solution,
+                                  const CameraGeometry& camera);
+
+// Where each pixel's camera ray meets the height z = height_mm(x, y): 3 channels, table mm.
+ImageF SurfacePointsAtHeight(const CameraGeometry& camera, const ImageF& height_mm);
+
+}  // namespace scanbench
