@@ -29,8 +29,8 @@ constexpr double kMadToSigma = 1.4826;     // median absolute deviation -> stand
 constexpr double kMinViewCosine = 0.1;     // n . v floor, as FitDiffuseLobe's
 constexpr double kUsedWeight = 0.01;       // a sample with a larger weight counts as used
 constexpr int kMinSamples = 6;             // per pixel: 3 or 4 parameters and spares
-constexpr int kNormalIterations = 8;       // Levenberg-Marquardt steps of one pixel's re-solve
-constexpr double kNormalConverged = 2e-5;  // rad: a smaller normal step has converged
+constexpr int kNormalIterations = 6;       // Levenberg-Marquardt steps of one pixel's re-solve
+constexpr double kNormalConverged = 1e-4;  // rad: a smaller normal step has converged
 constexpr double kDerivativeStep = 1e-5;   // rad, forward differences of the lobe by the normal
 // The shape grid of the first fit: the azimuth over [0, pi) (the lobe is
 // symmetric under a half turn) and alpha_t <= alpha_b (the other order is the
@@ -393,20 +393,33 @@ class BlockRefiner {
     return rho_d * nl + rho_s * ShapeTerm(n, t, b, halves_[k], lights_k_[k], p.view, at, ab);
   }
 
-  // Amplitudes of `p` at normal n under the weights (rho_s fixed unless
-  // per_pixel_amplitude) and the weighted cost; infinity when unsolvable.
-  double ProjectAmplitudes(const Pixel& p, const Eigen::Vector3d& n, const Shape& shape, double at, double ab,
-                           double* rho_d, double* rho_s) const {
+  // n . l (clamped at 0) and S of every sample of `p` at normal n, indexed
+  // from p.first: computed once per normal and reused by the fits below.
+  struct Terms {
+    std::vector<double> nl, s;
+  };
+  void Evaluate(const Pixel& p, const Eigen::Vector3d& n, const Shape& shape, double at, double ab,
+                Terms* terms) const {
     Eigen::Vector3d t, b;
     TangentFrame(n, shape.along, &t, &b);
+    terms->nl.resize(p.count), terms->s.resize(p.count);
+    for (int i = 0; i < p.count; ++i) {
+      const int k = p.first + i;
+      terms->nl[i] = std::max(0.0, n.dot(lights_k_[k]));
+      terms->s[i] = ShapeTerm(n, t, b, halves_[k], lights_k_[k], p.view, at, ab);
+    }
+  }
+
+  // Amplitudes of `p` under the weights (rho_s fixed unless
+  // per_pixel_amplitude) and the weighted cost; infinity when unsolvable.
+  double ProjectAmplitudes(const Pixel& p, const Terms& terms, double* rho_d, double* rho_s) const {
     double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
-    for (int k = p.first; k < p.first + p.count; ++k) {
+    for (int i = 0; i < p.count; ++i) {
+      const int k = p.first + i;
       const double w = weights_[k];
       if (!(w > 0)) continue;
-      const double value = values_[k][0];
+      const double value = values_[k][0], nl = terms.nl[i], s = terms.s[i];
       bb += w * value * value;
-      const double nl = std::max(0.0, n.dot(lights_k_[k]));
-      const double s = ShapeTerm(n, t, b, halves_[k], lights_k_[k], p.view, at, ab);
       aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
     }
     if (!(aa > 0)) return std::numeric_limits<double>::infinity();
@@ -421,21 +434,17 @@ class BlockRefiner {
 
   // Tukey weights of `p` at its current model (scale: 1.4826 MAD, floored at
   // robust_min_scale x rho_d); samples facing away get 0.
-  void Reweight(const Pixel& p, const Shape& shape, double at, double ab) {
-    Eigen::Vector3d t, b;
-    TangentFrame(p.normal, shape.along, &t, &b);
+  void Reweight(const Pixel& p, const Terms& terms) {
     abs_residuals_.clear();
-    for (int k = p.first; k < p.first + p.count; ++k) {
-      if (!(p.normal.dot(lights_k_[k]) > 0)) continue;
-      abs_residuals_.push_back(std::abs(Model(p, k, p.normal, t, b, p.rho_d, p.rho_s, at, ab) - values_[k][0]));
+    for (int i = 0; i < p.count; ++i) {
+      if (!(terms.nl[i] > 0)) continue;
+      abs_residuals_.push_back(std::abs(p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0]));
     }
     const double scale =
         std::max(kMadToSigma * Median(&abs_residuals_), solver_.robust_min_scale * std::max(p.rho_d, 1e-6));
-    for (int k = p.first; k < p.first + p.count; ++k) {
-      weights_[k] = p.normal.dot(lights_k_[k]) > 0
-                        ? TukeyWeight(Model(p, k, p.normal, t, b, p.rho_d, p.rho_s, at, ab) - values_[k][0],
-                                      width_ * scale)
-                        : 0.0;
+    for (int i = 0; i < p.count; ++i) {
+      const double r = p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0];
+      weights_[p.first + i] = terms.nl[i] > 0 ? TukeyWeight(r, width_ * scale) : 0.0;
     }
   }
 
@@ -445,38 +454,30 @@ class BlockRefiner {
     const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
     if (!options_.per_pixel_amplitude) p->rho_s = shared_rho_s;
     double lambda = 1e-3;
-    ProjectAmplitudes(*p, p->normal, shape, at, ab, &p->rho_d, &p->rho_s);
+    Evaluate(*p, p->normal, shape, at, ab, &current_);
+    ProjectAmplitudes(*p, current_, &p->rho_d, &p->rho_s);
     for (int iteration = 0; iteration < kNormalIterations; ++iteration) {
-      Reweight(*p, shape, at, ab);
-      const double cost = ProjectAmplitudes(*p, p->normal, shape, at, ab, &p->rho_d, &p->rho_s);
+      Reweight(*p, current_);
+      const double cost = ProjectAmplitudes(*p, current_, &p->rho_d, &p->rho_s);
       if (!std::isfinite(cost)) return;
-      Eigen::Vector3d u1, u2;
-      {
-        const Eigen::Vector3d helper =
-            std::abs(p->normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-        u1 = p->normal.cross(helper).normalized();
-        u2 = p->normal.cross(u1);
-      }
+      const Eigen::Vector3d helper =
+          std::abs(p->normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+      const Eigen::Vector3d u1 = p->normal.cross(helper).normalized(), u2 = p->normal.cross(u1);
       // Jacobian columns: the two angles (forward differences), rho_d, rho_s.
-      const Eigen::Vector3d n_plus[2] = {(p->normal + kDerivativeStep * u1).normalized(),
-                                         (p->normal + kDerivativeStep * u2).normalized()};
-      Eigen::Vector3d tp[2], bp[2], t, b;
-      for (int d = 0; d < 2; ++d) TangentFrame(n_plus[d], shape.along, &tp[d], &bp[d]);
-      TangentFrame(p->normal, shape.along, &t, &b);
+      Evaluate(*p, (p->normal + kDerivativeStep * u1).normalized(), shape, at, ab, &plus_[0]);
+      Evaluate(*p, (p->normal + kDerivativeStep * u2).normalized(), shape, at, ab, &plus_[1]);
       const int params = options_.per_pixel_amplitude ? 4 : 3;
       Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
       Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
-      for (int k = p->first; k < p->first + p->count; ++k) {
-        const double w = weights_[k];
+      for (int i = 0; i < p->count; ++i) {
+        const double w = weights_[p->first + i];
         if (!(w > 0)) continue;
-        Eigen::Vector4d j = Eigen::Vector4d::Zero();
-        j[2] = std::max(0.0, p->normal.dot(lights_k_[k]));
-        j[3] = ShapeTerm(p->normal, t, b, halves_[k], lights_k_[k], p->view, at, ab);
+        Eigen::Vector4d j;
+        j[2] = current_.nl[i];
+        j[3] = current_.s[i];
         const double model = p->rho_d * j[2] + p->rho_s * j[3];
-        for (int d = 0; d < 2; ++d) {
-          j[d] = (Model(*p, k, n_plus[d], tp[d], bp[d], p->rho_d, p->rho_s, at, ab) - model) / kDerivativeStep;
-        }
-        const double r = model - values_[k][0];
+        for (int d = 0; d < 2; ++d) j[d] = (p->rho_d * plus_[d].nl[i] + p->rho_s * plus_[d].s[i] - model) / kDerivativeStep;
+        const double r = model - values_[p->first + i][0];
         hessian.noalias() += w * j * j.transpose();
         gradient.noalias() += (w * r) * j;
       }
@@ -492,11 +493,17 @@ class BlockRefiner {
           continue;
         }
         const Eigen::Vector3d trial = (p->normal + step[0] * u1 + step[1] * u2).normalized();
+        if (!trial.allFinite()) {
+          lambda *= 10;
+          continue;
+        }
+        Evaluate(*p, trial, shape, at, ab, &trial_);
         double rho_d = p->rho_d, rho_s = p->rho_s;
-        const double trial_cost = ProjectAmplitudes(*p, trial, shape, at, ab, &rho_d, &rho_s);
-        if (trial.allFinite() && trial_cost < cost && rho_d > 0) {
+        const double trial_cost = ProjectAmplitudes(*p, trial_, &rho_d, &rho_s);
+        if (trial_cost < cost && rho_d > 0) {
           moved = (trial - p->normal).norm();
           p->normal = trial, p->rho_d = rho_d, p->rho_s = rho_s;
+          std::swap(current_, trial_);
           accepted = true;
           lambda = std::max(lambda / 3, 1e-9);
         } else {
@@ -505,8 +512,8 @@ class BlockRefiner {
       }
       if (!accepted || moved < kNormalConverged) break;
     }
-    Reweight(*p, shape, at, ab);
-    ProjectAmplitudes(*p, p->normal, shape, at, ab, &p->rho_d, &p->rho_s);
+    Reweight(*p, current_);
+    ProjectAmplitudes(*p, current_, &p->rho_d, &p->rho_s);
   }
 
   // ---- one group ---------------------------------------------------------
@@ -653,6 +660,7 @@ class BlockRefiner {
   std::vector<double> weights_;
   std::vector<int> cluster_, group_, fit_;
   std::vector<double> abs_residuals_;
+  Terms current_, trial_, plus_[2];  // SolvePixel's scratch
 };
 
 }  // namespace
@@ -674,6 +682,7 @@ void CoherentLobeOptions::Check() const {
   if (max_fit_pixels < 4 || max_fit_pixels > 65536) {
     throw FieldError(kOptions, "max_fit_pixels", max_fit_pixels, "must lie in [4, 65536]");
   }
+  if (max_lights < 3 || max_lights > 1000) throw FieldError(kOptions, "max_lights", max_lights, "must lie in [3, 1000]");
   if (iterations < 1 || iterations > 20) throw FieldError(kOptions, "iterations", iterations, "must lie in [1, 20]");
   if (!(min_alpha > 0) || !(min_alpha < max_alpha)) {
     throw FieldError(kOptions, "min_alpha", min_alpha, "must be > 0 and below max_alpha");
@@ -725,6 +734,13 @@ CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
   if (!input.sample_valid.empty() && input.sample_valid.size() != input.images.size()) {
     throw std::invalid_argument("coherent lobe: " + std::to_string(input.sample_valid.size()) +
                                 " sample masks for " + std::to_string(input.images.size()) + " images");
+  }
+  if (input.light_field->num_lights() > options.max_lights) {
+    summary.termination = Termination::kSuccess;
+    summary.skipped_lights = true;
+    summary.message = std::to_string(input.light_field->num_lights()) + " lights, more than max_lights = " +
+                      std::to_string(options.max_lights) + ": the per-pixel lobes are kept";
+    return summary;
   }
   if (solution->specular.empty() || solution->specular_status.empty()) {
     summary.termination = Termination::kSuccess;

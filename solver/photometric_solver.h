@@ -10,7 +10,9 @@
 //                       over a tile, per-pixel 3x3 normal equations elsewhere
 //                       (lights interpolated over the tile within
 //                       light_tolerance), a robust re-solve only on pixels
-//                       whose residual calls for it;
+//                       whose residual calls for it, then (RGB input) one
+//                       anisotropic lobe shared per block where pixels have
+//                       lobe support (solver/coherent_lobe.h);
 //   jacobi_svd          reference: per-pixel two-sided Jacobi SVD;
 //   normal_equations    per-pixel 3x3 normal equations, closed form;
 //   qr                  per-pixel Householder QR;

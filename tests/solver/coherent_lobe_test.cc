@@ -243,6 +243,27 @@ TEST(CoherentLobe, DirectCallWithoutSpecularMapsChangesNothing) {
   for (size_t i = 0; i < before.size(); ++i) ASSERT_EQ(before.data()[i], solution.normal_in_table.data()[i]);
 }
 
+TEST(CoherentLobe, ManyLightsKeepThePerPixelLobes) {
+  SyntheticSceneOptions options;
+  options.width = options.height = 64;
+  options.num_lights = 40;
+  options.albedo = {0.45, 0.35, 0.25};
+  SyntheticScene scene = MakeSyntheticScene(options);
+  RenderAnisotropic(AnisotropicMaterial(), 0.001, 7, &scene);
+  PhotometricSolverOptions solver;
+  solver.adaptive_coherent_lobe = false;
+  PhotometricSolution solution;
+  SolvePhotometricStereo(solver, InputFor(scene), &solution);
+  const ImageF before = solution.normal_in_table;
+  const CoherentLobeSummary summary = RefineCoherentLobe(CoherentLobeOptions(), solver, InputFor(scene), &solution);
+  EXPECT_TRUE(summary.skipped_lights) << summary.BriefReport();
+  EXPECT_EQ(summary.pixels_refined, 0u);
+  for (size_t i = 0; i < before.size(); ++i) ASSERT_EQ(before.data()[i], solution.normal_in_table.data()[i]);
+  CoherentLobeOptions more;
+  more.max_lights = 40;
+  EXPECT_GT(RefineCoherentLobe(more, solver, InputFor(scene), &solution).pixels_refined, 0u);
+}
+
 TEST(CoherentLobe, OptionsAreChecked) {
   const auto fails = [](auto change) {
     CoherentLobeOptions options;
@@ -252,6 +273,7 @@ TEST(CoherentLobe, OptionsAreChecked) {
   fails([](CoherentLobeOptions& o) { o.block_size = 3; });
   fails([](CoherentLobeOptions& o) { o.min_pixels = 2; });
   fails([](CoherentLobeOptions& o) { o.iterations = 0; });
+  fails([](CoherentLobeOptions& o) { o.max_lights = 2; });
   fails([](CoherentLobeOptions& o) { o.min_alpha = 0; });
   fails([](CoherentLobeOptions& o) { o.max_alpha = 1.5; });
   fails([](CoherentLobeOptions& o) { o.min_alpha = 0.7; });
