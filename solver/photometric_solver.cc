@@ -12,6 +12,7 @@
 #include "core/field_error.h"
 #include "core/format.h"
 #include "core/parallel_for.h"
+#include "solver/coherent_lobe.h"
 #include "solver/pixel_kernels.h"
 #include "solver/tile_lights.h"
 
@@ -309,9 +310,28 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   // Asked once before any work, so that a stop already requested is honoured
   // however fast the solve would be.
   const bool stopped_before = progress && !progress(0.0);
-  const int tiles_done =
-      stopped_before ? 0 : SolveTiles(worker_job, tiles, summary.num_threads, progress, &summary.pixels_by_path);
-  const bool cancelled = tiles_done < num_tiles;
+  // The one pass after the per-pixel ones: a lobe shared by neighbouring
+  // pixels (RGB input only; it reads the solved specular maps).
+  const bool coherent = options.method == Method::kAdaptive && options.adaptive_lobe &&
+                        options.adaptive_coherent_lobe && !job.bayer && !job.solution->specular.empty();
+  const double tiles_share = coherent ? 0.8 : 1.0;
+  const int tiles_done = stopped_before ? 0
+                                        : SolveTiles(worker_job, tiles, summary.num_threads,
+                                                     SubRange(progress, 0.0, tiles_share), &summary.pixels_by_path);
+  bool cancelled = tiles_done < num_tiles;
+  if (!cancelled && coherent) {
+    CoherentLobeOptions coherent_options;
+    coherent_options.num_threads = summary.num_threads;
+    PhotometricSolverInput input;
+    input.images = *job.images;
+    input.sample_valid = *job.sample_valid;
+    input.light_field = job.field;
+    input.region = job.region;
+    const CoherentLobeSummary refined = RefineCoherentLobe(coherent_options, options, input, job.solution,
+                                                           SubRange(progress, tiles_share, 1.0));
+    summary.pixels_coherent_lobe = refined.pixels_refined;
+    cancelled = refined.IsCancelled();
+  }
   if (!cancelled && job.bayer && job.with_albedo) {
     DemosaicAlbedo(albedo_mosaic, job.solution->status, job.cfa_channels, &job.solution->albedo);
   }
@@ -328,8 +348,9 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   for (int p = 1; p < kNumSolvePaths; ++p) summary.pixels_by_path[0] -= summary.pixels_by_path[p];
   summary.seconds = SecondsSince(start);
   if (cancelled) {
-    summary.SetCancelled("cancelled after " + std::to_string(tiles_done) + " of " + std::to_string(num_tiles) +
-                         " tiles");
+    summary.SetCancelled(tiles_done < num_tiles ? "cancelled after " + std::to_string(tiles_done) + " of " +
+                                                      std::to_string(num_tiles) + " tiles"
+                                                : std::string("cancelled in the coherent-lobe pass"));
   } else {
     summary.termination = Termination::kSuccess;
   }
@@ -469,6 +490,7 @@ std::string PhotometricSolverSummary::BriefReport() const {
   if (pixels_by_specular[0] + pixels_by_specular[2] > 0) {
     out << "; specular lobe estimated at " << pixels_by_specular[0] << ", unsupported at " << pixels_by_specular[2];
   }
+  if (pixels_coherent_lobe > 0) out << "; " << pixels_coherent_lobe << " refined by a shared anisotropic lobe";
   if (tiles_skipped > 0) out << "; " << tiles_skipped << " of " << num_tiles << " tiles outside the region";
   if (!message.empty()) out << " (" << message << ")";
   return out.str();

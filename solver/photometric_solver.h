@@ -10,7 +10,9 @@
 //                       over a tile, per-pixel 3x3 normal equations elsewhere
 //                       (lights interpolated over the tile within
 //                       light_tolerance), a robust re-solve only on pixels
-//                       whose residual calls for it;
+//                       whose residual calls for it, then (RGB input) one
+//                       anisotropic lobe shared per block where pixels have
+//                       lobe support (solver/coherent_lobe.h);
 //   jacobi_svd          reference: per-pixel two-sided Jacobi SVD;
 //   normal_equations    per-pixel 3x3 normal equations, closed form;
 //   qr                  per-pixel Householder QR;
@@ -135,6 +137,10 @@ struct PhotometricSolverOptions {
   // Lambertian IRLS alone, and the specular maps are filled. (Kept beside the
   // other flags: the struct's size is a tripwire in solve_controller.cc.)
   bool adaptive_lobe = true;
+  // adaptive with adaptive_lobe, RGB input: after the per-pixel passes, pixels
+  // with a lobe are refined by one anisotropic lobe shared per block and albedo
+  // group (RefineCoherentLobe, solver/coherent_lobe.h), where BIC prefers it.
+  bool adaptive_coherent_lobe = true;
 
   // Side of the square tiles the image is solved in, pixels, in [8, 4096].
   // Bounds the scratch memory per thread and is the unit of the light-field
@@ -233,6 +239,7 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   std::array<size_t, kNumPixelStatuses> pixels_by_status{};
   std::array<size_t, kNumSolvePaths> pixels_by_path{};
   std::array<size_t, kNumSpecularStatuses> pixels_by_specular{};  // all 0 when no specular maps were made
+  size_t pixels_coherent_lobe = 0;    // pixels whose result is the shared lobe's (adaptive_coherent_lobe)
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }

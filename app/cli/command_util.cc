@@ -52,6 +52,9 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
   command.add_flag("--no-lobe", [&options](std::int64_t) { options.adaptive_lobe = false; },
                    "adaptive: the robust pass is Tukey IRLS alone, without the diffuse + specular lobe fit "
                    "(the default before issue #13; no specular map)");
+  command.add_flag("--no-coherent-lobe", [&options](std::int64_t) { options.adaptive_coherent_lobe = false; },
+                   "adaptive: no shared anisotropic lobe per block after the per-pixel lobe fits "
+                   "(each pixel keeps its own isotropic lobe)");
 }
 
 void AddSolveOptions(CLI::App& command, SolveOptions& options) {

@@ -1,0 +1,809 @@
+#include "solver/coherent_lobe.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "core/field_error.h"
+#include "core/format.h"
+#include "core/parallel_for.h"
+#include "solver/pixel_solvers.h"
+#include "solver/tile_lights.h"
+#include "solver/tiled_solve.h"
+
+namespace scanbench {
+namespace {
+
+constexpr const char* kOptions = "CoherentLobeOptions";
+constexpr double kTukeyWidth = 4.685;      // 95 % efficiency under Gaussian noise
+constexpr double kMadToSigma = 1.4826;     // median absolute deviation -> standard deviation
+constexpr double kMinViewCosine = 0.1;     // n . v floor, as FitDiffuseLobe's
+constexpr double kUsedWeight = 0.01;       // a sample with a larger weight counts as used
+constexpr int kMinSamples = 6;             // per pixel: 3 or 4 parameters and spares
+constexpr int kNormalIterations = 6;       // Levenberg-Marquardt steps of one pixel's re-solve
+constexpr double kNormalConverged = 1e-4;  // rad: a smaller normal step has converged
+constexpr double kDerivativeStep = 1e-5;   // rad, forward differences of the lobe by the normal
+// The shape grid of the first fit: the azimuth over [0, pi) (the lobe is
+// symmetric under a half turn) and alpha_t <= alpha_b (the other order is the
+// azimuth turned by pi / 2).
+constexpr int kAzimuthSteps = 8;
+constexpr double kAlphaGrid[] = {0.03, 0.06, 0.12, 0.25, 0.5};
+constexpr int kPatternEvaluations = 40;    // shape evaluations of one pattern search
+
+double Clamp01Alpha(double alpha, const CoherentLobeOptions& o) { return std::clamp(alpha, o.min_alpha, o.max_alpha); }
+
+// The lobe shape shared by a group.
+struct Shape {
+  double log_alpha_t = 0, log_alpha_b = 0, azimuth = 0;
+  Eigen::Vector3d along = Eigen::Vector3d::UnitX();  // (cos, sin, 0) of the azimuth, kept with it
+
+  void SetAzimuth(double radians) {
+    azimuth = radians;
+    along = Eigen::Vector3d(std::cos(radians), std::sin(radians), 0.0);
+  }
+};
+
+// Tangent t: the unit vector `along` (in the table plane) projected into n's
+// tangent plane; b = n x t.
+void TangentFrame(const Eigen::Vector3d& n, const Eigen::Vector3d& along, Eigen::Vector3d* t, Eigen::Vector3d* b) {
+  Eigen::Vector3d projected = along - along.dot(n) * n;
+  double length = projected.norm();
+  if (!(length > 1e-6)) {  // n along the azimuth (a grazing normal): any tangent
+    const Eigen::Vector3d helper = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    projected = helper - helper.dot(n) * n;
+    length = projected.norm();
+  }
+  *t = projected / length;
+  *b = n.cross(*t);
+}
+
+// Smith's Lambda of the anisotropic GGX distribution for direction w in the
+// frame (t, b, n) (Heitz 2014, eq. 86).
+double SmithLambda(double wt, double wb, double wn, double alpha_t, double alpha_b) {
+  const double wn2 = std::max(wn * wn, 1e-12);
+  const double a2_tan2 = (alpha_t * alpha_t * wt * wt + alpha_b * alpha_b * wb * wb) / wn2;
+  return 0.5 * (std::sqrt(1.0 + a2_tan2) - 1.0);
+}
+
+// S of the header comment; `masking` multiplies it by the height-correlated
+// Smith masking-shadowing G = 1 / (1 + Lambda(l) + Lambda(v)) (the shared
+// lobe's model; FitDiffuseLobe's per-pixel one has no G).
+double ShapeTerm(const Eigen::Vector3d& n, const Eigen::Vector3d& t, const Eigen::Vector3d& b,
+                 const Eigen::Vector3d& h, const Eigen::Vector3d& l, const Eigen::Vector3d& view, double alpha_t,
+                 double alpha_b, bool masking = true) {
+  const double nv = std::max(n.dot(view), kMinViewCosine);
+  const double ht = h.dot(t) / alpha_t, hb = h.dot(b) / alpha_b, hn = h.dot(n);
+  const double q = ht * ht + hb * hb + hn * hn;  // >= 1 for alphas <= 1 and unit h
+  const double s = 1.0 / (4 * nv * alpha_t * alpha_b * q * q);
+  if (!masking) return s;
+  const double g = 1.0 / (1.0 + SmithLambda(l.dot(t), l.dot(b), std::max(n.dot(l), 0.0), alpha_t, alpha_b) +
+                          SmithLambda(view.dot(t), view.dot(b), nv, alpha_t, alpha_b));
+  return s * g;
+}
+
+double TukeyWeight(double r, double width_scale) {
+  const double u = r / width_scale;
+  const double t = 1 - u * u;
+  return t > 0 ? t * t : 0.0;
+}
+
+double Median(std::vector<double>* values) {
+  if (values->empty()) return 0;
+  auto middle = values->begin() + values->size() / 2;
+  std::nth_element(values->begin(), middle, values->end());
+  return *middle;
+}
+
+// Weighted least squares b ~ d a + s c with s >= 0 (diffuse and lobe
+// amplitudes); sums of w a^2, w a c, w c^2, w a b, w c b. False when singular.
+bool NonNegativeLobeAmplitudes(double aa, double ac, double cc, double ab, double cb, double* d, double* s) {
+  if (!(aa > 0)) return false;
+  const double det = aa * cc - ac * ac;
+  *s = det > 1e-12 * aa * cc ? (aa * cb - ac * ab) / det : 0.0;
+  if (!(*s > 0)) *s = 0;
+  *d = (ab - *s * ac) / aa;
+  return std::isfinite(*d) && std::isfinite(*s);
+}
+
+// One supported pixel of a block and its samples (a range of the block's
+// sample arrays).
+struct Pixel {
+  int x = 0, y = 0;
+  int first = 0, count = 0;
+  Eigen::Vector3d view = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // current estimate
+  double rho_d = 0, rho_s = 0;                        // current amplitudes (luminance)
+  Eigen::Vector2d chroma = Eigen::Vector2d::Zero();   // r, g of the albedo / its sum
+  // The per-pixel result it came with (what BIC compares against).
+  Eigen::Vector3d own_normal = Eigen::Vector3d::UnitZ();
+  double own_alpha = 0;  // its isotropic lobe's alpha; 0 = Lambertian
+};
+
+// Everything one worker needs per block; reused between blocks.
+class BlockRefiner {
+ public:
+  BlockRefiner(const CoherentLobeOptions& options, const PhotometricSolverOptions& solver_options,
+               const tiled::SolveJob& job)
+      : options_(options),
+        solver_(solver_options),
+        job_(job),
+        buffers_(job.num_lights, options.block_size),
+        lights_(job),
+        accumulate_exact_(tiled::ChooseAccumulator(false, true, false)),
+        accumulate_uniform_(tiled::ChooseAccumulator(false, true, true)),
+        samples_(job.num_lights),
+        width_(solver_options.robust_loss_width > 0 ? solver_options.robust_loss_width : kTukeyWidth) {}
+
+  struct Counts {
+    size_t supported = 0, groups = 0, refined = 0, kept = 0;
+    double anisotropy_sum = 0;
+  };
+
+  void Refine(int x0, int y0, int x1, int y1, Counts* counts) {
+    int lobe_pixels = 0;
+    for (int y = y0; y < y1; ++y) {
+      for (int x = x0; x < x1; ++x) lobe_pixels += HasLobe(x, y);
+    }
+    counts->supported += lobe_pixels;
+    if (lobe_pixels < options_.min_pixels || !Collect(x0, y0, x1, y1)) return;
+    SplitByAlbedo();
+    for (int g = 0; g < 2; ++g) {
+      group_.clear();
+      int group_lobes = 0;
+      for (size_t i = 0; i < pixels_.size(); ++i) {
+        if (cluster_[i] != g) continue;
+        group_.push_back(static_cast<int>(i));
+        group_lobes += pixels_[i].own_alpha > 0;
+      }
+      // The group's own pixels must show the lobe: a lobe pixel of one
+      // colour does not make one for a neighbour of another.
+      if (2 * group_lobes < options_.min_pixels || static_cast<int>(group_.size()) < options_.min_pixels) continue;
+      RefineGroup(counts);
+    }
+  }
+
+ private:
+  // The supported pixels of the block and their samples; false when none.
+  bool Collect(int x0, int y0, int x1, int y1) {
+    const PhotometricSolution& s = *job_.solution;
+    pixels_.clear();
+    lights_k_.clear(), halves_.clear(), values_.clear(), weights_.clear();
+    bool any = false;
+    for (int y = y0; y < y1 && !any; ++y) {
+      for (int x = x0; x < x1 && !any; ++x) any = Supported(x, y);
+    }
+    if (!any) return false;
+    const tiled::TileLights kind = lights_.Classify(tiled::LightSharing::kWithinTolerance, x0, y0, x1, y1);
+    const tiled::AccumulateSpanFn accumulate =
+        kind == tiled::TileLights::kUniform ? accumulate_uniform_ : accumulate_exact_;
+    tiled::Span span;
+    span.lights = kind;
+    span.x0 = x0;
+    span.count = x1 - x0;
+    span.buffers = &buffers_;
+    span.shared = &lights_.shared();
+    for (int y = y0; y < y1; ++y) {
+      bool row_any = false;
+      for (int x = x0; x < x1 && !row_any; ++x) row_any = Supported(x, y);
+      if (!row_any) continue;
+      lights_.FillRow(kind, x0, x1, y, &buffers_);
+      accumulate(job_, lights_.shared(), x0, span.count, y, &buffers_);
+      span.y = y;
+      for (int x = x0; x < x1; ++x) {
+        if (!Supported(x, y) || buffers_.light_bad[x - x0]) continue;
+        tiled::GatherSamples(span, x - x0, true, &samples_);
+        if (samples_.count() < kMinSamples) continue;
+        Pixel p;
+        p.x = x, p.y = y;
+        float view[3];
+        job_.field->ViewDirection(x, y, view);
+        p.view = Eigen::Vector3d(view[0], view[1], view[2]);
+        p.view = p.view.allFinite() && p.view.norm() > 0 ? p.view.normalized() : Eigen::Vector3d::UnitZ();
+        p.own_normal = Eigen::Vector3d(s.normal_in_table(x, y, 0), s.normal_in_table(x, y, 1),
+                                       s.normal_in_table(x, y, 2)).normalized();
+        p.normal = p.own_normal;
+        p.own_alpha = s.specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated) ? s.specular(x, y, 1) : 0.0f;
+        const Eigen::Vector3d albedo = s.albedo.empty()
+                                           ? Eigen::Vector3d::Ones()
+                                           : Eigen::Vector3d(s.albedo(x, y, 0), s.albedo(x, y, 1), s.albedo(x, y, 2));
+        const double sum = albedo.sum();
+        p.chroma = sum > 0 ? Eigen::Vector2d(albedo[0] / sum, albedo[1] / sum) : Eigen::Vector2d(1.0 / 3, 1.0 / 3);
+        p.first = static_cast<int>(lights_k_.size());
+        p.count = samples_.count();
+        const double* l = samples_.light_data();
+        const double* v = samples_.value_data();
+        for (int k = 0; k < p.count; ++k) {
+          const Eigen::Vector3d light(l[3 * k], l[3 * k + 1], l[3 * k + 2]);
+          const Eigen::Vector3d sum_lv = light + p.view;
+          const double length = sum_lv.norm();
+          lights_k_.push_back(light);
+          halves_.push_back(length > 1e-6 ? Eigen::Vector3d(sum_lv / length) : p.view);
+          values_.emplace_back(v[4 * k], v[4 * k + 1], v[4 * k + 2], v[4 * k + 3]);
+          weights_.push_back(length > 1e-6 && light.dot(p.normal) > 0 ? 1.0 : 0.0);
+        }
+        pixels_.push_back(p);
+      }
+    }
+    return !pixels_.empty();
+  }
+
+  // Solved pixels of the region: the candidates of a block with lobe pixels.
+  bool Supported(int x, int y) const {
+    if (job_.region != nullptr && (*job_.region)(x, y) == 0) return false;
+    return job_.solution->status(x, y) == static_cast<uint8_t>(PixelStatus::kSolved);
+  }
+  bool HasLobe(int x, int y) const {
+    return Supported(x, y) &&
+           job_.solution->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated);
+  }
+
+  // Two-means on the albedo chromaticity; one cluster when the centres are
+  // within albedo_split.
+  void SplitByAlbedo() {
+    const size_t count = pixels_.size();
+    cluster_.assign(count, 0);
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const Pixel& p : pixels_) mean += p.chroma;
+    mean /= double(count);
+    size_t far_a = 0, far_b = 0;
+    for (size_t i = 0; i < count; ++i) {
+      if ((pixels_[i].chroma - mean).squaredNorm() > (pixels_[far_a].chroma - mean).squaredNorm()) far_a = i;
+    }
+    for (size_t i = 0; i < count; ++i) {
+      if ((pixels_[i].chroma - pixels_[far_a].chroma).squaredNorm() >
+          (pixels_[far_b].chroma - pixels_[far_a].chroma).squaredNorm()) {
+        far_b = i;
+      }
+    }
+    Eigen::Vector2d centre[2] = {pixels_[far_a].chroma, pixels_[far_b].chroma};
+    if (!((centre[0] - centre[1]).norm() > options_.albedo_split)) return;
+    for (int iteration = 0; iteration < 8; ++iteration) {
+      Eigen::Vector2d sum[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+      int members[2] = {0, 0};
+      for (size_t i = 0; i < count; ++i) {
+        const int c = (pixels_[i].chroma - centre[1]).squaredNorm() < (pixels_[i].chroma - centre[0]).squaredNorm();
+        cluster_[i] = c;
+        sum[c] += pixels_[i].chroma;
+        ++members[c];
+      }
+      for (int c = 0; c < 2; ++c) {
+        if (members[c] > 0) centre[c] = sum[c] / members[c];
+      }
+    }
+    if (!((centre[0] - centre[1]).norm() > options_.albedo_split)) std::fill(cluster_.begin(), cluster_.end(), 0);
+  }
+
+  // ---- the shared shape, normals held ----------------------------------
+
+  // The group's cost under `shape` on the fit pixels, amplitudes projected
+  // out (per pixel rho_d; rho_s shared or per pixel); the shared F0 into
+  // *rho_s.
+  double ShapeCost(const Shape& shape, double* shared_rho_s) {
+    const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
+    double big_a = 0, big_b = 0, base = 0, own = 0;
+    for (int index : fit_) {
+      const Pixel& p = pixels_[index];
+      Eigen::Vector3d t, b;
+      TangentFrame(p.normal, shape.along, &t, &b);
+      double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
+      for (int k = p.first; k < p.first + p.count; ++k) {
+        const double w = weights_[k];
+        if (!(w > 0)) continue;
+        const double nl = std::max(0.0, p.normal.dot(lights_k_[k]));
+        const double s = ShapeTerm(p.normal, t, b, halves_[k], lights_k_[k], p.view, at, ab);
+        const double value = values_[k][0];
+        aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
+        bb += w * value * value;
+      }
+      if (!(aa > 0)) continue;
+      if (options_.per_pixel_amplitude) {
+        double d = 0, s = 0;
+        if (!NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, &d, &s)) continue;
+        own += std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
+      } else {
+        big_a += cc - ac * ac / aa;
+        big_b += c_b - ac * a_b / aa;
+        base += bb - a_b * a_b / aa;
+      }
+    }
+    if (options_.per_pixel_amplitude) {
+      *shared_rho_s = 0;
+      return own;
+    }
+    const double rho_s = big_a > 0 ? std::max(0.0, big_b / big_a) : 0.0;
+    *shared_rho_s = rho_s;
+    return std::max(0.0, base - 2 * rho_s * big_b + rho_s * rho_s * big_a);
+  }
+
+  Shape Canonical(Shape shape) const {
+    const double lo = std::log(options_.min_alpha), hi = std::log(options_.max_alpha);
+    shape.log_alpha_t = std::clamp(shape.log_alpha_t, lo, hi);
+    shape.log_alpha_b = std::clamp(shape.log_alpha_b, lo, hi);
+    shape.SetAzimuth(std::remainder(shape.azimuth, std::numbers::pi));  // (-pi/2, pi/2]
+    return shape;
+  }
+
+  // Grid (first fit) then a pattern search from the best point.
+  Shape FitShape(const Shape& start, bool grid, double* best_rho_s) {
+    Shape best = start;
+    double rho_s = 0;
+    double best_cost = ShapeCost(best, &rho_s);
+    *best_rho_s = rho_s;
+    if (grid) {
+      for (int j = 0; j < kAzimuthSteps; ++j) {
+        for (size_t a = 0; a < std::size(kAlphaGrid); ++a) {
+          for (size_t b = a; b < std::size(kAlphaGrid); ++b) {
+            Shape trial;
+            trial.SetAzimuth(j * std::numbers::pi / kAzimuthSteps);
+            trial.log_alpha_t = std::log(Clamp01Alpha(kAlphaGrid[a], options_));
+            trial.log_alpha_b = std::log(Clamp01Alpha(kAlphaGrid[b], options_));
+            if (a == b && j > 0) continue;  // isotropic: the azimuth does not matter
+            const double cost = ShapeCost(trial, &rho_s);
+            if (cost < best_cost) best_cost = cost, best = trial, *best_rho_s = rho_s;
+          }
+        }
+      }
+    }
+    double step[3] = {grid ? 0.35 : 0.15, grid ? 0.35 : 0.15, grid ? std::numbers::pi / 16 : std::numbers::pi / 48};
+    const double min_step[3] = {0.01, 0.01, 0.003};
+    int evaluations = 0;
+    while (evaluations < kPatternEvaluations) {
+      bool improved = false;
+      for (int d = 0; d < 3 && evaluations < kPatternEvaluations; ++d) {
+        for (int sign = -1; sign <= 1; sign += 2) {
+          Shape trial = best;
+          (d == 0 ? trial.log_alpha_t : d == 1 ? trial.log_alpha_b : trial.azimuth) += sign * step[d];
+          trial = Canonical(trial);
+          const double cost = ShapeCost(trial, &rho_s);
+          ++evaluations;
+          if (cost < best_cost) {
+            best_cost = cost, best = trial, *best_rho_s = rho_s;
+            improved = true;
+            break;
+          }
+        }
+      }
+      if (!improved) {
+        bool any = false;
+        for (int d = 0; d < 3; ++d) {
+          step[d] *= 0.5;
+          any |= step[d] >= min_step[d];
+        }
+        if (!any) break;
+      }
+    }
+    return best;
+  }
+
+  // ---- one pixel under the shared shape --------------------------------
+
+  // Model value of sample k of `p` at normal n and amplitudes.
+  double Model(const Pixel& p, int k, const Eigen::Vector3d& n, const Eigen::Vector3d& t, const Eigen::Vector3d& b,
+               double rho_d, double rho_s, double at, double ab) const {
+    const double nl = std::max(0.0, n.dot(lights_k_[k]));
+    return rho_d * nl + rho_s * ShapeTerm(n, t, b, halves_[k], lights_k_[k], p.view, at, ab);
+  }
+
+  // n . l (clamped at 0) and S of every sample of `p` at normal n, indexed
+  // from p.first: computed once per normal and reused by the fits below.
+  struct Terms {
+    std::vector<double> nl, s;
+  };
+  void Evaluate(const Pixel& p, const Eigen::Vector3d& n, const Shape& shape, double at, double ab,
+                Terms* terms) const {
+    Eigen::Vector3d t, b;
+    TangentFrame(n, shape.along, &t, &b);
+    terms->nl.resize(p.count), terms->s.resize(p.count);
+    for (int i = 0; i < p.count; ++i) {
+      const int k = p.first + i;
+      terms->nl[i] = std::max(0.0, n.dot(lights_k_[k]));
+      terms->s[i] = ShapeTerm(n, t, b, halves_[k], lights_k_[k], p.view, at, ab);
+    }
+  }
+
+  // Amplitudes of `p` under the weights (rho_s fixed unless
+  // per_pixel_amplitude) and the weighted cost; infinity when unsolvable.
+  double ProjectAmplitudes(const Pixel& p, const Terms& terms, double* rho_d, double* rho_s) const {
+    double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
+    for (int i = 0; i < p.count; ++i) {
+      const int k = p.first + i;
+      const double w = weights_[k];
+      if (!(w > 0)) continue;
+      const double value = values_[k][0], nl = terms.nl[i], s = terms.s[i];
+      bb += w * value * value;
+      aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
+    }
+    if (!(aa > 0)) return std::numeric_limits<double>::infinity();
+    if (options_.per_pixel_amplitude) {
+      if (!NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, rho_d, rho_s)) return std::numeric_limits<double>::infinity();
+    } else {
+      *rho_d = (a_b - *rho_s * ac) / aa;
+    }
+    const double d = *rho_d, s = *rho_s;
+    return std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
+  }
+
+  // Tukey weights of `p` at its current model (scale: 1.4826 MAD, floored at
+  // robust_min_scale x rho_d); samples facing away get 0.
+  void Reweight(const Pixel& p, const Terms& terms) {
+    abs_residuals_.clear();
+    for (int i = 0; i < p.count; ++i) {
+      if (!(terms.nl[i] > 0)) continue;
+      abs_residuals_.push_back(std::abs(p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0]));
+    }
+    const double scale =
+        std::max(kMadToSigma * Median(&abs_residuals_), solver_.robust_min_scale * std::max(p.rho_d, 1e-6));
+    for (int i = 0; i < p.count; ++i) {
+      const double r = p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0];
+      weights_[p.first + i] = terms.nl[i] > 0 ? TukeyWeight(r, width_ * scale) : 0.0;
+    }
+  }
+
+  // Levenberg-Marquardt on the normal (two tangent angles) with the
+  // amplitudes projected out; Tukey weights refreshed every step.
+  void SolvePixel(Pixel* p, const Shape& shape, double shared_rho_s) {
+    const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
+    if (!options_.per_pixel_amplitude) p->rho_s = shared_rho_s;
+    double lambda = 1e-3;
+    Evaluate(*p, p->normal, shape, at, ab, &current_);
+    ProjectAmplitudes(*p, current_, &p->rho_d, &p->rho_s);
+    for (int iteration = 0; iteration < kNormalIterations; ++iteration) {
+      Reweight(*p, current_);
+      const double cost = ProjectAmplitudes(*p, current_, &p->rho_d, &p->rho_s);
+      if (!std::isfinite(cost)) return;
+      const Eigen::Vector3d helper =
+          std::abs(p->normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+      const Eigen::Vector3d u1 = p->normal.cross(helper).normalized(), u2 = p->normal.cross(u1);
+      // Jacobian columns: the two angles (forward differences), rho_d, rho_s.
+      Evaluate(*p, (p->normal + kDerivativeStep * u1).normalized(), shape, at, ab, &plus_[0]);
+      Evaluate(*p, (p->normal + kDerivativeStep * u2).normalized(), shape, at, ab, &plus_[1]);
+      const int params = options_.per_pixel_amplitude ? 4 : 3;
+      Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
+      Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
+      for (int i = 0; i < p->count; ++i) {
+        const double w = weights_[p->first + i];
+        if (!(w > 0)) continue;
+        Eigen::Vector4d j;
+        j[2] = current_.nl[i];
+        j[3] = current_.s[i];
+        const double model = p->rho_d * j[2] + p->rho_s * j[3];
+        for (int d = 0; d < 2; ++d) j[d] = (p->rho_d * plus_[d].nl[i] + p->rho_s * plus_[d].s[i] - model) / kDerivativeStep;
+        const double r = model - values_[p->first + i][0];
+        hessian.noalias() += w * j * j.transpose();
+        gradient.noalias() += (w * r) * j;
+      }
+      bool accepted = false;
+      double moved = 0;
+      for (int attempt = 0; attempt < 5 && !accepted; ++attempt) {
+        Eigen::Matrix4d damped = hessian;
+        for (int i = 0; i < params; ++i) damped(i, i) += lambda * std::max(hessian(i, i), 1e-12);
+        Eigen::Vector4d step = Eigen::Vector4d::Zero();
+        step.head(params) = damped.topLeftCorner(params, params).ldlt().solve(-gradient.head(params));
+        if (!step.allFinite()) {
+          lambda *= 10;
+          continue;
+        }
+        const Eigen::Vector3d trial = (p->normal + step[0] * u1 + step[1] * u2).normalized();
+        if (!trial.allFinite()) {
+          lambda *= 10;
+          continue;
+        }
+        Evaluate(*p, trial, shape, at, ab, &trial_);
+        double rho_d = p->rho_d, rho_s = p->rho_s;
+        const double trial_cost = ProjectAmplitudes(*p, trial_, &rho_d, &rho_s);
+        if (trial_cost < cost && rho_d > 0) {
+          moved = (trial - p->normal).norm();
+          p->normal = trial, p->rho_d = rho_d, p->rho_s = rho_s;
+          std::swap(current_, trial_);
+          accepted = true;
+          lambda = std::max(lambda / 3, 1e-9);
+        } else {
+          lambda *= 4;
+        }
+      }
+      if (!accepted || moved < kNormalConverged) break;
+    }
+    Reweight(*p, current_);
+    ProjectAmplitudes(*p, current_, &p->rho_d, &p->rho_s);
+  }
+
+  // ---- one group ---------------------------------------------------------
+
+  void RefineGroup(Counts* counts) {
+    // The shape is fitted on an even spread of the group's pixels.
+    fit_.clear();
+    const int n = static_cast<int>(group_.size());
+    const int fit_count = std::min(n, options_.max_fit_pixels);
+    for (int i = 0; i < fit_count; ++i) fit_.push_back(group_[static_cast<size_t>(i) * n / fit_count]);
+    for (int index : group_) {
+      Pixel& p = pixels_[index];
+      double aa = 0, a_b = 0;
+      for (int k = p.first; k < p.first + p.count; ++k) {
+        const double nl = std::max(0.0, p.normal.dot(lights_k_[k]));
+        aa += weights_[k] * nl * nl, a_b += weights_[k] * nl * values_[k][0];
+      }
+      p.rho_d = aa > 0 ? a_b / aa : 0.0;
+    }
+    Shape shape;
+    double rho_s = 0;
+    for (int iteration = 0; iteration < options_.iterations; ++iteration) {
+      shape = FitShape(shape, iteration == 0, &rho_s);
+      if (!options_.per_pixel_amplitude && !(rho_s > 0)) return;  // no lobe for the group
+      // Only the pixels the shape is fitted on need their normals before the
+      // last alternation.
+      const bool last = iteration + 1 == options_.iterations;
+      for (int index : last ? group_ : fit_) SolvePixel(&pixels_[index], shape, rho_s);
+    }
+    ++counts->groups;
+    counts->anisotropy_sum += std::exp(std::abs(shape.log_alpha_b - shape.log_alpha_t));
+    for (int index : group_) {
+      if (Select(pixels_[index], shape)) {
+        ++counts->refined;
+      } else {
+        ++counts->kept;
+      }
+    }
+  }
+
+  // Model selection on the pixel's final weighted samples: the shared-lobe
+  // model (normal, rho_d, and rho_s when per pixel) against its own per-pixel
+  // result (normal and alpha held, its amplitudes re-solved on the same
+  // weights: the Lambertian fit or the isotropic lobe). Writes the pixel when
+  // the shared lobe wins.
+  bool Select(const Pixel& p, const Shape& shape) {
+    if (!p.normal.allFinite() || !(p.normal.z() > 0) || !(p.normal.dot(p.view) > 0) ||
+        !(p.rho_d >= solver_.min_albedo) || !std::isfinite(p.rho_s)) {
+      return false;
+    }
+    const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
+    Eigen::Vector3d t, b;
+    TangentFrame(p.normal, shape.along, &t, &b);
+    double shared_rss = 0, weight_sum = 0;
+    for (int k = p.first; k < p.first + p.count; ++k) {
+      if (!(weights_[k] > 0)) continue;
+      const double r = Model(p, k, p.normal, t, b, p.rho_d, p.rho_s, at, ab) - values_[k][0];
+      shared_rss += weights_[k] * r * r;
+      weight_sum += weights_[k];
+    }
+    // Its own result under the same weights.
+    Shape own_shape;
+    const bool own_lobe = p.own_alpha > 0;
+    double own_rss = std::numeric_limits<double>::infinity();
+    {
+      Eigen::Vector3d ot, ob;
+      TangentFrame(p.own_normal, Eigen::Vector3d::UnitX(), &ot, &ob);  // isotropic: any tangent
+      const double alpha = own_lobe ? p.own_alpha : 1.0;
+      double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
+      for (int k = p.first; k < p.first + p.count; ++k) {
+        const double w = weights_[k];
+        if (!(w > 0)) continue;
+        const double value = values_[k][0];
+        const double nl = std::max(0.0, p.own_normal.dot(lights_k_[k]));
+        const double s = own_lobe ? ShapeTerm(p.own_normal, ot, ob, halves_[k], lights_k_[k], p.view, alpha, alpha, false) : 0.0;
+        aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
+        bb += w * value * value;
+      }
+      double d = 0, s = 0;
+      if (own_lobe ? NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, &d, &s) : aa > 0) {
+        if (!own_lobe) d = a_b / aa, s = 0;
+        own_rss = std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
+      }
+    }
+    if (!(weight_sum >= kMinSamples)) return false;
+    const double noise = solver_.robust_min_scale * p.rho_d;
+    const double noise_rss = weight_sum * noise * noise;
+    // The shared lobe must lower the residual, both floored at the noise: BIC
+    // would credit it with its fewer per-pixel parameters (3 or 4 against the
+    // isotropic lobe's 5) and take it where it fits a little worse, which
+    // cost 0.1 deg on a Blinn-Phong sheen (not a GGX lobe: coherent_lobe_test).
+    // Against a Lambertian result (as many parameters) a tie goes to the
+    // group's lobe: the group's samples support it, this pixel's do not
+    // reject it.
+    const double shared_floored = std::max(shared_rss, noise_rss), own_floored = std::max(own_rss, noise_rss);
+    if (!(shared_floored < own_floored || (!own_lobe && shared_floored <= own_floored))) return false;
+    Write(p, shape, at, ab, shared_rss, weight_sum);
+    return true;
+  }
+
+  void Write(const Pixel& p, const Shape& shape, double at, double ab, double rss, double weight_sum) {
+    PhotometricSolution& s = *job_.solution;
+    const int x = p.x, y = p.y;
+    for (int c = 0; c < 3; ++c) s.normal_in_table(x, y, c) = static_cast<float>(p.normal[c]);
+    if (!s.albedo.empty()) {
+      // Per channel with the white lobe removed (the samples are divided by
+      // each channel's light intensity, so the lobe is the same in each).
+      Eigen::Vector3d t, b;
+      TangentFrame(p.normal, shape.along, &t, &b);
+      double aa = 0, ab_c[3] = {0, 0, 0};
+      for (int k = p.first; k < p.first + p.count; ++k) {
+        const double w = weights_[k];
+        if (!(w > 0)) continue;
+        const double nl = std::max(0.0, p.normal.dot(lights_k_[k]));
+        const double lobe = p.rho_s * ShapeTerm(p.normal, t, b, halves_[k], lights_k_[k], p.view, at, ab);
+        aa += w * nl * nl;
+        for (int c = 0; c < 3; ++c) ab_c[c] += w * nl * (values_[k][1 + c] - lobe);
+      }
+      for (int c = 0; c < 3; ++c) {
+        const double albedo = aa > 0 ? ab_c[c] / aa : 0.0;
+        s.albedo(x, y, c) = std::isfinite(albedo) ? static_cast<float>(std::max(0.0, albedo)) : 0.0f;
+      }
+    }
+    int used = 0;
+    for (int k = p.first; k < p.first + p.count; ++k) used += weights_[k] > kUsedWeight;
+    s.lights_used(x, y) = static_cast<uint8_t>(std::min(used, 255));
+    if (!s.residual.empty()) s.residual(x, y) = static_cast<float>(std::min(std::sqrt(rss / weight_sum) / p.rho_d, 1e30));
+    s.specular(x, y, 0) = static_cast<float>(std::clamp(p.rho_s, 0.0, 1.0));
+    s.specular(x, y, 1) = static_cast<float>(std::sqrt(at * ab));
+    s.specular_status(x, y) = static_cast<uint8_t>(SpecularStatus::kEstimated);
+  }
+
+  const CoherentLobeOptions& options_;
+  const PhotometricSolverOptions& solver_;
+  const tiled::SolveJob& job_;
+  tiled::SpanBuffers buffers_;
+  tiled::TileLightSampler lights_;
+  const tiled::AccumulateSpanFn accumulate_exact_, accumulate_uniform_;
+  PixelSamples samples_;
+  const double width_;  // Tukey width in residual scales
+  std::vector<Pixel> pixels_;
+  std::vector<Eigen::Vector3d> lights_k_, halves_;
+  std::vector<Eigen::Vector4d> values_;  // luminance, R, G, B (intensity divided)
+  std::vector<double> weights_;
+  std::vector<int> cluster_, group_, fit_;
+  std::vector<double> abs_residuals_;
+  Terms current_, trial_, plus_[2];  // SolvePixel's scratch
+};
+
+}  // namespace
+
+double AnisotropicLobeShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& view,
+                            double tangent_azimuth, double alpha_t, double alpha_b, bool masking) {
+  const Eigen::Vector3d sum = light + view;
+  const Eigen::Vector3d h = sum.norm() > 1e-6 ? Eigen::Vector3d(sum.normalized()) : view;
+  Eigen::Vector3d t, b;
+  TangentFrame(n, Eigen::Vector3d(std::cos(tangent_azimuth), std::sin(tangent_azimuth), 0.0), &t, &b);
+  return ShapeTerm(n, t, b, h, light, view, alpha_t, alpha_b, masking);
+}
+
+void CoherentLobeOptions::Check() const {
+  if (block_size < 4 || block_size > 256) throw FieldError(kOptions, "block_size", block_size, "must lie in [4, 256]");
+  if (min_pixels < 4 || min_pixels > 65536) {
+    throw FieldError(kOptions, "min_pixels", min_pixels, "must lie in [4, 65536]");
+  }
+  if (max_fit_pixels < 4 || max_fit_pixels > 65536) {
+    throw FieldError(kOptions, "max_fit_pixels", max_fit_pixels, "must lie in [4, 65536]");
+  }
+  if (max_lights < 3 || max_lights > 1000) throw FieldError(kOptions, "max_lights", max_lights, "must lie in [3, 1000]");
+  if (iterations < 1 || iterations > 20) throw FieldError(kOptions, "iterations", iterations, "must lie in [1, 20]");
+  if (!(min_alpha > 0) || !(min_alpha < max_alpha)) {
+    throw FieldError(kOptions, "min_alpha", min_alpha, "must be > 0 and below max_alpha");
+  }
+  if (!(max_alpha <= 1)) throw FieldError(kOptions, "max_alpha", max_alpha, "must be <= 1");
+  if (!(albedo_split >= 0) || std::isnan(albedo_split)) {
+    throw FieldError(kOptions, "albedo_split", albedo_split, "must be >= 0");
+  }
+  if (num_threads < 0 || num_threads > 256) {
+    throw FieldError(kOptions, "num_threads", num_threads, "must lie in [0, 256]");
+  }
+}
+
+std::string CoherentLobeSummary::BriefReport() const {
+  std::ostringstream out;
+  const char* how = termination == Termination::kSuccess     ? "success"
+                    : termination == Termination::kCancelled ? "cancelled"
+                                                             : "failure";
+  out << "Coherent lobe: " << how << ", " << pixels_refined << " of " << pixels_supported
+      << " lobe pixels refined by a shared lobe (" << pixels_kept << " kept their own) in " << groups_fitted
+      << " groups, mean anisotropy " << mean_anisotropy << ", " << seconds << " s";
+  if (!message.empty()) out << " (" << message << ")";
+  return out.str();
+}
+
+CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
+                                       const PhotometricSolverOptions& solver_options,
+                                       const PhotometricSolverInput& input, PhotometricSolution* solution,
+                                       const ProgressCallback& progress) {
+  options.Check();
+  solver_options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  CoherentLobeSummary summary;
+  if (solution == nullptr) throw std::invalid_argument("coherent lobe: solution is null");
+  if (input.light_field == nullptr) throw std::invalid_argument("coherent lobe: light_field is null");
+  const int width = input.light_field->width(), height = input.light_field->height();
+  if (static_cast<int>(input.images.size()) != input.light_field->num_lights()) {
+    throw std::invalid_argument("coherent lobe: " + std::to_string(input.images.size()) +
+                                " images for a light field of " + std::to_string(input.light_field->num_lights()) +
+                                " lights; they must match");
+  }
+  for (size_t k = 0; k < input.images.size(); ++k) {
+    if (input.images[k] == nullptr || input.images[k]->channels() != 3 ||
+        !input.images[k]->SameSize(width, height)) {
+      throw std::invalid_argument("coherent lobe: image " + std::to_string(k) + " must be a 3-channel image of " +
+                                  std::to_string(width) + " x " + std::to_string(height));
+    }
+  }
+  if (!input.sample_valid.empty() && input.sample_valid.size() != input.images.size()) {
+    throw std::invalid_argument("coherent lobe: " + std::to_string(input.sample_valid.size()) +
+                                " sample masks for " + std::to_string(input.images.size()) + " images");
+  }
+  if (input.light_field->num_lights() > options.max_lights) {
+    summary.termination = Termination::kSuccess;
+    summary.skipped_lights = true;
+    summary.message = std::to_string(input.light_field->num_lights()) + " lights, more than max_lights = " +
+                      std::to_string(options.max_lights) + ": the per-pixel lobes are kept";
+    return summary;
+  }
+  if (solution->specular.empty() || solution->specular_status.empty()) {
+    summary.termination = Termination::kSuccess;
+    summary.message = "no specular maps: nothing to refine";
+    return summary;
+  }
+  if (!solution->normal_in_table.SameSize(width, height) || !solution->status.SameSize(width, height) ||
+      !solution->specular.SameSize(width, height) || !solution->specular_status.SameSize(width, height)) {
+    throw std::invalid_argument("coherent lobe: the solution is not the light field's " + std::to_string(width) +
+                                " x " + std::to_string(height));
+  }
+
+  tiled::SolveJob job;
+  job.options = &solver_options;
+  job.field = input.light_field;
+  job.images = &input.images;
+  job.sample_valid = &input.sample_valid;
+  job.region = input.region;
+  job.num_lights = input.light_field->num_lights();
+  job.with_albedo = true;
+  job.with_confidence = !solution->residual.empty();
+  job.solution = solution;
+
+  const int block = options.block_size;
+  const int blocks_x = (width + block - 1) / block, blocks_y = (height + block - 1) / block;
+  const int num_blocks = blocks_x * blocks_y;
+  const int num_threads = std::clamp(ResolveThreadCount(options.num_threads), 1, std::max(1, num_blocks));
+  std::vector<std::unique_ptr<BlockRefiner>> workers(num_threads);
+  std::vector<BlockRefiner::Counts> counts(num_threads);
+  std::atomic<int> blocks_done{0};
+  // Each block writes only its own pixels and reads only its own samples and
+  // per-pixel results, so the result does not depend on the thread count.
+  const bool finished = ParallelFor(
+      num_blocks, num_threads, 4,
+      [&](int first, int last, int worker) {
+        if (!workers[worker]) workers[worker] = std::make_unique<BlockRefiner>(options, solver_options, job);
+        for (int b = first; b < last; ++b) {
+          const int bx = b % blocks_x, by = b / blocks_x;
+          workers[worker]->Refine(bx * block, by * block, std::min(width, (bx + 1) * block),
+                                  std::min(height, (by + 1) * block), &counts[worker]);
+          ++blocks_done;
+        }
+      },
+      progress ? std::function<bool(int)>([&](int done) { return progress(double(done) / num_blocks); })
+               : std::function<bool(int)>());
+  double anisotropy_sum = 0;
+  for (const auto& c : counts) {
+    summary.pixels_supported += c.supported;
+    summary.groups_fitted += c.groups;
+    summary.pixels_refined += c.refined;
+    summary.pixels_kept += c.kept;
+    anisotropy_sum += c.anisotropy_sum;
+  }
+  summary.mean_anisotropy = summary.groups_fitted > 0 ? anisotropy_sum / summary.groups_fitted : 0.0;
+  summary.seconds = SecondsSince(start);
+  if (!finished) {
+    summary.SetCancelled("cancelled after " + std::to_string(blocks_done.load()) + " of " +
+                         std::to_string(num_blocks) + " blocks");
+  } else {
+    summary.termination = Termination::kSuccess;
+    if (progress) progress(1.0);
+  }
+  return summary;
+}
+
+}  // namespace scanbench
