@@ -263,6 +263,20 @@ class AdaptiveKernel final : public PixelKernel {
           continue;
         }
       }
+      if (settings_.options.adaptive_sheen && fit.status == PixelStatus::kSolved) {
+        // The smooth, low-residual bias of a velvet sheen stays under the
+        // residual trigger: a cheap test of the residual's pattern picks the
+        // pixels worth the sheen fit.
+        GatherSamples(span, i, settings_.with_albedo, &samples_);
+        const Eigen::Vector3d view = settings_.View(x, span.y);
+        if (SheenPatternInResidual(samples_, view, fit)) {
+          const PixelFit refit = FitDiffuseSheen(samples_, view, settings_.with_albedo, settings_.limits, fit);
+          if (refit.sheen_f0 > 0) {
+            out->Store(refit, x, span.y, SolvePath::kRobust);
+            continue;
+          }
+        }
+      }
       out->Store(fit, x, span.y, span.LightPath());
     }
   }

@@ -52,6 +52,9 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
   command.add_flag("--no-lobe", [&options](std::int64_t) { options.adaptive_lobe = false; },
                    "adaptive: the robust pass is Tukey IRLS alone, without the diffuse + specular lobe fit "
                    "(the default before issue #13; no specular map)");
+  command.add_flag("--sheen", options.adaptive_sheen,
+                   "adaptive: re-solve pixels whose least-squares residual carries a velvet sheen's pattern with "
+                   "the diffuse + velvet sheen model (off by default: it fits noise on Lambertian scenes)");
 }
 
 void AddSolveOptions(CLI::App& command, SolveOptions& options) {

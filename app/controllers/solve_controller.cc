@@ -91,7 +91,8 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"robust_max_iterations", solver.robust_max_iterations},
           {"robust_dark_fraction", solver.robust_dark_fraction},
           {"adaptive_robust_residual", solver.adaptive_robust_residual},
-          {"adaptive_lobe", solver.adaptive_lobe}};
+          {"adaptive_lobe", solver.adaptive_lobe},
+          {"adaptive_sheen", solver.adaptive_sheen}};
 }
 
 // The steps of SolveController::Run, in order.
