@@ -239,6 +239,9 @@ class NormalEquationsKernel final : public PixelKernel {
 // least-squares residual (relative to the albedo) is above
 // adaptive_robust_residual or a sample was clipped; the robust fit is kept
 // when it solves the pixel or the least-squares one did not.
+// With adaptive_sheen, the solved pixels left to least squares whose residual
+// has a velvet sheen's pattern get the diffuse + sheen fit (kept where BIC
+// prefers it; reported as the robust path).
 class AdaptiveKernel final : public PixelKernel {
  public:
   AdaptiveKernel(const KernelSettings& settings, int capacity)

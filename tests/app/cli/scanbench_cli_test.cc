@@ -118,6 +118,23 @@ TEST(ScanbenchCliTest, SolveWritesASpecularMapUnlessTheLobeIsTurnedOff) {
   EXPECT_THAT(ReadText(plain / "report.json"), HasSubstr("\"adaptive_lobe\": false"));
 }
 
+TEST(ScanbenchCliTest, SolveSheenFlagTurnsTheVelvetSheenPassOn) {
+  testing::TemporaryFolder folder;
+  const fs::path session_dir = folder / "cloth";
+  const CommandResult simulated =
+      RunScanbench("simulate " + Quoted(session_dir) + " --width 320 --height 212 --material cloth");
+  ASSERT_EQ(simulated.exit_code, 0) << simulated.output;
+  const CommandResult plain = RunScanbench("solve " + Quoted(session_dir) + " --label plain");
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  const CommandResult sheen = RunScanbench("solve " + Quoted(session_dir) + " --sheen --label sheen");
+  ASSERT_EQ(sheen.exit_code, 0) << sheen.output;
+  for (const auto& entry : fs::directory_iterator(session_dir / "results")) {
+    const bool with_sheen = entry.path().filename().string().find("sheen") != std::string::npos;
+    EXPECT_THAT(ReadText(entry.path() / "report.json"),
+                HasSubstr(with_sheen ? "\"adaptive_sheen\": true" : "\"adaptive_sheen\": false"));
+  }
+}
+
 TEST(ScanbenchCliTest, FailuresExitNonZeroNamingTheProblem) {
   testing::TemporaryFolder folder;
   const CommandResult not_a_session = RunScanbench("solve " + Quoted(folder.path()));
