@@ -120,14 +120,14 @@ TEST(ScanbenchCliTest, SolveWritesASpecularMapUnlessTheLobeIsTurnedOff) {
 
 TEST(ScanbenchCliTest, SolveSheenFlagTurnsTheVelvetSheenPassOn) {
   testing::TemporaryFolder folder;
+  // A small cloth session solved twice, without and with the flag.
   const fs::path session_dir = folder / "cloth";
-  const CommandResult simulated =
-      RunScanbench("simulate " + Quoted(session_dir) + " --width 320 --height 212 --material cloth");
-  ASSERT_EQ(simulated.exit_code, 0) << simulated.output;
-  const CommandResult plain = RunScanbench("solve " + Quoted(session_dir) + " --label plain");
-  ASSERT_EQ(plain.exit_code, 0) << plain.output;
-  const CommandResult sheen = RunScanbench("solve " + Quoted(session_dir) + " --sheen --label sheen");
-  ASSERT_EQ(sheen.exit_code, 0) << sheen.output;
+  for (const std::string& command : {"simulate " + Quoted(session_dir) + " --width 320 --height 212 --material cloth",
+                                     "solve " + Quoted(session_dir) + " --label plain",
+                                     "solve " + Quoted(session_dir) + " --sheen --label sheen"}) {
+    const CommandResult result = RunScanbench(command);
+    ASSERT_EQ(result.exit_code, 0) << command << ": " << result.output;
+  }
   for (const auto& entry : fs::directory_iterator(session_dir / "results")) {
     const bool with_sheen = entry.path().filename().string().find("sheen") != std::string::npos;
     EXPECT_THAT(ReadText(entry.path() / "report.json"),
