@@ -142,6 +142,13 @@ struct PhotometricSolverOptions {
   // group (RefineCoherentLobe, solver/coherent_lobe.h), where BIC prefers it.
   bool adaptive_coherent_lobe = true;
 
+  // adaptive: pixels left to least squares whose residual carries a velvet
+  // sheen's pattern (SheenPatternInResidual) are re-solved with the diffuse +
+  // velvet sheen model (FitDiffuseSheen, pixel_solvers.h), kept where BIC prefers it.
+  // Off by default: it helps the simulated cloth but fits noise on Lambertian
+  // scenes (docs/solver.md, "Velvet sheen").
+  bool adaptive_sheen = false;
+
   // Side of the square tiles the image is solved in, pixels, in [8, 4096].
   // Bounds the scratch memory per thread and is the unit of the light-field
   // checks below.

@@ -239,6 +239,9 @@ class NormalEquationsKernel final : public PixelKernel {
 // least-squares residual (relative to the albedo) is above
 // adaptive_robust_residual or a sample was clipped; the robust fit is kept
 // when it solves the pixel or the least-squares one did not.
+// With adaptive_sheen, the solved pixels left to least squares whose residual
+// has a velvet sheen's pattern get the diffuse + sheen fit (kept where BIC
+// prefers it; reported as the robust path).
 class AdaptiveKernel final : public PixelKernel {
  public:
   AdaptiveKernel(const KernelSettings& settings, int capacity)
@@ -261,6 +264,20 @@ class AdaptiveKernel final : public PixelKernel {
         if (refit.status == PixelStatus::kSolved || fit.status != PixelStatus::kSolved) {
           out->Store(refit, x, span.y, SolvePath::kRobust);
           continue;
+        }
+      }
+      if (settings_.options.adaptive_sheen && fit.status == PixelStatus::kSolved) {
+        // The smooth, low-residual bias of a velvet sheen stays under the
+        // residual trigger: a cheap test of the residual's pattern picks the
+        // pixels worth the sheen fit.
+        GatherSamples(span, i, settings_.with_albedo, &samples_);
+        const Eigen::Vector3d view = settings_.View(x, span.y);
+        if (SheenPatternInResidual(samples_, view, fit)) {
+          const PixelFit refit = FitDiffuseSheen(samples_, view, settings_.with_albedo, settings_.limits, fit);
+          if (refit.sheen_f0 > 0) {
+            out->Store(refit, x, span.y, SolvePath::kRobust);
+            continue;
+          }
         }
       }
       out->Store(fit, x, span.y, span.LightPath());

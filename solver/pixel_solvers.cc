@@ -738,4 +738,265 @@ PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view
   return fit;
 }
 
+namespace {
+
+// The velvet sheen fit's settings: fixed, not tuned per data set.
+constexpr int kSheenMinSamples = 6;  // 4 fitted parameters (and the width) and a spare sample
+// Velvet widths a tried (a geometric ladder over the seed's range: at 0.5 the
+// sheen has faded into its constant offset at every rig angle, at 1.4 it
+// rises from the normal on).
+constexpr double kSheenWidths[] = {0.5, 0.7, 1.0, 1.4};
+constexpr double kSheenMinWidth = 0.3;     // fitted width range: narrower is a rim no rig angle reaches,
+constexpr double kSheenMaxWidth = 2.0;     // broader is flat
+constexpr double kSheenTestWidth = 1.0;    // the residual test's width (mid-ladder)
+constexpr double kVelvetAmplitude = 4.0;   // Ashikhmin's amplitude of the inverted Gaussian
+constexpr int kSheenIterations = 12;       // Gauss-Newton steps
+constexpr double kSheenNormalStep = 2e-4;  // rad (0.01 deg): a smaller step of the normal has converged
+// Residual floor of the model selection, relative to rho_d: below about the
+// quantisation of a 14-bit reading of a mid-grey the residual is not evidence.
+constexpr double kSheenResidualFloor = 1e-3;
+
+// S (VelvetSheenShape) and, if asked, dS/dn.
+struct SheenTerm {
+  double s = 0;
+  Eigen::Vector3d ds_dn = Eigen::Vector3d::Zero();
+  double ds_dlog_width = 0;
+};
+
+inline SheenTerm EvaluateSheen(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& half,
+                               const Eigen::Vector3d& view, double width, bool derivatives) {
+  SheenTerm t;
+  const double nl = n.dot(light);
+  if (!(nl > 0)) return t;
+  const double raw_nv = n.dot(view);
+  const bool nv_clamped = !(raw_nv > kLobeMinViewCosine);
+  const double nv = nv_clamped ? kLobeMinViewCosine : std::min(raw_nv, 1.0);
+  const double c = std::clamp(n.dot(half), 0.0, 1.0);
+  const double s2 = 1 - c * c;
+  const double a2 = width * width;
+  const double norm = 1 / (1 + kVelvetAmplitude * a2);
+  // G = 1 + A exp(-cot^2 / a^2) / sin^4: at th_h -> 0 the exponential wins.
+  double g = 1, dg_dc = 0, dg_dlog_width = 0;
+  if (s2 > 1e-6) {
+    const double cot2 = c * c / s2;
+    const double e = std::exp(-cot2 / a2);
+    const double inv_s4 = 1 / (s2 * s2);
+    g += kVelvetAmplitude * e * inv_s4;
+    dg_dc = kVelvetAmplitude * e * c * inv_s4 / s2 * (4 - 2 / (a2 * s2));
+    dg_dlog_width = kVelvetAmplitude * e * inv_s4 * 2 * cot2 / a2;
+  }
+  const double den = nl + nv - nl * nv;  // >= max(nl, nv) > 0
+  const double q = nl / (4 * den);
+  t.s = norm * g * q;
+  if (derivatives) {
+    const double inv_den2 = 1 / (4 * den * den);
+    t.ds_dn = norm * (dg_dc * q * half + g * nv * inv_den2 * light);
+    if (!nv_clamped && raw_nv < 1) t.ds_dn -= norm * g * nl * (1 - nl) * inv_den2 * view;
+    t.ds_dlog_width = norm * q * dg_dlog_width - t.s * 2 * kVelvetAmplitude * a2 * norm;
+  }
+  return t;
+}
+
+}  // namespace
+
+double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& half,
+                        const Eigen::Vector3d& view, double width) {
+  if (!(width > 0) || !n.allFinite() || !light.allFinite() || !half.allFinite() || !view.allFinite()) return 0;
+  const double s = EvaluateSheen(n, light, half, view, width, false).s;
+  return std::isfinite(s) ? s : 0.0;
+}
+
+bool SheenPatternInResidual(const PixelSamples& samples, const Eigen::Vector3d& view_in,
+                            const PixelFit& least_squares) {
+  const int m = samples.count();
+  if (least_squares.status != PixelStatus::kSolved || m < kSheenMinSamples) return false;
+  const Eigen::Vector3d view =
+      view_in.allFinite() && view_in.norm() > 0 ? view_in.normalized() : Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d n = least_squares.normal;
+  const Eigen::Vector3d scaled = least_squares.luminance_albedo * n;
+  const double* l = samples.light_data();
+  const double* v = samples.value_data();
+  Eigen::Matrix3d gram = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d ls = Eigen::Vector3d::Zero();
+  double ss = 0, rs = 0, rr = 0;
+  for (int k = 0; k < m; ++k) {
+    const Eigen::Vector3d lk(l[3 * k], l[3 * k + 1], l[3 * k + 2]);
+    const double r = lk.dot(scaled) - v[4 * k];
+    gram.noalias() += lk * lk.transpose();
+    rr += r * r;
+    const Eigen::Vector3d sum = lk + view;
+    const double length = sum.norm();
+    if (!(length > 1e-6)) continue;
+    const double s = EvaluateSheen(n, lk, sum / length, view, kSheenTestWidth, false).s;
+    ls += s * lk, ss += s * s, rs += r * s;
+  }
+  // A sheen adds light: the residual (model - data) points against it.
+  if (!(rs < 0)) return false;
+  // The sheen's part outside the Lambertian model's span; the residual is
+  // orthogonal to that span already (least squares), so r . S is its projection.
+  const double outside = ss - ls.dot(gram.ldlt().solve(ls));
+  if (!(outside > 1e-12 * ss)) return false;
+  const double gain = rs * rs / outside;
+  const double floor_rss = m * std::pow(kSheenResidualFloor * least_squares.luminance_albedo, 2);
+  // Liberal: one parameter's BIC penalty (FitDiffuseSheen asks for two).
+  return m * std::log(std::max(rr, floor_rss) / std::max(rr - gain, floor_rss)) > std::log(double(m));
+}
+
+PixelFit FitDiffuseSheen(const PixelSamples& samples, const Eigen::Vector3d& view_in, bool with_albedo,
+                         const PixelFitLimits& limits, const PixelFit& start) {
+  const int m = samples.count();
+  if (start.status != PixelStatus::kSolved || m < kSheenMinSamples) return start;
+  const Eigen::Vector3d view =
+      view_in.allFinite() && view_in.norm() > 0 ? view_in.normalized() : Eigen::Vector3d::UnitZ();
+  thread_local std::vector<Eigen::Vector3d> halves;
+  thread_local std::vector<double> usable;
+  halves.resize(m);
+  usable.assign(m, 1.0);
+  const double* l = samples.light_data();
+  const double* v = samples.value_data();
+  auto light = [&](int k) { return Eigen::Vector3d(l[3 * k], l[3 * k + 1], l[3 * k + 2]); };
+  for (int k = 0; k < m; ++k) {
+    const Eigen::Vector3d sum = light(k) + view;
+    const double length = sum.norm();
+    if (length > 1e-6) {
+      halves[k] = sum / length;
+    } else {
+      halves[k] = view, usable[k] = 0;  // light opposite the camera: no half vector
+    }
+  }
+  struct Params {
+    Eigen::Vector3d normal;
+    double rho_d = 0, rho_s = 0;
+  };
+  // The two amplitudes by least squares for `p.normal` (rho_s >= 0) and the
+  // cost; samples with n . l <= 0 there keep their whole reading as residual.
+  auto project = [&](Params* p, double width) {
+    double aa = 0, ac = 0, cc = 0, ab = 0, cb = 0, bb = 0;
+    for (int k = 0; k < m; ++k) {
+      if (!(usable[k] > 0)) continue;
+      const double b = v[4 * k];
+      bb += b * b;
+      const double nl = p->normal.dot(light(k));
+      if (!(nl > 0)) continue;
+      const double s = EvaluateSheen(p->normal, light(k), halves[k], view, width, false).s;
+      aa += nl * nl, ac += nl * s, cc += s * s, ab += nl * b, cb += s * b;
+    }
+    if (!SolveAmplitudes(aa, ac, cc, ab, cb, &p->rho_d, &p->rho_s)) return std::numeric_limits<double>::infinity();
+    const double d = p->rho_d, sp = p->rho_s;
+    return std::max(0.0, bb - 2 * (d * ab + sp * cb) + d * d * aa + 2 * d * sp * ac + sp * sp * cc);
+  };
+  // Gauss-Newton over the normal (two tangent angles) and both amplitudes;
+  // a step is tried with the amplitudes re-solved (variable projection) and
+  // halved until it lowers the cost.
+  auto refine = [&](Params& p, double& width, double& cost) {
+    for (int iteration = 0; iteration < kSheenIterations; ++iteration) {
+      Eigen::Vector3d t1, t2;
+      TangentBasis(p.normal, &t1, &t2);
+      Eigen::Matrix<double, 5, 5> hessian = Eigen::Matrix<double, 5, 5>::Zero();
+      Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
+      for (int k = 0; k < m; ++k) {
+        if (!(usable[k] > 0)) continue;
+        const Eigen::Vector3d lk = light(k);
+        const double nl = p.normal.dot(lk);
+        if (!(nl > 0)) continue;
+        const SheenTerm t = EvaluateSheen(p.normal, lk, halves[k], view, width, true);
+        const double r = p.rho_d * nl + p.rho_s * t.s - v[4 * k];
+        const Eigen::Vector3d df_dn = p.rho_d * lk + p.rho_s * t.ds_dn;
+        Eigen::Matrix<double, 5, 1> j;
+        j << df_dn.dot(t1), df_dn.dot(t2), nl, t.s, p.rho_s * t.ds_dlog_width;
+        hessian.noalias() += j * j.transpose();
+        gradient.noalias() += r * j;
+      }
+      // Light damping: the width is poorly constrained where the sheen is weak.
+      for (int i = 0; i < 5; ++i) hessian(i, i) += 1e-3 * std::max(hessian(i, i), 1e-12);
+      Eigen::Matrix<double, 5, 1> step = hessian.ldlt().solve(-gradient);
+      if (!step.allFinite()) break;
+      bool accepted = false;
+      for (int attempt = 0; attempt < 5 && !accepted; ++attempt, step *= 0.5) {
+        Params trial = p;
+        trial.normal = (p.normal + step[0] * t1 + step[1] * t2).normalized();
+        const double trial_width =
+            std::clamp(width * std::exp(std::clamp(step[4], -1.0, 1.0)), kSheenMinWidth, kSheenMaxWidth);
+        const double trial_cost = project(&trial, trial_width);
+        if (trial_cost <= cost && trial.normal.allFinite()) {
+          accepted = true;
+          const double moved = (trial.normal - p.normal).norm();
+          p = trial, cost = trial_cost, width = trial_width;
+          if (moved < kSheenNormalStep) iteration = kSheenIterations;  // converged
+        }
+      }
+      if (!accepted) break;
+    }
+  };
+  // Width: start from the one of the ladder whose linear fit at the start
+  // normal leaves the least residual (the fit moves it on).
+  double width = kSheenWidths[0];
+  Params p;
+  double cost = std::numeric_limits<double>::infinity();
+  for (double a : kSheenWidths) {
+    Params trial;
+    trial.normal = start.normal;
+    const double trial_cost = project(&trial, a);
+    if (trial_cost < cost) cost = trial_cost, p = trial, width = a;
+  }
+  if (!std::isfinite(cost) || !(p.rho_s > 0)) return start;
+  refine(p, width, cost);
+
+  if (!(p.rho_s > 0) || !(p.rho_d >= limits.min_albedo) || !(p.normal.z() > 0) || !p.normal.allFinite()) return start;
+
+  // Model selection: the Lambertian least squares on the same samples (those
+  // lit at the sheen's normal) against the sheen, by BIC (amplitude and width).
+  thread_local std::vector<double> weights;
+  weights.assign(m, 0.0);
+  int count = 0;
+  for (int k = 0; k < m; ++k) {
+    weights[k] = usable[k] > 0 && p.normal.dot(light(k)) > 0 ? 1.0 : 0.0;
+    count += weights[k] > 0;
+  }
+  if (count < kSheenMinSamples) return start;
+  Matrix34d lambert_scaled;
+  double condition = 0;
+  int used = 0;
+  if (!SolveWeighted(samples, weights, 1, limits, &lambert_scaled, &condition, &used)) return start;
+  double lambert_rss = 0, sheen_rss = 0;
+  for (int k = 0; k < m; ++k) {
+    if (!(weights[k] > 0)) continue;
+    const Eigen::Vector3d lk = light(k);
+    const double r0 = lk.dot(lambert_scaled.col(0)) - v[4 * k];
+    const double r1 = p.rho_d * p.normal.dot(lk) + p.rho_s * EvaluateSheen(p.normal, lk, halves[k], view, width, false).s -
+                      v[4 * k];
+    lambert_rss += r0 * r0, sheen_rss += r1 * r1;
+  }
+  const double floor_rss = count * std::pow(kSheenResidualFloor * p.rho_d, 2);
+  const bool sheen_pays =
+      count * std::log(std::max(lambert_rss, floor_rss) / std::max(sheen_rss, floor_rss)) > 2 * std::log(double(count));
+  if (!sheen_pays) return start;
+
+  PixelFit fit = start;
+  fit.normal = p.normal;
+  fit.luminance_albedo = p.rho_d;
+  fit.sheen_f0 = p.rho_s;
+  fit.sheen_width = width;
+  fit.lights_used = count;
+  fit.condition_number = ClampForStorage(condition);
+  fit.residual = std::sqrt(sheen_rss / count) / p.rho_d;
+  if (with_albedo) {
+    // Per channel: rho_d,c and that channel's sheen amplitude, n and the shape fixed.
+    double aa = 0, ac = 0, cc = 0, ab[3] = {0, 0, 0}, cb[3] = {0, 0, 0};
+    for (int k = 0; k < m; ++k) {
+      if (!(weights[k] > 0)) continue;
+      const Eigen::Vector3d lk = light(k);
+      const double nl = p.normal.dot(lk);
+      const double s = EvaluateSheen(p.normal, lk, halves[k], view, width, false).s;
+      aa += nl * nl, ac += nl * s, cc += s * s;
+      for (int c = 0; c < 3; ++c) ab[c] += nl * v[4 * k + 1 + c], cb[c] += s * v[4 * k + 1 + c];
+    }
+    for (int c = 0; c < 3; ++c) {
+      double diffuse = 0, sheen = 0;
+      fit.albedo[c] = SolveAmplitudes(aa, ac, cc, ab[c], cb[c], &diffuse, &sheen) ? std::max(0.0, diffuse) : 0.0;
+    }
+  }
+  return fit;
+}
+
 }  // namespace scanbench

@@ -52,6 +52,10 @@ struct PixelFit {
   SpecularStatus specular_status = SpecularStatus::kUnsupported;
   double specular_f0 = 0;
   double roughness_alpha = 0;
+  // Velvet sheen (FitDiffuseSheen; 0 elsewhere and where BIC keeps the
+  // Lambertian fit): white F0 >= 0 and the velvet width a.
+  double sheen_f0 = 0;
+  double sheen_width = 0;
 };
 
 enum class DenseMethod {
@@ -108,5 +112,39 @@ PixelFit FitSparseBayesian(const PixelSamples& samples, bool with_albedo, const 
 // n and the lobe shape fixed.
 PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view, bool with_albedo,
                         const PixelFitLimits& limits, const RobustFitOptions& options);
+
+// The velvet sheen's shape term (so that the sheen reading is F0 times it):
+// the seed's cloth sheen, Ashikhmin and Premoze's inverted-Gaussian velvet
+// distribution D(h) = (1 + 4 exp(-cot^2 th_h / a^2) / sin^4 th_h) / (pi (1 + 4 a^2))
+// with the smooth denominator 4 (n.l + n.v - (n.l)(n.v)) and no shadowing:
+//   S = pi D (n . l) / (4 (n.l + n.v - (n.l)(n.v))).
+// h = normalize(l + v); n . v floored at 0.1 as FitDiffuseLobe's; 0 when
+// n . l <= 0. Never NaN for unit inputs and width > 0.
+double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& half,
+                        const Eigen::Vector3d& view, double width);
+
+// Diffuse plus a white velvet sheen, per pixel:
+//   b_k = rho_d (n . l_k) + rho_s S(n, l_k, v; a)       (S: VelvetSheenShape)
+// i.e. the seed's cloth BRDF with a constant Fresnel factor (rho_s = F0).
+// The width a is taken from a small fixed set (the one whose linear fit at
+// the start normal leaves the least residual), then n, rho_d and rho_s >= 0
+// by Gauss-Newton with analytic derivatives from `start` (a solved Lambertian
+// fit of the same samples, e.g. least squares); samples with n . l <= 0 are
+// out. The sheen is kept only when BIC prefers it to the Lambertian fit of the
+// same samples (two more parameters, amplitude and width; residuals floored
+// at 1e-3 x rho_d, the quantisation level), else `start` is returned. A
+// velvet sheen is smooth and weak (a few per cent of the diffuse reading at
+// the rig's angles), so unlike FitDiffuseLobe no sample is down-weighted.
+// Colour albedo: rho_d per channel with n and the sheen shape fixed.
+// The cheap test that decides whether FitDiffuseSheen is worth running: does
+// the least-squares fit's residual (solved `least_squares` of the same
+// samples, all of them used) carry the velvet sheen's pattern? The residual's
+// projection on the sheen shape (width 1, at the least-squares normal), taken
+// outside the Lambertian model's span, must be positive light and pay one
+// parameter's BIC penalty (residuals floored as FitDiffuseSheen's). O(samples).
+bool SheenPatternInResidual(const PixelSamples& samples, const Eigen::Vector3d& view, const PixelFit& least_squares);
+
+PixelFit FitDiffuseSheen(const PixelSamples& samples, const Eigen::Vector3d& view, bool with_albedo,
+                         const PixelFitLimits& limits, const PixelFit& start);
 
 }  // namespace scanbench

@@ -94,7 +94,8 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"robust_dark_fraction", solver.robust_dark_fraction},
           {"adaptive_robust_residual", solver.adaptive_robust_residual},
           {"adaptive_lobe", solver.adaptive_lobe},
-          {"adaptive_coherent_lobe", solver.adaptive_coherent_lobe}};
+          {"adaptive_coherent_lobe", solver.adaptive_coherent_lobe},
+          {"adaptive_sheen", solver.adaptive_sheen}};
 }
 
 nlohmann::json DepthOptionsJson(const DepthRefinementOptions& depth) {

@@ -243,5 +243,149 @@ TEST(DiffuseLobeTest, TooFewOrDegenerateSamplesAreFlaggedNeverNaN) {
   EXPECT_TRUE(black.normal.allFinite());
 }
 
+// A cloth pixel after the seed's cloth BRDF: diffuse plus a white velvet
+// sheen, F0 constant, view +z, under the rig's two LED rings (30 and 60 deg).
+struct SheenPixel {
+  Eigen::Vector3d normal = Eigen::Vector3d(0.3, -0.2, 1).normalized();
+  Eigen::Vector3d albedo = {0.08, 0.10, 0.30};  // indigo-like diffuse, RGB
+  double f0 = 0.05, width = 0.9;
+};
+
+// The velvet reading per unit irradiance, written out from the seed's
+// equations (not the solver's code): pi F D (n.l) / (4 (n.l + n.v - n.l n.v)),
+// D = (1 + 4 exp(-cot^2 th_h / a^2) / sin^4 th_h) / (pi (1 + 4 a^2)).
+double SeedVelvetReading(const Eigen::Vector3d& n, const Eigen::Vector3d& l, const Eigen::Vector3d& v, double f0,
+                         double a) {
+  const double nl = n.dot(l), nv = n.dot(v);
+  if (!(nl > 0) || !(nv > 0)) return 0;
+  const double cos_h = n.dot((l + v).normalized());
+  const double th = std::acos(std::clamp(cos_h, -1.0, 1.0));
+  const double d = th < 1e-9 ? 1 / (M_PI * (1 + 4 * a * a))
+                             : (1 + 4 * std::exp(-std::pow(1 / std::tan(th), 2) / (a * a)) / std::pow(std::sin(th), 4)) /
+                                   (M_PI * (1 + 4 * a * a));
+  return M_PI * f0 * d * nl / (4 * (nl + nv - nl * nv));
+}
+
+PixelSamples MakeSheenSamples(const SheenPixel& pixel, double noise = 0, uint64_t seed = 1) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gaussian(0, noise > 0 ? noise : 1);
+  const Eigen::Vector3d view = Eigen::Vector3d::UnitZ();
+  PixelSamples samples;
+  for (const Eigen::Vector3d& dir : RingLightDirections(10, 30, 60)) {
+    const double nl = pixel.normal.dot(dir);
+    if (!(nl > 0)) continue;
+    const double sheen = SeedVelvetReading(pixel.normal, dir, view, pixel.f0, pixel.width);
+    double rgb[3];
+    for (int ch = 0; ch < 3; ++ch) rgb[ch] = pixel.albedo[ch] * nl + sheen + (noise > 0 ? gaussian(rng) : 0.0);
+    samples.Add(dir.x(), dir.y(), dir.z(), Luminance(Eigen::Vector3d(rgb[0], rgb[1], rgb[2])), rgb[0], rgb[1], rgb[2]);
+  }
+  return samples;
+}
+
+TEST(DiffuseSheenTest, ShapeIsTheSeedsVelvetDistribution) {
+  const Eigen::Vector3d view = Eigen::Vector3d::UnitZ();
+  for (const Eigen::Vector3d& n : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0.3, -0.2, 1).normalized(),
+                                   Eigen::Vector3d(-0.6, 0.1, 0.5).normalized()}) {
+    for (const Eigen::Vector3d& l : RingLightDirections(10, 30, 60)) {
+      for (double a : {0.4, 0.9, 1.5}) {
+        const double s = VelvetSheenShape(n, l, (l + view).normalized(), view, a);
+        EXPECT_NEAR(s, SeedVelvetReading(n, l, view, 1.0, a), 1e-12 + 1e-9 * s);
+      }
+    }
+  }
+  // The half vector on the normal (th_h = 0): the distribution's offset alone, not NaN.
+  const double at_normal = VelvetSheenShape(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ(),
+                                            Eigen::Vector3d::UnitZ(), view, 0.9);
+  EXPECT_NEAR(at_normal, 1 / (4 * (1 + 4 * 0.81)), 1e-12);
+  EXPECT_EQ(VelvetSheenShape(Eigen::Vector3d::UnitZ(), -Eigen::Vector3d::UnitZ(), view, view, 0.9), 0);  // unlit
+  EXPECT_EQ(VelvetSheenShape(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), view, view, 0), 0);  // no width
+}
+
+TEST(DiffuseSheenTest, RecoversNormalAlbedoAndSheenWithoutNoise) {
+  const SheenPixel truth;
+  const PixelSamples samples = MakeSheenSamples(truth);
+  const PixelFit lsq = FitLeastSquares(DenseMethod::kNormalEquations, samples, true, {});
+  ASSERT_EQ(lsq.status, PixelStatus::kSolved);
+  const double lsq_error = AngleDegrees(lsq.normal, truth.normal);
+  EXPECT_GT(lsq_error, 0.5);  // the sheen biases least squares: the test is not trivial
+  EXPECT_TRUE(SheenPatternInResidual(samples, Eigen::Vector3d::UnitZ(), lsq));
+  const PixelFit fit = FitDiffuseSheen(samples, Eigen::Vector3d::UnitZ(), true, {}, lsq);
+  ASSERT_EQ(fit.status, PixelStatus::kSolved);
+  EXPECT_LT(AngleDegrees(fit.normal, truth.normal), 0.02) << "least squares " << lsq_error;
+  EXPECT_NEAR(fit.sheen_f0, 0.9999 * truth.f0, 0.02 * truth.f0);  // white: the luminance weights sum to 0.9999
+  EXPECT_NEAR(fit.sheen_width, truth.width, 0.05 * truth.width);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(fit.albedo[c], truth.albedo[c], 1e-3) << "channel " << c;
+  EXPECT_LT(fit.residual, 1e-3);
+  EXPECT_EQ(fit.specular_status, SpecularStatus::kUnsupported);  // the GGX maps are not the sheen's
+}
+
+TEST(DiffuseSheenTest, ReducesTheErrorWithNoise) {
+  const SheenPixel truth;
+  double lsq_sum = 0, sheen_sum = 0;
+  int kept = 0;
+  for (uint64_t seed = 1; seed <= 40; ++seed) {
+    const PixelSamples samples = MakeSheenSamples(truth, 0.0005, seed);  // ~0.5 % of the reading
+    const PixelFit lsq = FitLeastSquares(DenseMethod::kNormalEquations, samples, true, {});
+    ASSERT_EQ(lsq.status, PixelStatus::kSolved);
+    const PixelFit fit = FitDiffuseSheen(samples, Eigen::Vector3d::UnitZ(), true, {}, lsq);
+    ASSERT_EQ(fit.status, PixelStatus::kSolved);
+    ASSERT_TRUE(fit.normal.allFinite());
+    kept += fit.sheen_f0 > 0;
+    lsq_sum += AngleDegrees(lsq.normal, truth.normal);
+    sheen_sum += AngleDegrees(fit.normal, truth.normal);
+  }
+  EXPECT_GE(kept, 30);
+  EXPECT_LT(sheen_sum, 0.6 * lsq_sum) << "mean " << sheen_sum / 40 << " against least squares " << lsq_sum / 40;
+}
+
+TEST(DiffuseSheenTest, LambertianPixelKeepsTheLeastSquaresFit) {
+  SheenPixel truth;
+  truth.f0 = 0;
+  const PixelSamples samples = MakeSheenSamples(truth);
+  const PixelFit lsq = FitLeastSquares(DenseMethod::kNormalEquations, samples, true, {});
+  EXPECT_FALSE(SheenPatternInResidual(samples, Eigen::Vector3d::UnitZ(), lsq));
+  const PixelFit fit = FitDiffuseSheen(samples, Eigen::Vector3d::UnitZ(), true, {}, lsq);
+  EXPECT_EQ(fit.sheen_f0, 0);
+  EXPECT_EQ(fit.sheen_width, 0);
+  EXPECT_EQ(fit.normal, lsq.normal);
+  EXPECT_EQ(fit.albedo, lsq.albedo);
+  // A darker ring reading (negative "sheen") is not a sheen either.
+  PixelSamples dimmed;
+  for (int k = 0; k < samples.count(); ++k) {
+    const auto l = samples.lights().row(k);
+    const double f = l.z() < 0.7 ? 0.9 : 1.0;  // the 30 deg ring 10 % darker
+    dimmed.Add(l.x(), l.y(), l.z(), f * samples.values()(k, 0), f * samples.values()(k, 1), f * samples.values()(k, 2),
+               f * samples.values()(k, 3));
+  }
+  const PixelFit dimmed_lsq = FitLeastSquares(DenseMethod::kNormalEquations, dimmed, true, {});
+  EXPECT_FALSE(SheenPatternInResidual(dimmed, Eigen::Vector3d::UnitZ(), dimmed_lsq));
+}
+
+TEST(DiffuseSheenTest, TooFewOrDegenerateSamplesNeverNaN) {
+  const SheenPixel truth;
+  const PixelSamples samples = MakeSheenSamples(truth);
+  const PixelFit lsq = FitLeastSquares(DenseMethod::kNormalEquations, samples, true, {});
+  // An unsolved start is returned as it is.
+  PixelFit unsolved;
+  unsolved.status = PixelStatus::kIllConditioned;
+  EXPECT_EQ(FitDiffuseSheen(samples, Eigen::Vector3d::UnitZ(), true, {}, unsolved).status,
+            PixelStatus::kIllConditioned);
+  EXPECT_FALSE(SheenPatternInResidual(samples, Eigen::Vector3d::UnitZ(), unsolved));
+  // Five samples: too few for the sheen.
+  PixelSamples five;
+  for (int k = 0; k < 5; ++k) {
+    const auto l = samples.lights().row(k);
+    const auto b = samples.values().row(k);
+    five.Add(l.x(), l.y(), l.z(), b(0), b(1), b(2), b(3));
+  }
+  const PixelFit five_lsq = FitLeastSquares(DenseMethod::kNormalEquations, five, true, {});
+  EXPECT_EQ(FitDiffuseSheen(five, Eigen::Vector3d::UnitZ(), true, {}, five_lsq).sheen_f0, 0);
+  // A NaN view direction falls back to the orthographic one.
+  const Eigen::Vector3d nan_view = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const PixelFit fit = FitDiffuseSheen(samples, nan_view, true, {}, lsq);
+  EXPECT_TRUE(fit.normal.allFinite());
+  EXPECT_LT(AngleDegrees(fit.normal, truth.normal), 0.02);
+}
+
 }  // namespace
 }  // namespace scanbench

@@ -118,6 +118,23 @@ TEST(ScanbenchCliTest, SolveWritesASpecularMapUnlessTheLobeIsTurnedOff) {
   EXPECT_THAT(ReadText(plain / "report.json"), HasSubstr("\"adaptive_lobe\": false"));
 }
 
+TEST(ScanbenchCliTest, SolveSheenFlagTurnsTheVelvetSheenPassOn) {
+  testing::TemporaryFolder folder;
+  // A small cloth session solved twice, without and with the flag.
+  const fs::path session_dir = folder / "cloth";
+  for (const std::string& command : {"simulate " + Quoted(session_dir) + " --width 320 --height 212 --material cloth",
+                                     "solve " + Quoted(session_dir) + " --label plain",
+                                     "solve " + Quoted(session_dir) + " --sheen --label sheen"}) {
+    const CommandResult result = RunScanbench(command);
+    ASSERT_EQ(result.exit_code, 0) << command << ": " << result.output;
+  }
+  for (const auto& entry : fs::directory_iterator(session_dir / "results")) {
+    const bool with_sheen = entry.path().filename().string().find("sheen") != std::string::npos;
+    EXPECT_THAT(ReadText(entry.path() / "report.json"),
+                HasSubstr(with_sheen ? "\"adaptive_sheen\": true" : "\"adaptive_sheen\": false"));
+  }
+}
+
 TEST(ScanbenchCliTest, FailuresExitNonZeroNamingTheProblem) {
   testing::TemporaryFolder folder;
   const CommandResult not_a_session = RunScanbench("solve " + Quoted(folder.path()));
