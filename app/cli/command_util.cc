@@ -74,6 +74,9 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
       ->check(CLI::IsMember({"edge_aware", "bilinear"}));
   command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
                    "Skip re-hashing the frames against session.json");
+  command.add_flag("--float32-maps", options.float32_maps,
+                   "Store the EXR maps as 32-bit float (zip) instead of half float (11-bit mantissa, about 3x "
+                   "smaller); the PNGs are the same");
   command.add_option("--calibration", options.calibration_dir,
                      "Calibration set (scanbench calibrate ...) to take the lights and camera from")
       ->check(CLI::ExistingDirectory);

@@ -4,6 +4,7 @@
 #include <optional>
 #include <thread>
 
+#include "app/io/file_util.h"
 #include "app/io/raw_decoder.h"
 #include "app/session/session.h"
 #include "core/field_error.h"
@@ -311,6 +312,9 @@ void CaptureController::Run() {
   const auto start = std::chrono::steady_clock::now();
   summary_ = CaptureSummary();
   summary_.session_dir = session_dir_;
+  // Refused up front, not at the first colliding frame, while another capture
+  // (or simulate) holds the session; the kernel drops the lock if we crash.
+  const FolderLock session_lock(session_dir_);
   CheckLedChannels(rig_, *lights_);
   const CameraDeviceInfo info = camera_->Info();
   std::optional<Session> session = LoadInterruptedSession(session_dir_, *camera_, info, rig_, options_.simulation);

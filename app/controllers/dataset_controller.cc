@@ -217,7 +217,8 @@ void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const Da
   StagingGuard guard{staging};
   std::map<std::string, std::string> outputs = WriteSolutionMaps(staging, result.solution);
   if (!result.error_map_deg.empty()) {
-    WriteExr(staging / "angular_error_deg.exr", result.error_map_deg, OverwritePolicy::kRefuse, {"Y"});
+    WriteExr(staging / "angular_error_deg.exr", result.error_map_deg, OverwritePolicy::kRefuse, {"Y"}, {},
+             ResultMapExrEncoding());  // half, as the maps
     outputs["angular_error_deg"] = "angular_error_deg.exr";
   }
   summary_.output_dir = out;
@@ -228,7 +229,7 @@ void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const Da
   WriteFileAtomic(staging / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
   WriteFileAtomic(staging / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
   ThrowIfStopRequested("write maps");
-  fs::rename(staging, out);
+  RenameDurably(staging, out);
   guard.committed = true;
   ReportProgress("write maps", 1);
 }

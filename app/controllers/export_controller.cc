@@ -363,7 +363,7 @@ class StagedExportFolder {
   const fs::path& final_dir() const { return final_dir_; }
   const fs::path& staging() const { return staging_dir_; }
   void Commit() {
-    fs::rename(staging_dir_, final_dir_);  // replaces the empty reservation
+    RenameDurably(staging_dir_, final_dir_);  // replaces the empty reservation
     committed_ = true;
   }
 

@@ -54,6 +54,9 @@ ImageMetadata AlbedoMetadata(const AlbedoColor& albedo_color, const std::string&
 
 namespace {
 
+// Measured at 16 MP (docs/session-format.md, "Result map encoding").
+constexpr ExrCompression kResultMapHalfCompression = ExrCompression::kZips;
+
 void CheckSpecularShape(const PhotometricSolution& solution) {
   const ImageU8& status = solution.status;
   if (!solution.specular.SameSize(status) || solution.specular.channels() != 2) {
@@ -143,9 +146,22 @@ std::string SpecularMapStatistics::BriefReport() const {
          Fixed(mean_roughness_alpha, 3) + " (specular.exr; status.png 7 = unsupported)";
 }
 
+ExrEncoding ResultMapExrEncoding(bool float32_maps) {
+  if (float32_maps) return {ExrSampleType::kFloat32, ExrCompression::kZip};
+  return {ExrSampleType::kHalf, kResultMapHalfCompression};
+}
+
+std::map<std::string, uintmax_t> FileSizesIn(const std::filesystem::path& folder) {
+  std::map<std::string, uintmax_t> sizes;
+  for (const std::filesystem::directory_entry& entry : std::filesystem::directory_iterator(folder)) {
+    if (entry.is_regular_file()) sizes[entry.path().filename().string()] = entry.file_size();
+  }
+  return sizes;
+}
+
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
                                                      const PhotometricSolution& solution,
-                                                     const AlbedoColor& albedo_color) {
+                                                     const AlbedoColor& albedo_color, const ExrEncoding& exr) {
   const auto policy = OverwritePolicy::kRefuse;
   ImageU8 solved(solution.status.width(), solution.status.height(), 1);
   for (size_t i = 0; i < solved.size(); ++i) {
@@ -168,12 +184,12 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
     std::function<void(const std::filesystem::path&)> write;
   };
   std::vector<MapFile> files = {
-      {"normal_exr", "normal.exr", [&](const auto& path) { WriteExr(path, solution.normal_in_table, policy); }},
+      {"normal_exr", "normal.exr", [&](const auto& path) { WriteExr(path, solution.normal_in_table, policy, {}, {}, exr); }},
       {"normal_png16_opengl", "normal.png",
        [&](const auto& path) { WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy); }},
       {"albedo_exr", "albedo.exr",
        [&](const auto& path) {
-         WriteExr(path, solution.albedo, policy, {}, AlbedoMetadata(albedo_color, "Linear"));
+         WriteExr(path, solution.albedo, policy, {}, AlbedoMetadata(albedo_color, "Linear"), exr);
        }},
       {"albedo_srgb_preview", "albedo_srgb.png",
        [&](const auto& path) {
@@ -183,7 +199,7 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
       {"solved_mask", "solved_mask.png", [&](const auto& path) { WritePng(path, solved, policy); }},
       {"confidence", "confidence.exr",
        [&](const auto& path) {
-         WriteExr(path, confidence, policy, {"lights_used", "condition_number", "residual"});
+         WriteExr(path, confidence, policy, {"lights_used", "condition_number", "residual"}, {}, exr);
        }},
   };
   if (!solution.specular.empty()) {
@@ -192,7 +208,7 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
                        metadata.description =
                            "specular lobe: specular_f0 (white reflectance at normal incidence, [0, 1]) and "
                            "roughness_alpha (GGX alpha, (0, 1]); both 0 where not estimated";
-                       WriteExr(path, SpecularForFile(solution), policy, {"specular_f0", "roughness_alpha"}, metadata);
+                       WriteExr(path, SpecularForFile(solution), policy, {"specular_f0", "roughness_alpha"}, metadata, exr);
                      }});
   }
   std::vector<std::future<void>> pending;

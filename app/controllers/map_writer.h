@@ -47,16 +47,29 @@ struct SpecularMapStatistics {
 // solution's size (2 and 1 channels).
 std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSolution& solution);
 
+// The result maps' EXR encoding. By default half float (11-bit mantissa: a
+// unit normal's direction moves by at most 0.024 deg, albedo and confidence
+// values by at most 2^-11 relative) with the lossless compression that measured smallest and
+// quickest at 16 MP (docs/session-format.md, "Result map encoding");
+// `float32_maps` gives 32-bit float with zip, the files before issue #14.
+ExrEncoding ResultMapExrEncoding(bool float32_maps = false);
+
 // Writes normal.exr, normal.png, albedo.exr, albedo_srgb.png, status.png,
 // solved_mask.png and confidence.exr into `folder` (never overwriting), and
 // specular.exr (channels specular_f0, roughness_alpha; both 0 where the lobe
-// is not estimated) when the solution has a specular map.
+// is not estimated) when the solution has a specular map. The EXRs are
+// stored as `exr` says; the PNGs are always 16-bit (normal) and 8-bit.
 // albedo.exr and albedo_srgb.png name their colour space (`albedo_color`):
 // linear Rec.709 carries the OpenEXR chromaticities of Rec.709 / D65.
 // Returns output kind -> file name.
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
                                                      const PhotometricSolution& solution,
-                                                     const AlbedoColor& albedo_color = {});
+                                                     const AlbedoColor& albedo_color = {},
+                                                     const ExrEncoding& exr = ResultMapExrEncoding());
+
+// Bytes of each regular file directly in `folder` (name -> bytes), for the
+// reports' account of what a result costs on disk.
+std::map<std::string, uintmax_t> FileSizesIn(const std::filesystem::path& folder);
 
 // The metadata of an albedo file in `albedo_color`'s space; `color_space` as
 // ImageMetadata::color_space ("Linear" or "sRGB").

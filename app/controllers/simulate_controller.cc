@@ -145,6 +145,7 @@ void SimulateController::Run() {
   const auto start = std::chrono::steady_clock::now();
   summary_ = SimulateSummary();
   summary_.session_dir = session_dir_;
+  const FolderLock session_lock(session_dir_);  // as capture: one writer per session
   const std::optional<Session> existing = LoadInterruptedSession(session_dir_);
 
   BeginStage("prepare scene");

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,9 @@ struct SolveOptions {
   RawDevelopOptions develop;
   std::string run_label;                 // part of the result folder name: [A-Za-z0-9._-]*; "" = the method name
   bool verify_checksums = true;          // re-hash every frame against session.json
+  // 32-bit float EXR maps (zip) instead of half float (ResultMapExrEncoding);
+  // the PNGs are the same either way.
+  bool float32_maps = false;
   // --- calibration (issue #4) ---
   // A calibration set (app/session/calibration_set.h): lights, white balance
   // and camera rays from it instead of the session's rig description. Empty =
@@ -60,6 +64,11 @@ struct SolveSummary {
   size_t unsolved_on_sample = 0;
   std::optional<SpecularMapStatistics> specular;  // when the method made a specular map (specular.exr)
   DepthRefinementSummary depth;                 // issue #15: the depth-aware re-solves
+  // Bytes of each map file written (file name -> bytes; report.json and
+  // summary.txt themselves not counted), and how the EXRs were stored.
+  std::map<std::string, uintmax_t> bytes_written;
+  std::string exr_encoding;                     // e.g. "half, piz"
+  uintmax_t TotalBytesWritten() const;
 
   double TotalSeconds() const;
   std::string FullReport() const;               // the human-readable summary.txt
@@ -70,7 +79,9 @@ struct SolveSummary {
 // camera parts of session.json, the calibration set's identity (SHA-256 of its
 // calibration.json, which lists its field files' checksums), the options that
 // change the result (method and every threshold, develop options; not the
-// thread count, run label, checksum verification or calibration age limit),
+// thread count, run label, checksum verification or calibration age limit;
+// float32_maps adds "exr_maps": "float32", absent for the default half maps,
+// so that fingerprints of earlier results stay valid),
 // and the software version. Reads <calibration_dir>/calibration.json when a
 // set is used; no frame is read (the recorded checksums stand for them).
 std::string SolveInputsCanonicalText(const Session& session, const SolveOptions& options);

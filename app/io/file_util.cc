@@ -1,9 +1,12 @@
 #include "app/io/file_util.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <random>
@@ -20,14 +23,48 @@ std::runtime_error PathError(const fs::path& path, const std::string& problem) {
   return std::runtime_error(path.string() + ": " + problem);
 }
 
-void FsyncPath(const fs::path& path, int flags) {
-  const int fd = ::open(path.c_str(), flags);
-  if (fd < 0) return;  // best effort: some file systems refuse to open folders
-  ::fsync(fd);
+std::atomic<uint64_t> directory_fsyncs{0};
+
+// The file's bytes on disk before its name points at them.
+void FsyncFile(const fs::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw PathError(path, std::string("cannot be opened to fsync: ") + std::strerror(errno));
+  const int result = ::fsync(fd);
+  const int err = errno;
   ::close(fd);
+  if (result != 0) throw PathError(path, std::string("fsync failed: ") + std::strerror(err));
 }
 
+fs::path FolderOf(const fs::path& path) { return path.has_parent_path() ? path.parent_path() : fs::path("."); }
+
 }  // namespace
+
+void FsyncDirectory(const fs::path& folder) {
+  const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) {
+    throw PathError(folder, std::string("folder cannot be opened to fsync it: ") + std::strerror(errno));
+  }
+  const int result = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  // EINVAL: the file system cannot fsync folders (nothing more can be done).
+  if (result != 0 && err != EINVAL) {
+    throw PathError(folder, std::string("fsync of the folder failed: ") + std::strerror(err));
+  }
+  directory_fsyncs.fetch_add(1, std::memory_order_relaxed);
+}
+
+uint64_t DirectoryFsyncCount() { return directory_fsyncs.load(std::memory_order_relaxed); }
+
+void RenameDurably(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::rename(from, to, ec);
+  if (ec) throw PathError(to, "cannot be renamed from " + from.string() + ": " + ec.message());
+  const fs::path to_folder = FolderOf(to), from_folder = FolderOf(from);
+  FsyncDirectory(to_folder);
+  std::error_code ignored;
+  if (!fs::equivalent(from_folder, to_folder, ignored)) FsyncDirectory(from_folder);
+}
 
 fs::path TemporarySiblingPath(const fs::path& path) {
   static thread_local std::mt19937_64 rng{std::random_device{}()};
@@ -43,7 +80,13 @@ fs::path TemporarySiblingPath(const fs::path& path) {
 }
 
 void CommitTemporaryFile(const fs::path& temporary, const fs::path& path, OverwritePolicy policy) {
-  FsyncPath(temporary, O_RDONLY);
+  try {
+    FsyncFile(temporary);
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+    throw;
+  }
   if (policy == OverwritePolicy::kRefuse) {
     // link() fails if the target exists, so an existing file is never replaced
     // even when two writers race.
@@ -64,7 +107,7 @@ void CommitTemporaryFile(const fs::path& temporary, const fs::path& path, Overwr
       throw PathError(path, "cannot be replaced: " + ec.message());
     }
   }
-  FsyncPath(path.has_parent_path() ? path.parent_path() : fs::path("."), O_RDONLY | O_DIRECTORY);
+  FsyncDirectory(FolderOf(path));
 }
 
 void WriteFileAtomic(const fs::path& path, std::span<const uint8_t> bytes, OverwritePolicy policy) {
@@ -90,6 +133,37 @@ void WriteFileAtomic(const fs::path& path, std::span<const uint8_t> bytes, Overw
 void WriteFileAtomic(const fs::path& path, std::string_view text, OverwritePolicy policy) {
   WriteFileAtomic(path, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text.data()), text.size()),
                   policy);
+}
+
+FolderLock::FolderLock(const fs::path& folder) : folder_(folder) {
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec) throw PathError(folder, "folder cannot be created to lock it: " + ec.message());
+  const fs::path lock_file = folder / kFolderLockFileName;
+  fd_ = ::open(lock_file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw PathError(lock_file, std::string("cannot be opened: ") + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    long holder = 0;
+    char text[32] = {};
+    if (err == EWOULDBLOCK && ::pread(fd_, text, sizeof(text) - 1, 0) > 0) holder = std::strtol(text, nullptr, 10);
+    ::close(fd_);
+    fd_ = -1;
+    if (err != EWOULDBLOCK) throw PathError(lock_file, std::string("cannot be locked: ") + std::strerror(err));
+    throw FolderBusyError(folder.string() + ": in use by another process" +
+                              (holder > 0 ? " (pid " + std::to_string(holder) + ")" : std::string()) +
+                              " that holds " + lock_file.string() + "; wait for it to finish or stop it",
+                          holder);
+  }
+  // Best effort: the pid only improves the message of a refused second holder.
+  const std::string pid = std::to_string(static_cast<long>(::getpid())) + "\n";
+  if (::ftruncate(fd_, 0) == 0) {
+    [[maybe_unused]] const ssize_t written = ::pwrite(fd_, pid.data(), pid.size(), 0);
+  }
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the descriptor releases the flock
 }
 
 std::vector<uint8_t> ReadFileBytes(const fs::path& path) {

@@ -54,12 +54,32 @@ struct ImageMetadata {
   std::map<std::string, std::string> attributes;
 };
 
-// 32-bit float OpenEXR, zip compression. `channel_names` must be empty or
-// have one name per channel; the default is Y / Y,A / R,G,B / R,G,B,A (and
-// OpenImageIO's names for more channels). OpenEXR stores channels sorted by
-// name; they read back in the order OpenImageIO reports (R,G,B,A first).
+// How an OpenEXR file stores its samples.
+enum class ExrSampleType {
+  kFloat32,  // 24-bit mantissa: values exactly as in memory
+  // 16-bit half float: 11-bit mantissa (relative step 2^-11 = 4.9e-4 at the
+  // top of each octave), largest finite 65504. Values beyond +-65504 are
+  // clamped to it, so that no infinity reaches the file.
+  kHalf,
+};
+// The lossless OpenEXR compressions (b44 and dwaa/dwab are lossy and not
+// offered; pxr24 is lossless on half only, lossy on float32).
+enum class ExrCompression { kNone, kRle, kZips, kZip, kPiz, kPxr24 };
+const char* ExrCompressionName(ExrCompression compression);  // OpenEXR's name: "zip", "piz", ...
+struct ExrEncoding {
+  ExrSampleType sample_type = ExrSampleType::kFloat32;
+  ExrCompression compression = ExrCompression::kZip;
+};
+
+// OpenEXR, by default 32-bit float with zip compression (`encoding`).
+// `channel_names` must be empty or have one name per channel; the default is
+// Y / Y,A / R,G,B / R,G,B,A (and OpenImageIO's names for more channels).
+// OpenEXR stores channels sorted by name; they read back in the order
+// OpenImageIO reports (R,G,B,A first). Throws std::invalid_argument for
+// pxr24 with float32 samples (lossy there).
 void WriteExr(const std::filesystem::path& path, const ImageF& image, OverwritePolicy policy,
-              const std::vector<std::string>& channel_names = {}, const ImageMetadata& metadata = {});
+              const std::vector<std::string>& channel_names = {}, const ImageMetadata& metadata = {},
+              const ExrEncoding& encoding = {});
 
 // PNG, 1 to 4 channels (gray, gray+alpha, RGB, RGBA), 16 or 8 bits.
 void WritePng(const std::filesystem::path& path, const ImageU16& image, OverwritePolicy policy,

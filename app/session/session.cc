@@ -457,6 +457,11 @@ fs::path CreateSessionFolder(const fs::path& root) {
   RethrowAsSessionError([&] {
     fs::create_directories(root / kFramesFolder);
     fs::create_directories(root / kResultsFolder);
+    // The new folders' names on disk before a frame is reported written in them.
+    fs::path absolute = fs::absolute(root).lexically_normal();
+    if (!absolute.has_filename()) absolute = absolute.parent_path();  // "session/"
+    FsyncDirectory(absolute);
+    FsyncDirectory(absolute.parent_path());
   });
   return RethrowAsSessionError([&] { return fs::absolute(root).lexically_normal(); });
 }

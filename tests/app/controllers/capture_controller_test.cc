@@ -4,12 +4,14 @@
 #include "app/controllers/capture_controller.h"
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <csignal>
 
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <thread>
 
 #include <gmock/gmock.h>
@@ -18,6 +20,7 @@
 #include "app/devices/camera/simulated_camera.h"
 #include "app/devices/serial_light_controller.h"
 #include "app/devices/simulated_led_board.h"
+#include "app/io/file_util.h"
 #include "app/io/raw_decoder.h"
 #include "app/session/session.h"
 #include "calibration/raw_develop.h"
@@ -301,6 +304,46 @@ TEST_F(CaptureControllerTest, CancelLeavesAResumableSessionAndLedsOff) {
   EXPECT_THROW(capture.Run(), Cancelled);
   EXPECT_EQ(board_->lit_leds(), 0u);
   EXPECT_FALSE(LoadSession(session_dir()).capture_complete);
+  Controller(camera_.get(), Options()).Run();
+  ExpectEveryFrameShowsItsLed();
+}
+
+// A second capture into a session the first one is writing is refused before
+// it touches the camera or the LEDs, naming the folder and the holder; the
+// first carries on, and once it has finished (lock released) the folder is
+// free again.
+TEST_F(CaptureControllerTest, SecondCaptureIntoAHeldSessionIsRefusedUpFront) {
+  std::string refusal;
+  long holder_pid = -1;
+  FaultyCamera interrupting(camera_.get(), [&](int capture) {
+    if (capture != 3) return;
+    CaptureController second = Controller(camera_.get(), Options());
+    try {
+      second.Run();
+    } catch (const FolderBusyError& error) {
+      refusal = error.what();
+      holder_pid = error.holder_pid();
+    }
+  });
+  CaptureController first = Controller(&interrupting, Options());
+  first.Run();
+  EXPECT_THAT(refusal, AllOf(HasSubstr(session_dir().string() + ": in use by another process"),
+                             HasSubstr("(pid " + std::to_string(::getpid()) + ")")));
+  EXPECT_EQ(holder_pid, static_cast<long>(::getpid()));
+  EXPECT_EQ(first.summary().frames_captured, 11);
+  ExpectEveryFrameShowsItsLed();
+  FolderLock free_again(session_dir());
+}
+
+// Another process holds the session (a FolderLock here): refused before any
+// frame or session.json is written.
+TEST_F(CaptureControllerTest, CaptureIntoALockedFolderWritesNothing) {
+  std::optional<FolderLock> other(std::in_place, session_dir());
+  CaptureController refused = Controller(camera_.get(), Options());
+  EXPECT_THROW(refused.Run(), FolderBusyError);
+  EXPECT_FALSE(fs::exists(session_dir() / "session.json"));
+  EXPECT_EQ(board_->max_lit_at_once(), 0) << "no LED was switched";
+  other.reset();
   Controller(camera_.get(), Options()).Run();
   ExpectEveryFrameShowsItsLed();
 }

@@ -119,6 +119,21 @@ void InterruptSimulation(const fs::path& session_dir, const SimulateOptions& opt
   EXPECT_THROW(first.Run(), Cancelled);
 }
 
+// simulate, like capture, refuses a session another writer holds, before
+// rendering anything, and runs once it is free.
+TEST(ScanControllersTest, SimulateIntoAHeldSessionIsRefusedUpFront) {
+  TemporaryFolder folder;
+  const fs::path session_dir = folder / "session";
+  {
+    FolderLock other_writer(session_dir);
+    EXPECT_THAT([&] { SimulateController(session_dir, SmallSimulation()).Run(); },
+                ::testing::ThrowsMessage<FolderBusyError>(HasSubstr(session_dir.string() + ": in use by another")));
+    EXPECT_FALSE(fs::exists(session_dir / "session.json"));
+  }
+  SimulateController(session_dir, SmallSimulation()).Run();
+  EXPECT_TRUE(LoadSession(session_dir).capture_complete);
+}
+
 TEST(ScanControllersTest, ResumingWithAnotherCameraColorIsRefused) {
   TemporaryFolder folder;
   const fs::path session_dir = folder / "session";
@@ -174,9 +189,44 @@ TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
   const ImageF normals = ReadImageFloat(result / "normal.exr");
   EXPECT_EQ(normals.width(), 400);
   EXPECT_EQ(normals.channels(), 3);
-  // The 16-bit PNG encodes the same normals: (n + 1) / 2.
+  EXPECT_EQ(ReadImageFileInfo(result / "normal.exr").bits_per_sample, 16);  // half by default
+  // The 16-bit PNG encodes the same normals: (n + 1) / 2, from the float
+  // normals; the EXR's half holds them within 2^-12 (at 0.5 .. 1).
   const ImageU16 encoded = ReadImageU16(result / "normal.png");
-  EXPECT_NEAR(encoded(200, 132, 2) / 65535.0 * 2 - 1, normals(200, 132, 2), 1e-4);
+  EXPECT_NEAR(encoded(200, 132, 2) / 65535.0 * 2 - 1, normals(200, 132, 2), 1.0 / 4096 + 1e-5);
+
+  // The bytes of every file but the two reports, each and in total.
+  const nlohmann::json bytes = ReadJson(result / "report.json")["bytes_written"];
+  EXPECT_EQ(bytes["exr_encoding"], "half, zips");
+  uintmax_t total = 0;
+  for (const auto& entry : fs::directory_iterator(result)) {
+    const std::string name = entry.path().filename().string();
+    if (name == "report.json" || name == "summary.txt") continue;
+    EXPECT_EQ(bytes["files"][name].get<uintmax_t>(), entry.file_size()) << name;
+    total += entry.file_size();
+  }
+  EXPECT_EQ(bytes["files"].size(), 9u);  // 7 maps, specular.exr, angular_error_deg.exr
+  EXPECT_EQ(bytes["total"].get<uintmax_t>(), total);
+  EXPECT_EQ(solve.summary().TotalBytesWritten(), total);
+  std::ifstream summary_file(result / "summary.txt");
+  const std::string summary_text((std::istreambuf_iterator<char>(summary_file)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(summary_text, HasSubstr("bytes written (half, zips EXR): albedo.exr "));
+  EXPECT_THAT(summary_text, HasSubstr(" total " + std::to_string(total) + " ("));
+
+  // solve --float32-maps: the full-precision files, larger, the PNGs identical.
+  SolveOptions float32;
+  float32.float32_maps = true;
+  SolveController full(session_dir, float32);
+  full.Run();
+  const fs::path full_result = full.summary().result_dir;
+  EXPECT_EQ(ReadImageFileInfo(full_result / "normal.exr").bits_per_sample, 32);
+  EXPECT_EQ(ReadImageFileInfo(full_result / "confidence.exr").bits_per_sample, 32);
+  const ImageF full_normals = ReadImageFloat(full_result / "normal.exr");
+  EXPECT_NEAR(encoded(200, 132, 2) / 65535.0 * 2 - 1, full_normals(200, 132, 2), 1e-4);
+  EXPECT_EQ(Sha256HexOfFile(full_result / "normal.png"), Sha256HexOfFile(result / "normal.png"));
+  EXPECT_GT(full.summary().TotalBytesWritten(), total);
+  EXPECT_EQ(ReadJson(full_result / "report.json")["bytes_written"]["exr_encoding"], "float32, zip");
+  EXPECT_NE(full.summary().inputs_fingerprint, solve.summary().inputs_fingerprint);
 
   const nlohmann::json report = ReadJson(result / "report.json");
   EXPECT_EQ(report["solver"]["method"], "adaptive");

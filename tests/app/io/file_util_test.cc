@@ -1,7 +1,14 @@
 #include "app/io/file_util.h"
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <fstream>
+#include <optional>
 
 #include "tests/app/io/test_dng_util.h"
 
@@ -86,6 +93,129 @@ TEST(FileUtilTest, CommitTemporaryFileRefusalRemovesTemporary) {
   EXPECT_THROW(CommitTemporaryFile(temporary, dir / "a.txt", OverwritePolicy::kRefuse), std::runtime_error);
   EXPECT_EQ(ReadText(dir / "a.txt"), "kept");
   EXPECT_THAT(dir.List(), ElementsAre("a.txt"));
+}
+
+TEST(FileUtilTest, EveryWriteHelperFsyncsTheFolderOnce) {
+  TempDir dir;
+  uint64_t before = DirectoryFsyncCount();
+  WriteFileAtomic(dir / "frame.raw", std::string_view("frame"), OverwritePolicy::kRefuse);
+  EXPECT_EQ(DirectoryFsyncCount(), before + 1);
+
+  before = DirectoryFsyncCount();
+  WriteFileAtomic(dir / "session.json", std::string_view("{}"), OverwritePolicy::kReplace);
+  EXPECT_EQ(DirectoryFsyncCount(), before + 1);
+
+  const auto temporary = TemporarySiblingPath(dir / "image.exr");
+  { std::ofstream(temporary) << "pixels"; }
+  before = DirectoryFsyncCount();
+  CommitTemporaryFile(temporary, dir / "image.exr", OverwritePolicy::kRefuse);
+  EXPECT_EQ(DirectoryFsyncCount(), before + 1);
+  EXPECT_EQ(ReadText(dir / "image.exr"), "pixels");
+}
+
+TEST(FileUtilTest, RenameDurablyFsyncsBothFolders) {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "staging" / "run");
+  std::filesystem::create_directories(dir / "results");
+  WriteFileAtomic(dir / "staging" / "run" / "report.json", std::string_view("{}"), OverwritePolicy::kRefuse);
+  uint64_t before = DirectoryFsyncCount();
+  RenameDurably(dir / "staging" / "run", dir / "results" / "run");
+  EXPECT_EQ(DirectoryFsyncCount(), before + 2);  // the name left one folder and entered another
+  EXPECT_EQ(ReadText(dir / "results" / "run" / "report.json"), "{}");
+
+  before = DirectoryFsyncCount();
+  RenameDurably(dir / "results" / "run", dir / "results" / "run2");
+  EXPECT_EQ(DirectoryFsyncCount(), before + 1);  // one folder holds both names
+  EXPECT_TRUE(std::filesystem::exists(dir / "results" / "run2" / "report.json"));
+}
+
+TEST(FileUtilTest, RenameDurablyFailureNamesBothPaths) {
+  TempDir dir;
+  try {
+    RenameDurably(dir / "missing", dir / "target");
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), StartsWith((dir / "target").string() + ": cannot be renamed from " +
+                                     (dir / "missing").string()));
+  }
+}
+
+TEST(FileUtilTest, FsyncDirectoryFailureNamesTheFolder) {
+  TempDir dir;
+  const uint64_t before = DirectoryFsyncCount();
+  try {
+    FsyncDirectory(dir / "gone");
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              (dir / "gone").string() + ": folder cannot be opened to fsync it: No such file or directory");
+  }
+  // A file where the folder should be: open(O_DIRECTORY) refuses it.
+  WriteFileAtomic(dir / "plain", std::string_view("x"), OverwritePolicy::kRefuse);
+  try {
+    FsyncDirectory(dir / "plain");
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), StartsWith((dir / "plain").string() + ": folder cannot be opened to fsync it: "));
+  }
+  EXPECT_EQ(DirectoryFsyncCount(), before + 1);  // the write's only
+  FsyncDirectory(dir.path());
+  EXPECT_EQ(DirectoryFsyncCount(), before + 2);
+}
+
+TEST(FileUtilTest, FolderLockRefusesASecondHolderNamingFolderAndPid) {
+  TempDir dir;
+  const auto session = dir / "session";
+  std::optional<FolderLock> first(std::in_place, session);  // creates the folder
+  EXPECT_TRUE(std::filesystem::is_directory(session));
+  try {
+    FolderLock second(session);
+    ADD_FAILURE() << "expected the folder to be busy";
+  } catch (const FolderBusyError& e) {
+    EXPECT_EQ(e.holder_pid(), static_cast<long>(::getpid()));
+    EXPECT_THAT(e.what(), StartsWith(session.string() + ": in use by another process (pid " +
+                                     std::to_string(::getpid()) + ")"));
+  }
+  first.reset();
+  FolderLock again(session);  // released with its descriptor
+  EXPECT_THAT(dir.List(), ElementsAre("session"));
+}
+
+TEST(FileUtilTest, FolderLockOfAKilledProcessIsReleased) {
+  TempDir dir;
+  const auto session = dir / "session";
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::close(ready[0]);
+    try {
+      FolderLock held(session);
+      const char byte = 1;
+      if (::write(ready[1], &byte, 1) != 1) ::_exit(2);
+      ::pause();  // until killed
+    } catch (...) {
+      ::_exit(3);
+    }
+    ::_exit(0);
+  }
+  ::close(ready[1]);
+  char byte = 0;
+  ASSERT_EQ(::read(ready[0], &byte, 1), 1) << "the child did not take the lock";
+  ::close(ready[0]);
+  try {
+    FolderLock refused(session);
+    ADD_FAILURE() << "expected the child's lock to hold";
+  } catch (const FolderBusyError& e) {
+    EXPECT_EQ(e.holder_pid(), static_cast<long>(child));
+    EXPECT_THAT(e.what(), HasSubstr("(pid " + std::to_string(child) + ")"));
+  }
+  ::kill(child, SIGKILL);  // a crash: no destructor runs
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  FolderLock after_crash(session);
+  EXPECT_EQ(after_crash.folder(), session);
 }
 
 TEST(FileUtilTest, Sha256KnownVectors) {

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <random>
 
 #include <OpenImageIO/imageio.h>
@@ -70,6 +71,74 @@ TEST(ImageIoTest, ExrFloatRoundTripIsExact) {
     WriteExr(path, image, OverwritePolicy::kRefuse);
     ExpectSameImage(image, ReadImageFloat(path));
   }
+}
+
+// Half float: read back as float within half a mantissa step (2^-12 of the
+// octave, so at most |v| 2^-11), identical under every lossless compression,
+// reported as 16-bit float; values beyond half's range are clamped to 65504,
+// never an infinity.
+TEST(ImageIoTest, ExrHalfRoundTripIsWithinHalfPrecisionUnderEveryCompression) {
+  TempDir dir;
+  ImageF image = RandomImage<float>(61, 33, 3, 7);
+  image(0, 0, 0) = 1e6f;
+  image(1, 0, 0) = -1e9f;
+  image(2, 0, 0) = 65504.0f;
+  image(3, 0, 0) = 0.0f;
+  image(4, 0, 0) = 10.0f;  // exactly representable
+  std::optional<ImageF> first;
+  for (ExrCompression compression : {ExrCompression::kNone, ExrCompression::kRle, ExrCompression::kZips,
+                                     ExrCompression::kZip, ExrCompression::kPiz, ExrCompression::kPxr24}) {
+    SCOPED_TRACE(ExrCompressionName(compression));
+    const auto path = dir / (std::string("half_") + ExrCompressionName(compression) + ".exr");
+    WriteExr(path, image, OverwritePolicy::kRefuse, {}, {}, {ExrSampleType::kHalf, compression});
+    const ImageFileInfo info = ReadImageFileInfo(path);
+    EXPECT_TRUE(info.is_float);
+    EXPECT_EQ(info.bits_per_sample, 16);
+    const ImageF read = ReadImageFloat(path);
+    ASSERT_EQ(read.size(), image.size());
+    EXPECT_EQ(read(0, 0, 0), 65504.0f);
+    EXPECT_EQ(read(1, 0, 0), -65504.0f);
+    EXPECT_EQ(read(2, 0, 0), 65504.0f);
+    EXPECT_EQ(read(3, 0, 0), 0.0f);
+    EXPECT_EQ(read(4, 0, 0), 10.0f);
+    for (size_t i = 0; i < image.size(); ++i) {
+      if (i < 15 && i % 3 == 0) continue;  // the special values above
+      ASSERT_TRUE(std::isfinite(read.data()[i])) << i;
+      ASSERT_LE(std::abs(read.data()[i] - image.data()[i]), std::abs(image.data()[i]) / 2048 + 1e-7f) << i;
+    }
+    if (!first) {
+      first = read;
+    } else {
+      ExpectSameImage(*first, read);  // lossless: the same halves whatever the compression
+    }
+  }
+}
+
+TEST(ImageIoTest, ExrHalfKeepsChannelNamesAndMetadata) {
+  TempDir dir;
+  ImageMetadata metadata;
+  metadata.mm_per_pixel = 0.05;
+  metadata.color_space = "Linear";
+  metadata.attributes["scanbench:kind"] = "confidence";
+  WriteExr(dir / "c.exr", RandomImage<float>(8, 8, 3, 4), OverwritePolicy::kRefuse,
+           {"lights_used", "condition_number", "residual"}, metadata, {ExrSampleType::kHalf, ExrCompression::kPiz});
+  std::vector<std::string> names;
+  ReadImageFloat(dir / "c.exr", &names);
+  EXPECT_THAT(names, ::testing::UnorderedElementsAre("lights_used", "condition_number", "residual"));
+  const ImageMetadata read = ReadImageMetadata(dir / "c.exr");
+  EXPECT_EQ(read.mm_per_pixel, 0.05);
+  EXPECT_EQ(read.color_space, "Linear");
+  EXPECT_EQ(read.attributes.at("scanbench:kind"), "confidence");
+}
+
+TEST(ImageIoTest, ExrPxr24IsRefusedForFloat32) {
+  TempDir dir;
+  EXPECT_THAT(ErrorOf([&] {
+                WriteExr(dir / "lossy.exr", RandomImage<float>(4, 4, 1, 1), OverwritePolicy::kRefuse, {}, {},
+                         {ExrSampleType::kFloat32, ExrCompression::kPxr24});
+              }),
+              HasSubstr("lossy.exr: ExrEncoding.compression = pxr24 is lossy on float32 samples"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "lossy.exr"));
 }
 
 TEST(ImageIoTest, ExrKeepsChannelNames) {
