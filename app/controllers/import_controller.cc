@@ -414,6 +414,9 @@ void ImportController::Run() {
     throw std::runtime_error(session_dir_.string() + ": the session folder must lie outside the RAW folder " +
                              raw_folder_.string() + " (and not contain it): the source is never written to");
   }
+  // Refused up front while a capture, simulate or another import holds the
+  // session (app/io/file_util.h); the kernel drops the lock if we crash.
+  const FolderLock session_lock(session_dir_);
   const int num_leds = static_cast<int>(rig_.leds.size());
 
   // Match: capture order opens every file for its time; the facts are kept.
