@@ -414,9 +414,6 @@ void ImportController::Run() {
     throw std::runtime_error(session_dir_.string() + ": the session folder must lie outside the RAW folder " +
                              raw_folder_.string() + " (and not contain it): the source is never written to");
   }
-  // Refused up front while a capture, simulate or another import holds the
-  // session (app/io/file_util.h); the kernel drops the lock if we crash.
-  const FolderLock session_lock(session_dir_);
   const int num_leds = static_cast<int>(rig_.leds.size());
 
   // Match: capture order opens every file for its time; the facts are kept.
@@ -457,6 +454,10 @@ void ImportController::Run() {
 
   // Copy: the session journal as a capture writes it; resumes an interrupted import.
   BeginStage("copy");
+  // Every refusal above wrote nothing; from here on the session is ours, and
+  // refused while a capture, simulate or another import holds it
+  // (app/io/file_util.h; the kernel drops the lock if we crash).
+  const FolderLock session_lock(session_dir_);
   std::optional<Session> session = LoadInterruptedImport(session_dir_, raw_folder_, rig_);
   if (!session) {
     session = NewImportSession(options_, rig_, facts[1 % facts.size()], raw_folder_, plan.match);

@@ -386,8 +386,11 @@ double MeanAngleDeg(const ImageF& a, const ImageF& b) {
   for (size_t i = 0; i < a.num_pixels(); ++i) {
     const float* p = a.data() + 3 * i;
     const float* q = b.data() + 3 * i;
+    // atan2(|p x q|, p . q): exact near 0, where acos of a dot product of
+    // half-float (not exactly unit) normals would read ~1 deg for equal ones.
     const double dot = p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
-    sum += std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / 3.14159265358979;
+    const double cx = p[1] * q[2] - p[2] * q[1], cy = p[2] * q[0] - p[0] * q[2], cz = p[0] * q[1] - p[1] * q[0];
+    sum += std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), dot) * 180 / 3.14159265358979;
     ++n;
   }
   return sum / n;
