@@ -16,4 +16,8 @@ double SecondsSince(std::chrono::steady_clock::time_point start);
 // "1h02:09" (negative counts as 0).
 std::string FormatDuration(double seconds);
 
+// `text` with the five XML entities escaped (& < > " '): safe in XML, SVG
+// and HTML text and attribute values.
+std::string XmlEscaped(const std::string& text);
+
 }  // namespace scanbench

@@ -138,17 +138,6 @@ ReportScene DiligentScene(const fs::path& folder, int ring_lights) {
   return out;
 }
 
-std::string XmlEscape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
-  }
-  return out;
-}
-
 // A scene of the report, built only when its turn comes so that one scene
 // at a time is in memory.
 struct SceneBuilder {
@@ -364,7 +353,7 @@ std::string ErrorVsTimeSvg(const std::vector<SolverReportRow>& rows) {
   for (size_t m = 0; m < methods.size(); ++m) {
     const int x = 10 + 290 * static_cast<int>(m % 4), y = 34 + 18 * static_cast<int>(m / 4);
     svg << "<circle cx=\"" << x + 5 << "\" cy=\"" << y << "\" r=\"5\" fill=\"" << colours[m % kColours] << "\"/><text x=\""
-        << x + 14 << "\" y=\"" << y + 4 << "\">" << XmlEscape(methods[m]) << "</text>\n";
+        << x + 14 << "\" y=\"" << y + 4 << "\">" << XmlEscaped(methods[m]) << "</text>\n";
   }
   for (size_t s = 0; s < scenes.size(); ++s) {
     const int ox = 10 + panel_w * static_cast<int>(s % columns);
@@ -387,7 +376,7 @@ std::string ErrorVsTimeSvg(const std::vector<SolverReportRow>& rows) {
     auto px = [&](double v) { return ox + left + (v - x_min) / (x_max - x_min) * pw; };
     auto py = [&](double v) { return oy + top + ph - v / y_max * ph; };
     svg << "<g>\n<text x=\"" << ox + left << "\" y=\"" << oy + 22 << "\" font-size=\"12\">"
-        << XmlEscape(scenes[s].size() > 54 ? scenes[s].substr(0, 51) + "..." : scenes[s]) << "</text>\n"
+        << XmlEscaped(scenes[s].size() > 54 ? scenes[s].substr(0, 51) + "..." : scenes[s]) << "</text>\n"
         << "<rect x=\"" << ox + left << "\" y=\"" << oy + top << "\" width=\"" << pw << "\" height=\"" << ph
         << "\" fill=\"none\" stroke=\"#888\"/>\n";
     for (double t = std::ceil(x_min); t <= x_max; t += 1) {
@@ -417,7 +406,7 @@ std::string ErrorVsTimeSvg(const std::vector<SolverReportRow>& rows) {
     for (const SolverReportRow* r : points) {
       const size_t m = std::find(methods.begin(), methods.end(), r->method) - methods.begin();
       svg << "<circle cx=\"" << Fixed(px(cost(r)), 1) << "\" cy=\"" << Fixed(py(r->mean_error_deg), 1)
-          << "\" r=\"5\" fill=\"" << colours[m % kColours] << "\" fill-opacity=\"0.85\"><title>" << XmlEscape(r->method)
+          << "\" r=\"5\" fill=\"" << colours[m % kColours] << "\" fill-opacity=\"0.85\"><title>" << XmlEscaped(r->method)
           << ": " << Fixed(r->mean_error_deg, 2) << " deg, " << Fixed(r->megapixels_per_second, 2)
           << " MP/s</title></circle>\n";
     }

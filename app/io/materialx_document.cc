@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/field_error.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace {
@@ -21,22 +22,6 @@ std::string ElementName(const std::string& text) {
   return name;
 }
 
-// XML attribute text: the five predefined entities escaped.
-std::string Escaped(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 const char* VectorType(int channels) { return channels == 4 ? "vector4" : channels == 3 ? "vector3" : "float"; }
 
 // Writes the node graph's nodes, indented for a human reader.
@@ -45,7 +30,7 @@ class GraphWriter {
   explicit GraphWriter(std::ostringstream* out) : out_(*out) {}
   void Image(const std::string& name, const char* type, const std::string& file, const std::string& colorspace = "") {
     out_ << "    <image name=\"" << name << "\" type=\"" << type << "\">\n"
-         << "      <input name=\"file\" type=\"filename\" value=\"" << Escaped(file) << "\""
+         << "      <input name=\"file\" type=\"filename\" value=\"" << XmlEscaped(file) << "\""
          << (colorspace.empty() ? "" : " colorspace=\"" + colorspace + "\"") << " />\n"
          << "    </image>\n";
   }
@@ -101,7 +86,7 @@ std::string MaterialXDocument(const MaterialXMaterialOptions& options) {
   std::ostringstream out;
   out << "<?xml version=\"1.0\"?>\n"
       << "<materialx version=\"1.38\" colorspace=\"lin_rec709\">\n"
-      << "  <!-- scanbench material " << Escaped(options.name)
+      << "  <!-- scanbench material " << XmlEscaped(options.name)
       << ": standard_surface (dielectric, metalness 0) with displacement from the height map. -->\n"
       << "  <nodegraph name=\"" << graph << "\">\n";
   GraphWriter nodes(&out);

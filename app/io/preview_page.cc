@@ -124,20 +124,6 @@ ImageU8 EncodeNormals8(const ImageF& normal) {
   return out;
 }
 
-std::string HtmlEscaped(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 // Inside <script>, "</" would end the element: JSON allows "<\/".
 std::string ScriptSafeJson(const nlohmann::json& json) {
   const std::string text = json.dump();
@@ -336,7 +322,7 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   ReplaceOnce(&page, "__SCANBENCH_THREE_MODULE_BASE64__",
               Base64(std::span(reinterpret_cast<const uint8_t*>(three.data()), three.size())));
   ReplaceOnce(&page, "__SCANBENCH_PREVIEW_DATA__", ScriptSafeJson(data));
-  ReplaceOnce(&page, "__SCANBENCH_TITLE__", HtmlEscaped(title + " — scanbench preview"));
+  ReplaceOnce(&page, "__SCANBENCH_TITLE__", XmlEscaped(title + " — scanbench preview"));
   if (progress && !progress(1.0)) {
     summary.SetCancelled("preview page cancelled; nothing written");
     return summary;

@@ -51,4 +51,9 @@ TEST(ProgressTest, SubRangeMapsOntoTheCallersRange) {
 }
 
 }  // namespace
+TEST(FormatTest, XmlEscapedEscapesTheFiveEntitiesAndNothingElse) {
+  EXPECT_EQ(XmlEscaped("a<b>&\"c\" 'd' — é"), "a&lt;b&gt;&amp;&quot;c&quot; &apos;d&apos; — é");
+  EXPECT_EQ(XmlEscaped(""), "");
+}
+
 }  // namespace scanbench
