@@ -220,11 +220,16 @@ submit() {
     fail "sbatch refused the recipe: $(cat "$tmp/log/sbatch.err")"
   job_id=${job_id%%;*}
   job_ids+=("$job_id")
-  for _ in $(seq 900); do  # up to 180 s
-    [ -z "$(squeue -h -j "$job_id" -o %i 2>/dev/null)" ] && return 0
+  local task finished=""
+  for _ in $(seq 600); do  # up to 120 s
+    [ -z "$(squeue -h -j "$job_id" -o %i 2>/dev/null)" ] && finished=1 && break
     sleep 0.2
   done
-  fail "job array $job_id did not finish within 180 s"
+  [ -n "$finished" ] || fail "job array $job_id did not finish within 120 s"
+  for task in $(seq "$shards"); do
+    [ -f "$library/batch-$job_id-$task.csv" ] ||
+      fail "task $task of job $job_id wrote no summary $library/batch-$job_id-$task.csv"
+  done
 }
 
 # Each array task's exit code, as "task:code" lines sorted by task.
@@ -240,12 +245,8 @@ expected_exit_codes() {
 # The summary rows of a job's shards (minus their header lines), as "session,status" sorted by session.
 # The session paths hold no comma, so the first two CSV fields are plain.
 summary_rows() {
-  local task csv
-  for task in $(seq "$shards"); do
-    csv=$library/batch-$1-$task.csv
-    [ -f "$csv" ] || fail "task $task of job $1 wrote no summary $csv (see logs/resolve-$1_$task.log)"
-    tail -n +2 "$csv"
-  done
+  local task
+  for task in $(seq "$shards"); do tail -n +2 "$library/batch-$1-$task.csv"; done
 }
 statuses() {
   summary_rows "$1" | awk -F, '{ n = split($1, parts, "/"); print parts[n] "," $2 }' | sort
@@ -263,8 +264,9 @@ result_folders() {  # "session count" of complete result folders
 check_damaged_error() {  # $1 = job id
   local message
   message=$(summary_rows "$1" | grep "/$damaged,failed,")
-  grep -q "$damaged_frame" <<<"$message" && grep -q "mismatch" <<<"$message" ||
+  if ! { grep -q "$damaged_frame" <<<"$message" && grep -q "mismatch" <<<"$message"; }; then
     fail "job $1: the failed session's error does not name $damaged_frame: $message"
+  fi
   grep -q "$damaged_frame" "$tmp/work/logs/resolve-$1_$damaged_task.log" ||
     fail "job $1: task $damaged_task's log does not name $damaged_frame"
 }
