@@ -22,6 +22,7 @@ packages=(
   chromium  # export's preview.html: tests/app/io/preview_page_test.cc renders it headless (WebGL via SwiftShader); skipped without it
   libgphoto2-dev libgphoto2-6 libgphoto2-port12 libusb-1.0-0-dev  # camera: libgphoto2 backend (libgphoto2-6 has the camera drivers incl. "Directory Browse" used by the tests, -port12 the usb and disk ports), libusb device discovery and hotplug
   libexpat1-dev  # export test: parses the MaterialX .mtlx as XML
+  slurm-wlm munge  # batch test: docs/batch.md's Slurm job array on a single-node Slurm of its own (tests/app/cli/slurm_batch_test.sh); Debian's slurmctld and slurmd services do not start without /etc/slurm/slurm.conf
 )
 # Node and npm run the Khronos glTF-Validator of the export test (tests/web, npm
 # gltf-validator); by command, as a Node from another source is as good as Debian's.
