@@ -1,6 +1,7 @@
 #include "app/controllers/solve_controller.h"
 
 #include <chrono>
+#include <functional>
 #include <iomanip>
 #include <regex>
 #include <sstream>
@@ -243,7 +244,9 @@ Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, 
 // The depth-aware re-solves (issue #15), band by band as the first solve:
 // only point LEDs can be moved off the table plane; a measured per-pixel
 // field is sampled on it only.
-DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const RawFrames& frames,
+// `raw_frames` gives the decoded frames, decoding them again when they were
+// dropped after the first solve (a flat sample never re-solves).
+DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::function<const RawFrames&()>& raw_frames,
                                      const Lighting& lighting, PhotometricSolution* solution,
                                      const ProgressCallback& progress) {
   const auto* point_field = dynamic_cast<const PointLightField*>(lighting.light_field.get());
@@ -257,7 +260,7 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const RawFrame
   const DepthResolve resolve = [&](const LightField& moved_field, PhotometricSolution* resolved,
                                    const ProgressCallback& resolve_progress) {
     const BandedSolveSummary banded =
-        SolveBanded(BandedOptions(options), frames.Stack(), moved_field, resolved, resolve_progress);
+        SolveBanded(BandedOptions(options), raw_frames().Stack(), moved_field, resolved, resolve_progress);
     return banded.solver;
   };
   const std::vector<PointLight> no_lights;
@@ -294,8 +297,6 @@ struct GroundTruthComparison {
 
 GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth,
                                              const PhotometricSolution& solution) {
-  const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
-  const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
   const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir, truth);
   GroundTruthComparison comparison;
   ImageU8 solved_on_sample = on_sample;
@@ -304,10 +305,15 @@ GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const 
     solved_on_sample.data()[i] = on_sample.data()[i] && solved;
     comparison.unsolved_on_sample += on_sample.data()[i] && !solved;
   }
-  comparison.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+  // One full-size truth map at a time (193 MB each at 16 MP).
+  {
+    const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
+    comparison.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+    comparison.angular_error_deg = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+  }
+  const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
   comparison.albedo_error = AbsoluteError(solution.albedo, truth_albedo, solved_on_sample);
   comparison.albedo_color_error = CompareAlbedoColor(solution.albedo, truth_albedo, solved_on_sample);
-  comparison.angular_error_deg = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
   return comparison;
 }
 
@@ -514,7 +520,7 @@ void SolveController::Run() {
   RawFrames frames = TimedStage(timings, "decode", "decode RAW", [&] {
     return DecodeFrames(session_dir_, session, options_.solver.num_threads, StageCallback("decode RAW"));
   });
-  const Lighting lighting = TimedStage(timings, "light_field", "", [&] {
+  Lighting lighting = TimedStage(timings, "light_field", "", [&] {
     Lighting made = MakeLighting(options_, session_dir_, session);
     // After the calibration set was checked, so that its errors come from its loader.
     summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
@@ -535,15 +541,23 @@ void SolveController::Run() {
     summary_.clipped_samples = banded.clipped_samples;
     RequireSuccess(banded, "solve");
   });
+  // The raw frames (32 MB each at 16 MP) are not held through the later stages.
+  frames.leds.clear();
+  frames.dark = RawImage();
+  const auto raw_frames = [&]() -> const RawFrames& {
+    if (frames.leds.empty()) frames = DecodeFrames(session_dir_, session, options_.solver.num_threads, {});
+    return frames;
+  };
   summary_.depth = TimedStage(timings, "depth_refine", "depth refine", [&] {
     DepthRefinementSummary depth =
-        RefineOnDepth(options_, frames, lighting, &solution, StageCallback("depth refine"));
+        RefineOnDepth(options_, raw_frames, lighting, &solution, StageCallback("depth refine"));
     RequireSuccess(depth, "depth refine");
     return depth;
   });
   summary_.specular = SpecularMapStatisticsOf(solution);
-  frames.leds.clear();  // 32 MB a frame at 16 MP
+  frames.leds.clear();  // decoded again when the depth refinement re-solved
   frames.dark = RawImage();
+  lighting.light_field.reset();  // its per-pixel surface points: 193 MB at 16 MP
   TimedStage(timings, "color", "", [&] {
     ImageU8 solved(solution.status.width(), solution.status.height(), 1);
     for (size_t i = 0; i < solved.size(); ++i) {
