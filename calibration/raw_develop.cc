@@ -40,6 +40,11 @@ void RawDevelopOptions::Check() const {
 }
 
 DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const RawDevelopOptions& options) {
+  return DevelopRawRows(frame, dark, options, 0, frame.height());
+}
+
+DevelopedFrame DevelopRawRows(const RawImage& frame, const RawImage* dark, const RawDevelopOptions& options,
+                              int row_begin, int row_end) {
   options.Check();
   const int width = frame.width();
   const int height = frame.height();
@@ -62,6 +67,16 @@ DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const Raw
     }
   }
 
+  if (!(row_begin >= 0 && row_begin < row_end && row_end <= height)) {
+    throw std::invalid_argument("raw frame rows [" + std::to_string(row_begin) + ", " + std::to_string(row_end) +
+                                ") must be a non-empty range inside [0, " + std::to_string(height) + ")");
+  }
+  // The rows read: the band and its margin, starting on an even row so that
+  // the window's CFA pattern is the frame's.
+  const int read_begin = std::max(0, row_begin - kDevelopMarginRows) & ~1;
+  const int read_end = std::min(height, row_end + kDevelopMarginRows);
+  const int read_rows = read_end - read_begin;
+
   DevelopedFrame developed;
   const int offset = DemosaicOffset(frame.white_level);
   // Normalising range per colour; the two green sites may differ in black.
@@ -73,19 +88,20 @@ DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const Raw
   }
   for (int c = 0; c < 3; ++c) range[c] /= sites[c];
   const int clip_level = static_cast<int>(options.clip_fraction * frame.white_level);
-  cv::Mat shifted(height, width, CV_16UC1);
-  cv::Mat clipped(height, width, CV_8UC1, cv::Scalar(0));
-  for (int y = 0; y < height; ++y) {
+  cv::Mat shifted(read_rows, width, CV_16UC1);
+  cv::Mat clipped(read_rows, width, CV_8UC1, cv::Scalar(0));
+  for (int y = read_begin; y < read_end; ++y) {
     const uint16_t* raw = frame.mosaic.row(y);
     const uint16_t* dark_row = dark != nullptr ? dark->mosaic.row(y) : nullptr;
-    uint16_t* out = shifted.ptr<uint16_t>(y);
-    uint8_t* clip = clipped.ptr<uint8_t>(y);
+    uint16_t* out = shifted.ptr<uint16_t>(y - read_begin);
+    uint8_t* clip = clipped.ptr<uint8_t>(y - read_begin);
+    const bool counted = y >= row_begin && y < row_end;
     for (int x = 0; x < width; ++x) {
       const int reference = dark_row != nullptr ? dark_row[x] : frame.BlackAt(x, y);
       out[x] = static_cast<uint16_t>(std::clamp(int(raw[x]) - reference + offset, 0, 65535));
       if (raw[x] >= clip_level) {
         clip[x] = 1;
-        ++developed.num_clipped_samples;
+        developed.num_clipped_samples += counted;
       }
     }
   }
@@ -96,11 +112,12 @@ DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const Raw
   cv::Mat clipped_near;
   cv::dilate(clipped, clipped_near, cv::Mat::ones(3, 3, CV_8UC1));
 
-  developed.rgb = ImageF(width, height, 3);
-  developed.valid = ImageU8(width, height, 1);
-  for (int y = 0; y < height; ++y) {
-    const uint16_t* in = rgb16.ptr<uint16_t>(y);
-    const uint8_t* clip = clipped_near.ptr<uint8_t>(y);
+  const int rows = row_end - row_begin;
+  developed.rgb = ImageF(width, rows, 3);
+  developed.valid = ImageU8(width, rows, 1);
+  for (int y = 0; y < rows; ++y) {
+    const uint16_t* in = rgb16.ptr<uint16_t>(y + row_begin - read_begin);
+    const uint8_t* clip = clipped_near.ptr<uint8_t>(y + row_begin - read_begin);
     float* out = developed.rgb.row(y);
     uint8_t* valid = developed.valid.row(y);
     for (int x = 0; x < width; ++x) {

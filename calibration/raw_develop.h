@@ -32,4 +32,16 @@ struct DevelopedFrame {
 // std::invalid_argument when the frames do not fit together.
 DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const RawDevelopOptions& options);
 
+// Rows beyond a band that its development reads (the demosaic's and the clip
+// dilation's reach, with room to spare; even, so that the CFA phase holds).
+inline constexpr int kDevelopMarginRows = 8;
+
+// Rows [row_begin, row_end) of DevelopRaw(frame, dark, options), bit for bit,
+// developed from those rows and kDevelopMarginRows either side only: the
+// result is (row_end - row_begin) rows high, and num_clipped_samples counts
+// the raw samples of those rows. Throws std::invalid_argument as DevelopRaw,
+// and on a range outside [0, height) or an empty one.
+DevelopedFrame DevelopRawRows(const RawImage& frame, const RawImage* dark, const RawDevelopOptions& options,
+                              int row_begin, int row_end);
+
 }  // namespace scanbench

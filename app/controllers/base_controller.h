@@ -20,7 +20,7 @@ namespace scanbench {
 
 // The wall time of one step of a run, as a report's "timings_s" lists it.
 struct StageTiming {
-  std::string stage;  // "load", "decode_develop": a name for reports, not a progress stage
+  std::string stage;  // "load", "decode": a name for reports, not a progress stage
   double seconds = 0;
 };
 

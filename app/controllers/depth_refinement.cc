@@ -167,6 +167,19 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
                                    const PhotometricSolverInput& input, const std::vector<PointLight>& lights,
                                    const CameraGeometry& camera, PhotometricSolution* solution,
                                    ImageF* surface_points_in_table, const ProgressCallback& progress) {
+  const DepthResolve resolve = [&](const LightField& moved_field, PhotometricSolution* resolved,
+                                   const ProgressCallback& resolve_progress) {
+    PhotometricSolverInput moved_input = input;
+    moved_input.light_field = &moved_field;
+    return SolvePhotometricStereo(solver, moved_input, resolved, resolve_progress);
+  };
+  return RefineDepth(options, resolve, lights, camera, solution, surface_points_in_table, progress);
+}
+
+DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const DepthResolve& resolve,
+                                   const std::vector<PointLight>& lights, const CameraGeometry& camera,
+                                   PhotometricSolution* solution, ImageF* surface_points_in_table,
+                                   const ProgressCallback& progress) {
   options.Check();
   if (solution == nullptr) throw std::invalid_argument("RefineDepth: solution must not be null");
   const auto start = std::chrono::steady_clock::now();
@@ -204,13 +217,11 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
     }
     points = std::move(moved);
     const PointLightField field(lights, points, centre);
-    PhotometricSolverInput moved_input = input;
-    moved_input.light_field = &field;
     PhotometricSolution resolved;
     const ProgressCallback stage_progress = [&](double fraction) {
       return !progress || progress((iteration + fraction) / cap);
     };
-    const PhotometricSolverSummary solved = SolvePhotometricStereo(solver, moved_input, &resolved, stage_progress);
+    const PhotometricSolverSummary solved = resolve(field, &resolved, stage_progress);
     if (solved.IsCancelled()) {
       summary.SetCancelled("cancelled during re-solve " + std::to_string(iteration + 1));
       return finish("cancelled");

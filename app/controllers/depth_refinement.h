@@ -16,6 +16,7 @@
 // sampled on the table plane only and is left as it is (the summary says so).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,18 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
                                    const PhotometricSolverInput& input, const std::vector<PointLight>& lights,
                                    const CameraGeometry& camera, PhotometricSolution* solution,
                                    ImageF* surface_points_in_table = nullptr, const ProgressCallback& progress = {});
+
+// A re-solve under a moved light field (the full size of the solution):
+// what RefineDepth runs at every iteration. The overload above solves its
+// `input` with SolvePhotometricStereo; a banded solve (banded_solve.h) passes
+// its own, so that no full-size developed frames are needed.
+using DepthResolve = std::function<PhotometricSolverSummary(const LightField& moved_field,
+                                                            PhotometricSolution* solution,
+                                                            const ProgressCallback& progress)>;
+DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const DepthResolve& resolve,
+                                   const std::vector<PointLight>& lights, const CameraGeometry& camera,
+                                   PhotometricSolution* solution, ImageF* surface_points_in_table = nullptr,
+                                   const ProgressCallback& progress = {});
 
 // Steps of RefineDepth, exposed for tests.
 

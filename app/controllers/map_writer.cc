@@ -13,6 +13,7 @@
 #include "app/io/image_io.h"
 #include "calibration/color_science.h"
 #include "core/format.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 
@@ -167,17 +168,12 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
   for (size_t i = 0; i < solved.size(); ++i) {
     solved.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved) ? 255 : 0;
   }
-  ImageF confidence(solution.status.width(), solution.status.height(), 3);
-  for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
-    confidence.data()[3 * i + 0] = solution.lights_used.data()[i];
-    confidence.data()[3 * i + 1] = solution.condition_number.data()[i];
-    confidence.data()[3 * i + 2] = solution.residual.data()[i];
-  }
-
   const ImageU8 status_codes = StatusPngCodes(solution);  // checks the specular maps' shape
 
   // Compression dominates at 16 MP (seconds per file) and the files are
-  // independent, so they are written concurrently.
+  // independent, so they are written concurrently on the one thread pool:
+  // as many at once as there are threads, so that only that many files'
+  // encoding buffers (a full-size copy each) are held at a time.
   struct MapFile {
     const char* kind;
     const char* name;
@@ -199,6 +195,12 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
       {"solved_mask", "solved_mask.png", [&](const auto& path) { WritePng(path, solved, policy); }},
       {"confidence", "confidence.exr",
        [&](const auto& path) {
+         ImageF confidence(solution.status.width(), solution.status.height(), 3);
+         for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
+           confidence.data()[3 * i + 0] = solution.lights_used.data()[i];
+           confidence.data()[3 * i + 1] = solution.condition_number.data()[i];
+           confidence.data()[3 * i + 2] = solution.residual.data()[i];
+         }
          WriteExr(path, confidence, policy, {"lights_used", "condition_number", "residual"}, {}, exr);
        }},
   };
@@ -211,13 +213,11 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
                        WriteExr(path, SpecularForFile(solution), policy, {"specular_f0", "roughness_alpha"}, metadata, exr);
                      }});
   }
-  std::vector<std::future<void>> pending;
+  ParallelFor(static_cast<int>(files.size()), ResolveThreadCount(0), 1, [&](int first, int last, int) {
+    for (int i = first; i < last; ++i) files[i].write(folder / files[i].name);
+  });  // rethrows a failure
   std::map<std::string, std::string> written;
-  for (const MapFile& file : files) {
-    pending.push_back(std::async(std::launch::async, file.write, folder / file.name));
-    written[file.kind] = file.name;
-  }
-  for (std::future<void>& task : pending) task.get();  // rethrows a failure
+  for (const MapFile& file : files) written[file.kind] = file.name;
   return written;
 }
 

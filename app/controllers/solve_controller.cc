@@ -1,12 +1,14 @@
 #include "app/controllers/solve_controller.h"
 
 #include <chrono>
+#include <functional>
 #include <iomanip>
 #include <regex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "app/controllers/banded_solve.h"
 #include "app/controllers/map_writer.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
@@ -18,6 +20,7 @@
 #include "calibration/rig_light_field.h"
 #include "core/field_error.h"
 #include "core/format.h"
+#include "core/parallel_for.h"
 #include "core/summary.h"
 
 namespace scanbench {
@@ -120,61 +123,84 @@ Session LoadCompleteSession(const fs::path& session_dir, bool verify_checksums) 
   return session;
 }
 
-// One developed RGB image and validity mask per LED, dark frame subtracted.
-struct DevelopedFrames {
-  std::vector<ImageF> rgb;
-  std::vector<ImageU8> valid;
-  size_t clipped_samples = 0;  // raw samples at the clip level, all frames
-  std::string dark_file;       // as session.json names it
+// The session's frames as decoded: raw uint16 mosaics, developed band by band
+// in the solve (banded_solve.h) so that no full-frame float RGB is held.
+struct RawFrames {
+  RawImage dark;
+  std::vector<RawImage> leds;          // one per LED, the rig's order
+  std::vector<double> exposure_scales;  // per LED frame (FrameExposureScale)
+  std::string dark_file;               // as session.json names it
   // The RAW files' own colour matrix (XYZ -> camera native, D65), from the first LED frame.
   std::optional<Eigen::Matrix3d> camera_from_xyz;
   std::string first_led_file;
   // One line per frame whose exposure differs from the session's (imports).
   std::vector<std::string> exposure_notes;
+
+  RawFrameStack Stack() const {
+    RawFrameStack stack;
+    stack.dark = &dark;
+    for (const RawImage& led : leds) stack.frames.push_back(&led);
+    stack.exposure_scales = exposure_scales;
+    return stack;
+  }
 };
 
-// Decode and develop; `progress` gets the frames done, false from it stops
-// with Cancelled.
-DevelopedFrames DecodeAndDevelop(const fs::path& session_dir, const Session& session,
-                                 const RawDevelopOptions& develop, const ProgressCallback& progress) {
-  DevelopedFrames frames;
-  auto decode = [&](const FrameRecord& record) {
-    const fs::path path = session_dir / record.file;
-    DecodedRaw decoded = DecodeRawFileWithInfo(path);
-    CheckRawSize(decoded.image, session.camera.width, session.camera.height, path.string());
-    if (record.kind == FrameKind::kLed && frames.first_led_file.empty()) {
-      frames.first_led_file = path.string();
-      frames.camera_from_xyz = decoded.camera_from_xyz;
-    }
-    return std::move(decoded.image);
-  };
-  const FrameRecord* dark_record = FindDarkFrame(session);
-  const RawImage dark = decode(*dark_record);
-  frames.dark_file = dark_record->file;
+// Decodes the dark and LED frames, several at once on the one thread pool;
+// `progress` gets the frames done, false from it stops with Cancelled.
+RawFrames DecodeFrames(const fs::path& session_dir, const Session& session, int num_threads,
+                       const ProgressCallback& progress) {
   const int num_lights = static_cast<int>(session.rig.leds.size());
+  std::vector<const FrameRecord*> records = {FindDarkFrame(session)};
+  for (int k = 0; k < num_lights; ++k) records.push_back(FindLedFrame(session, k));
+  std::vector<DecodedRaw> decoded(records.size());
+  const int count = static_cast<int>(records.size());
+  const bool finished = ParallelFor(
+      count, ResolveThreadCount(num_threads), 1,
+      [&](int first, int last, int) {
+        for (int i = first; i < last; ++i) {
+          const fs::path path = session_dir / records[i]->file;
+          decoded[i] = DecodeRawFileWithInfo(path);
+          CheckRawSize(decoded[i].image, session.camera.width, session.camera.height, path.string());
+        }
+      },
+      progress ? std::function<bool(int)>([&](int done) { return progress(double(done) / count); })
+               : std::function<bool(int)>());
+  if (!finished) throw Cancelled("decode RAW");
+
+  RawFrames frames;
+  frames.dark_file = records[0]->file;
+  frames.dark = std::move(decoded[0].image);
   for (int k = 0; k < num_lights; ++k) {
-    const FrameRecord* record = FindLedFrame(session, k);
-    const RawImage raw = decode(*record);
-    if (raw.cfa != dark.cfa) {
-      throw std::runtime_error((session_dir / record->file).string() + ": CFA pattern " + CfaPatternName(raw.cfa) +
-                               " differs from the dark frame's " + CfaPatternName(dark.cfa));
+    const FrameRecord& record = *records[k + 1];
+    DecodedRaw& raw = decoded[k + 1];
+    const fs::path path = session_dir / record.file;
+    if (raw.image.cfa != frames.dark.cfa) {
+      throw std::runtime_error(path.string() + ": CFA pattern " + CfaPatternName(raw.image.cfa) +
+                               " differs from the dark frame's " + CfaPatternName(frames.dark.cfa));
     }
-    DevelopedFrame developed = DevelopRaw(raw, &dark, develop);
+    if (k == 0) {
+      frames.first_led_file = path.string();
+      frames.camera_from_xyz = raw.camera_from_xyz;
+    }
     // The rig's intensities are for the session's exposure; a frame exposed
     // longer reads proportionally brighter (the RAW is linear).
-    if (const double scale = FrameExposureScale(session, *record); scale != 1) {
-      float* values = developed.rgb.data();
-      for (size_t i = 0; i < developed.rgb.size(); ++i) values[i] = static_cast<float>(values[i] * scale);
-      frames.exposure_notes.push_back(record->file + ": exposed " + Fixed(record->exposure_time_s, 6) +
+    const double scale = FrameExposureScale(session, record);
+    if (scale != 1) {
+      frames.exposure_notes.push_back(record.file + ": exposed " + Fixed(record.exposure_time_s, 6) +
                                       " s, scaled by " + Fixed(scale, 6) + " to the session's " +
                                       Fixed(session.camera.exposure_time_s, 6) + " s");
     }
-    frames.clipped_samples += developed.num_clipped_samples;
-    frames.rgb.push_back(std::move(developed.rgb));
-    frames.valid.push_back(std::move(developed.valid));
-    if (!progress(double(k + 1) / num_lights)) throw Cancelled("decode RAW");
+    frames.exposure_scales.push_back(scale);
+    frames.leds.push_back(std::move(raw.image));
   }
   return frames;
+}
+
+BandedSolveOptions BandedOptions(const SolveOptions& options) {
+  BandedSolveOptions banded;
+  banded.solver = options.solver;
+  banded.develop = options.develop;
+  return banded;
 }
 
 // The light at every pixel: from the calibration set when one is given (issue
@@ -215,20 +241,12 @@ Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, 
   return lighting;
 }
 
-// The solver's view of the frames; points into `frames`.
-PhotometricSolverInput SolverInput(const DevelopedFrames& frames, const LightField& light_field) {
-  PhotometricSolverInput input;
-  for (size_t k = 0; k < frames.rgb.size(); ++k) {
-    input.images.push_back(&frames.rgb[k]);
-    input.sample_valid.push_back(&frames.valid[k]);
-  }
-  input.light_field = &light_field;
-  return input;
-}
-
-// The depth-aware re-solves (issue #15): only point LEDs can be moved off the
-// table plane; a measured per-pixel field is sampled on it only.
-DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const DevelopedFrames& frames,
+// The depth-aware re-solves (issue #15), band by band as the first solve:
+// only point LEDs can be moved off the table plane; a measured per-pixel
+// field is sampled on it only.
+// `raw_frames` gives the decoded frames, decoding them again when they were
+// dropped after the first solve (a flat sample never re-solves).
+DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::function<const RawFrames&()>& raw_frames,
                                      const Lighting& lighting, PhotometricSolution* solution,
                                      const ProgressCallback& progress) {
   const auto* point_field = dynamic_cast<const PointLightField*>(lighting.light_field.get());
@@ -239,9 +257,15 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const Develope
         "not applicable: the calibration set's measured per-pixel light field is sampled on the table plane only";
     return skipped;
   }
+  const DepthResolve resolve = [&](const LightField& moved_field, PhotometricSolution* resolved,
+                                   const ProgressCallback& resolve_progress) {
+    const BandedSolveSummary banded =
+        SolveBanded(BandedOptions(options), raw_frames().Stack(), moved_field, resolved, resolve_progress);
+    return banded.solver;
+  };
   const std::vector<PointLight> no_lights;
-  return RefineDepth(options.depth, options.solver, SolverInput(frames, *lighting.light_field),
-                     point_field ? point_field->lights() : no_lights, lighting.camera, solution, nullptr, progress);
+  return RefineDepth(options.depth, resolve, point_field ? point_field->lights() : no_lights, lighting.camera,
+                     solution, nullptr, progress);
 }
 
 nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const DepthRefinementOptions& options) {
@@ -273,8 +297,6 @@ struct GroundTruthComparison {
 
 GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth,
                                              const PhotometricSolution& solution) {
-  const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
-  const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
   const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir, truth);
   GroundTruthComparison comparison;
   ImageU8 solved_on_sample = on_sample;
@@ -283,10 +305,15 @@ GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const 
     solved_on_sample.data()[i] = on_sample.data()[i] && solved;
     comparison.unsolved_on_sample += on_sample.data()[i] && !solved;
   }
-  comparison.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+  // One full-size truth map at a time (193 MB each at 16 MP).
+  {
+    const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
+    comparison.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+    comparison.angular_error_deg = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
+  }
+  const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
   comparison.albedo_error = AbsoluteError(solution.albedo, truth_albedo, solved_on_sample);
   comparison.albedo_color_error = CompareAlbedoColor(solution.albedo, truth_albedo, solved_on_sample);
-  comparison.angular_error_deg = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
   return comparison;
 }
 
@@ -490,12 +517,10 @@ void SolveController::Run() {
   summary_.height = session.camera.height;
   summary_.num_lights = static_cast<int>(session.rig.leds.size());
 
-  DevelopedFrames frames = TimedStage(timings, "decode_develop", "decode RAW", [&] {
-    return DecodeAndDevelop(session_dir_, session, options_.develop, StageCallback("decode RAW"));
+  RawFrames frames = TimedStage(timings, "decode", "decode RAW", [&] {
+    return DecodeFrames(session_dir_, session, options_.solver.num_threads, StageCallback("decode RAW"));
   });
-  summary_.clipped_samples = frames.clipped_samples;
-
-  const Lighting lighting = TimedStage(timings, "light_field", "", [&] {
+  Lighting lighting = TimedStage(timings, "light_field", "", [&] {
     Lighting made = MakeLighting(options_, session_dir_, session);
     // After the calibration set was checked, so that its errors come from its loader.
     summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
@@ -510,19 +535,29 @@ void SolveController::Run() {
 
   PhotometricSolution solution;
   TimedStage(timings, "solve", "solve", [&] {
-    summary_.solver = SolvePhotometricStereo(options_.solver, SolverInput(frames, *lighting.light_field), &solution,
-                                             StageCallback("solve"));
-    RequireSuccess(summary_.solver, "solve");
+    const BandedSolveSummary banded = SolveBanded(BandedOptions(options_), frames.Stack(), *lighting.light_field,
+                                                  &solution, StageCallback("solve"));
+    summary_.solver = banded.solver;
+    summary_.clipped_samples = banded.clipped_samples;
+    RequireSuccess(banded, "solve");
   });
+  // The raw frames (32 MB each at 16 MP) are not held through the later stages.
+  frames.leds.clear();
+  frames.dark = RawImage();
+  const auto raw_frames = [&]() -> const RawFrames& {
+    if (frames.leds.empty()) frames = DecodeFrames(session_dir_, session, options_.solver.num_threads, {});
+    return frames;
+  };
   summary_.depth = TimedStage(timings, "depth_refine", "depth refine", [&] {
     DepthRefinementSummary depth =
-        RefineOnDepth(options_, frames, lighting, &solution, StageCallback("depth refine"));
+        RefineOnDepth(options_, raw_frames, lighting, &solution, StageCallback("depth refine"));
     RequireSuccess(depth, "depth refine");
     return depth;
   });
   summary_.specular = SpecularMapStatisticsOf(solution);
-  frames.rgb.clear();  // a full-size session's frames hold gigabytes
-  frames.valid.clear();
+  frames.leds.clear();  // decoded again when the depth refinement re-solved
+  frames.dark = RawImage();
+  lighting.light_field.reset();  // its per-pixel surface points: 193 MB at 16 MP
   TimedStage(timings, "color", "", [&] {
     ImageU8 solved(solution.status.width(), solution.status.height(), 1);
     for (size_t i = 0; i < solved.size(); ++i) {

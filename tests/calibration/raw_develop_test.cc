@@ -1,5 +1,8 @@
 #include "calibration/raw_develop.h"
 
+#include <cstring>
+#include <random>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -94,6 +97,52 @@ TEST(RawDevelopTest, MismatchedDarkFrameAndBadOptionsAreRejected) {
   options.clip_fraction = 1.5;
   EXPECT_THAT([&] { DevelopRaw(frame, nullptr, options); },
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("clip_fraction = 1.5")));
+}
+
+// Noise, an edge and clipped samples: what the demosaic's and the clip
+// dilation's reach across a band border would show.
+RawImage TexturedMosaic(CfaPattern cfa, int width, int height, uint32_t seed) {
+  RawImage raw;
+  raw.mosaic = ImageU16(width, height, 1);
+  raw.cfa = cfa;
+  raw.black_level = {600, 601, 599, 600};
+  raw.white_level = 16383;
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> value(500, 16383);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) raw.mosaic(x, y) = static_cast<uint16_t>(x < width / 3 ? 4000 : value(rng));
+  }
+  return raw;
+}
+
+TEST(RawDevelopTest, RowBandsEqualTheFullFrameBitForBit) {
+  for (const CfaPattern cfa : {CfaPattern::kRGGB, CfaPattern::kGBRG}) {
+    const RawImage frame = TexturedMosaic(cfa, 37, 61, 7);
+    const RawImage dark = TexturedMosaic(cfa, 37, 61, 8);
+    for (auto demosaic : {RawDevelopOptions::Demosaic::kBilinear, RawDevelopOptions::Demosaic::kEdgeAware}) {
+      RawDevelopOptions options;
+      options.demosaic = demosaic;
+      const DevelopedFrame whole = DevelopRaw(frame, &dark, options);
+      size_t clipped = 0;
+      // Odd and even starts, bands at the top and bottom edges, a one-row band.
+      const std::vector<std::pair<int, int>> bands = {{0, 5}, {5, 16}, {16, 17}, {17, 40}, {40, 61}};
+      for (const auto& [begin, end] : bands) {
+        const DevelopedFrame band = DevelopRawRows(frame, &dark, options, begin, end);
+        ASSERT_EQ(band.rgb.height(), end - begin);
+        clipped += band.num_clipped_samples;
+        for (int y = begin; y < end; ++y) {
+          ASSERT_EQ(std::memcmp(band.rgb.row(y - begin), whole.rgb.row(y), sizeof(float) * 3 * 37), 0)
+              << CfaPatternName(cfa) << " row " << y;
+          ASSERT_EQ(std::memcmp(band.valid.row(y - begin), whole.valid.row(y), 37), 0) << "row " << y;
+        }
+      }
+      EXPECT_GT(whole.num_clipped_samples, 0u);
+      EXPECT_EQ(clipped, whole.num_clipped_samples);
+    }
+  }
+  const RawImage frame = TexturedMosaic(CfaPattern::kRGGB, 8, 8, 1);
+  EXPECT_THAT([&] { DevelopRawRows(frame, nullptr, RawDevelopOptions(), 4, 9); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("rows [4, 9)")));
 }
 
 }  // namespace

@@ -232,7 +232,7 @@ TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
   EXPECT_EQ(report["solver"]["method"], "adaptive");
   EXPECT_EQ(report["session"]["leds"], 10);
   EXPECT_GT(report["timings_s"]["solve"].get<double>(), 0.0);
-  for (const char* stage : {"load", "decode_develop", "light_field", "solve", "evaluate", "write_maps"}) {
+  for (const char* stage : {"load", "decode", "light_field", "solve", "evaluate", "write_maps"}) {
     EXPECT_TRUE(report["timings_s"].contains(stage)) << stage;
   }
   const double mean = report["ground_truth"]["normal_angular_error_deg"]["mean"];

@@ -1,0 +1,213 @@
+#include "app/controllers/banded_solve.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "core/field_error.h"
+#include "core/format.h"
+#include "core/parallel_for.h"
+#include "solver/coherent_lobe.h"
+
+namespace scanbench {
+namespace {
+
+// Rows [row0, row0 + height) of a light field, as a field of that height: the
+// solver evaluates the whole field at absolute pixel coordinates, so its
+// tiles see exactly the lights they see in a full-frame solve.
+class LightFieldRows final : public LightField {
+ public:
+  LightFieldRows(const LightField& whole, int row0, int height) : whole_(whole), row0_(row0), height_(height) {}
+  int num_lights() const override { return whole_.num_lights(); }
+  int width() const override { return whole_.width(); }
+  int height() const override { return height_; }
+  void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override {
+    whole_.Evaluate(x, y + row0_, light_dirs, rgb_intensities);
+  }
+  bool IsUniform() const override { return whole_.IsUniform(); }
+  void ViewDirection(int x, int y, float* view_dir) const override { whole_.ViewDirection(x, y + row0_, view_dir); }
+
+ private:
+  const LightField& whole_;
+  int row0_, height_;
+};
+
+template <typename T>
+void CopyRowsInto(const Image<T>& band, int row0, Image<T>* whole) {
+  if (band.empty()) return;
+  std::copy(band.data(), band.data() + band.size(), whole->row(row0));
+}
+
+// The full-size maps, shaped as the first band's and filled as a solve leaves
+// pixels it did not reach.
+void AllocateLike(const PhotometricSolution& band, int width, int height, PhotometricSolution* whole) {
+  auto like = [&](const auto& image, auto fill) {
+    using Img = std::decay_t<decltype(image)>;
+    return image.empty() ? Img() : Img(width, height, image.channels(), fill);
+  };
+  whole->normal_in_table = like(band.normal_in_table, 0.0f);
+  for (size_t i = 0; i < whole->normal_in_table.num_pixels(); ++i) whole->normal_in_table.data()[3 * i + 2] = 1;
+  whole->albedo = like(band.albedo, 0.0f);
+  whole->status = like(band.status, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
+  whole->lights_used = like(band.lights_used, uint8_t{0});
+  whole->condition_number = like(band.condition_number, 0.0f);
+  whole->residual = like(band.residual, 0.0f);
+  whole->solve_path = like(band.solve_path, static_cast<uint8_t>(SolvePath::kNone));
+  whole->specular = like(band.specular, 0.0f);
+  whole->specular_status = like(band.specular_status, static_cast<uint8_t>(SpecularStatus::kNotSolved));
+}
+
+void CopyBandInto(const PhotometricSolution& band, int row0, PhotometricSolution* whole) {
+  CopyRowsInto(band.normal_in_table, row0, &whole->normal_in_table);
+  CopyRowsInto(band.albedo, row0, &whole->albedo);
+  CopyRowsInto(band.status, row0, &whole->status);
+  CopyRowsInto(band.lights_used, row0, &whole->lights_used);
+  CopyRowsInto(band.condition_number, row0, &whole->condition_number);
+  CopyRowsInto(band.residual, row0, &whole->residual);
+  CopyRowsInto(band.solve_path, row0, &whole->solve_path);
+  CopyRowsInto(band.specular, row0, &whole->specular);
+  CopyRowsInto(band.specular_status, row0, &whole->specular_status);
+}
+
+// Adds one band's counts to the whole solve's.
+void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* whole) {
+  whole->method = band.method;
+  whole->bayer_domain = band.bayer_domain;
+  whole->num_lights = band.num_lights;
+  whole->num_threads = std::max(whole->num_threads, band.num_threads);
+  whole->num_pixels += band.num_pixels;
+  whole->num_tiles += band.num_tiles;
+  whole->tiles_skipped += band.tiles_skipped;
+  for (int s = 0; s < kNumPixelStatuses; ++s) whole->pixels_by_status[s] += band.pixels_by_status[s];
+  for (int p = 0; p < kNumSolvePaths; ++p) whole->pixels_by_path[p] += band.pixels_by_path[p];
+  for (int s = 0; s < kNumSpecularStatuses; ++s) whole->pixels_by_specular[s] += band.pixels_by_specular[s];
+  whole->pixels_coherent_lobe += band.pixels_coherent_lobe;
+  whole->seconds += band.seconds;
+}
+
+void CheckFrames(const RawFrameStack& frames, const LightField& light_field) {
+  if (frames.frames.empty() || static_cast<int>(frames.frames.size()) != light_field.num_lights()) {
+    throw std::invalid_argument("SolveBanded: " + std::to_string(frames.frames.size()) +
+                                " frames for a light field of " + std::to_string(light_field.num_lights()) +
+                                " lights; they must be equal and non-zero");
+  }
+  if (!frames.exposure_scales.empty() && frames.exposure_scales.size() != frames.frames.size()) {
+    throw std::invalid_argument("SolveBanded: " + std::to_string(frames.exposure_scales.size()) +
+                                " exposure scales for " + std::to_string(frames.frames.size()) +
+                                " frames; give one per frame or none");
+  }
+  for (const RawImage* frame : frames.frames) {
+    if (frame == nullptr || !frame->mosaic.SameSize(light_field.width(), light_field.height())) {
+      throw std::invalid_argument(
+          "SolveBanded: a frame of " +
+          (frame ? SizeText(frame->width(), frame->height()) : std::string("null")) + " for a light field of " +
+          SizeText(light_field.width(), light_field.height()) + "; every frame must be the light field's size");
+    }
+  }
+}
+
+}  // namespace
+
+void BandedSolveOptions::Check() const {
+  solver.Check();
+  develop.Check();
+  if (!(band_rows >= 1 && band_rows <= 65536)) {
+    throw FieldError("BandedSolveOptions", "band_rows", band_rows, "must lie in [1, 65536]");
+  }
+}
+
+int BandRowsUnit(const PhotometricSolverOptions& solver) {
+  return std::lcm(solver.tile_size, CoherentLobeOptions().block_size);
+}
+
+std::string BandedSolveSummary::BriefReport() const {
+  return "Banded solve: " + std::to_string(num_bands) + " band(s) of " + std::to_string(band_rows) +
+         " rows, develop " + Fixed(develop_seconds, 2) + " s, solve " + Fixed(solve_seconds, 2) + " s; " +
+         solver.BriefReport();
+}
+
+BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrameStack& frames,
+                               const LightField& light_field, PhotometricSolution* solution,
+                               const ProgressCallback& progress) {
+  options.Check();
+  if (solution == nullptr) throw std::invalid_argument("SolveBanded: solution must not be null");
+  CheckFrames(frames, light_field);
+  const int width = light_field.width(), height = light_field.height();
+  const int unit = BandRowsUnit(options.solver);
+  const int band_rows = (options.band_rows + unit - 1) / unit * unit;
+  const int num_bands = (height + band_rows - 1) / band_rows;
+  const int num_frames = static_cast<int>(frames.frames.size());
+  const int threads = ResolveThreadCount(options.solver.num_threads);
+
+  BandedSolveSummary summary;
+  summary.band_rows = band_rows;
+  summary.solver.num_lights = num_frames;
+  *solution = PhotometricSolution();
+  // Development is cheap beside the solve: a fifth of each band's progress.
+  constexpr double kDevelopShare = 0.2;
+  for (int band = 0; band < num_bands; ++band) {
+    const int row0 = band * band_rows, row1 = std::min(height, row0 + band_rows);
+    const double band_begin = double(band) / num_bands, band_end = double(band + 1) / num_bands;
+    const double develop_end = band_begin + kDevelopShare * (band_end - band_begin);
+
+    auto develop_start = std::chrono::steady_clock::now();
+    std::vector<DevelopedFrame> developed(num_frames);
+    std::atomic<size_t> clipped{0};
+    const bool developed_all = ParallelFor(
+        num_frames, threads, 1,
+        [&](int first, int last, int) {
+          for (int k = first; k < last; ++k) {
+            developed[k] = DevelopRawRows(*frames.frames[k], frames.dark, options.develop, row0, row1);
+            clipped += developed[k].num_clipped_samples;
+            const double scale = frames.exposure_scales.empty() ? 1.0 : frames.exposure_scales[k];
+            if (scale != 1) {
+              float* values = developed[k].rgb.data();
+              for (size_t i = 0; i < developed[k].rgb.size(); ++i) values[i] = static_cast<float>(values[i] * scale);
+            }
+          }
+        },
+        progress ? std::function<bool(int)>([&](int done) {
+          return progress(band_begin + (develop_end - band_begin) * done / num_frames);
+        })
+                 : std::function<bool(int)>());
+    summary.develop_seconds += SecondsSince(develop_start);
+    if (!developed_all) {
+      summary.SetCancelled("cancelled developing band " + std::to_string(band + 1) + " of " +
+                           std::to_string(num_bands));
+      return summary;
+    }
+    summary.clipped_samples += clipped.load();
+
+    const auto solve_start = std::chrono::steady_clock::now();
+    const LightFieldRows band_field(light_field, row0, row1 - row0);
+    PhotometricSolverInput input;
+    for (const DevelopedFrame& frame : developed) {
+      input.images.push_back(&frame.rgb);
+      input.sample_valid.push_back(&frame.valid);
+    }
+    input.light_field = &band_field;
+    PhotometricSolution band_solution;
+    const PhotometricSolverSummary solved =
+        SolvePhotometricStereo(options.solver, input, &band_solution, SubRange(progress, develop_end, band_end));
+    if (band == 0) AllocateLike(band_solution, width, height, solution);
+    CopyBandInto(band_solution, row0, solution);
+    Accumulate(solved, &summary.solver);
+    summary.solve_seconds += SecondsSince(solve_start);
+    ++summary.num_bands;
+    if (!solved.IsUsable()) {
+      summary.solver.termination = solved.termination;
+      summary.solver.message = solved.message;
+      summary.termination = solved.termination;
+      summary.message = "band " + std::to_string(band + 1) + " of " + std::to_string(num_bands) + ": " + solved.message;
+      return summary;
+    }
+  }
+  summary.solver.termination = Termination::kSuccess;
+  summary.termination = Termination::kSuccess;
+  return summary;
+}
+
+}  // namespace scanbench

@@ -1,0 +1,64 @@
+// The solve of a session's frames, band by band (issue #14): the frames stay
+// raw uint16 Bayer mosaics; each band of rows is developed (dark subtraction,
+// exposure scaling, clip marking, demosaic) into band-sized float buffers and
+// solved there, through a view of the light field at the band's absolute
+// pixel coordinates. Bands are whole solver tiles and whole coherent-lobe
+// blocks, and the development reads kDevelopMarginRows beyond them, so the
+// result equals SolvePhotometricStereo on the fully developed frames bit for
+// bit (tests/app/controllers/banded_solve_test.cc) while only one band of
+// float RGB is held: 10 lights x 256 rows x 4928 px x 3 floats = 150 MB at
+// 16 MP instead of 2 GB.
+#pragma once
+
+#include <vector>
+
+#include "calibration/raw_develop.h"
+#include "calibration/raw_image.h"
+#include "core/progress.h"
+#include "core/summary.h"
+#include "solver/light_field.h"
+#include "solver/photometric_solver.h"
+
+namespace scanbench {
+
+struct BandedSolveOptions {
+  PhotometricSolverOptions solver;  // num_threads also runs the development
+  RawDevelopOptions develop;
+  // Rows per band, rounded up to whole solver tiles and coherent-lobe blocks
+  // (BandRowsUnit), in [1, 65536]. More rows: fewer passes, more memory.
+  int band_rows = 256;
+  void Check() const;
+};
+
+// The raw frames of a solve; pointers, not owned.
+struct RawFrameStack {
+  const RawImage* dark = nullptr;      // subtracted from every frame; null = each frame's black level
+  std::vector<const RawImage*> frames;  // one per light, in the light field's order, all the same size and CFA
+  // Per frame, what its developed values are multiplied by (an exposure that
+  // differs from the session's); empty = 1 for all.
+  std::vector<double> exposure_scales;
+};
+
+struct BandedSolveSummary : AlgorithmSummary {
+  PhotometricSolverSummary solver;  // over all bands, as one solve would report it
+  int num_bands = 0;
+  int band_rows = 0;                // rows per band used (the last may have fewer)
+  size_t clipped_samples = 0;       // raw samples at the clip level, all frames
+  double develop_seconds = 0;       // of the wall time, developing
+  double solve_seconds = 0;         // of the wall time, solving
+  std::string BriefReport() const;
+};
+
+// Rows a band is a multiple of: the least common multiple of the solver's
+// tile size and the coherent-lobe block size.
+int BandRowsUnit(const PhotometricSolverOptions& solver);
+
+// Solves `frames` under `light_field` (its size is the frames'); fills
+// `solution` at full size. Throws std::invalid_argument on bad options
+// (naming the field) or frames that do not fit together; a cancelled
+// progress callback returns kCancelled with the bands not reached unsolved.
+BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrameStack& frames,
+                               const LightField& light_field, PhotometricSolution* solution,
+                               const ProgressCallback& progress = {});
+
+}  // namespace scanbench

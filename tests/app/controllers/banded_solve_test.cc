@@ -1,0 +1,155 @@
+#include "app/controllers/banded_solve.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "solver/synthetic_scene.h"
+
+namespace scanbench {
+namespace {
+
+constexpr uint16_t kBlack = 600, kWhite = 16383;
+
+// A linear RGB render as an RGGB mosaic over a noisy dark level; the specular
+// highlights clip.
+RawImage Mosaic(const ImageF& rgb, const ImageU16& dark_level) {
+  RawImage raw;
+  raw.mosaic = ImageU16(rgb.width(), rgb.height(), 1);
+  raw.cfa = CfaPattern::kRGGB;
+  raw.black_level = {kBlack, kBlack, kBlack, kBlack};
+  raw.white_level = kWhite;
+  for (int y = 0; y < rgb.height(); ++y) {
+    for (int x = 0; x < rgb.width(); ++x) {
+      const double value = rgb(x, y, CfaColorAt(raw.cfa, x, y)) * (kWhite - kBlack) * 0.8;
+      raw.mosaic(x, y) = static_cast<uint16_t>(std::clamp(dark_level(x, y) + value, 0.0, double(kWhite)));
+    }
+  }
+  return raw;
+}
+
+struct RawScene {
+  SyntheticScene scene;
+  RawImage dark;
+  std::vector<RawImage> frames;
+  RawFrameStack Stack() const {
+    RawFrameStack stack;
+    stack.dark = &dark;
+    for (const RawImage& frame : frames) stack.frames.push_back(&frame);
+    stack.exposure_scales.assign(frames.size(), 1.0);
+    stack.exposure_scales[3] = 0.5;  // an imported frame exposed twice as long
+    return stack;
+  }
+};
+
+RawScene MakeRawScene() {
+  SyntheticSceneOptions options;
+  options.width = 203;
+  options.height = 171;  // bands that end mid-tile at the bottom
+  options.lights = SyntheticSceneOptions::Lights::kNearField;
+  options.light_distance = 400;
+  options.specular = 0.6;
+  options.noise_stddev = 0.002;
+  options.seed = 11;
+  RawScene raw{MakeSyntheticScene(options), {}, {}};
+  ImageU16 dark_level(options.width, options.height, 1);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(kBlack + 20, 4);
+  for (size_t i = 0; i < dark_level.size(); ++i) dark_level.data()[i] = static_cast<uint16_t>(std::lround(noise(rng)));
+  raw.dark = Mosaic(ImageF(options.width, options.height, 3, 0.0f), dark_level);
+  for (const ImageF& image : raw.scene.images) raw.frames.push_back(Mosaic(image, dark_level));
+  return raw;
+}
+
+template <typename T>
+void ExpectSameBits(const Image<T>& banded, const Image<T>& whole, const char* name) {
+  ASSERT_EQ(banded.width(), whole.width()) << name;
+  ASSERT_EQ(banded.height(), whole.height()) << name;
+  ASSERT_EQ(banded.channels(), whole.channels()) << name;
+  EXPECT_EQ(std::memcmp(banded.data(), whole.data(), sizeof(T) * whole.size()), 0) << name << " differs";
+}
+
+TEST(BandedSolveTest, EqualsTheFullFrameSolveBitForBit) {
+  const RawScene raw = MakeRawScene();
+  const RawFrameStack stack = raw.Stack();
+  BandedSolveOptions options;
+  options.solver.tile_size = 32;
+  options.solver.num_threads = 2;
+  options.band_rows = 40;  // rounded up to 64: two whole tile rows per band
+
+  // Today's solve: every frame developed whole, one solve.
+  std::vector<DevelopedFrame> developed;
+  size_t clipped = 0;
+  for (size_t k = 0; k < raw.frames.size(); ++k) {
+    developed.push_back(DevelopRaw(raw.frames[k], &raw.dark, options.develop));
+    clipped += developed.back().num_clipped_samples;
+    float* values = developed.back().rgb.data();
+    for (size_t i = 0; i < developed.back().rgb.size(); ++i) {
+      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
+    }
+  }
+  PhotometricSolverInput input;
+  for (const DevelopedFrame& frame : developed) {
+    input.images.push_back(&frame.rgb);
+    input.sample_valid.push_back(&frame.valid);
+  }
+  input.light_field = raw.scene.light_field.get();
+  PhotometricSolution whole;
+  const PhotometricSolverSummary whole_summary = SolvePhotometricStereo(options.solver, input, &whole);
+  ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
+
+  PhotometricSolution banded;
+  const BandedSolveSummary summary = SolveBanded(options, stack, *raw.scene.light_field, &banded);
+  ASSERT_TRUE(summary.IsUsable()) << summary.message;
+  EXPECT_EQ(summary.band_rows, 64);
+  EXPECT_EQ(summary.num_bands, 3);
+  // The scene exercises what crosses a band border: clipped highlights, the
+  // lobe passes, near-field lights.
+  EXPECT_GT(clipped, 0u);
+  EXPECT_GT(whole_summary.pixels_coherent_lobe + whole_summary.pixels_by_path[int(SolvePath::kRobust)], 0u);
+  EXPECT_EQ(summary.clipped_samples, clipped);
+  ExpectSameBits(banded.normal_in_table, whole.normal_in_table, "normal_in_table");
+  ExpectSameBits(banded.albedo, whole.albedo, "albedo");
+  ExpectSameBits(banded.status, whole.status, "status");
+  ExpectSameBits(banded.lights_used, whole.lights_used, "lights_used");
+  ExpectSameBits(banded.condition_number, whole.condition_number, "condition_number");
+  ExpectSameBits(banded.residual, whole.residual, "residual");
+  ExpectSameBits(banded.solve_path, whole.solve_path, "solve_path");
+  ExpectSameBits(banded.specular, whole.specular, "specular");
+  ExpectSameBits(banded.specular_status, whole.specular_status, "specular_status");
+  EXPECT_EQ(summary.solver.num_pixels, whole_summary.num_pixels);
+  EXPECT_EQ(summary.solver.pixels_by_status, whole_summary.pixels_by_status);
+  EXPECT_EQ(summary.solver.pixels_by_path, whole_summary.pixels_by_path);
+  EXPECT_EQ(summary.solver.pixels_by_specular, whole_summary.pixels_by_specular);
+  EXPECT_EQ(summary.solver.pixels_coherent_lobe, whole_summary.pixels_coherent_lobe);
+  EXPECT_EQ(summary.solver.num_tiles, whole_summary.num_tiles);
+}
+
+TEST(BandedSolveTest, StopsWhenCancelledAndRejectsBadInput) {
+  const RawScene raw = MakeRawScene();
+  BandedSolveOptions options;
+  options.solver.tile_size = 32;
+  options.band_rows = 32;
+  int calls = 0;
+  PhotometricSolution solution;
+  const BandedSolveSummary cancelled =
+      SolveBanded(options, raw.Stack(), *raw.scene.light_field, &solution, [&](double) { return ++calls < 4; });
+  EXPECT_TRUE(cancelled.IsCancelled());
+  EXPECT_LT(cancelled.num_bands, 6);
+
+  RawFrameStack short_stack = raw.Stack();
+  short_stack.frames.pop_back();
+  short_stack.exposure_scales.clear();
+  EXPECT_THAT([&] { SolveBanded(options, short_stack, *raw.scene.light_field, &solution); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("9 frames for a light field of 10")));
+  options.band_rows = 0;
+  EXPECT_THAT([&] { SolveBanded(options, raw.Stack(), *raw.scene.light_field, &solution); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("band_rows = 0")));
+}
+
+}  // namespace
+}  // namespace scanbench
