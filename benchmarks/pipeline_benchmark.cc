@@ -32,6 +32,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -257,10 +258,7 @@ json ChildLatency(const Args& args) {
                                                   MakeDefaultSimulatedRig(args.width, args.height));
   SimulatedLedBoard board;
   SerialLightController lights(board.port_path());
-  SimulatedCamera camera(rig, [&board]() -> std::optional<int> {
-    const std::vector<int> lit = board.LitLedIndices();
-    return lit.size() == 1 ? std::optional<int>(lit.front()) : std::nullopt;
-  });
+  SimulatedCamera camera(rig, [&board] { return board.SingleLitLed(); });
   CaptureController capture(args.session, rig->rig(), &camera, &lights, options);
   // The capture reports "capture" at 1 right after it journals the last frame
   // (and switches the LEDs off).
@@ -448,6 +446,8 @@ int RunParent(Args args) {
     fs::remove_all(work);
   };
   try {
+    std::array<double, 3> load_start{};
+    if (getloadavg(load_start.data(), 3) != 3) load_start = {};
     const bool reused = !args.session.empty();
     double simulate_seconds = 0;
     if (reused) {
@@ -485,10 +485,15 @@ int RunParent(Args args) {
     const double frame_bytes = decode.figures.at("file_bytes").get<double>();
     const int frames = decode.figures.at("frames").get<int>();
 
+    // Other work on the machine slows every figure: its load is part of the record.
+    std::array<double, 3> load_end{};
+    if (getloadavg(load_end.data(), 3) != 3) load_end = {};
     std::printf("Pipeline at %dx%d, %d LEDs, %d frames (%s), %d threads; session %s\n", args.width, args.height,
                 int(session.rig.leds.size()), frames, Mb(frame_bytes).c_str(), args.threads,
                 reused ? ("reused: " + args.session.string()).c_str()
                        : ("simulated in this run in " + Fixed(simulate_seconds, 1) + " s").c_str());
+    std::printf("Load average at the start %s, at the end %s (1 min), on %ld CPUs\n", Fixed(load_start[0], 2).c_str(),
+                Fixed(load_end[0], 2).c_str(), sysconf(_SC_NPROCESSORS_ONLN));
     PrintRow("figure", "seconds", "x floor", "peak RSS", "target", "met");
     json report = {{"schema", "scanbench.pipeline_benchmark"},
                    {"schema_version", 1},
@@ -498,6 +503,8 @@ int RunParent(Args args) {
                    {"frames", frames},
                    {"frame_bytes", frame_bytes},
                    {"threads", args.threads},
+                   {"cpus", sysconf(_SC_NPROCESSORS_ONLN)},
+                   {"load_average_1min", {{"start", load_start[0]}, {"end", load_end[0]}}},
                    {"session", {{"path", args.session.string()}, {"reused", reused}, {"simulate_seconds", simulate_seconds}}}};
     PrintRow("floor: LibRaw unpack of " + std::to_string(frames) + " frames",
              Cell(decode.figures.at("seconds").get<double>(), 2, 10), "", Gb(decode.peak_rss_bytes), "", "");

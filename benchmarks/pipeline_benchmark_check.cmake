@@ -16,6 +16,7 @@ message(STATUS "table:\n${table}")
 set(number "[0-9]+\\.[0-9]+")
 foreach(row
     "^Pipeline at 160x106, 10 LEDs, 11 frames \\([0-9.]+ MB\\), 2 threads; session simulated in this run"
+    "\nLoad average at the start ${number}, at the end ${number} \\(1 min\\), on [0-9]+ CPUs\n"
     "\nfigure +seconds +x floor +peak RSS +target +met\n"
     "\nfloor: LibRaw unpack of 11 frames +${number} +${number} GB"
     "\nfloor: write ${number} MB \\(fsynced\\) +${number} +${number} GB"
@@ -38,7 +39,7 @@ string(JSON schema GET "${report}" schema)
 if(NOT schema STREQUAL "scanbench.pipeline_benchmark")
   message(FATAL_ERROR "JSON schema is '${schema}'")
 endif()
-foreach(key width height leds frames threads)
+foreach(key width height leds frames threads cpus)
   string(JSON value GET "${report}" ${key})
   if(NOT value MATCHES "^[1-9][0-9]*$")
     message(FATAL_ERROR "JSON ${key} is '${value}', not a positive integer")
