@@ -459,6 +459,10 @@ int RunParent(Args args) {
       }
       args.width = session.camera.width;
       args.height = session.camera.height;
+      // Folders the solve and the export create go again with what is in them.
+      for (const char* folder : {"results", "exports"}) {
+        if (!fs::exists(args.session / folder)) made_in_session.push_back(args.session / folder);
+      }
     } else {
       args.session = work / "session";
       simulate_seconds = RunStage(args, work, "simulate", {"--session", args.session.string()})

@@ -1,6 +1,6 @@
 # ctest pipeline_benchmark_smoke: runs the pipeline benchmark at 160x106 and
 # checks that its table and JSON are well formed and agree (never the timings).
-#   cmake -DBENCHMARK=<pipeline_benchmark> -DWORK_DIR=<scratch> -P pipeline_benchmark_check.cmake
+#   cmake -DBENCHMARK=<pipeline_benchmark> -DSCANBENCH=<scanbench> -DWORK_DIR=<scratch> -P pipeline_benchmark_check.cmake
 file(REMOVE_RECURSE "${WORK_DIR}")
 file(MAKE_DIRECTORY "${WORK_DIR}")
 set(json_file "${WORK_DIR}/pipeline.json")
@@ -101,5 +101,35 @@ endif()
 file(GLOB left "${WORK_DIR}/pipeline_benchmark.*")
 if(left)
   message(FATAL_ERROR "temporary folder left behind: ${left}")
+endif()
+
+# A reused session (--session): named in the header, and what the run added
+# to it (its result and export; exports/, which it made) is gone afterwards.
+set(session "${WORK_DIR}/reused")
+execute_process(COMMAND "${SCANBENCH}" simulate "${session}" --width 160 --height 106
+  RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE log)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "scanbench simulate exited with ${rc}:\n${log}")
+endif()
+execute_process(
+  COMMAND "${BENCHMARK}" --session "${session}" --work-dir "${WORK_DIR}"
+  RESULT_VARIABLE rc OUTPUT_VARIABLE table ERROR_VARIABLE log)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "pipeline_benchmark --session exited with ${rc}:\n${log}")
+endif()
+if(NOT table MATCHES "^Pipeline at 160x106, 10 LEDs, 11 frames \\([0-9.]+ MB\\), 2 threads; session reused: ")
+  message(FATAL_ERROR "the --session run's header does not say the session was reused:\n${table}")
+endif()
+foreach(added results exports)
+  file(GLOB left "${session}/${added}/*")
+  if(left)
+    message(FATAL_ERROR "the --session run left ${left} behind")
+  endif()
+endforeach()
+if(EXISTS "${session}/exports")
+  message(FATAL_ERROR "the --session run left ${session}/exports (it made it) behind")
+endif()
+if(NOT EXISTS "${session}/session.json")
+  message(FATAL_ERROR "the --session run removed ${session}/session.json")
 endif()
 file(REMOVE_RECURSE "${WORK_DIR}")
