@@ -427,7 +427,10 @@ void PrintStages(const json& stages) {
 }
 
 int RunParent(Args args) {
-  if (args.width < 16 || args.height < 16) throw std::invalid_argument("--width/--height: must be at least 16 pixels");
+  if (args.width < 16 || args.height < 16) {
+    throw std::invalid_argument("--width/--height: " + std::to_string(args.width) + "x" + std::to_string(args.height) +
+                                " must be at least 16 pixels each");
+  }
   if (args.threads < 1) throw std::invalid_argument("--threads: " + std::to_string(args.threads) + " must be >= 1");
   const fs::path temp_root = args.work_dir.empty() ? fs::temp_directory_path() : args.work_dir;
   std::string pattern = (temp_root / "pipeline_benchmark.XXXXXX").string();
