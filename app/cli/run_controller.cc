@@ -17,9 +17,12 @@ void OnInterrupt(int) { g_interrupted = 1; }
 
 }  // namespace
 
-int RunController(BaseController& controller) {
+int RunController(BaseController& controller, const ProgressReportCallback& observer) {
   ProgressBar bar;
-  controller.SetProgressCallback([&](const ProgressReport& report) { bar.Update(report); });
+  controller.SetProgressCallback([&](const ProgressReport& report) {
+    bar.Update(report);
+    if (observer) observer(report);
+  });
   g_interrupted = 0;
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);

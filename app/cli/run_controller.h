@@ -10,6 +10,8 @@ inline constexpr int kExitSuccess = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitCancelled = 130;
 
-int RunController(BaseController& controller);
+// `observer`, when set, sees every progress report too (after the bar), e.g.
+// to time the moment a stage ends.
+int RunController(BaseController& controller, const ProgressReportCallback& observer = {});
 
 }  // namespace scanbench

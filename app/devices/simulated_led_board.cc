@@ -565,6 +565,11 @@ std::vector<int> SimulatedLedBoard::LitLedIndices() const {
   return indices;
 }
 
+std::optional<int> SimulatedLedBoard::SingleLitLed() const {
+  const std::vector<int> lit = LitLedIndices();
+  return lit.size() == 1 ? std::optional<int>(lit.front()) : std::nullopt;
+}
+
 bool SimulatedLedBoard::WaitForLitLeds(LedMask mask, std::chrono::milliseconds timeout) const {
   return impl_->WaitForLit(mask, timeout);
 }

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -60,6 +61,9 @@ class SimulatedLedBoard {
   LedMask lit_leds() const;
   // Indices of the lit LEDs, ascending.
   std::vector<int> LitLedIndices() const;
+  // The one LED lit, nullopt when none or several are: what a simulated
+  // camera renders (SimulatedCamera's LitLedCallback).
+  std::optional<int> SingleLitLed() const;
   // Waits until exactly `mask` is lit; false on timeout.
   bool WaitForLitLeds(LedMask mask, std::chrono::milliseconds timeout) const;
   // Most LEDs lit at the same instant since the last restart (the firmware

@@ -137,8 +137,10 @@ TEST(SimulatedLedBoard, ResetButtonTurnsLedsOffAndGreetsAgain) {
   Send(port, "ON 5\n");
   ReadLines(port, 1);
   EXPECT_EQ(board.LitLedIndices(), std::vector<int>{5});
+  EXPECT_EQ(board.SingleLitLed(), std::optional<int>(5));
   board.Reset();
   EXPECT_EQ(board.lit_leds(), 0u);
+  EXPECT_EQ(board.SingleLitLed(), std::nullopt);
   EXPECT_EQ(board.reset_count(), 2);
   EXPECT_THAT(ReadLines(port, 1), ::testing::ElementsAre("READY scanbench-leds 1.0.0 leds=10"));
 }
