@@ -86,13 +86,17 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
                   "rays, re-evaluate the LEDs there, re-solve [1, 20]")
       ->capture_default_str();
   command.add_option("--depth-tolerance", options.depth.tolerance_mm,
-                     "Depth refinement converged when no surface point would move more than this, mm")
+                     "Depth refinement converged when 99 % of the surface points would move less than this, mm")
       ->capture_default_str();
   command.add_option("--depth-min-range", options.depth.min_height_range_mm,
                      "Refine only when the first pass's integrated height range (p99 - p1) exceeds this, mm")
       ->capture_default_str();
   command.add_option("--depth-anchor-percentile", options.depth.anchor_percentile,
                      "Depth refinement: this percentile of the integrated height is put on the table plane")
+      ->capture_default_str();
+  command.add_option("--depth-shadow-edge", options.depth.shadow_edge_radius_px,
+                     "Depth refinement: the re-solves leave out lit samples within this many pixels of a cast "
+                     "shadow of the same LED (demosaicing mixes lit and shadowed light there) [0, 10], 0 = keep them")
       ->capture_default_str();
   command.add_flag("--no-depth-refine", [&options](std::int64_t) { options.depth.enabled = false; },
                    "Keep every surface point on the table plane (the default before issue #15)");

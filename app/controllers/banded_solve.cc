@@ -41,6 +41,14 @@ void CopyRowsInto(const Image<T>& band, int row0, Image<T>* whole) {
   std::copy(band.data(), band.data() + band.size(), whole->row(row0));
 }
 
+// Rows [first, first + rows) of an image.
+template <typename T>
+Image<T> CropRows(const Image<T>& image, int first, int rows) {
+  Image<T> cropped(image.width(), rows, image.channels());
+  std::copy(image.row(first), image.row(first) + cropped.size(), cropped.data());
+  return cropped;
+}
+
 // The full-size maps, shaped as the first band's and filled as a solve leaves
 // pixels it did not reach.
 void AllocateLike(const PhotometricSolution& band, int width, int height, PhotometricSolution* whole) {
@@ -88,6 +96,35 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
   whole->seconds += band.seconds;
 }
 
+// Replaces the developed band's masks by options.sample_masks' and crops the
+// band (developed with its margin) to its own `rows` rows from `first`.
+void MaskAndCropBand(const BandedSolveOptions& options, int first, int rows, std::vector<DevelopedFrame>* developed,
+                     size_t* masked_out) {
+  PhotometricSolverInput with_margin;
+  for (const DevelopedFrame& frame : *developed) {
+    with_margin.images.push_back(&frame.rgb);
+    with_margin.sample_valid.push_back(&frame.valid);
+  }
+  const std::vector<ImageU8> masks = options.sample_masks(with_margin);
+  if (masks.size() != developed->size()) {
+    throw std::invalid_argument("SolveBanded: sample_masks gave " + std::to_string(masks.size()) + " masks for " +
+                                std::to_string(developed->size()) + " lights; it must give one per light");
+  }
+  for (size_t k = 0; k < masks.size(); ++k) {
+    DevelopedFrame& frame = (*developed)[k];
+    if (!masks[k].SameSize(frame.valid.width(), frame.valid.height()) || masks[k].channels() != 1) {
+      throw std::invalid_argument("SolveBanded: sample_masks gave mask " + std::to_string(k) + " of " +
+                                  SizeText(masks[k].width(), masks[k].height()) + "; it must be the band's " +
+                                  SizeText(frame.valid.width(), frame.valid.height()) + ", 1 channel");
+    }
+    ImageU8 mask = CropRows(masks[k], first, rows);
+    const ImageU8 valid = CropRows(frame.valid, first, rows);
+    for (size_t i = 0; i < mask.size(); ++i) *masked_out += valid.data()[i] != 0 && mask.data()[i] == 0;
+    frame.rgb = CropRows(frame.rgb, first, rows);
+    frame.valid = std::move(mask);
+  }
+}
+
 void CheckFrames(const RawFrameStack& frames, const LightField& light_field) {
   if (frames.frames.empty() || static_cast<int>(frames.frames.size()) != light_field.num_lights()) {
     throw std::invalid_argument("SolveBanded: " + std::to_string(frames.frames.size()) +
@@ -116,6 +153,9 @@ void BandedSolveOptions::Check() const {
   develop.Check();
   if (!(band_rows >= 1 && band_rows <= 65536)) {
     throw FieldError("BandedSolveOptions", "band_rows", band_rows, "must lie in [1, 65536]");
+  }
+  if (!(sample_mask_margin_rows >= 0 && sample_mask_margin_rows <= 64)) {
+    throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows, "must lie in [0, 64]");
   }
 }
 
@@ -152,6 +192,9 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     const int row0 = band * band_rows, row1 = std::min(height, row0 + band_rows);
     const double band_begin = double(band) / num_bands, band_end = double(band + 1) / num_bands;
     const double develop_end = band_begin + kDevelopShare * (band_end - band_begin);
+    // With a mask hook the band is developed with its margin and cropped after the masks.
+    const int margin = options.sample_masks ? options.sample_mask_margin_rows : 0;
+    const int dev0 = std::max(0, row0 - margin), dev1 = std::min(height, row1 + margin);
 
     auto develop_start = std::chrono::steady_clock::now();
     std::vector<DevelopedFrame> developed(num_frames);
@@ -160,7 +203,7 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
         num_frames, threads, 1,
         [&](int first, int last, int) {
           for (int k = first; k < last; ++k) {
-            developed[k] = DevelopRawRows(*frames.frames[k], frames.dark, options.develop, row0, row1);
+            developed[k] = DevelopRawRows(*frames.frames[k], frames.dark, options.develop, dev0, dev1);
             clipped += developed[k].num_clipped_samples;
             const double scale = frames.exposure_scales.empty() ? 1.0 : frames.exposure_scales[k];
             if (scale != 1) {
@@ -179,7 +222,8 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
                            std::to_string(num_bands));
       return summary;
     }
-    summary.clipped_samples += clipped.load();
+    if (margin == 0) summary.clipped_samples += clipped.load();
+    if (options.sample_masks) MaskAndCropBand(options, row0 - dev0, row1 - row0, &developed, &summary.samples_masked_out);
 
     const auto solve_start = std::chrono::steady_clock::now();
     const LightFieldRows band_field(light_field, row0, row1 - row0);

@@ -10,6 +10,7 @@
 // 16 MP instead of 2 GB.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "calibration/raw_develop.h"
@@ -27,6 +28,12 @@ struct BandedSolveOptions {
   // Rows per band, rounded up to whole solver tiles and coherent-lobe blocks
   // (BandRowsUnit), in [1, 65536]. More rows: fewer passes, more memory.
   int band_rows = 256;
+  // Optional: each band's sample masks, made from the band developed with
+  // sample_mask_margin_rows more rows on each side (fewer at the image's
+  // edges), one mask per light of that size; null = the development's masks.
+  // The depth refinement's re-solves leave out cast-shadow edges with it.
+  std::function<std::vector<ImageU8>(const PhotometricSolverInput& band_with_margin)> sample_masks;
+  int sample_mask_margin_rows = 0;  // rows, [0, 64]: at least the reach of sample_masks
   void Check() const;
 };
 
@@ -43,7 +50,8 @@ struct BandedSolveSummary : AlgorithmSummary {
   PhotometricSolverSummary solver;  // over all bands, as one solve would report it
   int num_bands = 0;
   int band_rows = 0;                // rows per band used (the last may have fewer)
-  size_t clipped_samples = 0;       // raw samples at the clip level, all frames
+  size_t clipped_samples = 0;       // raw samples at the clip level, all frames (0 with a sample_masks margin)
+  size_t samples_masked_out = 0;    // usable samples that sample_masks made unusable, in the bands' own rows
   double develop_seconds = 0;       // of the wall time, developing
   double solve_seconds = 0;         // of the wall time, solving
   std::string BriefReport() const;

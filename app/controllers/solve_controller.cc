@@ -106,7 +106,9 @@ nlohmann::json DepthOptionsJson(const DepthRefinementOptions& depth) {
           {"max_iterations", depth.max_iterations},
           {"tolerance_mm", depth.tolerance_mm},
           {"min_height_range_mm", depth.min_height_range_mm},
-          {"anchor_percentile", depth.anchor_percentile}};
+          {"anchor_percentile", depth.anchor_percentile},
+          {"shadow_edge_radius_px", depth.shadow_edge_radius_px},
+          {"shadow_edge_level", depth.shadow_edge_level}};
 }
 
 // The steps of SolveController::Run, in order.
@@ -258,9 +260,17 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::fun
     return skipped;
   }
   const DepthResolve resolve = [&](const LightField& moved_field, PhotometricSolution* resolved,
-                                   const ProgressCallback& resolve_progress) {
+                                   const ProgressCallback& resolve_progress, size_t* shadow_edge_samples) {
+    BandedSolveOptions banded_options = BandedOptions(options);
+    if (options.depth.shadow_edge_radius_px > 0) {
+      banded_options.sample_mask_margin_rows = options.depth.shadow_edge_radius_px;
+      banded_options.sample_masks = [&](const PhotometricSolverInput& band) {
+        return ShadowEdgeSampleMasks(options.depth, options.solver, band);
+      };
+    }
     const BandedSolveSummary banded =
-        SolveBanded(BandedOptions(options), raw_frames().Stack(), moved_field, resolved, resolve_progress);
+        SolveBanded(banded_options, raw_frames().Stack(), moved_field, resolved, resolve_progress);
+    *shadow_edge_samples = banded.samples_masked_out;
     return banded.solver;
   };
   const std::vector<PointLight> no_lights;
@@ -273,6 +283,7 @@ nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const De
   for (const DepthIteration& it : depth.iterations) {
     iterations.push_back({{"max_move_mm", it.max_move_mm},
                           {"mean_move_mm", it.mean_move_mm},
+                          {"p99_move_mm", it.p99_move_mm},
                           {"height_range_mm", it.height_range_mm},
                           {"seconds", it.seconds}});
   }
@@ -280,6 +291,7 @@ nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const De
           {"refined", depth.refined},
           {"iterations", iterations},
           {"first_height_range_mm", depth.first_height_range_mm},
+          {"shadow_edge_samples", depth.shadow_edge_samples},
           {"stop_reason", depth.stop_reason},
           {"seconds", depth.seconds},
           {"message", depth.BriefReport()}};
@@ -386,7 +398,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 288,
+static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 304,
               "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
 #endif
 

@@ -8,6 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "app/controllers/depth_refinement.h"
 #include "solver/synthetic_scene.h"
 
 namespace scanbench {
@@ -73,6 +74,21 @@ void ExpectSameBits(const Image<T>& banded, const Image<T>& whole, const char* n
   EXPECT_EQ(std::memcmp(banded.data(), whole.data(), sizeof(T) * whole.size()), 0) << name << " differs";
 }
 
+// Today's solve's input: every frame developed whole, exposure scaled.
+std::vector<DevelopedFrame> DevelopWhole(const RawScene& raw, const RawFrameStack& stack,
+                                         const RawDevelopOptions& develop, size_t* clipped) {
+  std::vector<DevelopedFrame> developed;
+  for (size_t k = 0; k < raw.frames.size(); ++k) {
+    developed.push_back(DevelopRaw(raw.frames[k], &raw.dark, develop));
+    *clipped += developed.back().num_clipped_samples;
+    float* values = developed.back().rgb.data();
+    for (size_t i = 0; i < developed.back().rgb.size(); ++i) {
+      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
+    }
+  }
+  return developed;
+}
+
 TEST(BandedSolveTest, EqualsTheFullFrameSolveBitForBit) {
   const RawScene raw = MakeRawScene();
   const RawFrameStack stack = raw.Stack();
@@ -81,17 +97,8 @@ TEST(BandedSolveTest, EqualsTheFullFrameSolveBitForBit) {
   options.solver.num_threads = 2;
   options.band_rows = 40;  // rounded up to 64: two whole tile rows per band
 
-  // Today's solve: every frame developed whole, one solve.
-  std::vector<DevelopedFrame> developed;
   size_t clipped = 0;
-  for (size_t k = 0; k < raw.frames.size(); ++k) {
-    developed.push_back(DevelopRaw(raw.frames[k], &raw.dark, options.develop));
-    clipped += developed.back().num_clipped_samples;
-    float* values = developed.back().rgb.data();
-    for (size_t i = 0; i < developed.back().rgb.size(); ++i) {
-      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
-    }
-  }
+  const std::vector<DevelopedFrame> developed = DevelopWhole(raw, stack, options.develop, &clipped);
   PhotometricSolverInput input;
   for (const DevelopedFrame& frame : developed) {
     input.images.push_back(&frame.rgb);
@@ -127,6 +134,55 @@ TEST(BandedSolveTest, EqualsTheFullFrameSolveBitForBit) {
   EXPECT_EQ(summary.solver.pixels_by_specular, whole_summary.pixels_by_specular);
   EXPECT_EQ(summary.solver.pixels_coherent_lobe, whole_summary.pixels_coherent_lobe);
   EXPECT_EQ(summary.solver.num_tiles, whole_summary.num_tiles);
+}
+
+// The depth refinement's shadow-edge masks made per band from the band and its
+// margin equal those made on the whole frames.
+TEST(BandedSolveTest, SampleMasksFromBandsWithMarginEqualWholeFrameMasks) {
+  const RawScene raw = MakeRawScene();
+  const RawFrameStack stack = raw.Stack();
+  BandedSolveOptions options;
+  options.solver.tile_size = 32;
+  options.solver.num_threads = 2;
+  options.band_rows = 64;
+  DepthRefinementOptions depth;
+  depth.shadow_edge_radius_px = 2;
+  depth.shadow_edge_level = 0.02;  // the sphere's dark side and the black background
+
+  size_t clipped = 0;
+  const std::vector<DevelopedFrame> developed = DevelopWhole(raw, stack, options.develop, &clipped);
+  PhotometricSolverInput input;
+  for (const DevelopedFrame& frame : developed) {
+    input.images.push_back(&frame.rgb);
+    input.sample_valid.push_back(&frame.valid);
+  }
+  size_t whole_left_out = 0;
+  const std::vector<ImageU8> masks = ShadowEdgeSampleMasks(depth, options.solver, input, &whole_left_out);
+  input.sample_valid.clear();
+  for (const ImageU8& mask : masks) input.sample_valid.push_back(&mask);
+  input.light_field = raw.scene.light_field.get();
+  PhotometricSolution whole;
+  ASSERT_TRUE(SolvePhotometricStereo(options.solver, input, &whole).IsUsable());
+
+  options.sample_mask_margin_rows = depth.shadow_edge_radius_px;
+  options.sample_masks = [&](const PhotometricSolverInput& band) {
+    return ShadowEdgeSampleMasks(depth, options.solver, band);
+  };
+  PhotometricSolution banded;
+  const BandedSolveSummary summary = SolveBanded(options, stack, *raw.scene.light_field, &banded);
+  ASSERT_TRUE(summary.IsUsable()) << summary.message;
+  EXPECT_EQ(summary.num_bands, 3);
+  EXPECT_GT(whole_left_out, 0u);
+  EXPECT_EQ(summary.samples_masked_out, whole_left_out);
+  ExpectSameBits(banded.normal_in_table, whole.normal_in_table, "normal_in_table");
+  ExpectSameBits(banded.albedo, whole.albedo, "albedo");
+  ExpectSameBits(banded.status, whole.status, "status");
+  ExpectSameBits(banded.lights_used, whole.lights_used, "lights_used");
+
+  // A hook that gives the wrong number of masks is refused by name.
+  options.sample_masks = [](const PhotometricSolverInput&) { return std::vector<ImageU8>(1); };
+  EXPECT_THAT([&] { SolveBanded(options, stack, *raw.scene.light_field, &banded); },
+              testing::ThrowsMessage<std::invalid_argument>(testing::HasSubstr("sample_masks gave 1 masks")));
 }
 
 TEST(BandedSolveTest, StopsWhenCancelledAndRejectsBadInput) {

@@ -87,8 +87,11 @@ TEST(DepthRefinementTest, SurfacePointsLieOnTheRaysAtTheHeight) {
 
 // The integration's frame and anchor: the ground-truth normals of the +-25 mm
 // scene give its ground-truth height back (table at 0, folds up to 50 mm).
-// Measured: 0.53 mm low on the sample on average, 2.3 mm mean absolute shape
-// error about that (most of it at the steep edge blend).
+// The integration is perspective-exact (the log of the distance along each
+// camera ray). Measured: 0.07 mm high on the sample on average, 1.37 mm mean
+// absolute shape error about that (most of it at the steep edge blend); the
+// orthographic integration at the table's pixel footprint it replaced gave
+// 0.53 mm low and 2.3 mm.
 TEST(DepthRefinementTest, GroundTruthNormalsIntegrateToTheGroundTruthHeight) {
   TemporaryFolder folder;
   const fs::path session_dir = SimulateFolds(folder, "draped", 25);
@@ -118,8 +121,62 @@ TEST(DepthRefinementTest, GroundTruthNormalsIntegrateToTheGroundTruthHeight) {
   std::cout << "on the sample: mean offset " << offset << " mm, mean |shape error| " << shape_error
             << " mm, truth max " << truth_max << " mm\n";
   EXPECT_GT(truth_max, 30.0) << "the folds must be tens of mm high";
-  EXPECT_LT(shape_error, 3.0) << "mean absolute height error about the mean offset, mm";
-  EXPECT_LT(std::abs(offset), 2.0) << "the anchor, mm";
+  EXPECT_LT(shape_error, 1.8) << "mean absolute height error about the mean offset, mm";
+  EXPECT_LT(std::abs(offset), 0.4) << "the anchor, mm";
+}
+
+// Lit samples next to a shadowed one of the same light are left out, shadowed
+// ones are the solver's own (its shadow level); a pixel that would keep fewer
+// lit samples than the solver needs keeps them all.
+TEST(DepthRefinementTest, ShadowEdgeSamplesAreLeftOutWhereEnoughLightsRemain) {
+  constexpr int kW = 40, kH = 12;
+  // Light 0: shadowed left of x = 20; lights 1, 2: lit everywhere; light 3:
+  // lit in rows 0-5 only, so that rows 6-11 have only lights 1 and 2 besides 0.
+  std::vector<ImageF> images(4, ImageF(kW, kH, 3));
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        images[0](x, y, c) = x < 20 ? 0.0f : 0.4f;
+        images[1](x, y, c) = images[2](x, y, c) = 0.3f;
+        images[3](x, y, c) = y < 6 ? 0.2f : 0.0f;
+      }
+    }
+  }
+  ImageU8 clipped(kW, kH, 1);
+  std::fill(clipped.data(), clipped.data() + clipped.num_pixels(), uint8_t{1});
+  clipped(30, 2) = 0;  // a clipped sample stays unusable
+  PhotometricSolverInput input;
+  for (const ImageF& image : images) input.images.push_back(&image);
+  input.sample_valid = {&clipped, nullptr, nullptr, nullptr};
+  DepthRefinementOptions options;
+  options.shadow_edge_radius_px = 2;
+  size_t left_out = 0;
+  const std::vector<ImageU8> masks = ShadowEdgeSampleMasks(options, PhotometricSolverOptions{}, input, &left_out);
+  ASSERT_EQ(masks.size(), 4u);
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      // Lit within 2 px of x = 19; in rows 4-11 only lights 1 and 2 would be
+      // left besides (light 3 at its own edge, or dark).
+      const bool edge = x == 20 || x == 21;
+      const bool expected = (x == 30 && y == 2) ? false : !(edge && y < 4);
+      EXPECT_EQ(masks[0](x, y) != 0, expected) << "light 0 at " << x << "," << y;
+      EXPECT_EQ(masks[1](x, y), 1) << x << "," << y;
+    }
+  }
+  // Light 3's own edge (rows 4, 5: lit within 2 rows of row 6) is left out
+  // where light 0 is lit too (x >= 22), kept where it is not.
+  EXPECT_EQ(masks[3](30, 4), 0);
+  EXPECT_EQ(masks[3](30, 3), 1);
+  EXPECT_EQ(masks[3](10, 4), 1) << "light 0 dark there: only lights 1 and 2 would be left";
+  EXPECT_EQ(masks[3](20, 5), 1) << "lights 0 and 3 both at an edge: only lights 1 and 2 would be left";
+  // Light 0: 2 columns x rows 0-3; light 3: 2 rows x columns 22-39.
+  EXPECT_EQ(left_out, size_t(2 * 4 + 2 * (kW - 22)));
+  options.shadow_edge_radius_px = 0;
+  size_t none = 0;
+  const std::vector<ImageU8> kept = ShadowEdgeSampleMasks(options, PhotometricSolverOptions{}, input, &none);
+  EXPECT_EQ(none, 0u);
+  EXPECT_EQ(kept[0](20, 2), 1);
+  EXPECT_EQ(kept[0](30, 2), 0);
 }
 
 // The issue's target: on folds of +-25 mm the default solve (with the loop)
@@ -165,14 +222,18 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   const double depth_interior = InteriorMeanErrorDeg(draped, draped_default);
   std::cout << "interior mean error (deg): flat " << flat_interior << "; draped on the table plane "
             << plane_interior << "; draped with the loop " << depth_interior << "\n";
-  EXPECT_LE(depth_interior, 1.3 * flat_interior);
+  // Measured: flat 1.819, table plane 2.423, with the loop 1.164 (0.64x).
+  EXPECT_LE(depth_interior, 0.85 * flat_interior);
   EXPECT_LT(depth_interior, plane_interior);
 
   EXPECT_FALSE(draped_plane.depth.refined);
   ASSERT_TRUE(draped_default.depth.refined);
   EXPECT_GT(draped_default.depth.first_height_range_mm, 30.0);
-  EXPECT_LE(depth_error, 1.3 * flat_error);
+  // Measured: flat 1.722, table plane 2.564, with the loop 1.430 (0.83x the
+  // flat sample's error: the issue asks for at most 1.3x).
+  EXPECT_LE(depth_error, 1.0 * flat_error);
   EXPECT_GT(plane_error, 1.3 * flat_error) << "without the loop the folds must cost accuracy";
+  EXPECT_GT(draped_default.depth.shadow_edge_samples, 10000u);
   // The surface moved by centimetres first, then less.
   const std::vector<DepthIteration>& iterations = draped_default.depth.iterations;
   EXPECT_GT(iterations.front().max_move_mm, 20.0);
@@ -187,6 +248,17 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   const nlohmann::json report = nlohmann::json::parse(in);
   EXPECT_EQ(report.at("depth_refinement").at("iterations").size(), iterations.size());
   EXPECT_EQ(report.at("depth_refinement").at("stop_reason"), draped_default.depth.stop_reason);
+
+  // The shadow edges' share: the same loop keeping the lit samples at the
+  // folds' cast shadows. Measured 2.218 against 1.430 with them left out.
+  SolveOptions keep_edges;
+  keep_edges.depth.shadow_edge_radius_px = 0;
+  keep_edges.run_label = "keep-edges";
+  SolveController keep(draped, keep_edges);
+  keep.Run();
+  std::cout << "draped with the loop, shadow edges kept: " << keep.summary().normal_error_deg->mean << "\n";
+  EXPECT_EQ(keep.summary().depth.shadow_edge_samples, 0u);
+  EXPECT_LT(depth_error, 0.8 * keep.summary().normal_error_deg->mean);
 }
 
 }  // namespace
