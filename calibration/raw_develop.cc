@@ -75,6 +75,10 @@ DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const Raw
   const int clip_level = static_cast<int>(options.clip_fraction * frame.white_level);
   cv::Mat shifted(height, width, CV_16UC1);
   cv::Mat clipped(height, width, CV_8UC1, cv::Scalar(0));
+  if (options.keep_mosaic) {
+    developed.mosaic = ImageF(width, height, 1);
+    developed.mosaic_valid = ImageU8(width, height, 1);
+  }
   for (int y = 0; y < height; ++y) {
     const uint16_t* raw = frame.mosaic.row(y);
     const uint16_t* dark_row = dark != nullptr ? dark->mosaic.row(y) : nullptr;
@@ -86,6 +90,10 @@ DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const Raw
       if (raw[x] >= clip_level) {
         clip[x] = 1;
         ++developed.num_clipped_samples;
+      }
+      if (options.keep_mosaic) {
+        developed.mosaic(x, y) = float(int(raw[x]) - reference) / range[CfaColorAt(frame.cfa, x, y)];
+        developed.mosaic_valid(x, y) = raw[x] >= clip_level ? 0 : 1;
       }
     }
   }

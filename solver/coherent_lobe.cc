@@ -29,7 +29,9 @@ constexpr double kMadToSigma = 1.4826;     // median absolute deviation -> stand
 constexpr double kMinViewCosine = 0.1;     // n . v floor, as FitDiffuseLobe's
 constexpr double kUsedWeight = 0.01;       // a sample with a larger weight counts as used
 constexpr int kMinSamples = 6;             // per pixel: 3 or 4 parameters and spares
-constexpr int kNormalIterations = 6;       // Levenberg-Marquardt steps of one pixel's re-solve
+// Levenberg-Marquardt steps of one pixel's re-solve: 4 would save 6 % of the
+// pass for satin +0.002 deg and bear at 10 lights +0.01 (docs/solver.md).
+constexpr int kNormalIterations = 6;
 constexpr double kNormalConverged = 1e-4;  // rad: a smaller normal step has converged
 constexpr double kDerivativeStep = 1e-5;   // rad, forward differences of the lobe by the normal
 // The shape grid of the first fit: the azimuth over [0, pi) (the lobe is
@@ -284,35 +286,109 @@ class BlockRefiner {
 
   // ---- the shared shape, normals held ----------------------------------
 
-  // The group's cost under `shape` on the fit pixels, amplitudes projected
-  // out (per pixel rho_d; rho_s shared or per pixel); the shared F0 into
-  // *rho_s.
-  double ShapeCost(const Shape& shape, double* shared_rho_s) {
-    const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
-    double big_a = 0, big_b = 0, base = 0, own = 0;
-    for (int index : fit_) {
+  // What ShapeCost needs of one fit pixel's used sample, in the pixel's own
+  // terms: the normals and weights are held while the shape is fitted, so
+  // the shape's tangent frame enters only through the azimuth's (cos, sin),
+  // t . w = (a . w - (a . n)(n . w)) / |a - (a . n) n|, b . w = a . (w x n) / |...|
+  // (a the unit azimuth vector in the table plane), and everything else is
+  // computed once per fit.
+  struct FitSample {
+    double w, nl, value;
+    double hx, hy, hn, hcx, hcy;  // h: table x, y, along n; (h x n) x, y
+    double lx, ly, ln, lcx, lcy;  // l: the same
+  };
+  struct FitPixel {
+    int first = 0, count = 0;  // range of fit_samples_
+    double nx = 0, ny = 0, nv = 1, vx = 0, vy = 0, vcx = 0, vcy = 0;
+    double aa = 0, a_b = 0, bb = 0;  // shape-free sums
+    int index = 0;                   // into pixels_ (the rare fallback of a normal along the azimuth)
+  };
+
+  void PrepareFit(const std::vector<int>& fit) {
+    fit_pixels_.clear();
+    fit_samples_.clear();
+    for (int index : fit) {
       const Pixel& p = pixels_[index];
-      Eigen::Vector3d t, b;
-      TangentFrame(p.normal, shape.along, &t, &b);
-      double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
+      const Eigen::Vector3d& n = p.normal;
+      FitPixel f;
+      f.index = index;
+      f.first = static_cast<int>(fit_samples_.size());
+      f.nx = n.x(), f.ny = n.y();
+      f.nv = std::max(n.dot(p.view), kMinViewCosine);
+      const Eigen::Vector3d vc = p.view.cross(n);
+      f.vx = p.view.x(), f.vy = p.view.y(), f.vcx = vc.x(), f.vcy = vc.y();
       for (int k = p.first; k < p.first + p.count; ++k) {
         const double w = weights_[k];
         if (!(w > 0)) continue;
-        const double nl = std::max(0.0, p.normal.dot(lights_k_[k]));
-        const double s = ShapeTerm(p.normal, t, b, halves_[k], lights_k_[k], p.view, at, ab);
-        const double value = values_[k][0];
-        aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
-        bb += w * value * value;
+        FitSample q;
+        q.w = w;
+        q.nl = std::max(0.0, n.dot(lights_k_[k]));
+        q.value = values_[k][0];
+        const Eigen::Vector3d& h = halves_[k];
+        const Eigen::Vector3d& l = lights_k_[k];
+        const Eigen::Vector3d hc = h.cross(n), lc = l.cross(n);
+        q.hx = h.x(), q.hy = h.y(), q.hn = h.dot(n), q.hcx = hc.x(), q.hcy = hc.y();
+        q.lx = l.x(), q.ly = l.y(), q.ln = q.nl, q.lcx = lc.x(), q.lcy = lc.y();
+        f.aa += w * q.nl * q.nl, f.a_b += w * q.nl * q.value, f.bb += w * q.value * q.value;
+        fit_samples_.push_back(q);
       }
-      if (!(aa > 0)) continue;
+      f.count = static_cast<int>(fit_samples_.size()) - f.first;
+      fit_pixels_.push_back(f);
+    }
+  }
+
+  // The group's cost under `shape` on the prepared fit pixels, amplitudes
+  // projected out (per pixel rho_d; rho_s shared or per pixel); the shared
+  // F0 into *rho_s. The same value as ShapeTerm's model, term by term.
+  double ShapeCost(const Shape& shape, double* shared_rho_s) {
+    const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
+    const double ca = shape.along.x(), sa = shape.along.y();
+    const double at2 = at * at, ab2 = ab * ab, inv_at = 1 / at, inv_ab = 1 / ab;
+    double big_a = 0, big_b = 0, base = 0, own = 0;
+    for (const FitPixel& f : fit_pixels_) {
+      if (!(f.aa > 0)) continue;
+      const double an = ca * f.nx + sa * f.ny;
+      const double length2 = 1 - an * an;
+      double ac = 0, cc = 0, c_b = 0;
+      if (length2 > 1e-12) {
+        const double inv_length = 1 / std::sqrt(length2);
+        const double vt = (ca * f.vx + sa * f.vy - an * f.nv) * inv_length;
+        const double vb = (ca * f.vcx + sa * f.vcy) * inv_length;
+        // Smith's Lambda of the view, as SmithLambda with wn = n . v floored.
+        const double lambda_v = 0.5 * (std::sqrt(1.0 + (at2 * vt * vt + ab2 * vb * vb) / (f.nv * f.nv)) - 1.0);
+        const double scale = 1 / (4 * f.nv * at * ab);
+        for (int i = f.first; i < f.first + f.count; ++i) {
+          const FitSample& q = fit_samples_[i];
+          const double ht = (ca * q.hx + sa * q.hy - an * q.hn) * inv_length * inv_at;
+          const double hb = (ca * q.hcx + sa * q.hcy) * inv_length * inv_ab;
+          const double qq = ht * ht + hb * hb + q.hn * q.hn;
+          const double lt = (ca * q.lx + sa * q.ly - an * q.ln) * inv_length;
+          const double lb = (ca * q.lcx + sa * q.lcy) * inv_length;
+          const double ln2 = std::max(q.ln * q.ln, 1e-12);
+          const double lambda_l = 0.5 * (std::sqrt(1.0 + (at2 * lt * lt + ab2 * lb * lb) / ln2) - 1.0);
+          const double s = scale / (qq * qq * (1.0 + lambda_l + lambda_v));
+          ac += q.w * q.nl * s, cc += q.w * s * s, c_b += q.w * s * q.value;
+        }
+      } else {  // the normal along the azimuth: ShapeTerm's own fallback frame
+        const Pixel& p = pixels_[f.index];
+        Eigen::Vector3d t, b;
+        TangentFrame(p.normal, shape.along, &t, &b);
+        int i = f.first;
+        for (int k = p.first; k < p.first + p.count; ++k) {
+          if (!(weights_[k] > 0)) continue;
+          const FitSample& q = fit_samples_[i++];
+          const double s = ShapeTerm(p.normal, t, b, halves_[k], lights_k_[k], p.view, at, ab);
+          ac += q.w * q.nl * s, cc += q.w * s * s, c_b += q.w * s * q.value;
+        }
+      }
       if (options_.per_pixel_amplitude) {
         double d = 0, s = 0;
-        if (!NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, &d, &s)) continue;
-        own += std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
+        if (!NonNegativeLobeAmplitudes(f.aa, ac, cc, f.a_b, c_b, &d, &s)) continue;
+        own += std::max(0.0, f.bb - 2 * (d * f.a_b + s * c_b) + d * d * f.aa + 2 * d * s * ac + s * s * cc);
       } else {
-        big_a += cc - ac * ac / aa;
-        big_b += c_b - ac * a_b / aa;
-        base += bb - a_b * a_b / aa;
+        big_a += cc - ac * ac / f.aa;
+        big_b += c_b - ac * f.a_b / f.aa;
+        base += f.bb - f.a_b * f.a_b / f.aa;
       }
     }
     if (options_.per_pixel_amplitude) {
@@ -336,6 +412,7 @@ class BlockRefiner {
   Shape FitShape(const Shape& start, bool grid, double* best_rho_s) {
     Shape best = start;
     double rho_s = 0;
+    PrepareFit(fit_);
     double best_cost = ShapeCost(best, &rho_s);
     *best_rho_s = rho_s;
     if (grid) {
@@ -403,10 +480,22 @@ class BlockRefiner {
     Eigen::Vector3d t, b;
     TangentFrame(n, shape.along, &t, &b);
     terms->nl.resize(p.count), terms->s.resize(p.count);
+    // ShapeTerm with its view terms (n . v, Smith's Lambda of v) taken out
+    // of the sample loop.
+    const double nv = std::max(n.dot(p.view), kMinViewCosine);
+    const double lambda_v = SmithLambda(p.view.dot(t), p.view.dot(b), nv, at, ab);
+    const double scale = 1.0 / (4 * nv * at * ab);
+    const double inv_at = 1 / at, inv_ab = 1 / ab;
     for (int i = 0; i < p.count; ++i) {
       const int k = p.first + i;
-      terms->nl[i] = std::max(0.0, n.dot(lights_k_[k]));
-      terms->s[i] = ShapeTerm(n, t, b, halves_[k], lights_k_[k], p.view, at, ab);
+      const Eigen::Vector3d& l = lights_k_[k];
+      const Eigen::Vector3d& h = halves_[k];
+      const double nl = n.dot(l);
+      terms->nl[i] = std::max(0.0, nl);
+      const double ht = h.dot(t) * inv_at, hb = h.dot(b) * inv_ab, hn = h.dot(n);
+      const double q = ht * ht + hb * hb + hn * hn;
+      const double lambda_l = SmithLambda(l.dot(t), l.dot(b), std::max(nl, 0.0), at, ab);
+      terms->s[i] = scale / (q * q * (1.0 + lambda_l + lambda_v));
     }
   }
 
@@ -448,6 +537,74 @@ class BlockRefiner {
     }
   }
 
+  // The derivatives of n . l (clamped) and S of every sample of `p` at its
+  // normal n along the unit tangent directions u1, u2 (n' = normalize(n +
+  // e u)), into plus_[d].nl and plus_[d].s: with a = the azimuth vector,
+  // p = a - (a . n) n, t = p / |p|: dt = (dp - t (t . dp)) / |p|, dp = -(a .
+  // u) n - (a . n) u, db = u x t + n x dt; then the chain rule through q,
+  // n . v and Smith's Lambda of l and v. False when the normal is (nearly)
+  // along the azimuth, where ShapeTerm takes another tangent.
+  bool NormalDerivatives(const Pixel& p, const Shape& shape, double at, double ab, const Eigen::Vector3d& u1,
+                         const Eigen::Vector3d& u2) {
+    const Eigen::Vector3d& n = p.normal;
+    const Eigen::Vector3d& a = shape.along;
+    const double an = a.dot(n);
+    const Eigen::Vector3d projected = a - an * n;
+    const double length = projected.norm();
+    if (!(length > 1e-3)) return false;
+    const Eigen::Vector3d t = projected / length, b = n.cross(t);
+    const Eigen::Vector3d u[2] = {u1, u2};
+    Eigen::Vector3d dt[2], db[2];
+    for (int d = 0; d < 2; ++d) {
+      const Eigen::Vector3d dp = -a.dot(u[d]) * n - an * u[d];
+      dt[d] = (dp - t * t.dot(dp)) / length;
+      db[d] = u[d].cross(t) + n.cross(dt[d]);
+    }
+    const double at2 = at * at, ab2 = ab * ab;
+    const double nv_raw = n.dot(p.view);
+    const bool nv_free = nv_raw > kMinViewCosine;
+    const double nv = nv_free ? nv_raw : kMinViewCosine;
+    // Lambda(w) = (sqrt(1 + X) - 1) / 2, X = (at^2 (w.t)^2 + ab^2 (w.b)^2) / wn^2;
+    // its derivative dLambda = dX / (4 sqrt(1 + X)).
+    auto lambda_and_derivatives = [&](const Eigen::Vector3d& w, double wn, bool wn_free, double* value,
+                                      double derivative[2]) {
+      const double wn2 = std::max(wn * wn, 1e-12);
+      const double wt = w.dot(t), wb = w.dot(b);
+      const double x = (at2 * wt * wt + ab2 * wb * wb) / wn2;
+      const double root = std::sqrt(1.0 + x);
+      *value = 0.5 * (root - 1.0);
+      for (int d = 0; d < 2; ++d) {
+        double dx = 2 * (at2 * wt * w.dot(dt[d]) + ab2 * wb * w.dot(db[d])) / wn2;
+        if (wn_free && wn * wn > 1e-12) dx -= 2 * x * w.dot(u[d]) / wn;
+        derivative[d] = dx / (4 * root);
+      }
+    };
+    double lambda_v = 0, dlambda_v[2];
+    lambda_and_derivatives(p.view, nv, nv_free, &lambda_v, dlambda_v);
+    double dnv[2];
+    for (int d = 0; d < 2; ++d) dnv[d] = nv_free ? p.view.dot(u[d]) : 0.0;
+    const double scale = 1.0 / (4 * nv * at * ab);
+    for (int d = 0; d < 2; ++d) plus_[d].nl.resize(p.count), plus_[d].s.resize(p.count);
+    for (int i = 0; i < p.count; ++i) {
+      const int k = p.first + i;
+      const Eigen::Vector3d& l = lights_k_[k];
+      const Eigen::Vector3d& h = halves_[k];
+      const double nl = n.dot(l);
+      const double ht = h.dot(t), hb = h.dot(b), hn = h.dot(n);
+      const double q = ht * ht / at2 + hb * hb / ab2 + hn * hn;
+      double lambda_l = 0, dlambda_l[2];
+      lambda_and_derivatives(l, std::max(nl, 0.0), nl > 0, &lambda_l, dlambda_l);
+      const double g = 1.0 + lambda_l + lambda_v;
+      const double value = scale / (q * q * g);
+      for (int d = 0; d < 2; ++d) {
+        const double dq = 2 * (ht * h.dot(dt[d]) / at2 + hb * h.dot(db[d]) / ab2 + hn * h.dot(u[d]));
+        plus_[d].nl[i] = nl > 0 ? l.dot(u[d]) : 0.0;
+        plus_[d].s[i] = value * (-dnv[d] / nv - 2 * dq / q - (dlambda_l[d] + dlambda_v[d]) / g);
+      }
+    }
+    return true;
+  }
+
   // Levenberg-Marquardt on the normal (two tangent angles) with the
   // amplitudes projected out; Tukey weights refreshed every step.
   void SolvePixel(Pixel* p, const Shape& shape, double shared_rho_s) {
@@ -463,9 +620,17 @@ class BlockRefiner {
       const Eigen::Vector3d helper =
           std::abs(p->normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
       const Eigen::Vector3d u1 = p->normal.cross(helper).normalized(), u2 = p->normal.cross(u1);
-      // Jacobian columns: the two angles (forward differences), rho_d, rho_s.
-      Evaluate(*p, (p->normal + kDerivativeStep * u1).normalized(), shape, at, ab, &plus_[0]);
-      Evaluate(*p, (p->normal + kDerivativeStep * u2).normalized(), shape, at, ab, &plus_[1]);
+      // Jacobian columns: the two angles, rho_d, rho_s.
+      if (!NormalDerivatives(*p, shape, at, ab, u1, u2)) {  // no tangent frame of its own: forward differences
+        Evaluate(*p, (p->normal + kDerivativeStep * u1).normalized(), shape, at, ab, &plus_[0]);
+        Evaluate(*p, (p->normal + kDerivativeStep * u2).normalized(), shape, at, ab, &plus_[1]);
+        for (int d = 0; d < 2; ++d) {
+          for (int i = 0; i < p->count; ++i) {
+            plus_[d].nl[i] = (plus_[d].nl[i] - current_.nl[i]) / kDerivativeStep;
+            plus_[d].s[i] = (plus_[d].s[i] - current_.s[i]) / kDerivativeStep;
+          }
+        }
+      }
       const int params = options_.per_pixel_amplitude ? 4 : 3;
       Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
       Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
@@ -476,7 +641,7 @@ class BlockRefiner {
         j[2] = current_.nl[i];
         j[3] = current_.s[i];
         const double model = p->rho_d * j[2] + p->rho_s * j[3];
-        for (int d = 0; d < 2; ++d) j[d] = (p->rho_d * plus_[d].nl[i] + p->rho_s * plus_[d].s[i] - model) / kDerivativeStep;
+        for (int d = 0; d < 2; ++d) j[d] = p->rho_d * plus_[d].nl[i] + p->rho_s * plus_[d].s[i];
         const double r = model - values_[p->first + i][0];
         hessian.noalias() += w * j * j.transpose();
         gradient.noalias() += (w * r) * j;
@@ -659,6 +824,8 @@ class BlockRefiner {
   std::vector<Eigen::Vector4d> values_;  // luminance, R, G, B (intensity divided)
   std::vector<double> weights_;
   std::vector<int> cluster_, group_, fit_;
+  std::vector<FitPixel> fit_pixels_;
+  std::vector<FitSample> fit_samples_;
   std::vector<double> abs_residuals_;
   Terms current_, trial_, plus_[2];  // SolvePixel's scratch
 };

@@ -124,6 +124,11 @@ Session LoadCompleteSession(const fs::path& session_dir, bool verify_checksums) 
 struct DevelopedFrames {
   std::vector<ImageF> rgb;
   std::vector<ImageU8> valid;
+  // SolveOptions::bayer_domain only: the dark-subtracted mosaics, their
+  // per-sample validity and the CFA colour of the 2x2 tile's positions.
+  std::vector<ImageF> mosaics;
+  std::vector<ImageU8> mosaic_valid;
+  std::array<int, 4> cfa_channels = {0, 1, 1, 2};
   size_t clipped_samples = 0;  // raw samples at the clip level, all frames
   std::string dark_file;       // as session.json names it
   // The RAW files' own colour matrix (XYZ -> camera native, D65), from the first LED frame.
@@ -136,8 +141,9 @@ struct DevelopedFrames {
 // Decode and develop; `progress` gets the frames done, false from it stops
 // with Cancelled.
 DevelopedFrames DecodeAndDevelop(const fs::path& session_dir, const Session& session,
-                                 const RawDevelopOptions& develop, const ProgressCallback& progress) {
+                                 RawDevelopOptions develop, bool keep_mosaics, const ProgressCallback& progress) {
   DevelopedFrames frames;
+  develop.keep_mosaic = keep_mosaics;
   auto decode = [&](const FrameRecord& record) {
     const fs::path path = session_dir / record.file;
     DecodedRaw decoded = DecodeRawFileWithInfo(path);
@@ -163,8 +169,10 @@ DevelopedFrames DecodeAndDevelop(const fs::path& session_dir, const Session& ses
     // The rig's intensities are for the session's exposure; a frame exposed
     // longer reads proportionally brighter (the RAW is linear).
     if (const double scale = FrameExposureScale(session, *record); scale != 1) {
-      float* values = developed.rgb.data();
-      for (size_t i = 0; i < developed.rgb.size(); ++i) values[i] = static_cast<float>(values[i] * scale);
+      for (ImageF* image : {&developed.rgb, &developed.mosaic}) {
+        float* values = image->data();
+        for (size_t i = 0; i < image->size(); ++i) values[i] = static_cast<float>(values[i] * scale);
+      }
       frames.exposure_notes.push_back(record->file + ": exposed " + Fixed(record->exposure_time_s, 6) +
                                       " s, scaled by " + Fixed(scale, 6) + " to the session's " +
                                       Fixed(session.camera.exposure_time_s, 6) + " s");
@@ -172,6 +180,11 @@ DevelopedFrames DecodeAndDevelop(const fs::path& session_dir, const Session& ses
     frames.clipped_samples += developed.num_clipped_samples;
     frames.rgb.push_back(std::move(developed.rgb));
     frames.valid.push_back(std::move(developed.valid));
+    if (keep_mosaics) {
+      frames.mosaics.push_back(std::move(developed.mosaic));
+      frames.mosaic_valid.push_back(std::move(developed.mosaic_valid));
+      for (int p = 0; p < 4; ++p) frames.cfa_channels[p] = CfaColorAt(raw.cfa, p & 1, p >> 1);
+    }
     if (!progress(double(k + 1) / num_lights)) throw Cancelled("decode RAW");
   }
   return frames;
@@ -321,6 +334,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
   report["solver"]["num_threads"] = summary.solver.num_threads;
   report["solver"]["depth_refinement"] = DepthOptionsJson(options.depth);
   report["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
+                       {"bayer_domain", options.bayer_domain},
                        {"clip_fraction", options.develop.clip_fraction},
                        {"dark_frame", dark_file},
                        {"clipped_raw_samples", summary.clipped_samples}};
@@ -391,6 +405,8 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
   text["solver"] = SolverOptionsJson(solver);
   text["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                      {"clip_fraction", options.develop.clip_fraction}};
+  // Only when set, so that earlier results keep their fingerprints.
+  if (options.bayer_domain) text["develop"]["bayer_domain"] = true;
   text["albedo_color"] = AlbedoColorSourceName(options.albedo_color.source);
   text["depth_refinement"] = DepthOptionsJson(options.depth);  // issue #15
   if (options.float32_maps) text["exr_maps"] = "float32";
@@ -491,7 +507,8 @@ void SolveController::Run() {
   summary_.num_lights = static_cast<int>(session.rig.leds.size());
 
   DevelopedFrames frames = TimedStage(timings, "decode_develop", "decode RAW", [&] {
-    return DecodeAndDevelop(session_dir_, session, options_.develop, StageCallback("decode RAW"));
+    return DecodeAndDevelop(session_dir_, session, options_.develop, options_.bayer_domain,
+                            StageCallback("decode RAW"));
   });
   summary_.clipped_samples = frames.clipped_samples;
 
@@ -510,8 +527,21 @@ void SolveController::Run() {
 
   PhotometricSolution solution;
   TimedStage(timings, "solve", "solve", [&] {
-    summary_.solver = SolvePhotometricStereo(options_.solver, SolverInput(frames, *lighting.light_field), &solution,
-                                             StageCallback("solve"));
+    if (options_.bayer_domain) {
+      BayerSolverInput input;
+      for (size_t k = 0; k < frames.mosaics.size(); ++k) {
+        input.mosaics.push_back(&frames.mosaics[k]);
+        input.sample_valid.push_back(&frames.mosaic_valid[k]);
+      }
+      input.cfa_channels = frames.cfa_channels;
+      input.light_field = lighting.light_field.get();
+      summary_.solver = SolvePhotometricStereoBayer(options_.solver, input, &solution, StageCallback("solve"));
+      frames.mosaics.clear();
+      frames.mosaic_valid.clear();
+    } else {
+      summary_.solver = SolvePhotometricStereo(options_.solver, SolverInput(frames, *lighting.light_field),
+                                               &solution, StageCallback("solve"));
+    }
     RequireSuccess(summary_.solver, "solve");
   });
   summary_.depth = TimedStage(timings, "depth_refine", "depth refine", [&] {
