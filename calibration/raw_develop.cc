@@ -90,6 +90,10 @@ DevelopedFrame DevelopRawRows(const RawImage& frame, const RawImage* dark, const
   const int clip_level = static_cast<int>(options.clip_fraction * frame.white_level);
   cv::Mat shifted(read_rows, width, CV_16UC1);
   cv::Mat clipped(read_rows, width, CV_8UC1, cv::Scalar(0));
+  if (options.keep_mosaic) {
+    developed.mosaic = ImageF(width, row_end - row_begin, 1);
+    developed.mosaic_valid = ImageU8(width, row_end - row_begin, 1);
+  }
   for (int y = read_begin; y < read_end; ++y) {
     const uint16_t* raw = frame.mosaic.row(y);
     const uint16_t* dark_row = dark != nullptr ? dark->mosaic.row(y) : nullptr;
@@ -102,6 +106,10 @@ DevelopedFrame DevelopRawRows(const RawImage& frame, const RawImage* dark, const
       if (raw[x] >= clip_level) {
         clip[x] = 1;
         developed.num_clipped_samples += counted;
+      }
+      if (options.keep_mosaic && counted) {
+        developed.mosaic(x, y - row_begin) = float(int(raw[x]) - reference) / range[CfaColorAt(frame.cfa, x, y)];
+        developed.mosaic_valid(x, y - row_begin) = raw[x] >= clip_level ? 0 : 1;
       }
     }
   }

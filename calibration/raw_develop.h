@@ -12,6 +12,9 @@ struct RawDevelopOptions {
     kEdgeAware,  // OpenCV's edge-aware interpolation (less zipper at thread edges)
   };
   Demosaic demosaic = Demosaic::kEdgeAware;
+  // Also fill DevelopedFrame::mosaic and mosaic_valid (the Bayer-domain
+  // solve's input, issue #13); off: they stay empty.
+  bool keep_mosaic = false;
   // A raw sample at or above this fraction of white_level counts as clipped, (0, 1].
   double clip_fraction = 0.98;
 
@@ -25,6 +28,11 @@ struct DevelopedFrame {
   // 1 channel: 0 where a raw sample that feeds the pixel was clipped.
   ImageU8 valid;
   size_t num_clipped_samples = 0;  // raw samples at or above the clip level
+  // With RawDevelopOptions::keep_mosaic, 1 channel each: every raw sample as
+  // rgb's channel of its CFA colour would be before demosaicing ((raw - dark)
+  // / (white - black)), and 0 where that one sample was clipped.
+  ImageF mosaic;
+  ImageU8 mosaic_valid;
 };
 
 // Subtracts `dark` (same size and pattern; its black level is then part of

@@ -15,7 +15,11 @@
 //      pattern search), and
 //   2. each pixel's normal and diffuse albedo re-solved under that lobe
 //      (Levenberg-Marquardt)
-// a few times, with Tukey weights on every residual. A pixel takes the
+// a few times, with Tukey weights on every residual. The first alternation
+// is run with Lambert's diffuse (n . l) and with the diffuse light that
+// crosses a Schlick-Fresnel interface on the way in, (n . l)(1 - (1 - n .
+// l)^5) (fresnel_diffuse), and the latter kept only where it lowers the fit
+// pixels' residual on their common samples by 30 %. A pixel takes the
 // shared-lobe result only where that lowers its residual against its own
 // per-pixel result re-evaluated on the same weighted samples (both floored
 // at the noise; a tie against a Lambertian result goes to the shared lobe);
@@ -68,6 +72,11 @@ struct CoherentLobeOptions {
   // Each pixel keeps its own lobe amplitude (rho_s) under the shared shape;
   // else the group shares one F0.
   bool per_pixel_amplitude = false;
+  // Each group also tries the Fresnel-transmitted diffuse term (n . l) (1 -
+  // (1 - n . l)^5) in place of Lambert's and keeps it where it leaves at most
+  // 0.7 of the Lambertian fit's residual; false: Lambert's only (a third
+  // less time; docs/solver.md).
+  bool fresnel_diffuse = true;
   // Worker threads; 0 = all hardware threads, in [0, 256].
   int num_threads = 0;
 
@@ -79,6 +88,7 @@ struct CoherentLobeSummary : AlgorithmSummary {
   bool skipped_lights = false;  // more lights than max_lights: nothing done
   size_t pixels_supported = 0;  // solved pixels with a per-pixel lobe (the candidates)
   size_t groups_fitted = 0;     // block albedo groups a shared lobe was fitted to
+  size_t groups_fresnel = 0;    // of those, with the Fresnel-transmitted diffuse term
   size_t pixels_refined = 0;    // pixels that took the shared-lobe result
   size_t pixels_kept = 0;       // candidates in fitted groups that kept their per-pixel result (BIC)
   double mean_anisotropy = 0;   // mean alpha_b / alpha_t (>= 1) over the fitted groups

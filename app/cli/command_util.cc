@@ -72,6 +72,9 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
           },
           "Bayer interpolation: edge_aware (default) or bilinear")
       ->check(CLI::IsMember({"edge_aware", "bilinear"}));
+  command.add_flag("--bayer-domain", options.bayer_domain,
+                   "Solve the normals per raw pixel from its own CFA sample instead of on the demosaiced frames "
+                   "(only the albedo is demosaiced; on cloth more accurate, on Lambertian scenes noisier)");
   command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
                    "Skip re-hashing the frames against session.json");
   command.add_flag("--float32-maps", options.float32_maps,

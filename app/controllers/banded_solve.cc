@@ -125,6 +125,64 @@ void MaskAndCropBand(const BandedSolveOptions& options, int first, int rows, std
   }
 }
 
+PhotometricSolverSummary SolveRgbBand(const BandedSolveOptions& options, const std::vector<DevelopedFrame>& developed,
+                                      const LightField& light_field, int row0, int row1,
+                                      PhotometricSolution* band_solution, const ProgressCallback& progress) {
+  const LightFieldRows band_field(light_field, row0, row1 - row0);
+  PhotometricSolverInput input;
+  for (const DevelopedFrame& frame : developed) {
+    input.images.push_back(&frame.rgb);
+    input.sample_valid.push_back(&frame.valid);
+  }
+  input.light_field = &band_field;
+  return SolvePhotometricStereo(options.solver, input, band_solution, progress);
+}
+
+// Solves the developed rows [dev0, dev1) (the band and its margin) in the
+// Bayer domain and keeps the band's own rows [row0, row1).
+PhotometricSolverSummary SolveBayerBand(const BandedSolveOptions& options, const std::vector<DevelopedFrame>& developed,
+                                        CfaPattern cfa, const LightField& light_field, int dev0, int dev1, int row0,
+                                        int row1, PhotometricSolution* band_solution,
+                                        const ProgressCallback& progress) {
+  const LightFieldRows dev_field(light_field, dev0, dev1 - dev0);
+  BayerSolverInput input;
+  for (const DevelopedFrame& frame : developed) {
+    input.mosaics.push_back(&frame.mosaic);
+    input.sample_valid.push_back(&frame.mosaic_valid);
+  }
+  // dev0 is even, so the 2x2 tile's colours are the frame's.
+  for (int p = 0; p < 4; ++p) input.cfa_channels[p] = CfaColorAt(cfa, p & 1, p >> 1);
+  input.light_field = &dev_field;
+  PhotometricSolution with_margin;
+  const PhotometricSolverSummary solved = SolvePhotometricStereoBayer(options.solver, input, &with_margin, progress);
+  const int first = row0 - dev0, rows = row1 - row0;
+  auto crop = [&](const auto& image) {
+    using Img = std::decay_t<decltype(image)>;
+    return image.empty() ? Img() : CropRows(image, first, rows);
+  };
+  band_solution->normal_in_table = crop(with_margin.normal_in_table);
+  band_solution->albedo = crop(with_margin.albedo);
+  band_solution->status = crop(with_margin.status);
+  band_solution->lights_used = crop(with_margin.lights_used);
+  band_solution->condition_number = crop(with_margin.condition_number);
+  band_solution->residual = crop(with_margin.residual);
+  band_solution->solve_path = crop(with_margin.solve_path);
+  band_solution->specular = crop(with_margin.specular);
+  band_solution->specular_status = crop(with_margin.specular_status);
+  // The counts of the band's own rows, not of its margin.
+  PhotometricSolverSummary counted = solved;
+  counted.num_pixels = band_solution->status.num_pixels();
+  counted.pixels_by_status = {};
+  counted.pixels_by_path = {};
+  counted.pixels_by_specular = {};
+  for (size_t i = 0; i < counted.num_pixels; ++i) {
+    ++counted.pixels_by_status[band_solution->status.data()[i]];
+    ++counted.pixels_by_path[band_solution->solve_path.data()[i]];
+    if (!band_solution->specular_status.empty()) ++counted.pixels_by_specular[band_solution->specular_status.data()[i]];
+  }
+  return counted;
+}
+
 void CheckFrames(const RawFrameStack& frames, const LightField& light_field) {
   if (frames.frames.empty() || static_cast<int>(frames.frames.size()) != light_field.num_lights()) {
     throw std::invalid_argument("SolveBanded: " + std::to_string(frames.frames.size()) +
@@ -154,6 +212,9 @@ void BandedSolveOptions::Check() const {
   if (!(band_rows >= 1 && band_rows <= 65536)) {
     throw FieldError("BandedSolveOptions", "band_rows", band_rows, "must lie in [1, 65536]");
   }
+  if (bayer_domain && sample_masks) {
+    throw std::invalid_argument("BandedSolveOptions: bayer_domain and sample_masks cannot be combined");
+  }
   if (!(sample_mask_margin_rows >= 0 && sample_mask_margin_rows <= 64)) {
     throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows, "must lie in [0, 64]");
   }
@@ -182,6 +243,9 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
   const int num_frames = static_cast<int>(frames.frames.size());
   const int threads = ResolveThreadCount(options.solver.num_threads);
 
+  RawDevelopOptions develop = options.develop;
+  develop.keep_mosaic = options.bayer_domain;
+
   BandedSolveSummary summary;
   summary.band_rows = band_rows;
   summary.solver.num_lights = num_frames;
@@ -193,7 +257,9 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     const double band_begin = double(band) / num_bands, band_end = double(band + 1) / num_bands;
     const double develop_end = band_begin + kDevelopShare * (band_end - band_begin);
     // With a mask hook the band is developed with its margin and cropped after the masks.
-    const int margin = options.sample_masks ? options.sample_mask_margin_rows : 0;
+    const int margin = options.bayer_domain ? kBayerMarginRows
+                       : options.sample_masks ? options.sample_mask_margin_rows
+                                              : 0;
     const int dev0 = std::max(0, row0 - margin), dev1 = std::min(height, row1 + margin);
 
     auto develop_start = std::chrono::steady_clock::now();
@@ -203,12 +269,14 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
         num_frames, threads, 1,
         [&](int first, int last, int) {
           for (int k = first; k < last; ++k) {
-            developed[k] = DevelopRawRows(*frames.frames[k], frames.dark, options.develop, dev0, dev1);
+            developed[k] = DevelopRawRows(*frames.frames[k], frames.dark, develop, dev0, dev1);
             clipped += developed[k].num_clipped_samples;
             const double scale = frames.exposure_scales.empty() ? 1.0 : frames.exposure_scales[k];
             if (scale != 1) {
-              float* values = developed[k].rgb.data();
-              for (size_t i = 0; i < developed[k].rgb.size(); ++i) values[i] = static_cast<float>(values[i] * scale);
+              for (ImageF* image : {&developed[k].rgb, &developed[k].mosaic}) {
+                float* values = image->data();
+                for (size_t i = 0; i < image->size(); ++i) values[i] = static_cast<float>(values[i] * scale);
+              }
             }
           }
         },
@@ -222,20 +290,17 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
                            std::to_string(num_bands));
       return summary;
     }
-    if (margin == 0) summary.clipped_samples += clipped.load();
+    if (margin == 0 || options.bayer_domain) summary.clipped_samples += clipped.load();
     if (options.sample_masks) MaskAndCropBand(options, row0 - dev0, row1 - row0, &developed, &summary.samples_masked_out);
 
     const auto solve_start = std::chrono::steady_clock::now();
-    const LightFieldRows band_field(light_field, row0, row1 - row0);
-    PhotometricSolverInput input;
-    for (const DevelopedFrame& frame : developed) {
-      input.images.push_back(&frame.rgb);
-      input.sample_valid.push_back(&frame.valid);
-    }
-    input.light_field = &band_field;
     PhotometricSolution band_solution;
     const PhotometricSolverSummary solved =
-        SolvePhotometricStereo(options.solver, input, &band_solution, SubRange(progress, develop_end, band_end));
+        options.bayer_domain
+            ? SolveBayerBand(options, developed, frames.frames[0]->cfa, light_field, dev0, dev1, row0, row1,
+                             &band_solution, SubRange(progress, develop_end, band_end))
+            : SolveRgbBand(options, developed, light_field, row0, row1, &band_solution,
+                           SubRange(progress, develop_end, band_end));
     if (band == 0) AllocateLike(band_solution, width, height, solution);
     CopyBandInto(band_solution, row0, solution);
     Accumulate(solved, &summary.solver);

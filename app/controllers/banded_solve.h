@@ -34,6 +34,11 @@ struct BandedSolveOptions {
   // The depth refinement's re-solves leave out cast-shadow edges with it.
   std::function<std::vector<ImageU8>(const PhotometricSolverInput& band_with_margin)> sample_masks;
   int sample_mask_margin_rows = 0;  // rows, [0, 64]: at least the reach of sample_masks
+  // Solve each raw pixel's normal from its own CFA sample
+  // (SolvePhotometricStereoBayer); the band is solved with kBayerMarginRows
+  // more rows on each side, so that the albedo's demosaic at the band's
+  // borders sees its neighbours. Not with sample_masks.
+  bool bayer_domain = false;
   void Check() const;
 };
 
@@ -45,6 +50,9 @@ struct RawFrameStack {
   // differs from the session's); empty = 1 for all.
   std::vector<double> exposure_scales;
 };
+
+// Rows beyond a band that a Bayer-domain band solve includes (even: the CFA phase holds).
+inline constexpr int kBayerMarginRows = 2;
 
 struct BandedSolveSummary : AlgorithmSummary {
   PhotometricSolverSummary solver;  // over all bands, as one solve would report it

@@ -202,6 +202,7 @@ BandedSolveOptions BandedOptions(const SolveOptions& options) {
   BandedSolveOptions banded;
   banded.solver = options.solver;
   banded.develop = options.develop;
+  banded.bayer_domain = options.bayer_domain;
   return banded;
 }
 
@@ -262,6 +263,7 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::fun
   const DepthResolve resolve = [&](const LightField& moved_field, PhotometricSolution* resolved,
                                    const ProgressCallback& resolve_progress, size_t* shadow_edge_samples) {
     BandedSolveOptions banded_options = BandedOptions(options);
+    banded_options.bayer_domain = false;  // the re-solves use the demosaiced frames (SolveOptions::bayer_domain)
     if (options.depth.shadow_edge_radius_px > 0) {
       banded_options.sample_mask_margin_rows = options.depth.shadow_edge_radius_px;
       banded_options.sample_masks = [&](const PhotometricSolverInput& band) {
@@ -360,6 +362,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
   report["solver"]["num_threads"] = summary.solver.num_threads;
   report["solver"]["depth_refinement"] = DepthOptionsJson(options.depth);
   report["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
+                       {"bayer_domain", options.bayer_domain},
                        {"clip_fraction", options.develop.clip_fraction},
                        {"dark_frame", dark_file},
                        {"clipped_raw_samples", summary.clipped_samples}};
@@ -430,6 +433,8 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
   text["solver"] = SolverOptionsJson(solver);
   text["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                      {"clip_fraction", options.develop.clip_fraction}};
+  // Only when set, so that earlier results keep their fingerprints.
+  if (options.bayer_domain) text["develop"]["bayer_domain"] = true;
   text["albedo_color"] = AlbedoColorSourceName(options.albedo_color.source);
   text["depth_refinement"] = DepthOptionsJson(options.depth);  // issue #15
   if (options.float32_maps) text["exr_maps"] = "float32";

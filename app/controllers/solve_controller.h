@@ -27,6 +27,11 @@ struct SolveOptions {
   // 32-bit float EXR maps (zip) instead of half float (ResultMapExrEncoding);
   // the PNGs are the same either way.
   bool float32_maps = false;
+  // Solve the normals per raw pixel from its own CFA sample
+  // (SolvePhotometricStereoBayer, issue #13) instead of on the demosaiced
+  // frames; only the albedo is demosaiced. The depth refinement's re-solves
+  // (when the height range triggers them) use the demosaiced frames.
+  bool bayer_domain = false;
   // --- calibration (issue #4) ---
   // A calibration set (app/session/calibration_set.h): lights, white balance
   // and camera rays from it instead of the session's rig description. Empty =

@@ -88,6 +88,30 @@ TEST(RawDevelopTest, ClippedSamplesInvalidateTheirNeighbourhood) {
   EXPECT_EQ(developed.valid(8, 8), 1);
 }
 
+TEST(RawDevelopTest, KeptMosaicHoldsEachSampleAndOnlyItsOwnClipping) {
+  const std::array<double, 3> colour = {0.2, 0.5, 0.8};
+  RawImage frame = FlatMosaic(CfaPattern::kGBRG, colour);
+  RawImage dark = FlatMosaic(CfaPattern::kGBRG, {0, 0, 0});
+  dark.mosaic(3, 4) += 40;  // a warm site: subtracted from that sample only
+  frame.mosaic(3, 4) += 40;
+  frame.mosaic(8, 6) = 16383;
+  RawDevelopOptions options;
+  EXPECT_TRUE(DevelopRaw(frame, &dark, options).mosaic.empty());
+  options.keep_mosaic = true;
+  const DevelopedFrame developed = DevelopRaw(frame, &dark, options);
+  ASSERT_EQ(developed.mosaic.width(), 16);
+  ASSERT_EQ(developed.mosaic.channels(), 1);
+  for (int y = 0; y < 12; ++y) {
+    for (int x = 0; x < 16; ++x) {
+      if (x == 8 && y == 6) continue;
+      ASSERT_NEAR(developed.mosaic(x, y), colour[CfaColorAt(CfaPattern::kGBRG, x, y)], 1e-4) << x << "," << y;
+      ASSERT_EQ(developed.mosaic_valid(x, y), 1) << x << "," << y;
+    }
+  }
+  EXPECT_EQ(developed.mosaic_valid(8, 6), 0);
+  EXPECT_EQ(developed.valid(9, 6), 0);  // the demosaiced pixel next to it reads the clipped sample
+}
+
 TEST(RawDevelopTest, MismatchedDarkFrameAndBadOptionsAreRejected) {
   const RawImage frame = FlatMosaic(CfaPattern::kRGGB, {0.5, 0.5, 0.5});
   const RawImage dark = FlatMosaic(CfaPattern::kBGGR, {0, 0, 0});

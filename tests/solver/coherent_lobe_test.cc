@@ -132,6 +132,29 @@ TEST(CoherentLobe, IsotropicShapeIsTheDiffuseLobeTerm) {
   EXPECT_GT(s, 0);
 }
 
+// The sphere's diffuse term is Lambert's: the Fresnel-transmitted one must
+// not be taken for it, and turning the try off changes nothing here.
+TEST(CoherentLobe, LambertianDiffuseKeepsLambertsTerm) {
+  const SyntheticScene scene = AnisotropicSphere(0.001);
+  PhotometricSolverOptions solver_options;
+  solver_options.adaptive_coherent_lobe = false;
+  solver_options.num_threads = 2;
+  PhotometricSolution with_try, without_try;
+  ASSERT_EQ(SolvePhotometricStereo(solver_options, InputFor(scene), &with_try).termination, Termination::kSuccess);
+  without_try = with_try;
+  CoherentLobeOptions options;
+  options.num_threads = 2;
+  const CoherentLobeSummary tried = RefineCoherentLobe(options, solver_options, InputFor(scene), &with_try);
+  options.fresnel_diffuse = false;
+  const CoherentLobeSummary lambert = RefineCoherentLobe(options, solver_options, InputFor(scene), &without_try);
+  ASSERT_GT(tried.groups_fitted, 10u) << tried.BriefReport();
+  EXPECT_EQ(tried.groups_fresnel, 0u) << tried.BriefReport();
+  EXPECT_EQ(lambert.groups_fresnel, 0u);
+  EXPECT_EQ(tried.pixels_refined, lambert.pixels_refined);
+  EXPECT_DOUBLE_EQ(AngularErrorDegrees(with_try.normal_in_table, scene.normal_in_table, scene.object).mean,
+                   AngularErrorDegrees(without_try.normal_in_table, scene.normal_in_table, scene.object).mean);
+}
+
 TEST(CoherentLobe, SharedAnisotropicLobeRecoversTheNormals) {
   const SyntheticScene scene = AnisotropicSphere(0.001);
   const SolveRun off = Solve(scene, false);

@@ -259,6 +259,29 @@ TEST(ScanControllersTest, ResolveWritesANewResultBesideTheOld) {
   EXPECT_THAT(second.summary().result_dir.filename().string(), HasSubstr("bilinear"));
 }
 
+// Issue #13: the Bayer-domain option solves per raw pixel and says so in the
+// summary, report.json and the inputs fingerprint (batch must not skip it).
+TEST(ScanControllersTest, BayerDomainSolveIsItsOwnResult) {
+  TemporaryFolder folder;
+  const fs::path session_dir = SimulateSmallSession(folder);
+  SolveController demosaiced(session_dir, SolveOptions());
+  demosaiced.Run();
+  SolveOptions options;
+  options.bayer_domain = true;
+  options.run_label = "bayer";
+  SolveController bayer(session_dir, options);
+  bayer.Run();
+  const SolveSummary& summary = bayer.summary();
+  EXPECT_TRUE(summary.solver.bayer_domain);
+  EXPECT_FALSE(demosaiced.summary().solver.bayer_domain);
+  ASSERT_TRUE(summary.normal_error_deg.has_value());
+  EXPECT_LE(summary.normal_error_deg->mean, 1.0);
+  EXPECT_EQ(summary.unsolved_on_sample, 0u);
+  EXPECT_NE(summary.inputs_fingerprint, demosaiced.summary().inputs_fingerprint);
+  const nlohmann::json report = ReadJson(summary.result_dir / "report.json");
+  EXPECT_EQ(report.at("develop").at("bayer_domain"), true);
+}
+
 TEST(ScanControllersTest, InterruptedSimulationResumesWhereItStopped) {
   TemporaryFolder folder;
   const fs::path session_dir = folder / "session";
