@@ -19,7 +19,8 @@ struct KernelSettings {
         with_albedo(job.with_albedo && !job.bayer),
         with_confidence(job.with_confidence),
         num_lights(job.num_lights),
-        field(job.field) {
+        field(job.field),
+        kernels(&KernelsOf(job)) {
     robust.loss = options.robust_loss;
     robust.width = options.robust_loss_width;
     robust.min_scale = options.robust_min_scale;
@@ -34,6 +35,7 @@ struct KernelSettings {
   bool with_confidence;
   int num_lights;
   const LightField* field;  // for the view direction of the lobe fits
+  const SpanKernels* kernels;
 
   // Unit direction from pixel (x, y) towards the camera.
   Eigen::Vector3d View(int x, int y) const {
@@ -183,32 +185,19 @@ void NormalEquationsSolve::SolvePixel(const Span& span, int i, PixelFit* fit) {
 // the squared residual in the accumulated sums.
 void NormalEquationsSolve::AddResiduals(const Span& span) {
   const SpanBuffers& b = *span.buffers;
-  const int n = n_, count = span.count;
-  std::fill(residual2_.begin(), residual2_.begin() + count, 0.0);
-  const double* s0 = &scaled_[0];
-  const double* s1 = &scaled_[n];
-  const double* s2 = &scaled_[2 * n];
-  double* __restrict residual2 = residual2_.data();
-  for (int k = 0; k < settings_.num_lights; ++k) {
-    const float* lum = &b.lum[static_cast<size_t>(k) * n];
-    const float* ok = &b.ok[static_cast<size_t>(k) * n];
-    const float* dx = &b.dir[static_cast<size_t>(3 * k + 0) * n];
-    const float* dy = &b.dir[static_cast<size_t>(3 * k + 1) * n];
-    const float* dz = &b.dir[static_cast<size_t>(3 * k + 2) * n];
-    const std::vector<float>& shared_dir = span.shared->dir;
-    const double ud0 = shared_dir[3 * k], ud1 = shared_dir[3 * k + 1], ud2 = shared_dir[3 * k + 2];
-    if (span.lights == TileLights::kUniform) {
-      for (int i = 0; i < count; ++i) {
-        const double r = ud0 * s0[i] + ud1 * s1[i] + ud2 * s2[i] - lum[i];
-        residual2[i] += ok[i] * (r * r);
-      }
-    } else {
-      for (int i = 0; i < count; ++i) {
-        const double r = dx[i] * s0[i] + dy[i] * s1[i] + dz[i] * s2[i] - lum[i];
-        residual2[i] += ok[i] * (r * r);
-      }
-    }
-  }
+  const int count = span.count;
+  ResidualArgs a;
+  a.count = count;
+  a.num_lights = settings_.num_lights;
+  a.capacity = n_;
+  a.uniform = span.lights == TileLights::kUniform;
+  a.shared_dir = span.shared->dir.data();
+  a.dir = b.dir.data();
+  a.lum = b.lum.data();
+  a.ok = b.ok.data();
+  a.scaled = scaled_.data();
+  a.residual2 = residual2_.data();
+  settings_.kernels->residuals(a);
   for (int i = 0; i < count; ++i) {
     PixelFit& fit = fits_[i];
     if (fit.status != PixelStatus::kSolved) continue;
