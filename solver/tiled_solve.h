@@ -82,6 +82,7 @@ struct SharedLights {
   int usable = 0;  // lights in `inverse`; -1: the matrix is never shared
   Eigen::Matrix3d inverse = Eigen::Matrix3d::Identity();
   double condition = 0;
+  uint64_t generation = 0;  // changes whenever the lights do (keys what kernels derive from them)
 };
 
 // One row's stretch of a tile once its samples are accumulated: what a kernel reads.
