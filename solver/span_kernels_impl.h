@@ -10,9 +10,9 @@
 // Why float: a span's sums run over the lights of one pixel (10 to a few
 // dozen products of unit directions and O(1) samples), where float's 6e-8
 // relative rounding moves the normal by 2e-6 deg on average (at most 5e-5)
-// from the double sums
-// (docs/solver.md, "Kernels and CPU dispatch"); float doubles the lanes
-// of every vector. The sums are widened to double for the 3x3 solves.
+// from double sums (docs/solver.md, "Kernels and CPU dispatch"), and float
+// doubles the lanes of every vector. The sums are widened to double for the
+// 3x3 solves.
 #include <cstddef>
 #include <cstdint>
 
