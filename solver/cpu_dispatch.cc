@@ -1,6 +1,8 @@
 #include "solver/cpu_dispatch.h"
 
+#include <atomic>
 #include <cstdlib>
+#include <stdexcept>
 
 #include "solver/span_kernels.h"
 
@@ -61,6 +63,27 @@ KernelIsa DefaultKernelIsa() {
   }();
   return chosen;
 }
+
+namespace {
+std::atomic<int> override_isa{-1};  // -1: none
+}  // namespace
+
+KernelIsa ActiveKernelIsa() {
+  const int forced = override_isa.load(std::memory_order_relaxed);
+  return forced >= 0 ? static_cast<KernelIsa>(forced) : DefaultKernelIsa();
+}
+
+void OverrideKernelIsa(KernelIsa isa) {
+  if (!KernelIsaSupported(isa)) {
+    std::string supported;
+    for (KernelIsa s : SupportedKernelIsas()) supported += std::string(supported.empty() ? "" : ", ") + KernelIsaName(s);
+    throw std::invalid_argument(std::string("OverrideKernelIsa: kernel ISA ") + KernelIsaName(isa) +
+                                " is not supported by this CPU or build (supported: " + supported + ")");
+  }
+  override_isa.store(static_cast<int>(isa), std::memory_order_relaxed);
+}
+
+void ClearKernelIsaOverride() { override_isa.store(-1, std::memory_order_relaxed); }
 
 namespace tiled {
 

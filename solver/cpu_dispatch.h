@@ -17,8 +17,7 @@ enum class KernelIsa {
   kAvx512,    // AVX-512 F, VL, BW, DQ
 };
 
-// "baseline", "avx2", "avx512" (the names SCANBENCH_SOLVER_ISA and
-// PhotometricSolverOptions::kernel_isa take).
+// "baseline", "avx2", "avx512" (the names SCANBENCH_SOLVER_ISA takes).
 const char* KernelIsaName(KernelIsa isa);
 // False when `name` is none of those.
 bool KernelIsaFromName(const std::string& name, KernelIsa* isa);
@@ -28,9 +27,19 @@ bool KernelIsaSupported(KernelIsa isa);
 // Every supported one, baseline first.
 std::vector<KernelIsa> SupportedKernelIsas();
 
-// The one an "auto" solve runs: the best supported, capped by the environment
-// variable SCANBENCH_SOLVER_ISA where it names one (e.g. =baseline to debug or
-// compare against the baseline). Decided once per process.
+// The best supported, capped by the environment variable SCANBENCH_SOLVER_ISA
+// where it names one (e.g. =baseline to debug or compare against the
+// baseline; an unknown name caps nothing). Decided once per process.
 KernelIsa DefaultKernelIsa();
+
+// What a solve starting now runs (each solve picks once, at its start): the
+// override where one is set, else DefaultKernelIsa(). Not an option of the
+// solve, since every ISA gives the same results.
+KernelIsa ActiveKernelIsa();
+// Process-wide, for tests and debugging: solves started afterwards run `isa`
+// (which must be supported: throws std::invalid_argument naming it and the
+// supported ones otherwise) until ClearKernelIsaOverride().
+void OverrideKernelIsa(KernelIsa isa);
+void ClearKernelIsaOverride();
 
 }  // namespace scanbench

@@ -456,12 +456,6 @@ void PhotometricSolverOptions::Check() const {
   if (!(light_tolerance >= 0 && light_tolerance <= 0.1)) {
     throw FieldError(kOptions, "light_tolerance", light_tolerance, "must lie in [0, 0.1]");
   }
-  KernelIsa isa;
-  if (kernel_isa != "auto" && !(KernelIsaFromName(kernel_isa, &isa) && KernelIsaSupported(isa))) {
-    std::string supported;
-    for (KernelIsa s : SupportedKernelIsas()) supported += std::string(", ") + KernelIsaName(s);
-    throw FieldError(kOptions, "kernel_isa", kernel_isa, "must be auto" + supported + " (what this CPU runs)");
-  }
   if (!(robust_loss_width >= 0) || !std::isfinite(robust_loss_width)) {
     throw FieldError(kOptions, "robust_loss_width", robust_loss_width, "must be finite and >= 0");
   }

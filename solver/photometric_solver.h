@@ -162,12 +162,6 @@ struct PhotometricSolverOptions {
   // In [0, 0.1]; 0 = exact only.
   double light_tolerance = 1e-4;
 
-  // Instruction set of the tiled solve's hot loops (solver/cpu_dispatch.h):
-  // "auto" (the best this CPU supports, capped by SCANBENCH_SOLVER_ISA), or
-  // "baseline", "avx2", "avx512" where the CPU supports it. Every choice gives
-  // the same results; the summary names the one that ran.
-  std::string kernel_isa = "auto";
-
   // --- robust_irls, sparse_bayesian and the robust pass of adaptive ---
   RobustLoss robust_loss = RobustLoss::kTukey;
   // Loss width in units of the robust residual scale (1.4826 x median

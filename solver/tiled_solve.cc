@@ -78,10 +78,7 @@ SpanBuffers::SpanBuffers(int lights, int span_capacity) : num_lights(lights), ca
 }
 
 const SpanKernels& KernelsOf(const SolveJob& job) {
-  if (job.kernels != nullptr) return *job.kernels;
-  KernelIsa isa = DefaultKernelIsa();
-  if (job.options != nullptr && job.options->kernel_isa != "auto") KernelIsaFromName(job.options->kernel_isa, &isa);
-  return SpanKernelsFor(isa);
+  return job.kernels != nullptr ? *job.kernels : SpanKernelsFor(ActiveKernelIsa());
 }
 
 AccumulateSpanFn ChooseAccumulator(bool bayer, bool with_albedo, bool uniform_lights) {

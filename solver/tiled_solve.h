@@ -36,10 +36,10 @@ struct SolveJob {
   bool with_confidence = true;
   PhotometricSolution* solution = nullptr;
   ImageF* albedo_mosaic = nullptr;  // Bayer mode: the albedo of each raw pixel's own channel
-  const SpanKernels* kernels = nullptr;  // the hot loops' instruction set; null = options->kernel_isa
+  const SpanKernels* kernels = nullptr;  // the hot loops' instruction set; null = ActiveKernelIsa()
 };
 
-// The job's kernels: job.kernels, else those options->kernel_isa names.
+// The job's kernels: job.kernels, else those of ActiveKernelIsa().
 const SpanKernels& KernelsOf(const SolveJob& job);
 
 // How a tile's pixels get their lights.

@@ -1,6 +1,6 @@
 // The solver's runtime CPU dispatch (solver/cpu_dispatch.h): every kernel
 // variant this CPU runs gives the baseline's results on the same input, the
-// option names and refuses ISAs, and the summary names the one that ran.
+// override refuses what the CPU lacks, and the summary names the one that ran.
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -89,8 +89,15 @@ PhotometricSolverInput InputOf(const Scene& s) {
   return input;
 }
 
+// Forces the kernels of solves started in its lifetime.
+class ScopedKernelIsa {
+ public:
+  explicit ScopedKernelIsa(KernelIsa isa) { OverrideKernelIsa(isa); }
+  ~ScopedKernelIsa() { ClearKernelIsaOverride(); }
+};
+
 PhotometricSolution Solve(PhotometricSolverOptions options, const PhotometricSolverInput& input, KernelIsa isa) {
-  options.kernel_isa = KernelIsaName(isa);
+  const ScopedKernelIsa forced(isa);
   options.num_threads = 1;
   PhotometricSolution solution;
   const PhotometricSolverSummary summary = SolvePhotometricStereo(options, input, &solution);
@@ -155,11 +162,13 @@ TEST(CpuDispatchTest, BayerVariantsGiveTheBaselinesResults) {
   for (Method method : {Method::kAdaptive, Method::kNormalEquations}) {
     PhotometricSolverOptions options;
     options.method = method;
-    options.kernel_isa = "baseline";
     PhotometricSolution baseline;
-    SolvePhotometricStereoBayer(options, input, &baseline);
+    {
+      const ScopedKernelIsa forced(KernelIsa::kBaseline);
+      SolvePhotometricStereoBayer(options, input, &baseline);
+    }
     for (KernelIsa isa : WiderIsas()) {
-      options.kernel_isa = KernelIsaName(isa);
+      const ScopedKernelIsa forced(isa);
       PhotometricSolution other;
       EXPECT_EQ(SolvePhotometricStereoBayer(options, input, &other).kernel_isa, KernelIsaName(isa));
       ExpectSameSolution(baseline, other, kTolerance,
@@ -168,7 +177,7 @@ TEST(CpuDispatchTest, BayerVariantsGiveTheBaselinesResults) {
   }
 }
 
-TEST(CpuDispatchTest, NamesRoundTripAndTheOptionRefusesWhatTheCpuLacks) {
+TEST(CpuDispatchTest, NamesRoundTripAndTheOverrideRefusesWhatTheCpuLacks) {
   for (KernelIsa isa : {KernelIsa::kBaseline, KernelIsa::kAvx2, KernelIsa::kAvx512}) {
     KernelIsa parsed = KernelIsa::kBaseline;
     ASSERT_TRUE(KernelIsaFromName(KernelIsaName(isa), &parsed));
@@ -179,20 +188,19 @@ TEST(CpuDispatchTest, NamesRoundTripAndTheOptionRefusesWhatTheCpuLacks) {
   EXPECT_TRUE(KernelIsaSupported(KernelIsa::kBaseline));
   EXPECT_TRUE(KernelIsaSupported(DefaultKernelIsa()));
 
-  PhotometricSolverOptions options;
-  options.kernel_isa = "sse9";
-  EXPECT_THAT([&] { options.Check(); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  ::testing::AllOf(HasSubstr("kernel_isa"), HasSubstr("sse9"), HasSubstr("baseline"))));
   for (KernelIsa isa : {KernelIsa::kAvx2, KernelIsa::kAvx512}) {
-    options.kernel_isa = KernelIsaName(isa);
     if (KernelIsaSupported(isa)) {
-      EXPECT_NO_THROW(options.Check());
+      EXPECT_NO_THROW(OverrideKernelIsa(isa));
+      EXPECT_EQ(ActiveKernelIsa(), isa);
     } else {
-      EXPECT_THROW(options.Check(), std::invalid_argument) << KernelIsaName(isa);
+      EXPECT_THAT([&] { OverrideKernelIsa(isa); },
+                  ::testing::ThrowsMessage<std::invalid_argument>(
+                      ::testing::AllOf(HasSubstr(KernelIsaName(isa)), HasSubstr("baseline"))));
     }
+    ClearKernelIsaOverride();
   }
-  // "auto" runs the default and says so.
+  EXPECT_EQ(ActiveKernelIsa(), DefaultKernelIsa());
+  // Without an override a solve runs the default and says so.
   const Scene distant = MakeScene(SyntheticSceneOptions::Lights::kDistant);
   PhotometricSolution solution;
   const PhotometricSolverSummary summary =
