@@ -13,6 +13,7 @@
 #include "core/format.h"
 #include "core/parallel_for.h"
 #include "solver/coherent_lobe.h"
+#include "solver/cpu_dispatch.h"
 #include "solver/pixel_kernels.h"
 #include "solver/tile_lights.h"
 
@@ -295,12 +296,14 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   const int width = job.field->width(), height = job.field->height();
   CheckUniformPinvField(options, *job.field);
   ImageF albedo_mosaic;
-  const tiled::SolveJob worker_job = PrepareSolution(job, &albedo_mosaic);
+  tiled::SolveJob worker_job = PrepareSolution(job, &albedo_mosaic);
+  worker_job.kernels = &tiled::KernelsOf(job);
 
   PhotometricSolverSummary summary;
   summary.method = PhotometricMethodName(options.method);
   summary.bayer_domain = job.bayer;
   summary.num_lights = job.num_lights;
+  summary.kernel_isa = KernelIsaName(worker_job.kernels->isa);
   summary.num_pixels = static_cast<size_t>(width) * height;
   const std::vector<Tile> tiles = PlanTiles(width, height, options.tile_size, job.region, &summary.num_tiles);
   summary.tiles_skipped = summary.num_tiles - tiles.size();
@@ -477,7 +480,8 @@ std::string PhotometricSolverSummary::BriefReport() const {
                                                              : "failure";
   out << "Photometric solve (" << (method.empty() ? "?" : method) << (bayer_domain ? ", Bayer domain" : "")
       << "): " << how << ", " << num_solved() << " / " << num_pixels << " pixels solved from " << num_lights
-      << " lights in " << seconds << " s on " << num_threads << " threads";
+      << " lights in " << seconds << " s on " << num_threads << " threads ("
+      << (kernel_isa.empty() ? "?" : kernel_isa) << " kernels)";
   for (int s = 1; s < kNumPixelStatuses; ++s) {
     if (pixels_by_status[s] > 0) {
       out << ", " << pixels_by_status[s] << " " << PixelStatusName(static_cast<PixelStatus>(s));

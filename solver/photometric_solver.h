@@ -240,6 +240,7 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   bool bayer_domain = false;          // solved per raw pixel (SolvePhotometricStereoBayer)
   int num_lights = 0;
   int num_threads = 0;
+  std::string kernel_isa;             // KernelIsaName of the hot loops that ran
   size_t num_pixels = 0;
   size_t num_tiles = 0;               // tiles of the image
   size_t tiles_skipped = 0;           // tiles with no pixel in the region: not touched

@@ -19,7 +19,8 @@ struct KernelSettings {
         with_albedo(job.with_albedo && !job.bayer),
         with_confidence(job.with_confidence),
         num_lights(job.num_lights),
-        field(job.field) {
+        field(job.field),
+        kernels(&KernelsOf(job)) {
     robust.loss = options.robust_loss;
     robust.width = options.robust_loss_width;
     robust.min_scale = options.robust_min_scale;
@@ -34,6 +35,7 @@ struct KernelSettings {
   bool with_confidence;
   int num_lights;
   const LightField* field;  // for the view direction of the lobe fits
+  const SpanKernels* kernels;
 
   // Unit direction from pixel (x, y) towards the camera.
   Eigen::Vector3d View(int x, int y) const {
@@ -97,8 +99,22 @@ class NormalEquationsSolve {
 
  private:
   void SolvePixel(const Span& span, int i, PixelFit* fit);
+  // The condition number of a Gram matrix (or the interpolated one) and,
+  // where within max_condition_number, its inverse.
+  void InvertGram(double g00, double g01, double g02, double g11, double g12, double g22,
+                  double interpolated_condition, bool interpolated, double* condition,
+                  Eigen::Matrix3d* inverse) const;
+
+  // Uniform tiles: the inverse per subset of used lights (SolvePixel).
+  struct SubsetInverse {
+    uint64_t generation = ~uint64_t(0), mask = 0;
+    double condition = 0;
+    Eigen::Matrix3d inverse = Eigen::Matrix3d::Identity();
+  };
+  static constexpr int kSubsetBits = 6;
 
   const KernelSettings settings_;
+  std::vector<SubsetInverse> subsets_ = std::vector<SubsetInverse>(size_t(1) << kSubsetBits);
   const int n_;
   std::vector<PixelFit> fits_;
   std::vector<double> scaled_;     // luminance scaled normal, [c * n + i]; 0 unless solved
@@ -118,6 +134,21 @@ void NormalEquationsSolve::Solve(const Span& span) {
   }
 }
 
+void NormalEquationsSolve::InvertGram(double g00, double g01, double g02, double g11, double g12, double g22,
+                                      double interpolated_condition, bool interpolated, double* condition,
+                                      Eigen::Matrix3d* inverse) const {
+  *condition = interpolated ? interpolated_condition : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
+  if (*condition <= settings_.options.max_condition_number) {
+    // Closed-form inverse through the cofactors.
+    const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
+    const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
+    const double det = g00 * c00 + g01 * c01 + g02 * c02;
+    const double inv_det = 1.0 / det;
+    *inverse << c00, c01, c02, c01, c11, c12, c02, c12, c22;
+    *inverse *= inv_det;
+  }
+}
+
 void NormalEquationsSolve::SolvePixel(const Span& span, int i, PixelFit* fit) {
   const PhotometricSolverOptions& options = settings_.options;
   const int n = n_;
@@ -134,21 +165,30 @@ void NormalEquationsSolve::SolvePixel(const Span& span, int i, PixelFit* fit) {
   if (span.lights == TileLights::kUniform && used == span.shared->usable) {
     fit->condition_number = span.shared->condition;
     inverse = span.shared->inverse;
+  } else if (span.lights == TileLights::kUniform && settings_.num_lights <= 64) {
+    // A uniform tile's Gram matrix depends only on which lights a pixel
+    // uses (unit weights, the same directions, summed in the same order):
+    // pixels with the same shadowed lights share its condition number and
+    // inverse, computed once.
+    uint64_t mask = 0;
+    for (int k = 0; k < settings_.num_lights; ++k) {
+      mask |= uint64_t(span.buffers->ok[static_cast<size_t>(k) * n + i] > 0) << k;
+    }
+    SubsetInverse& entry = subsets_[(mask * 0x9E3779B97F4A7C15ull) >> (64 - kSubsetBits)];
+    if (entry.generation != span.shared->generation || entry.mask != mask) {
+      entry.generation = span.shared->generation;
+      entry.mask = mask;
+      InvertGram(g00, g01, g02, g11, g12, g22, span.buffers->all_lights_condition[i], false, &entry.condition,
+                 &entry.inverse);
+    }
+    fit->condition_number = entry.condition;
+    inverse = entry.inverse;
   } else {
     // Interpolated tiles have every light usable: a pixel using them all
     // has the interpolated condition number of the nodes.
-    fit->condition_number = span.lights == TileLights::kInterpolated && used == settings_.num_lights
-                                ? span.buffers->all_lights_condition[i]
-                                : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
-    if (fit->condition_number <= options.max_condition_number) {
-      // Closed-form inverse through the cofactors.
-      const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
-      const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
-      const double det = g00 * c00 + g01 * c01 + g02 * c02;
-      const double inv_det = 1.0 / det;
-      inverse << c00, c01, c02, c01, c11, c12, c02, c12, c22;
-      inverse *= inv_det;
-    }
+    const bool interpolated = span.lights == TileLights::kInterpolated && used == settings_.num_lights;
+    InvertGram(g00, g01, g02, g11, g12, g22, span.buffers->all_lights_condition[i], interpolated,
+               &fit->condition_number, &inverse);
   }
   if (!(fit->condition_number <= options.max_condition_number)) {
     fit->status = PixelStatus::kIllConditioned;
@@ -183,32 +223,19 @@ void NormalEquationsSolve::SolvePixel(const Span& span, int i, PixelFit* fit) {
 // the squared residual in the accumulated sums.
 void NormalEquationsSolve::AddResiduals(const Span& span) {
   const SpanBuffers& b = *span.buffers;
-  const int n = n_, count = span.count;
-  std::fill(residual2_.begin(), residual2_.begin() + count, 0.0);
-  const double* s0 = &scaled_[0];
-  const double* s1 = &scaled_[n];
-  const double* s2 = &scaled_[2 * n];
-  double* __restrict residual2 = residual2_.data();
-  for (int k = 0; k < settings_.num_lights; ++k) {
-    const float* lum = &b.lum[static_cast<size_t>(k) * n];
-    const float* ok = &b.ok[static_cast<size_t>(k) * n];
-    const float* dx = &b.dir[static_cast<size_t>(3 * k + 0) * n];
-    const float* dy = &b.dir[static_cast<size_t>(3 * k + 1) * n];
-    const float* dz = &b.dir[static_cast<size_t>(3 * k + 2) * n];
-    const std::vector<float>& shared_dir = span.shared->dir;
-    const double ud0 = shared_dir[3 * k], ud1 = shared_dir[3 * k + 1], ud2 = shared_dir[3 * k + 2];
-    if (span.lights == TileLights::kUniform) {
-      for (int i = 0; i < count; ++i) {
-        const double r = ud0 * s0[i] + ud1 * s1[i] + ud2 * s2[i] - lum[i];
-        residual2[i] += ok[i] * (r * r);
-      }
-    } else {
-      for (int i = 0; i < count; ++i) {
-        const double r = dx[i] * s0[i] + dy[i] * s1[i] + dz[i] * s2[i] - lum[i];
-        residual2[i] += ok[i] * (r * r);
-      }
-    }
-  }
+  const int count = span.count;
+  ResidualArgs a;
+  a.count = count;
+  a.num_lights = settings_.num_lights;
+  a.capacity = n_;
+  a.uniform = span.lights == TileLights::kUniform;
+  a.shared_dir = span.shared->dir.data();
+  a.dir = b.dir.data();
+  a.lum = b.lum.data();
+  a.ok = b.ok.data();
+  a.scaled = scaled_.data();
+  a.residual2 = residual2_.data();
+  settings_.kernels->residuals(a);
   for (int i = 0; i < count; ++i) {
     PixelFit& fit = fits_[i];
     if (fit.status != PixelStatus::kSolved) continue;

@@ -78,6 +78,7 @@ TileLights TileLightSampler::Classify(LightSharing sharing, int x0, int y0, int 
 TileLights TileLightSampler::ShareCentreLights() {
   shared_.dir = centre_.dirs;
   shared_.inv = centre_.inv;
+  ++shared_.generation;
   Eigen::Matrix3d gram = Eigen::Matrix3d::Zero();
   shared_.usable = 0;
   bool partly_usable = false;

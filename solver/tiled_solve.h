@@ -16,6 +16,7 @@
 
 #include "solver/photometric_solver.h"
 #include "solver/pixel_solvers.h"
+#include "solver/span_kernels.h"
 
 namespace scanbench::tiled {
 
@@ -35,7 +36,11 @@ struct SolveJob {
   bool with_confidence = true;
   PhotometricSolution* solution = nullptr;
   ImageF* albedo_mosaic = nullptr;  // Bayer mode: the albedo of each raw pixel's own channel
+  const SpanKernels* kernels = nullptr;  // the hot loops' instruction set; null = ActiveKernelIsa()
 };
+
+// The job's kernels: job.kernels, else those of ActiveKernelIsa().
+const SpanKernels& KernelsOf(const SolveJob& job);
 
 // How a tile's pixels get their lights.
 enum class TileLights {
@@ -51,15 +56,6 @@ enum class LightSharing {
   kWithinTolerance,  // shared or interpolated where within light_tolerance (adaptive)
 };
 
-// Rows (per pixel) of the accumulated normal equations in SpanBuffers::acc.
-enum Acc : int {
-  kG00, kG01, kG02, kG11, kG12, kG22,  // Gram matrix
-  kB0, kB1, kB2,                       // L^T luminance
-  kR0, kR1, kR2, kGr0, kGr1, kGr2, kBl0, kBl1, kBl2,  // L^T red, green, blue
-  kCount,                              // samples used
-  kNumAcc
-};
-
 // Per-thread buffers of one span (up to `capacity` pixels of a row), planar:
 // per light and pixel at [(3k + c) * capacity + i] or [k * capacity + i].
 struct SpanBuffers {
@@ -71,8 +67,9 @@ struct SpanBuffers {
   std::vector<float> lum, rgb;  // intensity-divided samples (0 where not used)
   std::vector<float> ok;        // 1 where the sample is used, else 0
   std::vector<uint8_t> ones;    // stands in for a missing sample mask
-  std::vector<float> planes;    // one light's R, G, B and validity for the span
-  std::vector<double> acc;      // [a * capacity + i], a in Acc
+  std::vector<const float*> rows;      // per light: the span's samples in the image
+  std::vector<const uint8_t*> marks;  // per light: the span's sample_valid (or `ones`)
+  std::vector<double> acc;      // [a * capacity + i], a in Acc (summed in float per span, see span_kernels_impl.h)
   std::vector<uint8_t> light_bad;              // non-finite light at the pixel
   std::vector<float> clipped;                  // 1 where a sample was marked invalid (clipped)
   std::vector<double> all_lights_condition;    // interpolated tiles: condition number of all lights
@@ -85,6 +82,7 @@ struct SharedLights {
   int usable = 0;  // lights in `inverse`; -1: the matrix is never shared
   Eigen::Matrix3d inverse = Eigen::Matrix3d::Identity();
   double condition = 0;
+  uint64_t generation = 0;  // changes whenever the lights do (keys what kernels derive from them)
 };
 
 // One row's stretch of a tile once its samples are accumulated: what a kernel reads.
