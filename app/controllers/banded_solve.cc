@@ -139,23 +139,40 @@ PhotometricSolverSummary SolveRgbBand(const BandedSolveOptions& options, const s
 }
 
 // Solves the developed rows [dev0, dev1) (the band and its margin) in the
-// Bayer domain and keeps the band's own rows [row0, row1).
+// Bayer domain and keeps the band's own rows [row0, row1). The mosaics handed
+// to the solver reach one whole tile beyond the band, with only the developed
+// rows in its region, so that its tiles are the whole-frame solve's.
 PhotometricSolverSummary SolveBayerBand(const BandedSolveOptions& options, const std::vector<DevelopedFrame>& developed,
                                         CfaPattern cfa, const LightField& light_field, int dev0, int dev1, int row0,
                                         int row1, PhotometricSolution* band_solution,
                                         const ProgressCallback& progress) {
-  const LightFieldRows dev_field(light_field, dev0, dev1 - dev0);
-  BayerSolverInput input;
+  const int tile = options.solver.tile_size;
+  const int solve0 = std::max(0, row0 - tile), solve1 = std::min(light_field.height(), row1 + tile);
+  const int width = light_field.width(), solve_rows = solve1 - solve0;
+  std::vector<ImageF> mosaics;
+  std::vector<ImageU8> valid;
   for (const DevelopedFrame& frame : developed) {
-    input.mosaics.push_back(&frame.mosaic);
-    input.sample_valid.push_back(&frame.mosaic_valid);
+    mosaics.emplace_back(width, solve_rows, 1, 0.0f);
+    valid.emplace_back(width, solve_rows, 1, uint8_t{0});
+    std::copy(frame.mosaic.data(), frame.mosaic.data() + frame.mosaic.size(), mosaics.back().row(dev0 - solve0));
+    std::copy(frame.mosaic_valid.data(), frame.mosaic_valid.data() + frame.mosaic_valid.size(),
+              valid.back().row(dev0 - solve0));
   }
-  // dev0 is even, so the 2x2 tile's colours are the frame's.
+  ImageU8 region(width, solve_rows, 1, uint8_t{0});
+  std::fill(region.row(dev0 - solve0), region.row(dev0 - solve0) + size_t(dev1 - dev0) * width, uint8_t{1});
+  const LightFieldRows solve_field(light_field, solve0, solve_rows);
+  BayerSolverInput input;
+  for (size_t k = 0; k < mosaics.size(); ++k) {
+    input.mosaics.push_back(&mosaics[k]);
+    input.sample_valid.push_back(&valid[k]);
+  }
+  // solve0 is even, so the 2x2 tile's colours are the frame's.
   for (int p = 0; p < 4; ++p) input.cfa_channels[p] = CfaColorAt(cfa, p & 1, p >> 1);
-  input.light_field = &dev_field;
+  input.light_field = &solve_field;
+  input.region = &region;
   PhotometricSolution with_margin;
   const PhotometricSolverSummary solved = SolvePhotometricStereoBayer(options.solver, input, &with_margin, progress);
-  const int first = row0 - dev0, rows = row1 - row0;
+  const int first = row0 - solve0, rows = row1 - row0;
   auto crop = [&](const auto& image) {
     using Img = std::decay_t<decltype(image)>;
     return image.empty() ? Img() : CropRows(image, first, rows);

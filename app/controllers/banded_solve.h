@@ -35,9 +35,10 @@ struct BandedSolveOptions {
   std::function<std::vector<ImageU8>(const PhotometricSolverInput& band_with_margin)> sample_masks;
   int sample_mask_margin_rows = 0;  // rows, [0, 64]: at least the reach of sample_masks
   // Solve each raw pixel's normal from its own CFA sample
-  // (SolvePhotometricStereoBayer); the band is solved with kBayerMarginRows
-  // more rows on each side, so that the albedo's demosaic at the band's
-  // borders sees its neighbours. Not with sample_masks.
+  // (SolvePhotometricStereoBayer); the band and kBayerMarginRows more rows on
+  // each side (the albedo's demosaic at its borders reads its neighbours) are
+  // solved in a window of whole tiles, so the result equals the whole-frame
+  // Bayer solve. Not with sample_masks.
   bool bayer_domain = false;
   void Check() const;
 };

@@ -185,6 +185,60 @@ TEST(BandedSolveTest, SampleMasksFromBandsWithMarginEqualWholeFrameMasks) {
               testing::ThrowsMessage<std::invalid_argument>(testing::HasSubstr("sample_masks gave 1 masks")));
 }
 
+// Bayer domain: each band is solved with its 2-row margin inside a window one
+// tile larger on each side (the whole-frame solve's tiles), then cropped; the
+// counts are the bands' own.
+TEST(BandedSolveTest, BayerDomainBandsMatchTheWholeFrameBayerSolve) {
+  const RawScene raw = MakeRawScene();
+  const RawFrameStack stack = raw.Stack();
+  BandedSolveOptions options;
+  options.solver.tile_size = 32;
+  options.solver.num_threads = 2;
+  options.band_rows = 64;
+  options.bayer_domain = true;
+
+  RawDevelopOptions develop = options.develop;
+  develop.keep_mosaic = true;
+  size_t clipped = 0;
+  std::vector<DevelopedFrame> developed = DevelopWhole(raw, stack, develop, &clipped);
+  BayerSolverInput input;
+  for (size_t k = 0; k < developed.size(); ++k) {
+    float* values = developed[k].mosaic.data();
+    for (size_t i = 0; i < developed[k].mosaic.size(); ++i) {
+      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
+    }
+    input.mosaics.push_back(&developed[k].mosaic);
+    input.sample_valid.push_back(&developed[k].mosaic_valid);
+  }
+  input.cfa_channels = {0, 1, 1, 2};  // RGGB
+  input.light_field = raw.scene.light_field.get();
+  PhotometricSolution whole;
+  const PhotometricSolverSummary whole_summary = SolvePhotometricStereoBayer(options.solver, input, &whole);
+  ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
+
+  PhotometricSolution banded;
+  const BandedSolveSummary summary = SolveBanded(options, stack, *raw.scene.light_field, &banded);
+  ASSERT_TRUE(summary.IsUsable()) << summary.message;
+  EXPECT_TRUE(summary.solver.bayer_domain);
+  EXPECT_EQ(summary.num_bands, 3);
+  EXPECT_EQ(summary.clipped_samples, clipped);
+  EXPECT_EQ(summary.solver.num_pixels, whole_summary.num_pixels);
+  ExpectSameBits(banded.normal_in_table, whole.normal_in_table, "normal_in_table");
+  ExpectSameBits(banded.albedo, whole.albedo, "albedo");
+  ExpectSameBits(banded.status, whole.status, "status");
+  ExpectSameBits(banded.lights_used, whole.lights_used, "lights_used");
+  ExpectSameBits(banded.residual, whole.residual, "residual");
+  ExpectSameBits(banded.solve_path, whole.solve_path, "solve_path");
+  EXPECT_EQ(summary.solver.pixels_by_status, whole_summary.pixels_by_status);
+  EXPECT_EQ(summary.solver.pixels_by_path, whole_summary.pixels_by_path);
+  size_t by_status = 0;
+  for (size_t n : summary.solver.pixels_by_status) by_status += n;
+  EXPECT_EQ(by_status, whole.status.num_pixels());
+
+  options.sample_masks = [](const PhotometricSolverInput&) { return std::vector<ImageU8>(); };
+  EXPECT_THROW(SolveBanded(options, stack, *raw.scene.light_field, &banded), std::invalid_argument);
+}
+
 TEST(BandedSolveTest, StopsWhenCancelledAndRejectsBadInput) {
   const RawScene raw = MakeRawScene();
   BandedSolveOptions options;
