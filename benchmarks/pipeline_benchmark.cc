@@ -61,6 +61,7 @@
 #include "app/io/raw_decoder.h"
 #include "app/session/session.h"
 #include "core/format.h"
+#include "core/memory.h"
 
 namespace scanbench {
 namespace {
@@ -560,6 +561,8 @@ int RunParent(Args args) {
 }  // namespace scanbench
 
 int main(int argc, char** argv) {
+  // As the CLI does, so that each stage's peak RSS is the one `scanbench` has.
+  scanbench::ReturnFreedImagesToTheSystem();
   scanbench::Args args;
   CLI::App app{"The pipeline at full size: floor, solve, export, capture-to-result latency, peak RSS"};
   app.add_option("--width", args.width, "Image width in pixels (ignored with --session)")->capture_default_str();

@@ -4,20 +4,10 @@
 
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
-
-#if defined(__GLIBC__)
-#include <malloc.h>  // mallopt
-#endif
+#include "core/memory.h"
 
 int main(int argc, char** argv) {
-#if defined(__GLIBC__)
-  // Full-size images (16-200 MB each at 16 MP) come and go stage by stage.
-  // After the first large free glibc raises its mmap threshold to 32 MB and
-  // serves smaller ones from its heaps, whose freed pages it keeps: a fixed
-  // 1 MiB threshold maps each image on its own and returns it whole when
-  // freed (solve at 16 MP: peak RSS 2.47 -> 2.02 GB, docs/solver.md "Memory").
-  mallopt(M_MMAP_THRESHOLD, 1 << 20);
-#endif
+  scanbench::ReturnFreedImagesToTheSystem();
   CLI::App app{"scanbench: photometric-stereo textile scanner (albedo and normal maps)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "scanbench " SCANBENCH_VERSION);

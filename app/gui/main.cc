@@ -31,6 +31,7 @@
 #include "app/gui/main_window.h"
 #include "app/gui/results_page.h"
 #include "app/gui/sessions_page.h"
+#include "core/memory.h"
 
 namespace scanbench {
 namespace {
@@ -257,6 +258,7 @@ int ScreenshotTour(MainWindow& window, const QString& output_dir, QSize sim_size
 }  // namespace scanbench
 
 int main(int argc, char** argv) {
+  scanbench::ReturnFreedImagesToTheSystem();
   QApplication app(argc, argv);
   QApplication::setOrganizationName("scanbench");
   QApplication::setApplicationName("scanbench-gui");
