@@ -307,7 +307,16 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
                            std::to_string(num_bands));
       return summary;
     }
-    if (margin == 0 || options.bayer_domain) summary.clipped_samples += clipped.load();
+    if (margin == 0) {
+      summary.clipped_samples += clipped.load();
+    } else if (options.bayer_domain) {
+      // The development counted the margin rows too: count the band's own
+      // from the kept mosaic's per-sample flags (0 = at the clip level).
+      for (const DevelopedFrame& frame : developed) {
+        const uint8_t* flags = frame.mosaic_valid.row(row0 - dev0);
+        summary.clipped_samples += std::count(flags, flags + size_t(row1 - row0) * width, uint8_t{0});
+      }
+    }
     if (options.sample_masks) MaskAndCropBand(options, row0 - dev0, row1 - row0, &developed, &summary.samples_masked_out);
 
     const auto solve_start = std::chrono::steady_clock::now();
