@@ -964,9 +964,7 @@ void CoherentLobeOptions::Check() const {
 
 std::string CoherentLobeSummary::BriefReport() const {
   std::ostringstream out;
-  const char* how = termination == Termination::kSuccess     ? "success"
-                    : termination == Termination::kCancelled ? "cancelled"
-                                                             : "failure";
+  const char* how = TerminationName(termination);
   out << "Coherent lobe: " << how << ", " << pixels_refined << " of " << pixels_supported
       << " lobe pixels refined by a shared lobe (" << pixels_kept << " kept their own) in " << groups_fitted
       << " groups (" << groups_fresnel << " with the Fresnel-transmitted diffuse), mean anisotropy " << mean_anisotropy << ", " << seconds << " s";

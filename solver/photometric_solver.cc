@@ -475,9 +475,7 @@ void PhotometricSolverOptions::Check() const {
 
 std::string PhotometricSolverSummary::BriefReport() const {
   std::ostringstream out;
-  const char* how = termination == Termination::kSuccess     ? "success"
-                    : termination == Termination::kCancelled ? "cancelled"
-                                                             : "failure";
+  const char* how = TerminationName(termination);
   out << "Photometric solve (" << (method.empty() ? "?" : method) << (bayer_domain ? ", Bayer domain" : "")
       << "): " << how << ", " << num_solved() << " / " << num_pixels << " pixels solved from " << num_lights
       << " lights in " << seconds << " s on " << num_threads << " threads ("

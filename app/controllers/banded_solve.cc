@@ -41,6 +41,16 @@ void CopyRowsInto(const Image<T>& band, int row0, Image<T>* whole) {
   std::copy(band.data(), band.data() + band.size(), whole->row(row0));
 }
 
+// The solver's view of developed RGB frames (and their masks); points into `developed`.
+PhotometricSolverInput RgbInput(const std::vector<DevelopedFrame>& developed) {
+  PhotometricSolverInput input;
+  for (const DevelopedFrame& frame : developed) {
+    input.images.push_back(&frame.rgb);
+    input.sample_valid.push_back(&frame.valid);
+  }
+  return input;
+}
+
 // Rows [first, first + rows) of an image.
 template <typename T>
 Image<T> CropRows(const Image<T>& image, int first, int rows) {
@@ -100,12 +110,7 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
 // band (developed with its margin) to its own `rows` rows from `first`.
 void MaskAndCropBand(const BandedSolveOptions& options, int first, int rows, std::vector<DevelopedFrame>* developed,
                      size_t* masked_out) {
-  PhotometricSolverInput with_margin;
-  for (const DevelopedFrame& frame : *developed) {
-    with_margin.images.push_back(&frame.rgb);
-    with_margin.sample_valid.push_back(&frame.valid);
-  }
-  const std::vector<ImageU8> masks = options.sample_masks(with_margin);
+  const std::vector<ImageU8> masks = options.sample_masks(RgbInput(*developed));
   if (masks.size() != developed->size()) {
     throw std::invalid_argument("SolveBanded: sample_masks gave " + std::to_string(masks.size()) + " masks for " +
                                 std::to_string(developed->size()) + " lights; it must give one per light");
@@ -129,11 +134,7 @@ PhotometricSolverSummary SolveRgbBand(const BandedSolveOptions& options, const s
                                       const LightField& light_field, int row0, int row1,
                                       PhotometricSolution* band_solution, const ProgressCallback& progress) {
   const LightFieldRows band_field(light_field, row0, row1 - row0);
-  PhotometricSolverInput input;
-  for (const DevelopedFrame& frame : developed) {
-    input.images.push_back(&frame.rgb);
-    input.sample_valid.push_back(&frame.valid);
-  }
+  PhotometricSolverInput input = RgbInput(developed);
   input.light_field = &band_field;
   return SolvePhotometricStereo(options.solver, input, band_solution, progress);
 }
