@@ -64,10 +64,7 @@ int CaptureSimulated(CaptureState& state) {
   std::cout << "Simulated bench: LED firmware in simavr on " << board.port_path() << ", simulated camera "
             << state.width << "x" << state.height << "\n";
   SerialLightController lights(board.port_path());
-  SimulatedCamera camera(rig, [&board]() -> std::optional<int> {
-    const std::vector<int> lit = board.LitLedIndices();
-    return lit.size() == 1 ? std::optional<int>(lit.front()) : std::nullopt;
-  });
+  SimulatedCamera camera(rig, [&board]() { return board.SingleLitLed(); });
   return RunCapture(state, rig->rig(), camera, lights);
 }
 

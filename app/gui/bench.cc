@@ -38,10 +38,7 @@ Bench::Bench(const BenchOptions& options) : options_(options) {
     // (asked on the capture thread, the lights' one owner during a run).
     SimulatedCamera::LitLedCallback lit;
     if (board_) {
-      lit = [board = board_.get()]() -> std::optional<int> {
-        const std::vector<int> on = board->LitLedIndices();
-        return on.size() == 1 ? std::optional<int>(on.front()) : std::nullopt;
-      };
+      lit = [board = board_.get()]() { return board->SingleLitLed(); };
     } else {
       lit = [lights = lights_.get()]() { return lights->Status().lit_led; };
     }
