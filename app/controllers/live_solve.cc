@@ -8,6 +8,7 @@
 #include <sstream>
 #include <thread>
 
+#include "app/io/file_util.h"
 #include "app/session/session.h"
 #include "core/field_error.h"
 #include "core/format.h"
@@ -47,7 +48,8 @@ class LiveDecoder {
   }
 
   // Waits for every pushed frame; the preparation, if it could be made.
-  std::optional<SolvePreparation> Finish(std::vector<std::string>* problems) {
+  // `verified`: frames whose file was hashed against its record.
+  std::optional<SolvePreparation> Finish(std::vector<std::string>* problems, int* verified) {
     {
       std::unique_lock<std::mutex> lock(mutex_);
       changed_.wait(lock, [&] { return queue_.empty() && !busy_; });
@@ -56,6 +58,7 @@ class LiveDecoder {
     changed_.notify_all();
     thread_.join();
     *problems = problems_;
+    *verified = verified_;
     return std::move(preparation_);
   }
 
@@ -90,7 +93,12 @@ class LiveDecoder {
       load.verify_checksums = false;
       const Session session = LoadSession(session_dir_, load);
       if (!preparation_) preparation_.emplace(session_dir_, session, options_);
+      // The solve's load need not read every frame again after the last one.
+      if (options_.verify_checksums && Sha256HexOfFile(session_dir_ / record.file) != record.sha256) {
+        throw SessionError(record.file + ": SHA-256 differs from the one session.json records");
+      }
       preparation_->AddFrame(record, DecodeSessionFrame(session_dir_, session, record));
+      ++verified_;
     } catch (const std::exception& error) {
       problems_.push_back(record.file + ": " + error.what());
       failed_ = !preparation_;  // without a light field there is nothing to add frames to
@@ -109,6 +117,7 @@ class LiveDecoder {
   std::optional<SolvePreparation> preparation_;
   std::vector<std::string> problems_;
   bool failed_ = false;
+  int verified_ = 0;
   std::thread thread_;  // last: starts once everything above exists
 };
 
@@ -163,9 +172,14 @@ void LiveSolveController::Run() {
   // A resume that found every frame there: the wait starts now.
   if (summary_.capture.frames_captured == 0) last_frame = std::chrono::steady_clock::now();
 
-  std::optional<SolvePreparation> preparation = decoder.Finish(&summary_.live_problems);
+  int verified = 0;
+  std::optional<SolvePreparation> preparation = decoder.Finish(&summary_.live_problems, &verified);
   ThrowIfStopRequested("solve");
-  SolveController solve(session_dir_, options_.solve);
+  SolveOptions solve_options = options_.solve;
+  // Every frame hashed while capturing: the load only checks the manifest.
+  const int num_frames = static_cast<int>(rig_.leds.size()) + 1;
+  if (verified == num_frames) solve_options.verify_checksums = false;
+  SolveController solve(session_dir_, solve_options);
   if (preparation) {
     summary_.frames_decoded_live = preparation->num_frames();
     solve.UsePreparation(std::move(*preparation));

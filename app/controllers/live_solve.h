@@ -4,7 +4,9 @@
 // still busy. When the last frame lands only the solve itself and the writing
 // of the maps are left. The result is bit-equal to `scanbench solve` of the
 // finished session, also when an interrupted capture is resumed (the frames
-// of the earlier run are decoded from disk first).
+// of the earlier run are decoded from disk first). With
+// SolveOptions::verify_checksums each frame is hashed as it is decoded, so the
+// solve's load after the last frame does not read every frame again.
 #pragma once
 
 #include <filesystem>

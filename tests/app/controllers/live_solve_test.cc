@@ -5,6 +5,7 @@
 #include "app/controllers/live_solve.h"
 
 #include <cstring>
+#include <fstream>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -124,6 +125,31 @@ TEST_F(LiveSolveTest, CancelLeavesNoResultAndTheResumeIsBitEqual) {
   EXPECT_EQ(summary.capture.frames_captured, 6);
   EXPECT_EQ(summary.frames_decoded_live, 11) << "the earlier run's frames are decoded from disk while capturing";
   ExpectBitEqualMaps(summary.solve.result_dir, SolveAfterwards());
+}
+
+// A frame an interrupted run left that no longer matches session.json is
+// refused (by the resume's load), and nothing is solved.
+TEST_F(LiveSolveTest, AResumedFrameThatChangedOnDiskIsRefused) {
+  LiveSolveController first = Controller(Options());
+  int reports = 0;
+  first.SetProgressCallback([&](const ProgressReport& report) {
+    if (report.stage == "capture" && ++reports == 4) first.RequestStop();
+  });
+  EXPECT_THROW(first.Run(), Cancelled);
+  const Session partial = LoadSession(session_dir());
+  ASSERT_EQ(partial.frames.size(), 3u);
+  {
+    std::fstream file(session_dir() / partial.frames[1].file, std::ios::in | std::ios::out | std::ios::binary);
+    file.seekg(-1, std::ios::end);
+    const char last = static_cast<char>(file.get());
+    file.seekp(-1, std::ios::end);
+    file.put(static_cast<char>(last ^ 0x5a));  // the last byte of the RAW's data, changed
+  }
+  LiveSolveController second = Controller(Options());
+  EXPECT_THAT([&] { second.Run(); }, ::testing::ThrowsMessage<SessionError>(HasSubstr("mismatch")));
+  EXPECT_EQ(LoadSession(session_dir(), SessionLoadOptions{.verify_checksums = false}).frames.size(), 3u);
+  std::error_code ignored;
+  EXPECT_FALSE(fs::exists(session_dir() / "results", ignored) && !fs::is_empty(session_dir() / "results"));
 }
 
 TEST_F(LiveSolveTest, OptionsAreChecked) {
