@@ -1,5 +1,8 @@
 #include "app/controllers/live_solve.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -64,6 +67,9 @@ class LiveDecoder {
 
  private:
   void Loop() {
+    // Below the capture's threads (Linux nice is per thread): the camera and
+    // the LED board's timing come first, the decoder has until the last frame.
+    setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 10);
     for (;;) {
       FrameRecord record;
       {
