@@ -26,6 +26,7 @@ foreach(row
     "\n  result folder ${number} MB +<= 200\\.0 MB +(yes|no)\n"
     "\nexport \\(png16\\) +${number} +${number} +${number} GB +<= 4\\.0x, <= 1\\.50 GB +(yes|no)\n"
     "\ncapture-to-result \\(sequential\\) +${number} +${number} +${number} GB +<= 3\\.0 s +(yes|no)\n"
+    "\ncapture-to-result \\(solve-while-capture\\) +${number} +${number} +${number} GB +<= 3\\.0 s +(yes|no)\n"
     "\n  capture of 11 frames +${number}")
   if(NOT table MATCHES "${row}")
     message(FATAL_ERROR "table has no row matching '${row}'")
@@ -59,7 +60,7 @@ if(NOT floor GREATER 0 OR NOT written EQUAL result_bytes)
   message(FATAL_ERROR "floor ${floor} s (decode ${decode}, write ${write}); wrote ${written} bytes for a "
                       "result of ${result_bytes}")
 endif()
-foreach(stage solve export latency)
+foreach(stage solve export latency latency_sequential)
   string(JSON seconds GET "${report}" ${stage} seconds)
   string(JSON ratio GET "${report}" ${stage} ratio_to_floor)
   string(JSON rss GET "${report}" ${stage} peak_rss_bytes)

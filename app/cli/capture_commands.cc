@@ -8,6 +8,7 @@
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/capture_controller.h"
+#include "app/controllers/live_solve.h"
 #include "app/controllers/simulate_controller.h"
 #include "app/devices/camera/gphoto2_camera.h"
 #include "app/devices/camera/simulated_camera.h"
@@ -36,17 +37,40 @@ struct CaptureState {
   std::string camera_model;
   std::string camera_port;
   CaptureOptions options;
+  // --solve: solve while capturing (LiveSolveController) with these options.
+  bool solve = false;
+  SolveOptions solve_options;
+  int solve_queue = LiveSolveOptions().queue_frames;
 };
 
-int RunCapture(CaptureState& state, const RigDescription& rig, Camera& camera, LightController& lights) {
-  CaptureController capture(state.session_dir, rig, &camera, &lights, state.options);
-  const int code = RunController(capture);
-  if (code != kExitSuccess) return code;
-  const CaptureSummary& summary = capture.summary();
-  std::cout << "Session " << fs::absolute(state.session_dir).string() << ": " << summary.frames_captured
+void PrintCaptureSummary(const fs::path& session_dir, const CaptureSummary& summary) {
+  std::cout << "Session " << fs::absolute(session_dir).string() << ": " << summary.frames_captured
             << " frames captured, " << summary.frames_resumed << " already there, " << summary.retries
             << " retried, in " << summary.seconds << " s\n";
   for (const std::string& reason : summary.retry_reasons) std::cout << "  retried " << reason << "\n";
+}
+
+int RunLiveSolve(CaptureState& state, const RigDescription& rig, Camera& camera, LightController& lights) {
+  LiveSolveOptions options;
+  options.capture = state.options;
+  options.solve = state.solve_options;
+  options.queue_frames = state.solve_queue;
+  LiveSolveController live(state.session_dir, rig, &camera, &lights, options);
+  const int code = RunController(live);
+  if (code != kExitSuccess) return code;
+  PrintCaptureSummary(state.session_dir, live.summary().capture);
+  std::cout << live.summary().solve.FullReport() << live.summary().BriefReport() << "\n";
+  for (const std::string& problem : live.summary().live_problems) {
+    std::cout << "  decoded by the solve instead: " << problem << "\n";
+  }
+  return code;
+}
+
+int RunCapture(CaptureState& state, const RigDescription& rig, Camera& camera, LightController& lights) {
+  if (state.solve) return RunLiveSolve(state, rig, camera, lights);
+  CaptureController capture(state.session_dir, rig, &camera, &lights, state.options);
+  const int code = RunController(capture);
+  if (code == kExitSuccess) PrintCaptureSummary(state.session_dir, capture.summary());
   return code;
 }
 
@@ -115,6 +139,15 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
   command->add_flag("--no-exposure-check", [state](std::int64_t) { state->options.check_exposure = false; },
                     "Skip the test frame per LED before a new capture");
   command->add_option("--attempts", state->options.max_attempts, "Attempts per frame")->capture_default_str();
+  command->add_flag("--solve", state->solve,
+                    "Solve while capturing: each frame is decoded as it is journalled, the result (bit-equal to "
+                    "`scanbench solve` of the finished session) follows the last frame into results/");
+  command->add_option("--solve-queue", state->solve_queue,
+                      "--solve: journalled frames waiting for the decoder before the capture waits for it")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  AddSolveOptions(*command->add_option_group("solve", "With --solve: the solve's options, as scanbench solve's"),
+                  state->solve_options);
   command->callback([state, exit_code] {
     try {
       *exit_code = state->rig_kind == "sim" ? CaptureSimulated(*state) : CaptureHardware(*state);

@@ -334,8 +334,10 @@ void CaptureController::Run() {
   const int total = static_cast<int>(frames.size());
   for (int i = 0; i < total; ++i) {
     const std::optional<int> led = frames[i];
-    if (session && (led ? FindLedFrame(*session, *led) : FindDarkFrame(*session)) != nullptr) {
+    if (const FrameRecord* journalled =
+            session ? (led ? FindLedFrame(*session, *led) : FindDarkFrame(*session)) : nullptr) {
       ++summary_.frames_resumed;
+      if (frame_journalled_) frame_journalled_(*session, *journalled);
       continue;
     }
     ReportProgress("capture", double(i) / total);
@@ -347,6 +349,7 @@ void CaptureController::Run() {
     }
     JournalFrame(session_dir_, *session, led, shot);
     ++summary_.frames_captured;
+    if (frame_journalled_) frame_journalled_(*session, session->frames.back());
   }
   lights_->AllOff();
   session->capture_complete = true;

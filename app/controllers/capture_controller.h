@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -65,6 +66,13 @@ class CaptureController : public BaseController {
   void Run() override;
   const CaptureSummary& summary() const { return summary_; }
 
+  // Called on Run()'s thread once a frame is durably journalled (its file and
+  // session.json fsynced), with the session as journalled so far and the
+  // frame's record; on a resume first for every frame the interrupted run
+  // journalled. An exception from it ends the capture (the frame stays).
+  using FrameJournalledCallback = std::function<void(const Session& session, const FrameRecord& frame)>;
+  void SetFrameJournalledCallback(FrameJournalledCallback callback) { frame_journalled_ = std::move(callback); }
+
  private:
   std::filesystem::path session_dir_;
   RigDescription rig_;
@@ -72,6 +80,7 @@ class CaptureController : public BaseController {
   LightController* lights_;
   CaptureOptions options_;
   CaptureSummary summary_;
+  FrameJournalledCallback frame_journalled_;
 };
 
 }  // namespace scanbench

@@ -147,22 +147,38 @@ struct RawFrames {
   }
 };
 
-// Decodes the dark and LED frames, several at once on the one thread pool;
+// Frames decoded ahead of the solve (SolvePreparation), by file name.
+struct PreparedFrame {
+  std::string sha256;  // as the record that was decoded names it
+  DecodedRaw decoded;
+};
+using PreparedFrames = std::map<std::string, PreparedFrame>;
+
+// Decodes the dark and LED frames, several at once on the one thread pool,
+// taking those `prepared` holds for the same file and checksum from it;
 // `progress` gets the frames done, false from it stops with Cancelled.
 RawFrames DecodeFrames(const fs::path& session_dir, const Session& session, int num_threads,
-                       const ProgressCallback& progress) {
+                       const ProgressCallback& progress, PreparedFrames* prepared = nullptr) {
   const int num_lights = static_cast<int>(session.rig.leds.size());
   std::vector<const FrameRecord*> records = {FindDarkFrame(session)};
   for (int k = 0; k < num_lights; ++k) records.push_back(FindLedFrame(session, k));
   std::vector<DecodedRaw> decoded(records.size());
-  const int count = static_cast<int>(records.size());
+  std::vector<int> to_decode;
+  for (int i = 0; i < static_cast<int>(records.size()); ++i) {
+    const auto found = prepared ? prepared->find(records[i]->file) : PreparedFrames::iterator();
+    if (prepared && found != prepared->end() && found->second.sha256 == records[i]->sha256) {
+      decoded[i] = std::move(found->second.decoded);
+      prepared->erase(found);
+    } else {
+      to_decode.push_back(i);
+    }
+  }
+  const int count = static_cast<int>(to_decode.size());
   const bool finished = ParallelFor(
       count, ResolveThreadCount(num_threads), 1,
       [&](int first, int last, int) {
         for (int i = first; i < last; ++i) {
-          const fs::path path = session_dir / records[i]->file;
-          decoded[i] = DecodeRawFileWithInfo(path);
-          CheckRawSize(decoded[i].image, session.camera.width, session.camera.height, path.string());
+          decoded[to_decode[i]] = DecodeSessionFrame(session_dir, session, *records[to_decode[i]]);
         }
       },
       progress ? std::function<bool(int)>([&](int done) { return progress(double(done) / count); })
@@ -518,8 +534,50 @@ std::string SolveSummary::FullReport() const {
   return out.str();
 }
 
+DecodedRaw DecodeSessionFrame(const fs::path& session_dir, const Session& session, const FrameRecord& record) {
+  const fs::path path = session_dir / record.file;
+  DecodedRaw decoded = DecodeRawFileWithInfo(path);
+  CheckRawSize(decoded.image, session.camera.width, session.camera.height, path.string());
+  return decoded;
+}
+
+struct SolvePreparation::State {
+  fs::path session_dir;
+  fs::path calibration_dir;  // what the light field was made from
+  Lighting lighting;
+  PreparedFrames frames;
+};
+
+SolvePreparation::SolvePreparation(const fs::path& session_dir, const Session& session, const SolveOptions& options)
+    : state_(std::make_unique<State>()) {
+  state_->session_dir = session_dir;
+  state_->calibration_dir = options.calibration_dir;
+  state_->lighting = MakeLighting(options, session_dir, session);
+}
+SolvePreparation::SolvePreparation(SolvePreparation&&) noexcept = default;
+SolvePreparation& SolvePreparation::operator=(SolvePreparation&&) noexcept = default;
+SolvePreparation::~SolvePreparation() = default;
+
+void SolvePreparation::AddFrame(const FrameRecord& record, DecodedRaw decoded) {
+  state_->frames[record.file] = PreparedFrame{record.sha256, std::move(decoded)};
+}
+
+int SolvePreparation::num_frames() const { return static_cast<int>(state_->frames.size()); }
+
 SolveController::SolveController(fs::path session_dir, SolveOptions options)
     : session_dir_(std::move(session_dir)), options_(std::move(options)) {}
+SolveController::~SolveController() = default;
+
+void SolveController::UsePreparation(SolvePreparation preparation) {
+  if (preparation.state_->session_dir != session_dir_ ||
+      preparation.state_->calibration_dir != options_.calibration_dir) {
+    throw std::invalid_argument("SolveController::UsePreparation: prepared for " +
+                                preparation.state_->session_dir.string() + " with calibration '" +
+                                preparation.state_->calibration_dir.string() + "', not " + session_dir_.string() +
+                                " with '" + options_.calibration_dir.string() + "'");
+  }
+  preparation_ = std::move(preparation.state_);
+}
 
 void SolveController::Run() {
   options_.Check();
@@ -534,11 +592,15 @@ void SolveController::Run() {
   summary_.height = session.camera.height;
   summary_.num_lights = static_cast<int>(session.rig.leds.size());
 
+  // From a preparation (the live solve) when there is one: the same frames
+  // and light field, made earlier.
+  std::unique_ptr<SolvePreparation::State> prepared = std::move(preparation_);
   RawFrames frames = TimedStage(timings, "decode", "decode RAW", [&] {
-    return DecodeFrames(session_dir_, session, options_.solver.num_threads, StageCallback("decode RAW"));
+    return DecodeFrames(session_dir_, session, options_.solver.num_threads, StageCallback("decode RAW"),
+                        prepared ? &prepared->frames : nullptr);
   });
   Lighting lighting = TimedStage(timings, "light_field", "", [&] {
-    Lighting made = MakeLighting(options_, session_dir_, session);
+    Lighting made = prepared ? std::move(prepared->lighting) : MakeLighting(options_, session_dir_, session);
     // After the calibration set was checked, so that its errors come from its loader.
     summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
     // Before the solve, so that a colour source that is not there fails early.

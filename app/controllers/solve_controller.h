@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "app/controllers/base_controller.h"
 #include "app/controllers/depth_refinement.h"
 #include "app/controllers/map_writer.h"
+#include "app/io/raw_decoder.h"
 #include "calibration/raw_develop.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
@@ -95,9 +97,49 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
 // batch` skips a session that already has a result with it.
 std::string SolveInputsFingerprint(const Session& session, const SolveOptions& options);
 
+struct FrameRecord;
+
+// One frame of `session` read and decoded, its size checked against the
+// session's camera: the one decode `scanbench solve` and the live solve
+// (live_solve.h) share.
+DecodedRaw DecodeSessionFrame(const std::filesystem::path& session_dir, const Session& session,
+                              const FrameRecord& record);
+
+// What a solve can do before its last frame exists: the light field (from the
+// rig description or the calibration set; it needs only the session's rig and
+// camera) and the frames decoded so far. The live solve builds one while the
+// capture runs and hands it to SolveController::UsePreparation, so that after
+// the last frame only the solve itself is left. A solve with a preparation is
+// bit-equal to one without.
+class SolvePreparation {
+ public:
+  // Builds the light field for `session`, which may still lack frames;
+  // `options` must be the ones the solve runs with (its calibration part).
+  SolvePreparation(const std::filesystem::path& session_dir, const Session& session, const SolveOptions& options);
+  SolvePreparation(SolvePreparation&&) noexcept;
+  SolvePreparation& operator=(SolvePreparation&&) noexcept;
+  ~SolvePreparation();
+
+  // Keeps `decoded` (DecodeSessionFrame of `record`). The solve uses it for
+  // the frame session.json lists with the same file and SHA-256, and decodes
+  // any other frame itself.
+  void AddFrame(const FrameRecord& record, DecodedRaw decoded);
+  int num_frames() const;
+
+  struct State;  // the light field and the frames (solve_controller.cc)
+
+ private:
+  friend class SolveController;
+  std::unique_ptr<State> state_;
+};
+
 class SolveController : public BaseController {
  public:
   SolveController(std::filesystem::path session_dir, SolveOptions options);
+  ~SolveController() override;
+  // The next Run() starts from `preparation` (made for this session and these
+  // options) instead of building the light field and decoding every frame.
+  void UsePreparation(SolvePreparation preparation);
   void Run() override;
   const SolveSummary& summary() const { return summary_; }
 
@@ -105,6 +147,7 @@ class SolveController : public BaseController {
   std::filesystem::path session_dir_;
   SolveOptions options_;
   SolveSummary summary_;
+  std::unique_ptr<SolvePreparation::State> preparation_;
 };
 
 }  // namespace scanbench

@@ -25,6 +25,7 @@
 #include <sstream>
 
 #include "app/controllers/capture_controller.h"
+#include "app/controllers/live_solve.h"
 #include "app/controllers/solve_controller.h"
 #include "app/gui/bench.h"
 #include "app/gui/controller_runner.h"
@@ -74,6 +75,10 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   check_exposure_->setObjectName("checkExposure");
   check_exposure_->setChecked(true);
   form->addRow(QString(), check_exposure_);
+  solve_while_capturing_ = new QCheckBox(tr("Solve while capturing (the result follows the last frame)"), session_box);
+  solve_while_capturing_->setObjectName("solveWhileCapturing");
+  solve_while_capturing_->setChecked(true);
+  form->addRow(QString(), solve_while_capturing_);
 
   start_ = NamedButton(tr("Start capture"), "startCapture", this);
   resume_ = NamedButton(tr("Resume"), "resumeCapture", this);
@@ -198,40 +203,49 @@ void CapturePage::StartCapture(bool resume) {
     options.notes = session->notes;
   }
   if (!resume) ResetThumbnails();
-  auto controller =
-      std::make_shared<CaptureController>(dir, bench->rig(), &bench->camera(), &bench->lights(), options);
+  // The same capture either way; live, each frame is decoded as it is
+  // journalled and the solve follows the last one.
+  std::shared_ptr<BaseController> controller;
+  std::function<void()> report_success;
+  if (solve_while_capturing_->isChecked()) {
+    LiveSolveOptions live_options;
+    live_options.capture = options;
+    auto live = std::make_shared<LiveSolveController>(dir, bench->rig(), &bench->camera(), &bench->lights(),
+                                                      live_options);
+    report_success = [this, live] {
+      ReportCaptured(live->summary().capture);
+      const QString result = QString::fromStdString(live->summary().solve.result_dir.string());
+      status_->setText(status_->text() + tr(" Solved into %1, %2 s after the last frame.")
+                                             .arg(result)
+                                             .arg(live->summary().seconds_after_last_frame, 0, 'f', 1));
+      emit ResultReady(result);
+    };
+    controller = live;
+  } else {
+    auto capture =
+        std::make_shared<CaptureController>(dir, bench->rig(), &bench->camera(), &bench->lights(), options);
+    report_success = [this, capture] {
+      ReportCaptured(capture->summary());
+      status_->setText(status_->text() + tr(" Solve it next."));
+    };
+    controller = capture;
+  }
   capturing_ = true;
   progress_->setValue(0);
   SetStatus(resume ? tr("Resuming %1…").arg(folder_->text()) : tr("Capturing into %1…").arg(folder_->text()));
   const bool started = runner_->Start(
-      controller, tr("Capture"), [this, controller](ControllerRunner::Outcome outcome, const QString& message) {
+      controller, tr("Capture"), [this, report_success](ControllerRunner::Outcome outcome, const QString& message) {
         capturing_ = false;
         poll_->stop();
         PollFrames();
         switch (outcome) {
-          case ControllerRunner::Outcome::kSucceeded: {
-            const CaptureSummary& summary = controller->summary();
-            SetStatus(tr("Captured %1 frames (%2 already there, %3 retried) in %4 s. Solve it next.")
-                          .arg(summary.frames_captured)
-                          .arg(summary.frames_resumed)
-                          .arg(summary.retries)
-                          .arg(summary.seconds, 0, 'f', 1));
-            if (!summary.exposure_check.empty()) {
-              // The check's worst figures: what to fix first if a frame is poor.
-              double clipped = 0, signal = 1;
-              for (const FrameExposure& exposure : summary.exposure_check) {
-                clipped = std::max(clipped, exposure.clipped_fraction);
-                signal = std::min(signal, exposure.signal_p99);
-              }
-              status_->setText(status_->text() +
-                               tr(" Exposure check: at most %1 % clipped, weakest LED at %2 % of the range.")
-                                   .arg(clipped * 100, 0, 'g', 2)
-                                   .arg(signal * 100, 0, 'f', 1));
-            }
+          case ControllerRunner::Outcome::kSucceeded:
+            report_success();
             break;
-          }
           case ControllerRunner::Outcome::kCancelled:
-            SetStatus(tr("Capture cancelled; the frames taken are kept. Resume completes the session."), true);
+            SetStatus(tr("Capture cancelled; the frames taken are kept (no result was written). Resume completes "
+                         "the session."),
+                      true);
             break;
           case ControllerRunner::Outcome::kFailed:
             SetStatus(tr("Capture failed: %1. The frames taken are kept; fix the cause and Resume.").arg(message),
@@ -246,6 +260,24 @@ void CapturePage::StartCapture(bool resume) {
     return;
   }
   poll_->start();
+}
+
+void CapturePage::ReportCaptured(const CaptureSummary& summary) {
+  SetStatus(tr("Captured %1 frames (%2 already there, %3 retried) in %4 s.")
+                .arg(summary.frames_captured)
+                .arg(summary.frames_resumed)
+                .arg(summary.retries)
+                .arg(summary.seconds, 0, 'f', 1));
+  if (summary.exposure_check.empty()) return;
+  // The check's worst figures: what to fix first if a frame is poor.
+  double clipped = 0, signal = 1;
+  for (const FrameExposure& exposure : summary.exposure_check) {
+    clipped = std::max(clipped, exposure.clipped_fraction);
+    signal = std::min(signal, exposure.signal_p99);
+  }
+  status_->setText(status_->text() + tr(" Exposure check: at most %1 % clipped, weakest LED at %2 % of the range.")
+                                         .arg(clipped * 100, 0, 'g', 2)
+                                         .arg(signal * 100, 0, 'f', 1));
 }
 
 void CapturePage::PollFrames() {
@@ -328,6 +360,7 @@ void CapturePage::LoadSettings() {
   const QString last_root = settings.value("capture/last_parent", QDir::homePath()).toString();
   folder_->setPlaceholderText(tr("a new, empty folder, e.g. %1/sample-01").arg(last_root));
   check_exposure_->setChecked(settings.value("capture/check_exposure", true).toBool());
+  solve_while_capturing_->setChecked(settings.value("capture/solve_while_capturing", true).toBool());
 }
 
 void CapturePage::SaveSettings() const {
@@ -336,6 +369,7 @@ void CapturePage::SaveSettings() const {
     settings.setValue("capture/last_parent", QString::fromStdString(SessionDir().parent_path().string()));
   }
   settings.setValue("capture/check_exposure", check_exposure_->isChecked());
+  settings.setValue("capture/solve_while_capturing", solve_while_capturing_->isChecked());
 }
 
 }  // namespace scanbench

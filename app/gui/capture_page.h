@@ -1,7 +1,8 @@
 // Capture: a new session (folder, sample name, notes) or the resume of an
 // interrupted one, run by CaptureController on the bench the Devices page
 // connected; a thumbnail per light appears as its frame is journalled, and
-// a finished session can be solved from here.
+// a finished session can be solved from here, or is solved while it is
+// captured ("Solve while capturing", LiveSolveController).
 #pragma once
 
 #include <QWidget>
@@ -23,6 +24,7 @@ namespace scanbench {
 
 class ControllerRunner;
 class DevicesPage;
+struct CaptureSummary;
 
 class CapturePage : public QWidget {
   Q_OBJECT
@@ -45,6 +47,7 @@ class CapturePage : public QWidget {
 
  private:
   void StartCapture(bool resume);
+  void ReportCaptured(const CaptureSummary& summary);
   void PollFrames();
   void ResetThumbnails();
   void UpdateButtons();
@@ -57,6 +60,7 @@ class CapturePage : public QWidget {
   QLineEdit* sample_name_;
   QPlainTextEdit* notes_;
   QCheckBox* check_exposure_;
+  QCheckBox* solve_while_capturing_;
   QPushButton* start_;
   QPushButton* resume_;
   QPushButton* cancel_;

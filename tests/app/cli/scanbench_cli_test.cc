@@ -90,6 +90,26 @@ TEST(ScanbenchCliTest, SimulateTakesAMaterialAndRefusesAnUnknownOneByName) {
   EXPECT_THAT(RunScanbench("demo --help").output, HasSubstr("--material"));
 }
 
+// Issue #14: capture --solve on the simulated bench writes the session and
+// its result in one run; the solve's options apply.
+TEST(ScanbenchCliTest, CaptureWithSolveWritesTheResult) {
+  testing::TemporaryFolder folder;
+  const fs::path session_dir = folder / "live";
+  const CommandResult result =
+      RunScanbench("capture " + Quoted(session_dir) + " --sample-name live --width 320 --height 212 "
+                   "--no-exposure-check --solve --solve-queue 2 --label live");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("11 frames captured"));
+  EXPECT_THAT(result.output, HasSubstr("11 decoded while capturing"));
+  EXPECT_THAT(result.output, HasSubstr("s after the last frame"));
+  EXPECT_TRUE(LoadSession(session_dir).capture_complete);
+  ASSERT_EQ(CountResults(session_dir), 1u);
+  EXPECT_TRUE(fs::exists(fs::directory_iterator(session_dir / "results")->path() / "normal.exr"));
+  const CommandResult bad = RunScanbench("capture " + Quoted(folder / "x") + " --sample-name x --solve-queue 0");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.output, HasSubstr("--solve-queue"));
+}
+
 // Issue #13: the default writes a specular map from its lobe fit; --no-lobe
 // restores the Lambertian robust pass and writes none.
 TEST(ScanbenchCliTest, SolveWritesASpecularMapUnlessTheLobeIsTurnedOff) {

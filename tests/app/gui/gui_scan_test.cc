@@ -173,9 +173,17 @@ class GuiScanTest : public QObject {
       QVERIFY2(thumbnail != nullptr, qPrintable(QStringLiteral("no thumbnail %1").arg(slot)));
       QTRY_VERIFY_WITH_TIMEOUT(!thumbnail->pixmap().isNull(), 5000);  // decoded off the UI thread
     }
+    // "Solve while capturing" is on by default: the resume ended with a
+    // result, which the Results page shows.
+    QVERIFY(Find<QCheckBox>("solveWhileCapturing")->isChecked());
+    const fs::path live_result = window_->results()->result_dir();
+    QVERIFY2(fs::exists(live_result / "normal.exr"), live_result.c_str());
+    QCOMPARE(live_result.parent_path().parent_path(), fs::path(session.toStdString()));
+    QVERIFY(Find<QLabel>("captureStatus")->text().contains("after the last frame"));
   }
 
   void SolvesAndShowsTheMaps() {
+    window_->ShowPage(MainWindow::kCapturePage);  // the live solve opened its result
     QCOMPARE(ClickAndWait("solveCaptured"), ControllerRunner::Outcome::kSucceeded);
     ResultsPage* results = window_->results();
     const fs::path dir = results->result_dir();
@@ -267,7 +275,7 @@ class GuiScanTest : public QObject {
     QVERIFY(second != first);
     QVERIFY(fs::exists(first / "normal.exr"));
     QVERIFY(fs::exists(second / "normal.exr"));
-    QCOMPARE(list->topLevelItem(0)->text(4), QStringLiteral("2"));
+    QCOMPARE(list->topLevelItem(0)->text(4), QStringLiteral("3"));  // the live solve's, Solve's, this one
   }
 
   void SettingsPersist() {
@@ -277,6 +285,7 @@ class GuiScanTest : public QObject {
     QCOMPARE(again.findChild<QSpinBox*>("simHeight")->value(), 212);
     QCOMPARE(again.findChild<QLineEdit*>("sessionsRoot")->text(), work_.path());
     QCOMPARE(again.findChild<QTreeWidget*>("sessionList")->topLevelItemCount(), 1);
+    QVERIFY(again.findChild<QCheckBox*>("solveWhileCapturing")->isChecked());
   }
 };
 

@@ -1,0 +1,199 @@
+#include "app/controllers/live_solve.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "app/io/file_util.h"
+#include "app/session/session.h"
+#include "core/field_error.h"
+#include "core/format.h"
+
+namespace scanbench {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Decodes journalled frames on its own thread in the order they come, into a
+// SolvePreparation made at the first frame. At most `capacity` frames wait;
+// Push blocks beyond that. A frame or a preparation the worker cannot make is
+// noted and left to the solve, which then fails (or succeeds) exactly as
+// `scanbench solve` would.
+class LiveDecoder {
+ public:
+  LiveDecoder(fs::path session_dir, const SolveOptions& options, int capacity)
+      : session_dir_(std::move(session_dir)), options_(options), capacity_(capacity),
+        thread_([this] { Loop(); }) {}
+
+  // Drops what still waits; a frame being decoded is finished first.
+  ~LiveDecoder() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closing_ = true;
+      queue_.clear();
+    }
+    changed_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+
+  void Push(const FrameRecord& record) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return static_cast<int>(queue_.size()) < capacity_; });
+    queue_.push_back(record);
+    changed_.notify_all();
+  }
+
+  // Waits for every pushed frame; the preparation, if it could be made.
+  // `verified`: frames whose file was hashed against its record.
+  std::optional<SolvePreparation> Finish(std::vector<std::string>* problems, int* verified) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      changed_.wait(lock, [&] { return queue_.empty() && !busy_; });
+      closing_ = true;
+    }
+    changed_.notify_all();
+    thread_.join();
+    *problems = problems_;
+    *verified = verified_;
+    return std::move(preparation_);
+  }
+
+ private:
+  void Loop() {
+    // Below the capture's threads (Linux nice is per thread): the camera and
+    // the LED board's timing come first, the decoder has until the last frame.
+    setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 10);
+    for (;;) {
+      FrameRecord record;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        changed_.wait(lock, [&] { return closing_ || !queue_.empty(); });
+        if (queue_.empty()) return;  // closing
+        record = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+      }
+      changed_.notify_all();  // room in the queue
+      DecodeOne(record);
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        busy_ = false;
+      }
+      changed_.notify_all();
+    }
+  }
+
+  void DecodeOne(const FrameRecord& record) {
+    if (failed_) return;
+    try {
+      // session.json as journalled so far: the light field and the size
+      // check from exactly what the solve will load (rig, camera).
+      SessionLoadOptions load;
+      load.verify_checksums = false;
+      const Session session = LoadSession(session_dir_, load);
+      if (!preparation_) preparation_.emplace(session_dir_, session, options_);
+      // The solve's load need not read every frame again after the last one.
+      if (options_.verify_checksums && Sha256HexOfFile(session_dir_ / record.file) != record.sha256) {
+        throw SessionError(record.file + ": SHA-256 differs from the one session.json records");
+      }
+      preparation_->AddFrame(record, DecodeSessionFrame(session_dir_, session, record));
+      ++verified_;
+    } catch (const std::exception& error) {
+      problems_.push_back(record.file + ": " + error.what());
+      failed_ = !preparation_;  // without a light field there is nothing to add frames to
+    }
+  }
+
+  const fs::path session_dir_;
+  const SolveOptions options_;
+  const int capacity_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<FrameRecord> queue_;  // under mutex_
+  bool busy_ = false;              // under mutex_: a frame is being decoded
+  bool closing_ = false;           // under mutex_
+  // The worker's alone until Finish joins it.
+  std::optional<SolvePreparation> preparation_;
+  std::vector<std::string> problems_;
+  bool failed_ = false;
+  int verified_ = 0;
+  std::thread thread_;  // last: starts once everything above exists
+};
+
+}  // namespace
+
+void LiveSolveOptions::Check() const {
+  capture.Check();
+  solve.Check();
+  if (queue_frames < 1 || queue_frames > 64) {
+    throw FieldError("LiveSolveOptions", "queue_frames", queue_frames, "must lie in [1, 64]");
+  }
+}
+
+std::string LiveSolveSummary::BriefReport() const {
+  std::ostringstream out;
+  out << "Live solve: " << capture.frames_captured << " frames captured, " << capture.frames_resumed
+      << " already there; " << frames_decoded_live << " decoded while capturing; result "
+      << solve.result_dir.string() << " " << Fixed(seconds_after_last_frame, 2) << " s after the last frame";
+  return out.str();
+}
+
+LiveSolveController::LiveSolveController(fs::path session_dir, RigDescription rig, Camera* camera,
+                                         LightController* lights, LiveSolveOptions options)
+    : session_dir_(std::move(session_dir)), rig_(std::move(rig)), camera_(camera), lights_(lights),
+      options_(std::move(options)) {}
+
+ProgressReportCallback LiveSolveController::ForwardTo(BaseController& inner) {
+  return [this, &inner](const ProgressReport& report) {
+    ReportProgress(report.stage, report.fraction, report.detail);
+    if (IsStopRequested()) inner.RequestStop();  // also a stop asked for by our own progress callback
+  };
+}
+
+void LiveSolveController::Run() {
+  options_.Check();
+  summary_ = LiveSolveSummary();
+  // Declared before the capture: on a throw the capture is gone before the
+  // decoder drops its queue.
+  LiveDecoder decoder(session_dir_, options_.solve, options_.queue_frames);
+  auto last_frame = std::chrono::steady_clock::now();
+  {
+    CaptureController capture(session_dir_, rig_, camera_, lights_, options_.capture);
+    capture.SetProgressCallback(ForwardTo(capture));
+    capture.SetFrameJournalledCallback([&](const Session&, const FrameRecord& record) {
+      last_frame = std::chrono::steady_clock::now();
+      if (IsStopRequested()) capture.RequestStop();
+      decoder.Push(record);
+    });
+    capture.Run();
+    summary_.capture = capture.summary();
+  }
+  // A resume that found every frame there: the wait starts now.
+  if (summary_.capture.frames_captured == 0) last_frame = std::chrono::steady_clock::now();
+
+  int verified = 0;
+  std::optional<SolvePreparation> preparation = decoder.Finish(&summary_.live_problems, &verified);
+  ThrowIfStopRequested("solve");
+  SolveOptions solve_options = options_.solve;
+  // Every frame hashed while capturing: the load only checks the manifest.
+  const int num_frames = static_cast<int>(rig_.leds.size()) + 1;
+  if (verified == num_frames) solve_options.verify_checksums = false;
+  SolveController solve(session_dir_, solve_options);
+  if (preparation) {
+    summary_.frames_decoded_live = preparation->num_frames();
+    solve.UsePreparation(std::move(*preparation));
+  }
+  solve.SetProgressCallback(ForwardTo(solve));
+  solve.Run();
+  summary_.solve = solve.summary();
+  summary_.seconds_after_last_frame = SecondsSince(last_frame);
+}
+
+}  // namespace scanbench

@@ -1,0 +1,62 @@
+// Solve while capturing (issue #14 item 2): the capture runs as always, and
+// every frame, as soon as it is journalled, is decoded on a worker thread into
+// a SolvePreparation, which also builds the light field while the camera is
+// still busy. When the last frame lands only the solve itself and the writing
+// of the maps are left. The result is bit-equal to `scanbench solve` of the
+// finished session, also when an interrupted capture is resumed (the frames
+// of the earlier run are decoded from disk first). With
+// SolveOptions::verify_checksums each frame is hashed as it is decoded, so the
+// solve's load after the last frame does not read every frame again.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "app/controllers/base_controller.h"
+#include "app/controllers/capture_controller.h"
+#include "app/controllers/solve_controller.h"
+
+namespace scanbench {
+
+struct LiveSolveOptions {
+  CaptureOptions capture;
+  SolveOptions solve;
+  // Journalled frames waiting for the decoder before the capture waits for
+  // it, [1, 64]; each waiting frame is only its record (the file is on disk).
+  int queue_frames = 4;
+
+  void Check() const;
+};
+
+struct LiveSolveSummary {
+  CaptureSummary capture;
+  SolveSummary solve;
+  int frames_decoded_live = 0;             // decoded while capturing (the solve decoded the rest)
+  std::vector<std::string> live_problems;  // what the worker could not do; the solve then did it itself
+  double seconds_after_last_frame = 0;     // last frame journalled -> result folder in place
+
+  std::string BriefReport() const;
+};
+
+class LiveSolveController : public BaseController {
+ public:
+  // As CaptureController: the camera and lights are used, not owned.
+  LiveSolveController(std::filesystem::path session_dir, RigDescription rig, Camera* camera,
+                      LightController* lights, LiveSolveOptions options);
+  void Run() override;
+  const LiveSolveSummary& summary() const { return summary_; }
+
+ private:
+  // Reports `inner`'s progress as ours and passes a stop request on to it.
+  ProgressReportCallback ForwardTo(BaseController& inner);
+
+  std::filesystem::path session_dir_;
+  RigDescription rig_;
+  Camera* camera_;
+  LightController* lights_;
+  LiveSolveOptions options_;
+  LiveSolveSummary summary_;
+};
+
+}  // namespace scanbench

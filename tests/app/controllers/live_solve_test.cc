@@ -1,0 +1,168 @@
+// Solve while capturing (issue #14 item 2) on the simulated bench: the LED
+// firmware in simavr, the simulated camera, a small sensor. The live result
+// must be bit-equal to a solve of the finished session, also after an
+// interrupted capture that resumes.
+#include "app/controllers/live_solve.h"
+
+#include <cstring>
+#include <fstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "app/devices/camera/simulated_camera.h"
+#include "app/devices/serial_light_controller.h"
+#include "app/devices/simulated_led_board.h"
+#include "app/io/image_io.h"
+#include "app/session/session.h"
+#include "core/field_error.h"
+#include "tests/util/temporary_folder.h"
+
+namespace scanbench {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using testing::TemporaryFolder;
+
+constexpr int kWidth = 320;
+constexpr int kHeight = 212;
+
+class LiveSolveTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SimulatedRigOptions rig_options;
+    rig_options.width = kWidth;
+    rig_options.height = kHeight;
+    rig_ = std::make_shared<SimulatedRig>(rig_options, TextileScene(), MakeDefaultSimulatedRig(kWidth, kHeight));
+    board_ = std::make_unique<SimulatedLedBoard>();
+    lights_ = std::make_unique<SerialLightController>(board_->port_path());
+    camera_ = std::make_unique<SimulatedCamera>(rig_, [this]() -> std::optional<int> {
+      const std::vector<int> lit = board_->LitLedIndices();
+      return lit.size() == 1 ? std::optional<int>(lit.front()) : std::nullopt;
+    });
+  }
+
+  LiveSolveOptions Options() const {
+    LiveSolveOptions options;
+    options.capture.sample_name = "sim twill";
+    options.capture.check_exposure = false;
+    options.capture.led_settle = std::chrono::milliseconds(0);
+    options.queue_frames = 2;
+    options.solve.run_label = "live";
+    return options;
+  }
+
+  LiveSolveController Controller(LiveSolveOptions options) {
+    return LiveSolveController(session_dir(), rig_->rig(), camera_.get(), lights_.get(), std::move(options));
+  }
+
+  fs::path session_dir() const { return folder_ / "session"; }
+
+  // `scanbench solve` of the finished session, beside the live result.
+  fs::path SolveAfterwards() const {
+    SolveOptions options;
+    options.run_label = "after";
+    SolveController solve(session_dir(), options);
+    solve.Run();
+    return solve.summary().result_dir;
+  }
+
+  static void ExpectBitEqualMaps(const fs::path& live, const fs::path& after) {
+    for (const char* name : {"normal.exr", "albedo.exr", "confidence.exr"}) {
+      const ImageF a = ReadImageFloat(live / name);
+      const ImageF b = ReadImageFloat(after / name);
+      ASSERT_EQ(a.width(), b.width()) << name;
+      ASSERT_EQ(a.height(), b.height()) << name;
+      ASSERT_EQ(a.channels(), b.channels()) << name;
+      EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << name << " differs";
+    }
+  }
+
+  TemporaryFolder folder_;
+  std::shared_ptr<SimulatedRig> rig_;
+  std::unique_ptr<SimulatedLedBoard> board_;
+  std::unique_ptr<SerialLightController> lights_;
+  std::unique_ptr<SimulatedCamera> camera_;
+};
+
+TEST_F(LiveSolveTest, ResultIsBitEqualToASolveOfTheFinishedSession) {
+  LiveSolveController live = Controller(Options());
+  live.Run();
+  const LiveSolveSummary& summary = live.summary();
+  EXPECT_EQ(summary.capture.frames_captured, 11);
+  EXPECT_EQ(summary.frames_decoded_live, 11) << "every frame decoded while capturing";
+  EXPECT_TRUE(summary.live_problems.empty());
+  EXPECT_TRUE(LoadSession(session_dir()).capture_complete);
+  ASSERT_TRUE(fs::exists(summary.solve.result_dir / "report.json"));
+  EXPECT_GT(summary.solve.solver.pixels_by_status[static_cast<int>(PixelStatus::kSolved)], kWidth * kHeight / 2);
+  EXPECT_GT(summary.seconds_after_last_frame, 0);
+  EXPECT_THAT(summary.BriefReport(), HasSubstr("11 decoded while capturing"));
+
+  const fs::path after = SolveAfterwards();
+  ExpectBitEqualMaps(summary.solve.result_dir, after);
+}
+
+TEST_F(LiveSolveTest, CancelLeavesNoResultAndTheResumeIsBitEqual) {
+  LiveSolveController first = Controller(Options());
+  int reports = 0;
+  first.SetProgressCallback([&](const ProgressReport& report) {
+    if (report.stage == "capture" && ++reports == 6) first.RequestStop();  // 5 frames journalled
+  });
+  EXPECT_THROW(first.Run(), Cancelled);
+  const Session partial = LoadSession(session_dir());
+  EXPECT_FALSE(partial.capture_complete);
+  EXPECT_EQ(partial.frames.size(), 5u);
+  std::error_code ignored;
+  EXPECT_FALSE(fs::exists(session_dir() / "results", ignored) && !fs::is_empty(session_dir() / "results"))
+      << "a cancelled live solve leaves no result folder";
+  EXPECT_EQ(board_->lit_leds(), 0u) << "all LEDs off after a cancel";
+
+  LiveSolveController second = Controller(Options());
+  second.Run();
+  const LiveSolveSummary& summary = second.summary();
+  EXPECT_EQ(summary.capture.frames_resumed, 5);
+  EXPECT_EQ(summary.capture.frames_captured, 6);
+  EXPECT_EQ(summary.frames_decoded_live, 11) << "the earlier run's frames are decoded from disk while capturing";
+  ExpectBitEqualMaps(summary.solve.result_dir, SolveAfterwards());
+}
+
+// A frame an interrupted run left that no longer matches session.json is
+// refused (by the resume's load), and nothing is solved.
+TEST_F(LiveSolveTest, AResumedFrameThatChangedOnDiskIsRefused) {
+  LiveSolveController first = Controller(Options());
+  int reports = 0;
+  first.SetProgressCallback([&](const ProgressReport& report) {
+    if (report.stage == "capture" && ++reports == 4) first.RequestStop();
+  });
+  EXPECT_THROW(first.Run(), Cancelled);
+  const Session partial = LoadSession(session_dir());
+  ASSERT_EQ(partial.frames.size(), 3u);
+  {
+    std::fstream file(session_dir() / partial.frames[1].file, std::ios::in | std::ios::out | std::ios::binary);
+    file.seekg(-1, std::ios::end);
+    const char last = static_cast<char>(file.get());
+    file.seekp(-1, std::ios::end);
+    file.put(static_cast<char>(last ^ 0x5a));  // the last byte of the RAW's data, changed
+  }
+  LiveSolveController second = Controller(Options());
+  EXPECT_THAT([&] { second.Run(); }, ::testing::ThrowsMessage<SessionError>(HasSubstr("mismatch")));
+  EXPECT_EQ(LoadSession(session_dir(), SessionLoadOptions{.verify_checksums = false}).frames.size(), 3u);
+  std::error_code ignored;
+  EXPECT_FALSE(fs::exists(session_dir() / "results", ignored) && !fs::is_empty(session_dir() / "results"));
+}
+
+TEST_F(LiveSolveTest, OptionsAreChecked) {
+  LiveSolveOptions options = Options();
+  options.queue_frames = 0;
+  EXPECT_THAT([&] { options.Check(); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("LiveSolveOptions.queue_frames = 0 must lie in [1, 64]")));
+  options = Options();
+  options.capture.sample_name.clear();
+  EXPECT_THROW(options.Check(), std::invalid_argument);
+  EXPECT_THROW(Controller(options).Run(), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(session_dir())) << "nothing written before the options are checked";
+}
+
+}  // namespace
+}  // namespace scanbench
