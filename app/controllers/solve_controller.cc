@@ -293,6 +293,7 @@ nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const De
           {"refined", depth.refined},
           {"iterations", iterations},
           {"first_height_range_mm", depth.first_height_range_mm},
+          {"decision_block_px", depth.decision_block_px},
           {"shadow_edge_samples", depth.shadow_edge_samples},
           {"stop_reason", depth.stop_reason},
           {"seconds", depth.seconds},
