@@ -143,6 +143,25 @@ ImageF ComputeTablePoints(const CameraGeometry& camera) {
   return points;
 }
 
+CameraGeometry BlockCamera(const CameraGeometry& camera, int block_px) {
+  const CameraIntrinsics& k = camera.intrinsics;
+  if (block_px < 1 || k.width / block_px < 1 || k.height / block_px < 1) {
+    throw std::invalid_argument("BlockCamera: block of " + std::to_string(block_px) + " px for a " +
+                                std::to_string(k.width) + "x" + std::to_string(k.height) +
+                                " image must be >= 1 and fit the image");
+  }
+  CameraGeometry blocks = camera;
+  const double scale = 1.0 / block_px;
+  const double centre_offset = 0.5 * (block_px - 1);  // a block's centre, in pixels from its first pixel
+  blocks.intrinsics.width = k.width / block_px;
+  blocks.intrinsics.height = k.height / block_px;
+  blocks.intrinsics.fx = k.fx * scale;
+  blocks.intrinsics.fy = k.fy * scale;
+  blocks.intrinsics.cx = (k.cx - centre_offset) * scale;
+  blocks.intrinsics.cy = (k.cy - centre_offset) * scale;
+  return blocks;
+}
+
 double TablePixelFootprintMm(const CameraGeometry& camera) {
   const double cx = camera.intrinsics.width / 2, cy = camera.intrinsics.height / 2;
   const std::vector<Eigen::Vector3d> points =

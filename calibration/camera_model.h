@@ -47,4 +47,12 @@ double TablePixelFootprintMm(const CameraGeometry& camera);
 // Throws std::invalid_argument if the camera does not look at the table.
 ImageF ComputeTablePoints(const CameraGeometry& camera);
 
+// The camera seen through blocks of block_px x block_px pixels: one pixel per
+// whole block (floor(width / block_px) x floor(height / block_px); a partial
+// block at the right or bottom edge is dropped), its centre at the block's
+// centre. The lens distortion acts on normalised coordinates, so the scaled
+// intrinsics keep it exactly. Throws std::invalid_argument when block_px < 1
+// or the image has no whole block.
+CameraGeometry BlockCamera(const CameraGeometry& camera, int block_px);
+
 }  // namespace scanbench

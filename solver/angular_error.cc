@@ -6,22 +6,57 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/parallel_for.h"
+
 namespace scanbench {
 namespace {
 
-void CheckSameShape(const ImageF& a, const ImageF& b, const ImageU8& mask, int channels) {
-  if (!a.SameSize(b) || a.channels() != b.channels() || a.channels() != channels) {
-    throw std::invalid_argument("error statistics: estimate " + std::to_string(a.width()) + "x" +
-                                std::to_string(a.height()) + "x" + std::to_string(a.channels()) +
-                                " and truth " + std::to_string(b.width()) + "x" + std::to_string(b.height()) +
-                                "x" + std::to_string(b.channels()) + " must have the same shape");
+// `truth_rows` are rows [y_begin, ...) of an image the size of `estimate`.
+void CheckRowsFit(const ImageF& estimate, const ImageF& truth_rows, int y_begin, const ImageU8& mask, int channels) {
+  if (estimate.width() != truth_rows.width() || estimate.channels() != truth_rows.channels() ||
+      estimate.channels() != channels || y_begin < 0 || y_begin + truth_rows.height() > estimate.height()) {
+    throw std::invalid_argument("error statistics: estimate " + std::to_string(estimate.width()) + "x" +
+                                std::to_string(estimate.height()) + "x" + std::to_string(estimate.channels()) +
+                                " and truth " + std::to_string(truth_rows.width()) + "x" +
+                                std::to_string(truth_rows.height()) + "x" + std::to_string(truth_rows.channels()) +
+                                " from row " + std::to_string(y_begin) + " must have the same shape");
   }
-  if (!mask.empty() && !mask.SameSize(a)) {
+  if (!mask.empty() && !mask.SameSize(estimate)) {
     throw std::invalid_argument("error statistics: mask size differs from the images");
   }
 }
 
-double AngleDegrees(const float* estimate, const float* truth) {
+// value(x, y, row_truth) per masked pixel of the rows, appended in pixel
+// order; the rows are computed in parallel, each into its own list.
+template <typename Value>
+void AppendRowValues(const ImageF& truth_rows, int y_begin, const ImageU8& mask, int num_threads,
+                     std::vector<double>* errors, const Value& value) {
+  const int rows = truth_rows.height(), width = truth_rows.width();
+  std::vector<std::vector<double>> per_row(rows);
+  ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
+    const int y = y_begin + r;
+    const float* truth = truth_rows.row(r);
+    for (int x = 0; x < width; ++x) {
+      if (!mask.empty() && mask(x, y) == 0) continue;
+      value(x, y, truth + static_cast<size_t>(x) * truth_rows.channels(), &per_row[r]);
+    }
+  });
+  for (const std::vector<double>& row : per_row) errors->insert(errors->end(), row.begin(), row.end());
+}
+
+// Whole images: the truth has the estimate's height too.
+void CheckSameShape(const ImageF& estimate, const ImageF& truth, const ImageU8& mask, int channels) {
+  if (truth.height() != estimate.height()) {
+    throw std::invalid_argument("error statistics: estimate " + std::to_string(estimate.width()) + "x" +
+                                std::to_string(estimate.height()) + " and truth " + std::to_string(truth.width()) +
+                                "x" + std::to_string(truth.height()) + " must have the same shape");
+  }
+  CheckRowsFit(estimate, truth, 0, mask, channels);
+}
+
+}  // namespace
+
+double AngleBetweenDegrees(const float* estimate, const float* truth) {
   double dot = 0, ne = 0, nt = 0;
   for (int c = 0; c < 3; ++c) {
     dot += double(estimate[c]) * truth[c];
@@ -33,7 +68,10 @@ double AngleDegrees(const float* estimate, const float* truth) {
   return std::acos(cosine) * 180.0 / M_PI;
 }
 
-}  // namespace
+double AbsoluteErrorValue(float estimate, float truth) {
+  const double difference = double(estimate) - truth;
+  return std::isfinite(difference) ? std::abs(difference) : 1e30;
+}
 
 ErrorStatistics SummarizeErrors(std::vector<double> errors) {
   ErrorStatistics stats;
@@ -51,28 +89,49 @@ ErrorStatistics SummarizeErrors(std::vector<double> errors) {
   return stats;
 }
 
+void AngularErrorsOfRows(const ImageF& estimated, const ImageF& truth_rows, int y_begin, const ImageU8& mask,
+                         int num_threads, std::vector<double>* errors, ImageF* error_map_deg) {
+  CheckRowsFit(estimated, truth_rows, y_begin, mask, 3);
+  if (error_map_deg != nullptr && (error_map_deg->width() != estimated.width() ||
+                                   error_map_deg->height() != estimated.height() || error_map_deg->channels() != 1)) {
+    throw std::invalid_argument("AngularErrorsOfRows: the error map must be 1 channel of the estimate's size");
+  }
+  if (error_map_deg != nullptr) {
+    std::fill(error_map_deg->row(y_begin), error_map_deg->row(y_begin) + size_t(truth_rows.height()) * estimated.width(),
+              0.0f);
+  }
+  AppendRowValues(truth_rows, y_begin, mask, num_threads, errors,
+                  [&](int x, int y, const float* truth, std::vector<double>* out) {
+                    const double angle = AngleBetweenDegrees(&estimated(x, y), truth);
+                    out->push_back(angle);
+                    if (error_map_deg != nullptr) (*error_map_deg)(x, y) = static_cast<float>(angle);
+                  });
+}
+
+void AbsoluteErrorsOfRows(const ImageF& estimated, const ImageF& truth_rows, int y_begin, const ImageU8& mask,
+                          int num_threads, std::vector<double>* errors) {
+  CheckRowsFit(estimated, truth_rows, y_begin, mask, estimated.channels());
+  AppendRowValues(truth_rows, y_begin, mask, num_threads, errors,
+                  [&](int x, int y, const float* truth, std::vector<double>* out) {
+                    for (int c = 0; c < estimated.channels(); ++c) {
+                      out->push_back(AbsoluteErrorValue(estimated(x, y, c), truth[c]));
+                    }
+                  });
+}
+
 ErrorStatistics AngularErrorDegrees(const ImageF& estimated, const ImageF& truth, const ImageU8& mask) {
   CheckSameShape(estimated, truth, mask, 3);
   std::vector<double> errors;
   errors.reserve(estimated.num_pixels());
-  for (int y = 0; y < estimated.height(); ++y) {
-    for (int x = 0; x < estimated.width(); ++x) {
-      if (!mask.empty() && mask(x, y) == 0) continue;
-      errors.push_back(AngleDegrees(&estimated(x, y), &truth(x, y)));
-    }
-  }
+  AngularErrorsOfRows(estimated, truth, 0, mask, 0, &errors);
   return SummarizeErrors(std::move(errors));
 }
 
 ImageF AngularErrorMapDegrees(const ImageF& estimated, const ImageF& truth, const ImageU8& mask) {
   CheckSameShape(estimated, truth, mask, 3);
   ImageF map(estimated.width(), estimated.height(), 1, 0.0f);
-  for (int y = 0; y < estimated.height(); ++y) {
-    for (int x = 0; x < estimated.width(); ++x) {
-      if (!mask.empty() && mask(x, y) == 0) continue;
-      map(x, y) = static_cast<float>(AngleDegrees(&estimated(x, y), &truth(x, y)));
-    }
-  }
+  std::vector<double> ignored;
+  AngularErrorsOfRows(estimated, truth, 0, mask, 0, &ignored, &map);
   return map;
 }
 
@@ -80,15 +139,7 @@ ErrorStatistics AbsoluteError(const ImageF& estimated, const ImageF& truth, cons
   CheckSameShape(estimated, truth, mask, estimated.channels());
   std::vector<double> errors;
   errors.reserve(estimated.size());
-  for (int y = 0; y < estimated.height(); ++y) {
-    for (int x = 0; x < estimated.width(); ++x) {
-      if (!mask.empty() && mask(x, y) == 0) continue;
-      for (int c = 0; c < estimated.channels(); ++c) {
-        const double difference = double(estimated(x, y, c)) - truth(x, y, c);
-        errors.push_back(std::isfinite(difference) ? std::abs(difference) : 1e30);
-      }
-    }
-  }
+  AbsoluteErrorsOfRows(estimated, truth, 0, mask, 0, &errors);
   return SummarizeErrors(std::move(errors));
 }
 

@@ -198,62 +198,102 @@ const ColorCheckerPatch* MatchingPatch(const Eigen::Vector3d& truth) {
 
 AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const ImageF& truth_linear_rec709,
                                      const ImageU8& mask, double min_region_fraction) {
-  if (albedo_linear_rec709.channels() != 3 || truth_linear_rec709.channels() != 3 ||
-      albedo_linear_rec709.width() != truth_linear_rec709.width() ||
-      albedo_linear_rec709.height() != truth_linear_rec709.height() || mask.width() != albedo_linear_rec709.width() ||
-      mask.height() != albedo_linear_rec709.height()) {
+  if (truth_linear_rec709.height() != albedo_linear_rec709.height()) {
     throw std::invalid_argument("CompareAlbedoColor: albedo " + ShapeText(albedo_linear_rec709) + ", truth " +
                                 ShapeText(truth_linear_rec709) + " and mask " + ShapeText(mask) +
                                 " must be 3, 3 and 1 channels of one size");
   }
-  // The evaluated pixels, and per pixel its truth value's bits: sorted, equal
-  // values (a chart's patches) form runs.
-  std::vector<std::pair<std::array<uint32_t, 3>, size_t>> keyed;
-  for (size_t i = 0; i < mask.num_pixels(); ++i) {
-    if (mask.data()[i] == 0) continue;
-    std::array<uint32_t, 3> key;
-    std::memcpy(key.data(), truth_linear_rec709.data() + 3 * i, sizeof(key));
-    keyed.emplace_back(key, i);
+  AlbedoColorComparison comparison(albedo_linear_rec709, mask, min_region_fraction);
+  comparison.AddRows(0, truth_linear_rec709);
+  return comparison.Finish();
+}
+
+AlbedoColorComparison::AlbedoColorComparison(const ImageF& albedo_linear_rec709, const ImageU8& mask,
+                                             double min_region_fraction)
+    : albedo_(albedo_linear_rec709), mask_(mask), min_region_fraction_(min_region_fraction) {
+  if (albedo_.channels() != 3 || mask_.channels() != 1 || mask_.width() != albedo_.width() ||
+      mask_.height() != albedo_.height()) {
+    throw std::invalid_argument("AlbedoColorComparison: albedo " + ShapeText(albedo_) + " and mask " +
+                                ShapeText(mask_) + " must be 3 and 1 channels of one size");
   }
-  std::vector<double> per_pixel(keyed.size());
-  ParallelFor(static_cast<int>(keyed.size()), 0, 4096, [&](int first, int last, int) {
-    for (int j = first; j < last; ++j) {
-      const float* t = truth_linear_rec709.data() + 3 * keyed[j].second;
-      const float* a = albedo_linear_rec709.data() + 3 * keyed[j].second;
-      per_pixel[j] = Ciede2000(LabFromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2])),
-                               LabFromLinearRec709(Eigen::Vector3d(t[0], t[1], t[2])));
+  if (albedo_.num_pixels() > UINT32_MAX) {
+    throw std::invalid_argument("AlbedoColorComparison: " + ShapeText(albedo_) + " has more than 2^32 pixels");
+  }
+}
+
+void AlbedoColorComparison::AddRows(int y_begin, const ImageF& truth_rows, int num_threads) {
+  if (truth_rows.channels() != 3 || truth_rows.width() != albedo_.width() || y_begin != next_row_ ||
+      y_begin + truth_rows.height() > albedo_.height()) {
+    throw std::invalid_argument("CompareAlbedoColor: albedo " + ShapeText(albedo_) + ", truth " +
+                                ShapeText(truth_rows) + " from row " + std::to_string(y_begin) + " and mask " +
+                                ShapeText(mask_) + " must be 3, 3 and 1 channels of one size, the rows in order");
+  }
+  next_row_ = y_begin + truth_rows.height();
+  // Per row: the evaluated pixels with their truth value's bits (sorted
+  // later, equal values -- a chart's patches -- form runs) and CIEDE2000.
+  const int width = albedo_.width();
+  std::vector<std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>>> keyed_rows(truth_rows.height());
+  std::vector<std::vector<double>> delta_e_rows(truth_rows.height());
+  ParallelRows(truth_rows.height(), num_threads, {}, 0, 1, [&](int r) {
+    const int y = y_begin + r;
+    for (int x = 0; x < width; ++x) {
+      if (mask_(x, y) == 0) continue;
+      const size_t i = static_cast<size_t>(y) * width + x;
+      const float* t = truth_rows.row(r) + 3 * static_cast<size_t>(x);
+      const float* a = albedo_.data() + 3 * i;
+      std::array<uint32_t, 3> key;
+      std::memcpy(key.data(), t, sizeof(key));
+      keyed_rows[r].emplace_back(key, static_cast<uint32_t>(i));
+      delta_e_rows[r].push_back(Ciede2000(LabFromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2])),
+                                          LabFromLinearRec709(Eigen::Vector3d(t[0], t[1], t[2]))));
     }
   });
+  for (int r = 0; r < truth_rows.height(); ++r) {
+    keyed_.insert(keyed_.end(), keyed_rows[r].begin(), keyed_rows[r].end());
+    per_pixel_.insert(per_pixel_.end(), delta_e_rows[r].begin(), delta_e_rows[r].end());
+  }
+}
+
+AlbedoColorErrors AlbedoColorComparison::Finish() {
   AlbedoColorErrors errors;
-  const size_t evaluated = per_pixel.size();
-  errors.delta_e = SummarizeErrors(std::move(per_pixel));
-  const size_t min_pixels = std::max<size_t>(16, static_cast<size_t>(min_region_fraction * evaluated));
+  const size_t evaluated = per_pixel_.size();
+  errors.delta_e = SummarizeErrors(std::move(per_pixel_));
+  per_pixel_ = {};
+  std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>> keyed = std::move(keyed_);
+  keyed_ = {};
+  const size_t min_pixels = std::max<size_t>(16, static_cast<size_t>(min_region_fraction_ * evaluated));
   std::sort(keyed.begin(), keyed.end());
-  std::vector<std::vector<size_t>> region_pixels;
+  struct Region {
+    std::array<uint32_t, 3> truth_bits;
+    std::vector<uint32_t> pixels;
+  };
+  std::vector<Region> found;
   for (size_t begin = 0; begin < keyed.size();) {
     size_t end = begin + 1;
     while (end < keyed.size() && keyed[end].first == keyed[begin].first) ++end;
     if (end - begin >= min_pixels) {
-      std::vector<size_t>& pixels = region_pixels.emplace_back();
-      for (size_t j = begin; j < end; ++j) pixels.push_back(keyed[j].second);
+      Region& region = found.emplace_back();
+      region.truth_bits = keyed[begin].first;
+      for (size_t j = begin; j < end; ++j) region.pixels.push_back(keyed[j].second);
     }
     begin = end;
   }
-  std::vector<const std::vector<size_t>*> regions;
-  for (const std::vector<size_t>& pixels : region_pixels) regions.push_back(&pixels);
   // A textile's truth varies from pixel to pixel: one big region is just its
   // background, not a chart.
-  if (regions.size() < 2) return errors;
-  std::sort(regions.begin(), regions.end(), [](auto* a, auto* b) { return a->size() > b->size(); });
+  if (found.size() < 2) return errors;
+  std::vector<const Region*> regions;
+  for (const Region& region : found) regions.push_back(&region);
+  std::sort(regions.begin(), regions.end(), [](auto* a, auto* b) { return a->pixels.size() > b->pixels.size(); });
   double sum = 0;
   for (size_t r = 0; r < regions.size(); ++r) {
-    const std::vector<size_t>& pixels = *regions[r];
+    const std::vector<uint32_t>& pixels = regions[r]->pixels;
     AlbedoRegionError region;
-    const float* t = truth_linear_rec709.data() + 3 * pixels.front();
+    float t[3];
+    std::memcpy(t, regions[r]->truth_bits.data(), sizeof(t));
     region.truth_linear_rec709 = Eigen::Vector3d(t[0], t[1], t[2]);
     std::vector<float> channel(pixels.size());
     for (int c = 0; c < 3; ++c) {
-      for (size_t j = 0; j < pixels.size(); ++j) channel[j] = albedo_linear_rec709.data()[3 * pixels[j] + c];
+      for (size_t j = 0; j < pixels.size(); ++j) channel[j] = albedo_.data()[3 * size_t(pixels[j]) + c];
       region.solved_linear_rec709[c] = Median(channel);
     }
     region.delta_e = Ciede2000(LabFromLinearRec709(region.solved_linear_rec709),

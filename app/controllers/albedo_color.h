@@ -6,7 +6,11 @@
 // on a ColorChecker, or (weaker) one made from the RAW file's own camera matrix.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <optional>
+#include <utility>
+#include <vector>
 #include <string>
 
 #include <Eigen/Core>
@@ -98,5 +102,28 @@ struct AlbedoColorErrors {
 
 AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const ImageF& truth_linear_rec709,
                                      const ImageU8& mask, double min_region_fraction = 0.002);
+
+// CompareAlbedoColor with the truth read a band of rows at a time (the solve's
+// evaluation, so that no full-size truth is held): AddRows for the bands in
+// order, then Finish gives exactly what CompareAlbedoColor gives on the whole
+// truth. Keeps, per evaluated pixel, its truth value's bits, its index and its
+// CIEDE2000 (24 bytes). `albedo_linear_rec709` (3 channels) and `mask` (1
+// channel, its size) are whole images and must outlive the comparison.
+class AlbedoColorComparison {
+ public:
+  AlbedoColorComparison(const ImageF& albedo_linear_rec709, const ImageU8& mask, double min_region_fraction = 0.002);
+  // `truth_rows`: rows [y_begin, y_begin + truth_rows.height()) of the truth
+  // (3 channels), following the rows added before. The rows run in parallel.
+  void AddRows(int y_begin, const ImageF& truth_rows, int num_threads = 0);
+  AlbedoColorErrors Finish();
+
+ private:
+  const ImageF& albedo_;
+  const ImageU8& mask_;
+  double min_region_fraction_;
+  int next_row_ = 0;
+  std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>> keyed_;  // truth bits, pixel index; pixel order
+  std::vector<double> per_pixel_;                                     // CIEDE2000, same order
+};
 
 }  // namespace scanbench

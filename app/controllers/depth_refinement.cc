@@ -43,10 +43,6 @@ std::vector<double> SolvedHeights(const PhotometricSolution& solution, const Ima
   return heights;
 }
 
-double HeightRangeMm(const PhotometricSolution& solution, const ImageF& height_mm) {
-  const std::vector<double> heights = SolvedHeights(solution, height_mm);
-  return Percentile(heights, 99) - Percentile(heights, 1);
-}
 
 // The gradient of log t, t the distance along each pixel's camera ray to the
 // surface (P = centre + t * ray), from the solved normals: perspective-exact.
@@ -139,7 +135,9 @@ std::string DepthRefinementSummary::BriefReport() const {
     for (size_t i = 0; i < iterations.size(); ++i) out << (i ? "/" : " ") << iterations[i].mean_move_mm;
     out << " mm";
   }
-  if (first_height_range_mm > 0) out << "; first-pass height range " << first_height_range_mm << " mm";
+  if (decision_block_px > 0) {
+    out << "; first-pass height range " << first_height_range_mm << " mm (" << decision_block_px << " px blocks)";
+  }
   if (shadow_edge_samples > 0) out << "; " << shadow_edge_samples << " shadow-edge samples left out";
   out << "; stopped: " << stop_reason;
   if (!message.empty() && termination != Termination::kSuccess) out << " (" << message << ")";
@@ -181,6 +179,56 @@ ImageF AnchoredHeightFromSolution(const DepthRefinementOptions& options, const P
     height_mm.data()[i] = static_cast<float>(centre.z() * (1.0 - q.data()[i] / q_anchor));
   }
   return height_mm;
+}
+
+double SolvedHeightRangeMm(const PhotometricSolution& solution, const ImageF& height_mm) {
+  const std::vector<double> heights = SolvedHeights(solution, height_mm);
+  return Percentile(heights, 99) - Percentile(heights, 1);
+}
+
+PhotometricSolution BlockMeanSolution(const PhotometricSolution& solution, int block_px, int num_threads) {
+  if (block_px < 1) throw std::invalid_argument("BlockMeanSolution: block_px " + std::to_string(block_px) + " must be >= 1");
+  const int width = solution.status.width() / block_px, height = solution.status.height() / block_px;
+  PhotometricSolution blocks;
+  blocks.normal_in_table = ImageF(width, height, 3);
+  blocks.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
+  const int full_width = solution.status.width();
+  const int min_solved = (block_px * block_px + 1) / 2;
+  ParallelRows(height, num_threads, {}, 0, 1, [&](int by) {
+    for (int bx = 0; bx < width; ++bx) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      int solved = 0;
+      for (int y = by * block_px; y < (by + 1) * block_px; ++y) {
+        for (int x = bx * block_px; x < (bx + 1) * block_px; ++x) {
+          const size_t i = static_cast<size_t>(y) * full_width + x;
+          if (!Solved(solution, i)) continue;
+          const float* n = &solution.normal_in_table.data()[3 * i];
+          sum += Eigen::Vector3d(n[0], n[1], n[2]);
+          ++solved;
+        }
+      }
+      float* out = &blocks.normal_in_table(bx, by);
+      const bool usable = solved >= min_solved && sum.norm() > 0;
+      const Eigen::Vector3d mean = usable ? sum.normalized() : Eigen::Vector3d::UnitZ();
+      for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(mean[c]);
+      if (usable) blocks.status(bx, by) = static_cast<uint8_t>(PixelStatus::kSolved);
+    }
+  });
+  return blocks;
+}
+
+double DecisionHeightRangeMm(const DepthRefinementOptions& options, const PhotometricSolution& solution,
+                             const CameraGeometry& camera, int* block_px_used) {
+  constexpr int kMinBlocks = 16;
+  const int block_px = solution.status.width() / kDepthDecisionBlockPx >= kMinBlocks &&
+                               solution.status.height() / kDepthDecisionBlockPx >= kMinBlocks
+                           ? kDepthDecisionBlockPx
+                           : 1;
+  if (block_px_used) *block_px_used = block_px;
+  if (block_px == 1) return SolvedHeightRangeMm(solution, AnchoredHeightFromSolution(options, solution, camera));
+  const PhotometricSolution blocks = BlockMeanSolution(solution, block_px);
+  const ImageF height_mm = AnchoredHeightFromSolution(options, blocks, BlockCamera(camera, block_px));
+  return SolvedHeightRangeMm(blocks, height_mm);
 }
 
 ImageF SurfacePointsAtHeight(const CameraGeometry& camera, const ImageF& height_mm) {
@@ -339,20 +387,22 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
     return summary;
   };
   if (!options.enabled) return finish("disabled (the table plane only)");
+  // The decision on block means: at 16 MP the full-size integration it
+  // replaces took most of this stage on a flat sample (docs/solver.md).
+  summary.first_height_range_mm =
+      DecisionHeightRangeMm(options, *solution, camera, &summary.decision_block_px);
+  if (summary.first_height_range_mm <= options.min_height_range_mm) {
+    return finish("height range " + Mm(summary.first_height_range_mm) + " mm (" +
+                  std::to_string(summary.decision_block_px) + " px blocks) is not above min_height_range_mm " +
+                  Mm(options.min_height_range_mm) + " mm: the table plane is kept");
+  }
   points = ComputeTablePoints(camera);
   const Eigen::Vector3d centre = CameraCentreInTable(camera);
   const int cap = options.max_iterations;
   for (int iteration = 0; iteration < cap; ++iteration) {
     const auto iteration_start = std::chrono::steady_clock::now();
     const ImageF height_mm = AnchoredHeightFromSolution(options, *solution, camera);
-    const double range = HeightRangeMm(*solution, height_mm);
-    if (iteration == 0) {
-      summary.first_height_range_mm = range;
-      if (range <= options.min_height_range_mm) {
-        return finish("height range " + Mm(range) + " mm is not above min_height_range_mm " +
-                      Mm(options.min_height_range_mm) + " mm: the table plane is kept");
-      }
-    }
+    const double range = SolvedHeightRangeMm(*solution, height_mm);
     ImageF moved = SurfacePointsAtHeight(camera, height_mm);
     const Movement movement = SurfaceMovement(*solution, points, moved);
     // Points that hardly move would give the same solution again: stop before

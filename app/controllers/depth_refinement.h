@@ -12,7 +12,10 @@
 //      falloff) and re-solve, leaving out the lit samples at the edges of
 //      cast shadows (below);
 // until 99 % of the surface points would move less than tolerance_mm or max_iterations
-// re-solves ran. Only point-LED light fields can be moved (the rig
+// re-solves ran. Whether the loop runs at all is decided on block means: the
+// first pass's normals averaged over kDepthDecisionBlockPx-square blocks are
+// integrated (a 64th of the pixels) and their height range compared with
+// min_height_range_mm; a flat sample then never integrates at full size. Only point-LED light fields can be moved (the rig
 // description, a calibration set's fitted LEDs); a measured per-pixel field is
 // sampled on the table plane only and is left as it is (the summary says so).
 //
@@ -38,6 +41,13 @@
 
 namespace scanbench {
 
+// Side of the blocks (px) whose mean normals decide whether the loop runs.
+// The blocks average steep walls' slopes away, so the block range reads low:
+// at 400x264 (50 x 33 blocks) 11 % below the full-size one on the +-25 mm
+// scene, 4 % on the +-2.5 mm one, both far from the 8 mm threshold
+// (tests/app/controllers/depth_refinement_test.cc).
+inline constexpr int kDepthDecisionBlockPx = 8;
+
 struct DepthRefinementOptions {
   bool enabled = true;               // false = the table plane only (solve --no-depth-refine)
   int max_iterations = 4;            // re-solves at most, [1, 20] (solve --depth-iterations)
@@ -60,7 +70,10 @@ struct DepthIteration {
 
 struct DepthRefinementSummary : AlgorithmSummary {
   bool refined = false;                  // at least one re-solve ran
-  double first_height_range_mm = 0;      // p99 - p1 of the first pass's integrated height (0 when not integrated)
+  // p99 - p1 of the first pass's height integrated from decision_block_px
+  // block means (0 when not integrated): what decides whether the loop runs.
+  double first_height_range_mm = 0;
+  int decision_block_px = 0;             // kDepthDecisionBlockPx, 1 for images too small for blocks, 0 = not integrated
   std::vector<DepthIteration> iterations;
   double final_move_max_mm = -1;         // converged: the largest move not made, mm; -1 otherwise
   double final_move_p99_mm = -1;         // converged: its 99th percentile (< tolerance), mm; -1 otherwise
@@ -105,6 +118,22 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
 // anchored as the options say; unsolved pixels are filled smoothly.
 ImageF AnchoredHeightFromSolution(const DepthRefinementOptions& options, const PhotometricSolution& solution,
                                   const CameraGeometry& camera);
+
+// p99 - p1 of `height_mm` over the solved pixels of `solution`, mm.
+double SolvedHeightRangeMm(const PhotometricSolution& solution, const ImageF& height_mm);
+
+// The first pass at blocks of block_px square: per whole block the mean of
+// its solved pixels' normals (normalised), solved when at least half its
+// pixels are; the rest (0, 0, 1) and unsolved. Pairs with BlockCamera.
+PhotometricSolution BlockMeanSolution(const PhotometricSolution& solution, int block_px,
+                                      int num_threads = 0);
+
+// What decides whether the loop runs: the anchored height range (mm) of the
+// block-mean solution integrated through BlockCamera(camera, block_px).
+// *block_px_used gets kDepthDecisionBlockPx, or 1 when the image has fewer
+// than 16 whole blocks across or down (then the full-size range).
+double DecisionHeightRangeMm(const DepthRefinementOptions& options, const PhotometricSolution& solution,
+                             const CameraGeometry& camera, int* block_px_used = nullptr);
 
 // Where each pixel's camera ray meets the height z = height_mm(x, y): 3 channels, table mm.
 ImageF SurfacePointsAtHeight(const CameraGeometry& camera, const ImageF& height_mm);

@@ -1,5 +1,6 @@
 #include "app/controllers/solve_controller.h"
 
+#include <algorithm>
 #include <chrono>
 #include <functional>
 #include <iomanip>
@@ -309,42 +310,20 @@ nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const De
           {"refined", depth.refined},
           {"iterations", iterations},
           {"first_height_range_mm", depth.first_height_range_mm},
+          {"decision_block_px", depth.decision_block_px},
           {"shadow_edge_samples", depth.shadow_edge_samples},
           {"stop_reason", depth.stop_reason},
           {"seconds", depth.seconds},
           {"message", depth.BriefReport()}};
 }
 
-// Against the session's ground truth (simulated rig), on the solved pixels of
-// the sample.
-struct GroundTruthComparison {
-  ErrorStatistics normal_error_deg;
-  ErrorStatistics albedo_error;
-  AlbedoColorErrors albedo_color_error;
-  size_t unsolved_on_sample = 0;
-  ImageF angular_error_deg;  // per pixel, 0 off the evaluated pixels
-};
-
-GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth,
-                                             const PhotometricSolution& solution) {
-  const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir, truth);
-  GroundTruthComparison comparison;
-  ImageU8 solved_on_sample = on_sample;
-  for (size_t i = 0; i < on_sample.num_pixels(); ++i) {
-    const bool solved = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
-    solved_on_sample.data()[i] = on_sample.data()[i] && solved;
-    comparison.unsolved_on_sample += on_sample.data()[i] && !solved;
+// body(y_begin, rows) for the truth file's bands of band_rows in order.
+template <typename Body>
+void ForEachTruthBand(const fs::path& path, int height, int band_rows, const Body& body) {
+  for (int y = 0; y < height; y += band_rows) {
+    const int y_end = std::min(height, y + band_rows);
+    body(y, ReadImageFloatRows(path, y, y_end));
   }
-  // One full-size truth map at a time (193 MB each at 16 MP).
-  {
-    const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
-    comparison.normal_error_deg = AngularErrorDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
-    comparison.angular_error_deg = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, solved_on_sample);
-  }
-  const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
-  comparison.albedo_error = AbsoluteError(solution.albedo, truth_albedo, solved_on_sample);
-  comparison.albedo_color_error = CompareAlbedoColor(solution.albedo, truth_albedo, solved_on_sample);
-  return comparison;
 }
 
 // The maps, and the error map when there is one; returns report.json's "outputs".
@@ -413,6 +392,40 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
 }
 
 }  // namespace
+
+GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth,
+                                             const PhotometricSolution& solution, int num_threads, int band_rows) {
+  if (band_rows < 1) {
+    throw std::invalid_argument("CompareWithGroundTruth: band_rows " + std::to_string(band_rows) + " must be >= 1");
+  }
+  const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir, truth);
+  GroundTruthComparison comparison;
+  ImageU8 solved_on_sample = on_sample;
+  for (size_t i = 0; i < on_sample.num_pixels(); ++i) {
+    const bool solved = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    solved_on_sample.data()[i] = on_sample.data()[i] && solved;
+    comparison.unsolved_on_sample += on_sample.data()[i] && !solved;
+  }
+  const int height = solution.status.height();
+  {
+    std::vector<double> angles;
+    comparison.angular_error_deg = ImageF(solution.status.width(), height, 1);
+    ForEachTruthBand(session_dir / truth.normal_file, height, band_rows, [&](int y, const ImageF& truth_rows) {
+      AngularErrorsOfRows(solution.normal_in_table, truth_rows, y, solved_on_sample, num_threads, &angles,
+                          &comparison.angular_error_deg);
+    });
+    comparison.normal_error_deg = SummarizeErrors(std::move(angles));
+  }
+  std::vector<double> albedo_errors;
+  AlbedoColorComparison color(solution.albedo, solved_on_sample);
+  ForEachTruthBand(session_dir / truth.albedo_file, height, band_rows, [&](int y, const ImageF& truth_rows) {
+    AbsoluteErrorsOfRows(solution.albedo, truth_rows, y, solved_on_sample, num_threads, &albedo_errors);
+    color.AddRows(y, truth_rows, num_threads);
+  });
+  comparison.albedo_error = SummarizeErrors(std::move(albedo_errors));
+  comparison.albedo_color_error = color.Finish();
+  return comparison;
+}
 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
@@ -648,7 +661,7 @@ void SolveController::Run() {
   ImageF angular_error_deg;
   if (session.ground_truth) {
     const GroundTruthComparison comparison = TimedStage(timings, "evaluate", "", [&] {
-      return CompareWithGroundTruth(session_dir_, *session.ground_truth, solution);
+      return CompareWithGroundTruth(session_dir_, *session.ground_truth, solution, options_.solver.num_threads);
     });
     summary_.normal_error_deg = comparison.normal_error_deg;
     summary_.albedo_error = comparison.albedo_error;

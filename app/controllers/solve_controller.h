@@ -133,6 +133,30 @@ class SolvePreparation {
   std::unique_ptr<State> state_;
 };
 
+// The solve's evaluate stage: the solution against a session's ground truth
+// (simulated rig), on the solved pixels of the sample.
+struct GroundTruthComparison {
+  ErrorStatistics normal_error_deg;
+  ErrorStatistics albedo_error;
+  AlbedoColorErrors albedo_color_error;
+  size_t unsolved_on_sample = 0;
+  ImageF angular_error_deg;  // per pixel, 0 off the evaluated pixels
+};
+
+// Rows of the truth read at a time: 16 MB of float RGB at 16 MP, a multiple
+// of OpenEXR's largest scanline chunk (32 rows, piz), so no chunk is decoded twice.
+inline constexpr int kEvaluationBandRows = 256;
+
+struct GroundTruthFiles;
+
+// Band by band (band_rows, >= 1): no full-size truth map is held; every
+// figure equals the whole-frame one (AngularErrorDegrees, AbsoluteError,
+// CompareAlbedoColor) exactly, the values kept in pixel order. num_threads
+// 0 = all.
+GroundTruthComparison CompareWithGroundTruth(const std::filesystem::path& session_dir, const GroundTruthFiles& truth,
+                                             const PhotometricSolution& solution, int num_threads = 0,
+                                             int band_rows = kEvaluationBandRows);
+
 class SolveController : public BaseController {
  public:
   SolveController(std::filesystem::path session_dir, SolveOptions options);

@@ -358,6 +358,22 @@ ImageF ReadImageFloat(const fs::path& path, std::vector<std::string>* channel_na
   return image;
 }
 
+ImageF ReadImageFloatRows(const fs::path& path, int y_begin, int y_end) {
+  OpenedInput opened = OpenInput(path);
+  const OIIO::ImageSpec& spec = opened.spec;
+  if (!(0 <= y_begin && y_begin < y_end && y_end <= spec.height)) {
+    throw std::invalid_argument(path.string() + ": rows [" + std::to_string(y_begin) + ", " + std::to_string(y_end) +
+                                ") must lie within its " + std::to_string(spec.height) + " rows and not be empty");
+  }
+  ImageF rows(spec.width, y_end - y_begin, spec.nchannels);
+  if (!opened.input->read_scanlines(0, 0, spec.y + y_begin, spec.y + y_end, 0, 0, spec.nchannels,
+                                    OIIO::TypeDesc::FLOAT, rows.data())) {
+    throw PathError(path, "cannot read rows " + std::to_string(y_begin) + " to " + std::to_string(y_end) + " (" +
+                              OiioMessage(opened.input->geterror()) + ")");
+  }
+  return rows;
+}
+
 ImageU16 ReadImageU16(const fs::path& path) {
   OpenedInput opened = OpenInput(path);
   RequireInteger(path, opened.spec, 16, "ReadImageU16");

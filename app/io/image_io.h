@@ -103,6 +103,12 @@ void WriteTiff(const std::filesystem::path& path, const ImageF& image, Overwrite
 // `channel_names`, if given, receives the channel names in pixel order.
 ImageF ReadImageFloat(const std::filesystem::path& path, std::vector<std::string>* channel_names = nullptr);
 
+// Rows [y_begin, y_end) of the same (all channels, y_end - y_begin rows), so
+// that a large map can be read band by band: OpenEXR decodes only the chunks
+// that hold those rows (PNG decodes from the top each time). Throws
+// std::invalid_argument when the rows are not within the image.
+ImageF ReadImageFloatRows(const std::filesystem::path& path, int y_begin, int y_end);
+
 // Integer files only, values exactly as stored. ReadImageU16 accepts 8- and
 // 16-bit files (8-bit values are scaled by 257, so 255 -> 65535);
 // ReadImageU8 accepts 8-bit files only. Float files and deeper integer

@@ -37,6 +37,29 @@ TEST(CameraModelTest, TablePointsOfADownLookingCamera) {
               testing::EigenNear(expected, 1e-3));
 }
 
+// A block camera's pixel sees along the full camera's ray through the block's
+// centre, lens distortion included.
+TEST(CameraModelTest, BlockCameraPixelsAreTheBlockCentresRays) {
+  const CameraGeometry camera = testing::DownLookingCamera(67, 50, 600, /*distorted=*/true);
+  const CameraGeometry blocks = BlockCamera(camera, 8);
+  EXPECT_EQ(blocks.intrinsics.width, 8);  // whole blocks only
+  EXPECT_EQ(blocks.intrinsics.height, 6);
+  const ImageF block_rays = ComputeRayDirectionsInCam(blocks.intrinsics);
+  std::vector<Eigen::Vector2d> centres;
+  for (int by = 0; by < 6; ++by) {
+    for (int bx = 0; bx < 8; ++bx) centres.emplace_back(8 * bx + 3.5, 8 * by + 3.5);
+  }
+  const std::vector<Eigen::Vector3d> full_rays = ComputeRayDirectionsInCam(camera.intrinsics, centres);
+  for (int by = 0; by < 6; ++by) {
+    for (int bx = 0; bx < 8; ++bx) {
+      const Eigen::Vector3d ray(block_rays(bx, by, 0), block_rays(bx, by, 1), block_rays(bx, by, 2));
+      EXPECT_THAT(ray, testing::EigenNear(full_rays[by * 8 + bx], 1e-6)) << "block " << bx << "," << by;
+    }
+  }
+  EXPECT_THROW(BlockCamera(camera, 0), std::invalid_argument);
+  EXPECT_THROW(BlockCamera(camera, 51), std::invalid_argument);
+}
+
 TEST(CameraModelTest, InvalidIntrinsicsNameTheField) {
   CameraIntrinsics intrinsics = testing::DownLookingCamera(64, 48, 600, false).intrinsics;
   intrinsics.fx = -1;

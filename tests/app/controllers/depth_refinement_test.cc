@@ -125,6 +125,47 @@ TEST(DepthRefinementTest, GroundTruthNormalsIntegrateToTheGroundTruthHeight) {
   EXPECT_LT(std::abs(offset), 0.4) << "the anchor, mm";
 }
 
+// The loop's decision on 8 px block means (a 64th of the pixels integrated)
+// equals the full-size one on the draped and the flat scene, its height range
+// close to the full-size range. From the ground-truth normals, and from the
+// table-plane solve that the decision sees in a real run.
+TEST(DepthRefinementTest, BlockMeanDecisionEqualsTheFullSizeDecision) {
+  TemporaryFolder folder;
+  const DepthRefinementOptions options;
+  for (const double amplitude_mm : {25.0, 2.5}) {
+    const fs::path session_dir = SimulateFolds(folder, "folds-" + std::to_string(amplitude_mm), amplitude_mm);
+    const Session session = LoadSession(session_dir);
+    PhotometricSolution truth;
+    truth.normal_in_table = ReadImageFloat(session_dir / session.ground_truth->normal_file);
+    truth.status = ImageU8(kWidth, kHeight, 1);  // all kSolved (0)
+    const SolveSummary plane = Solve(session_dir, false);
+    PhotometricSolution solved;
+    solved.normal_in_table = ReadImageFloat(plane.result_dir / "normal.exr");
+    const ImageU8 solved_mask = ReadImageU8(plane.result_dir / "solved_mask.png");
+    solved.status = ImageU8(kWidth, kHeight, 1);
+    for (size_t i = 0; i < solved.status.num_pixels(); ++i) {
+      solved.status.data()[i] = static_cast<uint8_t>(solved_mask.data()[i * solved_mask.channels()] > 127
+                                                         ? PixelStatus::kSolved
+                                                         : PixelStatus::kOutsideRegion);
+    }
+    for (const auto& [name, solution] : {std::pair{"truth", &truth}, std::pair{"table-plane solve", &solved}}) {
+      const double full =
+          SolvedHeightRangeMm(*solution, AnchoredHeightFromSolution(options, *solution, session.rig.camera));
+      int block_px = 0;
+      const double block = DecisionHeightRangeMm(options, *solution, session.rig.camera, &block_px);
+      std::cout << "+-" << amplitude_mm << " mm, " << name << ": height range full size " << full << " mm, "
+                << block_px << " px blocks " << block << " mm\n";
+      EXPECT_EQ(block_px, kDepthDecisionBlockPx);
+      EXPECT_EQ(block > options.min_height_range_mm, full > options.min_height_range_mm) << name;
+      EXPECT_EQ(block > options.min_height_range_mm, amplitude_mm > 10) << name;
+      // Measured at this size (50 x 33 blocks): +-25 mm truth 40.88 vs 45.98 mm, solve 39.04 vs 42.44 mm;
+      // +-2.5 mm 4.82 vs 5.04 / 5.03 mm. The blocks average the steep edge walls' slopes away; the
+      // decision's margin to the 8 mm threshold is far larger.
+      EXPECT_NEAR(block, full, 0.15 * full + 0.2) << name << ": 15 % + 0.2 mm";
+    }
+  }
+}
+
 // Lit samples next to a shadowed one of the same light are left out, shadowed
 // ones are the solver's own (its shadow level); a pixel that would keep fewer
 // lit samples than the solver needs keeps them all.

@@ -1,6 +1,7 @@
 // The simulated scan end to end through the controllers the CLI and GUI use:
 // simulate -> DNG on disk -> decode -> develop -> solve -> maps and report.
 #include <fstream>
+#include <random>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -107,6 +108,73 @@ TEST(ScanControllersTest, ColorCheckerSessionHasPatchTruthAndTheCamerasColorMatr
       << *frame.camera_from_xyz;
   EXPECT_TRUE(frame.as_shot_neutral.isApprox(SimulatedAsShotNeutral(SensorColorModel::kNikonD5100), 1e-4))
       << frame.as_shot_neutral.transpose();
+}
+
+void ExpectSameStatistics(const ErrorStatistics& banded, const ErrorStatistics& whole, const std::string& what) {
+  EXPECT_EQ(banded.num_pixels, whole.num_pixels) << what;
+  EXPECT_EQ(banded.mean, whole.mean) << what;
+  EXPECT_EQ(banded.median, whole.median) << what;
+  EXPECT_EQ(banded.percentile_95, whole.percentile_95) << what;
+  EXPECT_EQ(banded.max, whole.max) << what;
+}
+
+// The evaluate stage reads the truth in bands; every figure equals the
+// whole-frame computation's exactly, on a ColorChecker session (whose patches
+// are regions of the colour comparison) and a textile one, with bands that
+// do not divide the height.
+TEST(ScanControllersTest, BandedGroundTruthComparisonEqualsTheWholeFrameOne) {
+  TemporaryFolder folder;
+  for (const SampleKind sample : {SampleKind::kColorChecker, SampleKind::kTextile}) {
+    const fs::path session_dir = folder / (sample == SampleKind::kTextile ? "textile" : "chart");
+    SimulateOptions options = SmallSimulation();
+    options.scene.sample = sample;
+    SimulateController(session_dir, options).Run();
+    const Session session = LoadSession(session_dir);
+    const GroundTruthFiles& truth = *session.ground_truth;
+    const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
+    const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
+    // A solution a little off the truth, some pixels unsolved.
+    PhotometricSolution solution;
+    solution.normal_in_table = truth_normals;
+    solution.albedo = truth_albedo;
+    solution.status = ImageU8(truth_normals.width(), truth_normals.height(), 1);
+    std::mt19937 random(11);
+    std::normal_distribution<float> noise(0.0f, 0.02f);
+    for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        solution.normal_in_table.data()[3 * i + c] += noise(random);
+        solution.albedo.data()[3 * i + c] *= 1.0f + noise(random);
+      }
+      if (i % 97 == 0) solution.status.data()[i] = static_cast<uint8_t>(PixelStatus::kNoSignal);
+    }
+    const ImageU8 stored_mask = ReadImageU8(session_dir / truth.mask_file);
+    ImageU8 evaluated(solution.status.width(), solution.status.height(), 1);
+    size_t unsolved = 0;
+    for (size_t i = 0; i < evaluated.num_pixels(); ++i) {
+      const bool on_sample = stored_mask.data()[i * stored_mask.channels()] > 127;
+      evaluated.data()[i] = on_sample && solution.status.data()[i] == 0;
+      unsolved += on_sample && solution.status.data()[i] != 0;
+    }
+    const AlbedoColorErrors whole_color = CompareAlbedoColor(solution.albedo, truth_albedo, evaluated);
+    const ImageF whole_map = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, evaluated);
+    if (sample == SampleKind::kColorChecker) {
+      EXPECT_GE(whole_color.chart_patches, 20) << "the patches must be regions";
+    } else {
+      EXPECT_TRUE(whole_color.regions.empty());
+    }
+    for (const int band_rows : {7, kEvaluationBandRows}) {
+      SCOPED_TRACE(band_rows);
+      const GroundTruthComparison banded = CompareWithGroundTruth(session_dir, truth, solution, 2, band_rows);
+      ExpectSameStatistics(banded.normal_error_deg,
+                           AngularErrorDegrees(solution.normal_in_table, truth_normals, evaluated), "normals");
+      ExpectSameStatistics(banded.albedo_error, AbsoluteError(solution.albedo, truth_albedo, evaluated), "albedo");
+      ExpectSameStatistics(banded.albedo_color_error.delta_e, whole_color.delta_e, "CIEDE2000");
+      EXPECT_EQ(banded.albedo_color_error.ReportJson(), whole_color.ReportJson());
+      EXPECT_EQ(banded.unsolved_on_sample, unsolved);
+      ASSERT_TRUE(banded.angular_error_deg.SameSize(whole_map));
+      EXPECT_TRUE(std::equal(whole_map.data(), whole_map.data() + whole_map.size(), banded.angular_error_deg.data()));
+    }
+  }
 }
 
 // Starts simulating into session_dir and stops it a third of the way: an

@@ -73,6 +73,31 @@ TEST(ImageIoTest, ExrFloatRoundTripIsExact) {
   }
 }
 
+// Rows read band by band are the rows of the whole image, for float and half
+// EXR (whose chunks the bands cut through) and PNG.
+TEST(ImageIoTest, RowsReadBandByBandEqualTheWholeImage) {
+  TempDir dir;
+  const ImageF image = RandomImage<float>(23, 71, 3, 5);
+  const auto float_path = dir / "float.exr", half_path = dir / "half.exr", png_path = dir / "rows.png";
+  WriteExr(float_path, image, OverwritePolicy::kRefuse);
+  WriteExr(half_path, image, OverwritePolicy::kRefuse, {}, {}, {ExrSampleType::kHalf, ExrCompression::kPiz});
+  WritePng(png_path, RandomImage<uint8_t>(23, 71, 3, 6), OverwritePolicy::kRefuse);
+  for (const auto& path : {float_path, half_path, png_path}) {
+    SCOPED_TRACE(path.filename().string());
+    const ImageF whole = ReadImageFloat(path);
+    ImageF banded(whole.width(), whole.height(), whole.channels());
+    for (int y0 = 0; y0 < whole.height(); y0 += 20) {
+      const int y1 = std::min(whole.height(), y0 + 20);
+      const ImageF rows = ReadImageFloatRows(path, y0, y1);
+      ASSERT_EQ(rows.height(), y1 - y0);
+      std::copy(rows.data(), rows.data() + rows.size(), banded.row(y0));
+    }
+    ExpectSameImage(whole, banded);
+  }
+  EXPECT_THAT(ErrorOf([&] { ReadImageFloatRows(float_path, 60, 72); }), HasSubstr("must lie within its 71 rows"));
+  EXPECT_THAT(ErrorOf([&] { ReadImageFloatRows(float_path, 5, 5); }), HasSubstr("not be empty"));
+}
+
 // Half float: read back as float within half a mantissa step (2^-12 of the
 // octave, so at most |v| 2^-11), identical under every lossless compression,
 // reported as 16-bit float; values beyond half's range are clamped to 65504,
