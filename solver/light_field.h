@@ -22,6 +22,12 @@ class LightField {
   // a white Lambertian surface facing the light would read there
   // (rgb_intensities[3k..3k+2]).
   virtual void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const = 0;
+  // Evaluate for the `count` pixels (x0 + i, y), in planar form: component c
+  // of light k at pixel i is light_dirs[(3k + c) * stride + i] (likewise the
+  // intensities); stride >= count. The same values as Evaluate per pixel.
+  // Fields with a per-pixel model override it with one loop over the span
+  // (the exact-lights solve calls it for every row).
+  virtual void EvaluateSpan(int x0, int y, int count, int stride, float* light_dirs, float* rgb_intensities) const;
   // True when Evaluate gives the same values at every pixel (distant lights):
   // the solver then shares one light matrix between all pixels.
   virtual bool IsUniform() const { return false; }
@@ -76,6 +82,7 @@ class PointLightField final : public LightField {
   int width() const override { return surface_points_.width(); }
   int height() const override { return surface_points_.height(); }
   void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override;
+  void EvaluateSpan(int x0, int y, int count, int stride, float* light_dirs, float* rgb_intensities) const override;
   // Towards the camera centre when one was given (else the orthographic default).
   void ViewDirection(int x, int y, float* view_dir) const override;
 

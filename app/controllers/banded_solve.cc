@@ -27,6 +27,9 @@ class LightFieldRows final : public LightField {
   void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override {
     whole_.Evaluate(x, y + row0_, light_dirs, rgb_intensities);
   }
+  void EvaluateSpan(int x0, int y, int count, int stride, float* light_dirs, float* rgb_intensities) const override {
+    whole_.EvaluateSpan(x0, y + row0_, count, stride, light_dirs, rgb_intensities);
+  }
   bool IsUniform() const override { return whole_.IsUniform(); }
   void ViewDirection(int x, int y, float* view_dir) const override { whole_.ViewDirection(x, y + row0_, view_dir); }
 

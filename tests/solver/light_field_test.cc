@@ -1,6 +1,7 @@
 #include "solver/light_field.h"
 
 #include <cmath>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -32,6 +33,48 @@ TEST(PointLightFieldTest, InverseSquareAndAngularFalloff) {
   const double expected = 0.8 * 0.8 * (1000.0 / 500) * (1000.0 / 500);
   EXPECT_NEAR(intensities[0], 0.5 * expected, 1e-5);
   EXPECT_NEAR(intensities[2], 0.25 * expected, 1e-5);
+}
+
+// The span form is the per-pixel model in planar layout, within 1e-6
+// relative (cos^mu there is exp(mu log cos)), including mu = 0 and points
+// behind an LED (cos clamped to 0).
+TEST(PointLightFieldTest, EvaluateSpanMatchesEvaluate) {
+  const int width = 37, height = 3;
+  ImageF points(width, height, 3, 0.0f);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      points(x, y, 0) = -90.0f + 5.0f * x;
+      points(x, y, 1) = -40.0f + 30.0f * y;
+      points(x, y, 2) = 0.5f * std::sin(0.3f * x);
+    }
+  }
+  std::vector<PointLight> lights(4);
+  const double mus[] = {0.0, 1.0, 1.6, 7.3};
+  for (int k = 0; k < 4; ++k) {
+    lights[k].position = {60.0 * (k - 1.5), 20.0 * k, 120 + 10.0 * k};
+    lights[k].axis = {0.2 * k, -0.1, -1};
+    lights[k].mu = mus[k];
+    lights[k].rgb_intensity = {0.4 + 0.1 * k, 1.0, 0.3};
+    lights[k].reference_distance = 200;
+  }
+  lights[3].axis = {1, 0, 0};  // half the points behind this LED
+  const PointLightField field(lights, points);
+  const int x0 = 3, count = width - 5, stride = count + 7, y = 1;
+  std::vector<float> dirs(12 * stride, -1.0f), intensities(12 * stride, -1.0f);
+  field.EvaluateSpan(x0, y, count, stride, dirs.data(), intensities.data());
+  float pixel_dirs[12], pixel_intensities[12];
+  int zero_intensities = 0;
+  for (int i = 0; i < count; ++i) {
+    field.Evaluate(x0 + i, y, pixel_dirs, pixel_intensities);
+    for (int j = 0; j < 12; ++j) {
+      const float dir = dirs[j * stride + i], intensity = intensities[j * stride + i];
+      EXPECT_NEAR(dir, pixel_dirs[j], 1e-6 * std::abs(pixel_dirs[j]) + 1e-7) << "pixel " << i << " value " << j;
+      EXPECT_NEAR(intensity, pixel_intensities[j], 1e-6 * std::abs(pixel_intensities[j]))
+          << "pixel " << i << " value " << j;
+      zero_intensities += pixel_intensities[j] == 0;
+    }
+  }
+  EXPECT_GT(zero_intensities, 0);  // the clamped case was exercised
 }
 
 TEST(PointLightFieldTest, ViewDirectionPointsAtTheCameraCentreOrIsOrthographic) {
