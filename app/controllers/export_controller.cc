@@ -73,15 +73,34 @@ struct ExportMaps {
 namespace {
 
 constexpr char kWhere[] = "ExportOptions";
+// confidence.exr's channels as the solve writes them (map_writer.cc), read by name.
+const std::vector<std::string> kConfidenceChannels = {"lights_used", "condition_number", "residual"};
 
 std::runtime_error FileError(const fs::path& path, const std::string& problem) {
   return std::runtime_error(path.string() + ": " + problem);
 }
 
+// The position of channel `name` among a file's `names`; names the file and
+// its channels when missing (`holds` says what the file should hold).
+int ChannelOf(const fs::path& path, const std::vector<std::string>& names, const std::string& name,
+              const std::string& holds) {
+  const auto found = std::find(names.begin(), names.end(), name);
+  if (found == names.end()) {
+    std::string listed;
+    for (const std::string& n : names) listed += (listed.empty() ? "" : ", ") + n;
+    throw FileError(path, "has no channel '" + name + "' (channels: " + listed + "); " + holds);
+  }
+  return static_cast<int>(found - names.begin());
+}
+
 // A map of the result folder: readable, the expected channel count and size,
 // every value finite (bad input must never turn into NaN downstream).
-ImageF ReadResultMap(const fs::path& path, int channels, int width, int height) {
-  ImageF image = ReadImageFloat(path);  // names the file when missing or unreadable
+// `channel_names`, if given, are read by name in that order: OpenEXR stores
+// channels sorted by name, so their position in the file is not the writer's.
+ImageF ReadResultMap(const fs::path& path, int channels, int width, int height,
+                     const std::vector<std::string>& channel_names = {}) {
+  std::vector<std::string> names;
+  ImageF image = ReadImageFloat(path, &names);  // names the file when missing or unreadable
   if (image.channels() != channels) {
     throw FileError(path, "has " + std::to_string(image.channels()) + " channels, " + std::to_string(channels) +
                               " expected");
@@ -97,7 +116,19 @@ ImageF ReadResultMap(const fs::path& path, int channels, int width, int height) 
                                 std::to_string(pixel / image.width()) + ") holds a non-finite value");
     }
   }
-  return image;
+  if (channel_names.empty()) return image;
+  std::string holds = path.filename().string() + " holds";
+  for (const std::string& name : channel_names) holds += " " + name;
+  std::vector<int> source(channel_names.size());
+  for (size_t c = 0; c < channel_names.size(); ++c) source[c] = ChannelOf(path, names, channel_names[c], holds);
+  bool in_order = true;
+  for (int c = 0; c < channels; ++c) in_order = in_order && source[c] == c;
+  if (in_order) return image;
+  ImageF ordered(image.width(), image.height(), channels);
+  for (size_t i = 0; i < image.num_pixels(); ++i) {
+    for (int c = 0; c < channels; ++c) ordered.data()[i * channels + c] = image.data()[i * channels + source[c]];
+  }
+  return ordered;
 }
 
 // specular.exr's roughness_alpha (issue #13): the channels by name (OpenEXR
@@ -106,14 +137,7 @@ ImageF ReadSpecularAlpha(const fs::path& path, int width, int height) {
   std::vector<std::string> names;
   const ImageF specular = ReadImageFloat(path, &names);  // names the file when unreadable
   auto channel_of = [&](const std::string& name) {
-    const auto found = std::find(names.begin(), names.end(), name);
-    if (found == names.end()) {
-      std::string listed;
-      for (const std::string& n : names) listed += (listed.empty() ? "" : ", ") + n;
-      throw FileError(path, "has no channel '" + name + "' (channels: " + listed +
-                                "); specular.exr holds specular_f0 and roughness_alpha");
-    }
-    return static_cast<int>(found - names.begin());
+    return ChannelOf(path, names, name, "specular.exr holds specular_f0 and roughness_alpha");
   };
   const int f0_channel = channel_of("specular_f0"), alpha_channel = channel_of("roughness_alpha");
   if (!specular.SameSize(width, height)) {
@@ -776,7 +800,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   ExportFile* confidence =
       plan.AddMap("confidence", inputs.confidence, "Raw", {},
                   "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
-  confidence->channel_names = {"lights_used", "condition_number", "residual"};
+  confidence->channel_names = kConfidenceChannels;
   ImageU8 mask(inputs.valid.width(), inputs.valid.height(), 1);
   for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = inputs.valid.data()[i] ? 255 : 0;
   plan.AddU8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
@@ -1196,7 +1220,7 @@ ExportInputs ExportController::Load() {
   ReportProgress("load result", 0.3);
   inputs.albedo = ReadResultMap(inputs.result_dir / "albedo.exr", 3, width, height);
   ReportProgress("load result", 0.6);
-  inputs.confidence = ReadResultMap(inputs.result_dir / "confidence.exr", 3, width, height);
+  inputs.confidence = ReadResultMap(inputs.result_dir / "confidence.exr", 3, width, height, kConfidenceChannels);
   inputs.valid = ReadMask(inputs.result_dir / "solved_mask.png", width, height);
   if (fs::exists(inputs.result_dir / "specular.exr")) {
     inputs.specular_alpha = ReadSpecularAlpha(inputs.result_dir / "specular.exr", width, height);
