@@ -1360,18 +1360,22 @@ void ExportController::Evaluate(const ExportInputs& inputs, const ExportMaps& ma
   BeginStage("ground truth");
   const GroundTruthFiles& truth = *inputs.session.ground_truth;
   const int width = summary_.image_width, height = summary_.image_height;
-  const ImageF truth_normals = ReadResultMap(inputs.session_dir / truth.normal_file, 3, width, height);
-  const ImageF truth_height = ReadResultMap(inputs.session_dir / truth.height_file, 1, width, height);
+  ImageF reference_normals = ReadResultMap(inputs.session_dir / truth.normal_file, 3, width, height);
   const ImageU8 on_sample = ReadMask(inputs.session_dir / truth.mask_file, width, height);
   ImageU8 evaluated(width, height, 1);
   for (size_t i = 0; i < evaluated.num_pixels(); ++i) {
     evaluated.data()[i] = on_sample.data()[i] && inputs.valid.data()[i];
   }
-  ImageF reference_normals = truth_normals;
-  ImageF reference_height = truth_height;
-  if (options_.flatten_normals) {
-    RequireSuccess(FlattenNormals(options_.flattening, truth_normals, &inputs.valid, &reference_normals),
+  // Flattened, the true height is derived from the flattened true normals
+  // like the export's; the file's height is read only when it is the reference.
+  ImageF reference_height;
+  if (!options_.flatten_normals) {
+    reference_height = ReadResultMap(inputs.session_dir / truth.height_file, 1, width, height);
+  } else {
+    ImageF flattened;
+    RequireSuccess(FlattenNormals(options_.flattening, reference_normals, &inputs.valid, &flattened),
                    "ground truth: flatten true normals");
+    reference_normals = std::move(flattened);  // the true normals' last user
     ReportProgress("ground truth", 0.3);
     RequireSuccess(HeightFromNormals(ScaledHeightOptions(options_, summary_.mm_per_pixel), reference_normals,
                                      &inputs.valid, &reference_height,
