@@ -31,6 +31,7 @@
 #include "solver/angular_error.h"
 #include "core/field_error.h"
 #include "core/format.h"
+#include "core/parallel_for.h"
 #include "core/summary.h"
 
 namespace scanbench {
@@ -53,10 +54,10 @@ struct ExportInputs {
   Session session;
   fs::path report_path;           // the result's report.json
   nlohmann::json result_report;
-  ImageF solved_normals;          // normal.exr, tangent frame
-  ImageF albedo;                  // albedo.exr, linear (Rec.709 when colour calibrated)
+  ImageF solved_normals;          // normal.exr, tangent frame; released once flattened (or moved into the maps)
+  ImageF albedo;                  // albedo.exr, linear (Rec.709 when colour calibrated); loaded for the tile / files
   ResultAlbedoColor albedo_color;
-  ImageF confidence;              // confidence.exr: lights used, condition number, residual
+  ImageF confidence;              // confidence.exr: lights used, condition number, residual; loaded for the files
   ImageU8 valid;                  // solved_mask.png: 1 = solved
   ImageF specular_alpha;          // specular.exr's roughness_alpha (GGX, 0 = not estimated); empty without the file
 };
@@ -73,15 +74,34 @@ struct ExportMaps {
 namespace {
 
 constexpr char kWhere[] = "ExportOptions";
+// confidence.exr's channels as the solve writes them (map_writer.cc), read by name.
+const std::vector<std::string> kConfidenceChannels = {"lights_used", "condition_number", "residual"};
 
 std::runtime_error FileError(const fs::path& path, const std::string& problem) {
   return std::runtime_error(path.string() + ": " + problem);
 }
 
+// The position of channel `name` among a file's `names`; names the file and
+// its channels when missing (`holds` says what the file should hold).
+int ChannelOf(const fs::path& path, const std::vector<std::string>& names, const std::string& name,
+              const std::string& holds) {
+  const auto found = std::find(names.begin(), names.end(), name);
+  if (found == names.end()) {
+    std::string listed;
+    for (const std::string& n : names) listed += (listed.empty() ? "" : ", ") + n;
+    throw FileError(path, "has no channel '" + name + "' (channels: " + listed + "); " + holds);
+  }
+  return static_cast<int>(found - names.begin());
+}
+
 // A map of the result folder: readable, the expected channel count and size,
 // every value finite (bad input must never turn into NaN downstream).
-ImageF ReadResultMap(const fs::path& path, int channels, int width, int height) {
-  ImageF image = ReadImageFloat(path);  // names the file when missing or unreadable
+// `channel_names`, if given, are read by name in that order: OpenEXR stores
+// channels sorted by name, so their position in the file is not the writer's.
+ImageF ReadResultMap(const fs::path& path, int channels, int width, int height,
+                     const std::vector<std::string>& channel_names = {}) {
+  std::vector<std::string> names;
+  ImageF image = ReadImageFloat(path, &names);  // names the file when missing or unreadable
   if (image.channels() != channels) {
     throw FileError(path, "has " + std::to_string(image.channels()) + " channels, " + std::to_string(channels) +
                               " expected");
@@ -97,7 +117,19 @@ ImageF ReadResultMap(const fs::path& path, int channels, int width, int height) 
                                 std::to_string(pixel / image.width()) + ") holds a non-finite value");
     }
   }
-  return image;
+  if (channel_names.empty()) return image;
+  std::string holds = path.filename().string() + " holds";
+  for (const std::string& name : channel_names) holds += " " + name;
+  std::vector<int> source(channel_names.size());
+  for (size_t c = 0; c < channel_names.size(); ++c) source[c] = ChannelOf(path, names, channel_names[c], holds);
+  bool in_order = true;
+  for (int c = 0; c < channels; ++c) in_order = in_order && source[c] == c;
+  if (in_order) return image;
+  ImageF ordered(image.width(), image.height(), channels);
+  for (size_t i = 0; i < image.num_pixels(); ++i) {
+    for (int c = 0; c < channels; ++c) ordered.data()[i * channels + c] = image.data()[i * channels + source[c]];
+  }
+  return ordered;
 }
 
 // specular.exr's roughness_alpha (issue #13): the channels by name (OpenEXR
@@ -106,14 +138,7 @@ ImageF ReadSpecularAlpha(const fs::path& path, int width, int height) {
   std::vector<std::string> names;
   const ImageF specular = ReadImageFloat(path, &names);  // names the file when unreadable
   auto channel_of = [&](const std::string& name) {
-    const auto found = std::find(names.begin(), names.end(), name);
-    if (found == names.end()) {
-      std::string listed;
-      for (const std::string& n : names) listed += (listed.empty() ? "" : ", ") + n;
-      throw FileError(path, "has no channel '" + name + "' (channels: " + listed +
-                                "); specular.exr holds specular_f0 and roughness_alpha");
-    }
-    return static_cast<int>(found - names.begin());
+    return ChannelOf(path, names, name, "specular.exr holds specular_f0 and roughness_alpha");
   };
   const int f0_channel = channel_of("specular_f0"), alpha_channel = channel_of("roughness_alpha");
   if (!specular.SameSize(width, height)) {
@@ -195,12 +220,11 @@ HeightFromNormalsOptions ScaledHeightOptions(const ExportOptions& options, doubl
   return height;
 }
 
-// OpenGL = the solver's tangent frame (+Y up); DirectX flips Y.
-ImageF InConvention(const ImageF& normal_in_tangent, ExportOptions::NormalConvention convention) {
+// The normals in DirectX convention, Y flipped; OpenGL is the solver's
+// tangent frame (+Y up) and is written as it is.
+ImageF DirectXNormals(const ImageF& normal_in_tangent) {
   ImageF converted = normal_in_tangent;
-  if (convention == ExportOptions::NormalConvention::kDirectX) {
-    for (size_t i = 0; i < converted.num_pixels(); ++i) converted.data()[3 * i + 1] *= -1.0f;
-  }
+  for (size_t i = 0; i < converted.num_pixels(); ++i) converted.data()[3 * i + 1] *= -1.0f;
   return converted;
 }
 
@@ -293,6 +317,8 @@ struct ExportFile {
   std::string encoding;                   // how values map to what is stored
   double mm_per_pixel = 0;
   std::vector<std::string> channel_names; // EXR only
+  // The pixels: borrowed from the export's inputs or maps (an empty owner, so
+  // no copy of a 16 MP map per file), or owned when made for this file only.
   std::shared_ptr<const ImageF> float_image;
   std::shared_ptr<const ImageU8> u8_image;  // stored as it is (mask, sRGB preview)
   std::shared_ptr<const std::string> document;  // a text or binary document (.gltf, .bin, .mtlx), stored as it is
@@ -486,10 +512,26 @@ class FilePlanner {
         extension_(exr_ ? ".exr" : format_ == "png" ? ".png" : ".tif"),
         source_result_(source_result) {}
 
-  // A float map in the preset's format (EXR float, else 16-bit integers).
-  ExportFile* AddMap(const std::string& kind, ImageF image, const std::string& color_space,
+  // A float map in the preset's format (EXR float, else 16-bit integers),
+  // borrowed: `image` must outlive the writing of the files.
+  ExportFile* AddMap(const std::string& kind, const ImageF& image, const std::string& color_space,
                      const IntegerEncoding& integer, const std::string& description, double pixel_mm,
                      bool force_exr = false) {
+    // The aliasing constructor with an empty owner: a pointer that frees nothing.
+    return AddMap(kind, std::shared_ptr<const ImageF>(std::shared_ptr<void>(), &image), color_space, integer,
+                  description, pixel_mm, force_exr);
+  }
+  // The same for an image made for this file only (a packed or converted map).
+  ExportFile* AddMap(const std::string& kind, ImageF&& image, const std::string& color_space,
+                     const IntegerEncoding& integer, const std::string& description, double pixel_mm,
+                     bool force_exr = false) {
+    return AddMap(kind, std::make_shared<const ImageF>(std::move(image)), color_space, integer, description,
+                  pixel_mm, force_exr);
+  }
+  ExportFile* AddMap(const std::string& kind, std::shared_ptr<const ImageF> image_ptr, const std::string& color_space,
+                     const IntegerEncoding& integer, const std::string& description, double pixel_mm,
+                     bool force_exr) {
+    const ImageF& image = *image_ptr;
     ExportFile file;
     file.kind = kind;
     const bool as_exr = exr_ || force_exr;
@@ -504,7 +546,7 @@ class FilePlanner {
     file.encoding = as_exr ? "float, value as is" : integer.text;
     file.mm_per_pixel = pixel_mm;
     file.integer = integer;
-    file.float_image = std::make_shared<const ImageF>(std::move(image));
+    file.float_image = std::move(image_ptr);
     file.metadata = Metadata(file, description);
     return &files_.emplace_back(std::move(file));
   }
@@ -521,8 +563,9 @@ class FilePlanner {
                               : acescg    ? "linear ACEScg (AP1 primaries, ACES white)"
                                           : "linear Rec.709 primaries, D65 white";
     const std::string description = "diffuse albedo, " + space + ", " + color.scale + " reflectance";
-    ExportFile* file = AddMap(kind, acescg ? ToAcescg(albedo_linear_rec709) : albedo_linear_rec709,
-                              exr_ ? "Linear" : "sRGB", srgb, description, pixel_mm);
+    const std::string file_space = exr_ ? "Linear" : "sRGB";
+    ExportFile* file = acescg ? AddMap(kind, ToAcescg(albedo_linear_rec709), file_space, srgb, description, pixel_mm)
+                              : AddMap(kind, albedo_linear_rec709, file_space, srgb, description, pixel_mm);
     file->metadata.attributes["scanbench:albedo_color_space"] = acescg ? "acescg" : color.color_space;
     file->metadata.attributes["scanbench:albedo_scale"] = color.scale;
     if (calibrated) {
@@ -535,8 +578,10 @@ class FilePlanner {
   // Unit normals in the export's convention.
   void AddNormal(const std::string& kind, const ImageF& normal_in_tangent, double pixel_mm) {
     static const IntegerEncoding kNormalEncoding{0.5, 0.5, "uint16 = (n + 1) / 2 * 65535 per component"};
-    ExportFile* file = AddMap(kind, InConvention(normal_in_tangent, options_.normal_convention), "Raw",
-                              kNormalEncoding, TangentFrameText(options_.normal_convention), pixel_mm);
+    const bool directx = options_.normal_convention == ExportOptions::NormalConvention::kDirectX;
+    const std::string frame = TangentFrameText(options_.normal_convention);
+    ExportFile* file = directx ? AddMap(kind, DirectXNormals(normal_in_tangent), "Raw", kNormalEncoding, frame, pixel_mm)
+                               : AddMap(kind, normal_in_tangent, "Raw", kNormalEncoding, frame, pixel_mm);
     file->metadata.attributes["scanbench:normal_convention"] = NormalConventionName(options_.normal_convention);
   }
 
@@ -776,7 +821,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   ExportFile* confidence =
       plan.AddMap("confidence", inputs.confidence, "Raw", {},
                   "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
-  confidence->channel_names = {"lights_used", "condition_number", "residual"};
+  confidence->channel_names = kConfidenceChannels;
   ImageU8 mask(inputs.valid.width(), inputs.valid.height(), 1);
   for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = inputs.valid.data()[i] ? 255 : 0;
   plan.AddU8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
@@ -819,20 +864,19 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
 // first failure is rethrown once every write has ended.
 void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFile>& files,
                             const std::function<void(double)>& report) {
-  std::vector<std::future<void>> pending;
-  for (const ExportFile& file : files) {
-    pending.push_back(std::async(std::launch::async, WriteExportFile, staging / file.relative_path, std::cref(file)));
-  }
-  std::exception_ptr failure;
-  for (size_t i = 0; i < pending.size(); ++i) {
-    try {
-      pending[i].get();
-    } catch (...) {
-      if (!failure) failure = std::current_exception();
-    }
-    report(0.9 * (i + 1) / pending.size());
-  }
-  if (failure) std::rethrow_exception(failure);
+  // On the shared pool, one file per thread at a time: each integer file
+  // holds its quantised copy while it encodes, so a thread per file would
+  // hold them all at once.
+  const int count = static_cast<int>(files.size());
+  ParallelFor(
+      count, ResolveThreadCount(0), 1,
+      [&](int first, int last, int) {
+        for (int i = first; i < last; ++i) WriteExportFile(staging / files[i].relative_path, files[i]);
+      },
+      [&](int done) {
+        report(0.9 * done / count);
+        return true;
+      });
 }
 
 // Hashes and sizes of the written files, for the manifest; lists them in the summary.
@@ -848,21 +892,22 @@ void RecordWrittenFiles(const fs::path& staging, std::vector<ExportFile>* files,
 // preview.html beside material.json: the base colour, flattened normals
 // (tangent frame, whatever the files' convention), mip 0's roughness, the
 // occlusion and height on a tile and a sphere, listing the files written.
-void WritePreview(const fs::path& staging, const ExportInputs& inputs, const ExportMaps& maps,
+// The page is the maps' last user: it takes them (no full-size copies).
+void WritePreview(const fs::path& staging, ExportInputs* inputs, ExportMaps* maps,
                   const ProgressCallback& progress, std::vector<ExportFile>* files, ExportSummary* summary) {
   PreviewPageMaps preview;
-  preview.basecolor_linear_rec709 = inputs.albedo;
-  preview.normal_in_tangent = maps.normals;
-  if (!maps.mips.empty()) preview.roughness_alpha = maps.mips[0].roughness;
-  preview.occlusion = maps.occlusion;
-  preview.height_mm = maps.height_mm;
-  preview.valid = inputs.valid;
+  preview.basecolor_linear_rec709 = std::move(inputs->albedo);
+  preview.normal_in_tangent = std::move(maps->normals);
+  if (!maps->mips.empty()) preview.roughness_alpha = std::move(maps->mips[0].roughness);
+  preview.occlusion = std::move(maps->occlusion);
+  preview.height_mm = std::move(maps->height_mm);
+  preview.valid = inputs->valid;
   std::vector<PreviewPageFile> listed;
   for (const ExportFile& file : *files) listed.push_back({file.relative_path, file.bytes});
   PreviewPageOptions options;
   options.title = summary->material_name;
-  options.basecolor_note = inputs.albedo_color.color_space == "linear_rec709"
-                               ? "linear Rec.709, " + inputs.albedo_color.scale
+  options.basecolor_note = inputs->albedo_color.color_space == "linear_rec709"
+                               ? "linear Rec.709, " + inputs->albedo_color.scale
                                : "white-balanced camera RGB (not colour calibrated)";
   ExportFile page;
   page.kind = "preview";
@@ -1142,9 +1187,14 @@ void ExportController::Run() {
   const auto start = std::chrono::steady_clock::now();
   std::vector<StageTiming>& timings = summary_.stage_seconds;
 
-  const ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
-  const ExportMaps maps = Derive(inputs);
+  // Each full-size image is loaded when first needed and released after its
+  // last user: albedo and confidence only after the derived maps and the
+  // evaluation (their own full-size temporaries), the solved normals once flattened.
+  ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
+  ExportMaps maps = Derive(&inputs);
   if (inputs.session.ground_truth) TimedStage(timings, "evaluate", "", [&] { Evaluate(inputs, maps); });
+  TimedStage(timings, "load_albedo_confidence", "", [&] { LoadAlbedoAndConfidence(&inputs); });
+  if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
   const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
   StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
@@ -1155,10 +1205,14 @@ void ExportController::Run() {
     WriteFilesConcurrently(staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); });
     ThrowIfStopRequested("write files");
     RecordWrittenFiles(staged.staging(), &files, &summary_);
+    for (ExportFile& file : files) file.float_image.reset(), file.u8_image.reset();  // written
+    inputs.confidence = ImageF();
+    maps.cavity = ImageF();
+    maps.tiles.clear();
   });
   if (options_.preview_page) {
     TimedStage(timings, "preview", "preview page", [&] {
-      WritePreview(staged.staging(), inputs, maps, StageCallback("preview page"), &files, &summary_);
+      WritePreview(staged.staging(), &inputs, &maps, StageCallback("preview page"), &files, &summary_);
     });
   }
   summary_.export_dir = staged.final_dir();
@@ -1192,15 +1246,13 @@ ExportInputs ExportController::Load() {
   inputs.report_path = inputs.result_dir / "report.json";
   inputs.result_report = ReadJsonFile(inputs.report_path);
   inputs.albedo_color = AlbedoColorOfReport(inputs.result_report.dump());
-  inputs.solved_normals = ReadResultMap(inputs.result_dir / "normal.exr", 3, width, height);
-  ReportProgress("load result", 0.3);
-  inputs.albedo = ReadResultMap(inputs.result_dir / "albedo.exr", 3, width, height);
-  ReportProgress("load result", 0.6);
-  inputs.confidence = ReadResultMap(inputs.result_dir / "confidence.exr", 3, width, height);
-  inputs.valid = ReadMask(inputs.result_dir / "solved_mask.png", width, height);
-  if (fs::exists(inputs.result_dir / "specular.exr")) {
-    inputs.specular_alpha = ReadSpecularAlpha(inputs.result_dir / "specular.exr", width, height);
-  }
+  // The files decode concurrently (each decoder is mostly single-threaded).
+  const fs::path& dir = inputs.result_dir;
+  auto normals = std::async(std::launch::async, [&] { return ReadResultMap(dir / "normal.exr", 3, width, height); });
+  auto valid = std::async(std::launch::async, [&] { return ReadMask(dir / "solved_mask.png", width, height); });
+  if (fs::exists(dir / "specular.exr")) inputs.specular_alpha = ReadSpecularAlpha(dir / "specular.exr", width, height);
+  inputs.valid = valid.get();
+  inputs.solved_normals = normals.get();
   ReportProgress("load result", 1);
 
   ResolveScale(inputs.session, inputs.session_dir, options_.mm_per_pixel, &summary_);
@@ -1209,9 +1261,21 @@ ExportInputs ExportController::Load() {
   return inputs;
 }
 
-// Flattened normals, height, occlusion, cavity, roughness mips and the
-// optional tiles, each a stage of its own.
-ExportMaps ExportController::Derive(const ExportInputs& inputs) {
+// albedo.exr and confidence.exr (by channel name), decoded concurrently.
+void ExportController::LoadAlbedoAndConfidence(ExportInputs* inputs) {
+  BeginStage("load albedo and confidence");
+  const int width = summary_.image_width, height = summary_.image_height;
+  const fs::path& dir = inputs->result_dir;
+  auto albedo = std::async(std::launch::async, [&] { return ReadResultMap(dir / "albedo.exr", 3, width, height); });
+  inputs->confidence = ReadResultMap(dir / "confidence.exr", 3, width, height, kConfidenceChannels);
+  inputs->albedo = albedo.get();
+  ReportProgress("load albedo and confidence", 1);
+}
+
+// Flattened normals, height, occlusion, cavity and roughness mips, each a
+// stage of its own; the solved normals are released (or moved) once flattened.
+ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
+  ExportInputs& inputs = *inputs_to_release;
   const double mm = summary_.mm_per_pixel;
   std::vector<StageTiming>& timings = summary_.stage_seconds;
   ExportMaps maps;
@@ -1221,8 +1285,9 @@ ExportMaps ExportController::Derive(const ExportInputs& inputs) {
                                            &maps.normals, StageCallback("flatten normals"));
       RequireSuccess(summary_.flattening, "flatten normals");
     });
+    inputs.solved_normals = ImageF();
   } else {
-    maps.normals = inputs.solved_normals;
+    maps.normals = std::move(inputs.solved_normals);
   }
 
   TimedStage(timings, "height", "height from normals", [&] {
@@ -1269,8 +1334,6 @@ ExportMaps ExportController::Derive(const ExportInputs& inputs) {
                            &inputs.valid, &maps.mips, StageCallback("roughness mips"));
     RequireSuccess(summary_.gloss, "roughness mips");
   });
-
-  if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
   return maps;
 }
 
@@ -1297,18 +1360,22 @@ void ExportController::Evaluate(const ExportInputs& inputs, const ExportMaps& ma
   BeginStage("ground truth");
   const GroundTruthFiles& truth = *inputs.session.ground_truth;
   const int width = summary_.image_width, height = summary_.image_height;
-  const ImageF truth_normals = ReadResultMap(inputs.session_dir / truth.normal_file, 3, width, height);
-  const ImageF truth_height = ReadResultMap(inputs.session_dir / truth.height_file, 1, width, height);
+  ImageF reference_normals = ReadResultMap(inputs.session_dir / truth.normal_file, 3, width, height);
   const ImageU8 on_sample = ReadMask(inputs.session_dir / truth.mask_file, width, height);
   ImageU8 evaluated(width, height, 1);
   for (size_t i = 0; i < evaluated.num_pixels(); ++i) {
     evaluated.data()[i] = on_sample.data()[i] && inputs.valid.data()[i];
   }
-  ImageF reference_normals = truth_normals;
-  ImageF reference_height = truth_height;
-  if (options_.flatten_normals) {
-    RequireSuccess(FlattenNormals(options_.flattening, truth_normals, &inputs.valid, &reference_normals),
+  // Flattened, the true height is derived from the flattened true normals
+  // like the export's; the file's height is read only when it is the reference.
+  ImageF reference_height;
+  if (!options_.flatten_normals) {
+    reference_height = ReadResultMap(inputs.session_dir / truth.height_file, 1, width, height);
+  } else {
+    ImageF flattened;
+    RequireSuccess(FlattenNormals(options_.flattening, reference_normals, &inputs.valid, &flattened),
                    "ground truth: flatten true normals");
+    reference_normals = std::move(flattened);  // the true normals' last user
     ReportProgress("ground truth", 0.3);
     RequireSuccess(HeightFromNormals(ScaledHeightOptions(options_, summary_.mm_per_pixel), reference_normals,
                                      &inputs.valid, &reference_height,

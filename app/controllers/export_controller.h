@@ -118,7 +118,8 @@ class ExportController : public BaseController {
 
  private:
   ExportInputs Load();
-  ExportMaps Derive(const ExportInputs& inputs);
+  ExportMaps Derive(ExportInputs* inputs);  // releases the solved normals once used
+  void LoadAlbedoAndConfidence(ExportInputs* inputs);
   void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
   void Evaluate(const ExportInputs& inputs, const ExportMaps& maps);
 

@@ -320,6 +320,49 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
   EXPECT_GT(summary.gloss.mean_roughness[4], summary.gloss.mean_roughness[0]);
 }
 
+// An EXR's channel `name` as a one-channel image (OpenEXR sorts channels by
+// name, so a channel's position says nothing).
+ImageF ExrChannel(const fs::path& path, const std::string& name) {
+  std::vector<std::string> names;
+  const ImageF image = ReadImageFloat(path, &names);
+  const auto found = std::find(names.begin(), names.end(), name);
+  if (found == names.end()) throw std::runtime_error(path.string() + " has no channel " + name);
+  const int channel = static_cast<int>(found - names.begin());
+  ImageF plane(image.width(), image.height(), 1);
+  for (size_t i = 0; i < plane.num_pixels(); ++i) plane.data()[i] = image.data()[i * image.channels() + channel];
+  return plane;
+}
+
+bool SamePixels(const ImageF& a, const ImageF& b) {
+  return a.SameSize(b.width(), b.height()) && a.channels() == b.channels() &&
+         std::equal(a.data(), a.data() + a.size(), b.data());
+}
+
+// The float preset without flattening copies the result's maps: every channel
+// of confidence.exr keeps its name (they once came out swapped, read by
+// position), and normals and albedo are bit for bit those of the result.
+TEST_F(ExportControllerTest, ExrMapsAreExactlyTheMapsOfTheResultFiles) {
+  ExportOptions options;
+  options.preset = ExportOptions::Preset::kLinearExr;
+  options.flatten_normals = false;
+  const ExportSummary summary = Export(options);
+  const fs::path exported = summary.export_dir / summary.files.at("confidence");
+  for (const std::string name : {"lights_used", "condition_number", "residual"}) {
+    SCOPED_TRACE(name);
+    const ImageF expected = ExrChannel(result_dir_ / "confidence.exr", name);
+    EXPECT_TRUE(SamePixels(ExrChannel(exported, name), expected));
+  }
+  // The channels differ, so a swap would show: lights used are whole numbers >= 3.
+  const ImageF lights = ExrChannel(exported, "lights_used");
+  const float* most = std::max_element(lights.data(), lights.data() + lights.size());
+  EXPECT_GE(*most, 3.0f);
+  EXPECT_EQ(*most, std::round(*most));
+  EXPECT_TRUE(SamePixels(ReadImageFloat(summary.export_dir / summary.files.at("normal")),
+                         ReadImageFloat(result_dir_ / "normal.exr")));
+  EXPECT_TRUE(SamePixels(ReadImageFloat(summary.export_dir / summary.files.at("basecolor")),
+                         ReadImageFloat(result_dir_ / "albedo.exr")));
+}
+
 TEST_F(ExportControllerTest, BasecolorNamesItsColourSpaceInEveryPreset) {
   const ImageF albedo = ReadImageFloat(result_dir_ / "albedo.exr");
   const nlohmann::json report = ReadJson(result_dir_ / "report.json");
