@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <numbers>
 #include <random>
 
@@ -199,6 +201,44 @@ TEST(MapWriterTest, ConfidenceAndAlbedoSurviveHalfStorage) {
   EXPECT_NEAR(confidence(5, 5, channel("condition_number")), 87.3f, 87.3f / 2048);
   EXPECT_NEAR(confidence(5, 5, channel("residual")), 0.0123f, 0.0123f / 2048);
   EXPECT_NEAR(ReadImageFloat(folder / "albedo.exr")(5, 5, 1), 0.731f, 0.731f / 2048);
+}
+
+std::string FileBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// The files are written concurrently; each is the same, byte for byte, as
+// when they are written one after another, and the error map is among them.
+TEST(MapWriterTest, ConcurrentWriteGivesTheFilesOfASequentialOne) {
+  PhotometricSolution solution = SolutionWithSpecular();
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  for (size_t i = 0; i < solution.normal_in_table.size(); ++i) solution.normal_in_table.data()[i] = uniform(rng);
+  for (size_t i = 0; i < solution.albedo.size(); ++i) solution.albedo.data()[i] = 0.5f + 0.4f * uniform(rng);
+  ImageF error_deg(kWidth, kHeight, 1);
+  for (size_t i = 0; i < error_deg.size(); ++i) error_deg.data()[i] = 1.0f + uniform(rng);
+  TemporaryFolder sequential, concurrent;
+  const auto sequential_outputs =
+      WriteSolutionMaps(sequential.path(), solution, {}, ResultMapExrEncoding(), error_deg, /*threads=*/1);
+  const auto concurrent_outputs =
+      WriteSolutionMaps(concurrent.path(), solution, {}, ResultMapExrEncoding(), error_deg, /*threads=*/4);
+  EXPECT_EQ(concurrent_outputs, sequential_outputs);
+  EXPECT_EQ(concurrent_outputs.at("angular_error_deg"), "angular_error_deg.exr");
+  const std::map<std::string, uintmax_t> sizes = FileSizesIn(sequential.path());
+  EXPECT_EQ(sizes.size(), 9u);  // 7 maps, specular.exr, angular_error_deg.exr
+  EXPECT_EQ(FileSizesIn(concurrent.path()), sizes);
+  for (const auto& [name, bytes] : sizes) {
+    EXPECT_EQ(FileBytes(concurrent / name), FileBytes(sequential / name)) << name;
+  }
+  EXPECT_NEAR(ReadImageFloat(concurrent / "angular_error_deg.exr")(3, 2), error_deg(3, 2), error_deg(3, 2) / 2048);
+}
+
+TEST(MapWriterTest, MisshapenErrorMapIsRefusedBeforeAnyFile) {
+  TemporaryFolder folder;
+  EXPECT_THAT([&] { WriteSolutionMaps(folder.path(), PlainSolution(), {}, ResultMapExrEncoding(), ImageF(4, 4, 1)); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("angular_error_deg is 4x4x1, must be 24x16x1")));
+  EXPECT_TRUE(fs::is_empty(folder.path()));
 }
 
 TEST(MapWriterTest, FileSizesInListsEveryFile) {
