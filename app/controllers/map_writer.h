@@ -49,9 +49,12 @@ std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSo
 
 // The result maps' EXR encoding. By default half float (11-bit mantissa: a
 // unit normal's direction moves by at most 0.024 deg, albedo and confidence
-// values by at most 2^-11 relative) with the lossless compression that measured smallest and
-// quickest at 16 MP (docs/session-format.md, "Result map encoding");
-// `float32_maps` gives 32-bit float with zip, the files before issue #14.
+// values by at most 2^-11 relative) with the lossless compression that
+// measured smallest among the quick ones at 16 MP (docs/session-format.md,
+// "Result map encoding"); WriteSolutionMaps also puts normal.exr's components
+// below 0.25 on an absolute 2^-12 grid (within the same 0.024 deg).
+// `float32_maps` gives 32-bit float with zip, the files before issue #14,
+// normals exactly as in memory.
 ExrEncoding ResultMapExrEncoding(bool float32_maps = false);
 
 // Writes normal.exr, normal.png, albedo.exr, albedo_srgb.png, status.png,
