@@ -10,7 +10,8 @@
 // read back (ReadImageFloat, timed: export and the GUI read these maps) and
 // removed. Figures, not pass/fail; the write time depends on the machine's
 // load. Also prints the largest change of a normal's direction that half
-// storage makes on this normal map.
+// storage makes on this normal map. Then normal.png in zlib levels and row
+// filters.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +31,7 @@ namespace fs = std::filesystem;
 struct Candidate {
   std::string label;
   ExrEncoding encoding;
+  double normal_step = 0;  // ExrEncoding::half_absolute_step for normal.exr only
 };
 
 double MaxAngleChangeDegrees(const ImageF& before, const ImageF& after) {
@@ -48,6 +50,37 @@ double MaxAngleChangeDegrees(const ImageF& before, const ImageF& after) {
     max_deg = std::max(max_deg, angle * 180 / std::numbers::pi);
   }
   return max_deg;
+}
+
+// normal.png (16-bit RGB, the largest file of a result) in zlib levels and
+// libpng row filters: bytes, write and read time.
+void RunPngEncodings(const fs::path& result, const fs::path& scratch) {
+  if (!fs::exists(result / "normal.png")) return;
+  const ImageU16 normals = ReadImageU16(result / "normal.png");
+  std::vector<PngEncoding> encodings;
+  for (PngFilter filter : {PngFilter::kAdaptive, PngFilter::kNone, PngFilter::kSub, PngFilter::kUp,
+                           PngFilter::kAverage, PngFilter::kPaeth}) {
+    encodings.push_back({1, filter});
+  }
+  for (int level : {2, 3, 6}) {
+    for (PngFilter filter : {PngFilter::kAdaptive, PngFilter::kUp, PngFilter::kPaeth}) encodings.push_back({level, filter});
+  }
+  std::printf("\nnormal.png (%dx%d, 16-bit RGB)\n%-22s %10s %8s %7s\n", normals.width(), normals.height(),
+              "zlib level, filter", "bytes", "write", "read");
+  for (const PngEncoding& encoding : encodings) {
+    const fs::path path = scratch / "normal.png";
+    const auto start = std::chrono::steady_clock::now();
+    WritePng(path, normals, OverwritePolicy::kRefuse, {}, encoding);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const uintmax_t bytes = fs::file_size(path);
+    const auto read_start = std::chrono::steady_clock::now();
+    const ImageU16 read_back = ReadImageU16(path);
+    const double read_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+    fs::remove(path);
+    std::printf("%d, %-19s %7.1f MB %6.2f s %5.2f s\n", encoding.zlib_level, PngFilterName(encoding.filter),
+                bytes / 1e6, seconds, read_s);
+    std::fflush(stdout);
+  }
 }
 
 int Run(const fs::path& result) {
@@ -76,6 +109,11 @@ int Run(const fs::path& result) {
                            ExrCompression::kPiz, ExrCompression::kPxr24}) {
     candidates.push_back({std::string("half ") + ExrCompressionName(c), {ExrSampleType::kHalf, c}});
   }
+  // Normals on an absolute 2^-12 grid (WriteSolutionMaps' normal.exr).
+  for (ExrCompression c : {ExrCompression::kRle, ExrCompression::kZips, ExrCompression::kZip, ExrCompression::kPiz}) {
+    candidates.push_back({std::string("half ") + ExrCompressionName(c) + " n2^-12", {ExrSampleType::kHalf, c},
+                          std::ldexp(1.0, -12)});
+  }
   const fs::path scratch = result.parent_path() / (".exr_encoding_benchmark." + result.filename().string());
   fs::create_directories(scratch);
   std::printf("%s: %dx%d\n", result.c_str(), maps.front().pixels.width(), maps.front().pixels.height());
@@ -91,15 +129,17 @@ int Run(const fs::path& result) {
     for (const Map& map : maps) {
       const fs::path path = scratch / map.name;
       const auto start = std::chrono::steady_clock::now();
-      WriteExr(path, map.pixels, OverwritePolicy::kRefuse, map.channels, map.metadata, candidate.encoding);
+      ExrEncoding encoding = candidate.encoding;
+      if (map.name == "normal.exr") encoding.half_absolute_step = candidate.normal_step;
+      WriteExr(path, map.pixels, OverwritePolicy::kRefuse, map.channels, map.metadata, encoding);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       const uintmax_t bytes = fs::file_size(path);
       const auto read_start = std::chrono::steady_clock::now();
       const ImageF read_back = ReadImageFloat(path);
       const double read_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
       if (map.name == "normal.exr" && candidate.encoding.sample_type == ExrSampleType::kHalf &&
-          candidate.encoding.compression == ExrCompression::kZip) {
-        std::fprintf(stderr, "normal.exr as half: largest direction change %.5f deg\n",
+          (candidate.encoding.compression == ExrCompression::kZip)) {
+        std::fprintf(stderr, "normal.exr as %s: largest direction change %.5f deg\n", candidate.label.c_str(),
                      MaxAngleChangeDegrees(map.pixels, read_back));
       }
       fs::remove(path);
@@ -111,6 +151,7 @@ int Run(const fs::path& result) {
     std::printf(" %7.1f MB %6.2f s %5.2f s\n", total_bytes / 1e6, total_s, total_read_s);
     std::fflush(stdout);
   }
+  RunPngEncodings(result, scratch);
   fs::remove_all(scratch);
   return 0;
 }

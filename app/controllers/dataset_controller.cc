@@ -215,12 +215,8 @@ void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const Da
   fs::remove_all(staging);
   fs::create_directories(staging);
   StagingGuard guard{staging};
-  std::map<std::string, std::string> outputs = WriteSolutionMaps(staging, result.solution);
-  if (!result.error_map_deg.empty()) {
-    WriteExr(staging / "angular_error_deg.exr", result.error_map_deg, OverwritePolicy::kRefuse, {"Y"}, {},
-             ResultMapExrEncoding());  // half, as the maps
-    outputs["angular_error_deg"] = "angular_error_deg.exr";
-  }
+  std::map<std::string, std::string> outputs =
+      WriteSolutionMaps(staging, result.solution, {}, ResultMapExrEncoding(), result.error_map_deg);
   summary_.output_dir = out;
   summary_.write_seconds = SecondsSince(start);
   outputs["report"] = "report.json";

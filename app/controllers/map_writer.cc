@@ -56,7 +56,22 @@ ImageMetadata AlbedoMetadata(const AlbedoColor& albedo_color, const std::string&
 namespace {
 
 // Measured at 16 MP (docs/session-format.md, "Result map encoding").
-constexpr ExrCompression kResultMapHalfCompression = ExrCompression::kZips;
+// piz: with the normals on their grid the smallest of the quick ones (zip
+// is 8 % larger and twice as slow to write).
+constexpr ExrCompression kResultMapHalfCompression = ExrCompression::kPiz;
+// normal.png: paeth alone is within 0.1 % of libpng's adaptive choice in
+// size and spends less CPU (the adaptive choice tries all five filters per row).
+constexpr PngEncoding kNormalPngEncoding{1, PngFilter::kPaeth};
+
+// normal.exr's components on an absolute 2^-12 grid below 0.25 (half's own
+// step from there to 0.5): a tilted normal's small components otherwise
+// carry noise in their low mantissa bits, which compresses worst. The
+// direction moves by at most sqrt(3) 2^-12 rad = 0.024 deg, as with half alone.
+ExrEncoding NormalMapExrEncoding(const ExrEncoding& exr) {
+  ExrEncoding normal = exr;
+  if (exr.sample_type == ExrSampleType::kHalf) normal.half_absolute_step = std::ldexp(1.0, -12);
+  return normal;
+}
 
 void CheckSpecularShape(const PhotometricSolution& solution) {
   const ImageU8& status = solution.status;
@@ -162,7 +177,13 @@ std::map<std::string, uintmax_t> FileSizesIn(const std::filesystem::path& folder
 
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
                                                      const PhotometricSolution& solution,
-                                                     const AlbedoColor& albedo_color, const ExrEncoding& exr) {
+                                                     const AlbedoColor& albedo_color, const ExrEncoding& exr,
+                                                     const ImageF& angular_error_deg, int threads) {
+  if (threads < 0) throw std::invalid_argument("WriteSolutionMaps: threads = " + std::to_string(threads) + " must be >= 0");
+  if (!angular_error_deg.empty() && (!angular_error_deg.SameSize(solution.status) || angular_error_deg.channels() != 1)) {
+    throw std::invalid_argument("WriteSolutionMaps: angular_error_deg is " + ShapeText(angular_error_deg) +
+                                ", must be " + SizeText(solution.status.width(), solution.status.height()) + "x1");
+  }
   const auto policy = OverwritePolicy::kRefuse;
   ImageU8 solved(solution.status.width(), solution.status.height(), 1);
   for (size_t i = 0; i < solved.size(); ++i) {
@@ -173,26 +194,25 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
   // Compression dominates at 16 MP (seconds per file) and the files are
   // independent, so they are written concurrently on the one thread pool:
   // as many at once as there are threads, so that only that many files'
-  // encoding buffers (a full-size copy each) are held at a time.
+  // encoding buffers (a full-size copy each) are held at a time. Handed out
+  // in this order, slowest first (measured at 16 MP), so that no long file
+  // starts last while the other threads idle.
   struct MapFile {
     const char* kind;
     const char* name;
     std::function<void(const std::filesystem::path&)> write;
   };
   std::vector<MapFile> files = {
-      {"normal_exr", "normal.exr", [&](const auto& path) { WriteExr(path, solution.normal_in_table, policy, {}, {}, exr); }},
       {"normal_png16_opengl", "normal.png",
-       [&](const auto& path) { WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy); }},
+       [&](const auto& path) { WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy, {}, kNormalPngEncoding); }},
+      {"normal_exr", "normal.exr",
+       [&](const auto& path) {
+         WriteExr(path, solution.normal_in_table, policy, {}, {}, NormalMapExrEncoding(exr));
+       }},
       {"albedo_exr", "albedo.exr",
        [&](const auto& path) {
          WriteExr(path, solution.albedo, policy, {}, AlbedoMetadata(albedo_color, "Linear"), exr);
        }},
-      {"albedo_srgb_preview", "albedo_srgb.png",
-       [&](const auto& path) {
-         WritePng(path, EncodeSrgbPreview(solution.albedo), policy, AlbedoMetadata(albedo_color, "sRGB"));
-       }},
-      {"status", "status.png", [&](const auto& path) { WritePng(path, status_codes, policy); }},
-      {"solved_mask", "solved_mask.png", [&](const auto& path) { WritePng(path, solved, policy); }},
       {"confidence", "confidence.exr",
        [&](const auto& path) {
          ImageF confidence(solution.status.width(), solution.status.height(), 3);
@@ -204,6 +224,14 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
          WriteExr(path, confidence, policy, {"lights_used", "condition_number", "residual"}, {}, exr);
        }},
   };
+  if (!angular_error_deg.empty()) {
+    // Half: a step of 0.0001 deg at 0.2 deg, 0.06 deg at 90 deg.
+    files.push_back({"angular_error_deg", "angular_error_deg.exr",
+                     [&](const auto& path) { WriteExr(path, angular_error_deg, policy, {"Y"}, {}, exr); }});
+  }
+  files.push_back({"albedo_srgb_preview", "albedo_srgb.png", [&](const auto& path) {
+                     WritePng(path, EncodeSrgbPreview(solution.albedo), policy, AlbedoMetadata(albedo_color, "sRGB"));
+                   }});
   if (!solution.specular.empty()) {
     files.push_back({"specular_exr", "specular.exr", [&](const auto& path) {
                        ImageMetadata metadata;
@@ -213,7 +241,9 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
                        WriteExr(path, SpecularForFile(solution), policy, {"specular_f0", "roughness_alpha"}, metadata, exr);
                      }});
   }
-  ParallelFor(static_cast<int>(files.size()), ResolveThreadCount(0), 1, [&](int first, int last, int) {
+  files.push_back({"status", "status.png", [&](const auto& path) { WritePng(path, status_codes, policy); }});
+  files.push_back({"solved_mask", "solved_mask.png", [&](const auto& path) { WritePng(path, solved, policy); }});
+  ParallelFor(static_cast<int>(files.size()), ResolveThreadCount(threads), 1, [&](int first, int last, int) {
     for (int i = first; i < last; ++i) files[i].write(folder / files[i].name);
   });  // rethrows a failure
   std::map<std::string, std::string> written;

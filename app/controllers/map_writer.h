@@ -49,23 +49,30 @@ std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSo
 
 // The result maps' EXR encoding. By default half float (11-bit mantissa: a
 // unit normal's direction moves by at most 0.024 deg, albedo and confidence
-// values by at most 2^-11 relative) with the lossless compression that measured smallest and
-// quickest at 16 MP (docs/session-format.md, "Result map encoding");
-// `float32_maps` gives 32-bit float with zip, the files before issue #14.
+// values by at most 2^-11 relative) with the lossless compression that
+// measured smallest among the quick ones at 16 MP (docs/session-format.md,
+// "Result map encoding"); WriteSolutionMaps also puts normal.exr's components
+// below 0.25 on an absolute 2^-12 grid (within the same 0.024 deg).
+// `float32_maps` gives 32-bit float with zip, the files before issue #14,
+// normals exactly as in memory.
 ExrEncoding ResultMapExrEncoding(bool float32_maps = false);
 
 // Writes normal.exr, normal.png, albedo.exr, albedo_srgb.png, status.png,
 // solved_mask.png and confidence.exr into `folder` (never overwriting), and
 // specular.exr (channels specular_f0, roughness_alpha; both 0 where the lobe
-// is not estimated) when the solution has a specular map. The EXRs are
-// stored as `exr` says; the PNGs are always 16-bit (normal) and 8-bit.
+// is not estimated) when the solution has a specular map, and
+// angular_error_deg.exr (channel Y) when `angular_error_deg` is non-empty.
+// The EXRs are stored as `exr` says; the PNGs are always 16-bit (normal) and 8-bit.
 // albedo.exr and albedo_srgb.png name their colour space (`albedo_color`):
 // linear Rec.709 carries the OpenEXR chromaticities of Rec.709 / D65.
-// Returns output kind -> file name.
+// The files are independent and written concurrently, each atomically, on up
+// to `threads` threads of the one pool (0 = all cores, 1 = one after another);
+// their bytes do not depend on `threads`. Returns output kind -> file name.
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
                                                      const PhotometricSolution& solution,
                                                      const AlbedoColor& albedo_color = {},
-                                                     const ExrEncoding& exr = ResultMapExrEncoding());
+                                                     const ExrEncoding& exr = ResultMapExrEncoding(),
+                                                     const ImageF& angular_error_deg = {}, int threads = 0);
 
 // Bytes of each regular file directly in `folder` (name -> bytes), for the
 // reports' account of what a result costs on disk.

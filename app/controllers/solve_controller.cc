@@ -330,13 +330,7 @@ void ForEachTruthBand(const fs::path& path, int height, int band_rows, const Bod
 std::map<std::string, std::string> WriteMaps(const fs::path& folder, const PhotometricSolution& solution,
                                              const AlbedoColor& albedo_color, const ImageF& angular_error_deg,
                                              const ExrEncoding& exr) {
-  std::map<std::string, std::string> outputs = WriteSolutionMaps(folder, solution, albedo_color, exr);
-  if (!angular_error_deg.empty()) {
-    // Half: a step of 0.0001 deg at 0.2 deg, 0.06 deg at 90 deg.
-    WriteExr(folder / "angular_error_deg.exr", angular_error_deg, OverwritePolicy::kRefuse, {"Y"}, {}, exr);
-    outputs["angular_error_deg"] = "angular_error_deg.exr";
-  }
-  return outputs;
+  return WriteSolutionMaps(folder, solution, albedo_color, exr, angular_error_deg);
 }
 
 nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& options, const fs::path& session_dir,

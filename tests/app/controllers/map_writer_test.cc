@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <numbers>
 #include <random>
 
@@ -12,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/io/image_io.h"
+#include "solver/angular_error.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -23,16 +26,22 @@ using testing::TemporaryFolder;
 
 constexpr int kWidth = 24, kHeight = 16;
 
+// Solved everywhere from 10 lights, grey albedo; normals 0 for the caller to set.
+PhotometricSolution SolvedEverywhere(int width, int height) {
+  PhotometricSolution s;
+  s.normal_in_table = ImageF(width, height, 3);
+  s.albedo = ImageF(width, height, 3, 0.5f);
+  s.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kSolved));
+  s.lights_used = ImageU8(width, height, 1, 10);
+  s.condition_number = ImageF(width, height, 1, 2.0f);
+  s.residual = ImageF(width, height, 1, 0.01f);
+  s.solve_path = ImageU8(width, height, 1, 1);
+  return s;
+}
+
 // Solved everywhere but the last row (no signal); normals up, grey albedo.
 PhotometricSolution PlainSolution() {
-  PhotometricSolution s;
-  s.normal_in_table = ImageF(kWidth, kHeight, 3);
-  s.albedo = ImageF(kWidth, kHeight, 3, 0.5f);
-  s.status = ImageU8(kWidth, kHeight, 1, static_cast<uint8_t>(PixelStatus::kSolved));
-  s.lights_used = ImageU8(kWidth, kHeight, 1, 10);
-  s.condition_number = ImageF(kWidth, kHeight, 1, 2.0f);
-  s.residual = ImageF(kWidth, kHeight, 1, 0.01f);
-  s.solve_path = ImageU8(kWidth, kHeight, 1, 1);
+  PhotometricSolution s = SolvedEverywhere(kWidth, kHeight);
   for (int y = 0; y < kHeight; ++y)
     for (int x = 0; x < kWidth; ++x) s.normal_in_table(x, y, 2) = 1.0f;
   for (int x = 0; x < kWidth; ++x) s.status(x, kHeight - 1) = static_cast<uint8_t>(PixelStatus::kNoSignal);
@@ -121,23 +130,17 @@ TEST(MapWriterTest, WithoutSpecularNothingChanges) {
 }
 
 // Unit normals in every direction of the upper hemisphere (and a few on the
-// horizon), stored by default as half float: the largest change of direction
-// that the quantisation makes, as read back, is the accuracy cost of the
-// compact maps. Rounding moves each component by at most 2^-12 (half a step of
-// the 11-bit mantissa in [0.5, 1)), so the direction by at most sqrt(3) 2^-12
-// rad = 0.0242 deg; measured 0.0223 deg here (seed 14, 384 x 256 normals) and
-// 0.0209 deg on a 16 MP demo solve. The solver's own error at full size is
+// horizon), stored by default as half float with components below 0.25 on
+// the 2^-12 grid: the largest change of direction that the quantisation
+// makes, as read back, is the accuracy cost of the compact maps. Rounding
+// moves each component by at most 2^-12 (half a step of the 11-bit mantissa
+// in [0.5, 1); the grid's 2^-13 below 0.25), so the direction by at most
+// sqrt(3) 2^-12 rad = 0.0242 deg; measured 0.0223 deg here (seed 14, 384 x 256
+// normals; the same with half alone). The solver's own error at full size is
 // 0.23 deg mean.
 TEST(MapWriterTest, HalfFloatNormalsMoveByAtMostAFortiethOfADegree) {
   constexpr int width = 384, height = 256;
-  PhotometricSolution solution;
-  solution.normal_in_table = ImageF(width, height, 3);
-  solution.albedo = ImageF(width, height, 3, 0.5f);
-  solution.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kSolved));
-  solution.lights_used = ImageU8(width, height, 1, 10);
-  solution.condition_number = ImageF(width, height, 1, 2.0f);
-  solution.residual = ImageF(width, height, 1, 0.01f);
-  solution.solve_path = ImageU8(width, height, 1, 1);
+  PhotometricSolution solution = SolvedEverywhere(width, height);
   std::mt19937 rng(14);
   std::normal_distribution<double> gauss;
   for (size_t p = 0; p < solution.normal_in_table.num_pixels(); ++p) {
@@ -177,6 +180,41 @@ TEST(MapWriterTest, HalfFloatNormalsMoveByAtMostAFortiethOfADegree) {
                                solution.normal_in_table.data() + solution.normal_in_table.size()));
 }
 
+// The compact normal.exr (half, components below 0.25 on a 2^-12 grid) keeps
+// the solve's accuracy: a solution off a smooth ground truth by the solver's
+// typical error (about 0.23 deg mean) has, read back from the file, the same
+// mean angular error against that truth within 0.001 deg.
+TEST(MapWriterTest, CompactNormalsKeepTheMeanErrorAgainstGroundTruth) {
+  constexpr int width = 512, height = 384;
+  PhotometricSolution solution = SolvedEverywhere(width, height);
+  ImageF truth(width, height, 3);
+  std::mt19937 rng(2312);
+  std::normal_distribution<double> noise(0.0, 0.0033);  // rad per tangent component
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      // A woven surface's tilts: up to about 30 deg, varying over a few pixels.
+      const double t[3] = {0.45 * std::sin(x / 7.0) * std::cos(y / 11.0), 0.35 * std::sin(y / 5.0 + x / 13.0), 1.0};
+      const double e[3] = {t[0] + noise(rng), t[1] + noise(rng), t[2] + noise(rng)};
+      const double nt = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+      const double ne = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+      for (int c = 0; c < 3; ++c) {
+        truth(x, y, c) = static_cast<float>(t[c] / nt);
+        solution.normal_in_table(x, y, c) = static_cast<float>(e[c] / ne);
+      }
+    }
+  }
+  const ImageU8 all(width, height, 1, 1);
+  const double in_memory = AngularErrorDegrees(solution.normal_in_table, truth, all).mean;
+  EXPECT_GT(in_memory, 0.15);
+  EXPECT_LT(in_memory, 0.35);
+  TemporaryFolder folder;
+  WriteSolutionMaps(folder.path(), solution);
+  const double from_file = AngularErrorDegrees(ReadImageFloat(folder / "normal.exr"), truth, all).mean;
+  RecordProperty("mean_error_in_memory_deg", std::to_string(in_memory));
+  RecordProperty("mean_error_from_file_deg", std::to_string(from_file));
+  EXPECT_NEAR(from_file, in_memory, 0.001);
+}
+
 // Every EXR of a result in half; confidence's integer light counts exact, its
 // condition numbers and residuals within half's precision.
 TEST(MapWriterTest, ConfidenceAndAlbedoSurviveHalfStorage) {
@@ -199,6 +237,44 @@ TEST(MapWriterTest, ConfidenceAndAlbedoSurviveHalfStorage) {
   EXPECT_NEAR(confidence(5, 5, channel("condition_number")), 87.3f, 87.3f / 2048);
   EXPECT_NEAR(confidence(5, 5, channel("residual")), 0.0123f, 0.0123f / 2048);
   EXPECT_NEAR(ReadImageFloat(folder / "albedo.exr")(5, 5, 1), 0.731f, 0.731f / 2048);
+}
+
+std::string FileBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// The files are written concurrently; each is the same, byte for byte, as
+// when they are written one after another, and the error map is among them.
+TEST(MapWriterTest, ConcurrentWriteGivesTheFilesOfASequentialOne) {
+  PhotometricSolution solution = SolutionWithSpecular();
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  for (size_t i = 0; i < solution.normal_in_table.size(); ++i) solution.normal_in_table.data()[i] = uniform(rng);
+  for (size_t i = 0; i < solution.albedo.size(); ++i) solution.albedo.data()[i] = 0.5f + 0.4f * uniform(rng);
+  ImageF error_deg(kWidth, kHeight, 1);
+  for (size_t i = 0; i < error_deg.size(); ++i) error_deg.data()[i] = 1.0f + uniform(rng);
+  TemporaryFolder sequential, concurrent;
+  const auto sequential_outputs =
+      WriteSolutionMaps(sequential.path(), solution, {}, ResultMapExrEncoding(), error_deg, /*threads=*/1);
+  const auto concurrent_outputs =
+      WriteSolutionMaps(concurrent.path(), solution, {}, ResultMapExrEncoding(), error_deg, /*threads=*/4);
+  EXPECT_EQ(concurrent_outputs, sequential_outputs);
+  EXPECT_EQ(concurrent_outputs.at("angular_error_deg"), "angular_error_deg.exr");
+  const std::map<std::string, uintmax_t> sizes = FileSizesIn(sequential.path());
+  EXPECT_EQ(sizes.size(), 9u);  // 7 maps, specular.exr, angular_error_deg.exr
+  EXPECT_EQ(FileSizesIn(concurrent.path()), sizes);
+  for (const auto& [name, bytes] : sizes) {
+    EXPECT_EQ(FileBytes(concurrent / name), FileBytes(sequential / name)) << name;
+  }
+  EXPECT_NEAR(ReadImageFloat(concurrent / "angular_error_deg.exr")(3, 2), error_deg(3, 2), error_deg(3, 2) / 2048);
+}
+
+TEST(MapWriterTest, MisshapenErrorMapIsRefusedBeforeAnyFile) {
+  TemporaryFolder folder;
+  EXPECT_THAT([&] { WriteSolutionMaps(folder.path(), PlainSolution(), {}, ResultMapExrEncoding(), ImageF(4, 4, 1)); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("angular_error_deg is 4x4x1, must be 24x16x1")));
+  EXPECT_TRUE(fs::is_empty(folder.path()));
 }
 
 TEST(MapWriterTest, FileSizesInListsEveryFile) {

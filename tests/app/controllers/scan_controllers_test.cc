@@ -265,7 +265,7 @@ TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
 
   // The bytes of every file but the two reports, each and in total.
   const nlohmann::json bytes = ReadJson(result / "report.json")["bytes_written"];
-  EXPECT_EQ(bytes["exr_encoding"], "half, zips");
+  EXPECT_EQ(bytes["exr_encoding"], "half, piz");
   uintmax_t total = 0;
   for (const auto& entry : fs::directory_iterator(result)) {
     const std::string name = entry.path().filename().string();
@@ -278,7 +278,7 @@ TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
   EXPECT_EQ(solve.summary().TotalBytesWritten(), total);
   std::ifstream summary_file(result / "summary.txt");
   const std::string summary_text((std::istreambuf_iterator<char>(summary_file)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(summary_text, HasSubstr("bytes written (half, zips EXR): albedo.exr "));
+  EXPECT_THAT(summary_text, HasSubstr("bytes written (half, piz EXR): albedo.exr "));
   EXPECT_THAT(summary_text, HasSubstr(" total " + std::to_string(total) + " ("));
 
   // solve --float32-maps: the full-precision files, larger, the PNGs identical.

@@ -166,6 +166,47 @@ TEST(ImageIoTest, ExrPxr24IsRefusedForFloat32) {
   EXPECT_FALSE(std::filesystem::exists(dir / "lossy.exr"));
 }
 
+// half_absolute_step 2^-12: values below 1024 steps (0.25) land on the grid
+// (within step / 2), larger ones are half's own rounding; the file holds no
+// more distinct small values than the grid has.
+TEST(ImageIoTest, ExrHalfAbsoluteStepRoundsSmallValuesToTheGrid) {
+  TempDir dir;
+  const double step = std::ldexp(1.0, -12);
+  ImageF image = RandomImage<float>(64, 32, 3, 12);
+  for (size_t i = 0; i < image.size(); ++i) image.data()[i] /= 10.0f;  // [-1, 1]
+  image.data()[0] = 70000.0f;                                         // clamped, as without a step
+  WriteExr(dir / "q.exr", image, OverwritePolicy::kRefuse, {}, {},
+           {ExrSampleType::kHalf, ExrCompression::kZips, step});
+  const ImageF read = ReadImageFloat(dir / "q.exr");
+  EXPECT_EQ(read.data()[0], 65504.0f);
+  size_t small = 0;
+  for (size_t i = 1; i < image.size(); ++i) {
+    const double v = image.data()[i], r = read.data()[i];
+    if (std::abs(v) < 0.25) {
+      ++small;
+      EXPECT_LE(std::abs(r - v), step / 2 + 1e-9) << i;
+      EXPECT_EQ(std::fmod(r, step), 0.0) << i;
+    } else {
+      EXPECT_LE(std::abs(r - v), std::abs(v) / 2048 + 1e-9) << i;  // half's own rounding
+    }
+  }
+  EXPECT_GT(small, 1000u);
+
+  for (double bad : {3.0 * step, -step, 2.0, std::ldexp(1.0, -25)}) {
+    EXPECT_THAT(ErrorOf([&] {
+                  WriteExr(dir / "bad.exr", image, OverwritePolicy::kRefuse, {}, {},
+                           {ExrSampleType::kHalf, ExrCompression::kZips, bad});
+                }),
+                HasSubstr("ExrEncoding.half_absolute_step"));
+  }
+  EXPECT_THAT(ErrorOf([&] {
+                WriteExr(dir / "bad.exr", image, OverwritePolicy::kRefuse, {}, {},
+                         {ExrSampleType::kFloat32, ExrCompression::kZip, step});
+              }),
+              HasSubstr("with half samples"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr"));
+}
+
 TEST(ImageIoTest, ExrKeepsChannelNames) {
   TempDir dir;
   const ImageF image = RandomImage<float>(8, 8, 3, 3);
@@ -195,6 +236,24 @@ TEST(ImageIoTest, Png16RoundTripIsExact) {
     WritePng(path, image, OverwritePolicy::kRefuse);
     ExpectSameImage(image, ReadImageU16(path));
   }
+}
+
+// Every zlib level and row filter is lossless; a bad level is refused.
+TEST(ImageIoTest, PngEncodingsRoundTripExactly) {
+  TempDir dir;
+  const ImageU16 image = RandomImage<uint16_t>(41, 13, 3, 77);
+  for (PngFilter filter : {PngFilter::kAdaptive, PngFilter::kNone, PngFilter::kSub, PngFilter::kUp,
+                           PngFilter::kAverage, PngFilter::kPaeth}) {
+    for (int level : {0, 1, 9}) {
+      SCOPED_TRACE(std::string(PngFilterName(filter)) + " " + std::to_string(level));
+      const auto path = dir / (std::string(PngFilterName(filter)) + std::to_string(level) + ".png");
+      WritePng(path, image, OverwritePolicy::kRefuse, {}, {level, filter});
+      ExpectSameImage(image, ReadImageU16(path));
+    }
+  }
+  EXPECT_THAT(ErrorOf([&] { WritePng(dir / "bad.png", image, OverwritePolicy::kRefuse, {}, {10}); }),
+              HasSubstr("PngEncoding.zlib_level = 10 must be in [0, 9]"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
 }
 
 TEST(ImageIoTest, Png8RoundTripIsExact) {
