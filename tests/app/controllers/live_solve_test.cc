@@ -37,10 +37,7 @@ class LiveSolveTest : public ::testing::Test {
     rig_ = std::make_shared<SimulatedRig>(rig_options, TextileScene(), MakeDefaultSimulatedRig(kWidth, kHeight));
     board_ = std::make_unique<SimulatedLedBoard>();
     lights_ = std::make_unique<SerialLightController>(board_->port_path());
-    camera_ = std::make_unique<SimulatedCamera>(rig_, [this]() -> std::optional<int> {
-      const std::vector<int> lit = board_->LitLedIndices();
-      return lit.size() == 1 ? std::optional<int>(lit.front()) : std::nullopt;
-    });
+    camera_ = std::make_unique<SimulatedCamera>(rig_, [this]() { return board_->SingleLitLed(); });
   }
 
   LiveSolveOptions Options() const {
