@@ -24,6 +24,7 @@
 #include "app/io/raw_decoder.h"
 #include "app/session/session.h"
 #include "calibration/raw_develop.h"
+#include "tests/util/simulated_bench.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -32,6 +33,8 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
+using testing::MakeSimulatedBench;
+using testing::SimulatedBench;
 using testing::TemporaryFolder;
 
 constexpr int kWidth = 320;
@@ -65,20 +68,6 @@ class FaultyCamera : public Camera {
 
 class CaptureControllerTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    SimulatedRigOptions rig_options;
-    rig_options.width = kWidth;
-    rig_options.height = kHeight;
-    rig_ = std::make_shared<SimulatedRig>(rig_options, TextileScene(), MakeDefaultSimulatedRig(kWidth, kHeight));
-    board_ = std::make_unique<SimulatedLedBoard>();
-    lights_ = std::make_unique<SerialLightController>(board_->port_path());
-    camera_ = std::make_unique<SimulatedCamera>(rig_, [this]() -> std::optional<int> {
-      const std::vector<int> lit = board_->LitLedIndices();
-      if (lit.size() > 1) ADD_FAILURE() << "two LEDs lit at once";
-      return lit.empty() ? std::nullopt : std::optional<int>(lit.front());
-    });
-  }
-
   CaptureOptions Options() const {
     CaptureOptions options;
     options.sample_name = "sim twill";
@@ -88,7 +77,7 @@ class CaptureControllerTest : public ::testing::Test {
   }
 
   CaptureController Controller(Camera* camera, CaptureOptions options) {
-    return CaptureController(session_dir(), rig_->rig(), camera, lights_.get(), std::move(options));
+    return CaptureController(session_dir(), bench_.rig->rig(), camera, bench_.lights.get(), std::move(options));
   }
 
   fs::path session_dir() const { return folder_ / "session"; }
@@ -102,11 +91,11 @@ class CaptureControllerTest : public ::testing::Test {
     double brightest = 0;
     for (size_t i = 1; i < developed.size(); i += 3) brightest = std::max(brightest, double(developed.data()[i]));
     if (brightest < 0.02) return std::nullopt;  // dark: nothing lit
-    const ImageF ambient = rig_->RenderLinear(std::nullopt);
+    const ImageF ambient = bench_.rig->RenderLinear(std::nullopt);
     std::optional<int> best;
     double best_score = -2;
-    for (int k = 0; k < rig_->num_leds(); ++k) {
-      const ImageF expected = rig_->RenderLinear(k);
+    for (int k = 0; k < bench_.rig->num_leds(); ++k) {
+      const ImageF expected = bench_.rig->RenderLinear(k);
       double sum_xy = 0, sum_xx = 0, sum_yy = 0;
       for (size_t i = 1; i < expected.size(); i += 3 * 5) {  // green, every fifth pixel
         const double x = expected.data()[i] - ambient.data()[i];
@@ -136,16 +125,18 @@ class CaptureControllerTest : public ::testing::Test {
   }
 
   TemporaryFolder folder_;
-  std::shared_ptr<SimulatedRig> rig_;
-  std::unique_ptr<SimulatedLedBoard> board_;
-  std::unique_ptr<SerialLightController> lights_;
-  std::unique_ptr<SimulatedCamera> camera_;
+  // A frame that sees two LEDs is a failure of the capture's one-at-a-time switching.
+  SimulatedBench bench_ = MakeSimulatedBench(kWidth, kHeight, [](const SimulatedLedBoard& board) -> std::optional<int> {
+    const std::vector<int> lit = board.LitLedIndices();
+    if (lit.size() > 1) ADD_FAILURE() << "two LEDs lit at once";
+    return lit.empty() ? std::nullopt : std::optional<int>(lit.front());
+  });
 };
 
 TEST_F(CaptureControllerTest, FullCaptureWithFirmwareInTheLoop) {
   CaptureOptions options = Options();
   options.check_exposure = true;
-  CaptureController capture = Controller(camera_.get(), options);
+  CaptureController capture = Controller(bench_.camera.get(), options);
   capture.Run();
   EXPECT_EQ(capture.summary().frames_captured, 11);
   EXPECT_EQ(capture.summary().retries, 0);
@@ -155,22 +146,22 @@ TEST_F(CaptureControllerTest, FullCaptureWithFirmwareInTheLoop) {
     EXPECT_GT(exposure.signal_p99, 0.05) << exposure.frame;
   }
   ExpectEveryFrameShowsItsLed();
-  EXPECT_EQ(board_->lit_leds(), 0u) << "all LEDs off at the end";
-  EXPECT_EQ(board_->max_lit_at_once(), 1);
+  EXPECT_EQ(bench_.board->lit_leds(), 0u) << "all LEDs off at the end";
+  EXPECT_EQ(bench_.board->max_lit_at_once(), 1);
 }
 
 TEST_F(CaptureControllerTest, CameraErrorMidCaptureStopsDarkAndResumes) {
-  FaultyCamera unplugged(camera_.get(), [](int capture) {
+  FaultyCamera unplugged(bench_.camera.get(), [](int capture) {
     if (capture == 5) throw CameraError(CameraErrorKind::kClaimed, "camera", "USB interface claimed by gvfs");
   });
   CaptureController first = Controller(&unplugged, Options());
   EXPECT_THAT([&] { first.Run(); }, ::testing::ThrowsMessage<CameraError>(HasSubstr("claimed")));
-  EXPECT_EQ(board_->lit_leds(), 0u) << "all LEDs off on failure";
+  EXPECT_EQ(bench_.board->lit_leds(), 0u) << "all LEDs off on failure";
   const Session partial = LoadSession(session_dir());
   EXPECT_FALSE(partial.capture_complete);
   EXPECT_EQ(partial.frames.size(), 5u);
 
-  CaptureController second = Controller(camera_.get(), Options());
+  CaptureController second = Controller(bench_.camera.get(), Options());
   second.Run();
   EXPECT_EQ(second.summary().frames_resumed, 5);
   EXPECT_EQ(second.summary().frames_captured, 6);
@@ -180,7 +171,7 @@ TEST_F(CaptureControllerTest, CameraErrorMidCaptureStopsDarkAndResumes) {
 // capture --rig sim records the scene; resuming with another material is
 // refused, naming both, and the same scene resumes.
 TEST_F(CaptureControllerTest, ResumingASimulatedCaptureWithAnotherMaterialIsRefused) {
-  FaultyCamera unplugged(camera_.get(), [](int capture) {
+  FaultyCamera unplugged(bench_.camera.get(), [](int capture) {
     if (capture == 5) throw CameraError(CameraErrorKind::kClaimed, "camera", "USB interface claimed by gvfs");
   });
   CaptureOptions satin = Options();
@@ -192,17 +183,17 @@ TEST_F(CaptureControllerTest, ResumingASimulatedCaptureWithAnotherMaterialIsRefu
 
   CaptureOptions cloth = satin;
   cloth.simulation->material = "cloth";
-  CaptureController refused = Controller(camera_.get(), cloth);
+  CaptureController refused = Controller(bench_.camera.get(), cloth);
   EXPECT_THAT([&] { refused.Run(); },
               ::testing::ThrowsMessage<SessionError>(AllOf(HasSubstr("simulation.material"), HasSubstr("'satin'"),
                                                            HasSubstr("'cloth'"))));
-  CaptureController second = Controller(camera_.get(), satin);
+  CaptureController second = Controller(bench_.camera.get(), satin);
   second.Run();
   EXPECT_EQ(second.summary().frames_resumed, 5);
 }
 
 TEST_F(CaptureControllerTest, TransientCameraErrorIsRetried) {
-  FaultyCamera busy(camera_.get(), [](int capture) {
+  FaultyCamera busy(bench_.camera.get(), [](int capture) {
     if (capture == 2) throw CameraError(CameraErrorKind::kBusy, "camera", "busy writing to the card");
   });
   CaptureController capture = Controller(&busy, Options());
@@ -213,8 +204,8 @@ TEST_F(CaptureControllerTest, TransientCameraErrorIsRetried) {
 }
 
 TEST_F(CaptureControllerTest, FirmwareResetMidCaptureIsCaughtAndTheFrameRetaken) {
-  FaultyCamera resetting(camera_.get(), [this](int capture) {
-    if (capture == 4) board_->Reset();  // e.g. a brown-out during the exposure
+  FaultyCamera resetting(bench_.camera.get(), [this](int capture) {
+    if (capture == 4) bench_.board->Reset();  // e.g. a brown-out during the exposure
   });
   CaptureController capture = Controller(&resetting, Options());
   capture.Run();
@@ -228,7 +219,7 @@ TEST_F(CaptureControllerTest, WatchdogDuringALongExposureSpoilsOnlyThatAttempt) 
   // machine; only the stalled exposure of led_02 outlasts it.
   CaptureOptions options = Options();
   options.watchdog_ms = 1000;
-  FaultyCamera slow(camera_.get(), [](int capture) {
+  FaultyCamera slow(bench_.camera.get(), [](int capture) {
     if (capture == 3) std::this_thread::sleep_for(std::chrono::milliseconds(2500));
   });
   CaptureController capture = Controller(&slow, options);
@@ -240,8 +231,8 @@ TEST_F(CaptureControllerTest, WatchdogDuringALongExposureSpoilsOnlyThatAttempt) 
 }
 
 TEST_F(CaptureControllerTest, SerialGarbageMidCaptureDoesNotLoseSync) {
-  FaultyCamera noisy(camera_.get(), [this](int capture) {
-    if (capture == 2) board_->InjectNoiseToHost("\x01\x7f garbage \r\nOK ON 9\r\n");
+  FaultyCamera noisy(bench_.camera.get(), [this](int capture) {
+    if (capture == 2) bench_.board->InjectNoiseToHost("\x01\x7f garbage \r\nOK ON 9\r\n");
   });
   CaptureController capture = Controller(&noisy, Options());
   capture.Run();
@@ -254,7 +245,7 @@ TEST_F(CaptureControllerTest, DiskWriteFailureIsReportedAndNothingIsLost) {
   rlimit original{};
   ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &original), 0);
   std::signal(SIGXFSZ, SIG_IGN);
-  FaultyCamera full_disk(camera_.get(), [&](int capture) {
+  FaultyCamera full_disk(bench_.camera.get(), [&](int capture) {
     if (capture == 4) {
       rlimit limited = original;
       limited.rlim_cur = 64 * 1024;
@@ -265,14 +256,14 @@ TEST_F(CaptureControllerTest, DiskWriteFailureIsReportedAndNothingIsLost) {
   EXPECT_THAT([&] { first.Run(); },
               ::testing::ThrowsMessage<SessionError>(AllOf(HasSubstr("led_03.dng"), HasSubstr("write failed"))));
   ::setrlimit(RLIMIT_FSIZE, &original);
-  EXPECT_EQ(board_->lit_leds(), 0u);
+  EXPECT_EQ(bench_.board->lit_leds(), 0u);
   const Session partial = LoadSession(session_dir());  // intact: checksums verified
   EXPECT_EQ(partial.frames.size(), 4u);
   for (const auto& entry : fs::directory_iterator(session_dir() / "frames")) {
     EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp"))) << "no temporary left";
   }
 
-  CaptureController second = Controller(camera_.get(), Options());
+  CaptureController second = Controller(bench_.camera.get(), Options());
   second.Run();
   EXPECT_EQ(second.summary().frames_resumed, 4);
   ExpectEveryFrameShowsItsLed();
@@ -282,7 +273,7 @@ TEST_F(CaptureControllerTest, ExposureCheckRefusesClippedAndDarkFramesBeforeKeep
   CaptureOptions too_bright = Options();
   too_bright.check_exposure = true;
   too_bright.exposure.exposure_time_s = 1.0 / 2;  // 30x the simulated rig's reference
-  CaptureController bright = Controller(camera_.get(), too_bright);
+  CaptureController bright = Controller(bench_.camera.get(), too_bright);
   EXPECT_THAT([&] { bright.Run(); },
               ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("shorten the exposure")));
   EXPECT_FALSE(fs::exists(session_dir() / "session.json"));
@@ -290,21 +281,21 @@ TEST_F(CaptureControllerTest, ExposureCheckRefusesClippedAndDarkFramesBeforeKeep
   CaptureOptions too_dark = Options();
   too_dark.check_exposure = true;
   too_dark.exposure.exposure_time_s = 1.0 / 4000;
-  CaptureController dark = Controller(camera_.get(), too_dark);
+  CaptureController dark = Controller(bench_.camera.get(), too_dark);
   EXPECT_THAT([&] { dark.Run(); }, ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("lengthen the exposure")));
   EXPECT_FALSE(fs::exists(session_dir() / "session.json"));
-  EXPECT_EQ(board_->lit_leds(), 0u);
+  EXPECT_EQ(bench_.board->lit_leds(), 0u);
 }
 
 TEST_F(CaptureControllerTest, CancelLeavesAResumableSessionAndLedsOff) {
-  CaptureController capture = Controller(camera_.get(), Options());
+  CaptureController capture = Controller(bench_.camera.get(), Options());
   capture.SetProgressCallback([&](const ProgressReport& report) {
     if (report.stage == "capture" && report.fraction > 0.3) capture.RequestStop();
   });
   EXPECT_THROW(capture.Run(), Cancelled);
-  EXPECT_EQ(board_->lit_leds(), 0u);
+  EXPECT_EQ(bench_.board->lit_leds(), 0u);
   EXPECT_FALSE(LoadSession(session_dir()).capture_complete);
-  Controller(camera_.get(), Options()).Run();
+  Controller(bench_.camera.get(), Options()).Run();
   ExpectEveryFrameShowsItsLed();
 }
 
@@ -315,9 +306,9 @@ TEST_F(CaptureControllerTest, CancelLeavesAResumableSessionAndLedsOff) {
 TEST_F(CaptureControllerTest, SecondCaptureIntoAHeldSessionIsRefusedUpFront) {
   std::string refusal;
   long holder_pid = -1;
-  FaultyCamera interrupting(camera_.get(), [&](int capture) {
+  FaultyCamera interrupting(bench_.camera.get(), [&](int capture) {
     if (capture != 3) return;
-    CaptureController second = Controller(camera_.get(), Options());
+    CaptureController second = Controller(bench_.camera.get(), Options());
     try {
       second.Run();
     } catch (const FolderBusyError& error) {
@@ -339,12 +330,12 @@ TEST_F(CaptureControllerTest, SecondCaptureIntoAHeldSessionIsRefusedUpFront) {
 // frame or session.json is written.
 TEST_F(CaptureControllerTest, CaptureIntoALockedFolderWritesNothing) {
   std::optional<FolderLock> other(std::in_place, session_dir());
-  CaptureController refused = Controller(camera_.get(), Options());
+  CaptureController refused = Controller(bench_.camera.get(), Options());
   EXPECT_THROW(refused.Run(), FolderBusyError);
   EXPECT_FALSE(fs::exists(session_dir() / "session.json"));
-  EXPECT_EQ(board_->max_lit_at_once(), 0) << "no LED was switched";
+  EXPECT_EQ(bench_.board->max_lit_at_once(), 0) << "no LED was switched";
   other.reset();
-  Controller(camera_.get(), Options()).Run();
+  Controller(bench_.camera.get(), Options()).Run();
   ExpectEveryFrameShowsItsLed();
 }
 

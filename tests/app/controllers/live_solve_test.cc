@@ -16,6 +16,7 @@
 #include "app/io/image_io.h"
 #include "app/session/session.h"
 #include "core/field_error.h"
+#include "tests/util/simulated_bench.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -23,6 +24,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using testing::MakeSimulatedBench;
+using testing::SimulatedBench;
 using testing::TemporaryFolder;
 
 constexpr int kWidth = 320;
@@ -30,16 +33,6 @@ constexpr int kHeight = 212;
 
 class LiveSolveTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    SimulatedRigOptions rig_options;
-    rig_options.width = kWidth;
-    rig_options.height = kHeight;
-    rig_ = std::make_shared<SimulatedRig>(rig_options, TextileScene(), MakeDefaultSimulatedRig(kWidth, kHeight));
-    board_ = std::make_unique<SimulatedLedBoard>();
-    lights_ = std::make_unique<SerialLightController>(board_->port_path());
-    camera_ = std::make_unique<SimulatedCamera>(rig_, [this]() { return board_->SingleLitLed(); });
-  }
-
   LiveSolveOptions Options() const {
     LiveSolveOptions options;
     options.capture.sample_name = "sim twill";
@@ -51,7 +44,7 @@ class LiveSolveTest : public ::testing::Test {
   }
 
   LiveSolveController Controller(LiveSolveOptions options) {
-    return LiveSolveController(session_dir(), rig_->rig(), camera_.get(), lights_.get(), std::move(options));
+    return LiveSolveController(session_dir(), bench_.rig->rig(), bench_.camera.get(), bench_.lights.get(), std::move(options));
   }
 
   fs::path session_dir() const { return folder_ / "session"; }
@@ -77,10 +70,7 @@ class LiveSolveTest : public ::testing::Test {
   }
 
   TemporaryFolder folder_;
-  std::shared_ptr<SimulatedRig> rig_;
-  std::unique_ptr<SimulatedLedBoard> board_;
-  std::unique_ptr<SerialLightController> lights_;
-  std::unique_ptr<SimulatedCamera> camera_;
+  SimulatedBench bench_ = MakeSimulatedBench(kWidth, kHeight);
 };
 
 TEST_F(LiveSolveTest, ResultIsBitEqualToASolveOfTheFinishedSession) {
@@ -113,7 +103,7 @@ TEST_F(LiveSolveTest, CancelLeavesNoResultAndTheResumeIsBitEqual) {
   std::error_code ignored;
   EXPECT_FALSE(fs::exists(session_dir() / "results", ignored) && !fs::is_empty(session_dir() / "results"))
       << "a cancelled live solve leaves no result folder";
-  EXPECT_EQ(board_->lit_leds(), 0u) << "all LEDs off after a cancel";
+  EXPECT_EQ(bench_.board->lit_leds(), 0u) << "all LEDs off after a cancel";
 
   LiveSolveController second = Controller(Options());
   second.Run();
