@@ -654,14 +654,14 @@ void SolveController::Run() {
 
   ImageF angular_error_deg;
   if (session.ground_truth) {
-    const GroundTruthComparison comparison = TimedStage(timings, "evaluate", "", [&] {
+    GroundTruthComparison comparison = TimedStage(timings, "evaluate", "", [&] {
       return CompareWithGroundTruth(session_dir_, *session.ground_truth, solution, options_.solver.num_threads);
     });
     summary_.normal_error_deg = comparison.normal_error_deg;
     summary_.albedo_error = comparison.albedo_error;
     summary_.albedo_color_error = comparison.albedo_color_error;
     summary_.unsolved_on_sample = comparison.unsolved_on_sample;
-    angular_error_deg = comparison.angular_error_deg;
+    angular_error_deg = std::move(comparison.angular_error_deg);  // 45 MB at 16 MP: not copied
   }
 
   // The folder appears complete or not at all.
