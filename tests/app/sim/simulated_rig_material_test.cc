@@ -325,7 +325,9 @@ TEST(SimulatedRigMaterial, TruthIsThePixelMeanShadingNormalWhichScattersAboutThe
   }
   ASSERT_GT(count, 1000);
   EXPECT_LT(max_truth_gap, 1e-6);  // float storage
-  if (table_count > 0) EXPECT_LT(max_table_gap, 1e-3);  // the rig stores the normal's xy as float
+  if (table_count > 0) {  // the sampled centre may hold no table pixel
+    EXPECT_LT(max_table_gap, 1e-3);  // the rig stores the normal's xy as float
+  }
   const double rms_deg = std::sqrt(sum2 / count) * 180 / M_PI;
   std::cout << "pixel mean shading normal vs geometric: " << rms_deg << " deg rms\n";
   EXPECT_GT(rms_deg, 0.3);
