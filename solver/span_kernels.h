@@ -55,10 +55,46 @@ struct ResidualArgs {
   double* residual2 = nullptr;        // out, count values
 };
 
+// The closed-form solve of a span's normal equations at the pixels marked
+// ready (enough lights, condition number within the limit: decided by the
+// caller): scaled = inverse(Gram) * L^T luminance, then the status from its
+// length and direction, the unit normal and the RGB albedo (the lengths of
+// inverse(Gram) * L^T channel).
+struct SolveArgs {
+  int count = 0, capacity = 0;
+  bool albedo = false;        // the RGB albedo too (acc rows kR0..kBl2)
+  bool invert_gram = false;   // invert each pixel's accumulated Gram matrix (cofactors); else read `inverse`
+  double min_albedo = 0;      // shorter scaled normals have no signal
+  int solved = 0, no_signal = 0, facing_away = 0;  // the PixelStatus codes to write
+  const double* acc = nullptr;      // [a * capacity + i], a in tiled::Acc
+  const double* inverse = nullptr;  // [e * capacity + i], e = 00, 01, 02, 11, 12, 22 of the symmetric inverse
+  const double* ready = nullptr;    // 1: solve the pixel, 0: not
+  double* status = nullptr;         // out: the status code where ready, -1 elsewhere
+  double* scaled = nullptr;         // out: [c * capacity + i], luminance scaled normal; 0 unless solved
+  double* normal = nullptr;         // out: [c * capacity + i], unit; (0, 0, 1) unless solved
+  double* luminance_albedo = nullptr;  // out: length of the scaled normal; 0 unless solved
+  double* rgb_albedo = nullptr;        // out: [c * capacity + i]; 0 unless solved (and asked for)
+};
+
+// Point LEDs at a span of surface points (PointLightField::EvaluateSpan):
+// per light, the unit direction towards it and rgb * cos^mu * reference^2 /
+// distance^2, with cos the cosine off the LED's axis clamped to 0.
+struct PointLightArgs {
+  int count = 0, num_lights = 0, stride = 0;
+  const float* points = nullptr;   // 3 per pixel, interleaved
+  const double* lights = nullptr;  // kPointLightValues per light, PointLightValue order
+  float* dirs = nullptr;           // out: [(3k + c) * stride + i]
+  float* intensities = nullptr;    // out: likewise
+};
+enum PointLightValue : int { kLightX, kLightY, kLightZ, kAxisX, kAxisY, kAxisZ, kMu, kReference2, kRed, kGreen, kBlue,
+                             kPointLightValues };
+
 struct SpanKernels {
   KernelIsa isa = KernelIsa::kBaseline;
   void (*accumulate)(const AccumulateArgs& args) = nullptr;
   void (*residuals)(const ResidualArgs& args) = nullptr;
+  void (*point_lights)(const PointLightArgs& args) = nullptr;
+  void (*solve)(const SolveArgs& args) = nullptr;
 };
 
 // The kernels built for `isa` (which must be supported: KernelIsaSupported).

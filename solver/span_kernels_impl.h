@@ -199,8 +199,210 @@ void Residuals(const ResidualArgs& a) {
   }
 }
 
+// The per-pixel body of Solve, over n pixels: restrict-qualified plain
+// arrays and selects only, so that it vectorises. The inverse is formed as
+// NormalEquationsSolve::InvertGram did (cofactors over the determinant).
+template <bool kInvert, bool kAlbedo>
+inline void SolvePixels(int n, ptrdiff_t cap, const SolveArgs& a, const double* __restrict acc,
+                        const double* __restrict given, const double* __restrict ready, double* __restrict status,
+                        double* __restrict s0, double* __restrict s1, double* __restrict s2, double* __restrict n0,
+                        double* __restrict n1, double* __restrict n2, double* __restrict length_out,
+                        double* __restrict a0, double* __restrict a1, double* __restrict a2) {
+  const double min_albedo = a.min_albedo;
+  const double solved = a.solved, no_signal = a.no_signal, facing_away = a.facing_away;
+  // Every array is a separate buffer (the restrict qualifiers say so, but GCC
+  // 12 still counts alias checks between the planes of one buffer).
+#pragma GCC ivdep
+#pragma GCC unroll 1
+  for (int i = 0; i < n; ++i) {
+    double m00, m01, m02, m11, m12, m22;
+    if constexpr (kInvert) {
+      const double g00 = acc[kG00 * cap + i], g01 = acc[kG01 * cap + i], g02 = acc[kG02 * cap + i];
+      const double g11 = acc[kG11 * cap + i], g12 = acc[kG12 * cap + i], g22 = acc[kG22 * cap + i];
+      const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
+      const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
+      const double det = g00 * c00 + g01 * c01 + g02 * c02;
+      const double inv_det = 1.0 / det;
+      m00 = c00 * inv_det, m01 = c01 * inv_det, m02 = c02 * inv_det;
+      m11 = c11 * inv_det, m12 = c12 * inv_det, m22 = c22 * inv_det;
+    } else {
+      m00 = given[0 * cap + i], m01 = given[1 * cap + i], m02 = given[2 * cap + i];
+      m11 = given[3 * cap + i], m12 = given[4 * cap + i], m22 = given[5 * cap + i];
+    }
+    const double b0 = acc[kB0 * cap + i], b1 = acc[kB1 * cap + i], b2 = acc[kB2 * cap + i];
+    const double x = m00 * b0 + m01 * b1 + m02 * b2;
+    const double y = m01 * b0 + m11 * b1 + m12 * b2;
+    const double z = m02 * b0 + m12 * b1 + m22 * b2;
+    const double length = __builtin_sqrt(x * x + y * y + z * z);
+    // NaN and infinity fail the first test (length - length is NaN). Bitwise
+    // &: a short-circuit would be a branch.
+    const bool signal = (length - length == 0) & (length >= min_albedo) & (length != 0);
+    const bool up = z > 0;
+    const bool is_ready = ready[i] != 0;
+    const bool ok = is_ready & signal & up;
+    const double code = signal ? (up ? solved : facing_away) : no_signal;
+    status[i] = is_ready ? code : -1.0;
+    const double inv_length = 1.0 / length;
+    s0[i] = ok ? x : 0.0, s1[i] = ok ? y : 0.0, s2[i] = ok ? z : 0.0;
+    n0[i] = ok ? x * inv_length : 0.0, n1[i] = ok ? y * inv_length : 0.0, n2[i] = ok ? z * inv_length : 1.0;
+    length_out[i] = ok ? length : 0.0;
+    if constexpr (kAlbedo) {
+      double channel[3];
+      for (int c = 0; c < 3; ++c) {
+        const double r0 = acc[(kR0 + 3 * c) * cap + i], r1 = acc[(kR0 + 3 * c + 1) * cap + i];
+        const double r2 = acc[(kR0 + 3 * c + 2) * cap + i];
+        const double cx = m00 * r0 + m01 * r1 + m02 * r2;
+        const double cy = m01 * r0 + m11 * r1 + m12 * r2;
+        const double cz = m02 * r0 + m12 * r1 + m22 * r2;
+        channel[c] = __builtin_sqrt(cx * cx + cy * cy + cz * cz);
+      }
+      a0[i] = ok ? channel[0] : 0.0, a1[i] = ok ? channel[1] : 0.0, a2[i] = ok ? channel[2] : 0.0;
+    }
+  }
+}
+
+template <bool kInvert, bool kAlbedo>
+void SolveAll(const SolveArgs& a) {
+  const ptrdiff_t cap = a.capacity;
+  SolvePixels<kInvert, kAlbedo>(a.count, cap, a, a.acc, a.inverse, a.ready, a.status, a.scaled, a.scaled + cap,
+                                a.scaled + 2 * cap, a.normal, a.normal + cap, a.normal + 2 * cap,
+                                a.luminance_albedo, a.rgb_albedo, a.rgb_albedo + cap, a.rgb_albedo + 2 * cap);
+}
+
+void Solve(const SolveArgs& a) {
+  if (a.invert_gram) {
+    a.albedo ? SolveAll<true, true>(a) : SolveAll<true, false>(a);
+  } else {
+    a.albedo ? SolveAll<false, true>(a) : SolveAll<false, false>(a);
+  }
+}
+
+// Bit casts between double and its bits: loops of these still vectorise
+// (GCC turns the copies into lane reinterpretations).
+inline double DoubleFromBits(uint64_t bits) {
+  double value;
+  __builtin_memcpy(&value, &bits, sizeof value);
+  return value;
+}
+inline uint64_t BitsOf(double value) {
+  uint64_t bits;
+  __builtin_memcpy(&bits, &value, sizeof bits);
+  return bits;
+}
+
+// ln c for c > 0 finite (normal), to about 1e-15 relative, branch-free: c =
+// m 2^e with m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh(z), z = (m - 1) /
+// (m + 1), |z| <= 0.172, summed to z^17 (the next term is below 1e-14 of the
+// sum). The exponent becomes a double through the 2^52 trick, since SSE2 and
+// AVX2 have no vector int64-to-double conversion.
+inline double LnPositive(double c) {
+  const uint64_t bits = BitsOf(c);
+  const double biased_exponent = DoubleFromBits((bits >> 52) | 0x4330000000000000ull) - 4503599627370496.0;
+  const double m1 = DoubleFromBits((bits & 0x000FFFFFFFFFFFFFull) | 0x3FF0000000000000ull);  // [1, 2)
+  const bool high = m1 > 1.4142135623730951;
+  const double m = high ? 0.5 * m1 : m1;
+  const double exponent = biased_exponent - 1023.0 + (high ? 1.0 : 0.0);
+  const double z = (m - 1) / (m + 1), z2 = z * z;
+  double series = 1.0 / 17;
+  series = 1.0 / 15 + z2 * series;
+  series = 1.0 / 13 + z2 * series;
+  series = 1.0 / 11 + z2 * series;
+  series = 1.0 / 9 + z2 * series;
+  series = 1.0 / 7 + z2 * series;
+  series = 1.0 / 5 + z2 * series;
+  series = 1.0 / 3 + z2 * series;
+  series = 1.0 + z2 * series;
+  return 2 * z * series + exponent * 0.69314718055994531;
+}
+
+// e^y for y <= 0, to about 1e-14 relative, branch-free; y below -700 gives
+// e^-700 (1e-304, 0 as a float). y = n ln 2 + r with n rounded by the 1.5 *
+// 2^52 trick (round to nearest), |r| <= ln 2 / 2 (ln 2 in two parts, so r is
+// exact to 1e-16 for any n), e^r by its Taylor series to r^12 (the rest is
+// below 1e-14), 2^n built in the exponent bits.
+inline double ExpNonPositive(double y) {
+  const double x = y < -700.0 ? -700.0 : y;
+  constexpr double kRound = 6755399441055744.0;
+  const double shifted = x * 1.4426950408889634 + kRound;
+  const double n = shifted - kRound;
+  const double r = (x - n * 0.693147180369123816490) - n * 1.90821492927058770002e-10;
+  double p = 1.0 / 479001600;
+  p = 1.0 / 39916800 + r * p;
+  p = 1.0 / 3628800 + r * p;
+  p = 1.0 / 362880 + r * p;
+  p = 1.0 / 40320 + r * p;
+  p = 1.0 / 5040 + r * p;
+  p = 1.0 / 720 + r * p;
+  p = 1.0 / 120 + r * p;
+  p = 1.0 / 24 + r * p;
+  p = 1.0 / 6 + r * p;
+  p = 0.5 + r * p;
+  p = 1.0 + r * p;
+  p = 1.0 + r * p;
+  // The low bits of `shifted` hold n (two's complement); n + 1023 is in
+  // [13, 1023] here, a normal exponent.
+  return p * DoubleFromBits((BitsOf(shifted) + 1023) << 52);
+}
+
+// One LED over the span, in double (the surface points are hundreds of mm
+// from the LEDs, the directions are differences of those), rounded to float
+// at the end. Branch-free, restrict-qualified parameters: the compiler
+// vectorises it.
+inline void PointLight(int count, const double* light, const double* __restrict sx, const double* __restrict sy,
+                       const double* __restrict sz, float* __restrict dx,
+                       float* __restrict dy, float* __restrict dz, float* __restrict ir, float* __restrict ig,
+                       float* __restrict ib) {
+  const double px = light[kLightX], py = light[kLightY], pz = light[kLightZ];
+  const double ax = light[kAxisX], ay = light[kAxisY], az = light[kAxisZ];
+  const double mu = light[kMu], reference2 = light[kReference2];
+  const double red = light[kRed], green = light[kGreen], blue = light[kBlue];
+  // pow(0, mu) is 1 for mu = 0 and 0 above (and exp(0 ln c) is exactly 1
+  // elsewhere). Chosen here: a select on mu inside the loop stops GCC 12's
+  // vectoriser.
+  const double at_zero = mu == 0 ? 1.0 : 0.0;
+#pragma GCC unroll 1
+  for (int i = 0; i < count; ++i) {
+    const double tx = px - sx[i], ty = py - sy[i], tz = pz - sz[i];
+    const double distance2 = tx * tx + ty * ty + tz * tz;
+    const double distance = __builtin_sqrt(distance2);
+    const double lx = tx / distance, ly = ty / distance, lz = tz / distance;
+    // Angle off the LED's axis, measured from the LED towards the point; NaN
+    // (a non-finite point) counts as 0, like the clamp of Evaluate.
+    const double cosine = -(lx * ax + ly * ay + lz * az);
+    const double positive = cosine > 0 ? cosine : 1.0;  // keeps the ln finite where it is not used
+    const double power = ExpNonPositive(mu * LnPositive(positive));
+    const double angular = cosine > 0 ? power : at_zero;
+    const double falloff = angular * reference2 / distance2;
+    dx[i] = static_cast<float>(lx), dy[i] = static_cast<float>(ly), dz[i] = static_cast<float>(lz);
+    ir[i] = static_cast<float>(red * falloff), ig[i] = static_cast<float>(green * falloff);
+    ib[i] = static_cast<float>(blue * falloff);
+  }
+}
+
+// The points of a block, planar: GCC 12 does not vectorise the light loop
+// when it reads the interleaved floats into doubles itself.
+inline void Deinterleave(int n, const float* __restrict points, double* __restrict x, double* __restrict y,
+                         double* __restrict z) {
+  for (int i = 0; i < n; ++i) x[i] = points[3 * i], y[i] = points[3 * i + 1], z[i] = points[3 * i + 2];
+}
+
+void PointLights(const PointLightArgs& a) {
+  const ptrdiff_t stride = a.stride;
+  double x[kBlock], y[kBlock], z[kBlock];
+  for (int i0 = 0; i0 < a.count; i0 += kBlock) {
+    const int n = a.count - i0 < kBlock ? a.count - i0 : kBlock;
+    Deinterleave(n, a.points + 3 * i0, x, y, z);
+    for (int k = 0; k < a.num_lights; ++k) {
+      float* dirs = a.dirs + 3 * k * stride + i0;
+      float* intensities = a.intensities + 3 * k * stride + i0;
+      PointLight(n, a.lights + k * kPointLightValues, x, y, z, dirs, dirs + stride, dirs + 2 * stride, intensities,
+                 intensities + stride, intensities + 2 * stride);
+    }
+  }
+}
+
 }  // namespace
 
-const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals};
+const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals, &PointLights, &Solve};
 
 }  // namespace scanbench::tiled::SCANBENCH_ISA_NAMESPACE

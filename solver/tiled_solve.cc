@@ -88,6 +88,97 @@ AccumulateSpanFn ChooseAccumulator(bool bayer, bool with_albedo, bool uniform_li
   return uniform_lights ? &AccumulateSpan<true, false, false> : &AccumulateSpan<false, false, false>;
 }
 
+SpanFits::SpanFits(int span_capacity) : capacity(span_capacity) {
+  status.assign(capacity, 0);
+  lights_used.assign(capacity, 0);
+  normal.assign(static_cast<size_t>(3) * capacity, 0.0);
+  albedo.assign(static_cast<size_t>(3) * capacity, 0.0);
+  luminance_albedo.assign(capacity, 0.0);
+  condition_number.assign(capacity, 0.0);
+  residual.assign(capacity, 0.0);
+}
+
+PixelFit SpanFits::Fit(int i) const {
+  PixelFit fit;
+  fit.status = static_cast<PixelStatus>(status[i]);
+  for (int c = 0; c < 3; ++c) {
+    fit.normal[c] = normal[c * capacity + i];
+    fit.albedo[c] = albedo[c * capacity + i];
+  }
+  fit.luminance_albedo = luminance_albedo[i];
+  fit.lights_used = lights_used[i];
+  fit.condition_number = condition_number[i];
+  fit.residual = residual[i];
+  return fit;
+}
+
+// Store's values, a row of one image at a time (each a short contiguous run
+// instead of eight interleaved ones per pixel).
+void PixelWriter::StoreFits(const SpanFits& fits, const Span& span, const uint8_t* skip) {
+  PhotometricSolution& s = *job_.solution;
+  const int count = span.count, n = fits.capacity, x0 = span.x0, y = span.y;
+  const uint8_t solved_code = static_cast<uint8_t>(PixelStatus::kSolved);
+  // Which pixels to write: wanted and not skipped.
+  const bool all = span.region == nullptr && skip == nullptr;
+  auto write = [&](int i) { return all || (span.Wanted(i) && (skip == nullptr || skip[i] == 0)); };
+  {
+    float* out = s.normal_in_table.row(y) + static_cast<size_t>(x0) * 3;
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      for (int c = 0; c < 3; ++c) out[3 * i + c] = static_cast<float>(fits.normal[c * n + i]);
+    }
+  }
+  if (job_.bayer) {
+    float* out = job_.albedo_mosaic->row(y) + x0;
+    for (int i = 0; i < count; ++i) {
+      if (write(i)) out[i] = fits.status[i] == solved_code ? static_cast<float>(fits.luminance_albedo[i]) : 0.0f;
+    }
+  } else if (job_.with_albedo) {
+    float* out = s.albedo.row(y) + static_cast<size_t>(x0) * 3;
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      const bool solved = fits.status[i] == solved_code;
+      for (int c = 0; c < 3; ++c) out[3 * i + c] = solved ? static_cast<float>(fits.albedo[c * n + i]) : 0.0f;
+    }
+  }
+  {
+    uint8_t* status = s.status.row(y) + x0;
+    uint8_t* lights = s.lights_used.row(y) + x0;
+    uint8_t* path = s.solve_path.row(y) + x0;
+    const uint8_t light_path = static_cast<uint8_t>(span.LightPath());
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      const bool solved = fits.status[i] == solved_code;
+      status[i] = fits.status[i];
+      lights[i] = static_cast<uint8_t>(std::clamp(fits.lights_used[i], 0, 255));
+      path[i] = solved ? light_path : static_cast<uint8_t>(SolvePath::kNone);
+      ++pixels_by_path_[solved ? light_path : static_cast<int>(SolvePath::kNone)];
+    }
+  }
+  if (job_.with_confidence) {
+    float* condition = s.condition_number.row(y) + x0;
+    float* residual = s.residual.row(y) + x0;
+    const double float_max = std::numeric_limits<float>::max();
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      const bool solved = fits.status[i] == solved_code;
+      condition[i] = static_cast<float>(std::min(fits.condition_number[i], float_max));
+      residual[i] = solved ? static_cast<float>(std::min(fits.residual[i], 1e30)) : 0.0f;
+    }
+  }
+  if (!s.specular.empty()) {
+    float* specular = s.specular.row(y) + static_cast<size_t>(x0) * 2;
+    uint8_t* specular_status = s.specular_status.row(y) + x0;
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      const bool solved = fits.status[i] == solved_code;
+      specular[2 * i] = 0.0f, specular[2 * i + 1] = 0.0f;
+      specular_status[i] =
+          static_cast<uint8_t>(solved ? SpecularStatus::kUnsupported : SpecularStatus::kNotSolved);
+    }
+  }
+}
+
 void GatherSamples(const Span& span, int i, bool with_rgb, PixelSamples* samples) {
   const SpanBuffers& b = *span.buffers;
   const int n = b.capacity;
