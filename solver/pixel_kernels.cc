@@ -95,6 +95,8 @@ class NormalEquationsSolve {
     inverse_.assign(static_cast<size_t>(6) * n_, 0.0);
     ready_.assign(n_, 0.0);
     outcome_.assign(n_, 0.0);
+    condition_.assign(n_, 0.0);
+    condition_fallback_.assign(n_, 1.0);
   }
 
   // fits() for every pixel of the span: status, normal, albedo, condition number.
@@ -109,8 +111,10 @@ class NormalEquationsSolve {
   void PreparePixel(const Span& span, int i);
   // The condition number of a Gram matrix (or the interpolated one) and,
   // where within max_condition_number, its inverse (6 entries, SolveArgs' order).
-  void InvertGram(double g00, double g01, double g02, double g11, double g12, double g22,
-                  double interpolated_condition, bool interpolated, double* condition, double inverse[6]) const;
+  // `known_condition` where it is known (interpolated or from the kernel),
+  // else negative.
+  void InvertGram(double g00, double g01, double g02, double g11, double g12, double g22, double known_condition,
+                  double* condition, double inverse[6]) const;
   void SetInverse(int i, const double inverse[6]) {
     for (int e = 0; e < 6; ++e) inverse_[e * n_ + i] = inverse[e];
   }
@@ -132,10 +136,29 @@ class NormalEquationsSolve {
   std::vector<double> inverse_;    // uniform tiles: each pixel's inverse Gram matrix, [e * n + i]
   std::vector<double> ready_;      // 1 where the kernel solves the pixel
   std::vector<double> outcome_;    // the kernel's status code where ready
+  // Exact tiles: each pixel's condition number from the kernel, unless
+  // condition_fallback_ (then ConditionNumberFromGram's).
+  std::vector<double> condition_, condition_fallback_;
 };
 
 void NormalEquationsSolve::Solve(const Span& span) {
   const bool uniform = span.lights == TileLights::kUniform;
+  if (span.lights == TileLights::kExact) {
+    ConditionArgs c;
+    c.count = span.count;
+    c.capacity = n_;
+    c.acc = span.buffers->acc.data();
+    c.condition = condition_.data();
+    c.fallback = condition_fallback_.data();
+    settings_.kernels->conditions(c);
+  }
+  if (uniform) {
+    // Every pixel using all the tile's usable lights takes the shared
+    // inverse: the planes start with it, the others overwrite theirs.
+    const Eigen::Matrix3d& m = span.shared->inverse;
+    const double shared[6] = {m(0, 0), m(0, 1), m(0, 2), m(1, 1), m(1, 2), m(2, 2)};
+    for (int e = 0; e < 6; ++e) std::fill_n(inverse_.begin() + e * n_, span.count, shared[e]);
+  }
   for (int i = 0; i < span.count; ++i) {
     ready_[i] = 0;
     fits_.lights_used[i] = 0;
@@ -173,9 +196,8 @@ void NormalEquationsSolve::Solve(const Span& span) {
 }
 
 void NormalEquationsSolve::InvertGram(double g00, double g01, double g02, double g11, double g12, double g22,
-                                      double interpolated_condition, bool interpolated, double* condition,
-                                      double inverse[6]) const {
-  *condition = interpolated ? interpolated_condition : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
+                                      double known_condition, double* condition, double inverse[6]) const {
+  *condition = known_condition >= 0 ? known_condition : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
   if (*condition <= settings_.options.max_condition_number) {
     // Closed-form inverse through the cofactors (as the solve kernel forms it).
     const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
@@ -201,10 +223,7 @@ void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
   const double g11 = acc[kG11 * n + i], g12 = acc[kG12 * n + i], g22 = acc[kG22 * n + i];
   double condition = 0;
   if (span.lights == TileLights::kUniform && used == span.shared->usable) {
-    condition = span.shared->condition;
-    const Eigen::Matrix3d& m = span.shared->inverse;
-    const double inverse[6] = {m(0, 0), m(0, 1), m(0, 2), m(1, 1), m(1, 2), m(2, 2)};
-    SetInverse(i, inverse);
+    condition = span.shared->condition;  // the inverse planes hold the shared one already (Solve)
   } else if (span.lights == TileLights::kUniform && settings_.num_lights <= 64) {
     // A uniform tile's Gram matrix depends only on which lights a pixel
     // uses (unit weights, the same directions, summed in the same order):
@@ -218,8 +237,7 @@ void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
     if (entry.generation != span.shared->generation || entry.mask != mask) {
       entry.generation = span.shared->generation;
       entry.mask = mask;
-      InvertGram(g00, g01, g02, g11, g12, g22, span.buffers->all_lights_condition[i], false, &entry.condition,
-                 entry.inverse);
+      InvertGram(g00, g01, g02, g11, g12, g22, -1.0, &entry.condition, entry.inverse);
     }
     condition = entry.condition;
     SetInverse(i, entry.inverse);
@@ -228,9 +246,10 @@ void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
     // has the interpolated condition number of the nodes. The kernel
     // inverts the Gram matrix itself outside uniform tiles.
     const bool interpolated = span.lights == TileLights::kInterpolated && used == settings_.num_lights;
+    const bool from_kernel = span.lights == TileLights::kExact && condition_fallback_[i] == 0;
+    const double known = interpolated ? span.buffers->all_lights_condition[i] : from_kernel ? condition_[i] : -1.0;
     double inverse[6] = {1, 0, 0, 1, 0, 1};
-    InvertGram(g00, g01, g02, g11, g12, g22, span.buffers->all_lights_condition[i], interpolated, &condition,
-               inverse);
+    InvertGram(g00, g01, g02, g11, g12, g22, known, &condition, inverse);
     if (span.lights == TileLights::kUniform) SetInverse(i, inverse);
   }
   if (!(condition <= options.max_condition_number)) {

@@ -76,6 +76,30 @@ struct SolveArgs {
   double* rgb_albedo = nullptr;        // out: [c * capacity + i]; 0 unless solved (and asked for)
 };
 
+// The condition number of each pixel's accumulated Gram matrix, as
+// ConditionNumberFromGram (solver/pixel_solvers.h) computes it along its
+// first route (Newton from above to the largest eigenvalue, 8 steps at
+// most): the same operations, so the same values. Pixels that route does not
+// settle are flagged for the scalar function.
+struct ConditionArgs {
+  int count = 0, capacity = 0;
+  const double* acc = nullptr;  // [a * capacity + i], a in tiled::Acc
+  double* condition = nullptr;  // out
+  double* fallback = nullptr;   // out: 1 where `condition` is not set (call ConditionNumberFromGram), else 0
+};
+
+// The usability rules of TileLightSampler::Probe over a span's planar
+// lights, in place: intensities become their inverses (0 where unusable).
+struct LightRulesArgs {
+  int count = 0, num_lights = 0, stride = 0;
+  bool bayer = false;               // each raw pixel needs only its own channel
+  double w0 = 0, w1 = 0, w2 = 0;    // luminance weights
+  double min_intensity = 0;         // min_light_intensity
+  const float* dirs = nullptr;      // [(3k + c) * stride + i]
+  float* inv = nullptr;             // in: intensities; out: 1 / intensity or 0
+  uint8_t* bad = nullptr;           // out: set to 1 where a light is not finite (left as is elsewhere)
+};
+
 // Point LEDs at a span of surface points (PointLightField::EvaluateSpan):
 // per light, the unit direction towards it and rgb * cos^mu * reference^2 /
 // distance^2, with cos the cosine off the LED's axis clamped to 0.
@@ -95,6 +119,8 @@ struct SpanKernels {
   void (*residuals)(const ResidualArgs& args) = nullptr;
   void (*point_lights)(const PointLightArgs& args) = nullptr;
   void (*solve)(const SolveArgs& args) = nullptr;
+  void (*conditions)(const ConditionArgs& args) = nullptr;
+  void (*light_rules)(const LightRulesArgs& args) = nullptr;
 };
 
 // The kernels built for `isa` (which must be supported: KernelIsaSupported).

@@ -277,6 +277,91 @@ void Solve(const SolveArgs& a) {
   }
 }
 
+// ConditionNumberFromGram's first route, per pixel (see ConditionArgs): the
+// same expressions in the same order; a lane stops where the scalar loop
+// would return.
+inline void ConditionPixels(int n, ptrdiff_t cap, const double* __restrict acc, double* __restrict condition_out,
+                            double* __restrict fallback_out) {
+  constexpr double kTolerance = 1e-9;
+  constexpr double kInfinity = __builtin_inf();
+  // Flags are doubles (1 or 0) combined by products: GCC 12 vectorises no
+  // select or logical operation between comparisons' results here.
+#pragma GCC ivdep
+#pragma GCC unroll 1
+  for (int i = 0; i < n; ++i) {
+    const double g00 = acc[kG00 * cap + i], g01 = acc[kG01 * cap + i], g02 = acc[kG02 * cap + i];
+    const double g11 = acc[kG11 * cap + i], g12 = acc[kG12 * cap + i], g22 = acc[kG22 * cap + i];
+    const double trace = g00 + g11 + g22;
+    const double minors = g00 * g11 + g00 * g22 + g11 * g22 - g01 * g01 - g02 * g02 - g12 * g12;
+    const double det =
+        g00 * (g11 * g22 - g12 * g12) - g01 * (g01 * g22 - g12 * g02) + g02 * (g01 * g12 - g11 * g02);
+    const double scale = trace * trace * trace;
+    const double regular = (trace > 0 ? 1.0 : 0.0) * (det - det == 0 ? 1.0 : 0.0) * (det > 1e-30 * scale ? 1.0 : 0.0);
+    const double a01 = __builtin_fabs(g01), a02 = __builtin_fabs(g02), a12 = __builtin_fabs(g12);
+    const double r0 = g00 + a01 + a02, r1 = a01 + g11 + a12, r2 = a02 + a12 + g22;
+    const double r01 = r0 < r1 ? r1 : r0;
+    const double gershgorin = r01 < r2 ? r2 : r01;
+    double t = gershgorin < trace ? gershgorin : trace;
+    double active = 1.0, converged = 0.0;
+#pragma GCC unroll 8
+    for (int iteration = 0; iteration < 8; ++iteration) {
+      const double d = (3 * t - 2 * trace) * t + minors;
+      const double go = active * (d != 0 ? 1.0 : 0.0) * (d - d == 0 ? 1.0 : 0.0);
+      const double step = (((t - trace) * t + minors) * t - det) / d;
+      const double next = t - step;
+      const double settled = __builtin_fabs(step) > kTolerance * __builtin_fabs(next) ? 0.0 : 1.0;
+      t = go != 0 ? next : t;
+      converged = converged + go * settled;
+      active = go * (1.0 - settled);
+    }
+    const double lambda_max = t;
+    // The other two roots: sum trace - r, product det / r.
+    const double sum = trace - lambda_max, product = det / lambda_max;
+    const double discriminant = sum * sum - 4 * product;
+    const double root = __builtin_sqrt(discriminant > 0.0 ? discriminant : 0.0);
+    const double high = 0.5 * (sum + root);
+    const double lambda_min = high > 0 ? product / high : 0.0;
+    const double good = (lambda_min > 1e-15 * lambda_max ? 1.0 : 0.0) * (lambda_max - lambda_max == 0 ? 1.0 : 0.0);
+    const double value = good != 0 ? __builtin_sqrt(lambda_max / lambda_min) : kInfinity;
+    const double settled_here = converged * (lambda_max > 0 ? 1.0 : 0.0);
+    condition_out[i] = regular != 0 ? value : kInfinity;
+    fallback_out[i] = regular != 0 ? 1.0 - settled_here : 0.0;
+  }
+}
+
+void Conditions(const ConditionArgs& a) { ConditionPixels(a.count, a.capacity, a.acc, a.condition, a.fallback); }
+
+// Probe's rules per light and pixel (LightRulesArgs), branch-free. A float
+// x is finite where x - x == 0.
+inline void LightRulesOfLight(int n, const LightRulesArgs& a, const float* __restrict d0, const float* __restrict d1,
+                              const float* __restrict d2, float* __restrict v0, float* __restrict v1,
+                              float* __restrict v2, uint8_t* __restrict bad) {
+  const double w0 = a.w0, w1 = a.w1, w2 = a.w2, min_intensity = a.min_intensity;
+  const bool bayer = a.bayer;
+#pragma GCC unroll 1
+  for (int i = 0; i < n; ++i) {
+    const float in0 = v0[i], in1 = v1[i], in2 = v2[i];
+    const bool finite = (d0[i] - d0[i] == 0.0f) & (d1[i] - d1[i] == 0.0f) & (d2[i] - d2[i] == 0.0f) &
+                        (in0 - in0 == 0.0f) & (in1 - in1 == 0.0f) & (in2 - in2 == 0.0f);
+    const double luminance_intensity = w0 * in0 + w1 * in1 + w2 * in2;
+    const bool rgb_usable = (luminance_intensity >= min_intensity) & (in0 > 0.0f) & (in1 > 0.0f) & (in2 > 0.0f);
+    const bool usable = finite & (bayer | rgb_usable);
+    v0[i] = usable & (in0 > 0.0f) & (in0 >= min_intensity) ? 1.0f / in0 : 0.0f;
+    v1[i] = usable & (in1 > 0.0f) & (in1 >= min_intensity) ? 1.0f / in1 : 0.0f;
+    v2[i] = usable & (in2 > 0.0f) & (in2 >= min_intensity) ? 1.0f / in2 : 0.0f;
+    bad[i] = finite ? bad[i] : uint8_t{1};
+  }
+}
+
+void LightRules(const LightRulesArgs& a) {
+  const ptrdiff_t stride = a.stride;
+  for (int k = 0; k < a.num_lights; ++k) {
+    const float* d = a.dirs + 3 * k * stride;
+    float* v = a.inv + 3 * k * stride;
+    LightRulesOfLight(a.count, a, d, d + stride, d + 2 * stride, v, v + stride, v + 2 * stride, a.bad);
+  }
+}
+
 // Bit casts between double and its bits: loops of these still vectorise
 // (GCC turns the copies into lane reinterpretations).
 inline double DoubleFromBits(uint64_t bits) {
@@ -364,15 +449,17 @@ inline void PointLight(int count, const double* light, const double* __restrict 
   for (int i = 0; i < count; ++i) {
     const double tx = px - sx[i], ty = py - sy[i], tz = pz - sz[i];
     const double distance2 = tx * tx + ty * ty + tz * tz;
-    const double distance = __builtin_sqrt(distance2);
-    const double lx = tx / distance, ly = ty / distance, lz = tz / distance;
+    // One division per light and pixel (and one in the ln): the direction
+    // and the inverse square from 1 / distance.
+    const double inv_distance = 1.0 / __builtin_sqrt(distance2);
+    const double lx = tx * inv_distance, ly = ty * inv_distance, lz = tz * inv_distance;
     // Angle off the LED's axis, measured from the LED towards the point; NaN
     // (a non-finite point) counts as 0, like the clamp of Evaluate.
     const double cosine = -(lx * ax + ly * ay + lz * az);
     const double positive = cosine > 0 ? cosine : 1.0;  // keeps the ln finite where it is not used
     const double power = ExpNonPositive(mu * LnPositive(positive));
     const double angular = cosine > 0 ? power : at_zero;
-    const double falloff = angular * reference2 / distance2;
+    const double falloff = angular * reference2 * (inv_distance * inv_distance);
     dx[i] = static_cast<float>(lx), dy[i] = static_cast<float>(ly), dz[i] = static_cast<float>(lz);
     ir[i] = static_cast<float>(red * falloff), ig[i] = static_cast<float>(green * falloff);
     ib[i] = static_cast<float>(blue * falloff);
@@ -403,6 +490,6 @@ void PointLights(const PointLightArgs& a) {
 
 }  // namespace
 
-const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals, &PointLights, &Solve};
+const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals, &PointLights, &Solve, &Conditions, &LightRules};
 
 }  // namespace scanbench::tiled::SCANBENCH_ISA_NAMESPACE
