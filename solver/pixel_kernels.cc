@@ -101,7 +101,7 @@ class NormalEquationsSolve {
 
   // fits() for every pixel of the span: status, normal, albedo, condition number.
   void Solve(const Span& span);
-  // RMS luminance residual of every solved fit, from a second pass over the samples.
+  // RMS luminance residual of every solved fit (0 elsewhere), from a second pass over the samples.
   void AddResiduals(const Span& span);
   const SpanFits& fits() const { return fits_; }
 
@@ -159,15 +159,27 @@ void NormalEquationsSolve::Solve(const Span& span) {
     const double shared[6] = {m(0, 0), m(0, 1), m(0, 2), m(1, 1), m(1, 2), m(2, 2)};
     for (int e = 0; e < 6; ++e) std::fill_n(inverse_.begin() + e * n_, span.count, shared[e]);
   }
-  for (int i = 0; i < span.count; ++i) {
-    ready_[i] = 0;
-    fits_.lights_used[i] = 0;
-    fits_.condition_number[i] = 0;
-    fits_.residual[i] = 0;
+  const int count = span.count;
+  std::fill_n(ready_.begin(), count, 0.0);
+  std::fill_n(fits_.condition_number.begin(), count, 0.0);
+  std::fill_n(fits_.residual.begin(), count, 0.0);
+  std::fill_n(fits_.lights_used.begin(), count, 0);
+  // The common case of a uniform tile first: a pixel using all its usable
+  // lights (the shared matrix, checked once here).
+  const double* used = span.buffers->acc.data() + kCount * n_;
+  const int shared_usable = uniform && span.shared->condition <= settings_.options.max_condition_number &&
+                                    span.shared->usable >= std::max(3, settings_.options.min_lights)
+                                ? span.shared->usable
+                                : -1;
+  for (int i = 0; i < count; ++i) {
     if (!span.Wanted(i)) {
       fits_.status[i] = static_cast<uint8_t>(PixelStatus::kOutsideRegion);
     } else if (span.buffers->light_bad[i]) {
       fits_.status[i] = static_cast<uint8_t>(PixelStatus::kInvalidInput);
+    } else if (static_cast<int>(used[i]) == shared_usable) {
+      fits_.lights_used[i] = shared_usable;
+      fits_.condition_number[i] = span.shared->condition;
+      ready_[i] = 1;
     } else {
       PreparePixel(span, i);
     }
@@ -277,12 +289,11 @@ void NormalEquationsSolve::AddResiduals(const Span& span) {
   a.ok = b.ok.data();
   a.scaled = scaled_.data();
   a.residual2 = residual2_.data();
+  // The albedo is 0 unless the pixel is solved.
+  a.used = b.acc.data() + kCount * n_;
+  a.albedo = fits_.luminance_albedo.data();
+  a.rms = fits_.residual.data();
   settings_.kernels->residuals(a);
-  const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
-  for (int i = 0; i < count; ++i) {
-    if (fits_.status[i] != solved) continue;
-    fits_.residual[i] = std::sqrt(residual2_[i] / std::max(1, fits_.lights_used[i])) / fits_.luminance_albedo[i];
-  }
 }
 
 // normal_equations and uniform_pinv.

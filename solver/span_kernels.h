@@ -53,6 +53,11 @@ struct ResidualArgs {
   const float* ok = nullptr;
   const double* scaled = nullptr;     // [c * capacity + i]
   double* residual2 = nullptr;        // out, count values
+  // Then the RMS residual relative to the albedo, where albedo > 0:
+  // sqrt(residual2 / max(1, used)) / albedo, else 0.
+  const double* used = nullptr;       // samples used (acc's kCount row)
+  const double* albedo = nullptr;     // luminance albedo, 0 unless solved
+  double* rms = nullptr;              // out, count values
 };
 
 // The closed-form solve of a span's normal equations at the pixels marked

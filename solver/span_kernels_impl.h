@@ -168,6 +168,15 @@ void Accumulate(const AccumulateArgs& a) {
   }
 }
 
+inline void RmsResiduals(int count, const double* __restrict residual2, const double* __restrict used,
+                         const double* __restrict albedo, double* __restrict rms) {
+  for (int i = 0; i < count; ++i) {
+    const double lights = used[i] > 1.0 ? used[i] : 1.0;
+    const double value = __builtin_sqrt(residual2[i] / lights) / albedo[i];
+    rms[i] = albedo[i] > 0 ? value : 0.0;
+  }
+}
+
 // Exact, no cancellation: the samples are read again rather than expanding
 // the squared residual in the accumulated sums.
 void Residuals(const ResidualArgs& a) {
@@ -197,6 +206,7 @@ void Residuals(const ResidualArgs& a) {
       }
     }
   }
+  RmsResiduals(count, residual2, a.used, a.albedo, a.rms);
 }
 
 // The per-pixel body of Solve, over n pixels: restrict-qualified plain
