@@ -1,7 +1,9 @@
 // Internal to the solver library: the hot loops of the tiled solve over one
-// span, in plain-pointer form. They are compiled once per instruction set
-// (span_kernels_baseline.cc, _avx2.cc, _avx512.cc include
-// span_kernels_impl.h) and picked once per solve (SpanKernelsFor). Only plain
+// span (accumulation, the light usability rules, the point LEDs' falloff, the
+// condition numbers, the 3x3 solves, the residuals), in plain-pointer form.
+// They are compiled once per instruction set (span_kernels_baseline.cc,
+// _avx2.cc, _avx512.cc include span_kernels_impl.h) and picked once per
+// solve (SpanKernelsFor). Only plain
 // data crosses this interface: the per-ISA translation units must not
 // instantiate library templates (see span_kernels_impl.h).
 #pragma once
