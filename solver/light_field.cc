@@ -88,14 +88,6 @@ PointLightField::PointLightField(std::vector<PointLight> lights, ImageF surface_
     }
     light.axis.normalize();
   }
-  packed_lights_.reserve(lights_.size() * tiled::kPointLightValues);
-  for (const PointLight& light : lights_) {
-    const double values[tiled::kPointLightValues] = {
-        light.position.x(),      light.position.y(),      light.position.z(), light.axis.x(), light.axis.y(),
-        light.axis.z(),          light.mu,                light.reference_distance * light.reference_distance,
-        light.rgb_intensity.x(), light.rgb_intensity.y(), light.rgb_intensity.z()};
-    packed_lights_.insert(packed_lights_.end(), values, values + tiled::kPointLightValues);
-  }
 }
 
 void PointLightField::Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const {
@@ -122,12 +114,30 @@ void PointLightField::Evaluate(int x, int y, float* light_dirs, float* rgb_inten
 // (tests/solver/light_field_test.cc), and the same in every ISA.
 void PointLightField::EvaluateSpan(int x0, int y, int count, int stride, float* light_dirs,
                                    float* rgb_intensities) const {
+  // The LEDs as the kernel reads them, per call: a few dozen values, no
+  // allocation for up to 32 LEDs.
+  constexpr int kLocalLights = 32;
+  double local[kLocalLights * tiled::kPointLightValues];
+  std::vector<double> heap;
+  double* packed = local;
+  if (num_lights() > kLocalLights) {
+    heap.resize(lights_.size() * tiled::kPointLightValues);
+    packed = heap.data();
+  }
+  for (size_t k = 0; k < lights_.size(); ++k) {
+    const PointLight& light = lights_[k];
+    const double values[tiled::kPointLightValues] = {
+        light.position.x(),      light.position.y(),      light.position.z(), light.axis.x(), light.axis.y(),
+        light.axis.z(),          light.mu,                light.reference_distance * light.reference_distance,
+        light.rgb_intensity.x(), light.rgb_intensity.y(), light.rgb_intensity.z()};
+    std::copy(values, values + tiled::kPointLightValues, packed + k * tiled::kPointLightValues);
+  }
   tiled::PointLightArgs args;
   args.count = count;
   args.num_lights = num_lights();
   args.stride = stride;
   args.points = surface_points_.row(y) + static_cast<size_t>(x0) * 3;
-  args.lights = packed_lights_.data();
+  args.lights = packed;
   args.dirs = light_dirs;
   args.intensities = rgb_intensities;
   tiled::SpanKernelsFor(ActiveKernelIsa()).point_lights(args);

@@ -90,7 +90,6 @@ class PointLightField final : public LightField {
 
  private:
   std::vector<PointLight> lights_;
-  std::vector<double> packed_lights_;  // lights_ as the span kernel reads them (tiled::PointLightArgs)
   ImageF surface_points_;
   std::optional<Eigen::Vector3d> camera_centre_;
 };

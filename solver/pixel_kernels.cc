@@ -89,7 +89,8 @@ std::unique_ptr<PixelKernel> MakePerPixelKernel(const KernelSettings& settings, 
 // over the span in the per-ISA kernel (SpanKernels::solve).
 class NormalEquationsSolve {
  public:
-  NormalEquationsSolve(const KernelSettings& settings, int capacity) : settings_(settings), n_(capacity), fits_(capacity) {
+  NormalEquationsSolve(const KernelSettings& settings, int capacity)
+      : settings_(settings), n_(capacity), fits_(capacity) {
     scaled_.assign(static_cast<size_t>(3) * n_, 0.0);
     residual2_.assign(n_, 0.0);
     inverse_.assign(static_cast<size_t>(6) * n_, 0.0);
