@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "solver/span_kernels.h"
+
 namespace scanbench {
 namespace {
 
@@ -12,21 +14,6 @@ bool AllFinite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
 std::invalid_argument LightError(int index, const std::string& field, const std::string& rule) {
   return std::invalid_argument("light " + std::to_string(index) + ": " + field + " " + rule);
-}
-
-// ln(c) for c > 0 finite, to about 1e-15 relative: c = m 2^e with m in
-// [sqrt(1/2), sqrt(2)), then ln m = 2 atanh(z), z = (m - 1) / (m + 1) and
-// |z| <= 0.172, summed to z^17 (the next term is below 1e-14 of the sum).
-// Plain arithmetic that the span loop keeps inline, where glibc's log is a
-// call per LED and pixel.
-double LogPositive(double c) {
-  int exponent = 0;
-  double m = std::frexp(c, &exponent);  // [0.5, 1)
-  if (m < 0.70710678118654752) m *= 2, --exponent;
-  const double z = (m - 1) / (m + 1), z2 = z * z;
-  double series = 1.0 / 17;
-  for (int odd = 15; odd >= 1; odd -= 2) series = 1.0 / odd + z2 * series;
-  return 2 * z * series + exponent * 0.69314718055994531;
 }
 
 }  // namespace
@@ -121,41 +108,39 @@ void PointLightField::Evaluate(int x, int y, float* light_dirs, float* rgb_inten
   }
 }
 
-// The model of Evaluate in plain loops over the span, one light at a time
-// (no Eigen temporaries, no virtual call per pixel), and cos^mu as
-// exp(mu ln cos) with an inline ln (LogPositive) instead of std::pow: the same floats within a few ulp of
-// the doubles (tests/solver/light_field_test.cc).
+// The model of Evaluate in the solver's per-ISA span kernels
+// (span_kernels_impl.h: a vectorised loop per LED, cos^mu as exp(mu ln cos)
+// with both inline): the same floats within a few ulp of the doubles
+// (tests/solver/light_field_test.cc), and the same in every ISA.
 void PointLightField::EvaluateSpan(int x0, int y, int count, int stride, float* light_dirs,
                                    float* rgb_intensities) const {
-  const float* points = surface_points_.row(y) + static_cast<size_t>(x0) * 3;
+  // The LEDs as the kernel reads them, per call: a few dozen values, no
+  // allocation for up to 32 LEDs.
+  constexpr int kLocalLights = 32;
+  double local[kLocalLights * tiled::kPointLightValues];
+  std::vector<double> heap;
+  double* packed = local;
+  if (num_lights() > kLocalLights) {
+    heap.resize(lights_.size() * tiled::kPointLightValues);
+    packed = heap.data();
+  }
   for (size_t k = 0; k < lights_.size(); ++k) {
     const PointLight& light = lights_[k];
-    const double px = light.position.x(), py = light.position.y(), pz = light.position.z();
-    const double ax = light.axis.x(), ay = light.axis.y(), az = light.axis.z();
-    const double mu = light.mu, reference2 = light.reference_distance * light.reference_distance;
-    const double r = light.rgb_intensity.x(), g = light.rgb_intensity.y(), b = light.rgb_intensity.z();
-    const size_t plane = 3 * k * static_cast<size_t>(stride);
-    float* __restrict dx = light_dirs + plane;
-    float* __restrict dy = dx + stride;
-    float* __restrict dz = dx + 2 * stride;
-    float* __restrict ir = rgb_intensities + plane;
-    float* __restrict ig = ir + stride;
-    float* __restrict ib = ir + 2 * stride;
-    for (int i = 0; i < count; ++i) {
-      const double tx = px - points[3 * i], ty = py - points[3 * i + 1], tz = pz - points[3 * i + 2];
-      const double distance2 = tx * tx + ty * ty + tz * tz;
-      const double distance = std::sqrt(distance2);
-      const double lx = tx / distance, ly = ty / distance, lz = tz / distance;
-      const double cos_off_axis = std::max(0.0, -(lx * ax + ly * ay + lz * az));
-      // pow(0, mu) is 1 for mu = 0 and 0 above; exp(mu log 0) is NaN at mu = 0.
-      const double angular =
-          mu == 0 ? 1.0 : (cos_off_axis > 0 ? std::exp(mu * LogPositive(cos_off_axis)) : 0.0);
-      const double falloff = angular * reference2 / distance2;
-      dx[i] = static_cast<float>(lx), dy[i] = static_cast<float>(ly), dz[i] = static_cast<float>(lz);
-      ir[i] = static_cast<float>(r * falloff), ig[i] = static_cast<float>(g * falloff);
-      ib[i] = static_cast<float>(b * falloff);
-    }
+    const double values[tiled::kPointLightValues] = {
+        light.position.x(),      light.position.y(),      light.position.z(), light.axis.x(), light.axis.y(),
+        light.axis.z(),          light.mu,                light.reference_distance * light.reference_distance,
+        light.rgb_intensity.x(), light.rgb_intensity.y(), light.rgb_intensity.z()};
+    std::copy(values, values + tiled::kPointLightValues, packed + k * tiled::kPointLightValues);
   }
+  tiled::PointLightArgs args;
+  args.count = count;
+  args.num_lights = num_lights();
+  args.stride = stride;
+  args.points = surface_points_.row(y) + static_cast<size_t>(x0) * 3;
+  args.lights = packed;
+  args.dirs = light_dirs;
+  args.intensities = rgb_intensities;
+  tiled::SpanKernelsFor(ActiveKernelIsa()).point_lights(args);
 }
 
 void PointLightField::ViewDirection(int x, int y, float* view_dir) const {

@@ -84,87 +84,159 @@ std::unique_ptr<PixelKernel> MakePerPixelKernel(const KernelSettings& settings, 
 // ---------------------------------------------------------------------------
 // The closed-form solve of the accumulated normal equations for a whole span,
 // and its residuals: shared by normal_equations, uniform_pinv and adaptive.
+// Per pixel here: whether it can be solved (lights used, condition number)
+// and, in uniform tiles, which inverse it takes; the solves themselves run
+// over the span in the per-ISA kernel (SpanKernels::solve).
 class NormalEquationsSolve {
  public:
-  NormalEquationsSolve(const KernelSettings& settings, int capacity) : settings_(settings), n_(capacity) {
+  NormalEquationsSolve(const KernelSettings& settings, int capacity)
+      : settings_(settings), n_(capacity), fits_(capacity) {
     scaled_.assign(static_cast<size_t>(3) * n_, 0.0);
     residual2_.assign(n_, 0.0);
+    inverse_.assign(static_cast<size_t>(6) * n_, 0.0);
+    ready_.assign(n_, 0.0);
+    outcome_.assign(n_, 0.0);
+    condition_.assign(n_, 0.0);
+    condition_fallback_.assign(n_, 1.0);
   }
 
-  // fits()[i] for every pixel of the span: status, normal, albedo, condition number.
+  // fits() for every pixel of the span: status, normal, albedo, condition number.
   void Solve(const Span& span);
-  // RMS luminance residual of every solved fit, from a second pass over the samples.
+  // RMS luminance residual of every solved fit (0 elsewhere), from a second pass over the samples.
   void AddResiduals(const Span& span);
-  std::vector<PixelFit>& fits() { return fits_; }
+  const SpanFits& fits() const { return fits_; }
 
  private:
-  void SolvePixel(const Span& span, int i, PixelFit* fit);
+  // Status, lights used and condition number of pixel i where it cannot be
+  // solved; else marks it ready (and, in uniform tiles, gives its inverse).
+  void PreparePixel(const Span& span, int i);
   // The condition number of a Gram matrix (or the interpolated one) and,
-  // where within max_condition_number, its inverse.
-  void InvertGram(double g00, double g01, double g02, double g11, double g12, double g22,
-                  double interpolated_condition, bool interpolated, double* condition,
-                  Eigen::Matrix3d* inverse) const;
+  // where within max_condition_number, its inverse (6 entries, SolveArgs' order).
+  // `known_condition` where it is known (interpolated or from the kernel),
+  // else negative.
+  void InvertGram(double g00, double g01, double g02, double g11, double g12, double g22, double known_condition,
+                  double* condition, double inverse[6]) const;
+  void SetInverse(int i, const double inverse[6]) {
+    for (int e = 0; e < 6; ++e) inverse_[e * n_ + i] = inverse[e];
+  }
 
-  // Uniform tiles: the inverse per subset of used lights (SolvePixel).
+  // Uniform tiles: the inverse per subset of used lights (PreparePixel).
   struct SubsetInverse {
     uint64_t generation = ~uint64_t(0), mask = 0;
     double condition = 0;
-    Eigen::Matrix3d inverse = Eigen::Matrix3d::Identity();
+    double inverse[6] = {1, 0, 0, 1, 0, 1};
   };
   static constexpr int kSubsetBits = 6;
 
   const KernelSettings settings_;
   std::vector<SubsetInverse> subsets_ = std::vector<SubsetInverse>(size_t(1) << kSubsetBits);
   const int n_;
-  std::vector<PixelFit> fits_;
+  SpanFits fits_;
   std::vector<double> scaled_;     // luminance scaled normal, [c * n + i]; 0 unless solved
   std::vector<double> residual2_;  // sum of squared residuals
+  std::vector<double> inverse_;    // uniform tiles: each pixel's inverse Gram matrix, [e * n + i]
+  std::vector<double> ready_;      // 1 where the kernel solves the pixel
+  std::vector<double> outcome_;    // the kernel's status code where ready
+  // Exact tiles: each pixel's condition number from the kernel, unless
+  // condition_fallback_ (then ConditionNumberFromGram's).
+  std::vector<double> condition_, condition_fallback_;
 };
 
 void NormalEquationsSolve::Solve(const Span& span) {
-  fits_.assign(span.count, PixelFit());
-  for (int i = 0; i < span.count; ++i) {
-    scaled_[i] = scaled_[n_ + i] = scaled_[2 * n_ + i] = 0;
-    if (!span.Wanted(i)) continue;
-    if (span.buffers->light_bad[i]) {
-      fits_[i].status = PixelStatus::kInvalidInput;
-      continue;
+  const bool uniform = span.lights == TileLights::kUniform;
+  if (span.lights == TileLights::kExact) {
+    ConditionArgs c;
+    c.count = span.count;
+    c.capacity = n_;
+    c.acc = span.buffers->acc.data();
+    c.condition = condition_.data();
+    c.fallback = condition_fallback_.data();
+    settings_.kernels->conditions(c);
+  }
+  if (uniform) {
+    // Every pixel using all the tile's usable lights takes the shared
+    // inverse: the planes start with it, the others overwrite theirs.
+    const Eigen::Matrix3d& m = span.shared->inverse;
+    const double shared[6] = {m(0, 0), m(0, 1), m(0, 2), m(1, 1), m(1, 2), m(2, 2)};
+    for (int e = 0; e < 6; ++e) std::fill_n(inverse_.begin() + e * n_, span.count, shared[e]);
+  }
+  const int count = span.count;
+  std::fill_n(ready_.begin(), count, 0.0);
+  std::fill_n(fits_.condition_number.begin(), count, 0.0);
+  std::fill_n(fits_.residual.begin(), count, 0.0);
+  std::fill_n(fits_.lights_used.begin(), count, 0);
+  // The common case of a uniform tile first: a pixel using all its usable
+  // lights (the shared matrix, checked once here).
+  const double* used = span.buffers->acc.data() + kCount * n_;
+  const int shared_usable = uniform && span.shared->condition <= settings_.options.max_condition_number &&
+                                    span.shared->usable >= std::max(3, settings_.options.min_lights)
+                                ? span.shared->usable
+                                : -1;
+  for (int i = 0; i < count; ++i) {
+    if (!span.Wanted(i)) {
+      fits_.status[i] = static_cast<uint8_t>(PixelStatus::kOutsideRegion);
+    } else if (span.buffers->light_bad[i]) {
+      fits_.status[i] = static_cast<uint8_t>(PixelStatus::kInvalidInput);
+    } else if (static_cast<int>(used[i]) == shared_usable) {
+      fits_.lights_used[i] = shared_usable;
+      fits_.condition_number[i] = span.shared->condition;
+      ready_[i] = 1;
+    } else {
+      PreparePixel(span, i);
     }
-    SolvePixel(span, i, &fits_[i]);
+  }
+  SolveArgs a;
+  a.count = span.count;
+  a.capacity = n_;
+  a.albedo = settings_.with_albedo;
+  a.invert_gram = !uniform;
+  a.min_albedo = settings_.options.min_albedo;
+  a.solved = static_cast<int>(PixelStatus::kSolved);
+  a.no_signal = static_cast<int>(PixelStatus::kNoSignal);
+  a.facing_away = static_cast<int>(PixelStatus::kFacingAway);
+  a.acc = span.buffers->acc.data();
+  a.inverse = inverse_.data();
+  a.ready = ready_.data();
+  a.status = outcome_.data();
+  a.scaled = scaled_.data();
+  a.normal = fits_.normal.data();
+  a.luminance_albedo = fits_.luminance_albedo.data();
+  a.rgb_albedo = fits_.albedo.data();
+  settings_.kernels->solve(a);
+  for (int i = 0; i < span.count; ++i) {
+    if (ready_[i] != 0) fits_.status[i] = static_cast<uint8_t>(outcome_[i]);
   }
 }
 
 void NormalEquationsSolve::InvertGram(double g00, double g01, double g02, double g11, double g12, double g22,
-                                      double interpolated_condition, bool interpolated, double* condition,
-                                      Eigen::Matrix3d* inverse) const {
-  *condition = interpolated ? interpolated_condition : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
+                                      double known_condition, double* condition, double inverse[6]) const {
+  *condition = known_condition >= 0 ? known_condition : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
   if (*condition <= settings_.options.max_condition_number) {
-    // Closed-form inverse through the cofactors.
+    // Closed-form inverse through the cofactors (as the solve kernel forms it).
     const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
     const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
     const double det = g00 * c00 + g01 * c01 + g02 * c02;
     const double inv_det = 1.0 / det;
-    *inverse << c00, c01, c02, c01, c11, c12, c02, c12, c22;
-    *inverse *= inv_det;
+    const double values[6] = {c00 * inv_det, c01 * inv_det, c02 * inv_det, c11 * inv_det, c12 * inv_det, c22 * inv_det};
+    std::copy(values, values + 6, inverse);
   }
 }
 
-void NormalEquationsSolve::SolvePixel(const Span& span, int i, PixelFit* fit) {
+void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
   const PhotometricSolverOptions& options = settings_.options;
   const int n = n_;
   const double* acc = span.buffers->acc.data();
   const int used = static_cast<int>(acc[kCount * n + i]);
-  fit->lights_used = used;
+  fits_.lights_used[i] = used;
   if (used < std::max(3, options.min_lights)) {
-    fit->status = PixelStatus::kTooFewLights;
+    fits_.status[i] = static_cast<uint8_t>(PixelStatus::kTooFewLights);
     return;
   }
   const double g00 = acc[kG00 * n + i], g01 = acc[kG01 * n + i], g02 = acc[kG02 * n + i];
   const double g11 = acc[kG11 * n + i], g12 = acc[kG12 * n + i], g22 = acc[kG22 * n + i];
-  Eigen::Matrix3d inverse;
+  double condition = 0;
   if (span.lights == TileLights::kUniform && used == span.shared->usable) {
-    fit->condition_number = span.shared->condition;
-    inverse = span.shared->inverse;
+    condition = span.shared->condition;  // the inverse planes hold the shared one already (Solve)
   } else if (span.lights == TileLights::kUniform && settings_.num_lights <= 64) {
     // A uniform tile's Gram matrix depends only on which lights a pixel
     // uses (unit weights, the same directions, summed in the same order):
@@ -178,45 +250,28 @@ void NormalEquationsSolve::SolvePixel(const Span& span, int i, PixelFit* fit) {
     if (entry.generation != span.shared->generation || entry.mask != mask) {
       entry.generation = span.shared->generation;
       entry.mask = mask;
-      InvertGram(g00, g01, g02, g11, g12, g22, span.buffers->all_lights_condition[i], false, &entry.condition,
-                 &entry.inverse);
+      InvertGram(g00, g01, g02, g11, g12, g22, -1.0, &entry.condition, entry.inverse);
     }
-    fit->condition_number = entry.condition;
-    inverse = entry.inverse;
+    condition = entry.condition;
+    SetInverse(i, entry.inverse);
   } else {
     // Interpolated tiles have every light usable: a pixel using them all
-    // has the interpolated condition number of the nodes.
+    // has the interpolated condition number of the nodes. The kernel
+    // inverts the Gram matrix itself outside uniform tiles.
     const bool interpolated = span.lights == TileLights::kInterpolated && used == settings_.num_lights;
-    InvertGram(g00, g01, g02, g11, g12, g22, span.buffers->all_lights_condition[i], interpolated,
-               &fit->condition_number, &inverse);
+    const bool from_kernel = span.lights == TileLights::kExact && condition_fallback_[i] == 0;
+    const double known = interpolated ? span.buffers->all_lights_condition[i] : from_kernel ? condition_[i] : -1.0;
+    double inverse[6] = {1, 0, 0, 1, 0, 1};
+    InvertGram(g00, g01, g02, g11, g12, g22, known, &condition, inverse);
+    if (span.lights == TileLights::kUniform) SetInverse(i, inverse);
   }
-  if (!(fit->condition_number <= options.max_condition_number)) {
-    fit->status = PixelStatus::kIllConditioned;
-    fit->condition_number = std::min(fit->condition_number, double(std::numeric_limits<float>::max()));
+  if (!(condition <= options.max_condition_number)) {
+    fits_.status[i] = static_cast<uint8_t>(PixelStatus::kIllConditioned);
+    fits_.condition_number[i] = std::min(condition, double(std::numeric_limits<float>::max()));
     return;
   }
-  const Eigen::Vector3d scaled = inverse * Eigen::Vector3d(acc[kB0 * n + i], acc[kB1 * n + i], acc[kB2 * n + i]);
-  const double length = scaled.norm();
-  if (!std::isfinite(length) || !(length >= options.min_albedo) || length == 0) {
-    fit->status = PixelStatus::kNoSignal;
-    return;
-  }
-  if (!(scaled.z() > 0)) {
-    fit->status = PixelStatus::kFacingAway;
-    return;
-  }
-  fit->status = PixelStatus::kSolved;
-  fit->normal = scaled / length;
-  fit->luminance_albedo = length;
-  for (int c = 0; c < 3; ++c) scaled_[c * n + i] = scaled[c];
-  if (settings_.with_albedo) {
-    for (int c = 0; c < 3; ++c) {
-      const int row = kR0 + 3 * c;
-      const Eigen::Vector3d channel =
-          inverse * Eigen::Vector3d(acc[row * n + i], acc[(row + 1) * n + i], acc[(row + 2) * n + i]);
-      fit->albedo[c] = channel.norm();
-    }
-  }
+  fits_.condition_number[i] = condition;
+  ready_[i] = 1;
 }
 
 // Exact, no cancellation: the samples are read again rather than expanding
@@ -235,12 +290,11 @@ void NormalEquationsSolve::AddResiduals(const Span& span) {
   a.ok = b.ok.data();
   a.scaled = scaled_.data();
   a.residual2 = residual2_.data();
+  // The albedo is 0 unless the pixel is solved.
+  a.used = b.acc.data() + kCount * n_;
+  a.albedo = fits_.luminance_albedo.data();
+  a.rms = fits_.residual.data();
   settings_.kernels->residuals(a);
-  for (int i = 0; i < count; ++i) {
-    PixelFit& fit = fits_[i];
-    if (fit.status != PixelStatus::kSolved) continue;
-    fit.residual = std::sqrt(residual2_[i] / std::max(1, fit.lights_used)) / fit.luminance_albedo;
-  }
 }
 
 // normal_equations and uniform_pinv.
@@ -251,9 +305,7 @@ class NormalEquationsKernel final : public PixelKernel {
   void SolveSpan(const Span& span, PixelWriter* out) override {
     solve_.Solve(span);
     if (settings_.with_confidence) solve_.AddResiduals(span);
-    for (int i = 0; i < span.count; ++i) {
-      if (span.Wanted(i)) out->Store(solve_.fits()[i], span.x0 + i, span.y, span.LightPath());
-    }
+    out->StoreFits(solve_.fits(), span, nullptr);
   }
 
  private:
@@ -272,16 +324,24 @@ class NormalEquationsKernel final : public PixelKernel {
 class AdaptiveKernel final : public PixelKernel {
  public:
   AdaptiveKernel(const KernelSettings& settings, int capacity)
-      : settings_(settings), solve_(settings, capacity), samples_(settings.num_lights) {}
+      : settings_(settings), solve_(settings, capacity), samples_(settings.num_lights), refitted_(capacity, 0) {}
 
+  // The least-squares fits go out in one StoreFits after the loop, except
+  // where a refit replaced them (refitted_).
   void SolveSpan(const Span& span, PixelWriter* out) override {
     solve_.Solve(span);
     solve_.AddResiduals(span);
+    const SpanFits& fits = solve_.fits();
+    const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
     for (int i = 0; i < span.count; ++i) {
+      refitted_[i] = 0;
       if (!span.Wanted(i)) continue;
+      const bool sheen = settings_.options.adaptive_sheen && fits.status[i] == solved;
+      if (!WantsRobust(span, i, fits) && !sheen) continue;
+      refitted_[i] = 1;
       const int x = span.x0 + i;
-      const PixelFit& fit = solve_.fits()[i];
-      if (WantsRobust(span, i, fit)) {
+      const PixelFit fit = fits.Fit(i);
+      if (WantsRobust(span, i, fits)) {
         GatherSamples(span, i, settings_.with_albedo, &samples_);
         const PixelFit refit =
             settings_.options.adaptive_lobe
@@ -309,18 +369,20 @@ class AdaptiveKernel final : public PixelKernel {
       }
       out->Store(fit, x, span.y, span.LightPath());
     }
+    out->StoreFits(fits, span, refitted_.data());
   }
 
  private:
-  bool WantsRobust(const Span& span, int i, const PixelFit& fit) const {
+  bool WantsRobust(const Span& span, int i, const SpanFits& fits) const {
     if (span.buffers->light_bad[i]) return false;
-    return span.buffers->clipped[i] > 0 ||
-           (fit.status == PixelStatus::kSolved && fit.residual > settings_.options.adaptive_robust_residual);
+    return span.buffers->clipped[i] > 0 || (fits.status[i] == static_cast<uint8_t>(PixelStatus::kSolved) &&
+                                            fits.residual[i] > settings_.options.adaptive_robust_residual);
   }
 
   const KernelSettings settings_;
   NormalEquationsSolve solve_;
   PixelSamples samples_;
+  std::vector<uint8_t> refitted_;  // 1 where the loop stored the pixel itself
 };
 
 }  // namespace

@@ -1,7 +1,9 @@
 // Internal to the solver library: the hot loops of the tiled solve over one
-// span, in plain-pointer form. They are compiled once per instruction set
-// (span_kernels_baseline.cc, _avx2.cc, _avx512.cc include
-// span_kernels_impl.h) and picked once per solve (SpanKernelsFor). Only plain
+// span (accumulation, the light usability rules, the point LEDs' falloff, the
+// condition numbers, the 3x3 solves, the residuals), in plain-pointer form.
+// They are compiled once per instruction set (span_kernels_baseline.cc,
+// _avx2.cc, _avx512.cc include span_kernels_impl.h) and picked once per
+// solve (SpanKernelsFor). Only plain
 // data crosses this interface: the per-ISA translation units must not
 // instantiate library templates (see span_kernels_impl.h).
 #pragma once
@@ -53,12 +55,79 @@ struct ResidualArgs {
   const float* ok = nullptr;
   const double* scaled = nullptr;     // [c * capacity + i]
   double* residual2 = nullptr;        // out, count values
+  // Then the RMS residual relative to the albedo, where albedo > 0:
+  // sqrt(residual2 / max(1, used)) / albedo, else 0.
+  const double* used = nullptr;       // samples used (acc's kCount row)
+  const double* albedo = nullptr;     // luminance albedo, 0 unless solved
+  double* rms = nullptr;              // out, count values
 };
+
+// The closed-form solve of a span's normal equations at the pixels marked
+// ready (enough lights, condition number within the limit: decided by the
+// caller): scaled = inverse(Gram) * L^T luminance, then the status from its
+// length and direction, the unit normal and the RGB albedo (the lengths of
+// inverse(Gram) * L^T channel).
+struct SolveArgs {
+  int count = 0, capacity = 0;
+  bool albedo = false;        // the RGB albedo too (acc rows kR0..kBl2)
+  bool invert_gram = false;   // invert each pixel's accumulated Gram matrix (cofactors); else read `inverse`
+  double min_albedo = 0;      // shorter scaled normals have no signal
+  int solved = 0, no_signal = 0, facing_away = 0;  // the PixelStatus codes to write
+  const double* acc = nullptr;      // [a * capacity + i], a in tiled::Acc
+  const double* inverse = nullptr;  // [e * capacity + i], e = 00, 01, 02, 11, 12, 22 of the symmetric inverse
+  const double* ready = nullptr;    // 1: solve the pixel, 0: not
+  double* status = nullptr;         // out: the status code where ready, -1 elsewhere
+  double* scaled = nullptr;         // out: [c * capacity + i], luminance scaled normal; 0 unless solved
+  double* normal = nullptr;         // out: [c * capacity + i], unit; (0, 0, 1) unless solved
+  double* luminance_albedo = nullptr;  // out: length of the scaled normal; 0 unless solved
+  double* rgb_albedo = nullptr;        // out: [c * capacity + i]; 0 unless solved (and asked for)
+};
+
+// The condition number of each pixel's accumulated Gram matrix, as
+// ConditionNumberFromGram (solver/pixel_solvers.h) computes it along its
+// first route (Newton from above to the largest eigenvalue, 8 steps at
+// most): the same operations, so the same values. Pixels that route does not
+// settle are flagged for the scalar function.
+struct ConditionArgs {
+  int count = 0, capacity = 0;
+  const double* acc = nullptr;  // [a * capacity + i], a in tiled::Acc
+  double* condition = nullptr;  // out
+  double* fallback = nullptr;   // out: 1 where `condition` is not set (call ConditionNumberFromGram), else 0
+};
+
+// The usability rules of TileLightSampler::Probe over a span's planar
+// lights, in place: intensities become their inverses (0 where unusable).
+struct LightRulesArgs {
+  int count = 0, num_lights = 0, stride = 0;
+  bool bayer = false;               // each raw pixel needs only its own channel
+  double w0 = 0, w1 = 0, w2 = 0;    // luminance weights
+  double min_intensity = 0;         // min_light_intensity
+  const float* dirs = nullptr;      // [(3k + c) * stride + i]
+  float* inv = nullptr;             // in: intensities; out: 1 / intensity or 0
+  uint8_t* bad = nullptr;           // out: set to 1 where a light is not finite (left as is elsewhere)
+};
+
+// Point LEDs at a span of surface points (PointLightField::EvaluateSpan):
+// per light, the unit direction towards it and rgb * cos^mu * reference^2 /
+// distance^2, with cos the cosine off the LED's axis clamped to 0.
+struct PointLightArgs {
+  int count = 0, num_lights = 0, stride = 0;
+  const float* points = nullptr;   // 3 per pixel, interleaved
+  const double* lights = nullptr;  // kPointLightValues per light, PointLightValue order
+  float* dirs = nullptr;           // out: [(3k + c) * stride + i]
+  float* intensities = nullptr;    // out: likewise
+};
+enum PointLightValue : int { kLightX, kLightY, kLightZ, kAxisX, kAxisY, kAxisZ, kMu, kReference2, kRed, kGreen, kBlue,
+                             kPointLightValues };
 
 struct SpanKernels {
   KernelIsa isa = KernelIsa::kBaseline;
   void (*accumulate)(const AccumulateArgs& args) = nullptr;
   void (*residuals)(const ResidualArgs& args) = nullptr;
+  void (*point_lights)(const PointLightArgs& args) = nullptr;
+  void (*solve)(const SolveArgs& args) = nullptr;
+  void (*conditions)(const ConditionArgs& args) = nullptr;
+  void (*light_rules)(const LightRulesArgs& args) = nullptr;
 };
 
 // The kernels built for `isa` (which must be supported: KernelIsaSupported).

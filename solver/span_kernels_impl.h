@@ -168,6 +168,15 @@ void Accumulate(const AccumulateArgs& a) {
   }
 }
 
+inline void RmsResiduals(int count, const double* __restrict residual2, const double* __restrict used,
+                         const double* __restrict albedo, double* __restrict rms) {
+  for (int i = 0; i < count; ++i) {
+    const double lights = used[i] > 1.0 ? used[i] : 1.0;
+    const double value = __builtin_sqrt(residual2[i] / lights) / albedo[i];
+    rms[i] = albedo[i] > 0 ? value : 0.0;
+  }
+}
+
 // Exact, no cancellation: the samples are read again rather than expanding
 // the squared residual in the accumulated sums.
 void Residuals(const ResidualArgs& a) {
@@ -197,10 +206,300 @@ void Residuals(const ResidualArgs& a) {
       }
     }
   }
+  RmsResiduals(count, residual2, a.used, a.albedo, a.rms);
+}
+
+// The per-pixel body of Solve, over n pixels: restrict-qualified plain
+// arrays and selects only, so that it vectorises. The inverse is formed as
+// NormalEquationsSolve::InvertGram did (cofactors over the determinant).
+template <bool kInvert, bool kAlbedo>
+inline void SolvePixels(int n, ptrdiff_t cap, const SolveArgs& a, const double* __restrict acc,
+                        const double* __restrict given, const double* __restrict ready, double* __restrict status,
+                        double* __restrict s0, double* __restrict s1, double* __restrict s2, double* __restrict n0,
+                        double* __restrict n1, double* __restrict n2, double* __restrict length_out,
+                        double* __restrict a0, double* __restrict a1, double* __restrict a2) {
+  const double min_albedo = a.min_albedo;
+  const double solved = a.solved, no_signal = a.no_signal, facing_away = a.facing_away;
+  // Every array is a separate buffer (the restrict qualifiers say so, but GCC
+  // 12 still counts alias checks between the planes of one buffer).
+#pragma GCC ivdep
+#pragma GCC unroll 1
+  for (int i = 0; i < n; ++i) {
+    double m00, m01, m02, m11, m12, m22;
+    if constexpr (kInvert) {
+      const double g00 = acc[kG00 * cap + i], g01 = acc[kG01 * cap + i], g02 = acc[kG02 * cap + i];
+      const double g11 = acc[kG11 * cap + i], g12 = acc[kG12 * cap + i], g22 = acc[kG22 * cap + i];
+      const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
+      const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
+      const double det = g00 * c00 + g01 * c01 + g02 * c02;
+      const double inv_det = 1.0 / det;
+      m00 = c00 * inv_det, m01 = c01 * inv_det, m02 = c02 * inv_det;
+      m11 = c11 * inv_det, m12 = c12 * inv_det, m22 = c22 * inv_det;
+    } else {
+      m00 = given[0 * cap + i], m01 = given[1 * cap + i], m02 = given[2 * cap + i];
+      m11 = given[3 * cap + i], m12 = given[4 * cap + i], m22 = given[5 * cap + i];
+    }
+    const double b0 = acc[kB0 * cap + i], b1 = acc[kB1 * cap + i], b2 = acc[kB2 * cap + i];
+    const double x = m00 * b0 + m01 * b1 + m02 * b2;
+    const double y = m01 * b0 + m11 * b1 + m12 * b2;
+    const double z = m02 * b0 + m12 * b1 + m22 * b2;
+    const double length = __builtin_sqrt(x * x + y * y + z * z);
+    // NaN and infinity fail the first test (length - length is NaN). Bitwise
+    // &: a short-circuit would be a branch.
+    const bool signal = (length - length == 0) & (length >= min_albedo) & (length != 0);
+    const bool up = z > 0;
+    const bool is_ready = ready[i] != 0;
+    const bool ok = is_ready & signal & up;
+    const double code = signal ? (up ? solved : facing_away) : no_signal;
+    status[i] = is_ready ? code : -1.0;
+    const double inv_length = 1.0 / length;
+    s0[i] = ok ? x : 0.0, s1[i] = ok ? y : 0.0, s2[i] = ok ? z : 0.0;
+    n0[i] = ok ? x * inv_length : 0.0, n1[i] = ok ? y * inv_length : 0.0, n2[i] = ok ? z * inv_length : 1.0;
+    length_out[i] = ok ? length : 0.0;
+    if constexpr (kAlbedo) {
+      double channel[3];
+      for (int c = 0; c < 3; ++c) {
+        const double r0 = acc[(kR0 + 3 * c) * cap + i], r1 = acc[(kR0 + 3 * c + 1) * cap + i];
+        const double r2 = acc[(kR0 + 3 * c + 2) * cap + i];
+        const double cx = m00 * r0 + m01 * r1 + m02 * r2;
+        const double cy = m01 * r0 + m11 * r1 + m12 * r2;
+        const double cz = m02 * r0 + m12 * r1 + m22 * r2;
+        channel[c] = __builtin_sqrt(cx * cx + cy * cy + cz * cz);
+      }
+      a0[i] = ok ? channel[0] : 0.0, a1[i] = ok ? channel[1] : 0.0, a2[i] = ok ? channel[2] : 0.0;
+    }
+  }
+}
+
+template <bool kInvert, bool kAlbedo>
+void SolveAll(const SolveArgs& a) {
+  const ptrdiff_t cap = a.capacity;
+  SolvePixels<kInvert, kAlbedo>(a.count, cap, a, a.acc, a.inverse, a.ready, a.status, a.scaled, a.scaled + cap,
+                                a.scaled + 2 * cap, a.normal, a.normal + cap, a.normal + 2 * cap,
+                                a.luminance_albedo, a.rgb_albedo, a.rgb_albedo + cap, a.rgb_albedo + 2 * cap);
+}
+
+void Solve(const SolveArgs& a) {
+  if (a.invert_gram) {
+    a.albedo ? SolveAll<true, true>(a) : SolveAll<true, false>(a);
+  } else {
+    a.albedo ? SolveAll<false, true>(a) : SolveAll<false, false>(a);
+  }
+}
+
+// ConditionNumberFromGram's first route, per pixel (see ConditionArgs): the
+// same expressions in the same order; a lane stops where the scalar loop
+// would return.
+inline void ConditionPixels(int n, ptrdiff_t cap, const double* __restrict acc, double* __restrict condition_out,
+                            double* __restrict fallback_out) {
+  constexpr double kTolerance = 1e-9;
+  constexpr double kInfinity = __builtin_inf();
+  // Flags are doubles (1 or 0) combined by products: GCC 12 vectorises no
+  // select or logical operation between comparisons' results here.
+#pragma GCC ivdep
+#pragma GCC unroll 1
+  for (int i = 0; i < n; ++i) {
+    const double g00 = acc[kG00 * cap + i], g01 = acc[kG01 * cap + i], g02 = acc[kG02 * cap + i];
+    const double g11 = acc[kG11 * cap + i], g12 = acc[kG12 * cap + i], g22 = acc[kG22 * cap + i];
+    const double trace = g00 + g11 + g22;
+    const double minors = g00 * g11 + g00 * g22 + g11 * g22 - g01 * g01 - g02 * g02 - g12 * g12;
+    const double det =
+        g00 * (g11 * g22 - g12 * g12) - g01 * (g01 * g22 - g12 * g02) + g02 * (g01 * g12 - g11 * g02);
+    const double scale = trace * trace * trace;
+    const double regular = (trace > 0 ? 1.0 : 0.0) * (det - det == 0 ? 1.0 : 0.0) * (det > 1e-30 * scale ? 1.0 : 0.0);
+    const double a01 = __builtin_fabs(g01), a02 = __builtin_fabs(g02), a12 = __builtin_fabs(g12);
+    const double r0 = g00 + a01 + a02, r1 = a01 + g11 + a12, r2 = a02 + a12 + g22;
+    const double r01 = r0 < r1 ? r1 : r0;
+    const double gershgorin = r01 < r2 ? r2 : r01;
+    double t = gershgorin < trace ? gershgorin : trace;
+    double active = 1.0, converged = 0.0;
+#pragma GCC unroll 8
+    for (int iteration = 0; iteration < 8; ++iteration) {
+      const double d = (3 * t - 2 * trace) * t + minors;
+      const double go = active * (d != 0 ? 1.0 : 0.0) * (d - d == 0 ? 1.0 : 0.0);
+      const double step = (((t - trace) * t + minors) * t - det) / d;
+      const double next = t - step;
+      const double settled = __builtin_fabs(step) > kTolerance * __builtin_fabs(next) ? 0.0 : 1.0;
+      t = go != 0 ? next : t;
+      converged = converged + go * settled;
+      active = go * (1.0 - settled);
+    }
+    const double lambda_max = t;
+    // The other two roots: sum trace - r, product det / r.
+    const double sum = trace - lambda_max, product = det / lambda_max;
+    const double discriminant = sum * sum - 4 * product;
+    const double root = __builtin_sqrt(discriminant > 0.0 ? discriminant : 0.0);
+    const double high = 0.5 * (sum + root);
+    const double lambda_min = high > 0 ? product / high : 0.0;
+    const double good = (lambda_min > 1e-15 * lambda_max ? 1.0 : 0.0) * (lambda_max - lambda_max == 0 ? 1.0 : 0.0);
+    const double value = good != 0 ? __builtin_sqrt(lambda_max / lambda_min) : kInfinity;
+    const double settled_here = converged * (lambda_max > 0 ? 1.0 : 0.0);
+    condition_out[i] = regular != 0 ? value : kInfinity;
+    fallback_out[i] = regular != 0 ? 1.0 - settled_here : 0.0;
+  }
+}
+
+void Conditions(const ConditionArgs& a) { ConditionPixels(a.count, a.capacity, a.acc, a.condition, a.fallback); }
+
+// Probe's rules per light and pixel (LightRulesArgs), branch-free. A float
+// x is finite where x - x == 0.
+inline void LightRulesOfLight(int n, const LightRulesArgs& a, const float* __restrict d0, const float* __restrict d1,
+                              const float* __restrict d2, float* __restrict v0, float* __restrict v1,
+                              float* __restrict v2, uint8_t* __restrict bad) {
+  const double w0 = a.w0, w1 = a.w1, w2 = a.w2, min_intensity = a.min_intensity;
+  const bool bayer = a.bayer;
+#pragma GCC unroll 1
+  for (int i = 0; i < n; ++i) {
+    const float in0 = v0[i], in1 = v1[i], in2 = v2[i];
+    const bool finite = (d0[i] - d0[i] == 0.0f) & (d1[i] - d1[i] == 0.0f) & (d2[i] - d2[i] == 0.0f) &
+                        (in0 - in0 == 0.0f) & (in1 - in1 == 0.0f) & (in2 - in2 == 0.0f);
+    const double luminance_intensity = w0 * in0 + w1 * in1 + w2 * in2;
+    const bool rgb_usable = (luminance_intensity >= min_intensity) & (in0 > 0.0f) & (in1 > 0.0f) & (in2 > 0.0f);
+    const bool usable = finite & (bayer | rgb_usable);
+    v0[i] = usable & (in0 > 0.0f) & (in0 >= min_intensity) ? 1.0f / in0 : 0.0f;
+    v1[i] = usable & (in1 > 0.0f) & (in1 >= min_intensity) ? 1.0f / in1 : 0.0f;
+    v2[i] = usable & (in2 > 0.0f) & (in2 >= min_intensity) ? 1.0f / in2 : 0.0f;
+    bad[i] = finite ? bad[i] : uint8_t{1};
+  }
+}
+
+void LightRules(const LightRulesArgs& a) {
+  const ptrdiff_t stride = a.stride;
+  for (int k = 0; k < a.num_lights; ++k) {
+    const float* d = a.dirs + 3 * k * stride;
+    float* v = a.inv + 3 * k * stride;
+    LightRulesOfLight(a.count, a, d, d + stride, d + 2 * stride, v, v + stride, v + 2 * stride, a.bad);
+  }
+}
+
+// Bit casts between double and its bits: loops of these still vectorise
+// (GCC turns the copies into lane reinterpretations).
+inline double DoubleFromBits(uint64_t bits) {
+  double value;
+  __builtin_memcpy(&value, &bits, sizeof value);
+  return value;
+}
+inline uint64_t BitsOf(double value) {
+  uint64_t bits;
+  __builtin_memcpy(&bits, &value, sizeof bits);
+  return bits;
+}
+
+// ln c for c > 0 finite (normal), to about 1e-15 relative, branch-free: c =
+// m 2^e with m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh(z), z = (m - 1) /
+// (m + 1), |z| <= 0.172, summed to z^17 (the next term is below 1e-14 of the
+// sum). The exponent becomes a double through the 2^52 trick, since SSE2 and
+// AVX2 have no vector int64-to-double conversion.
+inline double LnPositive(double c) {
+  const uint64_t bits = BitsOf(c);
+  const double biased_exponent = DoubleFromBits((bits >> 52) | 0x4330000000000000ull) - 4503599627370496.0;
+  const double m1 = DoubleFromBits((bits & 0x000FFFFFFFFFFFFFull) | 0x3FF0000000000000ull);  // [1, 2)
+  const bool high = m1 > 1.4142135623730951;
+  const double m = high ? 0.5 * m1 : m1;
+  const double exponent = biased_exponent - 1023.0 + (high ? 1.0 : 0.0);
+  const double z = (m - 1) / (m + 1), z2 = z * z;
+  double series = 1.0 / 17;
+  series = 1.0 / 15 + z2 * series;
+  series = 1.0 / 13 + z2 * series;
+  series = 1.0 / 11 + z2 * series;
+  series = 1.0 / 9 + z2 * series;
+  series = 1.0 / 7 + z2 * series;
+  series = 1.0 / 5 + z2 * series;
+  series = 1.0 / 3 + z2 * series;
+  series = 1.0 + z2 * series;
+  return 2 * z * series + exponent * 0.69314718055994531;
+}
+
+// e^y for y <= 0, to about 1e-14 relative, branch-free; y below -700 gives
+// e^-700 (1e-304, 0 as a float). y = n ln 2 + r with n rounded by the 1.5 *
+// 2^52 trick (round to nearest), |r| <= ln 2 / 2 (ln 2 in two parts, so r is
+// exact to 1e-16 for any n), e^r by its Taylor series to r^12 (the rest is
+// below 1e-14), 2^n built in the exponent bits.
+inline double ExpNonPositive(double y) {
+  const double x = y < -700.0 ? -700.0 : y;
+  constexpr double kRound = 6755399441055744.0;
+  const double shifted = x * 1.4426950408889634 + kRound;
+  const double n = shifted - kRound;
+  const double r = (x - n * 0.693147180369123816490) - n * 1.90821492927058770002e-10;
+  double p = 1.0 / 479001600;
+  p = 1.0 / 39916800 + r * p;
+  p = 1.0 / 3628800 + r * p;
+  p = 1.0 / 362880 + r * p;
+  p = 1.0 / 40320 + r * p;
+  p = 1.0 / 5040 + r * p;
+  p = 1.0 / 720 + r * p;
+  p = 1.0 / 120 + r * p;
+  p = 1.0 / 24 + r * p;
+  p = 1.0 / 6 + r * p;
+  p = 0.5 + r * p;
+  p = 1.0 + r * p;
+  p = 1.0 + r * p;
+  // The low bits of `shifted` hold n (two's complement); n + 1023 is in
+  // [13, 1023] here, a normal exponent.
+  return p * DoubleFromBits((BitsOf(shifted) + 1023) << 52);
+}
+
+// One LED over the span, in double (the surface points are hundreds of mm
+// from the LEDs, the directions are differences of those), rounded to float
+// at the end. Branch-free, restrict-qualified parameters: the compiler
+// vectorises it.
+inline void PointLight(int count, const double* light, const double* __restrict sx, const double* __restrict sy,
+                       const double* __restrict sz, float* __restrict dx,
+                       float* __restrict dy, float* __restrict dz, float* __restrict ir, float* __restrict ig,
+                       float* __restrict ib) {
+  const double px = light[kLightX], py = light[kLightY], pz = light[kLightZ];
+  const double ax = light[kAxisX], ay = light[kAxisY], az = light[kAxisZ];
+  const double mu = light[kMu], reference2 = light[kReference2];
+  const double red = light[kRed], green = light[kGreen], blue = light[kBlue];
+  // pow(0, mu) is 1 for mu = 0 and 0 above (and exp(0 ln c) is exactly 1
+  // elsewhere). Chosen here: a select on mu inside the loop stops GCC 12's
+  // vectoriser.
+  const double at_zero = mu == 0 ? 1.0 : 0.0;
+#pragma GCC unroll 1
+  for (int i = 0; i < count; ++i) {
+    const double tx = px - sx[i], ty = py - sy[i], tz = pz - sz[i];
+    const double distance2 = tx * tx + ty * ty + tz * tz;
+    // One division per light and pixel (and one in the ln): the direction
+    // and the inverse square from 1 / distance.
+    const double inv_distance = 1.0 / __builtin_sqrt(distance2);
+    const double lx = tx * inv_distance, ly = ty * inv_distance, lz = tz * inv_distance;
+    // Angle off the LED's axis, measured from the LED towards the point; NaN
+    // (a non-finite point) counts as 0, like the clamp of Evaluate.
+    const double cosine = -(lx * ax + ly * ay + lz * az);
+    const double positive = cosine > 0 ? cosine : 1.0;  // keeps the ln finite where it is not used
+    const double power = ExpNonPositive(mu * LnPositive(positive));
+    const double angular = cosine > 0 ? power : at_zero;
+    const double falloff = angular * reference2 * (inv_distance * inv_distance);
+    dx[i] = static_cast<float>(lx), dy[i] = static_cast<float>(ly), dz[i] = static_cast<float>(lz);
+    ir[i] = static_cast<float>(red * falloff), ig[i] = static_cast<float>(green * falloff);
+    ib[i] = static_cast<float>(blue * falloff);
+  }
+}
+
+// The points of a block, planar: GCC 12 does not vectorise the light loop
+// when it reads the interleaved floats into doubles itself.
+inline void Deinterleave(int n, const float* __restrict points, double* __restrict x, double* __restrict y,
+                         double* __restrict z) {
+  for (int i = 0; i < n; ++i) x[i] = points[3 * i], y[i] = points[3 * i + 1], z[i] = points[3 * i + 2];
+}
+
+void PointLights(const PointLightArgs& a) {
+  const ptrdiff_t stride = a.stride;
+  double x[kBlock], y[kBlock], z[kBlock];
+  for (int i0 = 0; i0 < a.count; i0 += kBlock) {
+    const int n = a.count - i0 < kBlock ? a.count - i0 : kBlock;
+    Deinterleave(n, a.points + 3 * i0, x, y, z);
+    for (int k = 0; k < a.num_lights; ++k) {
+      float* dirs = a.dirs + 3 * k * stride + i0;
+      float* intensities = a.intensities + 3 * k * stride + i0;
+      PointLight(n, a.lights + k * kPointLightValues, x, y, z, dirs, dirs + stride, dirs + 2 * stride, intensities,
+                 intensities + stride, intensities + 2 * stride);
+    }
+  }
 }
 
 }  // namespace
 
-const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals};
+const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals, &PointLights, &Solve, &Conditions, &LightRules};
 
 }  // namespace scanbench::tiled::SCANBENCH_ISA_NAMESPACE

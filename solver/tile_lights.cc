@@ -245,37 +245,24 @@ void TileLightSampler::FillInterpolatedRow(int x0, int y, SpanBuffers* buffers) 
   }
 }
 
-// The whole row from the field at once, then Probe's rules per light in
-// planar loops (the intensities are turned into their inverses in place).
+// The whole row from the field at once, then Probe's rules per light in the
+// per-ISA kernel (the intensities are turned into their inverses in place).
 void TileLightSampler::FillExactRow(int x0, int x1, int y, SpanBuffers* buffers) {
   const int n = buffers->capacity, count = x1 - x0;
   job_.field->EvaluateSpan(x0, y, count, n, buffers->dir.data(), buffers->inv.data());
   const auto& w = options_.luminance_weights;
-  const double w0 = w[0], w1 = w[1], w2 = w[2], min_intensity = options_.min_light_intensity;
-  const bool bayer = job_.bayer;
-  uint8_t* __restrict bad = buffers->light_bad.data();
-  for (int k = 0; k < num_lights_; ++k) {
-    const size_t plane = static_cast<size_t>(3 * k) * n;
-    const float* __restrict d0 = &buffers->dir[plane];
-    const float* __restrict d1 = d0 + n;
-    const float* __restrict d2 = d0 + 2 * n;
-    float* __restrict v0 = &buffers->inv[plane];
-    float* __restrict v1 = v0 + n;
-    float* __restrict v2 = v0 + 2 * n;
-    for (int i = 0; i < count; ++i) {
-      const float in0 = v0[i], in1 = v1[i], in2 = v2[i];
-      const bool finite = std::isfinite(d0[i]) && std::isfinite(d1[i]) && std::isfinite(d2[i]) &&
-                          std::isfinite(in0) && std::isfinite(in1) && std::isfinite(in2);
-      const double luminance_intensity = w0 * in0 + w1 * in1 + w2 * in2;
-      // Bayer: each raw pixel needs only its own channel (as Probe).
-      const bool usable = bayer ? finite
-                                : finite && luminance_intensity >= min_intensity && in0 > 0 && in1 > 0 && in2 > 0;
-      v0[i] = usable && in0 > 0 && in0 >= min_intensity ? 1.0f / in0 : 0.0f;
-      v1[i] = usable && in1 > 0 && in1 >= min_intensity ? 1.0f / in1 : 0.0f;
-      v2[i] = usable && in2 > 0 && in2 >= min_intensity ? 1.0f / in2 : 0.0f;
-      bad[i] = finite ? bad[i] : 1;
-    }
-  }
+  LightRulesArgs a;
+  a.count = count;
+  a.num_lights = num_lights_;
+  a.stride = n;
+  a.bayer = job_.bayer;
+  a.w0 = w[0], a.w1 = w[1], a.w2 = w[2];
+  a.min_intensity = options_.min_light_intensity;
+  a.dirs = buffers->dir.data();
+  a.inv = buffers->inv.data();
+  a.bad = buffers->light_bad.data();
+  KernelsOf(job_).light_rules(a);
+  const uint8_t* bad = buffers->light_bad.data();
   for (int i = 0; i < count; ++i) {
     if (!bad[i]) continue;
     for (int j = 0; j < 3 * num_lights_; ++j) {

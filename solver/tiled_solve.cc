@@ -88,6 +88,130 @@ AccumulateSpanFn ChooseAccumulator(bool bayer, bool with_albedo, bool uniform_li
   return uniform_lights ? &AccumulateSpan<true, false, false> : &AccumulateSpan<false, false, false>;
 }
 
+SpanFits::SpanFits(int span_capacity) : capacity(span_capacity) {
+  status.assign(capacity, 0);
+  lights_used.assign(capacity, 0);
+  normal.assign(static_cast<size_t>(3) * capacity, 0.0);
+  albedo.assign(static_cast<size_t>(3) * capacity, 0.0);
+  luminance_albedo.assign(capacity, 0.0);
+  condition_number.assign(capacity, 0.0);
+  residual.assign(capacity, 0.0);
+}
+
+PixelFit SpanFits::Fit(int i) const {
+  PixelFit fit;
+  fit.status = static_cast<PixelStatus>(status[i]);
+  for (int c = 0; c < 3; ++c) {
+    fit.normal[c] = normal[c * capacity + i];
+    fit.albedo[c] = albedo[c * capacity + i];
+  }
+  fit.luminance_albedo = luminance_albedo[i];
+  fit.lights_used = lights_used[i];
+  fit.condition_number = condition_number[i];
+  fit.residual = residual[i];
+  return fit;
+}
+
+namespace {
+
+// StoreFits' loops for one span; kAll: every pixel is written (no region,
+// nothing skipped), loops without a test that the compiler vectorises.
+template <bool kAll>
+void StoreFitRows(const SolveJob& job, const SpanFits& fits, const Span& span, const uint8_t* skip,
+                  std::array<size_t, kNumSolvePaths>* pixels_by_path) {
+  PhotometricSolution& s = *job.solution;
+  const int count = span.count, n = fits.capacity, x0 = span.x0, y = span.y;
+  const uint8_t solved_code = static_cast<uint8_t>(PixelStatus::kSolved);
+  const uint8_t* __restrict status_in = fits.status.data();
+  auto write = [&](int i) { return kAll || (span.Wanted(i) && (skip == nullptr || skip[i] == 0)); };
+  {
+    float* __restrict out = s.normal_in_table.row(y) + static_cast<size_t>(x0) * 3;
+    const double* __restrict n0 = fits.normal.data();
+    const double* __restrict n1 = n0 + n;
+    const double* __restrict n2 = n0 + 2 * n;
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      out[3 * i] = static_cast<float>(n0[i]);
+      out[3 * i + 1] = static_cast<float>(n1[i]);
+      out[3 * i + 2] = static_cast<float>(n2[i]);
+    }
+  }
+  if (job.bayer) {
+    float* __restrict out = job.albedo_mosaic->row(y) + x0;
+    const double* __restrict length = fits.luminance_albedo.data();
+    for (int i = 0; i < count; ++i) {
+      if (write(i)) out[i] = status_in[i] == solved_code ? static_cast<float>(length[i]) : 0.0f;
+    }
+  } else if (job.with_albedo) {
+    float* __restrict out = s.albedo.row(y) + static_cast<size_t>(x0) * 3;
+    const double* __restrict a0 = fits.albedo.data();
+    const double* __restrict a1 = a0 + n;
+    const double* __restrict a2 = a0 + 2 * n;
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      const bool solved = status_in[i] == solved_code;
+      out[3 * i] = solved ? static_cast<float>(a0[i]) : 0.0f;
+      out[3 * i + 1] = solved ? static_cast<float>(a1[i]) : 0.0f;
+      out[3 * i + 2] = solved ? static_cast<float>(a2[i]) : 0.0f;
+    }
+  }
+  {
+    uint8_t* __restrict status = s.status.row(y) + x0;
+    uint8_t* __restrict lights = s.lights_used.row(y) + x0;
+    uint8_t* __restrict path = s.solve_path.row(y) + x0;
+    const int* __restrict used = fits.lights_used.data();
+    const uint8_t light_path = static_cast<uint8_t>(span.LightPath()), none = static_cast<uint8_t>(SolvePath::kNone);
+    size_t solved_count = 0, written = 0;
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      const bool solved = status_in[i] == solved_code;
+      status[i] = status_in[i];
+      lights[i] = static_cast<uint8_t>(used[i] < 0 ? 0 : used[i] > 255 ? 255 : used[i]);
+      path[i] = solved ? light_path : none;
+      solved_count += solved;
+      ++written;
+    }
+    (*pixels_by_path)[light_path] += solved_count;
+    (*pixels_by_path)[none] += written - solved_count;
+  }
+  if (job.with_confidence) {
+    float* __restrict condition = s.condition_number.row(y) + x0;
+    float* __restrict residual = s.residual.row(y) + x0;
+    const double* __restrict condition_in = fits.condition_number.data();
+    const double* __restrict residual_in = fits.residual.data();
+    const double float_max = std::numeric_limits<float>::max();
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      const bool solved = status_in[i] == solved_code;
+      condition[i] = static_cast<float>(condition_in[i] < float_max ? condition_in[i] : float_max);
+      residual[i] = solved ? static_cast<float>(residual_in[i] < 1e30 ? residual_in[i] : 1e30) : 0.0f;
+    }
+  }
+  if (!s.specular.empty()) {
+    float* __restrict specular = s.specular.row(y) + static_cast<size_t>(x0) * 2;
+    uint8_t* __restrict specular_status = s.specular_status.row(y) + x0;
+    const uint8_t unsupported = static_cast<uint8_t>(SpecularStatus::kUnsupported);
+    const uint8_t not_solved = static_cast<uint8_t>(SpecularStatus::kNotSolved);
+    for (int i = 0; i < count; ++i) {
+      if (!write(i)) continue;
+      specular[2 * i] = 0.0f, specular[2 * i + 1] = 0.0f;
+      specular_status[i] = status_in[i] == solved_code ? unsupported : not_solved;
+    }
+  }
+}
+
+}  // namespace
+
+// Store's values, a row of one image at a time (each a short contiguous run
+// instead of eight interleaved ones per pixel).
+void PixelWriter::StoreFits(const SpanFits& fits, const Span& span, const uint8_t* skip) {
+  if (span.region == nullptr && skip == nullptr) {
+    StoreFitRows<true>(job_, fits, span, skip, &pixels_by_path_);
+  } else {
+    StoreFitRows<false>(job_, fits, span, skip, &pixels_by_path_);
+  }
+}
+
 void GatherSamples(const Span& span, int i, bool with_rgb, PixelSamples* samples) {
   const SpanBuffers& b = *span.buffers;
   const int n = b.capacity;

@@ -113,12 +113,31 @@ AccumulateSpanFn ChooseAccumulator(bool bayer, bool with_albedo, bool uniform_li
 // The used samples of pixel i of the span, for the per-pixel fits.
 void GatherSamples(const Span& span, int i, bool with_rgb, PixelSamples* samples);
 
+// A span's least-squares fits, planar ([c * capacity + i] for 3 values):
+// what NormalEquationsSolve (pixel_kernels.cc) produces and
+// PixelWriter::StoreFits writes. No specular lobe (kUnsupported where solved).
+struct SpanFits {
+  explicit SpanFits(int capacity);
+  PixelFit Fit(int i) const;  // pixel i as a PixelFit
+
+  int capacity = 0;
+  std::vector<uint8_t> status;       // PixelStatus
+  std::vector<int> lights_used;
+  std::vector<double> normal;        // unit; (0, 0, 1) unless solved
+  std::vector<double> albedo;        // RGB; 0 unless solved (and asked for)
+  std::vector<double> luminance_albedo, condition_number, residual;
+};
+
 // Writes fits into the solution and counts them by path.
 class PixelWriter {
  public:
   explicit PixelWriter(const SolveJob& job) : job_(job) {}
   // `path` is the path that produced the fit; an unsolved fit counts as kNone.
   void Store(const PixelFit& fit, int x, int y, SolvePath path);
+  // Store(fits.Fit(i), span.x0 + i, span.y, span.LightPath()) for every
+  // wanted pixel i of the span with skip[i] == 0 (skip may be null), one
+  // image at a time.
+  void StoreFits(const SpanFits& fits, const Span& span, const uint8_t* skip);
   const std::array<size_t, kNumSolvePaths>& pixels_by_path() const { return pixels_by_path_; }
 
  private:

@@ -141,6 +141,34 @@ TEST(CpuDispatchTest, EveryVariantGivesTheBaselinesResults) {
   }
 }
 
+// The point LEDs' span kernel (the exact path's light field) alone: every
+// value of every variant equal to the baseline's, over the scene's field.
+TEST(CpuDispatchTest, PointLightVariantsGiveTheBaselinesLights) {
+  if (WiderIsas().empty()) GTEST_SKIP() << "this CPU has no AVX2: only the baseline kernels run here";
+  const Scene near = MakeScene(SyntheticSceneOptions::Lights::kNearField);
+  const LightField& field = *near.scene.light_field;
+  const int width = field.width(), stride = width + 5, values = 3 * field.num_lights();
+  auto evaluate = [&](KernelIsa isa, int y, std::vector<float>* dirs, std::vector<float>* intensities) {
+    const ScopedKernelIsa forced(isa);
+    dirs->assign(static_cast<size_t>(values) * stride, 0.0f);
+    intensities->assign(static_cast<size_t>(values) * stride, 0.0f);
+    field.EvaluateSpan(1, y, width - 1, stride, dirs->data(), intensities->data());
+  };
+  for (int y : {0, field.height() / 2, field.height() - 1}) {
+    std::vector<float> base_dirs, base_intensities;
+    evaluate(KernelIsa::kBaseline, y, &base_dirs, &base_intensities);
+    for (KernelIsa isa : WiderIsas()) {
+      std::vector<float> dirs, intensities;
+      evaluate(isa, y, &dirs, &intensities);
+      double worst = 0;
+      for (size_t j = 0; j < dirs.size(); ++j) {
+        worst = std::max({worst, Relative(base_dirs[j], dirs[j]), Relative(base_intensities[j], intensities[j])});
+      }
+      EXPECT_LE(worst, kTolerance) << KernelIsaName(isa) << ", row " << y;
+    }
+  }
+}
+
 TEST(CpuDispatchTest, BayerVariantsGiveTheBaselinesResults) {
   if (WiderIsas().empty()) GTEST_SKIP() << "this CPU has no AVX2: only the baseline kernels run here";
   const Scene near = MakeScene(SyntheticSceneOptions::Lights::kNearField);

@@ -77,6 +77,45 @@ TEST(PointLightFieldTest, EvaluateSpanMatchesEvaluate) {
   EXPECT_GT(zero_intensities, 0);  // the clamped case was exercised
 }
 
+// The span form's inline ln and exp over the whole range of the falloff:
+// cos from 1 down to 1e-6 off the axis, exponents from 0.05 to 80 (where
+// cos^mu leaves float's range), against std::pow.
+TEST(PointLightFieldTest, EvaluateSpanFalloffOverTheWholeRange) {
+  const int count = 400;
+  ImageF points(count, 1, 3, 0.0f);
+  for (int i = 0; i < count; ++i) {
+    // Points on a circle of radius 100 round the LED, from straight below it
+    // to nearly level with it: cos off the downward axis from 1 to 1e-6.
+    const double cosine = std::pow(1e-6, double(i) / (count - 1));
+    const double angle = std::acos(cosine);
+    points(i, 0, 0) = static_cast<float>(100 * std::sin(angle));
+    points(i, 0, 2) = static_cast<float>(-100 * cosine);
+  }
+  std::vector<PointLight> lights;
+  for (double mu : {0.05, 0.5, 1.0, 2.7, 13.0, 80.0}) {
+    PointLight light;
+    light.position = {0, 0, 0};
+    light.axis = {0, 0, -1};
+    light.mu = mu;
+    light.reference_distance = 100;
+    lights.push_back(light);
+  }
+  const PointLightField field(lights, points);
+  const int values = 3 * static_cast<int>(lights.size());
+  std::vector<float> dirs(values * count), intensities(values * count);
+  field.EvaluateSpan(0, 0, count, count, dirs.data(), intensities.data());
+  for (size_t k = 0; k < lights.size(); ++k) {
+    for (int i = 0; i < count; ++i) {
+      // The cosine of the point as stored (float), as the field sees it.
+      const Eigen::Vector3d point(points(i, 0, 0), points(i, 0, 1), points(i, 0, 2));
+      const double cosine = -point.normalized().z();
+      const double expected = std::pow(cosine, lights[k].mu) * 1e4 / point.squaredNorm();
+      const float got = intensities[(3 * k + 1) * count + i];
+      EXPECT_NEAR(got, expected, 1e-6 * expected + 1e-38) << "mu " << lights[k].mu << " cos " << cosine;
+    }
+  }
+}
+
 TEST(PointLightFieldTest, ViewDirectionPointsAtTheCameraCentreOrIsOrthographic) {
   ImageF points(2, 1, 3, 0.0f);
   points(1, 0, 0) = 300;
