@@ -219,6 +219,9 @@ AlbedoColorComparison::AlbedoColorComparison(const ImageF& albedo_linear_rec709,
   if (albedo_.num_pixels() > UINT32_MAX) {
     throw std::invalid_argument("AlbedoColorComparison: " + ShapeText(albedo_) + " has more than 2^32 pixels");
   }
+  const size_t evaluated = mask_.size() - std::count(mask_.data(), mask_.data() + mask_.size(), 0);
+  keyed_.reserve(evaluated);
+  per_pixel_.reserve(evaluated);
 }
 
 void AlbedoColorComparison::AddRows(int y_begin, const ImageF& truth_rows, int num_threads) {

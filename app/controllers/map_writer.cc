@@ -1,6 +1,9 @@
 #include "app/controllers/map_writer.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <future>
@@ -26,11 +29,41 @@ ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent) {
   return encoded;
 }
 
+namespace {
+
+// The 8-bit sRGB code of a linear value, lround(SrgbEncode(v) * 255), is a
+// step function of v: thresholds[k - 1] is the smallest float whose code is
+// k or more (found once by bisection over the floats in [0, 1]), so a value's
+// code is the number of thresholds at or below it: a binary search instead
+// of a pow per sample (48 M of them at 16 MP).
+const std::array<float, 255>& SrgbCodeThresholds() {
+  static const std::array<float, 255> thresholds = [] {
+    const auto code = [](uint32_t bits) { return std::lround(SrgbEncode(std::bit_cast<float>(bits)) * 255.0); };
+    std::array<float, 255> found{};
+    for (int k = 1; k <= 255; ++k) {
+      uint32_t below = std::bit_cast<uint32_t>(0.0f), at_or_above = std::bit_cast<uint32_t>(1.0f);
+      while (at_or_above - below > 1) {
+        const uint32_t middle = below + (at_or_above - below) / 2;
+        (code(middle) >= k ? at_or_above : below) = middle;
+      }
+      found[k - 1] = std::bit_cast<float>(at_or_above);
+    }
+    return found;
+  }();
+  return thresholds;
+}
+
+}  // namespace
+
+uint8_t SrgbPreviewCode(float linear) {
+  if (!(linear > 0)) return 0;  // also NaN
+  const std::array<float, 255>& thresholds = SrgbCodeThresholds();
+  return static_cast<uint8_t>(std::upper_bound(thresholds.begin(), thresholds.end(), linear) - thresholds.begin());
+}
+
 ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb) {
   ImageU8 encoded(linear_rgb.width(), linear_rgb.height(), linear_rgb.channels());
-  for (size_t i = 0; i < encoded.size(); ++i) {
-    encoded.data()[i] = static_cast<uint8_t>(std::lround(SrgbEncode(linear_rgb.data()[i]) * 255.0));
-  }
+  for (size_t i = 0; i < encoded.size(); ++i) encoded.data()[i] = SrgbPreviewCode(linear_rgb.data()[i]);
   return encoded;
 }
 
@@ -71,6 +104,27 @@ ExrEncoding NormalMapExrEncoding(const ExrEncoding& exr) {
   ExrEncoding normal = exr;
   if (exr.sample_type == ExrSampleType::kHalf) normal.half_absolute_step = std::ldexp(1.0, -12);
   return normal;
+}
+
+// confidence.exr's residual channel in half: 8 significant bits (a relative
+// step of 2^-7, rounding by at most 0.4 %) instead of half's 11. Its low
+// bits are noise that cost the lossless compressor a quarter of the file
+// (measured at 16 MP: 26.1 -> 19.6 MB; docs/session-format.md, "Result map
+// encoding"); a residual is read as a size, never to three digits.
+constexpr int kResidualSignificantBits = 8;
+// angular_error_deg.exr in half: on an absolute grid of 2^-9 deg (rounding by
+// at most 0.001 deg, a 200th of the solver's mean error) below 2 deg, where
+// half's own step is finer; half's own step (2^-9 deg and up) above.
+// Measured at 16 MP: 18.3 -> 12.2 MB.
+constexpr double kErrorMapHalfStepDeg = 1.0 / 512;
+
+// `value` rounded to `bits` significant bits (to nearest, ties to even);
+// zero and non-finite values as they are.
+float RoundToSignificantBits(float value, int bits) {
+  if (value == 0 || !std::isfinite(value)) return value;
+  int exponent = 0;
+  const float mantissa = std::frexp(value, &exponent);  // [0.5, 1)
+  return std::ldexp(std::nearbyint(std::ldexp(mantissa, bits)), exponent - bits);
 }
 
 void CheckSpecularShape(const PhotometricSolution& solution) {
@@ -175,65 +229,69 @@ std::map<std::string, uintmax_t> FileSizesIn(const std::filesystem::path& folder
   return sizes;
 }
 
-std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
-                                                     const PhotometricSolution& solution,
-                                                     const AlbedoColor& albedo_color, const ExrEncoding& exr,
-                                                     const ImageF& angular_error_deg, int threads) {
-  if (threads < 0) throw std::invalid_argument("WriteSolutionMaps: threads = " + std::to_string(threads) + " must be >= 0");
+namespace {
+
+// One result file: its report.json kind, its name, how it is written.
+struct MapFile {
+  const char* kind;
+  const char* name;
+  std::function<void(const std::filesystem::path&)> write;
+};
+
+void CheckErrorMap(const PhotometricSolution& solution, const ImageF& angular_error_deg) {
   if (!angular_error_deg.empty() && (!angular_error_deg.SameSize(solution.status) || angular_error_deg.channels() != 1)) {
     throw std::invalid_argument("WriteSolutionMaps: angular_error_deg is " + ShapeText(angular_error_deg) +
                                 ", must be " + SizeText(solution.status.width(), solution.status.height()) + "x1");
   }
-  const auto policy = OverwritePolicy::kRefuse;
-  ImageU8 solved(solution.status.width(), solution.status.height(), 1);
-  for (size_t i = 0; i < solved.size(); ++i) {
-    solved.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved) ? 255 : 0;
-  }
-  const ImageU8 status_codes = StatusPngCodes(solution);  // checks the specular maps' shape
+}
 
-  // Compression dominates at 16 MP (seconds per file) and the files are
-  // independent, so they are written concurrently on the one thread pool:
-  // as many at once as there are threads, so that only that many files'
-  // encoding buffers (a full-size copy each) are held at a time. Handed out
-  // in this order, slowest first (measured at 16 MP), so that no long file
-  // starts last while the other threads idle.
-  struct MapFile {
-    const char* kind;
-    const char* name;
-    std::function<void(const std::filesystem::path&)> write;
-  };
+// angular_error_deg.exr: in half on the grid of kErrorMapHalfStepDeg (0.06 deg steps at 90 deg).
+MapFile ErrorMapFile(const ImageF& angular_error_deg, const ExrEncoding& exr) {
+  ExrEncoding error_map = exr;
+  if (exr.sample_type == ExrSampleType::kHalf) error_map.half_absolute_step = kErrorMapHalfStepDeg;
+  return {"angular_error_deg", "angular_error_deg.exr", [&angular_error_deg, error_map](const auto& path) {
+            WriteExr(path, angular_error_deg, OverwritePolicy::kRefuse, {"Y"}, {}, error_map);
+          }};
+}
+
+// The files of a solution but the error map, slowest first (measured at 16 MP),
+// so that no long file starts last while the other threads idle. `solved` and
+// `status_codes` are held by the caller while the files are written.
+std::vector<MapFile> SolutionMapFiles(const PhotometricSolution& solution, const AlbedoColor& albedo_color,
+                                      const ExrEncoding& exr, const ImageU8& solved, const ImageU8& status_codes) {
+  const auto policy = OverwritePolicy::kRefuse;
   std::vector<MapFile> files = {
       {"normal_png16_opengl", "normal.png",
-       [&](const auto& path) { WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy, {}, kNormalPngEncoding); }},
+       [&, policy](const auto& path) {
+         WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy, {}, kNormalPngEncoding);
+       }},
       {"normal_exr", "normal.exr",
-       [&](const auto& path) {
+       [&, policy, exr](const auto& path) {
          WriteExr(path, solution.normal_in_table, policy, {}, {}, NormalMapExrEncoding(exr));
        }},
       {"albedo_exr", "albedo.exr",
-       [&](const auto& path) {
+       [&, policy, exr](const auto& path) {
          WriteExr(path, solution.albedo, policy, {}, AlbedoMetadata(albedo_color, "Linear"), exr);
        }},
       {"confidence", "confidence.exr",
-       [&](const auto& path) {
+       [&, policy, exr](const auto& path) {
          ImageF confidence(solution.status.width(), solution.status.height(), 3);
+         const bool half = exr.sample_type == ExrSampleType::kHalf;
          for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
+           const float residual = solution.residual.data()[i];
            confidence.data()[3 * i + 0] = solution.lights_used.data()[i];
            confidence.data()[3 * i + 1] = solution.condition_number.data()[i];
-           confidence.data()[3 * i + 2] = solution.residual.data()[i];
+           confidence.data()[3 * i + 2] = half ? RoundToSignificantBits(residual, kResidualSignificantBits) : residual;
          }
          WriteExr(path, confidence, policy, {"lights_used", "condition_number", "residual"}, {}, exr);
        }},
+      {"albedo_srgb_preview", "albedo_srgb.png",
+       [&, policy](const auto& path) {
+         WritePng(path, EncodeSrgbPreview(solution.albedo), policy, AlbedoMetadata(albedo_color, "sRGB"));
+       }},
   };
-  if (!angular_error_deg.empty()) {
-    // Half: a step of 0.0001 deg at 0.2 deg, 0.06 deg at 90 deg.
-    files.push_back({"angular_error_deg", "angular_error_deg.exr",
-                     [&](const auto& path) { WriteExr(path, angular_error_deg, policy, {"Y"}, {}, exr); }});
-  }
-  files.push_back({"albedo_srgb_preview", "albedo_srgb.png", [&](const auto& path) {
-                     WritePng(path, EncodeSrgbPreview(solution.albedo), policy, AlbedoMetadata(albedo_color, "sRGB"));
-                   }});
   if (!solution.specular.empty()) {
-    files.push_back({"specular_exr", "specular.exr", [&](const auto& path) {
+    files.push_back({"specular_exr", "specular.exr", [&, policy, exr](const auto& path) {
                        ImageMetadata metadata;
                        metadata.description =
                            "specular lobe: specular_f0 (white reflectance at normal incidence, [0, 1]) and "
@@ -241,14 +299,85 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
                        WriteExr(path, SpecularForFile(solution), policy, {"specular_f0", "roughness_alpha"}, metadata, exr);
                      }});
   }
-  files.push_back({"status", "status.png", [&](const auto& path) { WritePng(path, status_codes, policy); }});
-  files.push_back({"solved_mask", "solved_mask.png", [&](const auto& path) { WritePng(path, solved, policy); }});
-  ParallelFor(static_cast<int>(files.size()), ResolveThreadCount(threads), 1, [&](int first, int last, int) {
-    for (int i = first; i < last; ++i) files[i].write(folder / files[i].name);
-  });  // rethrows a failure
+  files.push_back({"status", "status.png", [&, policy](const auto& path) { WritePng(path, status_codes, policy); }});
+  files.push_back({"solved_mask", "solved_mask.png", [&, policy](const auto& path) { WritePng(path, solved, policy); }});
+  return files;
+}
+
+ImageU8 SolvedMask(const PhotometricSolution& solution) {
+  ImageU8 solved(solution.status.width(), solution.status.height(), 1);
+  for (size_t i = 0; i < solved.size(); ++i) {
+    solved.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved) ? 255 : 0;
+  }
+  return solved;
+}
+
+void CheckThreads(int threads) {
+  if (threads < 0) throw std::invalid_argument("WriteSolutionMaps: threads = " + std::to_string(threads) + " must be >= 0");
+}
+
+std::map<std::string, std::string> Kinds(const std::vector<MapFile>& files) {
   std::map<std::string, std::string> written;
   for (const MapFile& file : files) written[file.kind] = file.name;
   return written;
+}
+
+}  // namespace
+
+std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
+                                                     const PhotometricSolution& solution,
+                                                     const AlbedoColor& albedo_color, const ExrEncoding& exr,
+                                                     const ImageF& angular_error_deg, int threads) {
+  CheckThreads(threads);
+  CheckErrorMap(solution, angular_error_deg);
+  const ImageU8 solved = SolvedMask(solution);
+  const ImageU8 status_codes = StatusPngCodes(solution);  // checks the specular maps' shape
+  // Compression dominates at 16 MP (seconds per file) and the files are
+  // independent, so they are written concurrently on the one thread pool:
+  // as many at once as there are threads, so that only that many files'
+  // encoding buffers (a full-size copy each) are held at a time.
+  std::vector<MapFile> files = SolutionMapFiles(solution, albedo_color, exr, solved, status_codes);
+  if (!angular_error_deg.empty()) files.insert(files.begin() + 4, ErrorMapFile(angular_error_deg, exr));
+  ParallelFor(static_cast<int>(files.size()), ResolveThreadCount(threads), 1, [&](int first, int last, int) {
+    for (int i = first; i < last; ++i) files[i].write(folder / files[i].name);
+  });  // rethrows a failure
+  return Kinds(files);
+}
+
+MapsWrittenAlongside WriteSolutionMapsAlongside(const std::filesystem::path& folder,
+                                                const PhotometricSolution& solution,
+                                                const AlbedoColor& albedo_color, const ExrEncoding& exr,
+                                                const std::function<ImageF()>& alongside, int threads) {
+  CheckThreads(threads);
+  if (!alongside) throw std::invalid_argument("WriteSolutionMapsAlongside: alongside must not be empty");
+  const ImageU8 solved = SolvedMask(solution);
+  const ImageU8 status_codes = StatusPngCodes(solution);
+  const std::vector<MapFile> files = SolutionMapFiles(solution, albedo_color, exr, solved, status_codes);
+  MapsWrittenAlongside result;
+  ImageF angular_error_deg;
+  // Item 0 is `alongside` and then the error map it made; the others the
+  // files. Whichever thread is free takes the next item, so the files fill
+  // the threads `alongside` leaves idle and the other way round.
+  const auto start = std::chrono::steady_clock::now();
+  ParallelFor(static_cast<int>(files.size()) + 1, ResolveThreadCount(threads), 1, [&](int first, int last, int) {
+    for (int i = first; i < last; ++i) {
+      if (i > 0) {
+        files[i - 1].write(folder / files[i - 1].name);
+        continue;
+      }
+      angular_error_deg = alongside();
+      result.alongside_seconds = SecondsSince(start);
+      CheckErrorMap(solution, angular_error_deg);
+      if (!angular_error_deg.empty()) {
+        const MapFile error_map = ErrorMapFile(angular_error_deg, exr);
+        error_map.write(folder / error_map.name);
+        result.outputs[error_map.kind] = error_map.name;
+      }
+    }
+  });  // rethrows a failure
+  const std::map<std::string, std::string> kinds = Kinds(files);
+  result.outputs.insert(kinds.begin(), kinds.end());
+  return result;
 }
 
 }  // namespace scanbench

@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -18,8 +19,10 @@ namespace scanbench {
 // Normals in the tangent frame (x right, y up, z out of the sample) as
 // 16-bit RGB: value = (n + 1) / 2 * 65535, i.e. the OpenGL (+Y up) convention.
 ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent);
-// Linear RGB to 8-bit sRGB for a preview.
+// Linear RGB to 8-bit sRGB for a preview: SrgbPreviewCode per sample.
 ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb);
+// lround(SrgbEncode(linear) * 255), exactly, by a table of where each code starts.
+uint8_t SrgbPreviewCode(float linear);
 
 // status.png's code for a solved pixel whose specular lobe the samples do not
 // support (SpecularStatus::kUnsupported): the codes 0 .. 6 are PixelStatus,
@@ -52,7 +55,9 @@ std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSo
 // values by at most 2^-11 relative) with the lossless compression that
 // measured smallest among the quick ones at 16 MP (docs/session-format.md,
 // "Result map encoding"); WriteSolutionMaps also puts normal.exr's components
-// below 0.25 on an absolute 2^-12 grid (within the same 0.024 deg).
+// below 0.25 on an absolute 2^-12 grid (within the same 0.024 deg),
+// confidence.exr's residual on 8 significant bits (within 0.4 %) and
+// angular_error_deg.exr below 2 deg on a 2^-9 deg grid (within 0.001 deg).
 // `float32_maps` gives 32-bit float with zip, the files before issue #14,
 // normals exactly as in memory.
 ExrEncoding ResultMapExrEncoding(bool float32_maps = false);
@@ -73,6 +78,21 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
                                                      const AlbedoColor& albedo_color = {},
                                                      const ExrEncoding& exr = ResultMapExrEncoding(),
                                                      const ImageF& angular_error_deg = {}, int threads = 0);
+
+// WriteSolutionMaps with the error map made while the other files are
+// written: `alongside` (the solve's ground-truth evaluation; it may use the
+// pool itself) runs as one item among the files on up to `threads` threads
+// of the one pool, and angular_error_deg.exr is written from the map it
+// returns as soon as it returns (none when that map is empty). The files'
+// bytes are WriteSolutionMaps'. Rethrows a failure of `alongside` or a write.
+struct MapsWrittenAlongside {
+  std::map<std::string, std::string> outputs;  // output kind -> file name, as WriteSolutionMaps'
+  double alongside_seconds = 0;                 // wall time from the start until `alongside` returned
+};
+MapsWrittenAlongside WriteSolutionMapsAlongside(const std::filesystem::path& folder,
+                                                const PhotometricSolution& solution,
+                                                const AlbedoColor& albedo_color, const ExrEncoding& exr,
+                                                const std::function<ImageF()>& alongside, int threads = 0);
 
 // Bytes of each regular file directly in `folder` (name -> bytes), for the
 // reports' account of what a result costs on disk.

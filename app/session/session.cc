@@ -8,12 +8,14 @@
 #include <cmath>
 #include <cstring>
 #include <ctime>
+#include <exception>
 #include <map>
 #include <string_view>
 #include <type_traits>
 
 #include "app/io/file_util.h"
 #include "app/session/json_field.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -174,21 +176,50 @@ void CheckGroundTruth(const GroundTruthFiles& truth, const std::string& file) {
   }
 }
 
-// A file listed in the manifest must exist and, if asked, hash to its record.
-void CheckListedFile(const fs::path& root, const std::string& manifest, const std::string& path,
-                     const std::string& relative, const std::string& sha256, bool verify_checksum) {
-  const fs::path full = root / relative;
-  std::error_code error;
-  if (!fs::is_regular_file(full, error)) {
-    const std::string problem = fs::exists(full, error) ? " is not a regular file"
-                                                        : " does not exist in the session folder " + root.string();
-    ThrowFieldError(manifest, MemberPath(path, "file"), FormatValue(relative) + problem);
+// A file listed in the manifest: where session.json lists it, its record.
+struct ListedFile {
+  std::string path;      // the member path in session.json, for errors
+  std::string relative;  // as listed
+  std::string sha256;    // as recorded
+};
+
+// Every listed file must exist and, if asked, hash to its record. The files
+// are hashed several at once (num_threads, 0 = all; 0.6 GB at 16 MP), then
+// checked in the manifest's order, so the error is the first file's as when
+// they are hashed one after another.
+void CheckListedFiles(const fs::path& root, const std::string& manifest, const std::vector<ListedFile>& files,
+                      bool verify_checksums, int num_threads) {
+  std::vector<std::string> actual(files.size());
+  std::vector<std::exception_ptr> failed(files.size());
+  if (verify_checksums) {
+    ParallelFor(static_cast<int>(files.size()), ResolveThreadCount(num_threads), 1, [&](int first, int last, int) {
+      for (int i = first; i < last; ++i) {
+        std::error_code error;
+        const fs::path full = root / files[i].relative;
+        if (!fs::is_regular_file(full, error)) continue;  // reported below, in order
+        try {
+          actual[i] = RethrowAsSessionError([&] { return Sha256HexOfFile(full); });
+        } catch (...) {
+          failed[i] = std::current_exception();
+        }
+      }
+    });
   }
-  if (!verify_checksum) return;
-  const std::string actual = RethrowAsSessionError([&] { return Sha256HexOfFile(full); });
-  if (actual != sha256) {
-    ThrowFieldError(manifest, MemberPath(path, "sha256"),
-                    FormatValue(sha256) + " mismatch: file " + relative + " has " + actual);
+  for (size_t i = 0; i < files.size(); ++i) {
+    const ListedFile& file = files[i];
+    const fs::path full = root / file.relative;
+    std::error_code error;
+    if (!fs::is_regular_file(full, error)) {
+      const std::string problem = fs::exists(full, error) ? " is not a regular file"
+                                                          : " does not exist in the session folder " + root.string();
+      ThrowFieldError(manifest, MemberPath(file.path, "file"), FormatValue(file.relative) + problem);
+    }
+    if (!verify_checksums) continue;
+    if (failed[i]) std::rethrow_exception(failed[i]);
+    if (actual[i] != file.sha256) {
+      ThrowFieldError(manifest, MemberPath(file.path, "sha256"),
+                      FormatValue(file.sha256) + " mismatch: file " + file.relative + " has " + actual[i]);
+    }
   }
 }
 
@@ -427,17 +458,17 @@ Session LoadSession(const fs::path& root, const SessionLoadOptions& options) {
   }
   const std::vector<uint8_t> bytes = RethrowAsSessionError([&] { return ReadFileBytes(manifest); });
   Session session = SessionFromJson(std::string(bytes.begin(), bytes.end()), manifest_name);
+  std::vector<ListedFile> listed;
   for (size_t i = 0; i < session.frames.size(); ++i) {
     const FrameRecord& frame = session.frames[i];
-    CheckListedFile(root, manifest_name, ElementPath("frames", i), frame.file, frame.sha256,
-                    options.verify_checksums);
+    listed.push_back({ElementPath("frames", i), frame.file, frame.sha256});
   }
   if (session.ground_truth) {
     for (const auto& entry : GroundTruthEntries(*session.ground_truth)) {
-      CheckListedFile(root, manifest_name, MemberPath("ground_truth", entry.name), *entry.file, *entry.sha256,
-                      options.verify_checksums);
+      listed.push_back({MemberPath("ground_truth", entry.name), *entry.file, *entry.sha256});
     }
   }
+  CheckListedFiles(root, manifest_name, listed, options.verify_checksums, options.num_threads);
   return session;
 }
 

@@ -3,6 +3,7 @@
 #include "app/controllers/map_writer.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <fstream>
 #include <iterator>
@@ -14,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/io/image_io.h"
+#include "calibration/color_science.h"
 #include "solver/angular_error.h"
 #include "tests/util/temporary_folder.h"
 
@@ -216,7 +218,8 @@ TEST(MapWriterTest, CompactNormalsKeepTheMeanErrorAgainstGroundTruth) {
 }
 
 // Every EXR of a result in half; confidence's integer light counts exact, its
-// condition numbers and residuals within half's precision.
+// condition numbers within half's precision, its residuals on 8 significant
+// bits (within 2^-8 relative).
 TEST(MapWriterTest, ConfidenceAndAlbedoSurviveHalfStorage) {
   TemporaryFolder folder;
   PhotometricSolution solution = PlainSolution();
@@ -235,7 +238,11 @@ TEST(MapWriterTest, ConfidenceAndAlbedoSurviveHalfStorage) {
   };
   EXPECT_EQ(confidence(5, 5, channel("lights_used")), 10.0f);
   EXPECT_NEAR(confidence(5, 5, channel("condition_number")), 87.3f, 87.3f / 2048);
-  EXPECT_NEAR(confidence(5, 5, channel("residual")), 0.0123f, 0.0123f / 2048);
+  const float residual = confidence(5, 5, channel("residual"));
+  EXPECT_NEAR(residual, 0.0123f, 0.0123f / 256);
+  int exponent = 0;
+  const float mantissa = std::frexp(residual, &exponent);
+  EXPECT_EQ(std::ldexp(mantissa, 8), std::round(std::ldexp(mantissa, 8))) << "not on 8 significant bits: " << residual;
   EXPECT_NEAR(ReadImageFloat(folder / "albedo.exr")(5, 5, 1), 0.731f, 0.731f / 2048);
 }
 
@@ -267,7 +274,82 @@ TEST(MapWriterTest, ConcurrentWriteGivesTheFilesOfASequentialOne) {
   for (const auto& [name, bytes] : sizes) {
     EXPECT_EQ(FileBytes(concurrent / name), FileBytes(sequential / name)) << name;
   }
-  EXPECT_NEAR(ReadImageFloat(concurrent / "angular_error_deg.exr")(3, 2), error_deg(3, 2), error_deg(3, 2) / 2048);
+  // On the 2^-9 deg grid below 2 deg: within 2^-10 deg of the value.
+  const ImageF error_from_file = ReadImageFloat(concurrent / "angular_error_deg.exr");
+  for (size_t i = 0; i < error_deg.size(); ++i) {
+    ASSERT_NEAR(error_from_file.data()[i], error_deg.data()[i], 1.0 / 1024) << i;
+    ASSERT_EQ(error_from_file.data()[i] * 512, std::round(error_from_file.data()[i] * 512)) << i;
+  }
+}
+
+// The evaluation made alongside the other files gives the files of a write
+// with its error map: the same sizes and pixels (not compared byte for byte:
+// an EXR's capDate is the second it was written); a failure in it is rethrown.
+TEST(MapWriterTest, ErrorMapMadeAlongsideGivesTheSameFiles) {
+  PhotometricSolution solution = SolutionWithSpecular();
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> uniform(0.0f, 3.0f);
+  ImageF error_deg(kWidth, kHeight, 1);
+  for (size_t i = 0; i < error_deg.size(); ++i) error_deg.data()[i] = uniform(rng);
+  TemporaryFolder given, alongside;
+  const auto given_outputs = WriteSolutionMaps(given.path(), solution, {}, ResultMapExrEncoding(), error_deg, 2);
+  const MapsWrittenAlongside written = WriteSolutionMapsAlongside(
+      alongside.path(), solution, {}, ResultMapExrEncoding(), [&] { return error_deg; }, 2);
+  EXPECT_EQ(written.outputs, given_outputs);
+  EXPECT_GE(written.alongside_seconds, 0.0);
+  const std::map<std::string, uintmax_t> sizes = FileSizesIn(given.path());
+  EXPECT_EQ(sizes.size(), 9u);
+  EXPECT_EQ(FileSizesIn(alongside.path()), sizes);
+  for (const auto& [name, bytes] : sizes) {
+    const ImageF expected = ReadImageFloat(given / name), actual = ReadImageFloat(alongside / name);
+    ASSERT_TRUE(actual.SameSize(expected) && actual.channels() == expected.channels()) << name;
+    EXPECT_TRUE(std::equal(expected.data(), expected.data() + expected.size(), actual.data())) << name;
+  }
+
+  TemporaryFolder without;
+  const MapsWrittenAlongside no_map =
+      WriteSolutionMapsAlongside(without.path(), solution, {}, ResultMapExrEncoding(), [] { return ImageF(); }, 2);
+  EXPECT_EQ(no_map.outputs.count("angular_error_deg"), 0u);
+  EXPECT_FALSE(fs::exists(without / "angular_error_deg.exr"));
+
+  TemporaryFolder failing;
+  EXPECT_THROW(WriteSolutionMapsAlongside(
+                   failing.path(), solution, {}, ResultMapExrEncoding(),
+                   []() -> ImageF { throw std::runtime_error("evaluation failed"); }, 2),
+               std::runtime_error);
+}
+
+// The preview's table gives every value the code the sRGB curve gives it:
+// random values over [0, 1.5], and the 64 floats on either side of every
+// point where the code changes. (Checked once over every float in [0, 1.5].)
+TEST(MapWriterTest, SrgbPreviewCodeEqualsTheCurve) {
+  const auto curve = [](float v) { return std::lround(SrgbEncode(v) * 255.0); };
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> uniform(0.0f, 1.5f);
+  for (int i = 0; i < 200000; ++i) {
+    const float v = uniform(rng);
+    ASSERT_EQ(SrgbPreviewCode(v), curve(v)) << v;
+  }
+  int changes = 0;
+  for (uint32_t bits = std::bit_cast<uint32_t>(0.0f); bits < std::bit_cast<uint32_t>(1.0f);) {
+    // The next change of code: bisection, as the table is not consulted here.
+    const long code = curve(std::bit_cast<float>(bits));
+    uint32_t same = bits, changed = std::bit_cast<uint32_t>(1.0f);
+    if (curve(std::bit_cast<float>(changed)) == code) break;
+    while (changed - same > 1) {
+      const uint32_t middle = same + (changed - same) / 2;
+      (curve(std::bit_cast<float>(middle)) == code ? same : changed) = middle;
+    }
+    for (uint32_t b = changed - 64; b <= changed + 64; ++b) {
+      ASSERT_EQ(SrgbPreviewCode(std::bit_cast<float>(b)), curve(std::bit_cast<float>(b))) << std::bit_cast<float>(b);
+    }
+    ++changes;
+    bits = changed;
+  }
+  EXPECT_EQ(changes, 255);
+  EXPECT_EQ(SrgbPreviewCode(-0.5f), 0);
+  EXPECT_EQ(SrgbPreviewCode(std::nanf("")), 0);
+  EXPECT_EQ(SrgbPreviewCode(std::numeric_limits<float>::infinity()), 255);
 }
 
 TEST(MapWriterTest, MisshapenErrorMapIsRefusedBeforeAnyFile) {
