@@ -71,6 +71,11 @@ struct ExportMaps {
   std::vector<ImageF> tiles;      // empty, or the tiles of TileInputs' maps in order
 };
 
+struct ExportController::HeightReference {
+  ImageF height_mm;  // the true height, or the true normals flattened and integrated like the export's
+  ImageU8 evaluated;  // 1 on the sample's solved pixels
+};
+
 namespace {
 
 constexpr char kWhere[] = "ExportOptions";
@@ -1266,10 +1271,21 @@ void ExportController::Run() {
 
   // Each full-size image is loaded when first needed and released after its
   // last user: albedo and confidence only after the derived maps and the
-  // evaluation (their own full-size temporaries), the solved normals once flattened.
+  // evaluation (their own full-size temporaries), the solved normals once
+  // flattened. The evaluation's full-size work (the true normals flattened
+  // and integrated) runs right after the flattening, before the other maps
+  // exist, and keeps only the reference height for after the export's own.
   ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
-  ExportMaps maps = Derive(&inputs);
-  if (inputs.session.ground_truth) TimedStage(timings, "evaluate", "", [&] { Evaluate(inputs, maps); });
+  ExportMaps maps = Flatten(&inputs);
+  std::optional<HeightReference> reference;
+  if (inputs.session.ground_truth) {
+    TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps); });
+  }
+  Derive(&inputs, &maps);
+  if (reference) {
+    TimedStage(timings, "evaluate_height", "", [&] { EvaluateHeight(*reference, maps); });
+    reference.reset();
+  }
   TimedStage(timings, "load_albedo_confidence", "", [&] { LoadAlbedoAndConfidence(&inputs); });
   if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
@@ -1349,11 +1365,10 @@ void ExportController::LoadAlbedoAndConfidence(ExportInputs* inputs) {
   ReportProgress("load albedo and confidence", 1);
 }
 
-// Flattened normals, height, occlusion, cavity and roughness mips, each a
-// stage of its own; the solved normals are released (or moved) once flattened.
-ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
+// The flattened normals (or the solved ones as they are), a stage of its own;
+// the solved normals are released (or moved) once flattened.
+ExportMaps ExportController::Flatten(ExportInputs* inputs_to_release) {
   ExportInputs& inputs = *inputs_to_release;
-  const double mm = summary_.mm_per_pixel;
   std::vector<StageTiming>& timings = summary_.stage_seconds;
   ExportMaps maps;
   if (options_.flatten_normals) {
@@ -1366,7 +1381,16 @@ ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
   } else {
     maps.normals = std::move(inputs.solved_normals);
   }
+  return maps;
+}
 
+// Height, occlusion, cavity and roughness mips from the flattened normals,
+// each a stage of its own.
+void ExportController::Derive(ExportInputs* inputs_to_release, ExportMaps* maps_out) {
+  ExportInputs& inputs = *inputs_to_release;
+  ExportMaps& maps = *maps_out;
+  const double mm = summary_.mm_per_pixel;
+  std::vector<StageTiming>& timings = summary_.stage_seconds;
   TimedStage(timings, "height", "height from normals", [&] {
     summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
                                         &maps.height_mm, StageCallback("height from normals"));
@@ -1415,7 +1439,6 @@ ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
   // Mip 0's normals are the flattened normals normalised again; the files and
   // the preview take maps.normals, so they are not kept (192 MB at 16 MP).
   if (!maps.mips.empty()) maps.mips[0].normal_in_tangent = ImageF();
-  return maps;
 }
 
 // A tile that does not fit is a warning, not a failure: the other maps stand.
@@ -1437,7 +1460,8 @@ void ExportController::DeriveTile(const ExportInputs& inputs, ExportMaps* maps) 
 // sigma), so the reference is the true normals through the same flattening
 // and integration: the figure is what the solve's normal error does to the
 // exported height. Unflattened, the reference is the true height itself.
-void ExportController::Evaluate(const ExportInputs& inputs, const ExportMaps& maps) {
+ExportController::HeightReference ExportController::EvaluateNormals(const ExportInputs& inputs,
+                                                                    const ExportMaps& maps) {
   BeginStage("ground truth");
   const GroundTruthFiles& truth = *inputs.session.ground_truth;
   const int width = summary_.image_width, height = summary_.image_height;
@@ -1465,7 +1489,14 @@ void ExportController::Evaluate(const ExportInputs& inputs, const ExportMaps& ma
   }
   const ErrorStatistics normal_error = AngularErrorDegrees(maps.normals, reference_normals, evaluated);
   if (normal_error.num_pixels > 0) summary_.flattened_normal_mean_error_deg = normal_error.mean;
-  summary_.height_rms_error_mm = RmsAfterPlane(maps.height_mm, reference_height, evaluated);
+  ReportProgress("ground truth", 1);
+  return {std::move(reference_height), std::move(evaluated)};
+}
+
+// The exported height against the reference, once the export's height exists.
+void ExportController::EvaluateHeight(const HeightReference& reference, const ExportMaps& maps) {
+  BeginStage("ground truth");
+  summary_.height_rms_error_mm = RmsAfterPlane(maps.height_mm, reference.height_mm, reference.evaluated);
   ReportProgress("ground truth", 1);
 }
 
