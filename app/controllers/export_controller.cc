@@ -653,20 +653,10 @@ class FilePlanner {
     file->metadata.attributes["scanbench:height_max_mm"] = high_text.str();
   }
 
-  // An 8-bit PNG stored as it is (mask, sRGB preview).
+  // An 8-bit PNG stored as it is (mask).
   ExportFile* AddU8(const std::string& kind, ImageU8 image, const std::string& color_space,
                     const std::string& encoding, const std::string& description) {
-    ExportFile file;
-    file.kind = kind;
-    file.format = "png";
-    file.relative_path = RelativePath(kind, ".png");
-    file.bits_per_sample = 8;
-    file.width = image.width();
-    file.height = image.height();
-    file.channels = image.channels();
-    file.color_space = color_space;
-    file.encoding = encoding;
-    file.mm_per_pixel = summary_.mm_per_pixel;
+    ExportFile file = Png8(kind, image, color_space, encoding);
     file.u8_image = std::make_shared<const ImageU8>(std::move(image));
     file.metadata = Metadata(file, description);
     return &files_.emplace_back(std::move(file));
@@ -676,17 +666,7 @@ class FilePlanner {
   // borrowed: `linear_rgb` must outlive the writing of the files.
   ExportFile* AddSrgb8(const std::string& kind, const ImageF& linear_rgb, const std::string& encoding,
                        const std::string& description) {
-    ExportFile file;
-    file.kind = kind;
-    file.format = "png";
-    file.relative_path = RelativePath(kind, ".png");
-    file.bits_per_sample = 8;
-    file.width = linear_rgb.width();
-    file.height = linear_rgb.height();
-    file.channels = linear_rgb.channels();
-    file.color_space = "sRGB";
-    file.encoding = encoding;
-    file.mm_per_pixel = summary_.mm_per_pixel;
+    ExportFile file = Png8(kind, linear_rgb, "sRGB", encoding);
     file.float_image = std::shared_ptr<const ImageF>(std::shared_ptr<void>(), &linear_rgb);
     file.srgb8 = true;
     file.metadata = Metadata(file, description);
@@ -723,6 +703,23 @@ class FilePlanner {
   std::string RelativePath(const std::string& kind, const std::string& extension) const {
     const std::string& material = summary_.material_name;
     return material + "/" + material + "_" + kind + extension;
+  }
+  // An 8-bit PNG's entry of `image`'s layout; its pixels and metadata are the caller's.
+  template <typename T>
+  ExportFile Png8(const std::string& kind, const Image<T>& image, const std::string& color_space,
+                  const std::string& encoding) const {
+    ExportFile file;
+    file.kind = kind;
+    file.format = "png";
+    file.relative_path = RelativePath(kind, ".png");
+    file.bits_per_sample = 8;
+    file.width = image.width();
+    file.height = image.height();
+    file.channels = image.channels();
+    file.color_space = color_space;
+    file.encoding = encoding;
+    file.mm_per_pixel = summary_.mm_per_pixel;
+    return file;
   }
   ImageMetadata Metadata(const ExportFile& file, const std::string& description) const {
     ImageMetadata metadata;
