@@ -20,7 +20,6 @@
 
 #include "app/controllers/albedo_color.h"
 #include "app/controllers/engine_presets.h"
-#include "app/controllers/map_writer.h"
 #include "calibration/color_science.h"
 #include "app/io/file_util.h"
 #include "app/io/gltf_document.h"
