@@ -10,7 +10,6 @@ packages=(
   libopencv-contrib-dev  # opencv_mcc: ColorChecker detection and colour correction (calibration/color_calibration.cc)
   libraw-dev
   libtiff-dev
-  libdeflate-dev  # image_io's WritePngRows: the export's large PNGs
   libopenimageio-dev openimageio-tools  # OpenImageIO's CMake config checks for its tools
   libssl-dev
   nlohmann-json3-dev

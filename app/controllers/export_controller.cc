@@ -359,8 +359,8 @@ ImageU16 Quantise16(const ImageF& image, const IntegerEncoding& encoding) {
   return quantised;
 }
 
-// The export's PNGs through WritePngRows (libdeflate, the Up filter): the
-// rows are quantised as they are filtered, so no 16-bit copy of a map is held.
+// The export's PNGs through WritePngRows: the
+// rows are quantised a band at a time, so no 16-bit copy of a map is held.
 PngRowSource PngRowsOf(const ExportFile& file) {
   PngRowSource rows;
   if (file.u8_image) {

@@ -3,7 +3,6 @@
 #include <OpenImageIO/filesystem.h>
 #include <Imath/half.h>
 #include <OpenImageIO/imageio.h>
-#include <libdeflate.h>
 
 #include <algorithm>
 #include <array>
@@ -11,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <regex>
 #include <sstream>
@@ -45,8 +45,10 @@ void CheckWritable(const fs::path& path, const Image<T>& image, const char* form
 
 // Writes `pixels` to a temporary sibling with the writer for `format` (the
 // temporary name has no image extension), then commits it under `policy`.
-void WriteAtomically(const fs::path& path, const char* format, const OIIO::ImageSpec& spec, const void* pixels,
-                     OverwritePolicy policy) {
+// `write_pixels` writes the pixels into the opened output (the whole image,
+// or scanlines band by band) and says whether it succeeded.
+void WriteAtomicallyWith(const fs::path& path, const char* format, const OIIO::ImageSpec& spec,
+                         OverwritePolicy policy, const std::function<bool(OIIO::ImageOutput&)>& write_pixels) {
   // Fail before encoding anything; CommitTemporaryFile re-checks atomically.
   if (policy == OverwritePolicy::kRefuse && fs::exists(path)) {
     throw PathError(path, "already exists and is never overwritten");
@@ -63,7 +65,7 @@ void WriteAtomically(const fs::path& path, const char* format, const OIIO::Image
     discard();
     throw PathError(path, std::string("cannot be written as ") + format + " (" + OiioMessage(message) + ")");
   }
-  const bool written = out->write_image(spec.format, pixels);
+  const bool written = write_pixels(*out);
   const bool closed = out->close();
   if (!written || !closed) {
     const std::string message = out->geterror();
@@ -72,6 +74,12 @@ void WriteAtomically(const fs::path& path, const char* format, const OIIO::Image
   }
   out.reset();
   CommitTemporaryFile(temporary, path, policy);
+}
+
+void WriteAtomically(const fs::path& path, const char* format, const OIIO::ImageSpec& spec, const void* pixels,
+                     OverwritePolicy policy) {
+  WriteAtomicallyWith(path, format, spec, policy,
+                      [&](OIIO::ImageOutput& out) { return out.write_image(spec.format, pixels); });
 }
 
 template <typename T>
@@ -415,165 +423,8 @@ std::vector<uint8_t> EncodePngInMemory(const ImageU8& image) {
   return std::vector<uint8_t>(bytes.begin(), bytes.end());
 }
 
-void PngRowsEncoding::Check() const {
-  if (level < 0 || level > 12) {
-    throw std::invalid_argument("PngRowsEncoding.level = " + std::to_string(level) + " must be in [0, 12]");
-  }
-  if (filter == PngFilter::kAdaptive) {
-    throw std::invalid_argument("PngRowsEncoding.filter = adaptive is not offered: one of none, sub, up, average, paeth");
-  }
-}
-
-namespace {
-
-struct PngChunk {
-  std::string type;
-  std::vector<uint8_t> data;
-};
-
-void AppendBigEndian32(uint32_t value, std::vector<uint8_t>* out) {
-  for (int shift = 24; shift >= 0; shift -= 8) out->push_back(static_cast<uint8_t>(value >> shift));
-}
-
-uint32_t ReadBigEndian32(const uint8_t* p) {
-  return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | uint32_t(p[3]);
-}
-
-constexpr uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-
-// OpenImageIO's chunks for `rows`' layout and `metadata`: it encodes a
-// one-row image in memory and the chunks are taken from that, IHDR's height
-// set to the real one. The pixel data (IDAT) and IEND are left out;
-// `*pixels_at` is where the IDAT stood among the chunks returned.
-std::vector<PngChunk> OiioPngChunks(const fs::path& path, const PngRowSource& rows, const ImageMetadata& metadata,
-                                    size_t* pixels_at) {
-  OIIO::ImageSpec spec(rows.width, 1, rows.channels, rows.bits == 16 ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8);
-  spec.attribute("oiio:UnassociatedAlpha", 1);
-  AddMetadata(path, metadata, FileFormat::kPng, spec);
-  spec.attribute("png:compressionLevel", 0);
-  const std::vector<uint8_t> zeros(static_cast<size_t>(rows.width) * rows.channels * (rows.bits / 8), 0);
-  const std::vector<unsigned char> bytes = OiioPngInMemory(path, spec, zeros.data(), "PNG header encoding");
-  if (bytes.size() < 8 || !std::equal(kPngSignature, kPngSignature + 8, bytes.begin())) {
-    throw PathError(path, "OpenImageIO's PNG header has no PNG signature");
-  }
-  std::vector<PngChunk> chunks;
-  *pixels_at = std::string::npos;
-  for (size_t at = 8; at + 12 <= bytes.size();) {
-    const uint32_t length = ReadBigEndian32(&bytes[at]);
-    if (at + 12 + length > bytes.size()) throw PathError(path, "OpenImageIO's PNG header has a truncated chunk");
-    PngChunk chunk{std::string(reinterpret_cast<const char*>(&bytes[at + 4]), 4),
-                   std::vector<uint8_t>(bytes.begin() + at + 8, bytes.begin() + at + 8 + length)};
-    at += 12 + length;
-    if (chunk.type == "IDAT") {
-      if (*pixels_at == std::string::npos) *pixels_at = chunks.size();
-      continue;
-    }
-    if (chunk.type == "IEND") break;
-    if (chunk.type == "IHDR") {
-      if (chunk.data.size() != 13) throw PathError(path, "OpenImageIO's PNG header has an IHDR of the wrong size");
-      for (int i = 0; i < 4; ++i) chunk.data[4 + i] = static_cast<uint8_t>(uint32_t(rows.height) >> (24 - 8 * i));
-    }
-    chunks.push_back(std::move(chunk));
-  }
-  if (chunks.empty() || chunks.front().type != "IHDR" || *pixels_at == std::string::npos) {
-    throw PathError(path, "OpenImageIO's PNG header has no IHDR or no IDAT");
-  }
-  return chunks;
-}
-
-uint8_t PngFilterType(PngFilter filter) {
-  switch (filter) {
-    case PngFilter::kSub: return 1;
-    case PngFilter::kUp: return 2;
-    case PngFilter::kAverage: return 3;
-    case PngFilter::kPaeth: return 4;
-    default: return 0;
-  }
-}
-
-// Every row as PNG stores it: the filter type byte, then the row's bytes
-// (16-bit samples big-endian) minus the filter's prediction (PNG spec 9.2).
-std::vector<uint8_t> FilteredRows(const PngRowSource& rows, PngFilter filter) {
-  const size_t samples = static_cast<size_t>(rows.width) * rows.channels;
-  const size_t row_bytes = samples * (rows.bits / 8);
-  const size_t bpp = static_cast<size_t>(rows.channels) * (rows.bits / 8);  // bytes per pixel
-  const uint8_t type = PngFilterType(filter);
-  std::vector<uint8_t> filtered((row_bytes + 1) * rows.height);
-  std::vector<uint8_t> current(row_bytes), previous(row_bytes, 0);
-  std::vector<uint16_t> samples16(rows.bits == 16 ? samples : 0);
-  for (int y = 0; y < rows.height; ++y) {
-    if (rows.bits == 16) {
-      rows.fill(y, samples16.data());
-      for (size_t i = 0; i < samples; ++i) {
-        current[2 * i] = static_cast<uint8_t>(samples16[i] >> 8);
-        current[2 * i + 1] = static_cast<uint8_t>(samples16[i]);
-      }
-    } else {
-      rows.fill(y, current.data());
-    }
-    uint8_t* out = &filtered[(row_bytes + 1) * y];
-    *out++ = type;
-    const uint8_t* x = current.data();
-    const uint8_t* b = previous.data();
-    switch (type) {
-      case 0: std::copy(x, x + row_bytes, out); break;
-      case 1:
-        for (size_t i = 0; i < row_bytes; ++i) out[i] = static_cast<uint8_t>(x[i] - (i >= bpp ? x[i - bpp] : 0));
-        break;
-      case 2:
-        for (size_t i = 0; i < row_bytes; ++i) out[i] = static_cast<uint8_t>(x[i] - b[i]);
-        break;
-      case 3:
-        for (size_t i = 0; i < row_bytes; ++i) {
-          out[i] = static_cast<uint8_t>(x[i] - ((int(i >= bpp ? x[i - bpp] : 0) + int(b[i])) >> 1));
-        }
-        break;
-      default:
-        for (size_t i = 0; i < row_bytes; ++i) {
-          const int a = i >= bpp ? x[i - bpp] : 0, up = b[i], c = i >= bpp ? b[i - bpp] : 0;
-          const int p = a + up - c, pa = std::abs(p - a), pb = std::abs(p - up), pc = std::abs(p - c);
-          const int predicted = pa <= pb && pa <= pc ? a : pb <= pc ? up : c;
-          out[i] = static_cast<uint8_t>(x[i] - predicted);
-        }
-        break;
-    }
-    std::swap(current, previous);
-  }
-  return filtered;
-}
-
-// The zlib stream of the filtered rows.
-std::vector<uint8_t> DeflatePng(const fs::path& path, const std::vector<uint8_t>& filtered, int level) {
-  std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> compressor(
-      libdeflate_alloc_compressor(level), &libdeflate_free_compressor);
-  if (!compressor) throw PathError(path, "libdeflate cannot allocate a compressor at level " + std::to_string(level));
-  // Sized for the worst case; only the pages written become resident.
-  std::vector<uint8_t> stream(libdeflate_zlib_compress_bound(compressor.get(), filtered.size()));
-  const size_t size =
-      libdeflate_zlib_compress(compressor.get(), filtered.data(), filtered.size(), stream.data(), stream.size());
-  if (size == 0) throw PathError(path, "libdeflate could not compress the rows");
-  stream.resize(size);
-  return stream;
-}
-
-void WriteChunk(std::FILE* file, const char* type, const uint8_t* data, size_t size, bool* ok) {
-  std::vector<uint8_t> head;
-  AppendBigEndian32(static_cast<uint32_t>(size), &head);
-  head.insert(head.end(), type, type + 4);
-  uint32_t crc = libdeflate_crc32(0, type, 4);
-  crc = libdeflate_crc32(crc, data, size);
-  std::vector<uint8_t> tail;
-  AppendBigEndian32(crc, &tail);
-  *ok = *ok && std::fwrite(head.data(), 1, head.size(), file) == head.size() &&
-        (size == 0 || std::fwrite(data, 1, size, file) == size) &&
-        std::fwrite(tail.data(), 1, tail.size(), file) == tail.size();
-}
-
-}  // namespace
-
 void WritePngRows(const fs::path& path, const PngRowSource& rows, OverwritePolicy policy,
-                  const ImageMetadata& metadata, const PngRowsEncoding& encoding) {
-  encoding.Check();
+                  const ImageMetadata& metadata, const PngEncoding& encoding) {
   if (rows.width <= 0 || rows.height <= 0 || rows.channels < 1 || rows.channels > 4 ||
       (rows.bits != 8 && rows.bits != 16) || !rows.fill) {
     throw std::invalid_argument(path.string() + ": cannot write a " + std::to_string(rows.width) + "x" +
@@ -581,35 +432,23 @@ void WritePngRows(const fs::path& path, const PngRowSource& rows, OverwritePolic
                                 std::to_string(rows.bits) + "-bit PNG" + (rows.fill ? "" : " without a row source") +
                                 " (1 to 4 channels of 8 or 16 bits)");
   }
-  if (policy == OverwritePolicy::kRefuse && fs::exists(path)) {
-    throw PathError(path, "already exists and is never overwritten");
-  }
-  size_t pixels_at = 0;
-  const std::vector<PngChunk> chunks = OiioPngChunks(path, rows, metadata, &pixels_at);
-  const std::vector<uint8_t> stream = DeflatePng(path, FilteredRows(rows, encoding.filter), encoding.level);
-
-  const fs::path temporary = TemporarySiblingPath(path);
-  std::FILE* file = std::fopen(temporary.c_str(), "wb");
-  if (file == nullptr) throw PathError(path, std::string("cannot be written: ") + std::strerror(errno));
-  bool ok = std::fwrite(kPngSignature, 1, 8, file) == 8;
-  constexpr size_t kIdatBytes = size_t{1} << 20;
-  for (size_t i = 0; i <= chunks.size(); ++i) {
-    if (i == pixels_at) {
-      for (size_t at = 0; at < stream.size(); at += kIdatBytes) {
-        WriteChunk(file, "IDAT", stream.data() + at, std::min(kIdatBytes, stream.size() - at), &ok);
-      }
+  OIIO::ImageSpec spec(rows.width, rows.height, rows.channels,
+                       rows.bits == 16 ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:UnassociatedAlpha", 1);  // as SpecFor: alpha stored as given
+  AddPngEncoding(encoding, spec);
+  AddMetadata(path, metadata, FileFormat::kPng, spec);
+  // A band of rows at a time: the encoder never sees a whole copy of the image.
+  constexpr int kBandRows = 64;
+  const size_t row_bytes = static_cast<size_t>(rows.width) * rows.channels * (rows.bits / 8);
+  WriteAtomicallyWith(path, "png", spec, policy, [&](OIIO::ImageOutput& out) {
+    std::vector<uint8_t> band(row_bytes * kBandRows);
+    for (int y_begin = 0; y_begin < rows.height; y_begin += kBandRows) {
+      const int y_end = std::min(rows.height, y_begin + kBandRows);
+      for (int y = y_begin; y < y_end; ++y) rows.fill(y, band.data() + (y - y_begin) * row_bytes);
+      if (!out.write_scanlines(y_begin, y_end, 0, spec.format, band.data())) return false;
     }
-    if (i < chunks.size()) WriteChunk(file, chunks[i].type.c_str(), chunks[i].data.data(), chunks[i].data.size(), &ok);
-  }
-  WriteChunk(file, "IEND", nullptr, 0, &ok);
-  const int error = ok ? 0 : errno;
-  ok = std::fclose(file) == 0 && ok;
-  if (!ok) {
-    std::error_code ignored;
-    fs::remove(temporary, ignored);
-    throw PathError(path, std::string("writing PNG failed: ") + std::strerror(error != 0 ? error : errno));
-  }
-  CommitTemporaryFile(temporary, path, policy);
+    return true;
+  });
 }
 
 void WriteTiff(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {

@@ -109,19 +109,10 @@ void WritePng(const std::filesystem::path& path, const ImageU16& image, Overwrit
 void WritePng(const std::filesystem::path& path, const ImageU8& image, OverwritePolicy policy,
               const ImageMetadata& metadata = {}, const PngEncoding& encoding = {});
 
-// A PNG whose rows a callback fills, deflated as one stream by libdeflate
-// with one row filter for every row, for large maps: on a 16 MP 16-bit
-// normal map about 2x faster than WritePng's libpng and zlib at level 1 with
-// the adaptive filter, and no larger (docs/export.md, "Memory and time at
-// 16 MP"). The pixels read back exactly as given; the chunks before and after
-// the pixel data (IHDR, pHYs, text, sRGB / gAMA) are OpenImageIO's, exactly as
-// WritePng writes them for the same metadata. Holds the filtered rows and
-// the compressed stream while it encodes, never a copy of the image.
-struct PngRowsEncoding {
-  int level = 1;                      // libdeflate level [0, 12]: 0 stores, 1 fastest, 12 smallest
-  PngFilter filter = PngFilter::kUp;  // the filter of every row; kAdaptive is not offered
-  void Check() const;                 // throws std::invalid_argument
-};
+// A PNG whose rows a callback fills, written a band of rows at a time through
+// OpenImageIO, for large maps: no full-size copy of the pixels is held (the
+// export quantises its float maps row by row). The same file as WritePng of
+// the same pixels, metadata and encoding.
 struct PngRowSource {
   int width = 0, height = 0;  // > 0
   int channels = 0;           // 1 to 4: gray, gray+alpha, RGB, RGBA
@@ -130,7 +121,7 @@ struct PngRowSource {
   std::function<void(int y, void* row)> fill;
 };
 void WritePngRows(const std::filesystem::path& path, const PngRowSource& rows, OverwritePolicy policy,
-                  const ImageMetadata& metadata = {}, const PngRowsEncoding& encoding = {});
+                  const ImageMetadata& metadata = {}, const PngEncoding& encoding = {});
 
 // An 8-bit PNG (1 to 4 channels) encoded in memory, no metadata: for pages
 // that carry their images as data: URIs (app/io/preview_page.h).
