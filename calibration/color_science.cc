@@ -1,6 +1,9 @@
 #include "calibration/color_science.h"
 
 #include <algorithm>
+#include <bit>
+#include <stdexcept>
+#include <string>
 #include <cmath>
 #include <numbers>
 
@@ -166,6 +169,57 @@ double SrgbEncode(double linear) {
   if (!(linear > 0)) return 0;  // also NaN
   if (linear >= 1) return 1;
   return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
+}
+
+namespace {
+
+uint32_t FloatBits(float value) { return std::bit_cast<uint32_t>(value); }
+float FloatOfBits(uint32_t bits) { return std::bit_cast<float>(bits); }
+constexpr uint32_t kOneBits = 0x3F800000;  // 1.0f; non-negative floats order as their bit patterns
+
+}  // namespace
+
+SrgbQuantizer::SrgbQuantizer(int bits) {
+  if (bits < 1 || bits > 16) throw std::invalid_argument("SrgbQuantizer: bits = " + std::to_string(bits) + " must be in [1, 16]");
+  max_code_ = (1 << bits) - 1;
+  const double scale = max_code_;
+  auto code_of = [scale](uint32_t float_bits) {
+    return std::lround(SrgbEncode(static_cast<double>(FloatOfBits(float_bits))) * scale);
+  };
+  lowest_.assign(max_code_ + 1, 0.0f);
+  for (int k = 1; k <= max_code_; ++k) {
+    uint32_t below = 0, reaches = kOneBits;  // code_of(below) < k <= code_of(reaches)
+    while (reaches - below > 1) {
+      const uint32_t middle = below + (reaches - below) / 2;
+      (code_of(middle) >= k ? reaches : below) = middle;
+    }
+    lowest_[k] = FloatOfBits(reaches);
+  }
+  node_.resize((kOneBits >> 16) + 2);
+  for (uint32_t i = 0; i < node_.size(); ++i) {
+    node_[i] = static_cast<float>(SrgbEncode(static_cast<double>(FloatOfBits(std::min(i << 16, kOneBits)))) * scale);
+  }
+}
+
+const SrgbQuantizer& SrgbQuantizer::Of(int bits) {
+  static const SrgbQuantizer eight(8), sixteen(16);
+  if (bits == 8) return eight;
+  if (bits == 16) return sixteen;
+  throw std::invalid_argument("SrgbQuantizer::Of: bits = " + std::to_string(bits) + " must be 8 or 16");
+}
+
+uint16_t SrgbQuantizer::operator()(float linear) const {
+  if (!(linear > 0)) return 0;  // also NaN
+  if (linear >= 1) return static_cast<uint16_t>(max_code_);
+  // Between two nodes the float is linear in its low 16 bits.
+  const uint32_t bits = FloatBits(linear);
+  const uint32_t node = bits >> 16;
+  const float t = static_cast<float>(bits & 0xFFFF) * (1.0f / 65536.0f);
+  const float guess = node_[node] + t * (node_[node + 1] - node_[node]);
+  int code = std::clamp(static_cast<int>(guess + 0.5f), 0, max_code_);
+  while (code < max_code_ && linear >= lowest_[code + 1]) ++code;
+  while (code > 0 && linear < lowest_[code]) --code;
+  return static_cast<uint16_t>(code);
 }
 
 double SrgbDecode(double encoded) {

@@ -385,6 +385,33 @@ std::vector<double> PathEigenvalues(int n, int period) {
   return values;
 }
 
+// cv::dct of a matrix (`flags` 0 or cv::DCT_INVERSE) with the rows and then
+// the columns split over the pool: cv::dct alone runs on one thread. The
+// columns go through the same 1-D transform as rows of a transposed block of
+// 64, which is what cv::dct does with a column, so the result is the same
+// bits as cv::dct's (checked bit for bit on random 200 x 150 and 4928 x 3264
+// matrices, both directions, when this was written; the export's 16 MP maps
+// came out identical).
+cv::Mat DctOnThePool(const cv::Mat& in, int flags) {
+  constexpr int kBand = 64;
+  cv::Mat out(in.size(), CV_64F);
+  ParallelFor((in.rows + kBand - 1) / kBand, 0, 1, [&](int first, int last, int) {
+    for (int band = first; band < last; ++band) {
+      const int begin = band * kBand, end = std::min(in.rows, begin + kBand);
+      cv::dct(in.rowRange(begin, end), out.rowRange(begin, end), flags | cv::DCT_ROWS);
+    }
+  });
+  ParallelFor((in.cols + kBand - 1) / kBand, 0, 1, [&](int first, int last, int) {
+    for (int band = first; band < last; ++band) {
+      const int begin = band * kBand, end = std::min(in.cols, begin + kBand);
+      cv::Mat transformed;
+      cv::dct(out.colRange(begin, end).t(), transformed, flags | cv::DCT_ROWS);
+      cv::Mat(transformed.t()).copyTo(out.colRange(begin, end));
+    }
+  });
+  return out;
+}
+
 // Solves L h = rhs with the free-boundary Laplacian, mean zero. Even sizes:
 // cv::dct diagonalises it directly. cv::dct has no odd sizes, so those go
 // through cv::dft of the mirrored (2w x 2h) extension, which is the same
@@ -392,16 +419,13 @@ std::vector<double> PathEigenvalues(int n, int period) {
 cv::Mat SolveNeumannPoisson(const cv::Mat& rhs) {
   const int w = rhs.cols, h = rhs.rows;
   if (w % 2 == 0 && h % 2 == 0) {
-    cv::Mat spectrum;
-    cv::dct(rhs, spectrum);
+    cv::Mat spectrum = DctOnThePool(rhs, 0);
     const std::vector<double> ex = PathEigenvalues(w, 2 * w), ey = PathEigenvalues(h, 2 * h);
     for (int y = 0; y < h; ++y) {
       double* row = spectrum.ptr<double>(y);
       for (int x = 0; x < w; ++x) row[x] = (x == 0 && y == 0) ? 0.0 : row[x] / (ex[x] + ey[y]);
     }
-    cv::Mat solution;
-    cv::dct(spectrum, solution, cv::DCT_INVERSE);
-    return solution;
+    return DctOnThePool(spectrum, cv::DCT_INVERSE);
   }
   cv::Mat mirrored;
   cv::Mat flipped_x, flipped_y, flipped_xy;

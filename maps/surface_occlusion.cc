@@ -107,6 +107,21 @@ void LeavingSlopeRow(const ImageF& height_mm, int y, float cos_azimuth, float si
   }
 }
 
+// One sample's rise for pixels [begin, end), whose x + dx and x + dx + 1 lie
+// inside the row (r0, r1 already offset by dx). Built for AVX-512, AVX2 and
+// the baseline, picked at run time; each lane does the baseline's very
+// operations (no FMA contraction: -ffp-contract=off), so every build gives
+// the same bits.
+__attribute__((target_clones("avx512f", "avx2", "default"))) void MarchInterior(
+    const float* r0, const float* r1, const float* centre, float fx, float fy, float inv, int begin, int end,
+    float* max_tangent) {
+  for (int x = begin; x < end; ++x) {
+    const float a = r0[x] + fx * (r0[x + 1] - r0[x]);
+    const float b = r1[x] + fx * (r1[x + 1] - r1[x]);
+    max_tangent[x] = std::max(max_tangent[x], (a + fy * (b - a) - centre[x]) * inv);
+  }
+}
+
 // Raises max_tangent[x] for one azimuth's samples to the steepest rise
 // (height difference over distance) seen from each pixel of row y.
 void MarchRow(const ImageF& height_mm, int y, const std::vector<MarchSample>& samples, float* max_tangent) {
@@ -129,13 +144,7 @@ void MarchRow(const ImageF& height_mm, int y, const std::vector<MarchSample>& sa
       max_tangent[x] = std::max(max_tangent[x], rise(x, std::clamp(x + s.dx, 0, width - 1),
                                                      std::clamp(x + s.dx + 1, 0, width - 1)));
     }
-    for (int x = begin; x < end; ++x) {
-      const float* a0 = r0 + (x + s.dx);
-      const float* a1 = r1 + (x + s.dx);
-      const float a = a0[0] + fx * (a0[1] - a0[0]);
-      const float b = a1[0] + fx * (a1[1] - a1[0]);
-      max_tangent[x] = std::max(max_tangent[x], (a + fy * (b - a) - centre[x]) * inv);
-    }
+    MarchInterior(r0 + s.dx, r1 + s.dx, centre, fx, fy, inv, begin, end, max_tangent);
     for (int x = end; x < width; ++x) {
       max_tangent[x] = std::max(max_tangent[x], rise(x, std::clamp(x + s.dx, 0, width - 1),
                                                      std::clamp(x + s.dx + 1, 0, width - 1)));

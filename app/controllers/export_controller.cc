@@ -20,7 +20,6 @@
 
 #include "app/controllers/albedo_color.h"
 #include "app/controllers/engine_presets.h"
-#include "app/controllers/map_writer.h"
 #include "calibration/color_science.h"
 #include "app/io/file_util.h"
 #include "app/io/gltf_document.h"
@@ -69,6 +68,11 @@ struct ExportMaps {
   ImageF cavity;
   std::vector<GlossMipLevel> mips;
   std::vector<ImageF> tiles;      // empty, or the tiles of TileInputs' maps in order
+};
+
+struct ExportController::HeightReference {
+  ImageF height_mm;  // the true height, or the true normals flattened and integrated like the export's
+  ImageU8 evaluated;  // 1 on the sample's solved pixels
 };
 
 namespace {
@@ -320,7 +324,8 @@ struct ExportFile {
   // The pixels: borrowed from the export's inputs or maps (an empty owner, so
   // no copy of a 16 MP map per file), or owned when made for this file only.
   std::shared_ptr<const ImageF> float_image;
-  std::shared_ptr<const ImageU8> u8_image;  // stored as it is (mask, sRGB preview)
+  std::shared_ptr<const ImageU8> u8_image;  // stored as it is (mask)
+  bool srgb8 = false;                       // float_image (linear RGB) as 8-bit sRGB (previews, engine base colour)
   std::shared_ptr<const std::string> document;  // a text or binary document (.gltf, .bin, .mtlx), stored as it is
   IntegerEncoding integer;
   ImageMetadata metadata;
@@ -328,26 +333,70 @@ struct ExportFile {
   uintmax_t bytes = 0;
 };
 
+// Row y of a float map as 16-bit integers: lround(value * 65535) of the
+// encoded value. The sRGB curve goes through SrgbQuantizer (the same
+// integers without a pow per value) when the value is the sample itself.
+void QuantiseRow16(const ImageF& image, int y, const IntegerEncoding& encoding, uint16_t* out) {
+  const float* in = image.row(y);
+  const size_t count = static_cast<size_t>(image.width()) * image.channels();
+  if (encoding.srgb && encoding.scale == 1 && encoding.offset == 0) {
+    const SrgbQuantizer& srgb = SrgbQuantizer::Of(16);
+    for (size_t i = 0; i < count; ++i) out[i] = srgb(in[i]);
+    return;
+  }
+  for (size_t i = 0; i < count; ++i) {
+    double value = std::clamp(double(in[i]) * encoding.scale + encoding.offset, 0.0, 1.0);
+    if (encoding.srgb) value = SrgbEncode(value);
+    // lround for a value in [0, 65535]: the fraction is exact, halves round up.
+    const double scaled = value * 65535.0, whole = std::trunc(scaled);
+    out[i] = static_cast<uint16_t>(whole) + (scaled - whole >= 0.5 ? 1 : 0);
+  }
+}
+
 ImageU16 Quantise16(const ImageF& image, const IntegerEncoding& encoding) {
   ImageU16 quantised(image.width(), image.height(), image.channels());
-  for (size_t i = 0; i < image.size(); ++i) {
-    double value = std::clamp(double(image.data()[i]) * encoding.scale + encoding.offset, 0.0, 1.0);
-    if (encoding.srgb) value = SrgbEncode(value);
-    quantised.data()[i] = static_cast<uint16_t>(std::lround(value * 65535.0));
-  }
+  for (int y = 0; y < image.height(); ++y) QuantiseRow16(image, y, encoding, quantised.row(y));
   return quantised;
+}
+
+// The export's PNGs through WritePngRows: the
+// rows are quantised a band at a time, so no 16-bit copy of a map is held.
+PngRowSource PngRowsOf(const ExportFile& file) {
+  PngRowSource rows;
+  if (file.u8_image) {
+    const ImageU8& image = *file.u8_image;
+    rows = {image.width(), image.height(), image.channels(), 8, [&image](int y, void* row) {
+              std::copy_n(image.row(y), static_cast<size_t>(image.width()) * image.channels(),
+                          static_cast<uint8_t*>(row));
+            }};
+  } else if (file.srgb8) {
+    const ImageF& image = *file.float_image;
+    rows = {image.width(), image.height(), image.channels(), 8, [&image](int y, void* row) {
+              const SrgbQuantizer& srgb = SrgbQuantizer::Of(8);
+              const float* in = image.row(y);
+              uint8_t* out = static_cast<uint8_t*>(row);
+              for (size_t i = 0; i < static_cast<size_t>(image.width()) * image.channels(); ++i) {
+                out[i] = static_cast<uint8_t>(srgb(in[i]));
+              }
+            }};
+  } else {
+    const ImageF& image = *file.float_image;
+    const IntegerEncoding& encoding = file.integer;
+    rows = {image.width(), image.height(), image.channels(), 16, [&image, &encoding](int y, void* row) {
+              QuantiseRow16(image, y, encoding, static_cast<uint16_t*>(row));
+            }};
+  }
+  return rows;
 }
 
 void WriteExportFile(const fs::path& path, const ExportFile& file) {
   const auto policy = OverwritePolicy::kRefuse;
   if (file.document) {
     WriteFileAtomic(path, *file.document, policy);
-  } else if (file.u8_image) {
-    WritePng(path, *file.u8_image, policy, file.metadata);
   } else if (file.format == "exr") {
     WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata);
   } else if (file.format == "png") {
-    WritePng(path, Quantise16(*file.float_image, file.integer), policy, file.metadata);
+    WritePngRows(path, PngRowsOf(file), policy, file.metadata);
   } else {
     WriteTiff(path, Quantise16(*file.float_image, file.integer), policy, file.metadata);
   }
@@ -603,21 +652,22 @@ class FilePlanner {
     file->metadata.attributes["scanbench:height_max_mm"] = high_text.str();
   }
 
-  // An 8-bit PNG stored as it is (mask, sRGB preview).
+  // An 8-bit PNG stored as it is (mask).
   ExportFile* AddU8(const std::string& kind, ImageU8 image, const std::string& color_space,
                     const std::string& encoding, const std::string& description) {
-    ExportFile file;
-    file.kind = kind;
-    file.format = "png";
-    file.relative_path = RelativePath(kind, ".png");
-    file.bits_per_sample = 8;
-    file.width = image.width();
-    file.height = image.height();
-    file.channels = image.channels();
-    file.color_space = color_space;
-    file.encoding = encoding;
-    file.mm_per_pixel = summary_.mm_per_pixel;
+    ExportFile file = Png8(kind, image, color_space, encoding);
     file.u8_image = std::make_shared<const ImageU8>(std::move(image));
+    file.metadata = Metadata(file, description);
+    return &files_.emplace_back(std::move(file));
+  }
+
+  // Linear RGB as 8-bit sRGB PNG (uint8 = lround(srgb_transfer(value) * 255)),
+  // borrowed: `linear_rgb` must outlive the writing of the files.
+  ExportFile* AddSrgb8(const std::string& kind, const ImageF& linear_rgb, const std::string& encoding,
+                       const std::string& description) {
+    ExportFile file = Png8(kind, linear_rgb, "sRGB", encoding);
+    file.float_image = std::shared_ptr<const ImageF>(std::shared_ptr<void>(), &linear_rgb);
+    file.srgb8 = true;
     file.metadata = Metadata(file, description);
     return &files_.emplace_back(std::move(file));
   }
@@ -652,6 +702,23 @@ class FilePlanner {
   std::string RelativePath(const std::string& kind, const std::string& extension) const {
     const std::string& material = summary_.material_name;
     return material + "/" + material + "_" + kind + extension;
+  }
+  // An 8-bit PNG's entry of `image`'s layout; its pixels and metadata are the caller's.
+  template <typename T>
+  ExportFile Png8(const std::string& kind, const Image<T>& image, const std::string& color_space,
+                  const std::string& encoding) const {
+    ExportFile file;
+    file.kind = kind;
+    file.format = "png";
+    file.relative_path = RelativePath(kind, ".png");
+    file.bits_per_sample = 8;
+    file.width = image.width();
+    file.height = image.height();
+    file.channels = image.channels();
+    file.color_space = color_space;
+    file.encoding = encoding;
+    file.mm_per_pixel = summary_.mm_per_pixel;
+    return file;
   }
   ImageMetadata Metadata(const ExportFile& file, const std::string& description) const {
     ImageMetadata metadata;
@@ -730,7 +797,7 @@ void PlanEngineMaps(EngineTarget target, const std::string& kind_prefix, const s
                     FilePlanner& plan) {
   const double mm = summary.mm_per_pixel;
   const EngineTextureNames names = EngineTextureNamesOf(target, stem);
-  ExportFile* basecolor = plan.AddU8(kind_prefix + "basecolor", EncodeSrgbPreview(set.albedo), "sRGB",
+  ExportFile* basecolor = plan.AddSrgb8(kind_prefix + "basecolor", set.albedo,
                                      "uint8 = srgb_transfer(value) * 255, value in [0, 1]",
                                      "diffuse albedo (" + color.color_space + ", " + color.scale +
                                          " reflectance), sRGB transfer curve");
@@ -827,8 +894,8 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   plan.AddU8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
              "pixels the solver solved");
   if (!engine) {
-    plan.AddU8("basecolor_srgb_preview", EncodeSrgbPreview(inputs.albedo), "sRGB", "uint8 sRGB transfer curve",
-             "8-bit sRGB preview of the basecolor (" + inputs.albedo_color.color_space + ")");
+    plan.AddSrgb8("basecolor_srgb_preview", inputs.albedo, "uint8 sRGB transfer curve",
+                  "8-bit sRGB preview of the basecolor (" + inputs.albedo_color.color_space + ")");
   }
   const std::string& material = summary.material_name;
   plan.AddDocument("materialx", material + ".mtlx", "mtlx", MaterialXOf(options, summary, inputs, plan),
@@ -867,11 +934,19 @@ void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFil
   // On the shared pool, one file per thread at a time: each integer file
   // holds its quantised copy while it encodes, so a thread per file would
   // hold them all at once.
+  // Largest first, so that no thread is left with a large file while the others are done.
   const int count = static_cast<int>(files.size());
+  std::vector<int> order(count);
+  for (int i = 0; i < count; ++i) order[i] = i;
+  auto samples = [&files](int i) {
+    const ExportFile& f = files[i];
+    return static_cast<double>(f.width) * f.height * f.channels * (f.is_float ? 2 : 1);
+  };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return samples(a) > samples(b); });
   ParallelFor(
       count, ResolveThreadCount(0), 1,
       [&](int first, int last, int) {
-        for (int i = first; i < last; ++i) WriteExportFile(staging / files[i].relative_path, files[i]);
+        for (int i = first; i < last; ++i) WriteExportFile(staging / files[order[i]].relative_path, files[order[i]]);
       },
       [&](int done) {
         report(0.9 * done / count);
@@ -881,12 +956,15 @@ void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFil
 
 // Hashes and sizes of the written files, for the manifest; lists them in the summary.
 void RecordWrittenFiles(const fs::path& staging, std::vector<ExportFile>* files, ExportSummary* summary) {
-  for (ExportFile& file : *files) {
-    const fs::path path = staging / file.relative_path;
-    file.sha256 = Sha256HexOfFile(path);
-    file.bytes = fs::file_size(path);
-    summary->files[file.kind] = file.relative_path;
-  }
+  ParallelFor(static_cast<int>(files->size()), ResolveThreadCount(0), 1, [&](int first, int last, int) {
+    for (int i = first; i < last; ++i) {
+      ExportFile& file = (*files)[i];
+      const fs::path path = staging / file.relative_path;
+      file.sha256 = Sha256HexOfFile(path);
+      file.bytes = fs::file_size(path);
+    }
+  });
+  for (const ExportFile& file : *files) summary->files[file.kind] = file.relative_path;
 }
 
 // preview.html beside material.json: the base colour, flattened normals
@@ -1189,10 +1267,21 @@ void ExportController::Run() {
 
   // Each full-size image is loaded when first needed and released after its
   // last user: albedo and confidence only after the derived maps and the
-  // evaluation (their own full-size temporaries), the solved normals once flattened.
+  // evaluation (their own full-size temporaries), the solved normals once
+  // flattened. The evaluation's full-size work (the true normals flattened
+  // and integrated) runs right after the flattening, before the other maps
+  // exist, and keeps only the reference height for after the export's own.
   ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
-  ExportMaps maps = Derive(&inputs);
-  if (inputs.session.ground_truth) TimedStage(timings, "evaluate", "", [&] { Evaluate(inputs, maps); });
+  ExportMaps maps = Flatten(&inputs);
+  std::optional<HeightReference> reference;
+  if (inputs.session.ground_truth) {
+    TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps); });
+  }
+  Derive(&inputs, &maps);
+  if (reference) {
+    TimedStage(timings, "evaluate_height", "", [&] { EvaluateHeight(*reference, maps); });
+    reference.reset();
+  }
   TimedStage(timings, "load_albedo_confidence", "", [&] { LoadAlbedoAndConfidence(&inputs); });
   if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
@@ -1272,11 +1361,10 @@ void ExportController::LoadAlbedoAndConfidence(ExportInputs* inputs) {
   ReportProgress("load albedo and confidence", 1);
 }
 
-// Flattened normals, height, occlusion, cavity and roughness mips, each a
-// stage of its own; the solved normals are released (or moved) once flattened.
-ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
+// The flattened normals (or the solved ones as they are), a stage of its own;
+// the solved normals are released (or moved) once flattened.
+ExportMaps ExportController::Flatten(ExportInputs* inputs_to_release) {
   ExportInputs& inputs = *inputs_to_release;
-  const double mm = summary_.mm_per_pixel;
   std::vector<StageTiming>& timings = summary_.stage_seconds;
   ExportMaps maps;
   if (options_.flatten_normals) {
@@ -1289,7 +1377,16 @@ ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
   } else {
     maps.normals = std::move(inputs.solved_normals);
   }
+  return maps;
+}
 
+// Height, occlusion, cavity and roughness mips from the flattened normals,
+// each a stage of its own.
+void ExportController::Derive(ExportInputs* inputs_to_release, ExportMaps* maps_out) {
+  ExportInputs& inputs = *inputs_to_release;
+  ExportMaps& maps = *maps_out;
+  const double mm = summary_.mm_per_pixel;
+  std::vector<StageTiming>& timings = summary_.stage_seconds;
   TimedStage(timings, "height", "height from normals", [&] {
     summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
                                         &maps.height_mm, StageCallback("height from normals"));
@@ -1327,6 +1424,7 @@ ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
       RequireSuccess(*summary_.specular_roughness, "specular roughness");
       summary_.roughness_source = "specular_map+normal_variance";
     });
+    inputs.specular_alpha = ImageF();  // its last user
   }
   TimedStage(timings, "gloss_mips", "roughness mips", [&] {
     summary_.gloss =
@@ -1334,7 +1432,9 @@ ExportMaps ExportController::Derive(ExportInputs* inputs_to_release) {
                            &inputs.valid, &maps.mips, StageCallback("roughness mips"));
     RequireSuccess(summary_.gloss, "roughness mips");
   });
-  return maps;
+  // Mip 0's normals are the flattened normals normalised again; the files and
+  // the preview take maps.normals, so they are not kept (192 MB at 16 MP).
+  if (!maps.mips.empty()) maps.mips[0].normal_in_tangent = ImageF();
 }
 
 // A tile that does not fit is a warning, not a failure: the other maps stand.
@@ -1356,7 +1456,8 @@ void ExportController::DeriveTile(const ExportInputs& inputs, ExportMaps* maps) 
 // sigma), so the reference is the true normals through the same flattening
 // and integration: the figure is what the solve's normal error does to the
 // exported height. Unflattened, the reference is the true height itself.
-void ExportController::Evaluate(const ExportInputs& inputs, const ExportMaps& maps) {
+ExportController::HeightReference ExportController::EvaluateNormals(const ExportInputs& inputs,
+                                                                    const ExportMaps& maps) {
   BeginStage("ground truth");
   const GroundTruthFiles& truth = *inputs.session.ground_truth;
   const int width = summary_.image_width, height = summary_.image_height;
@@ -1384,7 +1485,14 @@ void ExportController::Evaluate(const ExportInputs& inputs, const ExportMaps& ma
   }
   const ErrorStatistics normal_error = AngularErrorDegrees(maps.normals, reference_normals, evaluated);
   if (normal_error.num_pixels > 0) summary_.flattened_normal_mean_error_deg = normal_error.mean;
-  summary_.height_rms_error_mm = RmsAfterPlane(maps.height_mm, reference_height, evaluated);
+  ReportProgress("ground truth", 1);
+  return {std::move(reference_height), std::move(evaluated)};
+}
+
+// The exported height against the reference, once the export's height exists.
+void ExportController::EvaluateHeight(const HeightReference& reference, const ExportMaps& maps) {
+  BeginStage("ground truth");
+  summary_.height_rms_error_mm = RmsAfterPlane(maps.height_mm, reference.height_mm, reference.evaluated);
   ReportProgress("ground truth", 1);
 }
 

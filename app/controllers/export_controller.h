@@ -118,10 +118,13 @@ class ExportController : public BaseController {
 
  private:
   ExportInputs Load();
-  ExportMaps Derive(ExportInputs* inputs);  // releases the solved normals once used
+  ExportMaps Flatten(ExportInputs* inputs);  // releases the solved normals once used
+  void Derive(ExportInputs* inputs, ExportMaps* maps);
   void LoadAlbedoAndConfidence(ExportInputs* inputs);
   void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
-  void Evaluate(const ExportInputs& inputs, const ExportMaps& maps);
+  struct HeightReference;  // what the ground-truth evaluation keeps for the height
+  HeightReference EvaluateNormals(const ExportInputs& inputs, const ExportMaps& maps);
+  void EvaluateHeight(const HeightReference& reference, const ExportMaps& maps);
 
   std::filesystem::path result_dir_;
   ExportOptions options_;

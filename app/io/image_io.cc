@@ -6,8 +6,12 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <functional>
+#include <memory>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -41,8 +45,10 @@ void CheckWritable(const fs::path& path, const Image<T>& image, const char* form
 
 // Writes `pixels` to a temporary sibling with the writer for `format` (the
 // temporary name has no image extension), then commits it under `policy`.
-void WriteAtomically(const fs::path& path, const char* format, const OIIO::ImageSpec& spec, const void* pixels,
-                     OverwritePolicy policy) {
+// `write_pixels` writes the pixels into the opened output (the whole image,
+// or scanlines band by band) and says whether it succeeded.
+void WriteAtomicallyWith(const fs::path& path, const char* format, const OIIO::ImageSpec& spec,
+                         OverwritePolicy policy, const std::function<bool(OIIO::ImageOutput&)>& write_pixels) {
   // Fail before encoding anything; CommitTemporaryFile re-checks atomically.
   if (policy == OverwritePolicy::kRefuse && fs::exists(path)) {
     throw PathError(path, "already exists and is never overwritten");
@@ -59,7 +65,7 @@ void WriteAtomically(const fs::path& path, const char* format, const OIIO::Image
     discard();
     throw PathError(path, std::string("cannot be written as ") + format + " (" + OiioMessage(message) + ")");
   }
-  const bool written = out->write_image(spec.format, pixels);
+  const bool written = write_pixels(*out);
   const bool closed = out->close();
   if (!written || !closed) {
     const std::string message = out->geterror();
@@ -68,6 +74,12 @@ void WriteAtomically(const fs::path& path, const char* format, const OIIO::Image
   }
   out.reset();
   CommitTemporaryFile(temporary, path, policy);
+}
+
+void WriteAtomically(const fs::path& path, const char* format, const OIIO::ImageSpec& spec, const void* pixels,
+                     OverwritePolicy policy) {
+  WriteAtomicallyWith(path, format, spec, policy,
+                      [&](OIIO::ImageOutput& out) { return out.write_image(spec.format, pixels); });
 }
 
 template <typename T>
@@ -384,20 +396,59 @@ void WritePng(const fs::path& path, const ImageU8& image, OverwritePolicy policy
   WritePngOrTiff(path, image, OIIO::TypeDesc::UINT8, FileFormat::kPng, policy, metadata, encoding);
 }
 
+namespace {
+
+// A PNG of `spec` encoded in memory by OpenImageIO; errors name `name` and say `what` failed.
+std::vector<unsigned char> OiioPngInMemory(const fs::path& name, const OIIO::ImageSpec& spec, const void* pixels,
+                                           const std::string& what) {
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
+  if (!out) throw PathError(name, "no PNG writer (" + OiioMessage(OIIO::geterror()) + ")");
+  if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) || !out->write_image(spec.format, pixels) ||
+      !out->close()) {
+    throw PathError(name, what + " failed (" + OiioMessage(out->geterror()) + ")");
+  }
+  return bytes;
+}
+
+}  // namespace
+
 std::vector<uint8_t> EncodePngInMemory(const ImageU8& image) {
   const fs::path name = "(in-memory PNG)";
   CheckWritable(name, image, "PNG", 4);
   OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT8);
   AddPngEncoding(PngEncoding{}, spec);
-  std::vector<unsigned char> bytes;
-  OIIO::Filesystem::IOVecOutput proxy(bytes);
-  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
-  if (!out) throw PathError(name, "no PNG writer (" + OiioMessage(OIIO::geterror()) + ")");
-  if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) || !out->write_image(spec.format, image.data()) ||
-      !out->close()) {
-    throw PathError(name, "encoding failed (" + OiioMessage(out->geterror()) + ")");
-  }
+  const std::vector<unsigned char> bytes = OiioPngInMemory(name, spec, image.data(), "encoding");
   return std::vector<uint8_t>(bytes.begin(), bytes.end());
+}
+
+void WritePngRows(const fs::path& path, const PngRowSource& rows, OverwritePolicy policy,
+                  const ImageMetadata& metadata, const PngEncoding& encoding) {
+  if (rows.width <= 0 || rows.height <= 0 || rows.channels < 1 || rows.channels > 4 ||
+      (rows.bits != 8 && rows.bits != 16) || !rows.fill) {
+    throw std::invalid_argument(path.string() + ": cannot write a " + std::to_string(rows.width) + "x" +
+                                std::to_string(rows.height) + "x" + std::to_string(rows.channels) + " " +
+                                std::to_string(rows.bits) + "-bit PNG" + (rows.fill ? "" : " without a row source") +
+                                " (1 to 4 channels of 8 or 16 bits)");
+  }
+  OIIO::ImageSpec spec(rows.width, rows.height, rows.channels,
+                       rows.bits == 16 ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:UnassociatedAlpha", 1);  // as SpecFor: alpha stored as given
+  AddPngEncoding(encoding, spec);
+  AddMetadata(path, metadata, FileFormat::kPng, spec);
+  // A band of rows at a time: the encoder never sees a whole copy of the image.
+  constexpr int kBandRows = 64;
+  const size_t row_bytes = static_cast<size_t>(rows.width) * rows.channels * (rows.bits / 8);
+  WriteAtomicallyWith(path, "png", spec, policy, [&](OIIO::ImageOutput& out) {
+    std::vector<uint8_t> band(row_bytes * kBandRows);
+    for (int y_begin = 0; y_begin < rows.height; y_begin += kBandRows) {
+      const int y_end = std::min(rows.height, y_begin + kBandRows);
+      for (int y = y_begin; y < y_end; ++y) rows.fill(y, band.data() + (y - y_begin) * row_bytes);
+      if (!out.write_scanlines(y_begin, y_end, 0, spec.format, band.data())) return false;
+    }
+    return true;
+  });
 }
 
 void WriteTiff(const fs::path& path, const ImageU16& image, OverwritePolicy policy, const ImageMetadata& metadata) {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -107,6 +108,20 @@ void WritePng(const std::filesystem::path& path, const ImageU16& image, Overwrit
               const ImageMetadata& metadata = {}, const PngEncoding& encoding = {});
 void WritePng(const std::filesystem::path& path, const ImageU8& image, OverwritePolicy policy,
               const ImageMetadata& metadata = {}, const PngEncoding& encoding = {});
+
+// A PNG whose rows a callback fills, written a band of rows at a time through
+// OpenImageIO, for large maps: no full-size copy of the pixels is held (the
+// export quantises its float maps row by row). The same file as WritePng of
+// the same pixels, metadata and encoding.
+struct PngRowSource {
+  int width = 0, height = 0;  // > 0
+  int channels = 0;           // 1 to 4: gray, gray+alpha, RGB, RGBA
+  int bits = 16;              // 8 (uint8_t samples) or 16 (uint16_t, host byte order)
+  // Fills row y: width * channels samples. Called once per row, y = 0, 1, ... in order.
+  std::function<void(int y, void* row)> fill;
+};
+void WritePngRows(const std::filesystem::path& path, const PngRowSource& rows, OverwritePolicy policy,
+                  const ImageMetadata& metadata = {}, const PngEncoding& encoding = {});
 
 // An 8-bit PNG (1 to 4 channels) encoded in memory, no metadata: for pages
 // that carry their images as data: URIs (app/io/preview_page.h).

@@ -1,6 +1,8 @@
 #include "calibration/color_science.h"
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 
 #include <Eigen/LU>
@@ -170,6 +172,42 @@ TEST(ColorScience, SrgbTransferCurveKnownValues) {
   EXPECT_NEAR(SrgbDecode(0.04045), 0.0031308, 1e-7);
   EXPECT_NEAR(SrgbDecode(128.0 / 255), 0.215861, 1e-6);
   for (double v = 0; v <= 1; v += 0.01) EXPECT_NEAR(SrgbDecode(SrgbEncode(v)), v, 1e-12);
+}
+
+// The quantizer is lround(SrgbEncode(v) * max) without a pow per value: equal
+// on either side of every code's threshold, on a random sample, at the
+// knee and at the ends (a check over every float in [0, 1] was run once:
+// docs/export.md, "Memory and time at 16 MP").
+TEST(ColorScience, SrgbQuantizerEqualsTheRoundedCurve) {
+  for (int bits : {8, 16}) {
+    const SrgbQuantizer& quantize = SrgbQuantizer::Of(bits);
+    const double max = (1 << bits) - 1;
+    ASSERT_EQ(quantize.max_code(), (1 << bits) - 1);
+    auto expected = [max](float v) { return std::lround(SrgbEncode(v) * max); };
+    int checked_codes = 0;
+    for (int k = 1; k <= quantize.max_code(); ++k) {
+      // The first float whose rounded curve reaches k, and its float neighbours.
+      float lo = 0.0f, hi = 1.0f;
+      while (std::nextafter(lo, 2.0f) < hi) {
+        const float mid = std::bit_cast<float>((std::bit_cast<uint32_t>(lo) + std::bit_cast<uint32_t>(hi)) / 2);
+        (expected(mid) >= k ? hi : lo) = mid;
+      }
+      for (float v : {lo, hi, std::nextafter(lo, 0.0f), std::nextafter(hi, 2.0f)}) {
+        ASSERT_EQ(quantize(v), expected(v)) << bits << " bits, v = " << v << " near code " << k;
+      }
+      ++checked_codes;
+    }
+    EXPECT_EQ(checked_codes, quantize.max_code());
+    std::mt19937 random(17);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    for (int i = 0; i < 200000; ++i) {
+      const float v = i % 2 ? unit(random) : unit(random) * 0.01f;
+      ASSERT_EQ(quantize(v), expected(v)) << bits << " bits, v = " << v;
+    }
+    for (float v : {0.0f, -0.0f, -1.0f, 1.0f, 2.0f, 0.0031308f, 1e-30f, std::nanf("")}) {
+      EXPECT_EQ(quantize(v), std::isnan(v) ? 0 : expected(v)) << bits << " bits, v = " << v;
+    }
+  }
 }
 
 }  // namespace
