@@ -34,6 +34,10 @@ struct SolveOptions {
   // frames; only the albedo is demosaiced. The depth refinement's re-solves
   // (when the height range triggers them) use the demosaiced frames.
   bool bayer_domain = false;
+  // The adaptive method (default): blend each pixel's normal between the
+  // demosaiced solve and a Bayer-domain one (BandedSolveOptions::bayer_blend,
+  // issue #13). Not with bayer_domain; the depth re-solves do not blend.
+  bool bayer_blend = true;
   // --- calibration (issue #4) ---
   // A calibration set (app/session/calibration_set.h): lights, white balance
   // and camera rays from it instead of the session's rig description. Empty =
