@@ -229,10 +229,12 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   const PhotometricSolverSummary bayer_summary = SolveBayerBand(bayer_solver, *developed, cfa, light_field, dev0, dev1,
                                                                 row0, row1, &bayer, SubRange(progress, 0, 0.55));
   if (!bayer_summary.IsUsable()) return bayer_summary;
-  CropDevelopedRows(row0 - dev0, row1 - row0, developed);
+  // (Already cropped where sample masks replaced the development's.)
+  if (developed->front().rgb.height() != row1 - row0) CropDevelopedRows(row0 - dev0, row1 - row0, developed);
   PhotometricSolverSummary summary =
       SolveRgbBand(options, *developed, light_field, row0, row1, band_solution, SubRange(progress, 0.55, 0.95));
   if (!summary.IsUsable()) return summary;
+  const auto blend_start = std::chrono::steady_clock::now();
   BayerNormalBlendOptions blend;
   blend.num_threads = options.solver.num_threads;
   const LightFieldRows band_field(light_field, row0, row1 - row0);
@@ -244,6 +246,7 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   }
   summary.pixels_bayer_blended = blended->pixels_blended;
   summary.bayer_blend_mean_weight = blended->mean_weight;
+  summary.seconds += bayer_summary.seconds + SecondsSince(blend_start);  // the band's whole solve
   return summary;
 }
 
@@ -279,11 +282,16 @@ void BandedSolveOptions::Check() const {
   if (bayer_domain && sample_masks) {
     throw std::invalid_argument("BandedSolveOptions: bayer_domain and sample_masks cannot be combined");
   }
-  if (bayer_blend && (bayer_domain || sample_masks)) {
-    throw std::invalid_argument("BandedSolveOptions: bayer_blend cannot be combined with bayer_domain or sample_masks");
+  if (bayer_blend && bayer_domain) {
+    throw std::invalid_argument("BandedSolveOptions: bayer_blend and bayer_domain cannot be combined");
   }
   if (!(sample_mask_margin_rows >= 0 && sample_mask_margin_rows <= 64)) {
     throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows, "must lie in [0, 64]");
+  }
+  if (bayer_blend && sample_masks && sample_mask_margin_rows > solver.tile_size) {
+    throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows,
+                     "must be at most solver.tile_size (" + std::to_string(solver.tile_size) +
+                         ") with bayer_blend: the Bayer-domain solve reads the band one tile beyond it");
   }
 }
 
@@ -327,9 +335,8 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     const double band_begin = double(band) / num_bands, band_end = double(band + 1) / num_bands;
     const double develop_end = band_begin + kDevelopShare * (band_end - band_begin);
     // With a mask hook the band is developed with its margin and cropped after the masks.
-    const int margin = with_mosaic ? kBayerMarginRows
-                       : options.sample_masks ? options.sample_mask_margin_rows
-                                              : 0;
+    const int margin = std::max(with_mosaic ? kBayerMarginRows : 0,
+                                options.sample_masks ? options.sample_mask_margin_rows : 0);
     const int dev0 = std::max(0, row0 - margin), dev1 = std::min(height, row1 + margin);
 
     auto develop_start = std::chrono::steady_clock::now();

@@ -46,7 +46,9 @@ struct BandedSolveOptions {
   // normal between the two (BlendBayerNormals, solver/bayer_normal_blend.h;
   // issue #13); everything else is the demosaiced solve's. Bands are whole
   // blend cells, so the result is the whole-frame blend's. Not with
-  // bayer_domain or sample_masks.
+  // bayer_domain; with sample_masks they apply to the demosaiced solve only
+  // (what they leave out, the shadow edges a demosaic mixes into lit pixels,
+  // a raw sample does not have), and sample_mask_margin_rows <= tile_size.
   bool bayer_blend = false;
   void Check() const;
 };

@@ -283,7 +283,6 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::fun
                                    const ProgressCallback& resolve_progress, size_t* shadow_edge_samples) {
     BandedSolveOptions banded_options = BandedOptions(options);
     banded_options.bayer_domain = false;  // the re-solves use the demosaiced frames (SolveOptions::bayer_domain)
-    banded_options.bayer_blend = false;   // and do not blend (their sample masks are the demosaiced frames')
     if (options.depth.shadow_edge_radius_px > 0) {
       banded_options.sample_mask_margin_rows = options.depth.shadow_edge_radius_px;
       banded_options.sample_masks = [&](const PhotometricSolverInput& band) {

@@ -36,7 +36,7 @@ struct SolveOptions {
   bool bayer_domain = false;
   // The adaptive method (default): blend each pixel's normal between the
   // demosaiced solve and a Bayer-domain one (BandedSolveOptions::bayer_blend,
-  // issue #13). Not with bayer_domain; the depth re-solves do not blend.
+  // issue #13), also in the depth re-solves. Not with bayer_domain.
   bool bayer_blend = true;
   // --- calibration (issue #4) ---
   // A calibration set (app/session/calibration_set.h): lights, white balance
