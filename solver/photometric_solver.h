@@ -248,6 +248,11 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   std::array<size_t, kNumSolvePaths> pixels_by_path{};
   std::array<size_t, kNumSpecularStatuses> pixels_by_specular{};  // all 0 when no specular maps were made
   size_t pixels_coherent_lobe = 0;    // pixels whose result is the shared lobe's (adaptive_coherent_lobe)
+  // Raw sessions' default (BlendBayerNormals, solver/bayer_normal_blend.h, run
+  // by the banded solve): pixels whose normal took a share of a Bayer-domain
+  // solve's, and that share's mean over the pixels it was weighed on.
+  size_t pixels_bayer_blended = 0;
+  double bayer_blend_mean_weight = 0;
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }

@@ -106,6 +106,7 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
   for (int p = 0; p < kNumSolvePaths; ++p) whole->pixels_by_path[p] += band.pixels_by_path[p];
   for (int s = 0; s < kNumSpecularStatuses; ++s) whole->pixels_by_specular[s] += band.pixels_by_specular[s];
   whole->pixels_coherent_lobe += band.pixels_coherent_lobe;
+  whole->pixels_bayer_blended += band.pixels_bayer_blended;
   whole->seconds += band.seconds;
 }
 
@@ -146,11 +147,11 @@ PhotometricSolverSummary SolveRgbBand(const BandedSolveOptions& options, const s
 // Bayer domain and keeps the band's own rows [row0, row1). The mosaics handed
 // to the solver reach one whole tile beyond the band, with only the developed
 // rows in its region, so that its tiles are the whole-frame solve's.
-PhotometricSolverSummary SolveBayerBand(const BandedSolveOptions& options, const std::vector<DevelopedFrame>& developed,
+PhotometricSolverSummary SolveBayerBand(const PhotometricSolverOptions& solver, const std::vector<DevelopedFrame>& developed,
                                         CfaPattern cfa, const LightField& light_field, int dev0, int dev1, int row0,
                                         int row1, PhotometricSolution* band_solution,
                                         const ProgressCallback& progress) {
-  const int tile = options.solver.tile_size;
+  const int tile = solver.tile_size;
   const int solve0 = std::max(0, row0 - tile), solve1 = std::min(light_field.height(), row1 + tile);
   const int width = light_field.width(), solve_rows = solve1 - solve0;
   std::vector<ImageF> mosaics;
@@ -175,7 +176,7 @@ PhotometricSolverSummary SolveBayerBand(const BandedSolveOptions& options, const
   input.light_field = &solve_field;
   input.region = &region;
   PhotometricSolution with_margin;
-  const PhotometricSolverSummary solved = SolvePhotometricStereoBayer(options.solver, input, &with_margin, progress);
+  const PhotometricSolverSummary solved = SolvePhotometricStereoBayer(solver, input, &with_margin, progress);
   const int first = row0 - solve0, rows = row1 - row0;
   auto crop = [&](const auto& image) {
     using Img = std::decay_t<decltype(image)>;
@@ -202,6 +203,51 @@ PhotometricSolverSummary SolveBayerBand(const BandedSolveOptions& options, const
     if (!band_solution->specular_status.empty()) ++counted.pixels_by_specular[band_solution->specular_status.data()[i]];
   }
   return counted;
+}
+
+// The demosaiced frames of the rows [first, first + rows) of a band developed
+// with a margin (the Bayer-domain solve reads the mosaics with theirs).
+void CropDevelopedRows(int first, int rows, std::vector<DevelopedFrame>* developed) {
+  for (DevelopedFrame& frame : *developed) {
+    frame.rgb = CropRows(frame.rgb, first, rows);
+    frame.valid = CropRows(frame.valid, first, rows);
+  }
+}
+
+// The band solved on the demosaiced frames, its normals blended with a
+// Bayer-domain solve's of the same band (BandedSolveOptions::bayer_blend).
+PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std::vector<DevelopedFrame>* developed,
+                                          CfaPattern cfa, const LightField& light_field, int dev0, int dev1, int row0,
+                                          int row1, PhotometricSolution* band_solution, BayerNormalBlendSummary* blended,
+                                          const ProgressCallback& progress) {
+  // The Bayer solve is the longer one (the sheen fits): 0.6 of the band.
+  PhotometricSolverOptions bayer_solver = options.solver;
+  bayer_solver.adaptive_sheen = true;
+  bayer_solver.compute_albedo = false;
+  bayer_solver.compute_confidence = true;
+  PhotometricSolution bayer;
+  const PhotometricSolverSummary bayer_summary = SolveBayerBand(bayer_solver, *developed, cfa, light_field, dev0, dev1,
+                                                                row0, row1, &bayer, SubRange(progress, 0, 0.55));
+  if (!bayer_summary.IsUsable()) return bayer_summary;
+  // (Already cropped where sample masks replaced the development's.)
+  if (developed->front().rgb.height() != row1 - row0) CropDevelopedRows(row0 - dev0, row1 - row0, developed);
+  PhotometricSolverSummary summary =
+      SolveRgbBand(options, *developed, light_field, row0, row1, band_solution, SubRange(progress, 0.55, 0.95));
+  if (!summary.IsUsable()) return summary;
+  const auto blend_start = std::chrono::steady_clock::now();
+  BayerNormalBlendOptions blend;
+  blend.num_threads = options.solver.num_threads;
+  const LightFieldRows band_field(light_field, row0, row1 - row0);
+  *blended = BlendBayerNormals(blend, bayer, band_field, band_solution, SubRange(progress, 0.95, 1));
+  if (!blended->IsUsable()) {
+    summary.termination = blended->termination;
+    summary.message = blended->message;
+    return summary;
+  }
+  summary.pixels_bayer_blended = blended->pixels_blended;
+  summary.bayer_blend_mean_weight = blended->mean_weight;
+  summary.seconds += bayer_summary.seconds + SecondsSince(blend_start);  // the band's whole solve
+  return summary;
 }
 
 void CheckFrames(const RawFrameStack& frames, const LightField& light_field) {
@@ -236,13 +282,21 @@ void BandedSolveOptions::Check() const {
   if (bayer_domain && sample_masks) {
     throw std::invalid_argument("BandedSolveOptions: bayer_domain and sample_masks cannot be combined");
   }
+  if (bayer_blend && bayer_domain) {
+    throw std::invalid_argument("BandedSolveOptions: bayer_blend and bayer_domain cannot be combined");
+  }
   if (!(sample_mask_margin_rows >= 0 && sample_mask_margin_rows <= 64)) {
     throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows, "must lie in [0, 64]");
+  }
+  if (bayer_blend && sample_masks && sample_mask_margin_rows > solver.tile_size) {
+    throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows,
+                     "must be at most solver.tile_size (" + std::to_string(solver.tile_size) +
+                         ") with bayer_blend: the Bayer-domain solve reads the band one tile beyond it");
   }
 }
 
 int BandRowsUnit(const PhotometricSolverOptions& solver) {
-  return std::lcm(solver.tile_size, CoherentLobeOptions().block_size);
+  return std::lcm(std::lcm(solver.tile_size, CoherentLobeOptions().block_size), BayerNormalBlendOptions().cell_size);
 }
 
 std::string BandedSolveSummary::BriefReport() const {
@@ -265,7 +319,10 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
   const int threads = ResolveThreadCount(options.solver.num_threads);
 
   RawDevelopOptions develop = options.develop;
-  develop.keep_mosaic = options.bayer_domain;
+  const bool with_mosaic = options.bayer_domain || options.bayer_blend;
+  develop.keep_mosaic = with_mosaic;
+  double blend_weight_sum = 0;
+  size_t blend_pixels_weighed = 0;
 
   BandedSolveSummary summary;
   summary.band_rows = band_rows;
@@ -278,9 +335,8 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     const double band_begin = double(band) / num_bands, band_end = double(band + 1) / num_bands;
     const double develop_end = band_begin + kDevelopShare * (band_end - band_begin);
     // With a mask hook the band is developed with its margin and cropped after the masks.
-    const int margin = options.bayer_domain ? kBayerMarginRows
-                       : options.sample_masks ? options.sample_mask_margin_rows
-                                              : 0;
+    const int margin = std::max(with_mosaic ? kBayerMarginRows : 0,
+                                options.sample_masks ? options.sample_mask_margin_rows : 0);
     const int dev0 = std::max(0, row0 - margin), dev1 = std::min(height, row1 + margin);
 
     auto develop_start = std::chrono::steady_clock::now();
@@ -313,7 +369,7 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     }
     if (margin == 0) {
       summary.clipped_samples += clipped.load();
-    } else if (options.bayer_domain) {
+    } else if (with_mosaic) {
       // The development counted the margin rows too: count the band's own
       // from the kept mosaic's per-sample flags (0 = at the clip level).
       for (const DevelopedFrame& frame : developed) {
@@ -325,15 +381,22 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
 
     const auto solve_start = std::chrono::steady_clock::now();
     PhotometricSolution band_solution;
+    BayerNormalBlendSummary blended;
     const PhotometricSolverSummary solved =
-        options.bayer_domain
-            ? SolveBayerBand(options, developed, frames.frames[0]->cfa, light_field, dev0, dev1, row0, row1,
+        options.bayer_blend
+            ? SolveBlendedBand(options, &developed, frames.frames[0]->cfa, light_field, dev0, dev1, row0, row1,
+                               &band_solution, &blended, SubRange(progress, develop_end, band_end))
+        : options.bayer_domain
+            ? SolveBayerBand(options.solver, developed, frames.frames[0]->cfa, light_field, dev0, dev1, row0, row1,
                              &band_solution, SubRange(progress, develop_end, band_end))
             : SolveRgbBand(options, developed, light_field, row0, row1, &band_solution,
                            SubRange(progress, develop_end, band_end));
     if (band == 0) AllocateLike(band_solution, width, height, solution);
     CopyBandInto(band_solution, row0, solution);
     Accumulate(solved, &summary.solver);
+    blend_weight_sum += blended.mean_weight * double(blended.pixels_weighed);
+    blend_pixels_weighed += blended.pixels_weighed;
+    if (blend_pixels_weighed > 0) summary.solver.bayer_blend_mean_weight = blend_weight_sum / blend_pixels_weighed;
     summary.solve_seconds += SecondsSince(solve_start);
     ++summary.num_bands;
     if (!solved.IsUsable()) {

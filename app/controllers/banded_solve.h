@@ -17,6 +17,7 @@
 #include "calibration/raw_image.h"
 #include "core/progress.h"
 #include "core/summary.h"
+#include "solver/bayer_normal_blend.h"
 #include "solver/light_field.h"
 #include "solver/photometric_solver.h"
 
@@ -40,6 +41,15 @@ struct BandedSolveOptions {
   // solved in a window of whole tiles, so the result equals the whole-frame
   // Bayer solve. Not with sample_masks.
   bool bayer_domain = false;
+  // Solve each band twice, on the demosaiced frames and in the Bayer domain
+  // (with the velvet sheen fit, adaptive_sheen), and blend each pixel's
+  // normal between the two (BlendBayerNormals, solver/bayer_normal_blend.h;
+  // issue #13); everything else is the demosaiced solve's. Bands are whole
+  // blend cells, so the result is the whole-frame blend's. Not with
+  // bayer_domain; with sample_masks they apply to the demosaiced solve only
+  // (what they leave out, the shadow edges a demosaic mixes into lit pixels,
+  // a raw sample does not have), and sample_mask_margin_rows <= tile_size.
+  bool bayer_blend = false;
   void Check() const;
 };
 

@@ -221,6 +221,8 @@ BandedSolveOptions BandedOptions(const SolveOptions& options) {
   banded.solver = options.solver;
   banded.develop = options.develop;
   banded.bayer_domain = options.bayer_domain;
+  banded.bayer_blend = options.bayer_blend && !options.bayer_domain &&
+                       options.solver.method == PhotometricSolverOptions::Method::kAdaptive;
   return banded;
 }
 
@@ -346,6 +348,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
   report["solver"]["depth_refinement"] = DepthOptionsJson(options.depth);
   report["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                        {"bayer_domain", options.bayer_domain},
+                       {"bayer_blend", BandedOptions(options).bayer_blend},
                        {"clip_fraction", options.develop.clip_fraction},
                        {"dark_frame", dark_file},
                        {"clipped_raw_samples", summary.clipped_samples}};
@@ -458,6 +461,7 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
                      {"clip_fraction", options.develop.clip_fraction}};
   // Only when set, so that earlier results keep their fingerprints.
   if (options.bayer_domain) text["develop"]["bayer_domain"] = true;
+  if (BandedOptions(options).bayer_blend) text["develop"]["bayer_blend"] = true;
   text["albedo_color"] = AlbedoColorSourceName(options.albedo_color.source);
   text["depth_refinement"] = DepthOptionsJson(options.depth);  // issue #15
   if (options.float32_maps) text["exr_maps"] = "float32";

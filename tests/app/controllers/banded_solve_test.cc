@@ -250,6 +250,67 @@ TEST(BandedSolveTest, BayerDomainBandsMatchTheWholeFrameBayerSolve) {
   EXPECT_THROW(SolveBanded(options, stack, *raw.scene.light_field, &banded), std::invalid_argument);
 }
 
+// The default on raw sessions (issue #13): each band solved twice and its
+// normals blended; the bands give the whole frame's blend bit for bit.
+TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
+  const RawScene raw = MakeRawScene();
+  const RawFrameStack stack = raw.Stack();
+  BandedSolveOptions options;
+  options.solver.tile_size = 32;
+  options.solver.num_threads = 2;
+  options.band_rows = 32;
+  options.bayer_blend = true;
+
+  RawDevelopOptions develop = options.develop;
+  develop.keep_mosaic = true;
+  size_t clipped = 0;
+  std::vector<DevelopedFrame> developed = DevelopWhole(raw, stack, develop, &clipped);
+  PhotometricSolverInput rgb_input;
+  BayerSolverInput bayer_input;
+  for (size_t k = 0; k < developed.size(); ++k) {
+    float* values = developed[k].mosaic.data();
+    for (size_t i = 0; i < developed[k].mosaic.size(); ++i) {
+      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
+    }
+    rgb_input.images.push_back(&developed[k].rgb);
+    rgb_input.sample_valid.push_back(&developed[k].valid);
+    bayer_input.mosaics.push_back(&developed[k].mosaic);
+    bayer_input.sample_valid.push_back(&developed[k].mosaic_valid);
+  }
+  rgb_input.light_field = bayer_input.light_field = raw.scene.light_field.get();
+  PhotometricSolution whole, bayer;
+  const PhotometricSolverSummary whole_summary = SolvePhotometricStereo(options.solver, rgb_input, &whole);
+  ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
+  PhotometricSolverOptions bayer_solver = options.solver;
+  bayer_solver.adaptive_sheen = true;
+  bayer_solver.compute_albedo = false;
+  ASSERT_TRUE(SolvePhotometricStereoBayer(bayer_solver, bayer_input, &bayer).IsUsable());
+  const PhotometricSolution demosaiced = whole;
+  BayerNormalBlendOptions blend;
+  blend.num_threads = 2;
+  const BayerNormalBlendSummary blended = BlendBayerNormals(blend, bayer, *raw.scene.light_field, &whole);
+  ASSERT_TRUE(blended.IsUsable()) << blended.message;
+  ASSERT_GT(blended.pixels_blended, 0u);  // the test would be empty otherwise
+
+  PhotometricSolution banded;
+  const BandedSolveSummary summary = SolveBanded(options, stack, *raw.scene.light_field, &banded);
+  ASSERT_TRUE(summary.IsUsable()) << summary.message;
+  EXPECT_EQ(summary.num_bands, 6);
+  EXPECT_EQ(summary.clipped_samples, clipped);
+  EXPECT_EQ(summary.solver.pixels_bayer_blended, blended.pixels_blended);
+  EXPECT_NEAR(summary.solver.bayer_blend_mean_weight, blended.mean_weight, 1e-12);
+  ExpectSameBits(banded.normal_in_table, whole.normal_in_table, "normal_in_table");
+  // Everything but the normals is the demosaiced solve's.
+  ExpectSameBits(banded.albedo, demosaiced.albedo, "albedo");
+  ExpectSameBits(banded.status, demosaiced.status, "status");
+  ExpectSameBits(banded.residual, demosaiced.residual, "residual");
+  ExpectSameBits(banded.specular, demosaiced.specular, "specular");
+  EXPECT_EQ(summary.solver.pixels_by_status, whole_summary.pixels_by_status);
+
+  options.bayer_domain = true;
+  EXPECT_THROW(SolveBanded(options, stack, *raw.scene.light_field, &banded), std::invalid_argument);
+}
+
 TEST(BandedSolveTest, StopsWhenCancelledAndRejectsBadInput) {
   const RawScene raw = MakeRawScene();
   BandedSolveOptions options;

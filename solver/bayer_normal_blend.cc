@@ -1,0 +1,168 @@
+#include "solver/bayer_normal_blend.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "core/field_error.h"
+#include "core/format.h"
+#include "core/parallel_for.h"
+
+namespace scanbench {
+namespace {
+
+// Fewest samples whose residual says anything about the noise (3 unknowns).
+constexpr int kMinLightsForNoise = 4;
+
+struct CellRowCounts {
+  size_t blended = 0, kept = 0, compared = 0;
+  double weight_sum = 0;
+};
+
+// The normal's angular variance per unit sample variance of a 3-unknown
+// least-squares fit on the lights in front of `normal`: the trace of
+// (L^T L)^-1 across the normal. 0 when fewer than 3 lights are in front or
+// they do not constrain the normal.
+double TangentialVarianceFactor(const LightField& field, int x, int y, const Eigen::Vector3d& normal,
+                                std::vector<float>* dirs, std::vector<float>* intensities) {
+  field.Evaluate(x, y, dirs->data(), intensities->data());
+  Eigen::Matrix3d gram = Eigen::Matrix3d::Zero();
+  int in_front = 0;
+  for (int k = 0; k < field.num_lights(); ++k) {
+    const Eigen::Vector3d l((*dirs)[3 * k], (*dirs)[3 * k + 1], (*dirs)[3 * k + 2]);
+    if (!(l.dot(normal) > 0)) continue;
+    gram += l * l.transpose();
+    ++in_front;
+  }
+  if (in_front < 3) return 0;
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(gram);
+  if (!lu.isInvertible()) return 0;
+  const Eigen::Matrix3d inverse = lu.inverse();
+  return std::max(0.0, inverse.trace() - normal.dot(inverse * normal));
+}
+
+void CheckMaps(const PhotometricSolution& bayer, const LightField& field, const PhotometricSolution& demosaiced) {
+  const int width = field.width(), height = field.height();
+  auto check = [&](const auto& image, int channels, const char* name) {
+    if (!image.SameSize(width, height) || image.channels() != channels) {
+      throw std::invalid_argument(std::string("BlendBayerNormals: ") + name + " is " +
+                                  SizeText(image.width(), image.height()) + " x " +
+                                  std::to_string(image.channels()) + "; it must be the light field's " +
+                                  SizeText(width, height) + " x " + std::to_string(channels));
+    }
+  };
+  check(bayer.normal_in_table, 3, "bayer.normal_in_table");
+  check(bayer.status, 1, "bayer.status");
+  check(bayer.residual, 1, "bayer.residual");
+  check(bayer.lights_used, 1, "bayer.lights_used");
+  check(demosaiced.normal_in_table, 3, "demosaiced.normal_in_table");
+  check(demosaiced.status, 1, "demosaiced.status");
+  if (!demosaiced.specular_status.empty()) check(demosaiced.specular_status, 1, "demosaiced.specular_status");
+}
+
+}  // namespace
+
+void BayerNormalBlendOptions::Check() const {
+  if (!(cell_size >= 2 && cell_size <= 64)) {
+    throw FieldError("BayerNormalBlendOptions", "cell_size", cell_size, "must lie in [2, 64]");
+  }
+  if (!(num_threads >= 0 && num_threads <= 256)) {
+    throw FieldError("BayerNormalBlendOptions", "num_threads", num_threads, "must lie in [0, 256]");
+  }
+}
+
+std::string BayerNormalBlendSummary::BriefReport() const {
+  return "Bayer-domain normal blend: " + std::to_string(pixels_blended) + " px blended, " +
+         std::to_string(pixels_kept) + " kept demosaiced, mean Bayer weight " + Fixed(mean_weight, 3);
+}
+
+BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options, const PhotometricSolution& bayer,
+                                          const LightField& light_field, PhotometricSolution* demosaiced,
+                                          const ProgressCallback& progress) {
+  options.Check();
+  if (demosaiced == nullptr) throw std::invalid_argument("BlendBayerNormals: demosaiced must not be null");
+  CheckMaps(bayer, light_field, *demosaiced);
+  const int width = light_field.width(), height = light_field.height(), cell = options.cell_size;
+  const int cell_rows = (height + cell - 1) / cell, cell_cols = (width + cell - 1) / cell;
+  const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
+  const bool has_lobes = !demosaiced->specular_status.empty();
+  std::vector<CellRowCounts> counts(cell_rows);
+
+  BayerNormalBlendSummary summary;
+  const bool finished = ParallelRows(cell_rows, options.num_threads, progress, 0, 1, [&](int cell_row) {
+    std::vector<float> dirs(3 * light_field.num_lights()), intensities(3 * light_field.num_lights());
+    std::vector<int> members;
+    const int y0 = cell_row * cell, y1 = std::min(height, y0 + cell);
+    CellRowCounts& row_counts = counts[cell_row];
+    for (int cell_col = 0; cell_col < cell_cols; ++cell_col) {
+      const int x0 = cell_col * cell, x1 = std::min(width, x0 + cell);
+      members.clear();
+      double disagreement = 0, sample_variance = 0;
+      Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
+      for (int y = y0; y < y1; ++y) {
+        for (int x = x0; x < x1; ++x) {
+          if (demosaiced->status(x, y) != solved) continue;
+          const int lights = bayer.lights_used(x, y);
+          if (bayer.status(x, y) != solved || lights < kMinLightsForNoise ||
+              (has_lobes && demosaiced->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated))) {
+            ++row_counts.kept;
+            continue;
+          }
+          const Eigen::Vector3d nd(demosaiced->normal_in_table(x, y, 0), demosaiced->normal_in_table(x, y, 1),
+                                   demosaiced->normal_in_table(x, y, 2));
+          const Eigen::Vector3d nb(bayer.normal_in_table(x, y, 0), bayer.normal_in_table(x, y, 1),
+                                   bayer.normal_in_table(x, y, 2));
+          const double angle = std::atan2(nd.cross(nb).norm(), nd.dot(nb));
+          const double residual = bayer.residual(x, y);
+          disagreement += angle * angle;
+          sample_variance += residual * residual * lights / (lights - 3);
+          normal_sum += nd;
+          members.push_back(y * width + x);
+        }
+      }
+      if (members.empty()) continue;
+      double weight = 0;
+      if (disagreement > 0 && normal_sum.squaredNorm() > 0) {
+        const double factor = TangentialVarianceFactor(light_field, (x0 + x1) / 2, (y0 + y1) / 2,
+                                                       normal_sum.normalized(), &dirs, &intensities);
+        weight = factor > 0 ? std::clamp(1.0 - factor * sample_variance / disagreement, 0.0, 1.0) : 0.0;
+      }
+      row_counts.compared += members.size();
+      row_counts.weight_sum += weight * members.size();
+      if (weight == 0) {
+        row_counts.kept += members.size();
+        continue;
+      }
+      row_counts.blended += members.size();
+      for (const int index : members) {
+        float* out = demosaiced->normal_in_table.data() + 3 * size_t(index);
+        const float* own = bayer.normal_in_table.data() + 3 * size_t(index);
+        Eigen::Vector3d mixed;
+        for (int c = 0; c < 3; ++c) mixed[c] = weight * own[c] + (1 - weight) * out[c];
+        mixed.normalize();
+        for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(mixed[c]);
+      }
+    }
+  });
+  if (!finished) {
+    summary.SetCancelled("cancelled blending the Bayer-domain normals");
+    return summary;
+  }
+  size_t compared = 0;
+  double weight_sum = 0;
+  for (const CellRowCounts& row : counts) {
+    summary.pixels_blended += row.blended;
+    summary.pixels_kept += row.kept;
+    compared += row.compared;
+    weight_sum += row.weight_sum;
+  }
+  summary.pixels_weighed = compared;
+  summary.mean_weight = compared > 0 ? weight_sum / compared : 0;
+  summary.termination = Termination::kSuccess;
+  return summary;
+}
+
+}  // namespace scanbench
