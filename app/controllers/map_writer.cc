@@ -29,36 +29,9 @@ ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent) {
   return encoded;
 }
 
-namespace {
-
-// The 8-bit sRGB code of a linear value, lround(SrgbEncode(v) * 255), is a
-// step function of v: thresholds[k - 1] is the smallest float whose code is
-// k or more (found once by bisection over the floats in [0, 1]), so a value's
-// code is the number of thresholds at or below it: a binary search instead
-// of a pow per sample (48 M of them at 16 MP).
-const std::array<float, 255>& SrgbCodeThresholds() {
-  static const std::array<float, 255> thresholds = [] {
-    const auto code = [](uint32_t bits) { return std::lround(SrgbEncode(std::bit_cast<float>(bits)) * 255.0); };
-    std::array<float, 255> found{};
-    for (int k = 1; k <= 255; ++k) {
-      uint32_t below = std::bit_cast<uint32_t>(0.0f), at_or_above = std::bit_cast<uint32_t>(1.0f);
-      while (at_or_above - below > 1) {
-        const uint32_t middle = below + (at_or_above - below) / 2;
-        (code(middle) >= k ? at_or_above : below) = middle;
-      }
-      found[k - 1] = std::bit_cast<float>(at_or_above);
-    }
-    return found;
-  }();
-  return thresholds;
-}
-
-}  // namespace
-
 uint8_t SrgbPreviewCode(float linear) {
-  if (!(linear > 0)) return 0;  // also NaN
-  const std::array<float, 255>& thresholds = SrgbCodeThresholds();
-  return static_cast<uint8_t>(std::upper_bound(thresholds.begin(), thresholds.end(), linear) - thresholds.begin());
+  // lround(SrgbEncode(v) * 255) without a pow per sample (48 M of them at 16 MP).
+  return static_cast<uint8_t>(SrgbQuantizer::Of(8)(linear));
 }
 
 ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb) {

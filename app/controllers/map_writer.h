@@ -21,7 +21,7 @@ namespace scanbench {
 ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent);
 // Linear RGB to 8-bit sRGB for a preview: SrgbPreviewCode per sample.
 ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb);
-// lround(SrgbEncode(linear) * 255), exactly, by a table of where each code starts.
+// lround(SrgbEncode(linear) * 255), exactly: SrgbQuantizer (calibration/color_science.h).
 uint8_t SrgbPreviewCode(float linear);
 
 // status.png's code for a solved pixel whose specular lobe the samples do not
