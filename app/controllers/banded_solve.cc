@@ -97,6 +97,7 @@ void CopyBandInto(const PhotometricSolution& band, int row0, PhotometricSolution
 void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* whole) {
   whole->method = band.method;
   whole->bayer_domain = band.bayer_domain;
+  whole->kernel_isa = band.kernel_isa;
   whole->num_lights = band.num_lights;
   whole->num_threads = std::max(whole->num_threads, band.num_threads);
   whole->num_pixels += band.num_pixels;

@@ -134,6 +134,8 @@ TEST(BandedSolveTest, EqualsTheFullFrameSolveBitForBit) {
   EXPECT_EQ(summary.solver.pixels_by_specular, whole_summary.pixels_by_specular);
   EXPECT_EQ(summary.solver.pixels_coherent_lobe, whole_summary.pixels_coherent_lobe);
   EXPECT_EQ(summary.solver.num_tiles, whole_summary.num_tiles);
+  EXPECT_FALSE(summary.solver.kernel_isa.empty());  // the report's "(avx2 kernels)", not "?"
+  EXPECT_EQ(summary.solver.kernel_isa, whole_summary.kernel_isa);
 }
 
 // The depth refinement's shadow-edge masks made per band from the band and its
