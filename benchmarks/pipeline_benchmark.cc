@@ -234,20 +234,6 @@ json ChildExport(const Args& args) {
           {"bytes_written", BytesUnder(summary.export_dir)}};
 }
 
-// The newest result folder of a session, if any.
-std::optional<fs::path> NewestResult(const fs::path& session_dir) {
-  const fs::path results = session_dir / "results";
-  if (!fs::is_directory(results)) return std::nullopt;
-  std::optional<fs::path> newest;
-  fs::file_time_type newest_time{};
-  for (const auto& entry : fs::directory_iterator(results)) {
-    if (!entry.is_directory() || !fs::exists(entry.path() / "report.json")) continue;
-    const auto time = fs::last_write_time(entry.path() / "report.json");
-    if (!newest || time > newest_time) newest = entry.path(), newest_time = time;
-  }
-  return newest;
-}
-
 // live: through LiveSolveController (capture --solve); else the capture, then a solve.
 json ChildLatency(const Args& args, bool live) {
   SimulatedRigOptions rig_options;
