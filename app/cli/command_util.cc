@@ -77,7 +77,8 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
                    "(only the albedo is demosaiced; on cloth more accurate, on Lambertian scenes noisier)");
   command.add_flag("--bayer-blend", options.bayer_blend,
                    "With --method adaptive: blend each pixel's normal between the demosaiced solve and a "
-                   "Bayer-domain one (on cloth more accurate; about 2-4x the solve time; not yet for draped samples)");
+                   "Bayer-domain one (on cloth more accurate; about 2-4x the solve time; on draped Lambertian "
+                   "samples the depth loop runs longer and ends slightly worse)");
   command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
                    "Skip re-hashing the frames against session.json");
   command.add_flag("--float32-maps", options.float32_maps,
