@@ -1,8 +1,6 @@
 #include "app/controllers/map_writer.h"
 
 #include <algorithm>
-#include <array>
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <functional>

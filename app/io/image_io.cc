@@ -396,30 +396,19 @@ void WritePng(const fs::path& path, const ImageU8& image, OverwritePolicy policy
   WritePngOrTiff(path, image, OIIO::TypeDesc::UINT8, FileFormat::kPng, policy, metadata, encoding);
 }
 
-namespace {
-
-// A PNG of `spec` encoded in memory by OpenImageIO; errors name `name` and say `what` failed.
-std::vector<unsigned char> OiioPngInMemory(const fs::path& name, const OIIO::ImageSpec& spec, const void* pixels,
-                                           const std::string& what) {
-  std::vector<unsigned char> bytes;
-  OIIO::Filesystem::IOVecOutput proxy(bytes);
-  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
-  if (!out) throw PathError(name, "no PNG writer (" + OiioMessage(OIIO::geterror()) + ")");
-  if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) || !out->write_image(spec.format, pixels) ||
-      !out->close()) {
-    throw PathError(name, what + " failed (" + OiioMessage(out->geterror()) + ")");
-  }
-  return bytes;
-}
-
-}  // namespace
-
 std::vector<uint8_t> EncodePngInMemory(const ImageU8& image) {
   const fs::path name = "(in-memory PNG)";
   CheckWritable(name, image, "PNG", 4);
   OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::UINT8);
   AddPngEncoding(PngEncoding{}, spec);
-  const std::vector<unsigned char> bytes = OiioPngInMemory(name, spec, image.data(), "encoding");
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
+  if (!out) throw PathError(name, "no PNG writer (" + OiioMessage(OIIO::geterror()) + ")");
+  if (!out->set_ioproxy(&proxy) || !out->open("memory.png", spec) || !out->write_image(spec.format, image.data()) ||
+      !out->close()) {
+    throw PathError(name, "encoding failed (" + OiioMessage(out->geterror()) + ")");
+  }
   return std::vector<uint8_t>(bytes.begin(), bytes.end());
 }
 

@@ -89,6 +89,25 @@ std::vector<DevelopedFrame> DevelopWhole(const RawScene& raw, const RawFrameStac
   return developed;
 }
 
+// The whole-frame Bayer solver's input from developed frames: each mosaic
+// scaled by its frame's exposure, as the banded solve does.
+BayerSolverInput ScaledBayerInput(const RawFrameStack& stack, const LightField& light_field,
+                                  std::vector<DevelopedFrame>* developed) {
+  BayerSolverInput input;
+  for (size_t k = 0; k < developed->size(); ++k) {
+    DevelopedFrame& frame = (*developed)[k];
+    float* values = frame.mosaic.data();
+    for (size_t i = 0; i < frame.mosaic.size(); ++i) {
+      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
+    }
+    input.mosaics.push_back(&frame.mosaic);
+    input.sample_valid.push_back(&frame.mosaic_valid);
+  }
+  input.cfa_channels = {0, 1, 1, 2};  // RGGB
+  input.light_field = &light_field;
+  return input;
+}
+
 TEST(BandedSolveTest, EqualsTheFullFrameSolveBitForBit) {
   const RawScene raw = MakeRawScene();
   const RawFrameStack stack = raw.Stack();
@@ -203,17 +222,7 @@ TEST(BandedSolveTest, BayerDomainBandsMatchTheWholeFrameBayerSolve) {
   develop.keep_mosaic = true;
   size_t clipped = 0;
   std::vector<DevelopedFrame> developed = DevelopWhole(raw, stack, develop, &clipped);
-  BayerSolverInput input;
-  for (size_t k = 0; k < developed.size(); ++k) {
-    float* values = developed[k].mosaic.data();
-    for (size_t i = 0; i < developed[k].mosaic.size(); ++i) {
-      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
-    }
-    input.mosaics.push_back(&developed[k].mosaic);
-    input.sample_valid.push_back(&developed[k].mosaic_valid);
-  }
-  input.cfa_channels = {0, 1, 1, 2};  // RGGB
-  input.light_field = raw.scene.light_field.get();
+  const BayerSolverInput input = ScaledBayerInput(stack, *raw.scene.light_field, &developed);
   PhotometricSolution whole;
   const PhotometricSolverSummary whole_summary = SolvePhotometricStereoBayer(options.solver, input, &whole);
   ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
@@ -267,19 +276,13 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   develop.keep_mosaic = true;
   size_t clipped = 0;
   std::vector<DevelopedFrame> developed = DevelopWhole(raw, stack, develop, &clipped);
+  const BayerSolverInput bayer_input = ScaledBayerInput(stack, *raw.scene.light_field, &developed);
   PhotometricSolverInput rgb_input;
-  BayerSolverInput bayer_input;
-  for (size_t k = 0; k < developed.size(); ++k) {
-    float* values = developed[k].mosaic.data();
-    for (size_t i = 0; i < developed[k].mosaic.size(); ++i) {
-      values[i] = static_cast<float>(values[i] * stack.exposure_scales[k]);
-    }
-    rgb_input.images.push_back(&developed[k].rgb);
-    rgb_input.sample_valid.push_back(&developed[k].valid);
-    bayer_input.mosaics.push_back(&developed[k].mosaic);
-    bayer_input.sample_valid.push_back(&developed[k].mosaic_valid);
+  for (const DevelopedFrame& frame : developed) {
+    rgb_input.images.push_back(&frame.rgb);
+    rgb_input.sample_valid.push_back(&frame.valid);
   }
-  rgb_input.light_field = bayer_input.light_field = raw.scene.light_field.get();
+  rgb_input.light_field = raw.scene.light_field.get();
   PhotometricSolution whole, bayer;
   const PhotometricSolverSummary whole_summary = SolvePhotometricStereo(options.solver, rgb_input, &whole);
   ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
