@@ -28,8 +28,14 @@ inline CommandResult RunShell(const std::string& command) {
   return result;
 }
 
-// Single-quoted for the shell (test paths hold no single quote).
-inline std::string Quoted(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
+// Single-quoted for the shell (test paths hold no single quote). Appended
+// rather than `"'" + string`, which GCC 12 flags with a false -Wrestrict.
+inline std::string Quoted(const std::filesystem::path& path) {
+  std::string quoted = "'";
+  quoted += path.string();
+  quoted += '\'';
+  return quoted;
+}
 
 #ifdef SCANBENCH_CLI
 // The command line that runs the scanbench binary under test with `arguments`.

@@ -34,6 +34,14 @@ std::string ReadText(const fs::path& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// The name of the i-th copy of the simulated session (appended: `"c" + string`
+// draws GCC 12's false -Wrestrict).
+std::string CopyName(int i) {
+  std::string name = "c";
+  name += std::to_string(i);
+  return name;
+}
+
 std::vector<fs::path> FilesWithExtension(const fs::path& folder, const std::string& extension) {
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(folder)) {
@@ -113,7 +121,7 @@ TEST(BatchCliTest, InterruptCancelsAndTheRerunContinues) {
       RunScanbenchIn(folder.path(), "simulate source --width 96 --height 64 --render-threads 2");
   ASSERT_EQ(simulated.exit_code, 0) << simulated.output;
   fs::create_directories(folder / "lib");
-  for (int i = 0; i < 10; ++i) fs::copy(folder / "source", folder / "lib" / ("c" + std::to_string(i)),
+  for (int i = 0; i < 10; ++i) fs::copy(folder / "source", folder / "lib" / CopyName(i),
                                         fs::copy_options::recursive);
   const fs::path log = folder / "log.txt";
   const std::string pattern = (folder / "lib" / "c*").string();
@@ -147,7 +155,7 @@ TEST(BatchCliTest, InterruptCancelsAndTheRerunContinues) {
   EXPECT_THAT(ReadText(summary + ".csv"), HasSubstr(",cancelled,"));
   size_t solved = 0;
   for (int i = 0; i < 10; ++i) {
-    const fs::path results = folder / "lib" / ("c" + std::to_string(i)) / "results";
+    const fs::path results = folder / "lib" / CopyName(i) / "results";
     for (const auto& entry : fs::directory_iterator(results)) {
       EXPECT_FALSE(entry.path().filename().string().starts_with(".")) << "partial result " << entry.path();
       ++solved;
