@@ -28,7 +28,7 @@ struct BandedSolveOptions {
   RawDevelopOptions develop;
   // Rows per band, rounded up to whole solver tiles and coherent-lobe blocks
   // (BandRowsUnit), in [1, 65536]. More rows: fewer passes, more memory.
-  int band_rows = 256;
+  int band_rows = 128;
   // Optional: each band's sample masks, made from the band developed with
   // sample_mask_margin_rows more rows on each side (fewer at the image's
   // edges), one mask per light of that size; null = the development's masks.
