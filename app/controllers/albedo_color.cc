@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <map>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -198,110 +199,141 @@ const ColorCheckerPatch* MatchingPatch(const Eigen::Vector3d& truth) {
 
 AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const ImageF& truth_linear_rec709,
                                      const ImageU8& mask, double min_region_fraction) {
-  if (truth_linear_rec709.height() != albedo_linear_rec709.height()) {
-    throw std::invalid_argument("CompareAlbedoColor: albedo " + ShapeText(albedo_linear_rec709) + ", truth " +
-                                ShapeText(truth_linear_rec709) + " and mask " + ShapeText(mask) +
-                                " must be 3, 3 and 1 channels of one size");
-  }
-  AlbedoColorComparison comparison(albedo_linear_rec709, mask, min_region_fraction);
-  comparison.AddRows(0, truth_linear_rec709);
+  AlbedoColorComparison comparison(min_region_fraction);
+  comparison.AddRows(albedo_linear_rec709, mask, truth_linear_rec709);
   return comparison.Finish();
 }
 
-AlbedoColorComparison::AlbedoColorComparison(const ImageF& albedo_linear_rec709, const ImageU8& mask,
-                                             double min_region_fraction)
-    : albedo_(albedo_linear_rec709), mask_(mask), min_region_fraction_(min_region_fraction) {
-  if (albedo_.channels() != 3 || mask_.channels() != 1 || mask_.width() != albedo_.width() ||
-      mask_.height() != albedo_.height()) {
-    throw std::invalid_argument("AlbedoColorComparison: albedo " + ShapeText(albedo_) + " and mask " +
-                                ShapeText(mask_) + " must be 3 and 1 channels of one size");
+namespace {
+
+constexpr int kRegionBucketBits = 20;  // 4 MB of counts
+
+// One evaluated pixel as the spill file holds it.
+struct SpilledPixel {
+  std::array<uint32_t, 3> truth_bits;
+  float albedo[3];
+};
+static_assert(sizeof(SpilledPixel) == 24);
+
+uint32_t RegionBucket(const std::array<uint32_t, 3>& bits) {
+  uint64_t h = 0x9E3779B97F4A7C15ull;
+  for (const uint32_t b : bits) {
+    h ^= b;
+    h *= 0xBF58476D1CE4E5B9ull;
+    h ^= h >> 31;
   }
-  if (albedo_.num_pixels() > UINT32_MAX) {
-    throw std::invalid_argument("AlbedoColorComparison: " + ShapeText(albedo_) + " has more than 2^32 pixels");
-  }
-  const size_t evaluated = mask_.size() - std::count(mask_.data(), mask_.data() + mask_.size(), 0);
-  keyed_.reserve(evaluated);
-  per_pixel_.reserve(evaluated);
+  return static_cast<uint32_t>(h >> (64 - kRegionBucketBits));
 }
 
-void AlbedoColorComparison::AddRows(int y_begin, const ImageF& truth_rows, int num_threads) {
-  if (truth_rows.channels() != 3 || truth_rows.width() != albedo_.width() || y_begin != next_row_ ||
-      y_begin + truth_rows.height() > albedo_.height()) {
-    throw std::invalid_argument("CompareAlbedoColor: albedo " + ShapeText(albedo_) + ", truth " +
-                                ShapeText(truth_rows) + " from row " + std::to_string(y_begin) + " and mask " +
-                                ShapeText(mask_) + " must be 3, 3 and 1 channels of one size, the rows in order");
+}  // namespace
+
+AlbedoColorComparison::AlbedoColorComparison(double min_region_fraction, const std::filesystem::path& spill_folder)
+    : min_region_fraction_(min_region_fraction),
+      delta_e_(spill_folder),
+      pixels_(spill_folder),
+      bucket_counts_(size_t{1} << kRegionBucketBits, 0) {}
+
+void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& mask_rows, const ImageF& truth_rows,
+                                    int num_threads) {
+  if (albedo_rows.channels() != 3 || truth_rows.channels() != 3 || mask_rows.channels() != 1 ||
+      !albedo_rows.SameSize(truth_rows) || !albedo_rows.SameSize(mask_rows) ||
+      (width_ >= 0 && albedo_rows.width() != width_)) {
+    throw std::invalid_argument("CompareAlbedoColor: albedo " + ShapeText(albedo_rows) + ", truth " +
+                                ShapeText(truth_rows) + " and mask " + ShapeText(mask_rows) +
+                                " must be 3, 3 and 1 channels of one size (every band as wide as the first)");
   }
-  next_row_ = y_begin + truth_rows.height();
-  // Per row: the evaluated pixels with their truth value's bits (sorted
-  // later, equal values -- a chart's patches -- form runs) and CIEDE2000.
-  const int width = albedo_.width();
-  std::vector<std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>>> keyed_rows(truth_rows.height());
+  width_ = albedo_rows.width();
+  // Per row: the evaluated pixels' truth bits (equal values -- a chart's
+  // patches -- are the regions) and albedo, and their CIEDE2000.
+  const int width = albedo_rows.width();
+  std::vector<std::vector<SpilledPixel>> pixel_rows(truth_rows.height());
   std::vector<std::vector<double>> delta_e_rows(truth_rows.height());
   ParallelRows(truth_rows.height(), num_threads, {}, 0, 1, [&](int r) {
-    const int y = y_begin + r;
+    const uint8_t* mask = mask_rows.row(r);
     for (int x = 0; x < width; ++x) {
-      if (mask_(x, y) == 0) continue;
-      const size_t i = static_cast<size_t>(y) * width + x;
+      if (mask[x] == 0) continue;
       const float* t = truth_rows.row(r) + 3 * static_cast<size_t>(x);
-      const float* a = albedo_.data() + 3 * i;
-      std::array<uint32_t, 3> key;
-      std::memcpy(key.data(), t, sizeof(key));
-      keyed_rows[r].emplace_back(key, static_cast<uint32_t>(i));
+      const float* a = albedo_rows.row(r) + 3 * static_cast<size_t>(x);
+      SpilledPixel& pixel = pixel_rows[r].emplace_back();
+      std::memcpy(pixel.truth_bits.data(), t, sizeof(pixel.truth_bits));
+      std::copy(a, a + 3, pixel.albedo);
       delta_e_rows[r].push_back(Ciede2000(LabFromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2])),
                                           LabFromLinearRec709(Eigen::Vector3d(t[0], t[1], t[2]))));
     }
   });
   for (int r = 0; r < truth_rows.height(); ++r) {
-    keyed_.insert(keyed_.end(), keyed_rows[r].begin(), keyed_rows[r].end());
-    per_pixel_.insert(per_pixel_.end(), delta_e_rows[r].begin(), delta_e_rows[r].end());
+    for (const SpilledPixel& pixel : pixel_rows[r]) ++bucket_counts_[RegionBucket(pixel.truth_bits)];
+    pixels_.Append(pixel_rows[r].data(), pixel_rows[r].size() * sizeof(SpilledPixel));
+    delta_e_.Add(delta_e_rows[r]);
   }
 }
 
 AlbedoColorErrors AlbedoColorComparison::Finish() {
   AlbedoColorErrors errors;
-  const size_t evaluated = per_pixel_.size();
-  errors.delta_e = SummarizeErrors(std::move(per_pixel_));
-  per_pixel_ = {};
-  std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>> keyed = std::move(keyed_);
-  keyed_ = {};
+  const size_t evaluated = delta_e_.count();
+  errors.delta_e = delta_e_.Finish();
   const size_t min_pixels = std::max<size_t>(16, static_cast<size_t>(min_region_fraction_ * evaluated));
-  std::sort(keyed.begin(), keyed.end());
+  // A region's pixels all fall in its bucket: only the buckets with at least
+  // min_pixels can hold one, and only their pixels' values are counted.
+  std::vector<uint8_t> heavy(bucket_counts_.size(), 0);
+  bool any_heavy = false;
+  for (size_t b = 0; b < bucket_counts_.size(); ++b) {
+    heavy[b] = bucket_counts_[b] >= min_pixels;
+    any_heavy |= heavy[b] != 0;
+  }
+  bucket_counts_ = {};
+  if (!any_heavy) return errors;
+  std::map<std::array<uint32_t, 3>, size_t> counts;  // sorted by truth bits, as the regions were found before
+  pixels_.ForEachRecord(sizeof(SpilledPixel), [&](const uint8_t* records, size_t count) {
+    for (size_t i = 0; i < count; ++i) {
+      SpilledPixel pixel;
+      std::memcpy(&pixel, records + i * sizeof(SpilledPixel), sizeof(pixel));
+      if (heavy[RegionBucket(pixel.truth_bits)]) ++counts[pixel.truth_bits];
+    }
+  });
   struct Region {
     std::array<uint32_t, 3> truth_bits;
-    std::vector<uint32_t> pixels;
+    size_t pixels = 0;
+    Eigen::Vector3d median_albedo = Eigen::Vector3d::Zero();
   };
   std::vector<Region> found;
-  for (size_t begin = 0; begin < keyed.size();) {
-    size_t end = begin + 1;
-    while (end < keyed.size() && keyed[end].first == keyed[begin].first) ++end;
-    if (end - begin >= min_pixels) {
-      Region& region = found.emplace_back();
-      region.truth_bits = keyed[begin].first;
-      for (size_t j = begin; j < end; ++j) region.pixels.push_back(keyed[j].second);
-    }
-    begin = end;
+  std::map<std::array<uint32_t, 3>, size_t> region_of;  // truth bits -> index in found
+  for (const auto& [bits, count] : counts) {
+    if (count < min_pixels) continue;
+    region_of[bits] = found.size();
+    found.push_back({bits, count});
   }
   // A textile's truth varies from pixel to pixel: one big region is just its
   // background, not a chart.
   if (found.size() < 2) return errors;
+  // Each region's median albedo, a channel at a time (4 bytes a region pixel held).
+  for (int c = 0; c < 3; ++c) {
+    std::vector<std::vector<float>> channel(found.size());
+    for (size_t r = 0; r < found.size(); ++r) channel[r].reserve(found[r].pixels);
+    pixels_.ForEachRecord(sizeof(SpilledPixel), [&](const uint8_t* records, size_t count) {
+      for (size_t i = 0; i < count; ++i) {
+        SpilledPixel pixel;
+        std::memcpy(&pixel, records + i * sizeof(SpilledPixel), sizeof(pixel));
+        if (!heavy[RegionBucket(pixel.truth_bits)]) continue;
+        const auto at = region_of.find(pixel.truth_bits);
+        if (at != region_of.end()) channel[at->second].push_back(pixel.albedo[c]);
+      }
+    });
+    for (size_t r = 0; r < found.size(); ++r) found[r].median_albedo[c] = Median(channel[r]);
+  }
   std::vector<const Region*> regions;
   for (const Region& region : found) regions.push_back(&region);
-  std::sort(regions.begin(), regions.end(), [](auto* a, auto* b) { return a->pixels.size() > b->pixels.size(); });
+  std::sort(regions.begin(), regions.end(), [](auto* a, auto* b) { return a->pixels > b->pixels; });
   double sum = 0;
   for (size_t r = 0; r < regions.size(); ++r) {
-    const std::vector<uint32_t>& pixels = regions[r]->pixels;
     AlbedoRegionError region;
     float t[3];
     std::memcpy(t, regions[r]->truth_bits.data(), sizeof(t));
     region.truth_linear_rec709 = Eigen::Vector3d(t[0], t[1], t[2]);
-    std::vector<float> channel(pixels.size());
-    for (int c = 0; c < 3; ++c) {
-      for (size_t j = 0; j < pixels.size(); ++j) channel[j] = albedo_.data()[3 * size_t(pixels[j]) + c];
-      region.solved_linear_rec709[c] = Median(channel);
-    }
+    region.solved_linear_rec709 = regions[r]->median_albedo;
     region.delta_e = Ciede2000(LabFromLinearRec709(region.solved_linear_rec709),
                                LabFromLinearRec709(region.truth_linear_rec709));
-    region.pixels = pixels.size();
+    region.pixels = regions[r]->pixels;
     const ColorCheckerPatch* patch = MatchingPatch(region.truth_linear_rec709);
     region.chart_patch = patch != nullptr;
     region.name = patch ? patch->name : "region " + std::to_string(r + 1);

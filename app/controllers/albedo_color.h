@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -16,6 +17,7 @@
 #include <Eigen/Core>
 
 #include "core/image.h"
+#include "app/controllers/exact_statistics.h"
 #include "solver/angular_error.h"
 
 namespace scanbench {
@@ -103,27 +105,31 @@ struct AlbedoColorErrors {
 AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const ImageF& truth_linear_rec709,
                                      const ImageU8& mask, double min_region_fraction = 0.002);
 
-// CompareAlbedoColor with the truth read a band of rows at a time (the solve's
-// evaluation, so that no full-size truth is held): AddRows for the bands in
+// CompareAlbedoColor band by band (the solve's evaluation, so that neither a
+// full-size albedo nor a full-size truth is held): AddRows for the bands in
 // order, then Finish gives exactly what CompareAlbedoColor gives on the whole
-// truth. Keeps, per evaluated pixel, its truth value's bits, its index and its
-// CIEDE2000 (24 bytes). `albedo_linear_rec709` (3 channels) and `mask` (1
-// channel, its size) are whole images and must outlive the comparison.
+// images. Per evaluated pixel its truth value's bits and its albedo (24
+// bytes) go to a spill file (SpillFile, exact_statistics.h), its CIEDE2000 to
+// an ExactErrorStatistics; in memory only counts per hash bucket of the truth
+// values. Finish finds the uniform regions from those buckets: a region has
+// at least min_pixels pixels, so its bucket has too, and at most
+// evaluated / min_pixels buckets do; only their pixels are counted exactly.
 class AlbedoColorComparison {
  public:
-  AlbedoColorComparison(const ImageF& albedo_linear_rec709, const ImageU8& mask, double min_region_fraction = 0.002);
-  // `truth_rows`: rows [y_begin, y_begin + truth_rows.height()) of the truth
-  // (3 channels), following the rows added before. The rows run in parallel.
-  void AddRows(int y_begin, const ImageF& truth_rows, int num_threads = 0);
-  AlbedoColorErrors Finish();
+  // The spill files' folder: SpillFile's (empty = the temporary folder).
+  explicit AlbedoColorComparison(double min_region_fraction = 0.002,
+                                 const std::filesystem::path& spill_folder = {});
+  // Rows of the albedo and the truth (3 channels) and of the mask (1
+  // channel), one size, following the rows added before. The rows run in parallel.
+  void AddRows(const ImageF& albedo_rows, const ImageU8& mask_rows, const ImageF& truth_rows, int num_threads = 0);
+  AlbedoColorErrors Finish();  // once
 
  private:
-  const ImageF& albedo_;
-  const ImageU8& mask_;
   double min_region_fraction_;
-  int next_row_ = 0;
-  std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>> keyed_;  // truth bits, pixel index; pixel order
-  std::vector<double> per_pixel_;                                     // CIEDE2000, same order
+  int width_ = -1;
+  ExactErrorStatistics delta_e_;
+  SpillFile pixels_;                  // per evaluated pixel: truth bits, albedo; pixel order
+  std::vector<uint32_t> bucket_counts_;  // evaluated pixels per hash bucket of the truth bits
 };
 
 }  // namespace scanbench

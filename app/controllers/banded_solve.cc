@@ -296,6 +296,28 @@ void BandedSolveOptions::Check() const {
   }
 }
 
+PhotometricSolution SolutionRows(const PhotometricSolution& solution, int first, int rows) {
+  if (first < 0 || rows < 1 || first + rows > solution.status.height()) {
+    throw std::invalid_argument("SolutionRows: rows [" + std::to_string(first) + ", " + std::to_string(first + rows) +
+                                ") of a solution of " + std::to_string(solution.status.height()) + " rows");
+  }
+  auto crop = [&](const auto& image) {
+    using Img = std::decay_t<decltype(image)>;
+    return image.empty() ? Img() : CropRows(image, first, rows);
+  };
+  PhotometricSolution band;
+  band.normal_in_table = crop(solution.normal_in_table);
+  band.albedo = crop(solution.albedo);
+  band.status = crop(solution.status);
+  band.lights_used = crop(solution.lights_used);
+  band.condition_number = crop(solution.condition_number);
+  band.residual = crop(solution.residual);
+  band.solve_path = crop(solution.solve_path);
+  band.specular = crop(solution.specular);
+  band.specular_status = crop(solution.specular_status);
+  return band;
+}
+
 int BandRowsUnit(const PhotometricSolverOptions& solver) {
   return std::lcm(std::lcm(solver.tile_size, CoherentLobeOptions().block_size), BayerNormalBlendOptions().cell_size);
 }
@@ -309,8 +331,23 @@ std::string BandedSolveSummary::BriefReport() const {
 BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrameStack& frames,
                                const LightField& light_field, PhotometricSolution* solution,
                                const ProgressCallback& progress) {
-  options.Check();
   if (solution == nullptr) throw std::invalid_argument("SolveBanded: solution must not be null");
+  *solution = PhotometricSolution();
+  const int width = light_field.width(), height = light_field.height();
+  return SolveBanded(
+      options, frames, light_field,
+      [&](int row0, PhotometricSolution& band) {
+        if (row0 == 0) AllocateLike(band, width, height, solution);
+        CopyBandInto(band, row0, solution);
+      },
+      progress);
+}
+
+BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrameStack& frames,
+                               const LightField& light_field, const SolvedBandSink& sink,
+                               const ProgressCallback& progress) {
+  options.Check();
+  if (!sink) throw std::invalid_argument("SolveBanded: the band sink must not be empty");
   CheckFrames(frames, light_field);
   const int width = light_field.width(), height = light_field.height();
   const int unit = BandRowsUnit(options.solver);
@@ -328,7 +365,6 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
   BandedSolveSummary summary;
   summary.band_rows = band_rows;
   summary.solver.num_lights = num_frames;
-  *solution = PhotometricSolution();
   // Development is cheap beside the solve: a fifth of each band's progress.
   constexpr double kDevelopShare = 0.2;
   for (int band = 0; band < num_bands; ++band) {
@@ -392,13 +428,12 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
                              &band_solution, SubRange(progress, develop_end, band_end))
             : SolveRgbBand(options, developed, light_field, row0, row1, &band_solution,
                            SubRange(progress, develop_end, band_end));
-    if (band == 0) AllocateLike(band_solution, width, height, solution);
-    CopyBandInto(band_solution, row0, solution);
     Accumulate(solved, &summary.solver);
     blend_weight_sum += blended.mean_weight * double(blended.pixels_weighed);
     blend_pixels_weighed += blended.pixels_weighed;
     if (blend_pixels_weighed > 0) summary.solver.bayer_blend_mean_weight = blend_weight_sum / blend_pixels_weighed;
     summary.solve_seconds += SecondsSince(solve_start);
+    sink(row0, band_solution);  // its time is the sink's, not the solve's
     ++summary.num_bands;
     if (!solved.IsUsable()) {
       summary.solver.termination = solved.termination;

@@ -28,7 +28,7 @@ struct BandedSolveOptions {
   RawDevelopOptions develop;
   // Rows per band, rounded up to whole solver tiles and coherent-lobe blocks
   // (BandRowsUnit), in [1, 65536]. More rows: fewer passes, more memory.
-  int band_rows = 256;
+  int band_rows = 128;
   // Optional: each band's sample masks, made from the band developed with
   // sample_mask_margin_rows more rows on each side (fewer at the image's
   // edges), one mask per light of that size; null = the development's masks.
@@ -76,12 +76,29 @@ struct BandedSolveSummary : AlgorithmSummary {
   std::string BriefReport() const;
 };
 
+// Rows [first, first + rows) of every map of `solution` (a band as
+// SolvedBandSink gets it, e.g. to stream a held solution band by band).
+PhotometricSolution SolutionRows(const PhotometricSolution& solution, int first, int rows);
+
 // Rows a band is a multiple of: the least common multiple of the solver's
 // tile size and the coherent-lobe block size.
 int BandRowsUnit(const PhotometricSolverOptions& solver);
 
-// Solves `frames` under `light_field` (its size is the frames'); fills
-// `solution` at full size. Throws std::invalid_argument on bad options
+// What SolveBanded hands each band to, in order of rows: the band's first
+// row and its maps (rows [row0, row0 + band.status.height()), every map
+// SolvePhotometricStereo fills, band-sized), also the band a failure or
+// cancellation stopped in. The sink may change or move from `band`; an
+// exception from it ends the solve and is rethrown.
+using SolvedBandSink = std::function<void(int row0, PhotometricSolution& band)>;
+
+// Solves `frames` under `light_field` (its size is the frames') and hands
+// each band to `sink` as it is solved (the solve streams its maps to disk,
+// solve_controller.h), so that no full-size solution needs to be held.
+BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrameStack& frames,
+                               const LightField& light_field, const SolvedBandSink& sink,
+                               const ProgressCallback& progress = {});
+
+// The same with the bands copied into `solution` at full size. Throws std::invalid_argument on bad options
 // (naming the field) or frames that do not fit together; a cancelled
 // progress callback returns kCancelled with the bands not reached unsolved.
 BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrameStack& frames,

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include "calibration/camera_model.h"
@@ -186,49 +187,148 @@ double SolvedHeightRangeMm(const PhotometricSolution& solution, const ImageF& he
   return Percentile(heights, 99) - Percentile(heights, 1);
 }
 
-PhotometricSolution BlockMeanSolution(const PhotometricSolution& solution, int block_px, int num_threads) {
-  if (block_px < 1) throw std::invalid_argument("BlockMeanSolution: block_px " + std::to_string(block_px) + " must be >= 1");
-  const int width = solution.status.width() / block_px, height = solution.status.height() / block_px;
-  PhotometricSolution blocks;
-  blocks.normal_in_table = ImageF(width, height, 3);
-  blocks.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
-  const int full_width = solution.status.width();
-  const int min_solved = (block_px * block_px + 1) / 2;
-  ParallelRows(height, num_threads, {}, 0, 1, [&](int by) {
-    for (int bx = 0; bx < width; ++bx) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      int solved = 0;
-      for (int y = by * block_px; y < (by + 1) * block_px; ++y) {
-        for (int x = bx * block_px; x < (bx + 1) * block_px; ++x) {
-          const size_t i = static_cast<size_t>(y) * full_width + x;
-          if (!Solved(solution, i)) continue;
-          const float* n = &solution.normal_in_table.data()[3 * i];
-          sum += Eigen::Vector3d(n[0], n[1], n[2]);
-          ++solved;
-        }
+DepthDecisionBlocks::DepthDecisionBlocks(int width, int height, int block_px)
+    : width_(width), height_(height), block_px_(block_px) {
+  if (width < 1 || height < 1) {
+    throw std::invalid_argument("DepthDecisionBlocks: " + std::to_string(width) + "x" + std::to_string(height) +
+                                " must be at least 1x1");
+  }
+  if (block_px_ == 0) {
+    constexpr int kMinBlocks = 16;
+    block_px_ = width / kDepthDecisionBlockPx >= kMinBlocks && height / kDepthDecisionBlockPx >= kMinBlocks
+                    ? kDepthDecisionBlockPx
+                    : 1;
+  }
+  if (block_px_ < 1) {
+    throw std::invalid_argument("BlockMeanSolution: block_px " + std::to_string(block_px_) + " must be >= 1");
+  }
+  const int block_columns = width / block_px_, block_rows = height / block_px_;
+  if (block_px_ == 1) {
+    // Full size: the first pass's normals and status as they are.
+    blocks_.normal_in_table = ImageF(width, height, 3);
+    blocks_.status = ImageU8(width, height, 1);
+    return;
+  }
+  blocks_.normal_in_table = ImageF(block_columns, block_rows, 3);
+  blocks_.status = ImageU8(block_columns, block_rows, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
+  sums_.assign(block_columns, Eigen::Vector3d::Zero());
+  solved_.assign(block_columns, 0);
+}
+
+void DepthDecisionBlocks::AddRows(const PhotometricSolution& band, int num_threads) {
+  const int rows = band.status.height();
+  if (band.status.width() != width_ || rows > height_ - rows_added_ || !band.normal_in_table.SameSize(band.status) ||
+      band.normal_in_table.channels() != 3) {
+    throw std::invalid_argument("DepthDecisionBlocks: rows of " + ShapeText(band.status) + " (normals " +
+                                ShapeText(band.normal_in_table) + ") after " + std::to_string(rows_added_) +
+                                " rows of " + std::to_string(width_) + "x" + std::to_string(height_));
+  }
+  const int y0 = rows_added_;
+  rows_added_ += rows;
+  if (block_px_ == 1) {
+    std::copy(band.normal_in_table.data(), band.normal_in_table.data() + band.normal_in_table.size(),
+              blocks_.normal_in_table.row(y0));
+    std::copy(band.status.data(), band.status.data() + band.status.size(), blocks_.status.row(y0));
+    return;
+  }
+  // Per block column (in parallel), its pixels row by row, left to right: the
+  // order of BlockMeanSolution's sums, whatever the bands.
+  const int whole_rows = blocks_.status.height() * block_px_;
+  const int min_solved = (block_px_ * block_px_ + 1) / 2;
+  ParallelRows(blocks_.status.width(), num_threads, {}, 0, 1, [&](int bx) {
+    Eigen::Vector3d& sum = sums_[bx];
+    int& solved = solved_[bx];
+    for (int r = 0; r < rows && y0 + r < whole_rows; ++r) {
+      const int y = y0 + r;
+      for (int x = bx * block_px_; x < (bx + 1) * block_px_; ++x) {
+        const size_t i = static_cast<size_t>(r) * width_ + x;
+        if (!Solved(band, i)) continue;
+        const float* n = &band.normal_in_table.data()[3 * i];
+        sum += Eigen::Vector3d(n[0], n[1], n[2]);
+        ++solved;
       }
-      float* out = &blocks.normal_in_table(bx, by);
+      if ((y + 1) % block_px_ != 0) continue;
+      const int by = y / block_px_;
+      float* out = &blocks_.normal_in_table(bx, by);
       const bool usable = solved >= min_solved && sum.norm() > 0;
       const Eigen::Vector3d mean = usable ? sum.normalized() : Eigen::Vector3d::UnitZ();
       for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(mean[c]);
-      if (usable) blocks.status(bx, by) = static_cast<uint8_t>(PixelStatus::kSolved);
+      if (usable) blocks_.status(bx, by) = static_cast<uint8_t>(PixelStatus::kSolved);
+      sum = Eigen::Vector3d::Zero();
+      solved = 0;
     }
   });
-  return blocks;
+}
+
+const PhotometricSolution& DepthDecisionBlocks::blocks() const {
+  if (rows_added_ != height_) {
+    throw std::logic_error("DepthDecisionBlocks: " + std::to_string(rows_added_) + " of " + std::to_string(height_) +
+                           " rows added");
+  }
+  return blocks_;
+}
+
+PhotometricSolution BlockMeanSolution(const PhotometricSolution& solution, int block_px, int num_threads) {
+  if (block_px < 1) throw std::invalid_argument("BlockMeanSolution: block_px " + std::to_string(block_px) + " must be >= 1");
+  if (block_px == 1) return solution;
+  DepthDecisionBlocks blocks(solution.status.width(), solution.status.height(), block_px);
+  blocks.AddRows(solution, num_threads);
+  return blocks.blocks();
+}
+
+double DecisionHeightRangeMm(const DepthRefinementOptions& options, const DepthDecisionBlocks& blocks,
+                             const CameraGeometry& camera) {
+  const int block_px = blocks.block_px();
+  const PhotometricSolution& solution = blocks.blocks();
+  const CameraGeometry& integrated = block_px == 1 ? camera : BlockCamera(camera, block_px);
+  return SolvedHeightRangeMm(solution, AnchoredHeightFromSolution(options, solution, integrated));
 }
 
 double DecisionHeightRangeMm(const DepthRefinementOptions& options, const PhotometricSolution& solution,
                              const CameraGeometry& camera, int* block_px_used) {
-  constexpr int kMinBlocks = 16;
-  const int block_px = solution.status.width() / kDepthDecisionBlockPx >= kMinBlocks &&
-                               solution.status.height() / kDepthDecisionBlockPx >= kMinBlocks
-                           ? kDepthDecisionBlockPx
-                           : 1;
-  if (block_px_used) *block_px_used = block_px;
-  if (block_px == 1) return SolvedHeightRangeMm(solution, AnchoredHeightFromSolution(options, solution, camera));
-  const PhotometricSolution blocks = BlockMeanSolution(solution, block_px);
-  const ImageF height_mm = AnchoredHeightFromSolution(options, blocks, BlockCamera(camera, block_px));
-  return SolvedHeightRangeMm(blocks, height_mm);
+  DepthDecisionBlocks blocks(solution.status.width(), solution.status.height());
+  blocks.AddRows(solution);
+  if (block_px_used) *block_px_used = blocks.block_px();
+  return DecisionHeightRangeMm(options, blocks, camera);
+}
+
+namespace {
+
+// The decision: a summary with the first pass's range, and *kept (the stop
+// reason set, the loop not to run) or not.
+DepthRefinementSummary Decide(const DepthRefinementOptions& options, const DepthDecisionBlocks& blocks,
+                              const CameraGeometry& camera, bool* kept) {
+  DepthRefinementSummary summary;
+  summary.termination = Termination::kSuccess;
+  *kept = true;
+  if (!options.enabled) {
+    summary.stop_reason = "disabled (the table plane only)";
+    return summary;
+  }
+  // The decision on block means: at 16 MP the full-size integration it
+  // replaces took most of this stage on a flat sample (docs/solver.md).
+  summary.first_height_range_mm = DecisionHeightRangeMm(options, blocks, camera);
+  summary.decision_block_px = blocks.block_px();
+  *kept = summary.first_height_range_mm <= options.min_height_range_mm;
+  if (*kept) {
+    summary.stop_reason = "height range " + Mm(summary.first_height_range_mm) + " mm (" +
+                          std::to_string(summary.decision_block_px) + " px blocks) is not above min_height_range_mm " +
+                          Mm(options.min_height_range_mm) + " mm: the table plane is kept";
+  }
+  return summary;
+}
+
+}  // namespace
+
+std::optional<DepthRefinementSummary> TablePlaneKept(const DepthRefinementOptions& options,
+                                                     const DepthDecisionBlocks& blocks, const CameraGeometry& camera) {
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  bool kept = false;
+  DepthRefinementSummary summary = Decide(options, blocks, camera, &kept);
+  if (!kept) return std::nullopt;
+  summary.seconds = SecondsSince(start);
+  return summary;
 }
 
 ImageF SurfacePointsAtHeight(const CameraGeometry& camera, const ImageF& height_mm) {
@@ -387,14 +487,12 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
     return summary;
   };
   if (!options.enabled) return finish("disabled (the table plane only)");
-  // The decision on block means: at 16 MP the full-size integration it
-  // replaces took most of this stage on a flat sample (docs/solver.md).
-  summary.first_height_range_mm =
-      DecisionHeightRangeMm(options, *solution, camera, &summary.decision_block_px);
-  if (summary.first_height_range_mm <= options.min_height_range_mm) {
-    return finish("height range " + Mm(summary.first_height_range_mm) + " mm (" +
-                  std::to_string(summary.decision_block_px) + " px blocks) is not above min_height_range_mm " +
-                  Mm(options.min_height_range_mm) + " mm: the table plane is kept");
+  {
+    DepthDecisionBlocks blocks(solution->status.width(), solution->status.height());
+    blocks.AddRows(*solution);
+    bool kept = false;
+    summary = Decide(options, blocks, camera, &kept);
+    if (kept) return finish(summary.stop_reason);
   }
   points = ComputeTablePoints(camera);
   const Eigen::Vector3d centre = CameraCentreInTable(camera);

@@ -29,8 +29,11 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "calibration/rig.h"
 #include "core/image.h"
@@ -128,12 +131,46 @@ double SolvedHeightRangeMm(const PhotometricSolution& solution, const ImageF& he
 PhotometricSolution BlockMeanSolution(const PhotometricSolution& solution, int block_px,
                                       int num_threads = 0);
 
+// The first pass's decision blocks gathered band by band (the solve streams
+// its bands, so no full-size first pass is held when the table plane is
+// kept): BlockMeanSolution's blocks of the bands added in order of rows, any
+// band heights, bit for bit. block_px 0 = kDepthDecisionBlockPx, or 1 when
+// the image has fewer than 16 whole blocks across or down; with 1 the
+// normals and status are kept at full size (small images only).
+class DepthDecisionBlocks {
+ public:
+  DepthDecisionBlocks(int width, int height, int block_px = 0);
+  // The next rows of the first pass (its normal_in_table and status); the
+  // block columns run on num_threads (0 = all).
+  void AddRows(const PhotometricSolution& band, int num_threads = 0);
+  int block_px() const { return block_px_; }
+  // Every row added: the block-mean solution (normal_in_table and status).
+  const PhotometricSolution& blocks() const;
+
+ private:
+  int width_, height_, block_px_;
+  int rows_added_ = 0;
+  PhotometricSolution blocks_;
+  std::vector<Eigen::Vector3d> sums_;  // per block column: the block row being added
+  std::vector<int> solved_;
+};
+
 // What decides whether the loop runs: the anchored height range (mm) of the
-// block-mean solution integrated through BlockCamera(camera, block_px).
-// *block_px_used gets kDepthDecisionBlockPx, or 1 when the image has fewer
-// than 16 whole blocks across or down (then the full-size range).
+// block-mean solution integrated through BlockCamera(camera, block_px)
+// (block_px 1: the full-size range).
+double DecisionHeightRangeMm(const DepthRefinementOptions& options, const DepthDecisionBlocks& blocks,
+                             const CameraGeometry& camera);
+// The same of a whole first pass; *block_px_used gets DepthDecisionBlocks' block_px.
 double DecisionHeightRangeMm(const DepthRefinementOptions& options, const PhotometricSolution& solution,
                              const CameraGeometry& camera, int* block_px_used = nullptr);
+
+// RefineDepth's decision from the first pass's blocks: when the loop would
+// not run (disabled, or the height range not above min_height_range_mm) the
+// summary RefineDepth returns (its `seconds` the decision's), else nullopt
+// (then RefineDepth on the whole first pass runs the loop). The solve takes
+// it on the bands it streamed (solve_controller.cc).
+std::optional<DepthRefinementSummary> TablePlaneKept(const DepthRefinementOptions& options,
+                                                     const DepthDecisionBlocks& blocks, const CameraGeometry& camera);
 
 // Where each pixel's camera ray meets the height z = height_mm(x, y): 3 channels, table mm.
 ImageF SurfacePointsAtHeight(const CameraGeometry& camera, const ImageF& height_mm);

@@ -143,25 +143,40 @@ ImageU8 StatusPngCodes(const PhotometricSolution& solution) {
   return codes;
 }
 
-std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSolution& solution) {
-  if (solution.specular.empty()) return std::nullopt;
-  CheckSpecularShape(solution);
-  SpecularMapStatistics stats;
-  double f0_sum = 0, alpha_sum = 0;
-  for (size_t i = 0; i < solution.specular_status.num_pixels(); ++i) {
-    const int code = std::min<int>(solution.specular_status.data()[i], kNumSpecularStatuses - 1);
-    ++stats.pixels_by_status[code];
+void SpecularMapTally::Add(const PhotometricSolution& band) {
+  if (band.specular.empty()) {
+    if (any_specular_) throw std::invalid_argument("SpecularMapTally: a band without specular maps after one with");
+    without_specular_ = true;
+    return;
+  }
+  if (without_specular_) throw std::invalid_argument("SpecularMapTally: a band with specular maps after one without");
+  CheckSpecularShape(band);
+  any_specular_ = true;
+  for (size_t i = 0; i < band.specular_status.num_pixels(); ++i) {
+    const int code = std::min<int>(band.specular_status.data()[i], kNumSpecularStatuses - 1);
+    ++stats_.pixels_by_status[code];
     if (code == static_cast<int>(SpecularStatus::kEstimated)) {
-      const double f0 = solution.specular.data()[2 * i], alpha = solution.specular.data()[2 * i + 1];
-      if (std::isfinite(f0)) f0_sum += f0;
-      if (std::isfinite(alpha)) alpha_sum += alpha;
+      const double f0 = band.specular.data()[2 * i], alpha = band.specular.data()[2 * i + 1];
+      if (std::isfinite(f0)) f0_sum_ += f0;
+      if (std::isfinite(alpha)) alpha_sum_ += alpha;
     }
   }
+}
+
+std::optional<SpecularMapStatistics> SpecularMapTally::Finish() const {
+  if (!any_specular_) return std::nullopt;
+  SpecularMapStatistics stats = stats_;
   if (stats.estimated() > 0) {
-    stats.mean_specular_f0 = f0_sum / stats.estimated();
-    stats.mean_roughness_alpha = alpha_sum / stats.estimated();
+    stats.mean_specular_f0 = f0_sum_ / stats.estimated();
+    stats.mean_roughness_alpha = alpha_sum_ / stats.estimated();
   }
   return stats;
+}
+
+std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSolution& solution) {
+  SpecularMapTally tally;
+  tally.Add(solution);
+  return tally.Finish();
 }
 
 std::string SpecularMapStatistics::ReportJson() const {
@@ -202,77 +217,11 @@ std::map<std::string, uintmax_t> FileSizesIn(const std::filesystem::path& folder
 
 namespace {
 
-// One result file: its report.json kind, its name, how it is written.
-struct MapFile {
-  const char* kind;
-  const char* name;
-  std::function<void(const std::filesystem::path&)> write;
-};
-
-void CheckErrorMap(const PhotometricSolution& solution, const ImageF& angular_error_deg) {
-  if (!angular_error_deg.empty() && (!angular_error_deg.SameSize(solution.status) || angular_error_deg.channels() != 1)) {
-    throw std::invalid_argument("WriteSolutionMaps: angular_error_deg is " + ShapeText(angular_error_deg) +
-                                ", must be " + SizeText(solution.status.width(), solution.status.height()) + "x1");
-  }
-}
-
 // angular_error_deg.exr: in half on the grid of kErrorMapHalfStepDeg (0.06 deg steps at 90 deg).
-MapFile ErrorMapFile(const ImageF& angular_error_deg, const ExrEncoding& exr) {
+ExrEncoding ErrorMapExrEncoding(const ExrEncoding& exr) {
   ExrEncoding error_map = exr;
   if (exr.sample_type == ExrSampleType::kHalf) error_map.half_absolute_step = kErrorMapHalfStepDeg;
-  return {"angular_error_deg", "angular_error_deg.exr", [&angular_error_deg, error_map](const auto& path) {
-            WriteExr(path, angular_error_deg, OverwritePolicy::kRefuse, {"Y"}, {}, error_map);
-          }};
-}
-
-// The files of a solution but the error map, slowest first (measured at 16 MP),
-// so that no long file starts last while the other threads idle. `solved` and
-// `status_codes` are held by the caller while the files are written.
-std::vector<MapFile> SolutionMapFiles(const PhotometricSolution& solution, const AlbedoColor& albedo_color,
-                                      const ExrEncoding& exr, const ImageU8& solved, const ImageU8& status_codes) {
-  const auto policy = OverwritePolicy::kRefuse;
-  std::vector<MapFile> files = {
-      {"normal_png16_opengl", "normal.png",
-       [&, policy](const auto& path) {
-         WritePng(path, EncodeNormalsPng16(solution.normal_in_table), policy, {}, kNormalPngEncoding);
-       }},
-      {"normal_exr", "normal.exr",
-       [&, policy, exr](const auto& path) {
-         WriteExr(path, solution.normal_in_table, policy, {}, {}, NormalMapExrEncoding(exr));
-       }},
-      {"albedo_exr", "albedo.exr",
-       [&, policy, exr](const auto& path) {
-         WriteExr(path, solution.albedo, policy, {}, AlbedoMetadata(albedo_color, "Linear"), exr);
-       }},
-      {"confidence", "confidence.exr",
-       [&, policy, exr](const auto& path) {
-         ImageF confidence(solution.status.width(), solution.status.height(), 3);
-         const bool half = exr.sample_type == ExrSampleType::kHalf;
-         for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
-           const float residual = solution.residual.data()[i];
-           confidence.data()[3 * i + 0] = solution.lights_used.data()[i];
-           confidence.data()[3 * i + 1] = solution.condition_number.data()[i];
-           confidence.data()[3 * i + 2] = half ? RoundToSignificantBits(residual, kResidualSignificantBits) : residual;
-         }
-         WriteExr(path, confidence, policy, {"lights_used", "condition_number", "residual"}, {}, exr);
-       }},
-      {"albedo_srgb_preview", "albedo_srgb.png",
-       [&, policy](const auto& path) {
-         WritePng(path, EncodeSrgbPreview(solution.albedo), policy, AlbedoMetadata(albedo_color, "sRGB"));
-       }},
-  };
-  if (!solution.specular.empty()) {
-    files.push_back({"specular_exr", "specular.exr", [&, policy, exr](const auto& path) {
-                       ImageMetadata metadata;
-                       metadata.description =
-                           "specular lobe: specular_f0 (white reflectance at normal incidence, [0, 1]) and "
-                           "roughness_alpha (GGX alpha, (0, 1]); both 0 where not estimated";
-                       WriteExr(path, SpecularForFile(solution), policy, {"specular_f0", "roughness_alpha"}, metadata, exr);
-                     }});
-  }
-  files.push_back({"status", "status.png", [&, policy](const auto& path) { WritePng(path, status_codes, policy); }});
-  files.push_back({"solved_mask", "solved_mask.png", [&, policy](const auto& path) { WritePng(path, solved, policy); }});
-  return files;
+  return error_map;
 }
 
 ImageU8 SolvedMask(const PhotometricSolution& solution) {
@@ -283,72 +232,184 @@ ImageU8 SolvedMask(const PhotometricSolution& solution) {
   return solved;
 }
 
+ImageF ConfidenceForFile(const PhotometricSolution& solution, bool half) {
+  ImageF confidence(solution.status.width(), solution.status.height(), 3);
+  for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
+    const float residual = solution.residual.data()[i];
+    confidence.data()[3 * i + 0] = solution.lights_used.data()[i];
+    confidence.data()[3 * i + 1] = solution.condition_number.data()[i];
+    confidence.data()[3 * i + 2] = half ? RoundToSignificantBits(residual, kResidualSignificantBits) : residual;
+  }
+  return confidence;
+}
+
 void CheckThreads(int threads) {
   if (threads < 0) throw std::invalid_argument("WriteSolutionMaps: threads = " + std::to_string(threads) + " must be >= 0");
 }
 
-std::map<std::string, std::string> Kinds(const std::vector<MapFile>& files) {
-  std::map<std::string, std::string> written;
-  for (const MapFile& file : files) written[file.kind] = file.name;
-  return written;
+}  // namespace
+
+// One result file: its report.json kind, its name, its row writer and how a
+// band of the solution becomes its rows.
+struct SolutionMapStream::Map {
+  const char* kind;
+  const char* name;
+  ImageRowWriter writer;
+  std::function<void(const PhotometricSolution& band, ImageRowWriter& writer)> add;
+};
+
+SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int width, int height, bool with_specular,
+                                     bool with_error_map, const AlbedoColor& albedo_color, const ExrEncoding& exr)
+    : width_(width), height_(height), with_specular_(with_specular) {
+  const auto policy = OverwritePolicy::kRefuse;
+  const auto path = [&](const char* name) { return folder / name; };
+  const bool half = exr.sample_type == ExrSampleType::kHalf;
+  // Slowest first (measured at 16 MP), so that no long file starts last
+  // within a band while the other threads idle.
+  maps_.push_back({"normal_png16_opengl", "normal.png",
+                   ImageRowWriter::Png(path("normal.png"), width, height, 3, 16, policy, {}, kNormalPngEncoding),
+                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
+                     writer.WriteRows(EncodeNormalsPng16(band.normal_in_table));
+                   }});
+  maps_.push_back({"normal_exr", "normal.exr",
+                   ImageRowWriter::Exr(path("normal.exr"), width, height, 3, policy, {}, {}, NormalMapExrEncoding(exr)),
+                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
+                     writer.WriteRows(band.normal_in_table);
+                   }});
+  maps_.push_back({"albedo_exr", "albedo.exr",
+                   ImageRowWriter::Exr(path("albedo.exr"), width, height, 3, policy, {},
+                                       AlbedoMetadata(albedo_color, "Linear"), exr),
+                   [](const PhotometricSolution& band, ImageRowWriter& writer) { writer.WriteRows(band.albedo); }});
+  maps_.push_back({"confidence", "confidence.exr",
+                   ImageRowWriter::Exr(path("confidence.exr"), width, height, 3, policy,
+                                       {"lights_used", "condition_number", "residual"}, {}, exr),
+                   [half](const PhotometricSolution& band, ImageRowWriter& writer) {
+                     writer.WriteRows(ConfidenceForFile(band, half));
+                   }});
+  if (with_error_map) {
+    error_map_ = std::make_unique<ImageRowWriter>(ImageRowWriter::Exr(path("angular_error_deg.exr"), width, height, 1,
+                                                                      policy, {"Y"}, {}, ErrorMapExrEncoding(exr)));
+  }
+  maps_.push_back({"albedo_srgb_preview", "albedo_srgb.png",
+                   ImageRowWriter::Png(path("albedo_srgb.png"), width, height, 3, 8, policy,
+                                       AlbedoMetadata(albedo_color, "sRGB")),
+                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
+                     writer.WriteRows(EncodeSrgbPreview(band.albedo));
+                   }});
+  if (with_specular) {
+    ImageMetadata metadata;
+    metadata.description =
+        "specular lobe: specular_f0 (white reflectance at normal incidence, [0, 1]) and "
+        "roughness_alpha (GGX alpha, (0, 1]); both 0 where not estimated";
+    maps_.push_back({"specular_exr", "specular.exr",
+                     ImageRowWriter::Exr(path("specular.exr"), width, height, 2, policy,
+                                         {"specular_f0", "roughness_alpha"}, metadata, exr),
+                     [](const PhotometricSolution& band, ImageRowWriter& writer) {
+                       writer.WriteRows(SpecularForFile(band));
+                     }});
+  }
+  maps_.push_back({"status", "status.png", ImageRowWriter::Png(path("status.png"), width, height, 1, 8, policy),
+                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
+                     writer.WriteRows(StatusPngCodes(band));
+                   }});
+  maps_.push_back({"solved_mask", "solved_mask.png",
+                   ImageRowWriter::Png(path("solved_mask.png"), width, height, 1, 8, policy),
+                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
+                     writer.WriteRows(SolvedMask(band));
+                   }});
 }
 
-}  // namespace
+SolutionMapStream::~SolutionMapStream() = default;
+
+void SolutionMapStream::CheckBand(const PhotometricSolution& band) const {
+  const ImageU8& status = band.status;
+  const int rows = status.height();
+  const bool fits = status.width() == width_ && rows >= 1 && rows <= height_ - rows_added_ && status.channels() == 1 &&
+                    band.normal_in_table.SameSize(status) && band.normal_in_table.channels() == 3 &&
+                    band.albedo.SameSize(status) && band.albedo.channels() == 3 && band.residual.SameSize(status) &&
+                    band.lights_used.SameSize(status) && band.condition_number.SameSize(status) &&
+                    band.specular.empty() != with_specular_;
+  if (!fits) {
+    throw std::invalid_argument("SolutionMapStream: a band of " + ShapeText(status) + " (normal " +
+                                ShapeText(band.normal_in_table) + ", albedo " + ShapeText(band.albedo) +
+                                (band.specular.empty() ? ", no specular" : ", specular") + ") for maps of " +
+                                SizeText(width_, height_) + (with_specular_ ? " with" : " without") +
+                                " specular.exr, " + std::to_string(rows_added_) + " rows added");
+  }
+  if (with_specular_) CheckSpecularShape(band);
+}
+
+void SolutionMapStream::AddBand(const PhotometricSolution& band, const std::function<ImageF()>& alongside,
+                                int threads) {
+  CheckThreads(threads);
+  if (committed_) throw std::logic_error("SolutionMapStream::AddBand: already committed");
+  CheckBand(band);
+  if (error_map_ && !alongside) {
+    throw std::invalid_argument("SolutionMapStream::AddBand: the stream has an error map; give its rows (alongside)");
+  }
+  const int rows = band.status.height();
+  // Item 0 is `alongside` and then the error map's rows it made; the others
+  // the files. Whichever thread is free takes the next item, so the files
+  // fill the threads `alongside` leaves idle and the other way round.
+  const int first = alongside ? 0 : 1;
+  const auto start = std::chrono::steady_clock::now();
+  ParallelFor(static_cast<int>(maps_.size()) + 1 - first, ResolveThreadCount(threads), 1,
+              [&](int begin, int end, int) {
+                for (int i = begin + first; i < end + first; ++i) {
+                  if (i > 0) {
+                    maps_[i - 1].add(band, maps_[i - 1].writer);
+                    continue;
+                  }
+                  const ImageF error_rows = alongside();
+                  alongside_seconds_ += SecondsSince(start);
+                  if (!error_map_) continue;
+                  if (!error_rows.SameSize(band.status) || error_rows.channels() != 1) {
+                    throw std::invalid_argument("SolutionMapStream: the error map's rows are " +
+                                                ShapeText(error_rows) + ", must be " +
+                                                SizeText(band.status.width(), rows) + "x1");
+                  }
+                  error_map_->WriteRows(error_rows);
+                }
+              });  // rethrows a failure
+  rows_added_ += rows;
+}
+
+std::map<std::string, std::string> SolutionMapStream::Commit() {
+  if (committed_) throw std::logic_error("SolutionMapStream::Commit: already committed");
+  if (rows_added_ != height_) {
+    throw std::logic_error("SolutionMapStream::Commit: " + std::to_string(rows_added_) + " of " +
+                           std::to_string(height_) + " rows added");
+  }
+  std::map<std::string, std::string> outputs;
+  for (Map& map : maps_) {
+    map.writer.Commit();
+    outputs[map.kind] = map.name;
+  }
+  if (error_map_) {
+    error_map_->Commit();
+    outputs["angular_error_deg"] = "angular_error_deg.exr";
+  }
+  committed_ = true;
+  return outputs;
+}
 
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
                                                      const PhotometricSolution& solution,
                                                      const AlbedoColor& albedo_color, const ExrEncoding& exr,
                                                      const ImageF& angular_error_deg, int threads) {
   CheckThreads(threads);
-  CheckErrorMap(solution, angular_error_deg);
-  const ImageU8 solved = SolvedMask(solution);
-  const ImageU8 status_codes = StatusPngCodes(solution);  // checks the specular maps' shape
-  // Compression dominates at 16 MP (seconds per file) and the files are
-  // independent, so they are written concurrently on the one thread pool:
-  // as many at once as there are threads, so that only that many files'
-  // encoding buffers (a full-size copy each) are held at a time.
-  std::vector<MapFile> files = SolutionMapFiles(solution, albedo_color, exr, solved, status_codes);
-  if (!angular_error_deg.empty()) files.insert(files.begin() + 4, ErrorMapFile(angular_error_deg, exr));
-  ParallelFor(static_cast<int>(files.size()), ResolveThreadCount(threads), 1, [&](int first, int last, int) {
-    for (int i = first; i < last; ++i) files[i].write(folder / files[i].name);
-  });  // rethrows a failure
-  return Kinds(files);
-}
-
-MapsWrittenAlongside WriteSolutionMapsAlongside(const std::filesystem::path& folder,
-                                                const PhotometricSolution& solution,
-                                                const AlbedoColor& albedo_color, const ExrEncoding& exr,
-                                                const std::function<ImageF()>& alongside, int threads) {
-  CheckThreads(threads);
-  if (!alongside) throw std::invalid_argument("WriteSolutionMapsAlongside: alongside must not be empty");
-  const ImageU8 solved = SolvedMask(solution);
-  const ImageU8 status_codes = StatusPngCodes(solution);
-  const std::vector<MapFile> files = SolutionMapFiles(solution, albedo_color, exr, solved, status_codes);
-  MapsWrittenAlongside result;
-  ImageF angular_error_deg;
-  // Item 0 is `alongside` and then the error map it made; the others the
-  // files. Whichever thread is free takes the next item, so the files fill
-  // the threads `alongside` leaves idle and the other way round.
-  const auto start = std::chrono::steady_clock::now();
-  ParallelFor(static_cast<int>(files.size()) + 1, ResolveThreadCount(threads), 1, [&](int first, int last, int) {
-    for (int i = first; i < last; ++i) {
-      if (i > 0) {
-        files[i - 1].write(folder / files[i - 1].name);
-        continue;
-      }
-      angular_error_deg = alongside();
-      result.alongside_seconds = SecondsSince(start);
-      CheckErrorMap(solution, angular_error_deg);
-      if (!angular_error_deg.empty()) {
-        const MapFile error_map = ErrorMapFile(angular_error_deg, exr);
-        error_map.write(folder / error_map.name);
-        result.outputs[error_map.kind] = error_map.name;
-      }
-    }
-  });  // rethrows a failure
-  const std::map<std::string, std::string> kinds = Kinds(files);
-  result.outputs.insert(kinds.begin(), kinds.end());
-  return result;
+  if (!angular_error_deg.empty() && (!angular_error_deg.SameSize(solution.status) || angular_error_deg.channels() != 1)) {
+    throw std::invalid_argument("WriteSolutionMaps: angular_error_deg is " + ShapeText(angular_error_deg) +
+                                ", must be " + SizeText(solution.status.width(), solution.status.height()) + "x1");
+  }
+  if (!solution.specular.empty()) CheckSpecularShape(solution);
+  // The whole solution as one band: the files are independent and written
+  // concurrently on the one thread pool (compression dominates at 16 MP).
+  SolutionMapStream stream(folder, solution.status.width(), solution.status.height(), !solution.specular.empty(),
+                           !angular_error_deg.empty(), albedo_color, exr);
+  stream.AddBand(solution, angular_error_deg.empty() ? std::function<ImageF()>() : [&] { return angular_error_deg; },
+                 threads);
+  return stream.Commit();
 }
 
 }  // namespace scanbench

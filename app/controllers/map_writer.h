@@ -6,8 +6,10 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "app/io/image_io.h"
 
@@ -49,6 +51,18 @@ struct SpecularMapStatistics {
 // std::invalid_argument when specular / specular_status do not fit the
 // solution's size (2 and 1 channels).
 std::optional<SpecularMapStatistics> SpecularMapStatisticsOf(const PhotometricSolution& solution);
+// The same band by band (the solve streams its bands): Add each band in
+// order of rows, then Finish; the same sums in the same order, so the same figures.
+class SpecularMapTally {
+ public:
+  void Add(const PhotometricSolution& band);  // throws as SpecularMapStatisticsOf
+  std::optional<SpecularMapStatistics> Finish() const;
+
+ private:
+  SpecularMapStatistics stats_;
+  double f0_sum_ = 0, alpha_sum_ = 0;
+  bool any_specular_ = false, without_specular_ = false;
+};
 
 // The result maps' EXR encoding. By default half float (11-bit mantissa: a
 // unit normal's direction moves by at most 0.024 deg, albedo and confidence
@@ -70,29 +84,59 @@ ExrEncoding ResultMapExrEncoding(bool float32_maps = false);
 // The EXRs are stored as `exr` says; the PNGs are always 16-bit (normal) and 8-bit.
 // albedo.exr and albedo_srgb.png name their colour space (`albedo_color`):
 // linear Rec.709 carries the OpenEXR chromaticities of Rec.709 / D65.
-// The files are independent and written concurrently, each atomically, on up
-// to `threads` threads of the one pool (0 = all cores, 1 = one after another);
-// their bytes do not depend on `threads`. Returns output kind -> file name.
+// The files are independent and written concurrently on up to `threads`
+// threads of the one pool (0 = all cores, 1 = one after another), each
+// atomically (SolutionMapStream with the whole solution as one band); their
+// bytes do not depend on `threads`. Returns output kind -> file name.
 std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path& folder,
                                                      const PhotometricSolution& solution,
                                                      const AlbedoColor& albedo_color = {},
                                                      const ExrEncoding& exr = ResultMapExrEncoding(),
                                                      const ImageF& angular_error_deg = {}, int threads = 0);
 
-// WriteSolutionMaps with the error map made while the other files are
-// written: `alongside` (the solve's ground-truth evaluation; it may use the
-// pool itself) runs as one item among the files on up to `threads` threads
-// of the one pool, and angular_error_deg.exr is written from the map it
-// returns as soon as it returns (none when that map is empty). The files'
-// bytes are WriteSolutionMaps'. Rethrows a failure of `alongside` or a write.
-struct MapsWrittenAlongside {
-  std::map<std::string, std::string> outputs;  // output kind -> file name, as WriteSolutionMaps'
-  double alongside_seconds = 0;                 // wall time from the start until `alongside` returned
+// The same files written band by band while the solve runs (issue #14): every
+// map's ImageRowWriter is opened at once and each solved band's rows are
+// encoded and appended, so no full-size map or encoding buffer is held. The
+// files are WriteSolutionMaps' byte for byte (but for the EXRs' capDate, the
+// second each was written). They appear, each atomically, on Commit(); a
+// stream destroyed uncommitted leaves none of them (nor temporary files).
+class SolutionMapStream {
+ public:
+  // Opens the files for a width x height solution in `folder`: specular.exr
+  // when `with_specular`, angular_error_deg.exr when `with_error_map`.
+  SolutionMapStream(const std::filesystem::path& folder, int width, int height, bool with_specular,
+                    bool with_error_map, const AlbedoColor& albedo_color = {},
+                    const ExrEncoding& exr = ResultMapExrEncoding());
+  SolutionMapStream(const SolutionMapStream&) = delete;
+  SolutionMapStream& operator=(const SolutionMapStream&) = delete;
+  ~SolutionMapStream();
+
+  // The next band (rows following the last band's; every map the width, the
+  // specular maps when opened with them). The files' rows are encoded
+  // concurrently on up to `threads` threads of the one pool (0 = all), and
+  // `alongside` (the band's ground-truth evaluation; it may use the pool
+  // itself) runs as one more item among them; the 1-channel rows it returns
+  // go to angular_error_deg.exr (it must be given exactly when the stream has
+  // that file). Rethrows a failure of `alongside` or a write.
+  void AddBand(const PhotometricSolution& band, const std::function<ImageF()>& alongside = {}, int threads = 0);
+  // Every row added: the files appear. Returns output kind -> file name.
+  std::map<std::string, std::string> Commit();
+
+  int rows_added() const { return rows_added_; }
+  // Wall time from each AddBand's start until its `alongside` returned, summed.
+  double alongside_seconds() const { return alongside_seconds_; }
+
+ private:
+  struct Map;
+  void CheckBand(const PhotometricSolution& band) const;
+  int width_ = 0, height_ = 0;
+  bool with_specular_ = false;
+  std::vector<Map> maps_;
+  std::unique_ptr<ImageRowWriter> error_map_;
+  int rows_added_ = 0;
+  double alongside_seconds_ = 0;
+  bool committed_ = false;
 };
-MapsWrittenAlongside WriteSolutionMapsAlongside(const std::filesystem::path& folder,
-                                                const PhotometricSolution& solution,
-                                                const AlbedoColor& albedo_color, const ExrEncoding& exr,
-                                                const std::function<ImageF()>& alongside, int threads = 0);
 
 // Bytes of each regular file directly in `folder` (name -> bytes), for the
 // reports' account of what a result costs on disk.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <functional>
 #include <iomanip>
 #include <regex>
@@ -10,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/controllers/banded_solve.h"
+#include "app/controllers/exact_statistics.h"
 #include "app/controllers/map_writer.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
@@ -320,15 +322,6 @@ nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const De
           {"message", depth.BriefReport()}};
 }
 
-// body(y_begin, rows) for the truth file's bands of band_rows in order.
-template <typename Body>
-void ForEachTruthBand(const fs::path& path, int height, int band_rows, const Body& body) {
-  for (int y = 0; y < height; y += band_rows) {
-    const int y_end = std::min(height, y + band_rows);
-    body(y, ReadImageFloatRows(path, y, y_end));
-  }
-}
-
 nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& options, const fs::path& session_dir,
                                const std::string& dark_file, const nlohmann::json& calibration_report,
                                const std::map<std::string, std::string>& outputs) {
@@ -384,43 +377,87 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
 
 }  // namespace
 
+struct GroundTruthEvaluation::State {
+  fs::path normal_path, albedo_path;
+  ImageU8 on_sample;  // whole size
+  int rows_added = 0;
+  size_t unsolved_on_sample = 0;
+  ExactErrorStatistics angles, albedo_errors;
+  AlbedoColorComparison color;
+  State(const fs::path& spill_folder) : angles(spill_folder), albedo_errors(spill_folder), color(0.002, spill_folder) {}
+};
+
+GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const GroundTruthFiles& truth, int width,
+                                             int height, const fs::path& spill_folder)
+    : state_(std::make_unique<State>(spill_folder)) {
+  state_->normal_path = session_dir / truth.normal_file;
+  state_->albedo_path = session_dir / truth.albedo_file;
+  state_->on_sample = SampleMaskFromGroundTruth(session_dir, truth);
+  if (!state_->on_sample.SameSize(width, height)) {
+    throw std::runtime_error((session_dir / truth.mask_file).string() + ": " +
+                             SizeText(state_->on_sample.width(), state_->on_sample.height()) +
+                             ", the solution is " + SizeText(width, height));
+  }
+}
+
+GroundTruthEvaluation::~GroundTruthEvaluation() = default;
+
+ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_threads) {
+  State& s = *state_;
+  const int width = s.on_sample.width(), rows = band.status.height(), y0 = s.rows_added;
+  if (band.status.width() != width || rows < 1 || y0 + rows > s.on_sample.height()) {
+    throw std::invalid_argument("GroundTruthEvaluation::AddBand: a band of " + ShapeText(band.status) + " after " +
+                                std::to_string(y0) + " rows of " + ShapeText(s.on_sample));
+  }
+  s.rows_added += rows;
+  ImageU8 solved_on_sample(width, rows, 1);
+  for (size_t i = 0; i < solved_on_sample.size(); ++i) {
+    const bool on_sample = s.on_sample.row(y0)[i] != 0;
+    const bool solved = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    solved_on_sample.data()[i] = on_sample && solved;
+    s.unsolved_on_sample += on_sample && !solved;
+  }
+  ImageF error_rows(width, rows, 1, 0.0f);
+  std::vector<double> values;
+  AngularErrorsOfRows(band.normal_in_table, ReadImageFloatRows(s.normal_path, y0, y0 + rows), 0, solved_on_sample,
+                      num_threads, &values, &error_rows);
+  s.angles.Add(values);
+  values.clear();
+  const ImageF truth_albedo = ReadImageFloatRows(s.albedo_path, y0, y0 + rows);
+  AbsoluteErrorsOfRows(band.albedo, truth_albedo, 0, solved_on_sample, num_threads, &values);
+  s.albedo_errors.Add(values);
+  s.color.AddRows(band.albedo, solved_on_sample, truth_albedo, num_threads);
+  return error_rows;
+}
+
+GroundTruthComparison GroundTruthEvaluation::Finish() {
+  State& s = *state_;
+  if (s.rows_added != s.on_sample.height()) {
+    throw std::logic_error("GroundTruthEvaluation::Finish: " + std::to_string(s.rows_added) + " of " +
+                           std::to_string(s.on_sample.height()) + " rows added");
+  }
+  GroundTruthComparison comparison;
+  comparison.unsolved_on_sample = s.unsolved_on_sample;
+  comparison.normal_error_deg = s.angles.Finish();
+  comparison.albedo_error = s.albedo_errors.Finish();
+  comparison.albedo_color_error = s.color.Finish();
+  return comparison;
+}
+
 GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth,
                                              const PhotometricSolution& solution, int num_threads, int band_rows) {
   if (band_rows < 1) {
     throw std::invalid_argument("CompareWithGroundTruth: band_rows " + std::to_string(band_rows) + " must be >= 1");
   }
-  const ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir, truth);
-  GroundTruthComparison comparison;
-  ImageU8 solved_on_sample = on_sample;
-  for (size_t i = 0; i < on_sample.num_pixels(); ++i) {
-    const bool solved = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
-    solved_on_sample.data()[i] = on_sample.data()[i] && solved;
-    comparison.unsolved_on_sample += on_sample.data()[i] && !solved;
+  const int width = solution.status.width(), height = solution.status.height();
+  GroundTruthEvaluation evaluation(session_dir, truth, width, height);
+  ImageF error_map(width, height, 1);
+  for (int y = 0; y < height; y += band_rows) {
+    const ImageF rows = evaluation.AddBand(SolutionRows(solution, y, std::min(band_rows, height - y)), num_threads);
+    std::copy(rows.data(), rows.data() + rows.size(), error_map.row(y));
   }
-  // The value lists are reserved whole: grown by doubling they would hold up
-  // to three times their size while reallocating (1 GB for the albedo's at 16 MP).
-  const size_t evaluated =
-      solved_on_sample.size() - std::count(solved_on_sample.data(), solved_on_sample.data() + solved_on_sample.size(), 0);
-  const int height = solution.status.height();
-  {
-    std::vector<double> angles;
-    angles.reserve(evaluated);
-    comparison.angular_error_deg = ImageF(solution.status.width(), height, 1);
-    ForEachTruthBand(session_dir / truth.normal_file, height, band_rows, [&](int y, const ImageF& truth_rows) {
-      AngularErrorsOfRows(solution.normal_in_table, truth_rows, y, solved_on_sample, num_threads, &angles,
-                          &comparison.angular_error_deg);
-    });
-    comparison.normal_error_deg = SummarizeErrors(std::move(angles));
-  }
-  std::vector<double> albedo_errors;
-  albedo_errors.reserve(3 * evaluated);
-  AlbedoColorComparison color(solution.albedo, solved_on_sample);
-  ForEachTruthBand(session_dir / truth.albedo_file, height, band_rows, [&](int y, const ImageF& truth_rows) {
-    AbsoluteErrorsOfRows(solution.albedo, truth_rows, y, solved_on_sample, num_threads, &albedo_errors);
-    color.AddRows(y, truth_rows, num_threads);
-  });
-  comparison.albedo_error = SummarizeErrors(std::move(albedo_errors));
-  comparison.albedo_color_error = color.Finish();
+  GroundTruthComparison comparison = evaluation.Finish();
+  comparison.angular_error_deg = std::move(error_map);
   return comparison;
 }
 
@@ -590,6 +627,95 @@ void SolveController::UsePreparation(SolvePreparation preparation) {
   preparation_ = std::move(preparation.state_);
 }
 
+namespace {
+
+// What the solve does with each solved band (issue #14): the albedo's colour
+// (ApplyAlbedoColor on its solved pixels), the specular tally, the ground-truth
+// evaluation and the maps, streamed into the staging folder, so that no
+// full-size solution is held; with `keep_first_pass` also the depth decision's
+// blocks and the first pass's normals and status in spill files.
+class ResultStream {
+ public:
+  ResultStream(const fs::path& folder, int width, int height, const AlbedoColor& color, const ExrEncoding& exr,
+               const fs::path& session_dir, const GroundTruthFiles* truth, bool keep_first_pass, int num_threads)
+      : folder_(folder), width_(width), height_(height), color_(color), exr_(exr), num_threads_(num_threads) {
+    if (truth != nullptr) evaluation_.emplace(session_dir, *truth, width, height, folder);
+    if (keep_first_pass) {
+      blocks_.emplace(width, height);
+      first_normals_.emplace(folder);
+      first_status_.emplace(folder);
+    }
+  }
+
+  void Add(PhotometricSolution& band) {
+    const auto start = std::chrono::steady_clock::now();
+    ImageU8 solved(band.status.width(), band.status.height(), 1);
+    for (size_t i = 0; i < solved.size(); ++i) {
+      solved.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    }
+    ApplyAlbedoColor(color_, solved, &band.albedo);
+    color_seconds_ += SecondsSince(start);
+    specular_.Add(band);
+    if (blocks_) {
+      blocks_->AddRows(band, num_threads_);
+      first_normals_->Append(band.normal_in_table.data(), band.normal_in_table.size() * sizeof(float));
+      first_status_->Append(band.status.data(), band.status.size());
+    }
+    // The maps open at the first band: whether there is a specular map is the solve's.
+    if (!maps_) maps_.emplace(folder_, width_, height_, !band.specular.empty(), evaluation_.has_value(), color_, exr_);
+    const double evaluated_before = maps_->alongside_seconds();
+    maps_->AddBand(band,
+                   evaluation_ ? std::function<ImageF()>([&] { return evaluation_->AddBand(band, num_threads_); })
+                               : std::function<ImageF()>(),
+                   num_threads_);
+    evaluate_seconds_ += maps_->alongside_seconds() - evaluated_before;
+    sink_seconds_ += SecondsSince(start);
+  }
+
+  const DepthDecisionBlocks& decision_blocks() const { return *blocks_; }
+  // The first pass's normals and status (all RefineDepth reads of it), from the spill files.
+  PhotometricSolution FirstPass() {
+    PhotometricSolution first;
+    first.normal_in_table = ImageF(width_, height_, 3);
+    first.status = ImageU8(width_, height_, 1);
+    size_t at = 0;
+    first_normals_->ForEachRecord(sizeof(float), [&](const uint8_t* records, size_t count) {
+      std::memcpy(first.normal_in_table.data() + at, records, count * sizeof(float));
+      at += count;
+    });
+    at = 0;
+    first_status_->ForEachRecord(1, [&](const uint8_t* records, size_t count) {
+      std::memcpy(first.status.data() + at, records, count);
+      at += count;
+    });
+    return first;
+  }
+
+  std::optional<SpecularMapStatistics> specular() const { return specular_.Finish(); }
+  GroundTruthComparison FinishEvaluation() { return evaluation_->Finish(); }
+  std::map<std::string, std::string> Commit() { return maps_->Commit(); }
+
+  double sink_seconds() const { return sink_seconds_; }  // in Add, all parts
+  double color_seconds() const { return color_seconds_; }
+  double evaluate_seconds() const { return evaluate_seconds_; }
+  double write_seconds() const { return sink_seconds_ - color_seconds_ - evaluate_seconds_; }
+
+ private:
+  fs::path folder_;
+  int width_, height_;
+  AlbedoColor color_;
+  ExrEncoding exr_;
+  int num_threads_;
+  SpecularMapTally specular_;
+  std::optional<GroundTruthEvaluation> evaluation_;
+  std::optional<DepthDecisionBlocks> blocks_;
+  std::optional<SpillFile> first_normals_, first_status_;
+  std::optional<SolutionMapStream> maps_;
+  double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
+};
+
+}  // namespace
+
 void SolveController::Run() {
   options_.Check();
   summary_ = SolveSummary();
@@ -623,14 +749,34 @@ void SolveController::Run() {
   summary_.warnings = lighting.warnings;
   summary_.warnings.insert(summary_.warnings.end(), frames.exposure_notes.begin(), frames.exposure_notes.end());
 
-  PhotometricSolution solution;
+  // The folder appears complete or not at all. Reserved before the solve:
+  // the maps stream into its staging folder band by band as they are solved.
+  const fs::path result_dir = CreateResultFolder(
+      session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label);
+  StagedResultFolder staged(result_dir);
+  const ExrEncoding exr = ResultMapExrEncoding(options_.float32_maps);
+  const GroundTruthFiles* truth = session.ground_truth ? &*session.ground_truth : nullptr;
+  // Only point LEDs can be moved off the table plane (RefineOnDepth): then
+  // the first pass's decision blocks are gathered, and its normals and status
+  // spilled, should the re-solves need them.
+  const bool may_refine = options_.depth.enabled &&
+                          dynamic_cast<const PointLightField*>(lighting.light_field.get()) != nullptr;
+  auto stream = std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height,
+                                               summary_.albedo_color, exr, session_dir_, truth, may_refine,
+                                               options_.solver.num_threads);
   TimedStage(timings, "solve", "solve", [&] {
-    const BandedSolveSummary banded = SolveBanded(BandedOptions(options_), frames.Stack(), *lighting.light_field,
-                                                  &solution, StageCallback("solve"));
+    const BandedSolveSummary banded =
+        SolveBanded(BandedOptions(options_), frames.Stack(), *lighting.light_field,
+                    [&](int, PhotometricSolution& band) { stream->Add(band); }, StageCallback("solve"));
     summary_.solver = banded.solver;
     summary_.clipped_samples = banded.clipped_samples;
     RequireSuccess(banded, "solve");
   });
+  // The streaming's time is its own stages' (below); a first pass that the
+  // depth re-solves replace keeps it in the solve's.
+  const size_t solve_timing = timings.size() - 1;
+  const double first_pass_sink_seconds = stream->sink_seconds();
+  timings[solve_timing].seconds -= first_pass_sink_seconds;
   // The raw frames (32 MB each at 16 MP) are not held through the later stages.
   frames.leds.clear();
   frames.dark = RawImage();
@@ -638,56 +784,65 @@ void SolveController::Run() {
     if (frames.leds.empty()) frames = DecodeFrames(session_dir_, session, options_.solver.num_threads, {});
     return frames;
   };
+  bool restreamed = false;  // the maps streamed again from the last re-solve
   summary_.depth = TimedStage(timings, "depth_refine", "depth refine", [&] {
-    DepthRefinementSummary depth =
-        RefineOnDepth(options_, raw_frames, lighting, &solution, StageCallback("depth refine"));
+    if (may_refine) {
+      if (std::optional<DepthRefinementSummary> kept =
+              TablePlaneKept(options_.depth, stream->decision_blocks(), lighting.camera)) {
+        return *kept;  // the streamed maps stand
+      }
+      // Draped: the re-solves start from the first pass (held from here on),
+      // and the maps are those of the last re-solve, streamed from it.
+      PhotometricSolution solution = stream->FirstPass();
+      stream.reset();  // the first pass's files are dropped
+      DepthRefinementSummary depth =
+          RefineOnDepth(options_, raw_frames, lighting, &solution, StageCallback("depth refine"));
+      RequireSuccess(depth, "depth refine");
+      frames.leds.clear();
+      frames.dark = RawImage();
+      lighting.light_field.reset();
+      stream = std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height,
+                                              summary_.albedo_color, exr, session_dir_, truth, false,
+                                              options_.solver.num_threads);
+      restreamed = true;
+      const int height = solution.status.height();
+      for (int y = 0; y < height; y += kEvaluationBandRows) {
+        PhotometricSolution band = SolutionRows(solution, y, std::min(kEvaluationBandRows, height - y));
+        stream->Add(band);
+      }
+      return depth;
+    }
+    PhotometricSolution unused;  // disabled, or a measured light field: the solution is not read
+    DepthRefinementSummary depth = RefineOnDepth(options_, raw_frames, lighting, &unused, StageCallback("depth refine"));
     RequireSuccess(depth, "depth refine");
     return depth;
   });
-  summary_.specular = SpecularMapStatisticsOf(solution);
-  frames.leds.clear();  // decoded again when the depth refinement re-solved
+  if (restreamed) {
+    timings.back().seconds -= stream->sink_seconds();
+    timings[solve_timing].seconds += first_pass_sink_seconds;
+  }
+  summary_.specular = stream->specular();
+  frames.leds.clear();
   frames.dark = RawImage();
   lighting.light_field.reset();  // its per-pixel surface points: 193 MB at 16 MP
-  TimedStage(timings, "color", "", [&] {
-    ImageU8 solved(solution.status.width(), solution.status.height(), 1);
-    for (size_t i = 0; i < solved.size(); ++i) {
-      solved.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
-    }
-    ApplyAlbedoColor(summary_.albedo_color, solved, &solution.albedo);
-  });
+  timings.push_back({"color", stream->color_seconds()});
 
-  // The folder appears complete or not at all.
-  const fs::path result_dir = CreateResultFolder(
-      session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label);
-  StagedResultFolder staged(result_dir);
-  const ExrEncoding exr = ResultMapExrEncoding(options_.float32_maps);
-  std::map<std::string, std::string> outputs;
-  if (session.ground_truth) {
-    // The evaluation runs while the maps are written (it needs none of them
-    // and they need only its error map): "evaluate" is its wall time,
-    // "write_maps" the writing left after it, so the stages still add up.
-    ThrowIfStopRequested("evaluate");
-    BeginStage("write maps");
-    GroundTruthComparison comparison;
+  ThrowIfStopRequested("evaluate");
+  if (truth != nullptr) {
     const auto start = std::chrono::steady_clock::now();
-    const MapsWrittenAlongside written = WriteSolutionMapsAlongside(
-        staged.staging(), solution, summary_.albedo_color, exr,
-        [&] {
-          comparison = CompareWithGroundTruth(session_dir_, *session.ground_truth, solution, options_.solver.num_threads);
-          return std::move(comparison.angular_error_deg);  // 45 MB at 16 MP: not copied
-        },
-        options_.solver.num_threads);
-    timings.push_back({"evaluate", written.alongside_seconds});
-    timings.push_back({"write_maps", SecondsSince(start) - written.alongside_seconds});
-    outputs = written.outputs;
+    const GroundTruthComparison comparison = stream->FinishEvaluation();
+    timings.push_back({"evaluate", stream->evaluate_seconds() + SecondsSince(start)});
     summary_.normal_error_deg = comparison.normal_error_deg;
     summary_.albedo_error = comparison.albedo_error;
     summary_.albedo_color_error = comparison.albedo_color_error;
     summary_.unsolved_on_sample = comparison.unsolved_on_sample;
-  } else {
-    outputs = TimedStage(timings, "write_maps", "write maps", [&] {
-      return WriteSolutionMaps(staged.staging(), solution, summary_.albedo_color, exr);
-    });
+  }
+  std::map<std::string, std::string> outputs;
+  {
+    BeginStage("write maps");
+    const auto start = std::chrono::steady_clock::now();
+    outputs = stream->Commit();
+    timings.push_back({"write_maps", stream->write_seconds() + SecondsSince(start)});
   }
   summary_.bytes_written = FileSizesIn(staged.staging());
   summary_.exr_encoding = std::string(exr.sample_type == ExrSampleType::kHalf ? "half" : "float32") + ", " +

@@ -149,16 +149,41 @@ struct GroundTruthComparison {
   ImageF angular_error_deg;  // per pixel, 0 off the evaluated pixels
 };
 
-// Rows of the truth read at a time: 16 MB of float RGB at 16 MP, a multiple
-// of OpenEXR's largest scanline chunk (32 rows, piz), so no chunk is decoded twice.
+// Rows of the truth read at a time by CompareWithGroundTruth: 16 MB of float
+// RGB at 16 MP, a multiple of OpenEXR's largest scanline chunk (32 rows, piz),
+// so no chunk is decoded twice.
 inline constexpr int kEvaluationBandRows = 256;
 
 struct GroundTruthFiles;
 
-// Band by band (band_rows, >= 1): no full-size truth map is held; every
-// figure equals the whole-frame one (AngularErrorDegrees, AbsoluteError,
-// CompareAlbedoColor) exactly, the values kept in pixel order. num_threads
-// 0 = all.
+// The evaluation band by band, as the solve streams its bands (issue #14): the
+// truth's rows are read for each band, the error values go to spill files
+// (ExactErrorStatistics, AlbedoColorComparison), so neither a full-size
+// solution, truth nor value list is held; Finish gives exactly what the
+// whole-frame figures (AngularErrorDegrees, AbsoluteError,
+// CompareAlbedoColor) give. Holds the sample mask (1 byte a pixel).
+class GroundTruthEvaluation {
+ public:
+  // For a solution of width x height; spill files in `spill_folder` (empty = the temporary folder).
+  GroundTruthEvaluation(const std::filesystem::path& session_dir, const GroundTruthFiles& truth, int width, int height,
+                        const std::filesystem::path& spill_folder = {});
+  GroundTruthEvaluation(const GroundTruthEvaluation&) = delete;
+  GroundTruthEvaluation& operator=(const GroundTruthEvaluation&) = delete;
+  ~GroundTruthEvaluation();
+  // The next band of the solution (its normal_in_table, albedo and status,
+  // rows following the last band's); returns its rows of the angular error
+  // map (degrees, 1 channel, 0 off the evaluated pixels). num_threads 0 = all.
+  ImageF AddBand(const PhotometricSolution& band, int num_threads = 0);
+  // Every row added; angular_error_deg is left empty (the rows went to AddBand's caller).
+  GroundTruthComparison Finish();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+// The same over a whole solution, band_rows (>= 1) at a time, with the whole
+// error map. num_threads 0 = all.
 GroundTruthComparison CompareWithGroundTruth(const std::filesystem::path& session_dir, const GroundTruthFiles& truth,
                                              const PhotometricSolution& solution, int num_threads = 0,
                                              int band_rows = kEvaluationBandRows);

@@ -297,10 +297,13 @@ void WritePngOrTiff(const fs::path& path, const Image<T>& image, OIIO::TypeDesc 
 
 }  // namespace
 
-void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
-              const std::vector<std::string>& channel_names, const ImageMetadata& metadata,
-              const ExrEncoding& encoding) {
-  CheckWritable(path, image, "OpenEXR", 0);
+namespace {
+
+// WriteExr's checks and OpenEXR spec (float samples in memory; the file's
+// sample type is set by ExrSamples' caller).
+OIIO::ImageSpec ExrSpec(const fs::path& path, int width, int height, int channels,
+                        const std::vector<std::string>& channel_names, const ImageMetadata& metadata,
+                        const ExrEncoding& encoding) {
   if (encoding.compression == ExrCompression::kPxr24 && encoding.sample_type == ExrSampleType::kFloat32) {
     throw std::invalid_argument(path.string() + ": ExrEncoding.compression = pxr24 is lossy on float32 samples; "
                                 "use it with half only");
@@ -316,43 +319,61 @@ void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
                                   " must be 0 or a power of two in [2^-24, 1], with half samples");
     }
   }
-  if (!channel_names.empty() && static_cast<int>(channel_names.size()) != image.channels()) {
+  if (!channel_names.empty() && static_cast<int>(channel_names.size()) != channels) {
     throw std::invalid_argument(path.string() + ": " + std::to_string(channel_names.size()) +
-                                " channel names given for an image with " + std::to_string(image.channels()) +
+                                " channel names given for an image with " + std::to_string(channels) +
                                 " channels");
   }
-  OIIO::ImageSpec spec = SpecFor(image, OIIO::TypeDesc::FLOAT);
-  const std::vector<std::string> names = channel_names.empty() ? DefaultChannelNames(image.channels()) : channel_names;
+  OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::FLOAT);
+  // Store alpha as given: OpenImageIO would otherwise (un)premultiply.
+  spec.attribute("oiio:UnassociatedAlpha", 1);
+  const std::vector<std::string> names = channel_names.empty() ? DefaultChannelNames(channels) : channel_names;
   if (!names.empty()) {
     spec.channelnames = names;
     spec.alpha_channel = -1;
-    for (int c = 0; c < image.channels(); ++c) {
+    for (int c = 0; c < channels; ++c) {
       if (names[c] == "A") spec.alpha_channel = c;
     }
   }
   spec.attribute("compression", ExrCompressionName(encoding.compression));
   AddMetadata(path, metadata, FileFormat::kExr, spec);
-  if (encoding.sample_type == ExrSampleType::kFloat32) {
-    WriteAtomically(path, "openexr", spec, image.data(), policy);
-    return;
-  }
-  // Converted (round to nearest) here, clamped to half's finite range: a
-  // conversion of an out-of-range value would give an infinity. Half the
-  // memory of a float copy.
-  spec.set_format(OIIO::TypeDesc::HALF);
-  std::vector<Imath::half> halves(image.size());
-  const float* values = image.data();
+  if (encoding.sample_type == ExrSampleType::kHalf) spec.set_format(OIIO::TypeDesc::HALF);
+  return spec;
+}
+
+// `count` float values as half samples: converted (round to nearest) here,
+// clamped to half's finite range (a conversion of an out-of-range value would
+// give an infinity), small values on encoding.half_absolute_step's grid.
+std::vector<Imath::half> HalfSamples(const float* values, size_t count, const ExrEncoding& encoding) {
+  std::vector<Imath::half> halves(count);
   if (encoding.half_absolute_step == 0) {
-    for (size_t i = 0; i < halves.size(); ++i) halves[i] = Imath::half(std::clamp(values[i], -kHalfMax, kHalfMax));
+    for (size_t i = 0; i < count; ++i) halves[i] = Imath::half(std::clamp(values[i], -kHalfMax, kHalfMax));
   } else {
     // Below 1024 steps the grid's multiples are exact halves (11-bit
     // significand), so the one rounding here is the only one.
     const float step = static_cast<float>(encoding.half_absolute_step), limit = 1024 * step;
-    for (size_t i = 0; i < halves.size(); ++i) {
+    for (size_t i = 0; i < count; ++i) {
       const float v = values[i];
       halves[i] = Imath::half(std::abs(v) < limit ? std::nearbyint(v / step) * step : std::clamp(v, -kHalfMax, kHalfMax));
     }
   }
+  return halves;
+}
+
+}  // namespace
+
+void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
+              const std::vector<std::string>& channel_names, const ImageMetadata& metadata,
+              const ExrEncoding& encoding) {
+  CheckWritable(path, image, "OpenEXR", 0);
+  const OIIO::ImageSpec spec =
+      ExrSpec(path, image.width(), image.height(), image.channels(), channel_names, metadata, encoding);
+  if (encoding.sample_type == ExrSampleType::kFloat32) {
+    WriteAtomically(path, "openexr", spec, image.data(), policy);
+    return;
+  }
+  // Half the memory of a float copy.
+  const std::vector<Imath::half> halves = HalfSamples(image.data(), image.size(), encoding);
   WriteAtomically(path, "openexr", spec, halves.data(), policy);
 }
 
@@ -552,5 +573,148 @@ ImageFileInfo ReadImageFileInfo(const fs::path& path) {
 }
 
 ImageMetadata ReadImageMetadata(const fs::path& path) { return ReadImageFileInfo(path).metadata; }
+
+struct ImageRowWriter::State {
+  fs::path path, temporary;
+  OverwritePolicy policy = OverwritePolicy::kRefuse;
+  OIIO::ImageSpec spec;
+  OIIO::TypeDesc memory_type;  // what WriteRows takes: FLOAT (EXR), UINT8 or UINT16 (PNG)
+  std::optional<ExrEncoding> exr;
+  std::unique_ptr<OIIO::ImageOutput> out;
+  int rows_written = 0;
+  bool committed = false;
+
+  const char* Format() const { return exr ? "OpenEXR" : "PNG"; }
+  void Discard() {
+    if (out) out->close();
+    out.reset();
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+  }
+};
+
+namespace {
+
+std::unique_ptr<ImageRowWriter::State> OpenRowWriter(const fs::path& path, const char* format,
+                                                     const OIIO::ImageSpec& spec, OIIO::TypeDesc memory_type,
+                                                     OverwritePolicy policy, std::optional<ExrEncoding> exr) {
+  // Fail before encoding anything; CommitTemporaryFile re-checks atomically.
+  if (policy == OverwritePolicy::kRefuse && fs::exists(path)) {
+    throw PathError(path, "already exists and is never overwritten");
+  }
+  auto state = std::make_unique<ImageRowWriter::State>();
+  state->path = path;
+  state->temporary = TemporarySiblingPath(path);
+  state->policy = policy;
+  state->spec = spec;
+  state->memory_type = memory_type;
+  state->exr = exr;
+  state->out = OIIO::ImageOutput::create(format);
+  if (!state->out) throw PathError(path, std::string("no ") + format + " writer (" + OiioMessage(OIIO::geterror()) + ")");
+  if (!state->out->open(state->temporary.string(), spec)) {
+    const std::string message = state->out->geterror();
+    state->Discard();
+    throw PathError(path, std::string("cannot be written as ") + format + " (" + OiioMessage(message) + ")");
+  }
+  return state;
+}
+
+template <typename T>
+void WriteRowsOf(ImageRowWriter::State* state, const Image<T>& rows, OIIO::TypeDesc type) {
+  if (state == nullptr) throw std::logic_error("ImageRowWriter: used after it was moved from");
+  const OIIO::ImageSpec& spec = state->spec;
+  if (state->committed || type != state->memory_type || rows.width() != spec.width ||
+      rows.channels() != spec.nchannels || rows.height() < 1 || rows.height() > spec.height - state->rows_written) {
+    throw std::invalid_argument(state->path.string() + ": cannot add " + std::to_string(rows.width()) + "x" +
+                                std::to_string(rows.height()) + "x" + std::to_string(rows.channels()) + " " +
+                                type.c_str() + " rows to a " + std::to_string(spec.width) + "x" +
+                                std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) + " " +
+                                state->Format() + " of " + state->memory_type.c_str() + " samples with " +
+                                std::to_string(state->rows_written) + " rows written" +
+                                (state->committed ? " and committed" : ""));
+  }
+  const int y_begin = state->rows_written, y_end = y_begin + rows.height();
+  bool written = false;
+  if (state->exr && state->exr->sample_type == ExrSampleType::kHalf) {
+    const std::vector<Imath::half> halves =
+        HalfSamples(reinterpret_cast<const float*>(rows.data()), rows.size(), *state->exr);
+    written = state->out->write_scanlines(y_begin, y_end, 0, OIIO::TypeDesc::HALF, halves.data());
+  } else {
+    written = state->out->write_scanlines(y_begin, y_end, 0, type, rows.data());
+  }
+  if (!written) {
+    const std::string message = state->out->geterror();
+    state->Discard();
+    throw PathError(state->path, std::string("writing ") + state->Format() + " rows " + std::to_string(y_begin) +
+                                     " to " + std::to_string(y_end) + " failed (" + OiioMessage(message) + ")");
+  }
+  state->rows_written = y_end;
+}
+
+}  // namespace
+
+ImageRowWriter ImageRowWriter::Exr(const fs::path& path, int width, int height, int channels, OverwritePolicy policy,
+                                   const std::vector<std::string>& channel_names, const ImageMetadata& metadata,
+                                   const ExrEncoding& encoding) {
+  if (width <= 0 || height <= 0 || channels <= 0) {
+    throw std::invalid_argument(path.string() + ": cannot write an empty " + std::to_string(width) + "x" +
+                                std::to_string(height) + "x" + std::to_string(channels) + " image as OpenEXR");
+  }
+  const OIIO::ImageSpec spec = ExrSpec(path, width, height, channels, channel_names, metadata, encoding);
+  return ImageRowWriter(OpenRowWriter(path, "openexr", spec, OIIO::TypeDesc::FLOAT, policy, encoding));
+}
+
+ImageRowWriter ImageRowWriter::Png(const fs::path& path, int width, int height, int channels, int bits,
+                                   OverwritePolicy policy, const ImageMetadata& metadata, const PngEncoding& encoding) {
+  if (width <= 0 || height <= 0 || channels < 1 || channels > 4 || (bits != 8 && bits != 16)) {
+    throw std::invalid_argument(path.string() + ": cannot write a " + std::to_string(width) + "x" +
+                                std::to_string(height) + "x" + std::to_string(channels) + " " + std::to_string(bits) +
+                                "-bit PNG (1 to 4 channels of 8 or 16 bits)");
+  }
+  const OIIO::TypeDesc type = bits == 16 ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8;
+  OIIO::ImageSpec spec(width, height, channels, type);
+  spec.attribute("oiio:UnassociatedAlpha", 1);  // as SpecFor: alpha stored as given
+  AddPngEncoding(encoding, spec);
+  AddMetadata(path, metadata, FileFormat::kPng, spec);
+  return ImageRowWriter(OpenRowWriter(path, "png", spec, type, policy, std::nullopt));
+}
+
+ImageRowWriter::ImageRowWriter(std::unique_ptr<State> state) : state_(std::move(state)) {}
+ImageRowWriter::ImageRowWriter(ImageRowWriter&&) noexcept = default;
+ImageRowWriter& ImageRowWriter::operator=(ImageRowWriter&& other) noexcept {
+  if (this != &other) {
+    if (state_ && !state_->committed) state_->Discard();
+    state_ = std::move(other.state_);
+  }
+  return *this;
+}
+ImageRowWriter::~ImageRowWriter() {
+  if (state_ && !state_->committed) state_->Discard();
+}
+
+void ImageRowWriter::WriteRows(const ImageF& rows) { WriteRowsOf(state_.get(), rows, OIIO::TypeDesc::FLOAT); }
+void ImageRowWriter::WriteRows(const ImageU8& rows) { WriteRowsOf(state_.get(), rows, OIIO::TypeDesc::UINT8); }
+void ImageRowWriter::WriteRows(const ImageU16& rows) { WriteRowsOf(state_.get(), rows, OIIO::TypeDesc::UINT16); }
+
+void ImageRowWriter::Commit() {
+  if (!state_ || state_->committed) throw std::logic_error("ImageRowWriter::Commit: nothing to commit");
+  if (state_->rows_written != state_->spec.height) {
+    throw std::logic_error(state_->path.string() + ": committed with " + std::to_string(state_->rows_written) +
+                           " of its " + std::to_string(state_->spec.height) + " rows written");
+  }
+  const bool closed = state_->out->close();
+  if (!closed) {
+    const std::string message = state_->out->geterror();
+    state_->Discard();
+    throw PathError(state_->path, std::string("writing ") + state_->Format() + " failed (" + OiioMessage(message) + ")");
+  }
+  state_->out.reset();
+  state_->committed = true;  // CommitTemporaryFile removes the temporary file itself on failure
+  CommitTemporaryFile(state_->temporary, state_->path, state_->policy);
+}
+
+const fs::path& ImageRowWriter::path() const { return state_->path; }
+int ImageRowWriter::height() const { return state_->spec.height; }
+int ImageRowWriter::rows_written() const { return state_->rows_written; }
 
 }  // namespace scanbench

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -122,6 +123,51 @@ struct PngRowSource {
 };
 void WritePngRows(const std::filesystem::path& path, const PngRowSource& rows, OverwritePolicy policy,
                   const ImageMetadata& metadata = {}, const PngEncoding& encoding = {});
+
+// An OpenEXR or PNG written a band of rows at a time, for maps made band by
+// band (the solve streams its maps to disk, app/controllers/map_writer.h): no
+// full-size copy of the pixels is held. The file is the whole-image writer's
+// (WriteExr / WritePng of the same pixels, channel names, metadata and
+// encoding) byte for byte, whatever the bands. It is written under a
+// temporary sibling name: Commit() after the last row closes, fsyncs and
+// renames it under `policy` (CommitTemporaryFile); a writer destroyed
+// uncommitted (an error, a cancelled solve) removes its temporary file.
+// Arguments are checked (and a refused existing file reported) on opening.
+class ImageRowWriter {
+ public:
+  // OpenEXR of `channels` float channels, as WriteExr.
+  static ImageRowWriter Exr(const std::filesystem::path& path, int width, int height, int channels,
+                            OverwritePolicy policy, const std::vector<std::string>& channel_names = {},
+                            const ImageMetadata& metadata = {}, const ExrEncoding& encoding = {});
+  // PNG of 1 to 4 channels of `bits` 8 or 16, as WritePng.
+  static ImageRowWriter Png(const std::filesystem::path& path, int width, int height, int channels, int bits,
+                            OverwritePolicy policy, const ImageMetadata& metadata = {},
+                            const PngEncoding& encoding = {});
+  ImageRowWriter(ImageRowWriter&&) noexcept;
+  ImageRowWriter& operator=(ImageRowWriter&&) noexcept;
+  ~ImageRowWriter();
+
+  // The next rows, following those written before: the file's width and
+  // channels, at most the rows left. ImageF for an EXR, ImageU8 / ImageU16
+  // for an 8- / 16-bit PNG (std::invalid_argument otherwise).
+  void WriteRows(const ImageF& rows);
+  void WriteRows(const ImageU8& rows);
+  void WriteRows(const ImageU16& rows);
+  // After the last row: the file appears under its name. Throws
+  // std::logic_error when rows are missing, std::runtime_error when the
+  // write or the rename fails.
+  void Commit();
+
+  const std::filesystem::path& path() const;
+  int height() const;
+  int rows_written() const;
+
+  struct State;  // image_io.cc
+
+ private:
+  explicit ImageRowWriter(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
 
 // An 8-bit PNG (1 to 4 channels) encoded in memory, no metadata: for pages
 // that carry their images as data: URIs (app/io/preview_page.h).

@@ -3,6 +3,7 @@
 // full-size figures).
 #include "app/controllers/depth_refinement.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iostream>
@@ -162,6 +163,69 @@ TEST(DepthRefinementTest, BlockMeanDecisionEqualsTheFullSizeDecision) {
       // +-2.5 mm 4.82 vs 5.04 / 5.03 mm. The blocks average the steep edge walls' slopes away; the
       // decision's margin to the 8 mm threshold is far larger.
       EXPECT_NEAR(block, full, 0.15 * full + 0.2) << name << ": 15 % + 0.2 mm";
+
+      // Gathered band by band (as the solve streams its bands), any band
+      // heights: the blocks of a plain per-block mean, bit for bit, and the
+      // same decision as RefineDepth's on the whole first pass.
+      PhotometricSolution reference;
+      reference.normal_in_table = ImageF(kWidth / 8, kHeight / 8, 3);
+      reference.status = ImageU8(kWidth / 8, kHeight / 8, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
+      for (int by = 0; by < kHeight / 8; ++by) {
+        for (int bx = 0; bx < kWidth / 8; ++bx) {
+          Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+          int count = 0;
+          for (int y = 8 * by; y < 8 * by + 8; ++y) {
+            for (int x = 8 * bx; x < 8 * bx + 8; ++x) {
+              if (solution->status(x, y) != static_cast<uint8_t>(PixelStatus::kSolved)) continue;
+              sum += Eigen::Vector3d(solution->normal_in_table(x, y, 0), solution->normal_in_table(x, y, 1),
+                                     solution->normal_in_table(x, y, 2));
+              ++count;
+            }
+          }
+          const bool usable = count >= 32 && sum.norm() > 0;
+          const Eigen::Vector3d mean = usable ? sum.normalized() : Eigen::Vector3d::UnitZ();
+          for (int c = 0; c < 3; ++c) reference.normal_in_table(bx, by, c) = static_cast<float>(mean[c]);
+          if (usable) reference.status(bx, by) = static_cast<uint8_t>(PixelStatus::kSolved);
+        }
+      }
+      for (const int band_rows : {1, 7, 13, kHeight}) {
+        SCOPED_TRACE(std::string(name) + ", bands of " + std::to_string(band_rows));
+        DepthDecisionBlocks blocks(kWidth, kHeight);
+        for (int y = 0; y < kHeight; y += band_rows) {
+          PhotometricSolution band;
+          const int rows = std::min(band_rows, kHeight - y);
+          band.normal_in_table = ImageF(kWidth, rows, 3);
+          band.status = ImageU8(kWidth, rows, 1);
+          std::copy(solution->normal_in_table.row(y), solution->normal_in_table.row(y) + band.normal_in_table.size(),
+                    band.normal_in_table.data());
+          std::copy(solution->status.row(y), solution->status.row(y) + band.status.size(), band.status.data());
+          blocks.AddRows(band, 2);
+        }
+        ASSERT_EQ(blocks.block_px(), kDepthDecisionBlockPx);
+        const PhotometricSolution& gathered = blocks.blocks();
+        ASSERT_TRUE(gathered.normal_in_table.SameSize(reference.normal_in_table));
+        EXPECT_TRUE(std::equal(gathered.normal_in_table.data(),
+                               gathered.normal_in_table.data() + gathered.normal_in_table.size(),
+                               reference.normal_in_table.data()));
+        EXPECT_TRUE(std::equal(gathered.status.data(), gathered.status.data() + gathered.status.size(),
+                               reference.status.data()));
+        EXPECT_EQ(DecisionHeightRangeMm(options, blocks, session.rig.camera), block);
+        const std::optional<DepthRefinementSummary> kept = TablePlaneKept(options, blocks, session.rig.camera);
+        EXPECT_EQ(kept.has_value(), amplitude_mm < 10);
+        if (kept) {
+          PhotometricSolution whole = *solution;
+          const DepthResolve never = [](const LightField&, PhotometricSolution*, const ProgressCallback&,
+                                        size_t*) -> PhotometricSolverSummary {
+            throw std::logic_error("no re-solve when the table plane is kept");
+          };
+          const DepthRefinementSummary refined = RefineDepth(options, never, {}, session.rig.camera, &whole);
+          EXPECT_EQ(kept->first_height_range_mm, refined.first_height_range_mm);
+          EXPECT_EQ(kept->decision_block_px, refined.decision_block_px);
+          EXPECT_EQ(kept->stop_reason, refined.stop_reason);
+          EXPECT_FALSE(kept->refined);
+          EXPECT_TRUE(kept->IsUsable());
+        }
+      }
     }
   }
 }

@@ -1,6 +1,7 @@
 // The solution's files from a hand-made solution: the specular map (issue #13)
 // and its mark in status.png, and that nothing changes without one.
 #include "app/controllers/map_writer.h"
+#include "app/controllers/banded_solve.h"
 
 #include <algorithm>
 #include <cstring>
@@ -293,41 +294,64 @@ TEST(MapWriterTest, ConcurrentWriteGivesTheFilesOfASequentialOne) {
   }
 }
 
-// The evaluation made alongside the other files gives the files of a write
-// with its error map: the same sizes and pixels (not compared byte for byte:
-// an EXR's capDate is the second it was written); a failure in it is rethrown.
-TEST(MapWriterTest, ErrorMapMadeAlongsideGivesTheSameFiles) {
+// Streamed band by band (bands of 1 row, bands that do not divide the
+// height, one band), with the error map's rows made alongside each band: the
+// files of WriteSolutionMaps of the whole solution, byte for byte (but for
+// the EXRs' capDate). Uncommitted or failed, the stream leaves no file.
+TEST(MapWriterTest, StreamedBandsGiveTheFilesOfAWholeWrite) {
   PhotometricSolution solution = SolutionWithSpecular();
   std::mt19937 rng(29);
   std::uniform_real_distribution<float> uniform(0.0f, 3.0f);
+  for (size_t i = 0; i < solution.normal_in_table.size(); ++i) solution.normal_in_table.data()[i] = uniform(rng) - 1.5f;
+  for (size_t i = 0; i < solution.albedo.size(); ++i) solution.albedo.data()[i] = 0.3f * uniform(rng);
   ImageF error_deg(kWidth, kHeight, 1);
   for (size_t i = 0; i < error_deg.size(); ++i) error_deg.data()[i] = uniform(rng);
-  TemporaryFolder given, alongside;
+  TemporaryFolder given;
   const auto given_outputs = WriteSolutionMaps(given.path(), solution, {}, ResultMapExrEncoding(), error_deg, 2);
-  const MapsWrittenAlongside written = WriteSolutionMapsAlongside(
-      alongside.path(), solution, {}, ResultMapExrEncoding(), [&] { return error_deg; }, 2);
-  EXPECT_EQ(written.outputs, given_outputs);
-  EXPECT_GE(written.alongside_seconds, 0.0);
   const std::map<std::string, uintmax_t> sizes = FileSizesIn(given.path());
   EXPECT_EQ(sizes.size(), 9u);
-  EXPECT_EQ(FileSizesIn(alongside.path()), sizes);
-  for (const auto& [name, bytes] : sizes) {
-    const ImageF expected = ReadImageFloat(given / name), actual = ReadImageFloat(alongside / name);
-    ASSERT_TRUE(actual.SameSize(expected) && actual.channels() == expected.channels()) << name;
-    EXPECT_TRUE(std::equal(expected.data(), expected.data() + expected.size(), actual.data())) << name;
+  for (const int band_rows : {1, 5, 7, kHeight}) {
+    SCOPED_TRACE("bands of " + std::to_string(band_rows));
+    TemporaryFolder streamed;
+    SolutionMapStream stream(streamed.path(), kWidth, kHeight, true, true);
+    double alongside_calls = 0;
+    for (int y = 0; y < kHeight; y += band_rows) {
+      const int rows = std::min(band_rows, kHeight - y);
+      stream.AddBand(
+          SolutionRows(solution, y, rows),
+          [&] {
+            ++alongside_calls;
+            ImageF error_rows(kWidth, rows, 1);
+            std::copy(error_deg.row(y), error_deg.row(y) + error_rows.size(), error_rows.data());
+            return error_rows;
+          },
+          2);
+    }
+    EXPECT_EQ(alongside_calls, (kHeight + band_rows - 1) / band_rows);
+    for (const auto& [name, bytes] : sizes) EXPECT_FALSE(fs::exists(streamed / name)) << name << " before Commit";
+    EXPECT_EQ(stream.Commit(), given_outputs);
+    ASSERT_EQ(FileSizesIn(streamed.path()), sizes);
+    for (const auto& [name, bytes] : sizes) EXPECT_EQ(FileBytes(streamed / name), FileBytes(given / name)) << name;
   }
 
-  TemporaryFolder without;
-  const MapsWrittenAlongside no_map =
-      WriteSolutionMapsAlongside(without.path(), solution, {}, ResultMapExrEncoding(), [] { return ImageF(); }, 2);
-  EXPECT_EQ(no_map.outputs.count("angular_error_deg"), 0u);
-  EXPECT_FALSE(fs::exists(without / "angular_error_deg.exr"));
+  TemporaryFolder uncommitted;
+  {
+    SolutionMapStream stream(uncommitted.path(), kWidth, kHeight, true, false);
+    stream.AddBand(SolutionRows(solution, 0, 3));
+    EXPECT_THROW(stream.Commit(), std::logic_error);  // rows missing
+    EXPECT_THROW(stream.AddBand(SolutionRows(solution, 0, kHeight)), std::invalid_argument);  // too many rows
+    EXPECT_THROW(stream.AddBand(PlainSolution()), std::invalid_argument);                   // no specular maps
+  }
+  EXPECT_TRUE(fs::is_empty(uncommitted.path()));
 
   TemporaryFolder failing;
-  EXPECT_THROW(WriteSolutionMapsAlongside(
-                   failing.path(), solution, {}, ResultMapExrEncoding(),
-                   []() -> ImageF { throw std::runtime_error("evaluation failed"); }, 2),
-               std::runtime_error);
+  {
+    SolutionMapStream stream(failing.path(), kWidth, kHeight, true, true);
+    EXPECT_THROW(stream.AddBand(solution, []() -> ImageF { throw std::runtime_error("evaluation failed"); }, 2),
+                 std::runtime_error);
+    EXPECT_THROW(stream.AddBand(solution), std::invalid_argument);  // the error map's rows are missing
+  }
+  EXPECT_TRUE(fs::is_empty(failing.path()));
 }
 
 // The preview's table gives every value the code the sRGB curve gives it:

@@ -314,6 +314,116 @@ TEST(ImageIoTest, PngRowsRoundTripExactlyWithWritePngsMetadata) {
               HasSubstr("already exists"));
 }
 
+// A file's bytes with an EXR header's capDate (the second it was written,
+// OpenImageIO's DateTime) blanked, so that writes a second apart compare equal.
+std::vector<uint8_t> BytesWithoutCapDate(const std::filesystem::path& path) {
+  std::vector<uint8_t> bytes = ReadFileBytes(path);
+  const std::string attribute("capDate\0string\0", 15);
+  const auto at = std::search(bytes.begin(), bytes.end(), attribute.begin(), attribute.end());
+  if (at != bytes.end() && at + 19 <= bytes.end()) {
+    uint32_t length = 0;
+    std::memcpy(&length, &*(at + 15), 4);  // little-endian, as OpenEXR stores it
+    if (at + 19 + length <= bytes.end()) std::fill_n(at + 19, length, uint8_t{0});
+  }
+  return bytes;
+}
+
+// Rows [first, first + count) of an image.
+template <typename T>
+Image<T> RowsOf(const Image<T>& image, int first, int count) {
+  Image<T> rows(image.width(), count, image.channels());
+  std::copy(image.row(first), image.row(first) + rows.size(), rows.data());
+  return rows;
+}
+
+template <typename T>
+void WriteInBands(ImageRowWriter& writer, const Image<T>& image, int band_rows) {
+  for (int y = 0; y < image.height(); y += band_rows) {
+    writer.WriteRows(RowsOf(image, y, std::min(band_rows, image.height() - y)));
+  }
+  writer.Commit();
+}
+
+// Band by band, whatever the band height (1 row, bands that do not divide
+// the height, OpenEXR's 32-row piz chunks split), the file of the whole-image
+// writer, byte for byte (but for the EXR's capDate).
+TEST(ImageIoTest, RowWriterWritesTheWholeImageWritersFiles) {
+  TempDir dir;
+  ImageMetadata metadata;
+  metadata.mm_per_pixel = 0.029;
+  metadata.description = "scanbench map";
+  metadata.attributes["scanbench:map"] = "test";
+  ImageF image = RandomImage<float>(53, 101, 3, 91);
+  for (int i = 0; i < 200; ++i) image.data()[i * 7] *= 1e-3f;  // some small values for the half grid
+  const std::vector<ExrEncoding> encodings = {{ExrSampleType::kFloat32, ExrCompression::kZip},
+                                              {ExrSampleType::kHalf, ExrCompression::kPiz},
+                                              {ExrSampleType::kHalf, ExrCompression::kPiz, 1.0 / 4096},
+                                              {ExrSampleType::kHalf, ExrCompression::kZip}};
+  const ImageU16 image16 = RandomImage<uint16_t>(53, 101, 3, 92);
+  const ImageU8 image8 = RandomImage<uint8_t>(53, 101, 1, 93);
+  for (size_t e = 0; e < encodings.size(); ++e) {
+    const std::string whole = "whole" + std::to_string(e) + ".exr";
+    WriteExr(dir / whole, image, OverwritePolicy::kRefuse, {"x", "y", "z"}, metadata, encodings[e]);
+    for (int band_rows : {1, 7, 32, 64, 101}) {
+      SCOPED_TRACE("encoding " + std::to_string(e) + ", bands of " + std::to_string(band_rows));
+      const std::string name = "rows" + std::to_string(e) + "_" + std::to_string(band_rows) + ".exr";
+      ImageRowWriter writer = ImageRowWriter::Exr(dir / name, 53, 101, 3, OverwritePolicy::kRefuse, {"x", "y", "z"},
+                                                  metadata, encodings[e]);
+      WriteInBands(writer, image, band_rows);
+      EXPECT_EQ(BytesWithoutCapDate(dir / name), BytesWithoutCapDate(dir / whole));
+    }
+  }
+  WritePng(dir / "whole16.png", image16, OverwritePolicy::kRefuse, metadata, {1, PngFilter::kPaeth});
+  WritePng(dir / "whole8.png", image8, OverwritePolicy::kRefuse);
+  for (int band_rows : {1, 7, 64, 101}) {
+    SCOPED_TRACE("PNG bands of " + std::to_string(band_rows));
+    const std::string suffix = std::to_string(band_rows) + ".png";
+    ImageRowWriter png16 = ImageRowWriter::Png(dir / ("rows16_" + suffix), 53, 101, 3, 16, OverwritePolicy::kRefuse,
+                                               metadata, {1, PngFilter::kPaeth});
+    WriteInBands(png16, image16, band_rows);
+    EXPECT_EQ(ReadFileBytes(dir / ("rows16_" + suffix)), ReadFileBytes(dir / "whole16.png"));
+    ImageRowWriter png8 = ImageRowWriter::Png(dir / ("rows8_" + suffix), 53, 101, 1, 8, OverwritePolicy::kRefuse);
+    WriteInBands(png8, image8, band_rows);
+    EXPECT_EQ(ReadFileBytes(dir / ("rows8_" + suffix)), ReadFileBytes(dir / "whole8.png"));
+  }
+}
+
+// Nothing appears under the name, and no temporary file is left, unless every
+// row was written and the writer committed; rows that do not fit are refused.
+TEST(ImageIoTest, RowWriterLeavesNoFileUncommitted) {
+  TempDir dir;
+  const ImageF image = RandomImage<float>(16, 40, 1, 94);
+  const auto files_in = [&] {
+    size_t count = 0;
+    for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path())) ++count;
+    return count;
+  };
+  {
+    ImageRowWriter writer = ImageRowWriter::Exr(dir / "partial.exr", 16, 40, 1, OverwritePolicy::kRefuse);
+    writer.WriteRows(RowsOf(image, 0, 16));
+    EXPECT_EQ(files_in(), 1u);  // the temporary file
+    EXPECT_FALSE(std::filesystem::exists(dir / "partial.exr"));
+    EXPECT_THAT(ErrorOf([&] { writer.Commit(); }), HasSubstr("16 of its 40 rows"));
+    EXPECT_THAT(ErrorOf([&] { writer.WriteRows(RowsOf(image, 0, 30)); }), HasSubstr("16 rows written"));
+    EXPECT_THAT(ErrorOf([&] { writer.WriteRows(ImageU8(16, 4, 1)); }), HasSubstr("uint8 rows"));
+  }
+  EXPECT_EQ(files_in(), 0u);
+  {
+    ImageRowWriter writer = ImageRowWriter::Png(dir / "never.png", 16, 40, 1, 8, OverwritePolicy::kRefuse);
+  }
+  EXPECT_EQ(files_in(), 0u);
+  ImageRowWriter done = ImageRowWriter::Exr(dir / "done.exr", 16, 40, 1, OverwritePolicy::kRefuse);
+  done.WriteRows(image);
+  done.Commit();
+  EXPECT_EQ(files_in(), 1u);
+  ExpectSameImage(image, ReadImageFloat(dir / "done.exr"));
+  EXPECT_THAT(ErrorOf([&] { ImageRowWriter::Exr(dir / "done.exr", 16, 40, 1, OverwritePolicy::kRefuse); }),
+              HasSubstr("already exists"));
+  EXPECT_THAT(ErrorOf([&] { ImageRowWriter::Png(dir / "bad.png", 16, 40, 5, 8, OverwritePolicy::kRefuse); }),
+              HasSubstr("16x40x5 8-bit PNG"));
+  EXPECT_EQ(files_in(), 1u);
+}
+
 TEST(ImageIoTest, Png8RoundTripIsExact) {
   TempDir dir;
   for (int channels : {1, 3, 4}) {

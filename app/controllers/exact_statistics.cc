@@ -1,0 +1,205 @@
+#include "app/controllers/exact_statistics.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace scanbench {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr size_t kSpillBufferBytes = 1 << 20;
+// At most this many values are read back for one selection (8 MB).
+constexpr size_t kMaxSelected = 1 << 20;
+
+std::runtime_error SpillError(const fs::path& folder, const std::string& what) {
+  return std::runtime_error("temporary spill file in " + folder.string() + ": " + what + " (" +
+                            std::strerror(errno) + ")");
+}
+
+// Non-NaN doubles to unsigned integers in the same order (negative values'
+// bits reversed below the positive ones').
+uint64_t OrderKey(double value) {
+  uint64_t bits = 0;
+  std::memcpy(&bits, &value, sizeof(bits));
+  return (bits >> 63) ? ~bits : bits | (uint64_t{1} << 63);
+}
+
+}  // namespace
+
+SpillFile::SpillFile(const fs::path& folder) : folder_(folder.empty() ? fs::temp_directory_path() : folder) {
+#ifdef O_TMPFILE
+  fd_ = ::open(folder_.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+#endif
+  if (fd_ < 0) {
+    // A file system without O_TMPFILE: a named file, unlinked at once.
+    std::string name = (folder_ / ".scanbench-spill-XXXXXX").string();
+    fd_ = ::mkstemp(name.data());
+    if (fd_ < 0) throw SpillError(folder_, "cannot be created");
+    ::unlink(name.c_str());
+  }
+  buffer_.reserve(kSpillBufferBytes);
+}
+
+SpillFile::SpillFile(SpillFile&& other) noexcept
+    : folder_(std::move(other.folder_)), fd_(other.fd_), size_(other.size_), buffer_(std::move(other.buffer_)) {
+  other.fd_ = -1;
+}
+
+SpillFile& SpillFile::operator=(SpillFile&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    folder_ = std::move(other.folder_);
+    fd_ = other.fd_;
+    size_ = other.size_;
+    buffer_ = std::move(other.buffer_);
+    other.fd_ = -1;
+  }
+  return *this;
+}
+
+SpillFile::~SpillFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void SpillFile::Flush() {
+  const uint8_t* data = buffer_.data();
+  size_t left = buffer_.size();
+  while (left > 0) {
+    const ssize_t written = ::write(fd_, data, left);
+    if (written < 0) {
+      if (errno == EINTR) continue;
+      throw SpillError(folder_, "write failed");
+    }
+    data += written;
+    left -= static_cast<size_t>(written);
+  }
+  buffer_.clear();
+}
+
+void SpillFile::Append(const void* bytes, size_t size) {
+  const uint8_t* data = static_cast<const uint8_t*>(bytes);
+  size_ += size;
+  while (size > 0) {
+    const size_t take = std::min(size, kSpillBufferBytes - buffer_.size());
+    buffer_.insert(buffer_.end(), data, data + take);
+    data += take;
+    size -= take;
+    if (buffer_.size() == kSpillBufferBytes) Flush();
+  }
+}
+
+void SpillFile::ForEachRecord(size_t record_bytes,
+                              const std::function<void(const uint8_t* records, size_t count)>& visit) {
+  if (record_bytes == 0 || size_ % record_bytes != 0) {
+    throw std::invalid_argument("SpillFile::ForEachRecord: records of " + std::to_string(record_bytes) +
+                                " bytes do not divide its " + std::to_string(size_) + " bytes");
+  }
+  Flush();
+  std::vector<uint8_t> chunk(std::max<size_t>(1, kSpillBufferBytes / record_bytes) * record_bytes);
+  for (size_t offset = 0; offset < size_;) {
+    const size_t want = std::min(chunk.size(), size_ - offset);
+    size_t got = 0;
+    while (got < want) {
+      const ssize_t read = ::pread(fd_, chunk.data() + got, want - got, static_cast<off_t>(offset + got));
+      if (read < 0 && errno == EINTR) continue;
+      if (read <= 0) throw SpillError(folder_, "read failed");
+      got += static_cast<size_t>(read);
+    }
+    visit(chunk.data(), want / record_bytes);
+    offset += want;
+  }
+}
+
+ExactErrorStatistics::ExactErrorStatistics(const fs::path& spill_folder)
+    : histogram_(size_t{1} << kBucketBits, 0), spill_(spill_folder) {}
+
+void ExactErrorStatistics::Add(std::span<const double> values) {
+  for (const double value : values) {
+    // SummarizeErrors: std::accumulate from 0.0 in order; the largest by operator<.
+    sum_ += value;
+    if (count_ == 0 || max_ < value) max_ = value;
+    ++count_;
+    ++histogram_[OrderKey(value) >> (64 - kBucketBits)];
+  }
+  spill_.Append(values.data(), values.size_bytes());
+}
+
+double ExactErrorStatistics::ValueOfRank(size_t rank) {
+  if (rank >= count_) {
+    throw std::invalid_argument("ExactErrorStatistics::ValueOfRank: rank " + std::to_string(rank) + " of " +
+                                std::to_string(count_) + " values");
+  }
+  // The bucket of leading bits that holds the rank; while it holds too many
+  // values, a histogram of the next bits among them (one pass each).
+  int prefix_bits = kBucketBits;
+  uint64_t prefix = 0;
+  size_t in_bucket = 0;
+  for (size_t b = 0, before = 0; b < histogram_.size(); ++b) {
+    if (rank < before + histogram_[b]) {
+      prefix = b;
+      in_bucket = histogram_[b];
+      rank -= before;
+      break;
+    }
+    before += histogram_[b];
+  }
+  const auto matches = [&](uint64_t key) { return (key >> (64 - prefix_bits)) == prefix; };
+  while (in_bucket > kMaxSelected && prefix_bits < 64) {
+    const int next_bits = std::min(kBucketBits, 64 - prefix_bits);
+    std::vector<uint64_t> finer(size_t{1} << next_bits, 0);
+    spill_.ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
+      for (size_t i = 0; i < count; ++i) {
+        double value;
+        std::memcpy(&value, records + i * sizeof(double), sizeof(value));
+        const uint64_t key = OrderKey(value);
+        if (matches(key)) ++finer[(key >> (64 - prefix_bits - next_bits)) & ((uint64_t{1} << next_bits) - 1)];
+      }
+    });
+    for (size_t b = 0, before = 0; b < finer.size(); ++b) {
+      if (rank < before + finer[b]) {
+        prefix = (prefix << next_bits) | b;
+        in_bucket = finer[b];
+        rank -= before;
+        break;
+      }
+      before += finer[b];
+    }
+    prefix_bits += next_bits;
+  }
+  std::vector<double> selected;
+  selected.reserve(std::min(in_bucket, kMaxSelected));
+  spill_.ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
+    for (size_t i = 0; i < count; ++i) {
+      double value;
+      std::memcpy(&value, records + i * sizeof(double), sizeof(value));
+      // All 64 bits fixed: every value in the bucket is this one; one suffices.
+      if (matches(OrderKey(value)) && (prefix_bits < 64 || selected.empty())) selected.push_back(value);
+    }
+  });
+  if (prefix_bits >= 64) return selected.front();
+  std::nth_element(selected.begin(), selected.begin() + rank, selected.end());
+  return selected[rank];
+}
+
+ErrorStatistics ExactErrorStatistics::Finish() {
+  ErrorStatistics stats;
+  stats.num_pixels = count_;
+  if (count_ == 0) return stats;
+  stats.mean = sum_ / count_;
+  // SummarizeErrors' ranks.
+  const auto rank_of = [&](double fraction) {
+    return std::min(count_ - 1, static_cast<size_t>(fraction * (count_ - 1) + 0.5));
+  };
+  stats.median = ValueOfRank(rank_of(0.5));
+  stats.percentile_95 = ValueOfRank(rank_of(0.95));
+  stats.max = max_;
+  return stats;
+}
+
+}  // namespace scanbench

@@ -1,0 +1,74 @@
+// Exact summaries of values that arrive band by band (the solve's ground-truth
+// evaluation, issue #14), without holding them in memory: the values go to an
+// unlinked temporary file (SpillFile) and a histogram over their leading bits
+// says which few of them an order statistic lies among, so only those are read
+// back and selected. At 16 MP the albedo's 40 M error values are 320 MB a
+// std::vector would hold; here the histogram (512 KB) and a selection buffer.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "solver/angular_error.h"
+
+namespace scanbench {
+
+// An anonymous temporary file (O_TMPFILE, else created and unlinked at once):
+// it has no name, so nothing is left behind whatever happens to the process;
+// its pages are the file system's cache, not the process's memory. Appends
+// are buffered; ForEachRecord reads everything back in order.
+class SpillFile {
+ public:
+  // In `folder` (must exist); empty = std::filesystem::temp_directory_path().
+  // Throws std::runtime_error naming the folder when no file can be made.
+  explicit SpillFile(const std::filesystem::path& folder = {});
+  SpillFile(SpillFile&& other) noexcept;
+  SpillFile& operator=(SpillFile&& other) noexcept;
+  SpillFile(const SpillFile&) = delete;
+  SpillFile& operator=(const SpillFile&) = delete;
+  ~SpillFile();
+
+  void Append(const void* bytes, size_t size);
+  size_t size() const { return size_; }  // bytes appended
+  // visit(records, count) over everything appended, in order, in chunks of
+  // whole records of record_bytes (> 0, dividing size()).
+  void ForEachRecord(size_t record_bytes, const std::function<void(const uint8_t* records, size_t count)>& visit);
+
+ private:
+  void Flush();
+  std::filesystem::path folder_;
+  int fd_ = -1;
+  size_t size_ = 0;
+  std::vector<uint8_t> buffer_;
+};
+
+// SummarizeErrors (solver/angular_error.h) of the values given to Add in
+// turn, bit for bit: the mean is the same sum in the same order, the median,
+// 95th percentile and maximum the same order statistics (values NaN-free).
+class ExactErrorStatistics {
+ public:
+  // The spill file's folder (SpillFile).
+  explicit ExactErrorStatistics(const std::filesystem::path& spill_folder = {});
+  void Add(std::span<const double> values);
+  size_t count() const { return count_; }
+  // May be called once; reads the spill file back (a few passes).
+  ErrorStatistics Finish();
+
+  // The value of rank `rank` (0-based, as std::nth_element) among those added.
+  double ValueOfRank(size_t rank);
+
+ private:
+  static constexpr int kBucketBits = 16;
+  size_t count_ = 0;
+  double sum_ = 0;
+  double max_ = 0;
+  std::vector<uint64_t> histogram_;  // 2^kBucketBits counts over the leading bits of the order key
+  SpillFile spill_;
+};
+
+}  // namespace scanbench
