@@ -72,6 +72,18 @@ void BayerNormalBlendOptions::Check() const {
   if (!(num_threads >= 0 && num_threads <= 256)) {
     throw FieldError("BayerNormalBlendOptions", "num_threads", num_threads, "must lie in [0, 256]");
   }
+  if (cell_weights != nullptr) {
+    if (cell_weights->channels() != 1) {
+      throw FieldError("BayerNormalBlendOptions", "cell_weights channels", cell_weights->channels(), "must be 1");
+    }
+    for (size_t i = 0; i < cell_weights->size(); ++i) {
+      const float w = cell_weights->data()[i];
+      if (!(w >= 0 && w <= 1)) {
+        throw FieldError("BayerNormalBlendOptions", "cell_weights[" + std::to_string(i) + "]", w,
+                         "must lie in [0, 1]");
+      }
+    }
+  }
 }
 
 std::string BayerNormalBlendSummary::BriefReport() const {
@@ -87,11 +99,18 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
   CheckMaps(bayer, light_field, *demosaiced);
   const int width = light_field.width(), height = light_field.height(), cell = options.cell_size;
   const int cell_rows = (height + cell - 1) / cell, cell_cols = (width + cell - 1) / cell;
+  if (options.cell_weights != nullptr && !options.cell_weights->SameSize(cell_cols, cell_rows)) {
+    throw std::invalid_argument("BlendBayerNormals: cell_weights is " +
+                                SizeText(options.cell_weights->width(), options.cell_weights->height()) +
+                                "; it must be the cell grid's " + SizeText(cell_cols, cell_rows) + " (cells of " +
+                                std::to_string(cell) + " px over " + SizeText(width, height) + ")");
+  }
   const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
   const bool has_lobes = !demosaiced->specular_status.empty();
   std::vector<CellRowCounts> counts(cell_rows);
 
   BayerNormalBlendSummary summary;
+  summary.cell_weights = ImageF(cell_cols, cell_rows, 1);
   const bool finished = ParallelRows(cell_rows, options.num_threads, progress, 0, 1, [&](int cell_row) {
     std::vector<float> dirs(3 * light_field.num_lights()), intensities(3 * light_field.num_lights());
     std::vector<int> members;
@@ -125,11 +144,16 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
       }
       if (members.empty()) continue;
       double weight = 0;
-      if (disagreement > 0 && normal_sum.squaredNorm() > 0) {
+      if (options.cell_weights != nullptr) {
+        weight = (*options.cell_weights)(cell_col, cell_row);
+      } else if (disagreement > 0 && normal_sum.squaredNorm() > 0) {
         const double factor = TangentialVarianceFactor(light_field, (x0 + x1) / 2, (y0 + y1) / 2,
                                                        normal_sum.normalized(), &dirs, &intensities);
         weight = factor > 0 ? std::clamp(1.0 - factor * sample_variance / disagreement, 0.0, 1.0) : 0.0;
       }
+      // As stored: given back (cell_weights) it blends bit for bit alike.
+      weight = static_cast<float>(weight);
+      summary.cell_weights(cell_col, cell_row) = static_cast<float>(weight);
       row_counts.compared += members.size();
       row_counts.weight_sum += weight * members.size();
       if (weight == 0) {

@@ -17,6 +17,7 @@
 
 #include <string>
 
+#include "core/image.h"
 #include "core/progress.h"
 #include "core/summary.h"
 #include "solver/light_field.h"
@@ -29,6 +30,13 @@ struct BayerNormalBlendOptions {
   // cells start at (0, 0), so a solve cut into bands of a multiple of it rows
   // blends as the whole frame does.
   int cell_size = 4;
+  // Optional, not owned: each cell's weight given instead of estimated
+  // (1 channel, ceil(width / cell_size) x ceil(height / cell_size), values in
+  // [0, 1]; what an earlier blend's summary returned as cell_weights). The
+  // depth re-solves blend with the first re-solve's weights: re-estimated on
+  // every pass they move the normals, the surface and again the weights, and
+  // the loop does not settle (docs/solver.md). Null = estimate.
+  const ImageF* cell_weights = nullptr;
   // Worker threads; 0 = all hardware threads, in [0, 256].
   int num_threads = 0;
   void Check() const;
@@ -39,6 +47,9 @@ struct BayerNormalBlendSummary : AlgorithmSummary {
   size_t pixels_kept = 0;     // solved, but left as the demosaiced solve's (a lobe, or no Bayer fit, or w = 0)
   size_t pixels_weighed = 0;  // solved by both, without a lobe: the pixels a weight was estimated for
   double mean_weight = 0;     // mean Bayer share over pixels_weighed
+  // The weight of every cell (the estimated ones, or options.cell_weights'),
+  // 0 where no pixel was weighed; the shape options.cell_weights takes.
+  ImageF cell_weights;
   std::string BriefReport() const;
 };
 

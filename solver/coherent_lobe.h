@@ -14,12 +14,14 @@
 //      re-solved linearly at every trial; a grid over the shape, then a
 //      pattern search), and
 //   2. each pixel's normal and diffuse albedo re-solved under that lobe
-//      (Levenberg-Marquardt)
+//      (Levenberg-Marquardt, the highlight samples down-weighted:
+//      highlight_weight)
 // a few times, with Tukey weights on every residual. The first alternation
 // is run with Lambert's diffuse (n . l) and with the diffuse light that
 // crosses a Schlick-Fresnel interface on the way in, (n . l)(1 - (1 - n .
 // l)^5) (fresnel_diffuse), and the latter kept only where it lowers the fit
-// pixels' residual on their common samples by 30 %. A pixel takes the
+// pixels' residual on their common samples by 15 %; then every pixel of the
+// group takes the group's result. In a Lambertian group a pixel takes the
 // shared-lobe result only where that lowers its residual against its own
 // per-pixel result re-evaluated on the same weighted samples (both floored
 // at the noise; a tie against a Lambertian result goes to the shared lobe);
@@ -69,13 +71,21 @@ struct CoherentLobeOptions {
   // 96: ball 1.803 -> 1.792 deg, bear 4.379 -> 4.318, for 2.2x bear's solve
   // CPU time, beyond the 2 s budget), the pass is for the rig's ten.
   int max_lights = 24;
+  // In the per-pixel normal re-solve under the shared lobe each sample's
+  // weight is divided by 1 + highlight_weight x its lobe fraction (rho_s S /
+  // the model): the highlight samples, which the shared shape fits only
+  // roughly, steer the normal less; the shape fit, the model selection and
+  // the albedo keep the plain Tukey weights. >= 0 (0 = off; satin 1.394 deg,
+  // 10: 1.114, 30: 1.072, 100: 1.076; docs/solver.md).
+  double highlight_weight = 30;
   // Each pixel keeps its own lobe amplitude (rho_s) under the shared shape;
   // else the group shares one F0.
   bool per_pixel_amplitude = false;
   // Each group also tries the Fresnel-transmitted diffuse term (n . l) (1 -
   // (1 - n . l)^5) in place of Lambert's and keeps it where it leaves at most
-  // 0.7 of the Lambertian fit's residual; false: Lambert's only (a third
-  // less time; docs/solver.md).
+  // 0.85 of the Lambertian fit's residual (then every pixel of the group
+  // takes the group's result); false: Lambert's only (a third less time;
+  // docs/solver.md).
   bool fresnel_diffuse = true;
   // Worker threads; 0 = all hardware threads, in [0, 256].
   int num_threads = 0;

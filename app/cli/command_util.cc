@@ -75,10 +75,10 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
   command.add_flag("--bayer-domain", options.bayer_domain,
                    "Solve the normals per raw pixel from its own CFA sample instead of on the demosaiced frames "
                    "(only the albedo is demosaiced; on cloth more accurate, on Lambertian scenes noisier)");
-  command.add_flag("--bayer-blend", options.bayer_blend,
-                   "With --method adaptive: blend each pixel's normal between the demosaiced solve and a "
-                   "Bayer-domain one (on cloth more accurate; about 2-4x the solve time; on draped Lambertian "
-                   "samples the depth loop runs longer and ends slightly worse)");
+  command.add_flag("--bayer-blend,!--no-bayer-blend", options.bayer_blend,
+                   "With --method adaptive (default on): blend each pixel's normal between the demosaiced solve "
+                   "and a Bayer-domain one (more accurate, most on cloth; about 2x the solve time); "
+                   "--no-bayer-blend: the demosaiced solve alone");
   command.add_flag("--no-verify", [&options](std::int64_t) { options.verify_checksums = false; },
                    "Skip re-hashing the frames against session.json");
   command.add_flag("--float32-maps", options.float32_maps,

@@ -221,9 +221,13 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
                                           CfaPattern cfa, const LightField& light_field, int dev0, int dev1, int row0,
                                           int row1, PhotometricSolution* band_solution, BayerNormalBlendSummary* blended,
                                           const ProgressCallback& progress) {
-  // The Bayer solve is the longer one (the sheen fits): 0.6 of the band.
+  // No lobe in the Bayer solve (its pixels keep the demosaiced normal), the
+  // sheen only when asked: on Lambertian pixels the sheen fit takes noise
+  // for sheen and biases the normals the weight then trusts (docs/solver.md).
   PhotometricSolverOptions bayer_solver = options.solver;
-  bayer_solver.adaptive_sheen = true;
+  bayer_solver.adaptive_lobe = false;
+  bayer_solver.adaptive_coherent_lobe = false;
+  bayer_solver.compute_specular = false;
   bayer_solver.compute_albedo = false;
   bayer_solver.compute_confidence = true;
   PhotometricSolution bayer;
@@ -238,6 +242,12 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   const auto blend_start = std::chrono::steady_clock::now();
   BayerNormalBlendOptions blend;
   blend.num_threads = options.solver.num_threads;
+  ImageF band_weights;  // the band's rows of the given weights (bands are whole cells)
+  if (options.bayer_blend_weights != nullptr) {
+    const int cell = blend.cell_size;
+    band_weights = CropRows(*options.bayer_blend_weights, row0 / cell, (row1 - row0 + cell - 1) / cell);
+    blend.cell_weights = &band_weights;
+  }
   const LightFieldRows band_field(light_field, row0, row1 - row0);
   *blended = BlendBayerNormals(blend, bayer, band_field, band_solution, SubRange(progress, 0.95, 1));
   if (!blended->IsUsable()) {
@@ -288,6 +298,14 @@ void BandedSolveOptions::Check() const {
   }
   if (!(sample_mask_margin_rows >= 0 && sample_mask_margin_rows <= 64)) {
     throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows, "must lie in [0, 64]");
+  }
+  if (bayer_blend_weights != nullptr) {
+    if (!bayer_blend) {
+      throw std::invalid_argument("BandedSolveOptions: bayer_blend_weights given without bayer_blend");
+    }
+    BayerNormalBlendOptions blend;
+    blend.cell_weights = bayer_blend_weights;
+    blend.Check();
   }
   if (bayer_blend && sample_masks && sample_mask_margin_rows > solver.tile_size) {
     throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows,
@@ -355,6 +373,13 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
   const int num_bands = (height + band_rows - 1) / band_rows;
   const int num_frames = static_cast<int>(frames.frames.size());
   const int threads = ResolveThreadCount(options.solver.num_threads);
+  const int cell = BayerNormalBlendOptions().cell_size;
+  const int cell_cols = (width + cell - 1) / cell, cell_rows = (height + cell - 1) / cell;
+  if (options.bayer_blend_weights != nullptr && !options.bayer_blend_weights->SameSize(cell_cols, cell_rows)) {
+    throw std::invalid_argument("SolveBanded: bayer_blend_weights is " +
+                                SizeText(options.bayer_blend_weights->width(), options.bayer_blend_weights->height()) +
+                                "; it must be the blend's cell grid of " + SizeText(cell_cols, cell_rows));
+  }
 
   RawDevelopOptions develop = options.develop;
   const bool with_mosaic = options.bayer_domain || options.bayer_blend;
@@ -364,6 +389,7 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
 
   BandedSolveSummary summary;
   summary.band_rows = band_rows;
+  if (options.bayer_blend) summary.bayer_blend_weights = ImageF(cell_cols, cell_rows, 1);
   summary.solver.num_lights = num_frames;
   // Development is cheap beside the solve: a fifth of each band's progress.
   constexpr double kDevelopShare = 0.2;
@@ -429,6 +455,9 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
             : SolveRgbBand(options, developed, light_field, row0, row1, &band_solution,
                            SubRange(progress, develop_end, band_end));
     Accumulate(solved, &summary.solver);
+    if (options.bayer_blend && !blended.cell_weights.empty()) {
+      CopyRowsInto(blended.cell_weights, row0 / cell, &summary.bayer_blend_weights);
+    }
     blend_weight_sum += blended.mean_weight * double(blended.pixels_weighed);
     blend_pixels_weighed += blended.pixels_weighed;
     if (blend_pixels_weighed > 0) summary.solver.bayer_blend_mean_weight = blend_weight_sum / blend_pixels_weighed;

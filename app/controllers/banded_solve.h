@@ -42,14 +42,21 @@ struct BandedSolveOptions {
   // Bayer solve. Not with sample_masks.
   bool bayer_domain = false;
   // Solve each band twice, on the demosaiced frames and in the Bayer domain
-  // (with the velvet sheen fit, adaptive_sheen), and blend each pixel's
-  // normal between the two (BlendBayerNormals, solver/bayer_normal_blend.h;
-  // issue #13); everything else is the demosaiced solve's. Bands are whole
-  // blend cells, so the result is the whole-frame blend's. Not with
-  // bayer_domain; with sample_masks they apply to the demosaiced solve only
-  // (what they leave out, the shadow edges a demosaic mixes into lit pixels,
-  // a raw sample does not have), and sample_mask_margin_rows <= tile_size.
+  // (Lambertian with Tukey weights: no specular lobe, whose pixels keep the
+  // demosaiced normal anyway; the velvet sheen fit only with
+  // solver.adaptive_sheen), and blend each pixel's normal between the two
+  // (BlendBayerNormals, solver/bayer_normal_blend.h; issue #13); everything
+  // else is the demosaiced solve's. Bands are whole blend cells, so the
+  // result is the whole-frame blend's. Not with bayer_domain; with
+  // sample_masks they apply to the demosaiced solve only (what they leave
+  // out, the shadow edges a demosaic mixes into lit pixels, a raw sample does
+  // not have), and sample_mask_margin_rows <= tile_size.
   bool bayer_blend = false;
+  // With bayer_blend, optional, not owned: the blend's cell weights for the
+  // whole frame (BayerNormalBlendOptions::cell_weights; what an earlier
+  // solve's summary returned as bayer_blend_weights) instead of estimating
+  // them. Null = estimate.
+  const ImageF* bayer_blend_weights = nullptr;
   void Check() const;
 };
 
@@ -73,6 +80,9 @@ struct BandedSolveSummary : AlgorithmSummary {
   size_t samples_masked_out = 0;    // usable samples that sample_masks made unusable, in the bands' own rows
   double develop_seconds = 0;       // of the wall time, developing
   double solve_seconds = 0;         // of the wall time, solving
+  // With bayer_blend: the blend's cell weights over the whole frame (the
+  // estimated ones, or bayer_blend_weights'); else empty.
+  ImageF bayer_blend_weights;
   std::string BriefReport() const;
 };
 

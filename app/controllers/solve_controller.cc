@@ -282,10 +282,16 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::fun
         "not applicable: the calibration set's measured per-pixel light field is sampled on the table plane only";
     return skipped;
   }
+  // The Bayer blend's cell weights of the first re-solve, kept for the next
+  // ones, so that the re-solves differ by the moved light field only (with
+  // the opt-in blend's sheen fit, weights re-estimated every pass made the
+  // loop overshoot; docs/solver.md).
+  ImageF blend_weights;
   const DepthResolve resolve = [&](const LightField& moved_field, PhotometricSolution* resolved,
                                    const ProgressCallback& resolve_progress, size_t* shadow_edge_samples) {
     BandedSolveOptions banded_options = BandedOptions(options);
     banded_options.bayer_domain = false;  // the re-solves use the demosaiced frames (SolveOptions::bayer_domain)
+    if (banded_options.bayer_blend && !blend_weights.empty()) banded_options.bayer_blend_weights = &blend_weights;
     if (options.depth.shadow_edge_radius_px > 0) {
       banded_options.sample_mask_margin_rows = options.depth.shadow_edge_radius_px;
       banded_options.sample_masks = [&](const PhotometricSolverInput& band) {
@@ -295,6 +301,9 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::fun
     const BandedSolveSummary banded =
         SolveBanded(banded_options, raw_frames().Stack(), moved_field, resolved, resolve_progress);
     *shadow_edge_samples = banded.samples_masked_out;
+    if (banded_options.bayer_blend && blend_weights.empty() && banded.IsUsable()) {
+      blend_weights = banded.bayer_blend_weights;
+    }
     return banded.solver;
   };
   const std::vector<PointLight> no_lights;
@@ -496,9 +505,12 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
   text["solver"] = SolverOptionsJson(solver);
   text["develop"] = {{"demosaic", DemosaicName(options.develop.demosaic)},
                      {"clip_fraction", options.develop.clip_fraction}};
-  // Only when set, so that earlier results keep their fingerprints.
+  // Only when set, so that earlier results keep their fingerprints; the
+  // blend as 2 since it became the default (frozen depth-loop weights, the
+  // Bayer solve without sheen and lobe), so that a result of the opt-in
+  // blend (true) is not taken for one of today's.
   if (options.bayer_domain) text["develop"]["bayer_domain"] = true;
-  if (BandedOptions(options).bayer_blend) text["develop"]["bayer_blend"] = true;
+  if (BandedOptions(options).bayer_blend) text["develop"]["bayer_blend"] = 2;
   text["albedo_color"] = AlbedoColorSourceName(options.albedo_color.source);
   text["depth_refinement"] = DepthOptionsJson(options.depth);  // issue #15
   if (options.float32_maps) text["exr_maps"] = "float32";

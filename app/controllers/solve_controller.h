@@ -36,10 +36,11 @@ struct SolveOptions {
   bool bayer_domain = false;
   // With the adaptive method: blend each pixel's normal between the
   // demosaiced solve and a Bayer-domain one (BandedSolveOptions::bayer_blend,
-  // issue #13), also in the depth re-solves. Not with bayer_domain. Off by
-  // default: on draped samples the blended depth re-solves do not settle
-  // (docs/solver.md, "Blend of the demosaiced and Bayer-domain normals").
-  bool bayer_blend = false;
+  // issue #13), also in the depth re-solves (with the first re-solve's
+  // weights). Ignored with bayer_domain or another method. The default since
+  // session 2026-12-03 (docs/solver.md, "Blend of the demosaiced and
+  // Bayer-domain normals").
+  bool bayer_blend = true;
   // --- calibration (issue #4) ---
   // A calibration set (app/session/calibration_set.h): lights, white balance
   // and camera rays from it instead of the session's rig description. Empty =

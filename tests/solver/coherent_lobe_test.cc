@@ -179,6 +179,11 @@ TEST(CoherentLobe, SharedAnisotropicLobeRecoversTheNormals) {
       }
       f0.push_back(on.solution.specular(x, y, 0));
       alpha.push_back(on.solution.specular(x, y, 1));
+      // The shared shape stays within CoherentLobeOptions' alpha bounds (its
+      // search once started, and could stay, at alpha 1).
+      const CoherentLobeOptions bounds;
+      ASSERT_GE(alpha.back(), bounds.min_alpha * (1 - 1e-6)) << "at " << x << "," << y;
+      ASSERT_LE(alpha.back(), bounds.max_alpha * (1 + 1e-6)) << "at " << x << "," << y;
     }
   }
   ASSERT_GT(f0.size(), 1000u);
@@ -301,6 +306,8 @@ TEST(CoherentLobe, OptionsAreChecked) {
   fails([](CoherentLobeOptions& o) { o.max_alpha = 1.5; });
   fails([](CoherentLobeOptions& o) { o.min_alpha = 0.7; });
   fails([](CoherentLobeOptions& o) { o.albedo_split = std::nan(""); });
+  fails([](CoherentLobeOptions& o) { o.highlight_weight = -1; });
+  fails([](CoherentLobeOptions& o) { o.highlight_weight = std::nan(""); });
   fails([](CoherentLobeOptions& o) { o.num_threads = -1; });
   EXPECT_NO_THROW(CoherentLobeOptions().Check());
   try {

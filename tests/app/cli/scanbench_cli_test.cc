@@ -138,21 +138,33 @@ TEST(ScanbenchCliTest, SolveWritesASpecularMapUnlessTheLobeIsTurnedOff) {
   EXPECT_THAT(ReadText(plain / "report.json"), HasSubstr("\"adaptive_lobe\": false"));
 }
 
-TEST(ScanbenchCliTest, SolveSheenFlagTurnsTheVelvetSheenPassOn) {
+// --sheen turns the velvet sheen pass on; the Bayer blend is on unless
+// --no-bayer-blend (issue #13).
+TEST(ScanbenchCliTest, SolveSheenAndBayerBlendFlags) {
   testing::TemporaryFolder folder;
-  // A small cloth session solved twice, without and with the flag.
+  // A small cloth session solved three times: plain, with --sheen, without the blend.
   const fs::path session_dir = folder / "cloth";
+  std::string plain_output;
   for (const std::string& command : {"simulate " + Quoted(session_dir) + " --width 320 --height 212 --material cloth",
                                      "solve " + Quoted(session_dir) + " --label plain",
-                                     "solve " + Quoted(session_dir) + " --sheen --label sheen"}) {
+                                     "solve " + Quoted(session_dir) + " --sheen --label sheen",
+                                     "solve " + Quoted(session_dir) + " --no-bayer-blend --label noblend"}) {
     const CommandResult result = RunScanbench(command);
     ASSERT_EQ(result.exit_code, 0) << command << ": " << result.output;
+    if (command.find("plain") != std::string::npos) plain_output = result.output;
   }
+  EXPECT_THAT(plain_output, HasSubstr("blended with the Bayer-domain normal"));
+  int results = 0;
   for (const auto& entry : fs::directory_iterator(session_dir / "results")) {
-    const bool with_sheen = entry.path().filename().string().find("sheen") != std::string::npos;
-    EXPECT_THAT(ReadText(entry.path() / "report.json"),
-                HasSubstr(with_sheen ? "\"adaptive_sheen\": true" : "\"adaptive_sheen\": false"));
+    const std::string name = entry.path().filename().string();
+    const bool with_sheen = name.find("sheen") != std::string::npos;
+    const bool without_blend = name.find("noblend") != std::string::npos;
+    const std::string report = ReadText(entry.path() / "report.json");
+    EXPECT_THAT(report, HasSubstr(with_sheen ? "\"adaptive_sheen\": true" : "\"adaptive_sheen\": false")) << name;
+    EXPECT_THAT(report, HasSubstr(without_blend ? "\"bayer_blend\": false" : "\"bayer_blend\": true")) << name;
+    ++results;
   }
+  EXPECT_EQ(results, 3);
 }
 
 TEST(ScanbenchCliTest, FailuresExitNonZeroNamingTheProblem) {

@@ -286,8 +286,11 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   PhotometricSolution whole, bayer;
   const PhotometricSolverSummary whole_summary = SolvePhotometricStereo(options.solver, rgb_input, &whole);
   ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
+  // The Bayer solve as the banded one runs it: no lobe, the sheen as asked (off).
   PhotometricSolverOptions bayer_solver = options.solver;
-  bayer_solver.adaptive_sheen = true;
+  bayer_solver.adaptive_lobe = false;
+  bayer_solver.adaptive_coherent_lobe = false;
+  bayer_solver.compute_specular = false;
   bayer_solver.compute_albedo = false;
   ASSERT_TRUE(SolvePhotometricStereoBayer(bayer_solver, bayer_input, &bayer).IsUsable());
   const PhotometricSolution demosaiced = whole;
@@ -311,6 +314,48 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   ExpectSameBits(banded.residual, demosaiced.residual, "residual");
   ExpectSameBits(banded.specular, demosaiced.specular, "specular");
   EXPECT_EQ(summary.solver.pixels_by_status, whole_summary.pixels_by_status);
+  // The cell weights come back for the whole frame, as the whole-frame blend's.
+  ExpectSameBits(summary.bayer_blend_weights, blended.cell_weights, "bayer_blend_weights");
+
+  // Given back (the depth loop's frozen weights) they give the same blend;
+  // given as 0 they keep the demosaiced normals, as 1 the Bayer ones.
+  const ImageF estimated = summary.bayer_blend_weights;
+  options.bayer_blend_weights = &estimated;
+  PhotometricSolution frozen;
+  const BandedSolveSummary frozen_summary = SolveBanded(options, stack, *raw.scene.light_field, &frozen);
+  ASSERT_TRUE(frozen_summary.IsUsable()) << frozen_summary.message;
+  ExpectSameBits(frozen.normal_in_table, whole.normal_in_table, "normal_in_table, frozen weights");
+  ExpectSameBits(frozen_summary.bayer_blend_weights, estimated, "bayer_blend_weights, frozen");
+  const ImageF zeros(estimated.width(), estimated.height(), 1, 0.0f);
+  options.bayer_blend_weights = &zeros;
+  ASSERT_TRUE(SolveBanded(options, stack, *raw.scene.light_field, &frozen).IsUsable());
+  ExpectSameBits(frozen.normal_in_table, demosaiced.normal_in_table, "normal_in_table, weights 0");
+  const ImageF ones(estimated.width(), estimated.height(), 1, 1.0f);
+  options.bayer_blend_weights = &ones;
+  ASSERT_TRUE(SolveBanded(options, stack, *raw.scene.light_field, &frozen).IsUsable());
+  size_t bayer_taken = 0, compared = 0;
+  for (int y = 0; y < frozen.status.height(); ++y) {
+    for (int x = 0; x < frozen.status.width(); ++x) {
+      if (demosaiced.status(x, y) != uint8_t(PixelStatus::kSolved) || bayer.status(x, y) != uint8_t(PixelStatus::kSolved) ||
+          demosaiced.specular_status(x, y) == uint8_t(SpecularStatus::kEstimated) || bayer.lights_used(x, y) < 4) {
+        continue;
+      }
+      ++compared;
+      bool same = true;
+      for (int c = 0; c < 3; ++c) same &= std::abs(frozen.normal_in_table(x, y, c) - bayer.normal_in_table(x, y, c)) < 1e-6f;
+      bayer_taken += same;
+    }
+  }
+  ASSERT_GT(compared, 0u);
+  EXPECT_EQ(bayer_taken, compared);
+  // A grid of another size, or weights out of [0, 1], are refused.
+  const ImageF small(estimated.width() - 1, estimated.height(), 1, 0.5f);
+  options.bayer_blend_weights = &small;
+  EXPECT_THROW(SolveBanded(options, stack, *raw.scene.light_field, &frozen), std::invalid_argument);
+  const ImageF above(estimated.width(), estimated.height(), 1, 1.5f);
+  options.bayer_blend_weights = &above;
+  EXPECT_THROW(SolveBanded(options, stack, *raw.scene.light_field, &frozen), std::invalid_argument);
+  options.bayer_blend_weights = nullptr;
 
   options.bayer_domain = true;
   EXPECT_THROW(SolveBanded(options, stack, *raw.scene.light_field, &banded), std::invalid_argument);

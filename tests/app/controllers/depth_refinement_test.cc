@@ -327,15 +327,19 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   const double depth_interior = InteriorMeanErrorDeg(draped, draped_default);
   std::cout << "interior mean error (deg): flat " << flat_interior << "; draped on the table plane "
             << plane_interior << "; draped with the loop " << depth_interior << "\n";
-  // Measured: flat 1.819, table plane 2.423, with the loop 1.164 (0.64x).
-  EXPECT_LE(depth_interior, 0.85 * flat_interior);
+  // Measured with the Bayer blend (the default since issue #13's second
+  // step): flat 0.633, table plane 1.601, with the loop 0.558 (0.88x; without
+  // the blend 1.819, 2.423, 1.164: 0.64x, the blend gains more on the flat
+  // sample at this small size).
+  EXPECT_LE(depth_interior, 0.95 * flat_interior);
   EXPECT_LT(depth_interior, plane_interior);
 
   EXPECT_FALSE(draped_plane.depth.refined);
   ASSERT_TRUE(draped_default.depth.refined);
   EXPECT_GT(draped_default.depth.first_height_range_mm, 30.0);
-  // Measured: flat 1.722, table plane 2.564, with the loop 1.430 (0.83x the
-  // flat sample's error: the issue asks for at most 1.3x).
+  // Measured: flat 0.602, table plane 1.505, with the loop 0.580 (0.96x the
+  // flat sample's error: the issue asks for at most 1.3x; without the blend
+  // 1.722, 2.564, 1.430: 0.83x).
   EXPECT_LE(depth_error, 1.0 * flat_error);
   EXPECT_GT(plane_error, 1.3 * flat_error) << "without the loop the folds must cost accuracy";
   EXPECT_GT(draped_default.depth.shadow_edge_samples, 10000u);
@@ -355,7 +359,8 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   EXPECT_EQ(report.at("depth_refinement").at("stop_reason"), draped_default.depth.stop_reason);
 
   // The shadow edges' share: the same loop keeping the lit samples at the
-  // folds' cast shadows. Measured 2.218 against 1.430 with them left out.
+  // folds' cast shadows. Measured 0.710 against 0.580 with them left out
+  // (without the blend 2.218 against 1.430).
   SolveOptions keep_edges;
   keep_edges.depth.shadow_edge_radius_px = 0;
   keep_edges.run_label = "keep-edges";
@@ -363,7 +368,7 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   keep.Run();
   std::cout << "draped with the loop, shadow edges kept: " << keep.summary().normal_error_deg->mean << "\n";
   EXPECT_EQ(keep.summary().depth.shadow_edge_samples, 0u);
-  EXPECT_LT(depth_error, 0.8 * keep.summary().normal_error_deg->mean);
+  EXPECT_LT(depth_error, 0.9 * keep.summary().normal_error_deg->mean);
 }
 
 }  // namespace

@@ -328,7 +328,9 @@ TEST(ScanControllersTest, ResolveWritesANewResultBesideTheOld) {
 }
 
 // Issue #13: the Bayer-domain option solves per raw pixel and says so in the
-// summary, report.json and the inputs fingerprint (batch must not skip it).
+// summary, report.json and the inputs fingerprint (batch must not skip it);
+// the default blends the demosaiced and Bayer-domain normals, which the
+// Bayer-domain option does not.
 TEST(ScanControllersTest, BayerDomainSolveIsItsOwnResult) {
   TemporaryFolder folder;
   const fs::path session_dir = SimulateSmallSession(folder);
@@ -348,6 +350,10 @@ TEST(ScanControllersTest, BayerDomainSolveIsItsOwnResult) {
   EXPECT_NE(summary.inputs_fingerprint, demosaiced.summary().inputs_fingerprint);
   const nlohmann::json report = ReadJson(summary.result_dir / "report.json");
   EXPECT_EQ(report.at("develop").at("bayer_domain"), true);
+  EXPECT_EQ(report.at("develop").at("bayer_blend"), false);
+  EXPECT_EQ(summary.solver.pixels_bayer_blended, 0u);
+  EXPECT_GT(demosaiced.summary().solver.pixels_bayer_blended, 0u);
+  EXPECT_EQ(ReadJson(demosaiced.summary().result_dir / "report.json").at("develop").at("bayer_blend"), true);
 }
 
 TEST(ScanControllersTest, InterruptedSimulationResumesWhereItStopped) {
