@@ -493,6 +493,7 @@ ImageFileInfo ReadImageFileInfo(const fs::path& path) {
   info.channel_names = spec.channelnames;
   info.is_float = spec.format.is_floating_point();
   info.bits_per_sample = spec.get_int_attribute("oiio:BitsPerSample", static_cast<int>(spec.format.size()) * 8);
+  info.compression = spec.get_string_attribute("compression");
   ImageMetadata& metadata = info.metadata;
   // Attribute lines ("scanbench:name=value", TIFF) come out of the description.
   std::istringstream description(spec.get_string_attribute("ImageDescription"));

@@ -164,6 +164,9 @@ struct ImageFileInfo {
   // float tag (PNG: whole pixels per metre), so close to but not exactly
   // metadata.mm_per_pixel.
   double resolution_mm_per_pixel = 0;
+  // OpenImageIO's "compression" as read: OpenEXR's ("none", "zip", "piz",
+  // ...), TIFF's ("zip", ...); "" where the format reports none (PNG).
+  std::string compression;
   ImageMetadata metadata;
 };
 ImageFileInfo ReadImageFileInfo(const std::filesystem::path& path);

@@ -120,6 +120,7 @@ TEST(ImageIoTest, ExrHalfRoundTripIsWithinHalfPrecisionUnderEveryCompression) {
     const ImageFileInfo info = ReadImageFileInfo(path);
     EXPECT_TRUE(info.is_float);
     EXPECT_EQ(info.bits_per_sample, 16);
+    EXPECT_EQ(info.compression, ExrCompressionName(compression));
     const ImageF read = ReadImageFloat(path);
     ASSERT_EQ(read.size(), image.size());
     EXPECT_EQ(read(0, 0, 0), 65504.0f);
