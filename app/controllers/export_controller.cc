@@ -389,14 +389,39 @@ PngRowSource PngRowsOf(const ExportFile& file) {
   return rows;
 }
 
+// The export's lossless encodings, chosen by measurement on a 16 MP export
+// (benchmarks/export_encoding_benchmark.cc; docs/export.md, "File
+// encodings"). Every PNG: zlib level 1, libpng's up filter and zlib's
+// run-length strategy, which leaves the match search out: the most CPU of
+// the PNG writes went to it.
+PngEncoding ExportPngEncoding() {
+  PngEncoding encoding;
+  encoding.zlib_level = 1;
+  encoding.filter = PngFilter::kUp;
+  encoding.strategy = PngStrategy::kRle;
+  return encoding;
+}
+
+// Float EXRs (the exr preset's maps, and every preset's height and
+// confidence): 32-bit float, values as in memory, compressed by what packs
+// each map for the least CPU: the float height's low mantissa bits are noise
+// (no compression gains enough to pay its time), the cavity is mostly exactly
+// 1 (zip packs the runs), the rest piz. Tiles like their map.
+ExrEncoding ExportExrEncoding(const std::string& kind) {
+  const std::string map = kind.rfind("tile_", 0) == 0 ? kind.substr(5) : kind;
+  if (map == "height") return {ExrSampleType::kFloat32, ExrCompression::kNone};
+  if (map == "cavity") return {ExrSampleType::kFloat32, ExrCompression::kZip};
+  return {ExrSampleType::kFloat32, ExrCompression::kPiz};
+}
+
 void WriteExportFile(const fs::path& path, const ExportFile& file) {
   const auto policy = OverwritePolicy::kRefuse;
   if (file.document) {
     WriteFileAtomic(path, *file.document, policy);
   } else if (file.format == "exr") {
-    WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata);
+    WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata, ExportExrEncoding(file.kind));
   } else if (file.format == "png") {
-    WritePngRows(path, PngRowsOf(file), policy, file.metadata);
+    WritePngRows(path, PngRowsOf(file), policy, file.metadata, ExportPngEncoding());
   } else {
     WriteTiff(path, Quantise16(*file.float_image, file.integer), policy, file.metadata);
   }

@@ -276,6 +276,9 @@ void AddPngEncoding(const PngEncoding& encoding, OIIO::ImageSpec& spec) {
   encoding.Check();
   spec.attribute("png:compressionLevel", encoding.zlib_level);
   if (const int bits = PngFilterBits(encoding.filter); bits != 0) spec.attribute("png:filter", bits);
+  // OpenImageIO 2.4's PNG writer reads "compression" as the zlib strategy
+  // ("default", "filtered", "huffman", "rle", "fixed").
+  if (encoding.strategy != PngStrategy::kDefault) spec.attribute("compression", PngStrategyName(encoding.strategy));
 }
 
 // PNG (up to 4 channels, as `png_encoding` says) or TIFF (any channel count,
@@ -378,6 +381,17 @@ const char* PngFilterName(PngFilter filter) {
     case PngFilter::kPaeth: return "paeth";
   }
   return "adaptive";
+}
+
+const char* PngStrategyName(PngStrategy strategy) {
+  switch (strategy) {
+    case PngStrategy::kDefault: return "default";
+    case PngStrategy::kFiltered: return "filtered";
+    case PngStrategy::kHuffmanOnly: return "huffman";
+    case PngStrategy::kRle: return "rle";
+    case PngStrategy::kFixed: return "fixed";
+  }
+  return "default";
 }
 
 void PngEncoding::Check() const {
