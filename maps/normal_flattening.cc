@@ -7,12 +7,14 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/field_error.h"
 #include "core/format.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 namespace {
@@ -53,12 +55,14 @@ struct WeightedSlopes {
   size_t valid_count = 0;
 };
 
-WeightedSlopes WeightSlopes(const ImageF& normal_in_tangent, const ImageU8* valid, float max_slope) {
+WeightedSlopes WeightSlopes(const ImageF& normal_in_tangent, const ImageU8* valid, float max_slope, int num_threads) {
   const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
   WeightedSlopes weighted{cv::Mat(height, width, CV_32FC3), 0};
-  for (int y = 0; y < height; ++y) {
+  std::vector<size_t> row_counts(height, 0);
+  ParallelRows(height, num_threads, {}, 0, 1, [&](int y) {
     const float* n = normal_in_tangent.row(y);
     cv::Vec3f* out = weighted.slopes.ptr<cv::Vec3f>(y);
+    size_t count = 0;
     for (int x = 0; x < width; ++x, n += 3) {
       const bool wanted = valid == nullptr || (*valid)(x, y) != 0;
       const bool usable = std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]) &&
@@ -70,9 +74,11 @@ WeightedSlopes WeightSlopes(const ImageF& normal_in_tangent, const ImageU8* vali
       const float nz = std::max(n[2], 1e-6f);  // grazing or back-facing: clamp rather than divide by ~0
       out[x] =
           cv::Vec3f(std::clamp(-n[0] / nz, -max_slope, max_slope), std::clamp(-n[1] / nz, -max_slope, max_slope), 1.0f);
-      ++weighted.valid_count;
+      ++count;
     }
-  }
+    row_counts[y] = count;
+  });
+  for (size_t count : row_counts) weighted.valid_count += count;
   return weighted;
 }
 
@@ -104,31 +110,47 @@ cv::Mat LowPass(const cv::Mat& weighted_slopes, double sigma) {
 
 // The output normals: the valid pixels' slopes minus the low-pass (none when
 // `low_pass` is null: the input re-normalised), (0, 0, 1) elsewhere. Fills the
-// summary's removed-tilt figures.
-ImageF RemoveLowPass(const WeightedSlopes& weighted, const cv::Mat* low_pass, NormalFlatteningSummary* summary) {
+// summary's removed-tilt figures. The pixels of a band of rows run in
+// parallel, each keeping its removed tilts; they are summed in pixel order
+// after the band, so the figures are a sequential loop's whatever the thread
+// count.
+ImageF RemoveLowPass(const WeightedSlopes& weighted, const cv::Mat* low_pass, int num_threads,
+                     NormalFlatteningSummary* summary) {
   const int width = weighted.slopes.cols, height = weighted.slopes.rows;
   ImageF out(width, height, 3);
+  constexpr int kBandRows = 128;
+  std::vector<std::vector<double>> band_tilts(std::min(kBandRows, height));
   double tilt_sum = 0, tilt_max = 0;
-  for (int y = 0; y < height; ++y) {
-    const cv::Vec3f* s = weighted.slopes.ptr<cv::Vec3f>(y);
-    const cv::Vec3f* lp = low_pass != nullptr ? low_pass->ptr<cv::Vec3f>(y) : nullptr;
-    float* o = out.row(y);
-    for (int x = 0; x < width; ++x, o += 3) {
-      if (s[x][2] == 0) {
-        o[0] = 0, o[1] = 0, o[2] = 1;
-        continue;
+  for (int y_begin = 0; y_begin < height; y_begin += kBandRows) {
+    const int rows = std::min(kBandRows, height - y_begin);
+    ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
+      const int y = y_begin + r;
+      const cv::Vec3f* s = weighted.slopes.ptr<cv::Vec3f>(y);
+      const cv::Vec3f* lp = low_pass != nullptr ? low_pass->ptr<cv::Vec3f>(y) : nullptr;
+      std::vector<double>& tilts = band_tilts[r];
+      tilts.clear();
+      float* o = out.row(y);
+      for (int x = 0; x < width; ++x, o += 3) {
+        if (s[x][2] == 0) {
+          o[0] = 0, o[1] = 0, o[2] = 1;
+          continue;
+        }
+        float p = s[x][0], q = s[x][1];
+        if (lp != nullptr && lp[x][2] > 0) {
+          const float removed_p = lp[x][0] / lp[x][2], removed_q = lp[x][1] / lp[x][2];
+          p -= removed_p;
+          q -= removed_q;
+          tilts.push_back(std::atan(std::hypot(removed_p, removed_q)));
+        }
+        const float inverse_length = 1.0f / std::sqrt(p * p + q * q + 1.0f);
+        o[0] = -p * inverse_length, o[1] = -q * inverse_length, o[2] = inverse_length;
       }
-      float p = s[x][0], q = s[x][1];
-      if (lp != nullptr && lp[x][2] > 0) {
-        const float removed_p = lp[x][0] / lp[x][2], removed_q = lp[x][1] / lp[x][2];
-        p -= removed_p;
-        q -= removed_q;
-        const double tilt = std::atan(std::hypot(removed_p, removed_q));
+    });
+    for (int r = 0; r < rows; ++r) {
+      for (const double tilt : band_tilts[r]) {
         tilt_sum += tilt;
         tilt_max = std::max(tilt_max, tilt);
       }
-      const float inverse_length = 1.0f / std::sqrt(p * p + q * q + 1.0f);
-      o[0] = -p * inverse_length, o[1] = -q * inverse_length, o[2] = inverse_length;
     }
   }
   constexpr double kDeg = 180.0 / std::numbers::pi;
@@ -160,6 +182,7 @@ void NormalFlatteningOptions::Check() const {
   if (!(max_slope > 0) || !std::isfinite(max_slope)) {
     throw FieldError(kWhere, "max_slope", max_slope, "must be finite and > 0");
   }
+  if (num_threads < 0 || num_threads > 256) throw FieldError(kWhere, "num_threads", num_threads, "must be in [0, 256]");
 }
 
 std::string NormalFlatteningSummary::BriefReport() const {
@@ -179,29 +202,30 @@ NormalFlatteningSummary FlattenNormals(const NormalFlatteningOptions& options, c
   NormalFlatteningSummary summary;
   const size_t num_pixels = normal_in_tangent.num_pixels();
 
-  const WeightedSlopes weighted = WeightSlopes(normal_in_tangent, valid, static_cast<float>(options.max_slope));
+  const WeightedSlopes weighted =
+      WeightSlopes(normal_in_tangent, valid, static_cast<float>(options.max_slope), options.num_threads);
   summary.valid_pixels = weighted.valid_count;
   // Where nothing is removed the output is the input's valid normals, re-normalised.
   if (weighted.valid_count == 0) {
-    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, &summary);
+    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, options.num_threads, &summary);
     Finish(Termination::kFailure, "no valid pixel with a finite normal, nothing flattened: ", options, num_pixels,
            start, &summary);
     return summary;
   }
   if (progress && !progress(0.3)) {
-    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, &summary);
+    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, options.num_threads, &summary);
     Finish(Termination::kCancelled, "cancelled before the low-pass, normals unchanged: ", options, num_pixels, start,
            &summary);
     return summary;
   }
   const cv::Mat low_pass = LowPass(weighted.slopes, options.low_pass_sigma_px);
   if (progress && !progress(0.7)) {
-    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, &summary);
+    *flat_normal_in_tangent = RemoveLowPass(weighted, nullptr, options.num_threads, &summary);
     Finish(Termination::kCancelled, "cancelled after the low-pass, normals unchanged: ", options, num_pixels, start,
            &summary);
     return summary;
   }
-  *flat_normal_in_tangent = RemoveLowPass(weighted, &low_pass, &summary);
+  *flat_normal_in_tangent = RemoveLowPass(weighted, &low_pass, options.num_threads, &summary);
   Finish(Termination::kSuccess, "", options, num_pixels, start, &summary);
   if (progress) progress(1.0);
   return summary;

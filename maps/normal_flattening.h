@@ -23,6 +23,9 @@ namespace scanbench {
 struct NormalFlatteningOptions {
   double low_pass_sigma_px = 48.0;  // Gaussian sigma of the slope field taken out, px, > 0
   double max_slope = 10.0;          // |dz/dx|, |dz/dy| clamp where n.z is near 0 (about 84 deg), > 0
+  // Threads of the per-pixel passes (the shared pool), 0 = hardware concurrency,
+  // [0, 256]; the result is the same for any count.
+  int num_threads = 0;
   void Check() const;
 };
 

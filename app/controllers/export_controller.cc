@@ -70,6 +70,12 @@ struct ExportMaps {
   std::vector<ImageF> tiles;      // empty, or the tiles of TileInputs' maps in order
 };
 
+struct ExportController::DecodedTruth {
+  ImageF normals;     // the true normals (tangent frame)
+  ImageU8 on_sample;  // 1 on the sample
+  ImageF height_mm;   // the true height, read only when it is the reference (unflattened)
+};
+
 struct ExportController::HeightReference {
   ImageF height_mm;  // the true height, or the true normals flattened and integrated like the export's
   ImageU8 evaluated;  // 1 on the sample's solved pixels
@@ -389,14 +395,39 @@ PngRowSource PngRowsOf(const ExportFile& file) {
   return rows;
 }
 
+// The export's lossless encodings, chosen by measurement on a 16 MP export
+// (benchmarks/export_encoding_benchmark.cc; docs/export.md, "File
+// encodings"). Every PNG: zlib level 1, libpng's up filter and zlib's
+// run-length strategy, which leaves the match search out: the most CPU of
+// the PNG writes went to it.
+PngEncoding ExportPngEncoding() {
+  PngEncoding encoding;
+  encoding.zlib_level = 1;
+  encoding.filter = PngFilter::kUp;
+  encoding.strategy = PngStrategy::kRle;
+  return encoding;
+}
+
+// Float EXRs (the exr preset's maps, and every preset's height and
+// confidence): 32-bit float, values as in memory, compressed by what packs
+// each map for the least CPU: the float height's low mantissa bits are noise
+// (no compression gains enough to pay its time), the cavity is mostly exactly
+// 1 (zip packs the runs), the rest piz. Tiles like their map.
+ExrEncoding ExportExrEncoding(const std::string& kind) {
+  const std::string map = kind.rfind("tile_", 0) == 0 ? kind.substr(5) : kind;
+  if (map == "height") return {ExrSampleType::kFloat32, ExrCompression::kNone};
+  if (map == "cavity") return {ExrSampleType::kFloat32, ExrCompression::kZip};
+  return {ExrSampleType::kFloat32, ExrCompression::kPiz};
+}
+
 void WriteExportFile(const fs::path& path, const ExportFile& file) {
   const auto policy = OverwritePolicy::kRefuse;
   if (file.document) {
     WriteFileAtomic(path, *file.document, policy);
   } else if (file.format == "exr") {
-    WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata);
+    WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata, ExportExrEncoding(file.kind));
   } else if (file.format == "png") {
-    WritePngRows(path, PngRowsOf(file), policy, file.metadata);
+    WritePngRows(path, PngRowsOf(file), policy, file.metadata, ExportPngEncoding());
   } else {
     WriteTiff(path, Quantise16(*file.float_image, file.integer), policy, file.metadata);
   }
@@ -1272,10 +1303,14 @@ void ExportController::Run() {
   // and integrated) runs right after the flattening, before the other maps
   // exist, and keeps only the reference height for after the export's own.
   ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
+  // The ground truth (simulated sessions) decodes on a thread of its own
+  // while the normals are flattened (a decoder is mostly single-threaded).
+  std::future<DecodedTruth> truth;
+  if (inputs.session.ground_truth) truth = std::async(std::launch::async, [&] { return DecodeTruth(inputs); });
   ExportMaps maps = Flatten(&inputs);
   std::optional<HeightReference> reference;
-  if (inputs.session.ground_truth) {
-    TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps); });
+  if (truth.valid()) {
+    TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
   }
   Derive(&inputs, &maps);
   if (reference) {
@@ -1456,22 +1491,32 @@ void ExportController::DeriveTile(const ExportInputs& inputs, ExportMaps* maps) 
 // sigma), so the reference is the true normals through the same flattening
 // and integration: the figure is what the solve's normal error does to the
 // exported height. Unflattened, the reference is the true height itself.
-ExportController::HeightReference ExportController::EvaluateNormals(const ExportInputs& inputs,
-                                                                    const ExportMaps& maps) {
-  BeginStage("ground truth");
+// The ground truth's normals and sample mask, and its height when that is the
+// reference (unflattened): flattened, the true height is derived from the
+// flattened true normals like the export's.
+ExportController::DecodedTruth ExportController::DecodeTruth(const ExportInputs& inputs) const {
   const GroundTruthFiles& truth = *inputs.session.ground_truth;
   const int width = summary_.image_width, height = summary_.image_height;
-  ImageF reference_normals = ReadResultMap(inputs.session_dir / truth.normal_file, 3, width, height);
-  const ImageU8 on_sample = ReadMask(inputs.session_dir / truth.mask_file, width, height);
-  ImageU8 evaluated(width, height, 1);
-  for (size_t i = 0; i < evaluated.num_pixels(); ++i) {
-    evaluated.data()[i] = on_sample.data()[i] && inputs.valid.data()[i];
+  DecodedTruth decoded;
+  decoded.normals = ReadResultMap(inputs.session_dir / truth.normal_file, 3, width, height);
+  decoded.on_sample = ReadMask(inputs.session_dir / truth.mask_file, width, height);
+  if (!options_.flatten_normals) {
+    decoded.height_mm = ReadResultMap(inputs.session_dir / truth.height_file, 1, width, height);
   }
-  // Flattened, the true height is derived from the flattened true normals
-  // like the export's; the file's height is read only when it is the reference.
+  return decoded;
+}
+
+ExportController::HeightReference ExportController::EvaluateNormals(const ExportInputs& inputs,
+                                                                    const ExportMaps& maps, DecodedTruth truth) {
+  BeginStage("ground truth");
+  ImageF reference_normals = std::move(truth.normals);
+  ImageU8 evaluated = std::move(truth.on_sample);
+  for (size_t i = 0; i < evaluated.num_pixels(); ++i) {
+    evaluated.data()[i] = evaluated.data()[i] && inputs.valid.data()[i];
+  }
   ImageF reference_height;
   if (!options_.flatten_normals) {
-    reference_height = ReadResultMap(inputs.session_dir / truth.height_file, 1, width, height);
+    reference_height = std::move(truth.height_mm);
   } else {
     ImageF flattened;
     RequireSuccess(FlattenNormals(options_.flattening, reference_normals, &inputs.valid, &flattened),

@@ -122,8 +122,10 @@ class ExportController : public BaseController {
   void Derive(ExportInputs* inputs, ExportMaps* maps);
   void LoadAlbedoAndConfidence(ExportInputs* inputs);
   void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
+  struct DecodedTruth;     // the session's ground truth files, decoded
   struct HeightReference;  // what the ground-truth evaluation keeps for the height
-  HeightReference EvaluateNormals(const ExportInputs& inputs, const ExportMaps& maps);
+  DecodedTruth DecodeTruth(const ExportInputs& inputs) const;
+  HeightReference EvaluateNormals(const ExportInputs& inputs, const ExportMaps& maps, DecodedTruth truth);
   void EvaluateHeight(const HeightReference& reference, const ExportMaps& maps);
 
   std::filesystem::path result_dir_;

@@ -45,6 +45,12 @@ void CheckResumedSize(const fs::path& session_dir, const Session& session, const
                      std::to_string(rig.height()) + "; resume with the options of the interrupted run");
 }
 
+// The ground truth's EXRs: 32-bit float, every value as in memory, and
+// uncompressed: each solve and export of the session decodes them again, and
+// at 16 MP decoding zip took seconds of CPU per solve (issue #14). Sessions
+// simulated before, with zip, read the same.
+const ExrEncoding kGroundTruthExrEncoding{ExrSampleType::kFloat32, ExrCompression::kNone};
+
 // Ground truth files go beside the frames, checksummed like them.
 GroundTruthFiles WriteGroundTruth(const fs::path& root, const GroundTruthMaps& truth) {
   const fs::path folder = root / "ground_truth";
@@ -57,13 +63,13 @@ GroundTruthFiles WriteGroundTruth(const fs::path& root, const GroundTruthMaps& t
     return std::pair{"ground_truth/" + name, Sha256HexOfFile(path)};
   };
   std::tie(files.normal_file, files.normal_sha256) = commit("normal.exr", [&](const fs::path& path) {
-    WriteExr(path, truth.normal_in_table, OverwritePolicy::kRefuse);
+    WriteExr(path, truth.normal_in_table, OverwritePolicy::kRefuse, {}, {}, kGroundTruthExrEncoding);
   });
   std::tie(files.albedo_file, files.albedo_sha256) = commit("albedo.exr", [&](const fs::path& path) {
-    WriteExr(path, truth.albedo, OverwritePolicy::kRefuse);
+    WriteExr(path, truth.albedo, OverwritePolicy::kRefuse, {}, {}, kGroundTruthExrEncoding);
   });
   std::tie(files.height_file, files.height_sha256) = commit("height.exr", [&](const fs::path& path) {
-    WriteExr(path, truth.height_mm, OverwritePolicy::kRefuse, {"Z"});
+    WriteExr(path, truth.height_mm, OverwritePolicy::kRefuse, {"Z"}, {}, kGroundTruthExrEncoding);
   });
   std::tie(files.mask_file, files.mask_sha256) = commit("sample_mask.png", [&](const fs::path& path) {
     ImageU8 mask = truth.sample_mask;

@@ -276,6 +276,9 @@ void AddPngEncoding(const PngEncoding& encoding, OIIO::ImageSpec& spec) {
   encoding.Check();
   spec.attribute("png:compressionLevel", encoding.zlib_level);
   if (const int bits = PngFilterBits(encoding.filter); bits != 0) spec.attribute("png:filter", bits);
+  // OpenImageIO 2.4's PNG writer reads "compression" as the zlib strategy
+  // ("default", "filtered", "huffman", "rle", "fixed").
+  if (encoding.strategy != PngStrategy::kDefault) spec.attribute("compression", PngStrategyName(encoding.strategy));
 }
 
 // PNG (up to 4 channels, as `png_encoding` says) or TIFF (any channel count,
@@ -401,6 +404,17 @@ const char* PngFilterName(PngFilter filter) {
   return "adaptive";
 }
 
+const char* PngStrategyName(PngStrategy strategy) {
+  switch (strategy) {
+    case PngStrategy::kDefault: return "default";
+    case PngStrategy::kFiltered: return "filtered";
+    case PngStrategy::kHuffmanOnly: return "huffman";
+    case PngStrategy::kRle: return "rle";
+    case PngStrategy::kFixed: return "fixed";
+  }
+  return "default";
+}
+
 void PngEncoding::Check() const {
   if (zlib_level < 0 || zlib_level > 9) {
     throw std::invalid_argument("PngEncoding.zlib_level = " + std::to_string(zlib_level) + " must be in [0, 9]");
@@ -514,6 +528,7 @@ ImageFileInfo ReadImageFileInfo(const fs::path& path) {
   info.channel_names = spec.channelnames;
   info.is_float = spec.format.is_floating_point();
   info.bits_per_sample = spec.get_int_attribute("oiio:BitsPerSample", static_cast<int>(spec.format.size()) * 8);
+  info.compression = spec.get_string_attribute("compression");
   ImageMetadata& metadata = info.metadata;
   // Attribute lines ("scanbench:name=value", TIFF) come out of the description.
   std::istringstream description(spec.get_string_attribute("ImageDescription"));

@@ -94,6 +94,13 @@ void WriteExr(const std::filesystem::path& path, const ImageF& image, OverwriteP
 // per-row choice among all five (the default).
 enum class PngFilter { kAdaptive, kNone, kSub, kUp, kAverage, kPaeth };
 const char* PngFilterName(PngFilter filter);  // "adaptive", "none", "sub", ...
+// zlib's deflate strategies (zlib.h): kDefault matches strings, kFiltered
+// favours Huffman coding over matches (for filtered image data), kHuffmanOnly
+// matches nothing, kRle matches only runs of the previous byte (distance 1:
+// far cheaper to search, and a row filter's output is mostly such runs and
+// small values), kFixed uses zlib's fixed Huffman codes.
+enum class PngStrategy { kDefault, kFiltered, kHuffmanOnly, kRle, kFixed };
+const char* PngStrategyName(PngStrategy strategy);  // "default", "filtered", "huffman", "rle", "fixed"
 // How a PNG is deflated; lossless whatever the choice.
 struct PngEncoding {
   // zlib level [0, 9]: 0 stores, 9 is smallest and slowest. 1 by default:
@@ -101,6 +108,7 @@ struct PngEncoding {
   // default 6, for 12 % more bytes.
   int zlib_level = 1;
   PngFilter filter = PngFilter::kAdaptive;
+  PngStrategy strategy = PngStrategy::kDefault;  // OpenImageIO's "compression" of a PNG
   void Check() const;  // throws std::invalid_argument
 };
 
@@ -210,6 +218,9 @@ struct ImageFileInfo {
   // float tag (PNG: whole pixels per metre), so close to but not exactly
   // metadata.mm_per_pixel.
   double resolution_mm_per_pixel = 0;
+  // OpenImageIO's "compression" as read: OpenEXR's ("none", "zip", "piz",
+  // ...), TIFF's ("zip", ...); "" where the format reports none (PNG).
+  std::string compression;
   ImageMetadata metadata;
 };
 ImageFileInfo ReadImageFileInfo(const std::filesystem::path& path);

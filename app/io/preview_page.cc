@@ -65,14 +65,19 @@ ImageF Downsample(const ImageF& image, const ImageU8& valid, int out_width, int 
   const int channels = image.channels();
   std::vector<double> sum(size_t(out_width) * out_height * channels, 0.0), sum_all(sum.size(), 0.0);
   std::vector<double> count(size_t(out_width) * out_height, 0.0), count_all(count.size(), 0.0);
+  // Each source column's texture column, once (not a division per pixel).
+  std::vector<int> column_of(image.width());
+  for (int x = 0; x < image.width(); ++x) column_of[x] = int(int64_t(x) * out_width / image.width());
   for (int y = 0; y < image.height(); ++y) {
-    const int oy = int(int64_t(y) * out_height / image.height());
-    for (int x = 0; x < image.width(); ++x) {
-      const size_t o = size_t(oy) * out_width + int(int64_t(x) * out_width / image.width());
-      const bool solved = valid.empty() || valid(x, y) != 0;
+    const size_t row_begin = size_t(int64_t(y) * out_height / image.height()) * out_width;
+    const float* pixel = image.row(y);
+    const uint8_t* solved_row = valid.empty() ? nullptr : valid.row(y);
+    for (int x = 0; x < image.width(); ++x, pixel += channels) {
+      const size_t o = row_begin + column_of[x];
+      const bool solved = solved_row == nullptr || solved_row[x] != 0;
       for (int c = 0; c < channels; ++c) {
-        sum_all[o * channels + c] += image(x, y, c);
-        if (solved) sum[o * channels + c] += image(x, y, c);
+        sum_all[o * channels + c] += pixel[c];
+        if (solved) sum[o * channels + c] += pixel[c];
       }
       count_all[o] += 1;
       if (solved) count[o] += 1;

@@ -3,6 +3,8 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <iostream>
+#include <numbers>
 #include <random>
 
 #include <Eigen/LU>
@@ -108,46 +110,47 @@ struct Ciede2000Pair {
   double l1, a1, b1, l2, a2, b2, delta_e;
 };
 
+// Table 1 of Sharma, Wu & Dalal (2005), doi:10.1002/col.20070: all 34 pairs, delta E to 4 decimals.
+constexpr Ciede2000Pair kSharmaWuDalalPairs[] = {
+    {50.0000, 2.6772, -79.7751, 50.0000, 0.0000, -82.7485, 2.0425},
+    {50.0000, 3.1571, -77.2803, 50.0000, 0.0000, -82.7485, 2.8615},
+    {50.0000, 2.8361, -74.0200, 50.0000, 0.0000, -82.7485, 3.4412},
+    {50.0000, -1.3802, -84.2814, 50.0000, 0.0000, -82.7485, 1.0000},
+    {50.0000, -1.1848, -84.8006, 50.0000, 0.0000, -82.7485, 1.0000},
+    {50.0000, -0.9009, -85.5211, 50.0000, 0.0000, -82.7485, 1.0000},
+    {50.0000, 0.0000, 0.0000, 50.0000, -1.0000, 2.0000, 2.3669},
+    {50.0000, -1.0000, 2.0000, 50.0000, 0.0000, 0.0000, 2.3669},
+    {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0009, 7.1792},
+    {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0010, 7.1792},
+    {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0011, 7.2195},
+    {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0012, 7.2195},
+    {50.0000, -0.0010, 2.4900, 50.0000, 0.0009, -2.4900, 4.8045},
+    {50.0000, -0.0010, 2.4900, 50.0000, 0.0010, -2.4900, 4.8045},
+    {50.0000, -0.0010, 2.4900, 50.0000, 0.0011, -2.4900, 4.7461},
+    {50.0000, 2.5000, 0.0000, 50.0000, 0.0000, -2.5000, 4.3065},
+    {50.0000, 2.5000, 0.0000, 73.0000, 25.0000, -18.0000, 27.1492},
+    {50.0000, 2.5000, 0.0000, 61.0000, -5.0000, 29.0000, 22.8977},
+    {50.0000, 2.5000, 0.0000, 56.0000, -27.0000, -3.0000, 31.9030},
+    {50.0000, 2.5000, 0.0000, 58.0000, 24.0000, 15.0000, 19.4535},
+    {50.0000, 2.5000, 0.0000, 50.0000, 3.1736, 0.5854, 1.0000},
+    {50.0000, 2.5000, 0.0000, 50.0000, 3.2972, 0.0000, 1.0000},
+    {50.0000, 2.5000, 0.0000, 50.0000, 1.8634, 0.5757, 1.0000},
+    {50.0000, 2.5000, 0.0000, 50.0000, 3.2592, 0.3350, 1.0000},
+    {60.2574, -34.0099, 36.2677, 60.4626, -34.1751, 39.4387, 1.2644},
+    {63.0109, -31.0961, -5.8663, 62.8187, -29.7946, -4.0864, 1.2630},
+    {61.2901, 3.7196, -5.3901, 61.4292, 2.2480, -4.9620, 1.8731},
+    {35.0831, -44.1164, 3.7933, 35.0232, -40.0716, 1.5901, 1.8645},
+    {22.7233, 20.0904, -46.6940, 23.0331, 14.9730, -42.5619, 2.0373},
+    {36.4612, 47.8580, 18.3852, 36.2715, 50.5065, 21.2231, 1.4146},
+    {90.8027, -2.0831, 1.4410, 91.1528, -1.6435, 0.0447, 1.4441},
+    {90.9257, -0.5406, -0.9208, 88.6381, -0.8985, -0.7239, 1.5381},
+    {6.7747, -0.2908, -2.4247, 5.8714, -0.0985, -2.2286, 0.6377},
+    {2.0776, 0.0795, -1.1350, 0.9033, -0.0636, -0.5514, 0.9082},
+};
+
 TEST(ColorScience, Ciede2000MatchesSharmaWuDalal2005) {
-  // Table 1 of Sharma, Wu & Dalal (2005), doi:10.1002/col.20070: all 34 pairs, delta E to 4 decimals.
-  const Ciede2000Pair pairs[] = {
-      {50.0000, 2.6772, -79.7751, 50.0000, 0.0000, -82.7485, 2.0425},
-      {50.0000, 3.1571, -77.2803, 50.0000, 0.0000, -82.7485, 2.8615},
-      {50.0000, 2.8361, -74.0200, 50.0000, 0.0000, -82.7485, 3.4412},
-      {50.0000, -1.3802, -84.2814, 50.0000, 0.0000, -82.7485, 1.0000},
-      {50.0000, -1.1848, -84.8006, 50.0000, 0.0000, -82.7485, 1.0000},
-      {50.0000, -0.9009, -85.5211, 50.0000, 0.0000, -82.7485, 1.0000},
-      {50.0000, 0.0000, 0.0000, 50.0000, -1.0000, 2.0000, 2.3669},
-      {50.0000, -1.0000, 2.0000, 50.0000, 0.0000, 0.0000, 2.3669},
-      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0009, 7.1792},
-      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0010, 7.1792},
-      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0011, 7.2195},
-      {50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0012, 7.2195},
-      {50.0000, -0.0010, 2.4900, 50.0000, 0.0009, -2.4900, 4.8045},
-      {50.0000, -0.0010, 2.4900, 50.0000, 0.0010, -2.4900, 4.8045},
-      {50.0000, -0.0010, 2.4900, 50.0000, 0.0011, -2.4900, 4.7461},
-      {50.0000, 2.5000, 0.0000, 50.0000, 0.0000, -2.5000, 4.3065},
-      {50.0000, 2.5000, 0.0000, 73.0000, 25.0000, -18.0000, 27.1492},
-      {50.0000, 2.5000, 0.0000, 61.0000, -5.0000, 29.0000, 22.8977},
-      {50.0000, 2.5000, 0.0000, 56.0000, -27.0000, -3.0000, 31.9030},
-      {50.0000, 2.5000, 0.0000, 58.0000, 24.0000, 15.0000, 19.4535},
-      {50.0000, 2.5000, 0.0000, 50.0000, 3.1736, 0.5854, 1.0000},
-      {50.0000, 2.5000, 0.0000, 50.0000, 3.2972, 0.0000, 1.0000},
-      {50.0000, 2.5000, 0.0000, 50.0000, 1.8634, 0.5757, 1.0000},
-      {50.0000, 2.5000, 0.0000, 50.0000, 3.2592, 0.3350, 1.0000},
-      {60.2574, -34.0099, 36.2677, 60.4626, -34.1751, 39.4387, 1.2644},
-      {63.0109, -31.0961, -5.8663, 62.8187, -29.7946, -4.0864, 1.2630},
-      {61.2901, 3.7196, -5.3901, 61.4292, 2.2480, -4.9620, 1.8731},
-      {35.0831, -44.1164, 3.7933, 35.0232, -40.0716, 1.5901, 1.8645},
-      {22.7233, 20.0904, -46.6940, 23.0331, 14.9730, -42.5619, 2.0373},
-      {36.4612, 47.8580, 18.3852, 36.2715, 50.5065, 21.2231, 1.4146},
-      {90.8027, -2.0831, 1.4410, 91.1528, -1.6435, 0.0447, 1.4441},
-      {90.9257, -0.5406, -0.9208, 88.6381, -0.8985, -0.7239, 1.5381},
-      {6.7747, -0.2908, -2.4247, 5.8714, -0.0985, -2.2286, 0.6377},
-      {2.0776, 0.0795, -1.1350, 0.9033, -0.0636, -0.5514, 0.9082},
-  };
   int index = 0;
-  for (const Ciede2000Pair& pair : pairs) {
+  for (const Ciede2000Pair& pair : kSharmaWuDalalPairs) {
     ++index;
     const Eigen::Vector3d lab1(pair.l1, pair.a1, pair.b1), lab2(pair.l2, pair.a2, pair.b2);
     EXPECT_NEAR(Ciede2000(lab1, lab2), pair.delta_e, 5e-5) << "pair " << index;
@@ -155,6 +158,96 @@ TEST(ColorScience, Ciede2000MatchesSharmaWuDalal2005) {
   }
   EXPECT_EQ(index, 34);
   EXPECT_EQ(Ciede2000(Eigen::Vector3d(40, 10, -20), Eigen::Vector3d(40, 10, -20)), 0.0);
+}
+
+// FastCiede2000 on the published pairs: their figures, and Ciede2000's own within 1e-12.
+TEST(ColorScience, FastCiede2000MatchesSharmaWuDalal2005) {
+  int index = 0;
+  for (const Ciede2000Pair& pair : kSharmaWuDalalPairs) {
+    ++index;
+    const Eigen::Vector3d lab1(pair.l1, pair.a1, pair.b1), lab2(pair.l2, pair.a2, pair.b2);
+    EXPECT_NEAR(FastCiede2000(lab1, lab2), pair.delta_e, 5e-5) << "pair " << index;
+    EXPECT_NEAR(FastCiede2000(lab2, lab1), pair.delta_e, 5e-5) << "pair " << index << " swapped";
+    EXPECT_NEAR(FastCiede2000(lab1, lab2), Ciede2000(lab1, lab2), 1e-12) << "pair " << index;
+    EXPECT_NEAR(FastCiede2000(lab2, lab1), Ciede2000(lab2, lab1), 1e-12) << "pair " << index << " swapped";
+  }
+  EXPECT_EQ(FastCiede2000(Eigen::Vector3d(40, 10, -20), Eigen::Vector3d(40, 10, -20)), 0.0);
+}
+
+// A random L*a*b* colour; every fourth a near-neutral one (chroma under 1e-6
+// to 1), where the hue is least defined.
+Eigen::Vector3d RandomLab(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> lightness(0, 100), ab(-128, 127), unit(0, 1);
+  Eigen::Vector3d lab(lightness(rng), ab(rng), ab(rng));
+  if (rng() % 4 == 0) lab.tail<2>() *= std::pow(10.0, -8 * unit(rng)) / 128;
+  return lab;
+}
+
+// Rotates (a*, b*) by `degrees` (a pair whose hues differ by that).
+Eigen::Vector3d RotatedHue(const Eigen::Vector3d& lab, double degrees) {
+  const double r = degrees * std::numbers::pi / 180;
+  return {lab.x(), std::cos(r) * lab.y() - std::sin(r) * lab.z(), std::sin(r) * lab.y() + std::cos(r) * lab.z()};
+}
+
+TEST(ColorScience, FastCiede2000EqualsCiede2000OnRandomColours) {
+  std::mt19937_64 rng(20261203);
+  std::uniform_real_distribution<double> small(-2, 2), near_zero(-1e-7, 1e-7);
+  double max_difference = 0;
+  int compared = 0;
+  auto compare = [&](const Eigen::Vector3d& lab1, const Eigen::Vector3d& lab2) {
+    const double reference = Ciede2000(lab1, lab2), fast = FastCiede2000(lab1, lab2);
+    ASSERT_TRUE(std::isfinite(fast)) << lab1.transpose() << " / " << lab2.transpose();
+    max_difference = std::max(max_difference, std::abs(fast - reference));
+    ASSERT_NEAR(fast, reference, 1e-12) << lab1.transpose() << " / " << lab2.transpose();
+    ++compared;
+  };
+  for (int i = 0; i < 200000; ++i) {
+    const Eigen::Vector3d lab1 = RandomLab(rng);
+    compare(lab1, RandomLab(rng));                                                  // any two colours
+    compare(lab1, lab1 + Eigen::Vector3d(small(rng), small(rng), small(rng)));      // a close pair (the solve's)
+    compare(lab1, RotatedHue(lab1, 180 + near_zero(rng)));                          // hues 180 deg apart
+    compare(lab1, RotatedHue(lab1, 180 + 1e-3 * small(rng)));                       // just inside the fallback
+    const Eigen::Vector3d on_axis(lab1.x(), std::abs(lab1.y()) + 1, near_zero(rng));  // mean hue at the wrap
+    compare(on_axis, RotatedHue(on_axis, small(rng)));
+    compare(on_axis, Eigen::Vector3d(on_axis.x(), on_axis.y(), -on_axis.z()));
+  }
+  // Zero chroma, both and either.
+  compare(Eigen::Vector3d(50, 0, 0), Eigen::Vector3d(60, 0, 0));
+  compare(Eigen::Vector3d(50, 0, 0), Eigen::Vector3d(50, 3, -4));
+  compare(Eigen::Vector3d(50, 3, -4), Eigen::Vector3d(50, 0, 0));
+  std::cout << compared << " pairs, largest |FastCiede2000 - Ciede2000| = " << max_difference << "\n";
+}
+
+// Within 1e-12 of the published formula on the published Lab, except where
+// one colour is neutral: its a* b* are then rounding noise (1e-14, either
+// Lab's), whose hue still enters the mean hue and the rotation term, which
+// scale with sqrt(C1 C2): CIEDE2000 itself moves by up to about 1e-7 between
+// two such roundings of the same grey (2e-8 seen here); there within 1e-6.
+TEST(ColorScience, Ciede2000FromLinearRec709EqualsTheReference) {
+  std::mt19937_64 rng(1554628252);
+  std::uniform_real_distribution<double> reflectance(0, 1.2), small(-0.02, 0.02), negative(-0.05, 0.0);
+  double max_lab = 0, max_delta_e = 0, max_delta_e_neutral = 0;
+  for (int i = 0; i < 200000; ++i) {
+    Eigen::Vector3d rgb(reflectance(rng), reflectance(rng), reflectance(rng));
+    if (i % 10 == 0) rgb *= 1e-3;                          // dark: CIELAB's linear toe
+    if (i % 10 == 1) rgb.setConstant(rgb.x());             // neutral: chroma 0 up to rounding
+    if (i % 10 == 2) rgb.x() = negative(rng);              // out of gamut (a colour matrix can do that)
+    const Eigen::Vector3d lab = LabFromLinearRec709(rgb), fast_lab = FastLabFromLinearRec709(rgb);
+    max_lab = std::max(max_lab, (fast_lab - lab).cwiseAbs().maxCoeff());
+    ASSERT_LT((fast_lab - lab).cwiseAbs().maxCoeff(), 1e-12) << rgb.transpose();
+    const Eigen::Vector3d other = rgb + Eigen::Vector3d(small(rng), small(rng), small(rng));
+    const double reference = Ciede2000(LabFromLinearRec709(rgb), LabFromLinearRec709(other));
+    const double fast = Ciede2000FromLinearRec709(rgb, other);
+    if (lab.tail<2>().norm() < 1e-9) {
+      max_delta_e_neutral = std::max(max_delta_e_neutral, std::abs(fast - reference));
+      ASSERT_NEAR(fast, reference, 1e-6) << rgb.transpose() << " / " << other.transpose();
+    } else {
+      max_delta_e = std::max(max_delta_e, std::abs(fast - reference));
+      ASSERT_NEAR(fast, reference, 1e-12) << rgb.transpose() << " / " << other.transpose();
+    }
+  }
+  std::cout << "largest |FastLab - Lab| = " << max_lab << ", |Ciede2000FromLinearRec709 - reference| = " << max_delta_e
+            << ", with a neutral colour " << max_delta_e_neutral << "\n";
 }
 
 TEST(ColorScience, SrgbTransferCurveKnownValues) {

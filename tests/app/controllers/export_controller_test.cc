@@ -363,6 +363,40 @@ TEST_F(ExportControllerTest, ExrMapsAreExactlyTheMapsOfTheResultFiles) {
                          ReadImageFloat(result_dir_ / "albedo.exr")));
 }
 
+// The files' lossless encodings (docs/export.md, "File encodings"): float EXR
+// piz, except the height (none) and the cavity (zip); PNGs read back as the
+// maps quantised, whatever the row filter and zlib strategy.
+TEST_F(ExportControllerTest, FilesAreEncodedAsMeasuredAndLossless) {
+  ExportOptions exr;
+  exr.preset = ExportOptions::Preset::kLinearExr;
+  exr.preview_page = false;
+  const ExportSummary summary = Export(exr);
+  for (const auto& [kind, compression] :
+       {std::pair{"height", "none"}, std::pair{"cavity", "zip"}, std::pair{"normal", "piz"},
+        std::pair{"basecolor", "piz"}, std::pair{"ao", "piz"}, std::pair{"confidence", "piz"},
+        std::pair{"roughness_mip1", "piz"}, std::pair{"normal_mip1", "piz"}}) {
+    SCOPED_TRACE(kind);
+    const ImageFileInfo info = ReadImageFileInfo(summary.export_dir / summary.files.at(kind));
+    EXPECT_EQ(info.compression, compression);
+    EXPECT_TRUE(info.is_float);
+    EXPECT_EQ(info.bits_per_sample, 32);
+  }
+  ExportOptions png16;
+  png16.preview_page = false;
+  png16.output_root = local_ / "png16";
+  const ExportSummary pngs = Export(png16);
+  EXPECT_EQ(ReadImageFileInfo(pngs.export_dir / pngs.files.at("height")).compression, "none");
+  EXPECT_EQ(ReadImageFileInfo(pngs.export_dir / pngs.files.at("confidence")).compression, "piz");
+  // uint16 = lround(value * 65535) of the cavity in [0, 1], read back exactly.
+  const ImageF cavity = ReadImageFloat(summary.export_dir / summary.files.at("cavity"));
+  const ImageU16 stored = ReadImageU16(pngs.export_dir / pngs.files.at("cavity"));
+  ASSERT_EQ(stored.size(), cavity.size());
+  for (size_t i = 0; i < cavity.size(); ++i) {
+    const double value = std::clamp(static_cast<double>(cavity.data()[i]), 0.0, 1.0);
+    ASSERT_EQ(stored.data()[i], static_cast<uint16_t>(std::lround(value * 65535.0))) << i;
+  }
+}
+
 TEST_F(ExportControllerTest, BasecolorNamesItsColourSpaceInEveryPreset) {
   const ImageF albedo = ReadImageFloat(result_dir_ / "albedo.exr");
   const nlohmann::json report = ReadJson(result_dir_ / "report.json");

@@ -1,5 +1,6 @@
 // The simulated scan end to end through the controllers the CLI and GUI use:
 // simulate -> DNG on disk -> decode -> develop -> solve -> maps and report.
+#include <cstring>
 #include <fstream>
 #include <random>
 
@@ -75,6 +76,33 @@ TEST(ScanControllersTest, DefaultSceneSolvesWithinOneDegree) {
   EXPECT_GT(summary.normal_error_deg->num_pixels, 500000u) << "most of the sample must be evaluated";
   EXPECT_EQ(summary.unsolved_on_sample, 0u);
   EXPECT_EQ(summary.clipped_samples, 0u);
+}
+
+// The ground truth's EXRs are 32-bit float without compression (issue #14:
+// every solve and export decodes them), each value exactly the rendered one.
+TEST(ScanControllersTest, GroundTruthIsUncompressedFloatWithTheRenderedValues) {
+  TemporaryFolder folder;
+  const SimulateOptions options = SmallSimulation();
+  const fs::path session_dir = folder / "session";
+  SimulateController(session_dir, options).Run();
+  const Session session = LoadSession(session_dir);
+  ASSERT_TRUE(session.ground_truth.has_value());
+  const SimulatedRig rig(options.rig, TextileScene(options.scene),
+                         MakeDefaultSimulatedRig(options.rig.width, options.rig.height, options.rig.color));
+  const GroundTruthMaps rendered = rig.RenderGroundTruth();
+  const GroundTruthFiles& truth = *session.ground_truth;
+  for (const auto& [file, image] : {std::pair{truth.normal_file, &rendered.normal_in_table},
+                                    std::pair{truth.albedo_file, &rendered.albedo},
+                                    std::pair{truth.height_file, &rendered.height_mm}}) {
+    SCOPED_TRACE(file);
+    const ImageFileInfo info = ReadImageFileInfo(session_dir / file);
+    EXPECT_EQ(info.compression, "none");
+    EXPECT_TRUE(info.is_float);
+    EXPECT_EQ(info.bits_per_sample, 32);
+    const ImageF read = ReadImageFloat(session_dir / file);
+    ASSERT_EQ(read.size(), image->size());
+    EXPECT_EQ(std::memcmp(read.data(), image->data(), read.size() * sizeof(float)), 0);
+  }
 }
 
 // Issue #12: the ColorChecker sample's ground truth is each patch's linear

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <map>
 #include <optional>
 #include <random>
 
@@ -120,6 +121,7 @@ TEST(ImageIoTest, ExrHalfRoundTripIsWithinHalfPrecisionUnderEveryCompression) {
     const ImageFileInfo info = ReadImageFileInfo(path);
     EXPECT_TRUE(info.is_float);
     EXPECT_EQ(info.bits_per_sample, 16);
+    EXPECT_EQ(info.compression, ExrCompressionName(compression));
     const ImageF read = ReadImageFloat(path);
     ASSERT_EQ(read.size(), image.size());
     EXPECT_EQ(read(0, 0, 0), 65504.0f);
@@ -255,6 +257,35 @@ TEST(ImageIoTest, PngEncodingsRoundTripExactly) {
   EXPECT_THAT(ErrorOf([&] { WritePng(dir / "bad.png", image, OverwritePolicy::kRefuse, {}, {10}); }),
               HasSubstr("PngEncoding.zlib_level = 10 must be in [0, 9]"));
   EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
+}
+
+// Every zlib strategy is lossless and reaches libpng: on a smooth image,
+// Huffman coding alone (no matches) and run-length matches only give files of
+// other sizes than the default's string matching.
+TEST(ImageIoTest, PngStrategiesRoundTripExactlyAndTakeEffect) {
+  TempDir dir;
+  ImageU16 image(96, 64, 3);
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      for (int c = 0; c < 3; ++c) image(x, y, c) = static_cast<uint16_t>(300 * x + 700 * y + 5000 * c + (x * y) % 7);
+    }
+  }
+  std::map<PngStrategy, uintmax_t> bytes;
+  for (PngStrategy strategy : {PngStrategy::kDefault, PngStrategy::kFiltered, PngStrategy::kHuffmanOnly,
+                               PngStrategy::kRle, PngStrategy::kFixed}) {
+    for (PngFilter filter : {PngFilter::kAdaptive, PngFilter::kUp}) {
+      SCOPED_TRACE(std::string(PngStrategyName(strategy)) + " " + PngFilterName(filter));
+      const auto path = dir / (std::string(PngStrategyName(strategy)) + PngFilterName(filter) + ".png");
+      PngEncoding encoding{1, filter};
+      encoding.strategy = strategy;
+      WritePng(path, image, OverwritePolicy::kRefuse, {}, encoding);
+      ExpectSameImage(image, ReadImageU16(path));
+      if (filter == PngFilter::kUp) bytes[strategy] = std::filesystem::file_size(path);
+    }
+  }
+  EXPECT_GT(bytes[PngStrategy::kHuffmanOnly], bytes[PngStrategy::kDefault]);
+  EXPECT_NE(bytes[PngStrategy::kRle], bytes[PngStrategy::kDefault]);
+  EXPECT_NE(bytes[PngStrategy::kFixed], bytes[PngStrategy::kDefault]);
 }
 
 // WritePngRows: every filter, level, channel count and depth reads back
