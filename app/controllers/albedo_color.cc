@@ -257,8 +257,10 @@ void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& ma
       SpilledPixel& pixel = pixel_rows[r].emplace_back();
       std::memcpy(pixel.truth_bits.data(), t, sizeof(pixel.truth_bits));
       std::copy(a, a + 3, pixel.albedo);
-      delta_e_rows[r].push_back(Ciede2000(LabFromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2])),
-                                          LabFromLinearRec709(Eigen::Vector3d(t[0], t[1], t[2]))));
+      // The fast form: one per sample pixel (16 M at full size); equal to the
+      // published formula within 1e-12, 1e-7 where a colour is neutral.
+      delta_e_rows[r].push_back(
+          Ciede2000FromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2]), Eigen::Vector3d(t[0], t[1], t[2])));
     }
   });
   for (int r = 0; r < truth_rows.height(); ++r) {
