@@ -94,6 +94,21 @@ void SpillFile::Append(const void* bytes, size_t size) {
   }
 }
 
+void SpillFile::ReadAt(size_t offset, void* bytes, size_t size) {
+  if (offset > size_ || size > size_ - offset) {
+    throw std::invalid_argument("SpillFile::ReadAt: bytes [" + std::to_string(offset) + ", " +
+                                std::to_string(offset + size) + ") of " + std::to_string(size_));
+  }
+  Flush();
+  uint8_t* out = static_cast<uint8_t*>(bytes);
+  for (size_t got = 0; got < size;) {
+    const ssize_t read = ::pread(fd_, out + got, size - got, static_cast<off_t>(offset + got));
+    if (read < 0 && errno == EINTR) continue;
+    if (read <= 0) throw SpillError(folder_, "read failed");
+    got += static_cast<size_t>(read);
+  }
+}
+
 void SpillFile::ForEachRecord(size_t record_bytes,
                               const std::function<void(const uint8_t* records, size_t count)>& visit) {
   if (record_bytes == 0 || size_ % record_bytes != 0) {

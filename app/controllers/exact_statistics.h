@@ -35,6 +35,8 @@ class SpillFile {
 
   void Append(const void* bytes, size_t size);
   size_t size() const { return size_; }  // bytes appended
+  // `size` bytes from byte `offset` of what was appended (within size()).
+  void ReadAt(size_t offset, void* bytes, size_t size);
   // visit(records, count) over everything appended, in order, in chunks of
   // whole records of record_bytes (> 0, dividing size()).
   void ForEachRecord(size_t record_bytes, const std::function<void(const uint8_t* records, size_t count)>& visit);

@@ -1,6 +1,7 @@
 #include "app/controllers/solve_controller.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstring>
 #include <functional>
@@ -641,22 +642,111 @@ void SolveController::UsePreparation(SolvePreparation preparation) {
 
 namespace {
 
+// Every map of a solution, in one order, for `f(image)`.
+template <typename Solution, typename F>
+void ForEachMap(Solution& s, const F& f) {
+  f(s.normal_in_table);
+  f(s.albedo);
+  f(s.status);
+  f(s.lights_used);
+  f(s.condition_number);
+  f(s.residual);
+  f(s.solve_path);
+  f(s.specular);
+  f(s.specular_status);
+}
+
+// The first pass of a solve whose depth refinement may re-solve (point LEDs,
+// refinement on): each solved band goes into the decision blocks and, every
+// map of it, into an unlinked spill file (44 bytes a pixel: 0.7 GB of the file
+// system's cache at 16 MP, not the process's memory). Once the decision is
+// taken the bands are handed on to be written (the table plane kept) or only
+// the normals and status read back (the re-solves start from them), so a
+// draped sample's first pass is never encoded nor evaluated.
+class FirstPassSpill {
+ public:
+  FirstPassSpill(const fs::path& folder, int width, int height, int num_threads)
+      : width_(width), blocks_(width, height), spill_(folder), num_threads_(num_threads) {}
+
+  void Add(const PhotometricSolution& band) {
+    blocks_.AddRows(band, num_threads_);
+    int map = 0;
+    ForEachMap(band, [&](const auto& image) {
+      if (band_rows_.empty()) channels_[map] = image.empty() ? 0 : image.channels();
+      if (image.empty() != (channels_[map] == 0) || (!image.empty() && image.channels() != channels_[map])) {
+        throw std::logic_error("FirstPassSpill: the bands' maps differ");
+      }
+      spill_.Append(image.data(), image.size() * sizeof(*image.data()));
+      ++map;
+    });
+    band_rows_.push_back(band.status.height());
+  }
+
+  const DepthDecisionBlocks& decision_blocks() const { return blocks_; }
+
+  // The bands as they were added, in order.
+  void Replay(const std::function<void(PhotometricSolution& band)>& sink) {
+    size_t offset = 0;
+    for (const int rows : band_rows_) {
+      PhotometricSolution band;
+      int map = 0;
+      ForEachMap(band, [&](auto& image) {
+        using Img = std::decay_t<decltype(image)>;
+        if (channels_[map] > 0) {
+          image = Img(width_, rows, channels_[map]);
+          const size_t bytes = image.size() * sizeof(*image.data());
+          spill_.ReadAt(offset, image.data(), bytes);
+          offset += bytes;
+        }
+        ++map;
+      });
+      sink(band);
+    }
+  }
+
+  // The first pass's normals and status at full size (all RefineDepth reads of it).
+  PhotometricSolution NormalsAndStatus() {
+    PhotometricSolution first;
+    int height = 0;
+    for (const int rows : band_rows_) height += rows;
+    first.normal_in_table = ImageF(width_, height, 3);
+    first.status = ImageU8(width_, height, 1);
+    size_t offset = 0;
+    int y = 0;
+    for (const int rows : band_rows_) {
+      int map = 0;
+      PhotometricSolution shapes;  // only for the maps' sample types
+      ForEachMap(shapes, [&](auto& image) {
+        const size_t bytes = size_t(width_) * rows * channels_[map] * sizeof(*image.data());
+        if (map == 0) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
+        if (map == 2) spill_.ReadAt(offset, first.status.row(y), bytes);
+        offset += bytes;
+        ++map;
+      });
+      y += rows;
+    }
+    return first;
+  }
+
+ private:
+  int width_;
+  std::array<int, 9> channels_{};  // per map (ForEachMap's order), 0 = empty
+  std::vector<int> band_rows_;
+  DepthDecisionBlocks blocks_;
+  SpillFile spill_;
+  int num_threads_;
+};
+
 // What the solve does with each solved band (issue #14): the albedo's colour
 // (ApplyAlbedoColor on its solved pixels), the specular tally, the ground-truth
 // evaluation and the maps, streamed into the staging folder, so that no
-// full-size solution is held; with `keep_first_pass` also the depth decision's
-// blocks and the first pass's normals and status in spill files.
+// full-size solution is held.
 class ResultStream {
  public:
   ResultStream(const fs::path& folder, int width, int height, const AlbedoColor& color, const ExrEncoding& exr,
-               const fs::path& session_dir, const GroundTruthFiles* truth, bool keep_first_pass, int num_threads)
+               const fs::path& session_dir, const GroundTruthFiles* truth, int num_threads)
       : folder_(folder), width_(width), height_(height), color_(color), exr_(exr), num_threads_(num_threads) {
     if (truth != nullptr) evaluation_.emplace(session_dir, *truth, width, height, folder);
-    if (keep_first_pass) {
-      blocks_.emplace(width, height);
-      first_normals_.emplace(folder);
-      first_status_.emplace(folder);
-    }
   }
 
   void Add(PhotometricSolution& band) {
@@ -668,11 +758,6 @@ class ResultStream {
     ApplyAlbedoColor(color_, solved, &band.albedo);
     color_seconds_ += SecondsSince(start);
     specular_.Add(band);
-    if (blocks_) {
-      blocks_->AddRows(band, num_threads_);
-      first_normals_->Append(band.normal_in_table.data(), band.normal_in_table.size() * sizeof(float));
-      first_status_->Append(band.status.data(), band.status.size());
-    }
     // The maps open at the first band: whether there is a specular map is the solve's.
     if (!maps_) maps_.emplace(folder_, width_, height_, !band.specular.empty(), evaluation_.has_value(), color_, exr_);
     const double evaluated_before = maps_->alongside_seconds();
@@ -682,25 +767,6 @@ class ResultStream {
                    num_threads_);
     evaluate_seconds_ += maps_->alongside_seconds() - evaluated_before;
     sink_seconds_ += SecondsSince(start);
-  }
-
-  const DepthDecisionBlocks& decision_blocks() const { return *blocks_; }
-  // The first pass's normals and status (all RefineDepth reads of it), from the spill files.
-  PhotometricSolution FirstPass() {
-    PhotometricSolution first;
-    first.normal_in_table = ImageF(width_, height_, 3);
-    first.status = ImageU8(width_, height_, 1);
-    size_t at = 0;
-    first_normals_->ForEachRecord(sizeof(float), [&](const uint8_t* records, size_t count) {
-      std::memcpy(first.normal_in_table.data() + at, records, count * sizeof(float));
-      at += count;
-    });
-    at = 0;
-    first_status_->ForEachRecord(1, [&](const uint8_t* records, size_t count) {
-      std::memcpy(first.status.data() + at, records, count);
-      at += count;
-    });
-    return first;
   }
 
   std::optional<SpecularMapStatistics> specular() const { return specular_.Finish(); }
@@ -720,8 +786,6 @@ class ResultStream {
   int num_threads_;
   SpecularMapTally specular_;
   std::optional<GroundTruthEvaluation> evaluation_;
-  std::optional<DepthDecisionBlocks> blocks_;
-  std::optional<SpillFile> first_normals_, first_status_;
   std::optional<SolutionMapStream> maps_;
   double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
 };
@@ -769,26 +833,32 @@ void SolveController::Run() {
   const ExrEncoding exr = ResultMapExrEncoding(options_.float32_maps);
   const GroundTruthFiles* truth = session.ground_truth ? &*session.ground_truth : nullptr;
   // Only point LEDs can be moved off the table plane (RefineOnDepth): then
-  // the first pass's decision blocks are gathered, and its normals and status
-  // spilled, should the re-solves need them.
+  // the first pass is spilled until the decision whether to re-solve is
+  // taken; otherwise its bands are written as they are solved.
   const bool may_refine = options_.depth.enabled &&
                           dynamic_cast<const PointLightField*>(lighting.light_field.get()) != nullptr;
-  auto stream = std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height,
-                                               summary_.albedo_color, exr, session_dir_, truth, may_refine,
-                                               options_.solver.num_threads);
+  const auto result_stream = [&] {
+    return std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height, summary_.albedo_color,
+                                          exr, session_dir_, truth, options_.solver.num_threads);
+  };
+  std::unique_ptr<FirstPassSpill> first_pass;
+  std::unique_ptr<ResultStream> stream;
+  if (may_refine) {
+    first_pass = std::make_unique<FirstPassSpill>(staged.staging(), summary_.width, summary_.height,
+                                                  options_.solver.num_threads);
+  } else {
+    stream = result_stream();
+  }
   TimedStage(timings, "solve", "solve", [&] {
-    const BandedSolveSummary banded =
-        SolveBanded(BandedOptions(options_), frames.Stack(), *lighting.light_field,
-                    [&](int, PhotometricSolution& band) { stream->Add(band); }, StageCallback("solve"));
+    const BandedSolveSummary banded = SolveBanded(
+        BandedOptions(options_), frames.Stack(), *lighting.light_field,
+        [&](int, PhotometricSolution& band) { first_pass ? first_pass->Add(band) : stream->Add(band); },
+        StageCallback("solve"));
     summary_.solver = banded.solver;
     summary_.clipped_samples = banded.clipped_samples;
     RequireSuccess(banded, "solve");
   });
-  // The streaming's time is its own stages' (below); a first pass that the
-  // depth re-solves replace keeps it in the solve's.
-  const size_t solve_timing = timings.size() - 1;
-  const double first_pass_sink_seconds = stream->sink_seconds();
-  timings[solve_timing].seconds -= first_pass_sink_seconds;
+  if (stream) timings.back().seconds -= stream->sink_seconds();  // the streaming's own stages below
   // The raw frames (32 MB each at 16 MP) are not held through the later stages.
   frames.leds.clear();
   frames.dark = RawImage();
@@ -796,26 +866,24 @@ void SolveController::Run() {
     if (frames.leds.empty()) frames = DecodeFrames(session_dir_, session, options_.solver.num_threads, {});
     return frames;
   };
-  bool restreamed = false;  // the maps streamed again from the last re-solve
+  bool restreamed = false;  // the maps streamed in the depth stage, from the last re-solve
   summary_.depth = TimedStage(timings, "depth_refine", "depth refine", [&] {
-    if (may_refine) {
+    if (first_pass) {
       if (std::optional<DepthRefinementSummary> kept =
-              TablePlaneKept(options_.depth, stream->decision_blocks(), lighting.camera)) {
-        return *kept;  // the streamed maps stand
+              TablePlaneKept(options_.depth, first_pass->decision_blocks(), lighting.camera)) {
+        return *kept;  // the spilled first pass is written below
       }
       // Draped: the re-solves start from the first pass (held from here on),
       // and the maps are those of the last re-solve, streamed from it.
-      PhotometricSolution solution = stream->FirstPass();
-      stream.reset();  // the first pass's files are dropped
+      PhotometricSolution solution = first_pass->NormalsAndStatus();
+      first_pass.reset();
       DepthRefinementSummary depth =
           RefineOnDepth(options_, raw_frames, lighting, &solution, StageCallback("depth refine"));
       RequireSuccess(depth, "depth refine");
       frames.leds.clear();
       frames.dark = RawImage();
       lighting.light_field.reset();
-      stream = std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height,
-                                              summary_.albedo_color, exr, session_dir_, truth, false,
-                                              options_.solver.num_threads);
+      stream = result_stream();
       restreamed = true;
       const int height = solution.status.height();
       for (int y = 0; y < height; y += kEvaluationBandRows) {
@@ -829,14 +897,18 @@ void SolveController::Run() {
     RequireSuccess(depth, "depth refine");
     return depth;
   });
-  if (restreamed) {
-    timings.back().seconds -= stream->sink_seconds();
-    timings[solve_timing].seconds += first_pass_sink_seconds;
-  }
-  summary_.specular = stream->specular();
+  if (restreamed) timings.back().seconds -= stream->sink_seconds();
   frames.leds.clear();
   frames.dark = RawImage();
   lighting.light_field.reset();  // its per-pixel surface points: 193 MB at 16 MP
+  if (first_pass) {
+    // The table plane kept: the first pass's bands, written and evaluated now
+    // (its time the stages' below).
+    stream = result_stream();
+    first_pass->Replay([&](PhotometricSolution& band) { stream->Add(band); });
+    first_pass.reset();
+  }
+  summary_.specular = stream->specular();
   timings.push_back({"color", stream->color_seconds()});
 
   ThrowIfStopRequested("evaluate");

@@ -361,6 +361,41 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   EXPECT_THROW(SolveBanded(options, stack, *raw.scene.light_field, &banded), std::invalid_argument);
 }
 
+// The sink gets every band once, in order of rows, band-sized: together the
+// whole solve's maps; an exception from it ends the solve and is rethrown.
+TEST(BandedSolveTest, SinkGetsTheBandsOfTheWholeSolveInOrder) {
+  const RawScene raw = MakeRawScene();
+  BandedSolveOptions options;
+  options.solver.tile_size = 32;
+  options.band_rows = 64;
+  PhotometricSolution whole;
+  SolveBanded(options, raw.Stack(), *raw.scene.light_field, &whole);
+  const int width = whole.status.width(), height = whole.status.height();
+  int next_row = 0, bands = 0;
+  const BandedSolveSummary summary = SolveBanded(
+      options, raw.Stack(), *raw.scene.light_field,
+      [&](int row0, PhotometricSolution& band) {
+        EXPECT_EQ(row0, next_row);
+        const int rows = band.status.height();
+        EXPECT_EQ(rows, std::min(64, height - row0));
+        EXPECT_EQ(band.status.width(), width);
+        const PhotometricSolution expected = SolutionRows(whole, row0, rows);
+        EXPECT_TRUE(std::equal(band.normal_in_table.data(), band.normal_in_table.data() + band.normal_in_table.size(),
+                               expected.normal_in_table.data()));
+        EXPECT_TRUE(std::equal(band.albedo.data(), band.albedo.data() + band.albedo.size(), expected.albedo.data()));
+        EXPECT_TRUE(std::equal(band.status.data(), band.status.data() + band.status.size(), expected.status.data()));
+        next_row += rows;
+        ++bands;
+      });
+  EXPECT_TRUE(summary.IsUsable());
+  EXPECT_EQ(next_row, height);
+  EXPECT_EQ(bands, summary.num_bands);
+  EXPECT_GE(bands, 3);
+  EXPECT_THROW(SolveBanded(options, raw.Stack(), *raw.scene.light_field,
+                           [](int, PhotometricSolution&) { throw std::runtime_error("disk full"); }),
+               std::runtime_error);
+}
+
 TEST(BandedSolveTest, StopsWhenCancelledAndRejectsBadInput) {
   const RawScene raw = MakeRawScene();
   BandedSolveOptions options;
