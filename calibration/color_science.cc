@@ -177,8 +177,9 @@ constexpr double k25To7 = 6103515625.0;  // 25^7, exactly
 // The cube root of t, a positive finite double (CIELAB's f(t) above (6/29)^3):
 // the exponent bits divided by three give a start within 4 %, and each step of
 // Halley's iteration y <- y (y^3 + 2 t) / (2 y^3 + t) about triples the
-// correct digits: 4e-2, 1e-5, 1e-16, then a last step that settles the
-// rounding. A quarter of std::cbrt's time, within an ulp or two of it.
+// correct digits (relative error 4e-2, then about 1e-5, 1e-15, the last step
+// at the rounding). About half std::cbrt's time; within 7.4e-16 relative of
+// it on a million values of [0.009, 1.5] (43 % bit-equal).
 double FastCbrt(double t) {
   constexpr uint64_t kOneBits = 0x3FF0000000000000ull;  // 1.0
   double y = std::bit_cast<double>(std::bit_cast<uint64_t>(t) / 3 + (kOneBits - kOneBits / 3));
