@@ -35,6 +35,22 @@ double HueDegrees(double b, double a) {
   return h < 0 ? h + 360 : h;
 }
 
+// CIEDE2000's last steps (Sharma, Wu & Dalal 2005, (17)-(22)): the
+// weighting functions and the rotation term applied to the differences, from
+// the means, T, delta theta and R_C; the one copy both forms end in.
+double WeightedDifference(double delta_lp, double delta_cp, double delta_big_hp, double l_barp, double c_barp,
+                          double t, double delta_theta, double r_c) {
+  const double l50 = (l_barp - 50) * (l_barp - 50);
+  const double s_l = 1 + 0.015 * l50 / std::sqrt(20 + l50);
+  const double s_c = 1 + 0.045 * c_barp;
+  const double s_h = 1 + 0.015 * c_barp * t;
+  const double r_t = -std::sin(Radians(2 * delta_theta)) * r_c;
+  const double dl = delta_lp / s_l;
+  const double dc = delta_cp / s_c;
+  const double dh = delta_big_hp / s_h;
+  return std::sqrt(dl * dl + dc * dc + dh * dh + r_t * dc * dh);
+}
+
 }  // namespace
 
 Chromaticities Rec709Chromaticities() { return {0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290}; }
@@ -154,15 +170,7 @@ double Ciede2000(const Eigen::Vector3d& lab1, const Eigen::Vector3d& lab2) {
   const double delta_theta = 30 * std::exp(-std::pow((h_barp - 275) / 25, 2));
   const double c_barp7 = std::pow(c_barp, 7);
   const double r_c = 2 * std::sqrt(c_barp7 / (c_barp7 + std::pow(25.0, 7)));
-  const double l50 = (l_barp - 50) * (l_barp - 50);
-  const double s_l = 1 + 0.015 * l50 / std::sqrt(20 + l50);
-  const double s_c = 1 + 0.045 * c_barp;
-  const double s_h = 1 + 0.015 * c_barp * t;
-  const double r_t = -std::sin(Radians(2 * delta_theta)) * r_c;
-  const double dl = delta_lp / s_l;
-  const double dc = delta_cp / s_c;
-  const double dh = delta_big_hp / s_h;
-  return std::sqrt(dl * dl + dc * dc + dh * dh + r_t * dc * dh);
+  return WeightedDifference(delta_lp, delta_cp, delta_big_hp, l_barp, c_barp, t, delta_theta, r_c);
 }
 
 namespace {
@@ -259,15 +267,7 @@ double FastCiede2000(const Eigen::Vector3d& lab1, const Eigen::Vector3d& lab2) {
   const double delta_theta = 30 * std::exp(-hue_offset * hue_offset);
   const double c_barp7 = Pow7(c_barp);
   const double r_c = 2 * std::sqrt(c_barp7 / (c_barp7 + k25To7));
-  const double l50 = (l_barp - 50) * (l_barp - 50);
-  const double s_l = 1 + 0.015 * l50 / std::sqrt(20 + l50);
-  const double s_c = 1 + 0.045 * c_barp;
-  const double s_h = 1 + 0.015 * c_barp * t;
-  const double r_t = -std::sin(Radians(2 * delta_theta)) * r_c;
-  const double dl = delta_lp / s_l;
-  const double dc = delta_cp / s_c;
-  const double dh = delta_big_hp / s_h;
-  return std::sqrt(dl * dl + dc * dc + dh * dh + r_t * dc * dh);
+  return WeightedDifference(delta_lp, delta_cp, delta_big_hp, l_barp, c_barp, t, delta_theta, r_c);
 }
 
 Eigen::Vector3d FastLabFromLinearRec709(const Eigen::Vector3d& rgb_linear_rec709) {
