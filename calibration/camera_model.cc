@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/field_error.h"
+#include "core/parallel_for.h"
 
 namespace scanbench {
 namespace {
@@ -81,28 +82,34 @@ std::vector<Eigen::Vector3d> ComputePlanePointsInTable(const CameraGeometry& cam
   return points;
 }
 
-ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics) {
+ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics, int num_threads) {
   CheckCameraIntrinsics(intrinsics);
   const int width = intrinsics.width;
   const int height = intrinsics.height;
   ImageF rays(width, height, 3);
   const cv::Matx33d camera_matrix = CameraMatrix(intrinsics);
   const cv::Vec<double, 5> distortion = DistortionVector(intrinsics);
-  // Row by row bounds the temporary memory at 16 MP.
-  std::vector<cv::Point2d> distorted(width), undistorted(width);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) distorted[x] = cv::Point2d(x, y);
-    cv::undistortPoints(distorted, undistorted, camera_matrix, distortion, cv::noArray(), cv::noArray(),
-                        criteria);
-    float* row = rays.row(y);
-    for (int x = 0; x < width; ++x) {
-      const Eigen::Vector3d ray = Eigen::Vector3d(undistorted[x].x, undistorted[x].y, 1.0).normalized();
-      row[3 * x + 0] = static_cast<float>(ray.x());
-      row[3 * x + 1] = static_cast<float>(ray.y());
-      row[3 * x + 2] = static_cast<float>(ray.z());
+  // Row by row bounds the temporary memory at 16 MP; rows on the pool, since
+  // the iterative undistortion is seconds of one core at 16 MP.
+  const int threads = ResolveThreadCount(num_threads);
+  std::vector<std::vector<cv::Point2d>> distorted(threads, std::vector<cv::Point2d>(width));
+  std::vector<std::vector<cv::Point2d>> undistorted(threads, std::vector<cv::Point2d>(width));
+  ParallelFor(height, threads, 16, [&](int first, int last, int worker) {
+    std::vector<cv::Point2d>& in = distorted[worker];
+    std::vector<cv::Point2d>& out = undistorted[worker];
+    for (int y = first; y < last; ++y) {
+      for (int x = 0; x < width; ++x) in[x] = cv::Point2d(x, y);
+      cv::undistortPoints(in, out, camera_matrix, distortion, cv::noArray(), cv::noArray(), criteria);
+      float* row = rays.row(y);
+      for (int x = 0; x < width; ++x) {
+        const Eigen::Vector3d ray = Eigen::Vector3d(out[x].x, out[x].y, 1.0).normalized();
+        row[3 * x + 0] = static_cast<float>(ray.x());
+        row[3 * x + 1] = static_cast<float>(ray.y());
+        row[3 * x + 2] = static_cast<float>(ray.z());
+      }
     }
-  }
+  });
   return rays;
 }
 
@@ -110,8 +117,8 @@ Eigen::Vector3d CameraCentreInTable(const CameraGeometry& camera) {
   return camera.cam_from_table.inverse().translation();
 }
 
-ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera) {
-  ImageF rays = ComputeRayDirectionsInCam(camera.intrinsics);
+ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera, int num_threads) {
+  ImageF rays = ComputeRayDirectionsInCam(camera.intrinsics, num_threads);
   const Eigen::Matrix3f table_from_cam_rotation =
       camera.cam_from_table.rotation().transpose().cast<float>();
   float* data = rays.data();
@@ -122,13 +129,13 @@ ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera) {
   return rays;
 }
 
-ImageF ComputeTablePoints(const CameraGeometry& camera) {
+ImageF ComputeTablePoints(const CameraGeometry& camera, int num_threads) {
   const Eigen::Vector3d centre = CameraCentreInTable(camera);
   if (!(centre.z() > 0)) {
     throw std::invalid_argument("camera geometry: camera centre z = " + std::to_string(centre.z()) +
                                 " mm must be above the table (> 0)");
   }
-  ImageF points = ComputeRayDirectionsInTable(camera);
+  ImageF points = ComputeRayDirectionsInTable(camera, num_threads);
   float* data = points.data();
   for (size_t i = 0; i < points.num_pixels(); ++i) {
     Eigen::Map<Eigen::Vector3f> p(data + 3 * i);

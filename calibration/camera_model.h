@@ -31,10 +31,11 @@ std::vector<Eigen::Vector3d> ComputePlanePointsInTable(const CameraGeometry& cam
 
 // Unit viewing ray through every pixel centre, in the camera frame: 3 channels.
 // The lens distortion is inverted iteratively (OpenCV), to well below 1e-6 px.
-ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics);
+// Rows on `num_threads` threads of the pool (0 = all); the same values on any.
+ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics, int num_threads = 0);
 
 // Same rays, rotated into the table frame. All start at CameraCentreInTable().
-ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera);
+ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera, int num_threads = 0);
 
 Eigen::Vector3d CameraCentreInTable(const CameraGeometry& camera);
 
@@ -45,7 +46,8 @@ double TablePixelFootprintMm(const CameraGeometry& camera);
 
 // Where every pixel's ray meets the table plane z = 0, in mm: 3 channels.
 // Throws std::invalid_argument if the camera does not look at the table.
-ImageF ComputeTablePoints(const CameraGeometry& camera);
+// Threads as ComputeRayDirectionsInCam.
+ImageF ComputeTablePoints(const CameraGeometry& camera, int num_threads = 0);
 
 // The camera seen through blocks of block_px x block_px pixels: one pixel per
 // whole block (floor(width / block_px) x floor(height / block_px); a partial

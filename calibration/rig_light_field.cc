@@ -26,8 +26,8 @@ std::vector<PointLight> RigPointLights(const RigDescription& rig) {
   return lights;
 }
 
-std::unique_ptr<PointLightField> MakeRigLightField(const RigDescription& rig) {
-  return std::make_unique<PointLightField>(RigPointLights(rig), ComputeTablePoints(rig.camera),
+std::unique_ptr<PointLightField> MakeRigLightField(const RigDescription& rig, int num_threads) {
+  return std::make_unique<PointLightField>(RigPointLights(rig), ComputeTablePoints(rig.camera, num_threads),
                                            CameraCentreInTable(rig.camera));
 }
 

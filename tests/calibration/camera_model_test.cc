@@ -1,5 +1,7 @@
 #include "calibration/camera_model.h"
 
+#include <algorithm>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -22,6 +24,20 @@ TEST(CameraModelTest, RaysReprojectToTheirPixelsThroughDistortion) {
   }
   // Float storage of the ray limits the round trip, not the undistortion.
   EXPECT_LT(worst, 1e-3);
+}
+
+TEST(CameraModelTest, RaysAreTheSameOnAnyNumberOfThreads) {
+  // 300 rows: more chunks of rows than threads, so the rows really are shared.
+  const CameraGeometry camera = testing::DownLookingCamera(64, 300, 600, /*distorted=*/true);
+  const ImageF one = ComputeRayDirectionsInCam(camera.intrinsics, 1);
+  for (const int threads : {2, 3}) {
+    const ImageF many = ComputeRayDirectionsInCam(camera.intrinsics, threads);
+    ASSERT_EQ(many.size(), one.size());
+    EXPECT_TRUE(std::equal(one.data(), one.data() + one.size(), many.data())) << threads << " threads";
+  }
+  // Every row written (an unwritten row would hold the image's fill, not a unit ray).
+  for (int y = 0; y < 300; ++y) ASSERT_NEAR(one(63, y, 2) * one(63, y, 2) + one(63, y, 0) * one(63, y, 0) +
+                                                one(63, y, 1) * one(63, y, 1), 1.0, 1e-6) << "row " << y;
 }
 
 TEST(CameraModelTest, TablePointsOfADownLookingCamera) {
