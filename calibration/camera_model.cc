@@ -22,6 +22,24 @@ cv::Vec<double, 5> DistortionVector(const CameraIntrinsics& k) {
   return cv::Vec<double, 5>(k.k1, k.k2, k.p1, k.p2, k.k3);
 }
 
+// The unit rays in the camera frame of pixels (x0 + i, y), i < count, as
+// floats (the stored form), interleaved into `rays`: OpenCV's iterative
+// undistortion, each pixel on its own, so a span gives the same floats as
+// the whole image.
+void RaysInCamOfSpan(const CameraIntrinsics& intrinsics, int x0, int y, int count, float* rays) {
+  std::vector<cv::Point2d> distorted(count), undistorted(count);
+  for (int i = 0; i < count; ++i) distorted[i] = cv::Point2d(x0 + i, y);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12);
+  cv::undistortPoints(distorted, undistorted, CameraMatrix(intrinsics), DistortionVector(intrinsics), cv::noArray(),
+                      cv::noArray(), criteria);
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d ray = Eigen::Vector3d(undistorted[i].x, undistorted[i].y, 1.0).normalized();
+    rays[3 * i + 0] = static_cast<float>(ray.x());
+    rays[3 * i + 1] = static_cast<float>(ray.y());
+    rays[3 * i + 2] = static_cast<float>(ray.z());
+  }
+}
+
 }  // namespace
 
 void CheckCameraIntrinsics(const CameraIntrinsics& k) {
@@ -84,31 +102,11 @@ std::vector<Eigen::Vector3d> ComputePlanePointsInTable(const CameraGeometry& cam
 
 ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics, int num_threads) {
   CheckCameraIntrinsics(intrinsics);
-  const int width = intrinsics.width;
-  const int height = intrinsics.height;
-  ImageF rays(width, height, 3);
-  const cv::Matx33d camera_matrix = CameraMatrix(intrinsics);
-  const cv::Vec<double, 5> distortion = DistortionVector(intrinsics);
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12);
+  ImageF rays(intrinsics.width, intrinsics.height, 3);
   // Row by row bounds the temporary memory at 16 MP; rows on the pool, since
   // the iterative undistortion is seconds of one core at 16 MP.
-  const int threads = ResolveThreadCount(num_threads);
-  std::vector<std::vector<cv::Point2d>> distorted(threads, std::vector<cv::Point2d>(width));
-  std::vector<std::vector<cv::Point2d>> undistorted(threads, std::vector<cv::Point2d>(width));
-  ParallelFor(height, threads, 16, [&](int first, int last, int worker) {
-    std::vector<cv::Point2d>& in = distorted[worker];
-    std::vector<cv::Point2d>& out = undistorted[worker];
-    for (int y = first; y < last; ++y) {
-      for (int x = 0; x < width; ++x) in[x] = cv::Point2d(x, y);
-      cv::undistortPoints(in, out, camera_matrix, distortion, cv::noArray(), cv::noArray(), criteria);
-      float* row = rays.row(y);
-      for (int x = 0; x < width; ++x) {
-        const Eigen::Vector3d ray = Eigen::Vector3d(out[x].x, out[x].y, 1.0).normalized();
-        row[3 * x + 0] = static_cast<float>(ray.x());
-        row[3 * x + 1] = static_cast<float>(ray.y());
-        row[3 * x + 2] = static_cast<float>(ray.z());
-      }
-    }
+  ParallelFor(intrinsics.height, ResolveThreadCount(num_threads), 16, [&](int first, int last, int) {
+    for (int y = first; y < last; ++y) RaysInCamOfSpan(intrinsics, 0, y, intrinsics.width, rays.row(y));
   });
   return rays;
 }
@@ -129,24 +127,35 @@ ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera, int num_threads
   return rays;
 }
 
-ImageF ComputeTablePoints(const CameraGeometry& camera, int num_threads) {
+void ComputeTablePointsOfSpan(const CameraGeometry& camera, int x0, int y, int count, float* xyz) {
   const Eigen::Vector3d centre = CameraCentreInTable(camera);
   if (!(centre.z() > 0)) {
     throw std::invalid_argument("camera geometry: camera centre z = " + std::to_string(centre.z()) +
                                 " mm must be above the table (> 0)");
   }
-  ImageF points = ComputeRayDirectionsInTable(camera, num_threads);
-  float* data = points.data();
-  for (size_t i = 0; i < points.num_pixels(); ++i) {
-    Eigen::Map<Eigen::Vector3f> p(data + 3 * i);
+  RaysInCamOfSpan(camera.intrinsics, x0, y, count, xyz);
+  // The same float rotation and double intersection as the whole image's
+  // (ComputeRayDirectionsInTable, then the plane), so the same floats.
+  const Eigen::Matrix3f table_from_cam_rotation = camera.cam_from_table.rotation().transpose().cast<float>();
+  for (int i = 0; i < count; ++i) {
+    Eigen::Map<Eigen::Vector3f> p(xyz + 3 * i);
+    p = table_from_cam_rotation * p;
     const Eigen::Vector3d ray = p.cast<double>();
     if (!(ray.z() < -1e-6)) {
-      throw std::invalid_argument("camera geometry: the ray of pixel " + std::to_string(i % points.width()) +
-                                  "," + std::to_string(i / points.width()) + " does not reach the table");
+      throw std::invalid_argument("camera geometry: the ray of pixel " + std::to_string(x0 + i) + "," +
+                                  std::to_string(y) + " does not reach the table");
     }
     const double t = -centre.z() / ray.z();
     p = (centre + t * ray).cast<float>();
   }
+}
+
+ImageF ComputeTablePoints(const CameraGeometry& camera, int num_threads) {
+  CheckCameraIntrinsics(camera.intrinsics);
+  ImageF points(camera.intrinsics.width, camera.intrinsics.height, 3);
+  ParallelFor(points.height(), ResolveThreadCount(num_threads), 16, [&](int first, int last, int) {
+    for (int y = first; y < last; ++y) ComputeTablePointsOfSpan(camera, 0, y, points.width(), points.row(y));
+  });
   return points;
 }
 

@@ -49,6 +49,11 @@ double TablePixelFootprintMm(const CameraGeometry& camera);
 // Threads as ComputeRayDirectionsInCam.
 ImageF ComputeTablePoints(const CameraGeometry& camera, int num_threads = 0);
 
+// ComputeTablePoints' values of pixels (x0 + i, y), i < count, the same floats,
+// interleaved into `xyz` (3 count floats), for callers that make them on
+// request instead of holding 12 bytes a pixel. Throws as ComputeTablePoints.
+void ComputeTablePointsOfSpan(const CameraGeometry& camera, int x0, int y, int count, float* xyz);
+
 // The camera seen through blocks of block_px x block_px pixels: one pixel per
 // whole block (floor(width / block_px) x floor(height / block_px); a partial
 // block at the right or bottom edge is dropped), its centre at the block's

@@ -60,15 +60,25 @@ void DirectionalLightField::Evaluate(int /*x*/, int /*y*/, float* light_dirs, fl
   }
 }
 
+HeldSurfacePoints::HeldSurfacePoints(ImageF points) : points_(std::move(points)) {
+  if (points_.channels() != 3) {
+    throw std::invalid_argument("point light field: surface points have " + std::to_string(points_.channels()) +
+                                " channels; 3 required");
+  }
+}
+
 PointLightField::PointLightField(std::vector<PointLight> lights, ImageF surface_points,
                                  std::optional<Eigen::Vector3d> camera_centre)
+    : PointLightField(std::move(lights), std::make_unique<HeldSurfacePoints>(std::move(surface_points)),
+                      camera_centre) {}
+
+PointLightField::PointLightField(std::vector<PointLight> lights,
+                                 std::unique_ptr<const SurfacePoints> surface_points,
+                                 std::optional<Eigen::Vector3d> camera_centre)
     : lights_(std::move(lights)), surface_points_(std::move(surface_points)), camera_centre_(camera_centre) {
+  if (!surface_points_) throw std::invalid_argument("point light field: no surface points");
   if (camera_centre_ && !AllFinite(*camera_centre_)) {
     throw std::invalid_argument("point light field: camera_centre must be finite");
-  }
-  if (surface_points_.channels() != 3) {
-    throw std::invalid_argument("point light field: surface points have " +
-                                std::to_string(surface_points_.channels()) + " channels; 3 required");
   }
   for (size_t k = 0; k < lights_.size(); ++k) {
     PointLight& light = lights_[k];
@@ -91,7 +101,7 @@ PointLightField::PointLightField(std::vector<PointLight> lights, ImageF surface_
 }
 
 void PointLightField::Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const {
-  const Eigen::Vector3d point(surface_points_(x, y, 0), surface_points_(x, y, 1), surface_points_(x, y, 2));
+  const Eigen::Vector3d point = surface_points_->Point(x, y).cast<double>();
   for (size_t k = 0; k < lights_.size(); ++k) {
     const PointLight& light = lights_[k];
     const Eigen::Vector3d to_light = light.position - point;
@@ -136,7 +146,8 @@ void PointLightField::EvaluateSpan(int x0, int y, int count, int stride, float* 
   args.count = count;
   args.num_lights = num_lights();
   args.stride = stride;
-  args.points = surface_points_.row(y) + static_cast<size_t>(x0) * 3;
+  std::vector<float> scratch;  // only for points made on request
+  args.points = surface_points_->Span(x0, y, count, &scratch);
   args.lights = packed;
   args.dirs = light_dirs;
   args.intensities = rgb_intensities;
@@ -146,7 +157,7 @@ void PointLightField::EvaluateSpan(int x0, int y, int count, int stride, float* 
 void PointLightField::ViewDirection(int x, int y, float* view_dir) const {
   Eigen::Vector3d view = Eigen::Vector3d::UnitZ();
   if (camera_centre_) {
-    const Eigen::Vector3d point(surface_points_(x, y, 0), surface_points_(x, y, 1), surface_points_(x, y, 2));
+    const Eigen::Vector3d point = surface_points_->Point(x, y).cast<double>();
     const Eigen::Vector3d to_camera = *camera_centre_ - point;
     const double distance = to_camera.norm();
     if (distance > 0 && std::isfinite(distance)) view = to_camera / distance;

@@ -1,6 +1,7 @@
 // The light each LED casts on each pixel: direction and RGB intensity.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -69,6 +70,38 @@ struct PointLight {
   double reference_distance = 1;                           // > 0, unit of the positions
 };
 
+// The surface point each pixel sees, in the lights' frame: held per pixel, or
+// made on request (the table plane from the camera model: 12 bytes a pixel,
+// 193 MB at 16 MP, not held; calibration/rig_light_field.h).
+class SurfacePoints {
+ public:
+  virtual ~SurfacePoints() = default;
+  virtual int width() const = 0;
+  virtual int height() const = 0;
+  // Pixel (x, y)'s point.
+  virtual Eigen::Vector3f Point(int x, int y) const = 0;
+  // The points of pixels (x0 + i, y), i < count, interleaved (x, y, z): a
+  // pointer into the held points, or `scratch` filled with them.
+  virtual const float* Span(int x0, int y, int count, std::vector<float>* scratch) const = 0;
+};
+
+// Points held per pixel: an image of 3 channels.
+class HeldSurfacePoints final : public SurfacePoints {
+ public:
+  explicit HeldSurfacePoints(ImageF points);  // throws std::invalid_argument unless 3 channels
+  int width() const override { return points_.width(); }
+  int height() const override { return points_.height(); }
+  Eigen::Vector3f Point(int x, int y) const override {
+    return Eigen::Vector3f(points_(x, y, 0), points_(x, y, 1), points_(x, y, 2));
+  }
+  const float* Span(int x0, int y, int, std::vector<float>*) const override {
+    return points_.row(y) + static_cast<size_t>(x0) * 3;
+  }
+
+ private:
+  ImageF points_;
+};
+
 // Point lights shining on a known surface point per pixel (e.g. where each
 // pixel's ray meets the table).
 class PointLightField final : public LightField {
@@ -78,9 +111,12 @@ class PointLightField final : public LightField {
   // std::invalid_argument on invalid light parameters or a non-finite centre.
   PointLightField(std::vector<PointLight> lights, ImageF surface_points,
                   std::optional<Eigen::Vector3d> camera_centre = std::nullopt);
+  // The same with the points from `surface_points` (not null).
+  PointLightField(std::vector<PointLight> lights, std::unique_ptr<const SurfacePoints> surface_points,
+                  std::optional<Eigen::Vector3d> camera_centre = std::nullopt);
   int num_lights() const override { return static_cast<int>(lights_.size()); }
-  int width() const override { return surface_points_.width(); }
-  int height() const override { return surface_points_.height(); }
+  int width() const override { return surface_points_->width(); }
+  int height() const override { return surface_points_->height(); }
   void Evaluate(int x, int y, float* light_dirs, float* rgb_intensities) const override;
   void EvaluateSpan(int x0, int y, int count, int stride, float* light_dirs, float* rgb_intensities) const override;
   // Towards the camera centre when one was given (else the orthographic default).
@@ -90,7 +126,7 @@ class PointLightField final : public LightField {
 
  private:
   std::vector<PointLight> lights_;
-  ImageF surface_points_;
+  std::unique_ptr<const SurfacePoints> surface_points_;
   std::optional<Eigen::Vector3d> camera_centre_;
 };
 

@@ -244,7 +244,7 @@ struct Lighting {
 Lighting MakeLighting(const SolveOptions& options, const fs::path& session_dir, const Session& session) {
   Lighting lighting;
   if (options.calibration_dir.empty()) {
-    lighting.light_field = MakeRigLightField(session.rig, options.solver.num_threads);
+    lighting.light_field = MakeRigLightField(session.rig);
     lighting.camera = session.rig.camera;
     lighting.light_model =
         "rig description: point LEDs (position, axis, mu, RGB intensity), surface on the table plane (no calibration "

@@ -1,6 +1,9 @@
 #include "calibration/rig_light_field.h"
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -37,6 +40,87 @@ TEST(RigLightFieldTest, PixelsSeeTheirLedFromTheirTablePoint) {
     const double expected = 0.5 * std::pow(cos_off_axis, 2) * std::pow(1000.0 / to_led.norm(), 2);
     EXPECT_NEAR(intensity[1], expected, 1e-6 * expected);
   }
+}
+
+// A distorted camera tilted 20 degrees about x, so no two rows share points.
+CameraGeometry TiltedCamera(int width, int height) {
+  CameraGeometry camera = testing::DownLookingCamera(width, height, 600, /*distorted=*/true);
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(20.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Vector3d centre(0, -150, 600);
+  camera.cam_from_table.linear() = tilt * camera.cam_from_table.linear();
+  camera.cam_from_table.translation() = -camera.cam_from_table.linear() * centre;
+  return camera;
+}
+
+TEST(RigLightFieldTest, TablePointsOnRequestAreTheHeldPointsBitForBit) {
+  const CameraGeometry camera = TiltedCamera(150, 70);
+  const ImageF held = ComputeTablePoints(camera);
+  const TablePlanePoints on_request(camera);
+  ASSERT_EQ(on_request.width(), 150);
+  ASSERT_EQ(on_request.height(), 70);
+  // One pixel at a time, rows visited out of order so the cache is refilled.
+  for (const int y : {69, 0, 35, 36, 1, 68}) {
+    for (int x = 149; x >= 0; --x) {
+      const Eigen::Vector3f p = on_request.Point(x, y);
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(p[c], held(x, y, c)) << x << "," << y << " channel " << c;
+    }
+  }
+  // Spans of several lengths and starts.
+  std::vector<float> scratch;
+  for (const auto [x0, y, count] : {std::tuple{0, 0, 150}, std::tuple{17, 40, 1}, std::tuple{63, 12, 70},
+                                    std::tuple{100, 69, 50}}) {
+    const float* points = on_request.Span(x0, y, count, &scratch);
+    EXPECT_TRUE(std::equal(points, points + 3 * count, held.row(y) + 3 * x0)) << x0 << "," << y << " x " << count;
+  }
+}
+
+TEST(RigLightFieldTest, TheRigFieldEqualsOneOnHeldTablePoints) {
+  RigDescription rig;
+  rig.camera = TiltedCamera(90, 40);
+  for (int k = 0; k < 3; ++k) {
+    LedDescription led;
+    led.position_in_table_mm = {250.0 * std::cos(2.1 * k), 250.0 * std::sin(2.1 * k), 350};
+    led.axis_in_table = -led.position_in_table_mm.normalized();
+    led.mu = 1.5;
+    led.rgb_intensity = {0.4, 0.5, 0.6};
+    rig.leds.push_back(led);
+  }
+  const auto field = MakeRigLightField(rig);
+  const PointLightField held(RigPointLights(rig), ComputeTablePoints(rig.camera), CameraCentreInTable(rig.camera));
+  constexpr int kWidth = 90;
+  std::vector<float> dirs(9), intensities(9), held_dirs(9), held_intensities(9);
+  std::vector<float> span_dirs(9 * kWidth), span_intensities(9 * kWidth);
+  std::vector<float> held_span_dirs(9 * kWidth), held_span_intensities(9 * kWidth);
+  for (int y = 0; y < 40; y += 13) {
+    for (int x = 0; x < kWidth; ++x) {
+      field->Evaluate(x, y, dirs.data(), intensities.data());
+      held.Evaluate(x, y, held_dirs.data(), held_intensities.data());
+      ASSERT_EQ(dirs, held_dirs) << x << "," << y;
+      ASSERT_EQ(intensities, held_intensities) << x << "," << y;
+      float view[3], held_view[3];
+      field->ViewDirection(x, y, view);
+      held.ViewDirection(x, y, held_view);
+      ASSERT_TRUE(std::equal(view, view + 3, held_view)) << x << "," << y;
+    }
+    field->EvaluateSpan(5, y, 80, kWidth, span_dirs.data(), span_intensities.data());
+    held.EvaluateSpan(5, y, 80, kWidth, held_span_dirs.data(), held_span_intensities.data());
+    ASSERT_EQ(span_dirs, held_span_dirs) << "row " << y;
+    ASSERT_EQ(span_intensities, held_span_intensities) << "row " << y;
+  }
+}
+
+TEST(RigLightFieldTest, ACameraWhoseRaysMissTheTableIsRejectedUpFront) {
+  RigDescription rig;
+  rig.camera = testing::DownLookingCamera(40, 30, 600, /*distorted=*/false);
+  // Tilted 80 degrees: the upper rows look above the horizon.
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(80.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  rig.camera.cam_from_table.linear() = tilt * rig.camera.cam_from_table.linear();
+  rig.camera.cam_from_table.translation() = -rig.camera.cam_from_table.linear() * Eigen::Vector3d(0, 0, 600);
+  LedDescription led;
+  led.position_in_table_mm = {0, 100, 400};
+  rig.leds = {led};
+  EXPECT_THAT([&] { MakeRigLightField(rig); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("does not reach the table")));
 }
 
 TEST(RigLightFieldTest, LedBelowTheTableIsRejected) {
