@@ -51,7 +51,7 @@ struct BayerNormalBlendOptions {
   // Or where that mean over one of its cells exceeds gate_cell_ratio times
   // the block's t and the cell's s_d^2, >= 0 (a thread crossing a smooth
   // stretch). Unused when gate_ratio is 0.
-  double gate_cell_ratio = 8.0;
+  double gate_cell_ratio = 6.0;
   // Optional, not owned: each cell's weight given instead of estimated
   // (1 channel, ceil(width / cell_size) x ceil(height / cell_size), values in
   // [0, 1]; what an earlier blend's summary returned as cell_weights). The
