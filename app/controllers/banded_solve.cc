@@ -228,17 +228,21 @@ PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver
                                           const LightField& light_field, int dev0, int row0, int row1,
                                           const ImageU8& region, PhotometricSolution* bayer,
                                           const ProgressCallback& progress) {
+  // Developed without margin rows (no sample masks) the mosaics are the band's already.
+  const bool cropped = developed.front().mosaic.height() != row1 - row0;
   std::vector<ImageF> mosaics;
   std::vector<ImageU8> valid;
-  for (const DevelopedFrame& frame : developed) {
-    mosaics.push_back(CropRows(frame.mosaic, row0 - dev0, row1 - row0));
-    valid.push_back(CropRows(frame.mosaic_valid, row0 - dev0, row1 - row0));
+  if (cropped) {
+    for (const DevelopedFrame& frame : developed) {
+      mosaics.push_back(CropRows(frame.mosaic, row0 - dev0, row1 - row0));
+      valid.push_back(CropRows(frame.mosaic_valid, row0 - dev0, row1 - row0));
+    }
   }
   const LightFieldRows band_field(light_field, row0, row1 - row0);
   BayerSolverInput input;
-  for (size_t k = 0; k < mosaics.size(); ++k) {
-    input.mosaics.push_back(&mosaics[k]);
-    input.sample_valid.push_back(&valid[k]);
+  for (size_t k = 0; k < developed.size(); ++k) {
+    input.mosaics.push_back(cropped ? &mosaics[k] : &developed[k].mosaic);
+    input.sample_valid.push_back(cropped ? &valid[k] : &developed[k].mosaic_valid);
   }
   // row0 is even, so the 2x2 tile's colours are the frame's.
   for (int p = 0; p < 4; ++p) input.cfa_channels[p] = CfaColorAt(cfa, p & 1, p >> 1);
