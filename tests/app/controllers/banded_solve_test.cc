@@ -321,8 +321,18 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   ASSERT_GT(blended.pixels_blended, 0u);  // the test would be empty otherwise
 
   PhotometricSolution banded;
-  const BandedSolveSummary summary = SolveBanded(options, stack, *raw.scene.light_field, &banded);
+  std::vector<double> fractions;
+  const BandedSolveSummary summary =
+      SolveBanded(options, stack, *raw.scene.light_field, &banded, [&](double fraction) {
+        fractions.push_back(fraction);
+        return true;
+      });
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
+  // The progress of the two solves and the blend runs forward to 1.
+  ASSERT_FALSE(fractions.empty());
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_GE(fractions.front(), 0.0);
+  EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
   EXPECT_EQ(summary.num_bands, 6);
   EXPECT_EQ(summary.clipped_samples, clipped);
   EXPECT_EQ(summary.solver.pixels_bayer_blended, blended.pixels_blended);
