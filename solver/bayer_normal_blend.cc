@@ -22,6 +22,10 @@ struct CellRowCounts {
   double weight_sum = 0;
 };
 
+struct GateRowCounts {
+  size_t blocks = 0, blocks_open = 0, left_out = 0;
+};
+
 // The normal's angular variance per unit sample variance of a 3-unknown
 // least-squares fit on the lights in front of `normal`: the trace of
 // (L^T L)^-1 across the normal. 0 when fewer than 3 lights are in front or
@@ -42,6 +46,94 @@ double TangentialVarianceFactor(const LightField& field, int x, int y, const Eig
   if (!lu.isInvertible()) return 0;
   const Eigen::Matrix3d inverse = lu.inverse();
   return std::max(0.0, inverse.trace() - normal.dot(inverse * normal));
+}
+
+void CheckCellWeights(const BayerNormalBlendOptions& options, int width, int height, const char* where) {
+  const int cell = options.cell_size;
+  const int cell_rows = (height + cell - 1) / cell, cell_cols = (width + cell - 1) / cell;
+  if (options.cell_weights != nullptr && !options.cell_weights->SameSize(cell_cols, cell_rows)) {
+    throw std::invalid_argument(std::string(where) + ": cell_weights is " +
+                                SizeText(options.cell_weights->width(), options.cell_weights->height()) +
+                                "; it must be the cell grid's " + SizeText(cell_cols, cell_rows) + " (cells of " +
+                                std::to_string(cell) + " px over " + SizeText(width, height) + ")");
+  }
+}
+
+// A pixel the blend may weigh, as far as the demosaiced solve tells: solved,
+// without a specular lobe.
+bool Weighable(const PhotometricSolution& demosaiced, bool has_lobes, int x, int y) {
+  return demosaiced.status(x, y) == static_cast<uint8_t>(PixelStatus::kSolved) &&
+         !(has_lobes && demosaiced.specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated));
+}
+
+// Sums of a gate block or of one of its cells.
+struct GateSums {
+  double curvature = 0, sample_variance = 0;
+  size_t curvature_terms = 0, variance_terms = 0;
+  void Add(const GateSums& other) {
+    curvature += other.curvature, sample_variance += other.sample_variance;
+    curvature_terms += other.curvature_terms, variance_terms += other.variance_terms;
+  }
+  // Whether the mean curvature exceeds `ratio` times factor x the mean sample variance.
+  bool Exceeds(double ratio, double factor) const {
+    return curvature_terms > 0 && variance_terms > 0 &&
+           curvature / curvature_terms > ratio * factor * sample_variance / variance_terms;
+  }
+};
+
+// The gate of one block, pixels [x0, x1) x [y0, y1) in cells of `cell` px:
+// whether the demosaiced normals vary beyond their noise from a pixel to the
+// mean of its two neighbours (in the block), which is what a demosaic gets
+// wrong; over the block (gate_ratio) or in one of its cells (gate_cell_ratio:
+// a fibre crossing a smooth stretch). Undecided (no second difference, no
+// noise figure, no lights in front) = open.
+bool GateOpen(const BayerNormalBlendOptions& options, const PhotometricSolution& demosaiced, bool has_lobes,
+              const LightField& field, int x0, int x1, int y0, int y1, std::vector<GateSums>* cell_sums,
+              std::vector<float>* dirs, std::vector<float>* intensities) {
+  if (options.gate_ratio == 0) return true;
+  const int cell = options.cell_size;
+  const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
+  const ImageF& normals = demosaiced.normal_in_table;
+  auto second_difference = [&](int xa, int ya, int x, int y, int xb, int yb) {
+    double sum = 0;
+    for (int c = 0; c < 3; ++c) {
+      const double d = double(normals(xa, ya, c)) + double(normals(xb, yb, c)) - 2.0 * double(normals(x, y, c));
+      sum += d * d;
+    }
+    return sum;
+  };
+  cell_sums->assign((x1 - x0 + cell - 1) / cell, GateSums());
+  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
+  for (int y = y0; y < y1; ++y) {
+    for (int x = x0; x < x1; ++x) {
+      if (!Weighable(demosaiced, has_lobes, x, y)) continue;
+      GateSums& sums = (*cell_sums)[(x - x0) / cell];
+      normal_sum += Eigen::Vector3d(normals(x, y, 0), normals(x, y, 1), normals(x, y, 2));
+      if (x - 1 >= x0 && x + 1 < x1 && demosaiced.status(x - 1, y) == solved && demosaiced.status(x + 1, y) == solved) {
+        sums.curvature += second_difference(x - 1, y, x, y, x + 1, y);
+        ++sums.curvature_terms;
+      }
+      if (y - 1 >= y0 && y + 1 < y1 && demosaiced.status(x, y - 1) == solved && demosaiced.status(x, y + 1) == solved) {
+        sums.curvature += second_difference(x, y - 1, x, y, x, y + 1);
+        ++sums.curvature_terms;
+      }
+      const int lights = demosaiced.lights_used(x, y);
+      if (lights >= kMinLightsForNoise) {
+        const double residual = demosaiced.residual(x, y);
+        sums.sample_variance += residual * residual * lights / (lights - 3);
+        ++sums.variance_terms;
+      }
+    }
+  }
+  GateSums block;
+  for (const GateSums& sums : *cell_sums) block.Add(sums);
+  if (block.curvature_terms == 0 || block.variance_terms == 0 || !(normal_sum.squaredNorm() > 0)) return true;
+  const double factor =
+      TangentialVarianceFactor(field, (x0 + x1) / 2, (y0 + y1) / 2, normal_sum.normalized(), dirs, intensities);
+  if (!(factor > 0)) return true;
+  if (block.Exceeds(options.gate_ratio, factor)) return true;
+  return std::any_of(cell_sums->begin(), cell_sums->end(),
+                     [&](const GateSums& sums) { return sums.Exceeds(options.gate_cell_ratio, factor); });
 }
 
 void CheckMaps(const PhotometricSolution& bayer, const LightField& field, const PhotometricSolution& demosaiced) {
@@ -72,6 +164,15 @@ void BayerNormalBlendOptions::Check() const {
   if (!(num_threads >= 0 && num_threads <= 256)) {
     throw FieldError("BayerNormalBlendOptions", "num_threads", num_threads, "must lie in [0, 256]");
   }
+  if (!(gate_block_cells >= 1 && gate_block_cells <= 4096)) {
+    throw FieldError("BayerNormalBlendOptions", "gate_block_cells", gate_block_cells, "must lie in [1, 4096]");
+  }
+  if (!(gate_ratio >= 0) || !std::isfinite(gate_ratio)) {
+    throw FieldError("BayerNormalBlendOptions", "gate_ratio", gate_ratio, "must be finite and >= 0");
+  }
+  if (!(gate_cell_ratio >= 0) || !std::isfinite(gate_cell_ratio)) {
+    throw FieldError("BayerNormalBlendOptions", "gate_cell_ratio", gate_cell_ratio, "must be finite and >= 0");
+  }
   if (cell_weights != nullptr) {
     if (cell_weights->channels() != 1) {
       throw FieldError("BayerNormalBlendOptions", "cell_weights channels", cell_weights->channels(), "must be 1");
@@ -91,6 +192,100 @@ std::string BayerNormalBlendSummary::BriefReport() const {
          std::to_string(pixels_kept) + " kept demosaiced, mean Bayer weight " + Fixed(mean_weight, 3);
 }
 
+std::string BayerBlendCellsSummary::BriefReport() const {
+  return "Bayer blend cells: " + std::to_string(blocks_open) + " of " + std::to_string(blocks) +
+         " gate blocks solved in the Bayer domain, " + std::to_string(pixels_left_out) + " px left out";
+}
+
+BayerBlendCellsSummary SelectBayerBlendCells(const BayerNormalBlendOptions& options,
+                                             const PhotometricSolution& demosaiced, const LightField& light_field,
+                                             const ProgressCallback& progress) {
+  options.Check();
+  const int width = light_field.width(), height = light_field.height(), cell = options.cell_size;
+  auto check = [&](const auto& image, int channels, const char* name) {
+    if (!image.SameSize(width, height) || image.channels() != channels) {
+      throw std::invalid_argument(std::string("SelectBayerBlendCells: ") + name + " is " +
+                                  SizeText(image.width(), image.height()) + " x " +
+                                  std::to_string(image.channels()) + "; it must be the light field's " +
+                                  SizeText(width, height) + " x " + std::to_string(channels));
+    }
+  };
+  check(demosaiced.normal_in_table, 3, "demosaiced.normal_in_table");
+  check(demosaiced.status, 1, "demosaiced.status");
+  check(demosaiced.lights_used, 1, "demosaiced.lights_used");
+  check(demosaiced.residual, 1, "demosaiced.residual");
+  if (!demosaiced.specular_status.empty()) check(demosaiced.specular_status, 1, "demosaiced.specular_status");
+  CheckCellWeights(options, width, height, "SelectBayerBlendCells");
+  const int cell_rows = (height + cell - 1) / cell, cell_cols = (width + cell - 1) / cell;
+  const int block_cells = options.gate_block_cells;
+  const bool has_lobes = !demosaiced.specular_status.empty();
+
+  BayerBlendCellsSummary summary;
+  summary.cells = ImageU8(cell_cols, cell_rows, 1, uint8_t{0});
+  std::vector<GateRowCounts> counts(cell_rows);
+  const bool finished = ParallelRows(cell_rows, options.num_threads, progress, 0, 1, [&](int cell_row) {
+    std::vector<float> dirs(3 * light_field.num_lights()), intensities(3 * light_field.num_lights());
+    std::vector<size_t> members(block_cells);
+    std::vector<GateSums> cell_sums;
+    const int y0 = cell_row * cell, y1 = std::min(height, y0 + cell);
+    GateRowCounts& row_counts = counts[cell_row];
+    for (int first = 0; first < cell_cols; first += block_cells) {
+      const int last = std::min(cell_cols, first + block_cells);
+      size_t block_members = 0;
+      for (int cell_col = first; cell_col < last; ++cell_col) {
+        const int x0 = cell_col * cell, x1 = std::min(width, x0 + cell);
+        size_t& n = members[cell_col - first];
+        n = 0;
+        for (int y = y0; y < y1; ++y) {
+          for (int x = x0; x < x1; ++x) n += Weighable(demosaiced, has_lobes, x, y);
+        }
+        block_members += n;
+      }
+      if (block_members == 0) continue;
+      ++row_counts.blocks;
+      const bool open = options.cell_weights != nullptr ||
+                        GateOpen(options, demosaiced, has_lobes, light_field, first * cell,
+                                 std::min(width, last * cell), y0, y1, &cell_sums, &dirs, &intensities);
+      bool any = false;
+      for (int cell_col = first; cell_col < last; ++cell_col) {
+        const bool wanted = open && members[cell_col - first] > 0 &&
+                            (options.cell_weights == nullptr || (*options.cell_weights)(cell_col, cell_row) > 0);
+        summary.cells(cell_col, cell_row) = wanted ? 1 : 0;
+        if (!wanted) row_counts.left_out += members[cell_col - first];
+        any |= wanted;
+      }
+      row_counts.blocks_open += any;
+    }
+  });
+  if (!finished) {
+    summary.SetCancelled("cancelled choosing the cells of the Bayer-domain blend");
+    return summary;
+  }
+  for (const GateRowCounts& row : counts) {
+    summary.blocks += row.blocks;
+    summary.blocks_open += row.blocks_open;
+    summary.pixels_left_out += row.left_out;
+  }
+  summary.termination = Termination::kSuccess;
+  return summary;
+}
+
+ImageU8 BayerBlendRegion(const ImageU8& cells, int cell_size, int width, int height) {
+  if (cell_size < 1 || cells.channels() != 1 ||
+      !cells.SameSize((width + cell_size - 1) / cell_size, (height + cell_size - 1) / cell_size)) {
+    throw std::invalid_argument("BayerBlendRegion: cells of " + SizeText(cells.width(), cells.height()) +
+                                " do not cover " + SizeText(width, height) + " px in cells of " +
+                                std::to_string(cell_size) + " px");
+  }
+  ImageU8 region(width, height, 1, uint8_t{0});
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* cell_row = cells.row(y / cell_size);
+    uint8_t* out = region.row(y);
+    for (int x = 0; x < width; ++x) out[x] = cell_row[x / cell_size];
+  }
+  return region;
+}
+
 BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options, const PhotometricSolution& bayer,
                                           const LightField& light_field, PhotometricSolution* demosaiced,
                                           const ProgressCallback& progress) {
@@ -99,12 +294,7 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
   CheckMaps(bayer, light_field, *demosaiced);
   const int width = light_field.width(), height = light_field.height(), cell = options.cell_size;
   const int cell_rows = (height + cell - 1) / cell, cell_cols = (width + cell - 1) / cell;
-  if (options.cell_weights != nullptr && !options.cell_weights->SameSize(cell_cols, cell_rows)) {
-    throw std::invalid_argument("BlendBayerNormals: cell_weights is " +
-                                SizeText(options.cell_weights->width(), options.cell_weights->height()) +
-                                "; it must be the cell grid's " + SizeText(cell_cols, cell_rows) + " (cells of " +
-                                std::to_string(cell) + " px over " + SizeText(width, height) + ")");
-  }
+  CheckCellWeights(options, width, height, "BlendBayerNormals");
   const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
   const bool has_lobes = !demosaiced->specular_status.empty();
   std::vector<CellRowCounts> counts(cell_rows);

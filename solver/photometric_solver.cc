@@ -511,7 +511,7 @@ std::string PhotometricSolverSummary::BriefReport() const {
   if (pixels_coherent_lobe > 0) out << "; " << pixels_coherent_lobe << " refined by a shared anisotropic lobe";
   if (pixels_bayer_blended > 0) {
     out << "; " << pixels_bayer_blended << " blended with the Bayer-domain normal (mean weight "
-        << Fixed(bayer_blend_mean_weight, 2) << ")";
+        << Fixed(bayer_blend_mean_weight, 2) << "; Bayer-domain solve on " << pixels_bayer_solved << " px)";
   }
   if (tiles_skipped > 0) out << "; " << tiles_skipped << " of " << num_tiles << " tiles outside the region";
   if (!message.empty()) out << " (" << message << ")";

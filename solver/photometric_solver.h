@@ -250,9 +250,12 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   size_t pixels_coherent_lobe = 0;    // pixels whose result is the shared lobe's (adaptive_coherent_lobe)
   // Raw sessions' default (BlendBayerNormals, solver/bayer_normal_blend.h, run
   // by the banded solve): pixels whose normal took a share of a Bayer-domain
-  // solve's, and that share's mean over the pixels it was weighed on.
+  // solve's, and that share's mean over the pixels it was weighed on (those
+  // the gate left out, SelectBayerBlendCells, at 0); the pixels the
+  // Bayer-domain solve ran on (the gate's cells).
   size_t pixels_bayer_blended = 0;
   double bayer_blend_mean_weight = 0;
+  size_t pixels_bayer_solved = 0;
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }

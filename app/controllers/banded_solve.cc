@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -108,6 +109,7 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
   for (int s = 0; s < kNumSpecularStatuses; ++s) whole->pixels_by_specular[s] += band.pixels_by_specular[s];
   whole->pixels_coherent_lobe += band.pixels_coherent_lobe;
   whole->pixels_bayer_blended += band.pixels_bayer_blended;
+  whole->pixels_bayer_solved += band.pixels_bayer_solved;
   whole->seconds += band.seconds;
 }
 
@@ -215,12 +217,76 @@ void CropDevelopedRows(int first, int rows, std::vector<DevelopedFrame>* develop
   }
 }
 
-// The band solved on the demosaiced frames, its normals blended with a
-// Bayer-domain solve's of the same band (BandedSolveOptions::bayer_blend).
-PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std::vector<DevelopedFrame>* developed,
-                                          CfaPattern cfa, const LightField& light_field, int dev0, int dev1, int row0,
-                                          int row1, PhotometricSolution* band_solution, BayerNormalBlendSummary* blended,
+// The Bayer-domain normals of the band's rows [row0, row1) inside `region`
+// (band-sized, the gate's cells), from the developed mosaics of the rows
+// [dev0, ...). The window is the band itself: bands are whole tiles, so its
+// tiles are the whole-frame solve's, and without the albedo (not asked for)
+// no pixel reads a neighbour, so each pixel in the region is the whole-frame
+// Bayer solve's bit for bit.
+PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver,
+                                          const std::vector<DevelopedFrame>& developed, CfaPattern cfa,
+                                          const LightField& light_field, int dev0, int row0, int row1,
+                                          const ImageU8& region, PhotometricSolution* bayer,
                                           const ProgressCallback& progress) {
+  // Developed without margin rows (no sample masks) the mosaics are the band's already.
+  const bool cropped = developed.front().mosaic.height() != row1 - row0;
+  std::vector<ImageF> mosaics;
+  std::vector<ImageU8> valid;
+  if (cropped) {
+    for (const DevelopedFrame& frame : developed) {
+      mosaics.push_back(CropRows(frame.mosaic, row0 - dev0, row1 - row0));
+      valid.push_back(CropRows(frame.mosaic_valid, row0 - dev0, row1 - row0));
+    }
+  }
+  const LightFieldRows band_field(light_field, row0, row1 - row0);
+  BayerSolverInput input;
+  for (size_t k = 0; k < developed.size(); ++k) {
+    input.mosaics.push_back(cropped ? &mosaics[k] : &developed[k].mosaic);
+    input.sample_valid.push_back(cropped ? &valid[k] : &developed[k].mosaic_valid);
+  }
+  // row0 is even, so the 2x2 tile's colours are the frame's.
+  for (int p = 0; p < 4; ++p) input.cfa_channels[p] = CfaColorAt(cfa, p & 1, p >> 1);
+  input.light_field = &band_field;
+  input.region = &region;
+  return SolvePhotometricStereoBayer(solver, input, bayer, progress);
+}
+
+// The band solved on the demosaiced frames, its normals blended with a
+// Bayer-domain solve's of the same band (BandedSolveOptions::bayer_blend), which
+// runs only on the cells the demosaiced solve says can take a weight
+// (SelectBayerBlendCells). `bayer_cost` is the Bayer solve's share of the
+// band's solve time expected from the last band (the region's fraction of the
+// band: per pixel the two solves cost about the same), for the progress; it
+// is updated to this band's.
+PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std::vector<DevelopedFrame>* developed,
+                                          CfaPattern cfa, const LightField& light_field, int dev0, int row0,
+                                          int row1, PhotometricSolution* band_solution, BayerNormalBlendSummary* blended,
+                                          BayerBlendCellsSummary* cells, double* bayer_cost,
+                                          const ProgressCallback& progress) {
+  // (Already cropped where sample masks replaced the development's.)
+  if (developed->front().rgb.height() != row1 - row0) CropDevelopedRows(row0 - dev0, row1 - row0, developed);
+  constexpr double kBlendShare = 0.02;  // choosing the cells and blending: a few passes over the band's maps
+  const double rgb_end = (1 - kBlendShare) / (1 + *bayer_cost);
+  PhotometricSolverSummary summary =
+      SolveRgbBand(options, *developed, light_field, row0, row1, band_solution, SubRange(progress, 0, rgb_end));
+  if (!summary.IsUsable()) return summary;
+  const auto blend_start = std::chrono::steady_clock::now();
+  BayerNormalBlendOptions blend;
+  blend.num_threads = options.solver.num_threads;
+  blend.gate_ratio = options.bayer_blend_gate_ratio;
+  ImageF band_weights;  // the band's rows of the given weights (bands are whole cells)
+  if (options.bayer_blend_weights != nullptr) {
+    const int cell = blend.cell_size;
+    band_weights = CropRows(*options.bayer_blend_weights, row0 / cell, (row1 - row0 + cell - 1) / cell);
+    blend.cell_weights = &band_weights;
+  }
+  const LightFieldRows band_field(light_field, row0, row1 - row0);
+  *cells = SelectBayerBlendCells(blend, *band_solution, band_field);
+  const ImageU8 region = BayerBlendRegion(cells->cells, blend.cell_size, light_field.width(), row1 - row0);
+  const size_t region_pixels = region.size() - std::count(region.data(), region.data() + region.size(), uint8_t{0});
+  *bayer_cost = double(region_pixels) / double(region.size());
+  const double blend_seconds = SecondsSince(blend_start);
+
   // No lobe in the Bayer solve (its pixels keep the demosaiced normal), the
   // sheen only when asked: on Lambertian pixels the sheen fit takes noise
   // for sheen and biases the normals the weight then trusts (docs/solver.md).
@@ -231,25 +297,12 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   bayer_solver.compute_albedo = false;
   bayer_solver.compute_confidence = true;
   PhotometricSolution bayer;
-  const PhotometricSolverSummary bayer_summary = SolveBayerBand(bayer_solver, *developed, cfa, light_field, dev0, dev1,
-                                                                row0, row1, &bayer, SubRange(progress, 0, 0.55));
+  const PhotometricSolverSummary bayer_summary =
+      SolveBayerRegion(bayer_solver, *developed, cfa, light_field, dev0, row0, row1, region, &bayer,
+                       SubRange(progress, rgb_end, 1 - kBlendShare));
   if (!bayer_summary.IsUsable()) return bayer_summary;
-  // (Already cropped where sample masks replaced the development's.)
-  if (developed->front().rgb.height() != row1 - row0) CropDevelopedRows(row0 - dev0, row1 - row0, developed);
-  PhotometricSolverSummary summary =
-      SolveRgbBand(options, *developed, light_field, row0, row1, band_solution, SubRange(progress, 0.55, 0.95));
-  if (!summary.IsUsable()) return summary;
-  const auto blend_start = std::chrono::steady_clock::now();
-  BayerNormalBlendOptions blend;
-  blend.num_threads = options.solver.num_threads;
-  ImageF band_weights;  // the band's rows of the given weights (bands are whole cells)
-  if (options.bayer_blend_weights != nullptr) {
-    const int cell = blend.cell_size;
-    band_weights = CropRows(*options.bayer_blend_weights, row0 / cell, (row1 - row0 + cell - 1) / cell);
-    blend.cell_weights = &band_weights;
-  }
-  const LightFieldRows band_field(light_field, row0, row1 - row0);
-  *blended = BlendBayerNormals(blend, bayer, band_field, band_solution, SubRange(progress, 0.95, 1));
+  const auto mix_start = std::chrono::steady_clock::now();
+  *blended = BlendBayerNormals(blend, bayer, band_field, band_solution, SubRange(progress, 1 - kBlendShare, 1));
   if (!blended->IsUsable()) {
     summary.termination = blended->termination;
     summary.message = blended->message;
@@ -257,7 +310,9 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   }
   summary.pixels_bayer_blended = blended->pixels_blended;
   summary.bayer_blend_mean_weight = blended->mean_weight;
-  summary.seconds += bayer_summary.seconds + SecondsSince(blend_start);  // the band's whole solve
+  summary.pixels_bayer_solved = region_pixels;
+  // The band's whole solve.
+  summary.seconds += blend_seconds + bayer_summary.seconds + SecondsSince(mix_start);
   return summary;
 }
 
@@ -307,10 +362,9 @@ void BandedSolveOptions::Check() const {
     blend.cell_weights = bayer_blend_weights;
     blend.Check();
   }
-  if (bayer_blend && sample_masks && sample_mask_margin_rows > solver.tile_size) {
-    throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows,
-                     "must be at most solver.tile_size (" + std::to_string(solver.tile_size) +
-                         ") with bayer_blend: the Bayer-domain solve reads the band one tile beyond it");
+  if (!(bayer_blend_gate_ratio >= 0) || !std::isfinite(bayer_blend_gate_ratio)) {
+    throw FieldError("BandedSolveOptions", "bayer_blend_gate_ratio", bayer_blend_gate_ratio,
+                     "must be finite and >= 0");
   }
 }
 
@@ -386,6 +440,7 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
   develop.keep_mosaic = with_mosaic;
   double blend_weight_sum = 0;
   size_t blend_pixels_weighed = 0;
+  double bayer_cost = 1;  // the Bayer solve's time per band against the demosaiced one's, as last measured
 
   BandedSolveSummary summary;
   summary.band_rows = band_rows;
@@ -398,7 +453,8 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     const double band_begin = double(band) / num_bands, band_end = double(band + 1) / num_bands;
     const double develop_end = band_begin + kDevelopShare * (band_end - band_begin);
     // With a mask hook the band is developed with its margin and cropped after the masks.
-    const int margin = std::max(with_mosaic ? kBayerMarginRows : 0,
+    // (The blend's Bayer solve has no albedo to demosaic: it needs no margin.)
+    const int margin = std::max(options.bayer_domain ? kBayerMarginRows : 0,
                                 options.sample_masks ? options.sample_mask_margin_rows : 0);
     const int dev0 = std::max(0, row0 - margin), dev1 = std::min(height, row1 + margin);
 
@@ -445,10 +501,12 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     const auto solve_start = std::chrono::steady_clock::now();
     PhotometricSolution band_solution;
     BayerNormalBlendSummary blended;
+    BayerBlendCellsSummary cells;
     const PhotometricSolverSummary solved =
         options.bayer_blend
-            ? SolveBlendedBand(options, &developed, frames.frames[0]->cfa, light_field, dev0, dev1, row0, row1,
-                               &band_solution, &blended, SubRange(progress, develop_end, band_end))
+            ? SolveBlendedBand(options, &developed, frames.frames[0]->cfa, light_field, dev0, row0, row1,
+                               &band_solution, &blended, &cells, &bayer_cost,
+                               SubRange(progress, develop_end, band_end))
         : options.bayer_domain
             ? SolveBayerBand(options.solver, developed, frames.frames[0]->cfa, light_field, dev0, dev1, row0, row1,
                              &band_solution, SubRange(progress, develop_end, band_end))
@@ -459,7 +517,8 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
       CopyRowsInto(blended.cell_weights, row0 / cell, &summary.bayer_blend_weights);
     }
     blend_weight_sum += blended.mean_weight * double(blended.pixels_weighed);
-    blend_pixels_weighed += blended.pixels_weighed;
+    // The pixels the gate left out are weighed at 0.
+    blend_pixels_weighed += blended.pixels_weighed + (blended.IsUsable() ? cells.pixels_left_out : 0);
     if (blend_pixels_weighed > 0) summary.solver.bayer_blend_mean_weight = blend_weight_sum / blend_pixels_weighed;
     summary.solve_seconds += SecondsSince(solve_start);
     sink(row0, band_solution);  // its time is the sink's, not the solve's

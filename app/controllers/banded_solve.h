@@ -44,19 +44,26 @@ struct BandedSolveOptions {
   // Solve each band twice, on the demosaiced frames and in the Bayer domain
   // (Lambertian with Tukey weights: no specular lobe, whose pixels keep the
   // demosaiced normal anyway; the velvet sheen fit only with
-  // solver.adaptive_sheen), and blend each pixel's normal between the two
-  // (BlendBayerNormals, solver/bayer_normal_blend.h; issue #13); everything
-  // else is the demosaiced solve's. Bands are whole blend cells, so the
-  // result is the whole-frame blend's. Not with bayer_domain; with
+  // solver.adaptive_sheen) on the cells the demosaiced solve's normals say
+  // can take a weight (SelectBayerBlendCells), and blend each pixel's normal
+  // between the two (BlendBayerNormals, solver/bayer_normal_blend.h; issue
+  // #13); everything else is the demosaiced solve's. Bands are whole blend
+  // cells and tiles, so the result is the whole-frame blend's. Not with
+  // bayer_domain; with
   // sample_masks they apply to the demosaiced solve only (what they leave
   // out, the shadow edges a demosaic mixes into lit pixels, a raw sample does
-  // not have), and sample_mask_margin_rows <= tile_size.
+  // not have).
   bool bayer_blend = false;
   // With bayer_blend, optional, not owned: the blend's cell weights for the
   // whole frame (BayerNormalBlendOptions::cell_weights; what an earlier
   // solve's summary returned as bayer_blend_weights) instead of estimating
   // them. Null = estimate.
   const ImageF* bayer_blend_weights = nullptr;
+  // With bayer_blend: BayerNormalBlendOptions::gate_ratio, >= 0: the
+  // Bayer-domain solve runs only on the cells whose demosaiced normals vary
+  // beyond their noise (SelectBayerBlendCells); 0 = on every cell. With
+  // bayer_blend_weights the cells are those given a weight above 0 instead.
+  double bayer_blend_gate_ratio = BayerNormalBlendOptions().gate_ratio;
   void Check() const;
 };
 

@@ -167,5 +167,98 @@ TEST(BayerNormalBlendTest, LeavesLobesAndUnsolvedPixelsAndRejectsBadMaps) {
                std::invalid_argument);
 }
 
+// The Bayer solution left as a solve with `cells` as its region leaves it:
+// kOutsideRegion elsewhere.
+PhotometricSolution OnlyIn(const PhotometricSolution& bayer, const ImageU8& cells, int cell_size) {
+  PhotometricSolution masked = bayer;
+  const ImageU8 region = BayerBlendRegion(cells, cell_size, kSize, kSize);
+  for (int y = 0; y < kSize; ++y) {
+    for (int x = 0; x < kSize; ++x) {
+      if (region(x, y) != 0) continue;
+      masked.status(x, y) = static_cast<uint8_t>(PixelStatus::kOutsideRegion);
+      masked.lights_used(x, y) = 0;
+    }
+  }
+  return masked;
+}
+
+// The gate (issue #14's budget): the Bayer-domain solve is wanted where the
+// normals vary from pixel to pixel (fibres), not on a smooth surface whose
+// weights the noise keeps at 0; the cells it leaves out keep the demosaiced
+// normal and the others blend as without the gate, bit for bit.
+TEST(BayerNormalBlendTest, SelectsTheCellsWhereTheNormalsVaryFromPixelToPixel) {
+  BayerNormalBlendOptions options;
+  options.num_threads = 2;
+  const int cells_per_side = kSize / options.cell_size;
+  for (const bool fibres : {true, false}) {
+    SCOPED_TRACE(fibres ? "fibres" : "smooth dome");
+    const std::vector<Eigen::Vector3d> truth = Normals(fibres ? 1.5 : 0, fibres, 3);
+    const TwoSolves solves = Solve(truth, fibres ? 0.002 : 0.004, 4);
+    const BayerBlendCellsSummary cells = SelectBayerBlendCells(options, solves.demosaiced, Field());
+    ASSERT_TRUE(cells.IsUsable()) << cells.message;
+    ASSERT_TRUE(cells.cells.SameSize(cells_per_side, cells_per_side));
+    EXPECT_EQ(cells.blocks, size_t(cells_per_side * ((cells_per_side + 31) / 32)));
+    size_t selected = 0;
+    for (size_t i = 0; i < cells.cells.size(); ++i) selected += cells.cells.data()[i];
+    EXPECT_EQ(cells.pixels_left_out, size_t(kSize * kSize) - selected * options.cell_size * options.cell_size);
+    if (fibres) {
+      EXPECT_EQ(cells.blocks_open, cells.blocks) << cells.BriefReport();
+    } else {
+      EXPECT_LT(cells.blocks_open, cells.blocks / 10 + 1) << cells.BriefReport();
+    }
+
+    PhotometricSolution ungated = solves.demosaiced, gated = solves.demosaiced;
+    const BayerNormalBlendSummary all = BlendBayerNormals(options, solves.bayer, Field(), &ungated);
+    const BayerNormalBlendSummary some =
+        BlendBayerNormals(options, OnlyIn(solves.bayer, cells.cells, options.cell_size), Field(), &gated);
+    ASSERT_TRUE(all.IsUsable() && some.IsUsable());
+    EXPECT_EQ(some.pixels_weighed + cells.pixels_left_out, size_t(kSize * kSize));
+    for (int y = 0; y < kSize; ++y) {
+      for (int x = 0; x < kSize; ++x) {
+        const bool in = cells.cells(x / options.cell_size, y / options.cell_size) != 0;
+        const ImageF& expected = in ? ungated.normal_in_table : solves.demosaiced.normal_in_table;
+        for (int c = 0; c < 3; ++c) ASSERT_EQ(gated.normal_in_table(x, y, c), expected(x, y, c)) << x << ", " << y;
+      }
+    }
+    // What the gate leaves out the ungated blend hardly took.
+    EXPECT_LT(MeanErrorDeg(gated, truth), MeanErrorDeg(ungated, truth) + 0.002);
+  }
+
+  // Without the gate every cell with a pixel to weigh; with given weights the
+  // cells given more than 0, exactly.
+  const TwoSolves solves = Solve(Normals(0, false, 3), 0.004, 4);
+  BayerNormalBlendOptions open = options;
+  open.gate_ratio = 0;
+  const BayerBlendCellsSummary every = SelectBayerBlendCells(open, solves.demosaiced, Field());
+  EXPECT_EQ(every.blocks_open, every.blocks);
+  EXPECT_EQ(every.pixels_left_out, 0u);
+  ImageF weights(cells_per_side, cells_per_side, 1, 0.0f);
+  weights(3, 5) = 0.25f;
+  weights(20, 0) = 1.0f;
+  BayerNormalBlendOptions given = options;
+  given.cell_weights = &weights;
+  const BayerBlendCellsSummary chosen = SelectBayerBlendCells(given, solves.demosaiced, Field());
+  for (int y = 0; y < cells_per_side; ++y) {
+    for (int x = 0; x < cells_per_side; ++x) EXPECT_EQ(chosen.cells(x, y), weights(x, y) > 0 ? 1 : 0);
+  }
+  EXPECT_EQ(chosen.pixels_left_out, size_t(kSize * kSize - 2 * 16));
+  const ImageU8 region = BayerBlendRegion(chosen.cells, options.cell_size, kSize, kSize);
+  EXPECT_EQ(region(12, 20), 1);
+  EXPECT_EQ(region(15, 23), 1);
+  EXPECT_EQ(region(16, 20), 0);
+  EXPECT_EQ(region(81, 3), 1);
+
+  BayerNormalBlendOptions bad = options;
+  bad.gate_ratio = -1;
+  EXPECT_THROW(SelectBayerBlendCells(bad, solves.demosaiced, Field()), std::invalid_argument);
+  bad = options;
+  bad.gate_block_cells = 0;
+  EXPECT_THROW(SelectBayerBlendCells(bad, solves.demosaiced, Field()), std::invalid_argument);
+  PhotometricSolution no_residual = solves.demosaiced;
+  no_residual.residual = ImageF();
+  EXPECT_THROW(SelectBayerBlendCells(options, no_residual, Field()), std::invalid_argument);
+  EXPECT_THROW(BayerBlendRegion(chosen.cells, options.cell_size, kSize + 8, kSize), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace scanbench

@@ -296,17 +296,52 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   const PhotometricSolution demosaiced = whole;
   BayerNormalBlendOptions blend;
   blend.num_threads = 2;
-  const BayerNormalBlendSummary blended = BlendBayerNormals(blend, bayer, *raw.scene.light_field, &whole);
+  // Only on the cells the demosaiced solve selects (the gate), and there
+  // each pixel as the Bayer solve of the whole frame gives it.
+  const BayerBlendCellsSummary cells = SelectBayerBlendCells(blend, demosaiced, *raw.scene.light_field);
+  ASSERT_TRUE(cells.IsUsable()) << cells.message;
+  ASSERT_GT(cells.blocks_open, 0u) << cells.BriefReport();          // the test would be empty otherwise
+  ASSERT_LT(cells.blocks_open, cells.blocks) << cells.BriefReport();  // and the gate untested
+  BayerSolverInput gated_input = bayer_input;
+  const ImageU8 region = BayerBlendRegion(cells.cells, blend.cell_size, whole.status.width(), whole.status.height());
+  gated_input.region = &region;
+  PhotometricSolution gated_bayer;
+  const PhotometricSolverSummary gated_summary = SolvePhotometricStereoBayer(bayer_solver, gated_input, &gated_bayer);
+  ASSERT_TRUE(gated_summary.IsUsable()) << gated_summary.message;
+  for (int y = 0; y < region.height(); ++y) {
+    for (int x = 0; x < region.width(); ++x) {
+      if (region(x, y) == 0) continue;
+      ASSERT_EQ(gated_bayer.status(x, y), bayer.status(x, y)) << x << ", " << y;
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(gated_bayer.normal_in_table(x, y, c), bayer.normal_in_table(x, y, c));
+      ASSERT_EQ(gated_bayer.residual(x, y), bayer.residual(x, y));
+    }
+  }
+  const BayerNormalBlendSummary blended = BlendBayerNormals(blend, gated_bayer, *raw.scene.light_field, &whole);
   ASSERT_TRUE(blended.IsUsable()) << blended.message;
   ASSERT_GT(blended.pixels_blended, 0u);  // the test would be empty otherwise
 
   PhotometricSolution banded;
-  const BandedSolveSummary summary = SolveBanded(options, stack, *raw.scene.light_field, &banded);
+  std::vector<double> fractions;
+  const BandedSolveSummary summary =
+      SolveBanded(options, stack, *raw.scene.light_field, &banded, [&](double fraction) {
+        fractions.push_back(fraction);
+        return true;
+      });
   ASSERT_TRUE(summary.IsUsable()) << summary.message;
+  // The progress of the two solves and the blend runs forward to 1.
+  ASSERT_FALSE(fractions.empty());
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_GE(fractions.front(), 0.0);
+  EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
   EXPECT_EQ(summary.num_bands, 6);
   EXPECT_EQ(summary.clipped_samples, clipped);
   EXPECT_EQ(summary.solver.pixels_bayer_blended, blended.pixels_blended);
-  EXPECT_NEAR(summary.solver.bayer_blend_mean_weight, blended.mean_weight, 1e-12);
+  EXPECT_EQ(summary.solver.pixels_bayer_solved,
+            region.size() - std::count(region.data(), region.data() + region.size(), uint8_t{0}));
+  // The mean weight counts the pixels the gate left out, at 0.
+  EXPECT_NEAR(summary.solver.bayer_blend_mean_weight,
+              blended.mean_weight * blended.pixels_weighed / double(blended.pixels_weighed + cells.pixels_left_out),
+              1e-12);
   ExpectSameBits(banded.normal_in_table, whole.normal_in_table, "normal_in_table");
   // Everything but the normals is the demosaiced solve's.
   ExpectSameBits(banded.albedo, demosaiced.albedo, "albedo");
