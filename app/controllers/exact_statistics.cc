@@ -22,14 +22,6 @@ std::runtime_error SpillError(const fs::path& folder, const std::string& what) {
                             std::strerror(errno) + ")");
 }
 
-// Non-NaN doubles to unsigned integers in the same order (negative values'
-// bits reversed below the positive ones').
-uint64_t OrderKey(double value) {
-  uint64_t bits = 0;
-  std::memcpy(&bits, &value, sizeof(bits));
-  return (bits >> 63) ? ~bits : bits | (uint64_t{1} << 63);
-}
-
 }  // namespace
 
 SpillFile::SpillFile(const fs::path& folder) : folder_(folder.empty() ? fs::temp_directory_path() : folder) {
@@ -132,17 +124,36 @@ void SpillFile::ForEachRecord(size_t record_bytes,
 }
 
 ExactErrorStatistics::ExactErrorStatistics(const fs::path& spill_folder)
-    : histogram_(size_t{1} << kBucketBits, 0), spill_(spill_folder) {}
+    : histogram_(size_t{1} << kBucketBits, 0), spill_(std::make_unique<SpillFile>(spill_folder)) {}
+
+ExactErrorStatistics::ExactErrorStatistics(Replay replay)
+    : histogram_(size_t{1} << kBucketBits, 0), replay_(std::move(replay)) {
+  if (!replay_) throw std::invalid_argument("ExactErrorStatistics: an empty replay");
+}
+
+ExactErrorStatistics::ExactErrorStatistics(ExactErrorStatistics&&) noexcept = default;
+ExactErrorStatistics& ExactErrorStatistics::operator=(ExactErrorStatistics&&) noexcept = default;
+ExactErrorStatistics::~ExactErrorStatistics() = default;
 
 void ExactErrorStatistics::Add(std::span<const double> values) {
-  for (const double value : values) {
-    // SummarizeErrors: std::accumulate from 0.0 in order; the largest by operator<.
-    sum_ += value;
-    if (count_ == 0 || max_ < value) max_ = value;
-    ++count_;
-    ++histogram_[OrderKey(value) >> (64 - kBucketBits)];
+  for (const double value : values) Count(value);
+  if (spill_) spill_->Append(values.data(), values.size_bytes());
+}
+
+void ExactErrorStatistics::ForEachValue(const std::function<void(std::span<const double>)>& visit) {
+  if (!spill_) {
+    replay_(visit);
+    return;
   }
-  spill_.Append(values.data(), values.size_bytes());
+  spill_->ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
+    // The spill's chunks are whole doubles, copied into an aligned buffer.
+    double values[4096];
+    for (size_t i = 0; i < count; i += std::size(values)) {
+      const size_t n = std::min(std::size(values), count - i);
+      std::memcpy(values, records + i * sizeof(double), n * sizeof(double));
+      visit(std::span<const double>(values, n));
+    }
+  });
 }
 
 double ExactErrorStatistics::ValueOfRank(size_t rank) {
@@ -168,10 +179,8 @@ double ExactErrorStatistics::ValueOfRank(size_t rank) {
   while (in_bucket > kMaxSelected && prefix_bits < 64) {
     const int next_bits = std::min(kBucketBits, 64 - prefix_bits);
     std::vector<uint64_t> finer(size_t{1} << next_bits, 0);
-    spill_.ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
-      for (size_t i = 0; i < count; ++i) {
-        double value;
-        std::memcpy(&value, records + i * sizeof(double), sizeof(value));
+    ForEachValue([&](std::span<const double> values) {
+      for (const double value : values) {
         const uint64_t key = OrderKey(value);
         if (matches(key)) ++finer[(key >> (64 - prefix_bits - next_bits)) & ((uint64_t{1} << next_bits) - 1)];
       }
@@ -189,10 +198,8 @@ double ExactErrorStatistics::ValueOfRank(size_t rank) {
   }
   std::vector<double> selected;
   selected.reserve(std::min(in_bucket, kMaxSelected));
-  spill_.ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
-    for (size_t i = 0; i < count; ++i) {
-      double value;
-      std::memcpy(&value, records + i * sizeof(double), sizeof(value));
+  ForEachValue([&](std::span<const double> values) {
+    for (const double value : values) {
       // All 64 bits fixed: every value in the bucket is this one; one suffices.
       if (matches(OrderKey(value)) && (prefix_bits < 64 || selected.empty())) selected.push_back(value);
     }
