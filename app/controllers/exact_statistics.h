@@ -1,9 +1,10 @@
 // Exact summaries of values that arrive band by band (the solve's ground-truth
 // evaluation, issue #14), without holding them in memory: the values go to an
-// unlinked temporary file (SpillFile) and a histogram over their leading bits
-// says which few of them an order statistic lies among, so only those are read
-// back and selected. At 16 MP the albedo's 40 M error values are 320 MB a
-// std::vector would hold; here the histogram (512 KB) and a selection buffer.
+// unlinked temporary file (SpillFile), or are made again by their owner from
+// what it spilled anyway, and a histogram over their leading bits says which
+// few of them an order statistic lies among, so only those are read back and
+// selected. At 16 MP the albedo's 34 M error values are 270 MB a std::vector
+// would hold; here the histogram (512 KB) and a selection buffer.
 #pragma once
 
 #include <array>
