@@ -85,6 +85,8 @@ class ExactErrorStatistics {
 
   // The value of rank `rank` (0-based, as std::nth_element) among those added.
   double ValueOfRank(size_t rank);
+  // The values of several ranks, found in the same passes over the values.
+  std::vector<double> ValuesOfRanks(std::span<const size_t> ranks);
 
  private:
   static constexpr int kBucketBits = 16;

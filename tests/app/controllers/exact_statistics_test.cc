@@ -56,7 +56,7 @@ void ExpectSummaryOf(const std::vector<double>& values, size_t band, const std::
   SCOPED_TRACE("replayed");
   ExpectSameSummary(replayed.Finish(), expected);
   if (!values.empty()) {
-    EXPECT_GE(replays, 2) << "each order statistic reads the values again";
+    EXPECT_GE(replays, 1) << "the order statistics read the values again";
   }
 }
 
