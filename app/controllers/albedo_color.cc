@@ -255,15 +255,18 @@ void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& ma
   // pixels' truth, albedo and CIEDE2000 (the costly part, so in parallel);
   // then, in pixel order, the counts, the statistics and the spill.
   const int width = albedo_rows.width(), rows = truth_rows.height();
-  const size_t band_pixels = static_cast<size_t>(width) * rows;
-  band_pixels_.resize(band_pixels);
-  band_colours_.resize(6 * band_pixels);
-  band_delta_e_.resize(band_pixels);
+  band_pixels_.resize(static_cast<size_t>(width) * rows);
   band_row_counts_.assign(rows, 0);
   ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
+    // A row's evaluated albedos, truths and CIEDE2000s, packed: the pool's
+    // threads keep theirs from row to row.
+    thread_local std::vector<float> colours;
+    thread_local std::vector<double> row_delta_e;
+    colours.resize(6 * static_cast<size_t>(width));
+    row_delta_e.resize(width);
     const uint8_t* mask = mask_rows.row(r);
     const size_t first = static_cast<size_t>(r) * width;
-    float* albedo = band_colours_.data() + 6 * first;  // the row's evaluated albedos, then truths
+    float* albedo = colours.data();
     float* truth = albedo + 3 * static_cast<size_t>(width);
     uint32_t count = 0;
     for (int x = 0; x < width; ++x) {
@@ -275,7 +278,7 @@ void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& ma
     // The fast form, several pixels at a time: one per sample pixel (16 M at
     // full size); equal to the published formula within 1e-12, 1e-7 where a
     // colour is neutral.
-    double* delta_e = band_delta_e_.data() + first;
+    double* delta_e = row_delta_e.data();
     Ciede2000FromLinearRec709(albedo, truth, count, delta_e);
     ComparedAlbedoPixel* out = band_pixels_.data() + first;
     for (uint32_t i = 0; i < count; ++i) {

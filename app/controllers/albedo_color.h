@@ -147,10 +147,7 @@ class AlbedoColorComparison {
   SpillFile pixels_;                     // per evaluated pixel a ComparedAlbedoPixel; pixel order
   ExactErrorStatistics delta_e_;         // replays pixels_
   std::vector<uint32_t> bucket_counts_;  // evaluated pixels per hash bucket of the truth bits
-  // AddRows' scratch, kept from band to band: per row from row * width.
-  std::vector<ComparedAlbedoPixel> band_pixels_;
-  std::vector<float> band_colours_;  // per row its evaluated albedos, then their truths (6 floats a pixel)
-  std::vector<double> band_delta_e_;
+  std::vector<ComparedAlbedoPixel> band_pixels_;  // AddRows' rows (per row from row * width), kept from band to band
   std::vector<uint32_t> band_row_counts_;
 };
 
