@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstring>
 #include <map>
 #include <stdexcept>
@@ -208,12 +209,12 @@ namespace {
 
 constexpr int kRegionBucketBits = 20;  // 4 MB of counts
 
-// One evaluated pixel as the spill file holds it.
-struct SpilledPixel {
-  std::array<uint32_t, 3> truth_bits;
-  float albedo[3];
-};
-static_assert(sizeof(SpilledPixel) == 24);
+static_assert(sizeof(ComparedAlbedoPixel) == 32);
+
+// The truth's bits: equal values -- a chart's patches -- are the regions.
+std::array<uint32_t, 3> TruthBits(const ComparedAlbedoPixel& pixel) {
+  return std::bit_cast<std::array<uint32_t, 3>>(pixel.truth_linear_rec709);
+}
 
 uint32_t RegionBucket(const std::array<uint32_t, 3>& bits) {
   uint64_t h = 0x9E3779B97F4A7C15ull;
@@ -229,8 +230,15 @@ uint32_t RegionBucket(const std::array<uint32_t, 3>& bits) {
 
 AlbedoColorComparison::AlbedoColorComparison(double min_region_fraction, const std::filesystem::path& spill_folder)
     : min_region_fraction_(min_region_fraction),
-      delta_e_(spill_folder),
       pixels_(spill_folder),
+      delta_e_([this](const std::function<void(std::span<const double>)>& visit) {
+        std::vector<double> values;
+        ForEachPixel([&](std::span<const ComparedAlbedoPixel> pixels) {
+          values.resize(pixels.size());
+          for (size_t i = 0; i < pixels.size(); ++i) values[i] = pixels[i].delta_e;
+          visit(values);
+        });
+      }),
       bucket_counts_(size_t{1} << kRegionBucketBits, 0) {}
 
 void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& mask_rows, const ImageF& truth_rows,
@@ -243,31 +251,60 @@ void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& ma
                                 " must be 3, 3 and 1 channels of one size (every band as wide as the first)");
   }
   width_ = albedo_rows.width();
-  // Per row: the evaluated pixels' truth bits (equal values -- a chart's
-  // patches -- are the regions) and albedo, and their CIEDE2000.
-  const int width = albedo_rows.width();
-  std::vector<std::vector<SpilledPixel>> pixel_rows(truth_rows.height());
-  std::vector<std::vector<double>> delta_e_rows(truth_rows.height());
-  ParallelRows(truth_rows.height(), num_threads, {}, 0, 1, [&](int r) {
+  // Per row, into its own stretch of the band's buffer: the evaluated
+  // pixels' truth, albedo and CIEDE2000 (the costly part, so in parallel);
+  // then, in pixel order, the counts, the statistics and the spill.
+  const int width = albedo_rows.width(), rows = truth_rows.height();
+  band_pixels_.resize(static_cast<size_t>(width) * rows);
+  band_row_counts_.assign(rows, 0);
+  ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
+    // A row's evaluated albedos, truths and CIEDE2000s, packed: the pool's
+    // threads keep theirs from row to row.
+    thread_local std::vector<float> colours;
+    thread_local std::vector<double> row_delta_e;
+    colours.resize(6 * static_cast<size_t>(width));
+    row_delta_e.resize(width);
     const uint8_t* mask = mask_rows.row(r);
+    const size_t first = static_cast<size_t>(r) * width;
+    float* albedo = colours.data();
+    float* truth = albedo + 3 * static_cast<size_t>(width);
+    uint32_t count = 0;
     for (int x = 0; x < width; ++x) {
       if (mask[x] == 0) continue;
-      const float* t = truth_rows.row(r) + 3 * static_cast<size_t>(x);
-      const float* a = albedo_rows.row(r) + 3 * static_cast<size_t>(x);
-      SpilledPixel& pixel = pixel_rows[r].emplace_back();
-      std::memcpy(pixel.truth_bits.data(), t, sizeof(pixel.truth_bits));
-      std::copy(a, a + 3, pixel.albedo);
-      // The fast form: one per sample pixel (16 M at full size); equal to the
-      // published formula within 1e-12, 1e-7 where a colour is neutral.
-      delta_e_rows[r].push_back(
-          Ciede2000FromLinearRec709(Eigen::Vector3d(a[0], a[1], a[2]), Eigen::Vector3d(t[0], t[1], t[2])));
+      std::copy_n(albedo_rows.row(r) + 3 * static_cast<size_t>(x), 3, albedo + 3 * count);
+      std::copy_n(truth_rows.row(r) + 3 * static_cast<size_t>(x), 3, truth + 3 * count);
+      ++count;
     }
+    // The fast form, several pixels at a time: one per sample pixel (16 M at
+    // full size); equal to the published formula within 1e-12, 1e-7 where a
+    // colour is neutral.
+    double* delta_e = row_delta_e.data();
+    Ciede2000FromLinearRec709(albedo, truth, count, delta_e);
+    ComparedAlbedoPixel* out = band_pixels_.data() + first;
+    for (uint32_t i = 0; i < count; ++i) {
+      std::copy_n(truth + 3 * i, 3, out[i].truth_linear_rec709);
+      std::copy_n(albedo + 3 * i, 3, out[i].albedo_linear_rec709);
+      out[i].delta_e = delta_e[i];
+    }
+    band_row_counts_[r] = count;
   });
-  for (int r = 0; r < truth_rows.height(); ++r) {
-    for (const SpilledPixel& pixel : pixel_rows[r]) ++bucket_counts_[RegionBucket(pixel.truth_bits)];
-    pixels_.Append(pixel_rows[r].data(), pixel_rows[r].size() * sizeof(SpilledPixel));
-    delta_e_.Add(delta_e_rows[r]);
+  for (int r = 0; r < rows; ++r) {
+    const ComparedAlbedoPixel* row = band_pixels_.data() + static_cast<size_t>(r) * width;
+    for (uint32_t i = 0; i < band_row_counts_[r]; ++i) {
+      ++bucket_counts_[RegionBucket(TruthBits(row[i]))];
+      delta_e_.Add(row[i].delta_e);
+    }
+    pixels_.Append(row, band_row_counts_[r] * sizeof(ComparedAlbedoPixel));
   }
+}
+
+void AlbedoColorComparison::ForEachPixel(const std::function<void(std::span<const ComparedAlbedoPixel>)>& visit) {
+  std::vector<ComparedAlbedoPixel> pixels;
+  pixels_.ForEachRecord(sizeof(ComparedAlbedoPixel), [&](const uint8_t* records, size_t count) {
+    pixels.resize(count);  // the spill's chunk, aligned
+    std::memcpy(pixels.data(), records, count * sizeof(ComparedAlbedoPixel));
+    visit(pixels);
+  });
 }
 
 AlbedoColorErrors AlbedoColorComparison::Finish() {
@@ -286,11 +323,10 @@ AlbedoColorErrors AlbedoColorComparison::Finish() {
   bucket_counts_ = {};
   if (!any_heavy) return errors;
   std::map<std::array<uint32_t, 3>, size_t> counts;  // sorted by truth bits, as the regions were found before
-  pixels_.ForEachRecord(sizeof(SpilledPixel), [&](const uint8_t* records, size_t count) {
-    for (size_t i = 0; i < count; ++i) {
-      SpilledPixel pixel;
-      std::memcpy(&pixel, records + i * sizeof(SpilledPixel), sizeof(pixel));
-      if (heavy[RegionBucket(pixel.truth_bits)]) ++counts[pixel.truth_bits];
+  ForEachPixel([&](std::span<const ComparedAlbedoPixel> pixels) {
+    for (const ComparedAlbedoPixel& pixel : pixels) {
+      const std::array<uint32_t, 3> bits = TruthBits(pixel);
+      if (heavy[RegionBucket(bits)]) ++counts[bits];
     }
   });
   struct Region {
@@ -312,13 +348,12 @@ AlbedoColorErrors AlbedoColorComparison::Finish() {
   for (int c = 0; c < 3; ++c) {
     std::vector<std::vector<float>> channel(found.size());
     for (size_t r = 0; r < found.size(); ++r) channel[r].reserve(found[r].pixels);
-    pixels_.ForEachRecord(sizeof(SpilledPixel), [&](const uint8_t* records, size_t count) {
-      for (size_t i = 0; i < count; ++i) {
-        SpilledPixel pixel;
-        std::memcpy(&pixel, records + i * sizeof(SpilledPixel), sizeof(pixel));
-        if (!heavy[RegionBucket(pixel.truth_bits)]) continue;
-        const auto at = region_of.find(pixel.truth_bits);
-        if (at != region_of.end()) channel[at->second].push_back(pixel.albedo[c]);
+    ForEachPixel([&](std::span<const ComparedAlbedoPixel> pixels) {
+      for (const ComparedAlbedoPixel& pixel : pixels) {
+        const std::array<uint32_t, 3> bits = TruthBits(pixel);
+        if (!heavy[RegionBucket(bits)]) continue;
+        const auto at = region_of.find(bits);
+        if (at != region_of.end()) channel[at->second].push_back(pixel.albedo_linear_rec709[c]);
       }
     });
     for (size_t r = 0; r < found.size(); ++r) found[r].median_albedo[c] = Median(channel[r]);

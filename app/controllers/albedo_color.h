@@ -9,7 +9,9 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
+#include <span>
 #include <utility>
 #include <vector>
 #include <string>
@@ -105,31 +107,48 @@ struct AlbedoColorErrors {
 AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const ImageF& truth_linear_rec709,
                                      const ImageU8& mask, double min_region_fraction = 0.002);
 
+// One evaluated pixel as AlbedoColorComparison keeps it (in its spill file).
+struct ComparedAlbedoPixel {
+  float truth_linear_rec709[3];
+  float albedo_linear_rec709[3];
+  double delta_e;  // Ciede2000FromLinearRec709 of the two
+};
+
 // CompareAlbedoColor band by band (the solve's evaluation, so that neither a
 // full-size albedo nor a full-size truth is held): AddRows for the bands in
 // order, then Finish gives exactly what CompareAlbedoColor gives on the whole
-// images. Per evaluated pixel its truth value's bits and its albedo (24
-// bytes) go to a spill file (SpillFile, exact_statistics.h), its CIEDE2000 to
-// an ExactErrorStatistics; in memory only counts per hash bucket of the truth
-// values. Finish finds the uniform regions from those buckets: a region has
-// at least min_pixels pixels, so its bucket has too, and at most
-// evaluated / min_pixels buckets do; only their pixels are counted exactly.
+// images. Per evaluated pixel its truth, its albedo and their CIEDE2000 (a
+// ComparedAlbedoPixel, 32 bytes) go to one spill file (SpillFile,
+// exact_statistics.h), read back by the CIEDE2000's order statistics
+// (ExactErrorStatistics with a replay) and by ForEachPixel; in memory only
+// counts per hash bucket of the truth values. Finish finds the uniform regions
+// from those buckets: a region has at least min_pixels pixels, so its bucket
+// has too, and at most evaluated / min_pixels buckets do; only their pixels
+// are counted exactly.
 class AlbedoColorComparison {
  public:
   // The spill files' folder: SpillFile's (empty = the temporary folder).
   explicit AlbedoColorComparison(double min_region_fraction = 0.002,
                                  const std::filesystem::path& spill_folder = {});
+  AlbedoColorComparison(const AlbedoColorComparison&) = delete;  // its statistics read its own spill
+  AlbedoColorComparison& operator=(const AlbedoColorComparison&) = delete;
   // Rows of the albedo and the truth (3 channels) and of the mask (1
   // channel), one size, following the rows added before. The rows run in parallel.
   void AddRows(const ImageF& albedo_rows, const ImageU8& mask_rows, const ImageF& truth_rows, int num_threads = 0);
+  // visit(pixels) over every pixel added so far, in pixel order, in chunks
+  // (read back from the spill file): what other figures of the same pixels
+  // (the albedo's absolute error) can be made of again.
+  void ForEachPixel(const std::function<void(std::span<const ComparedAlbedoPixel>)>& visit);
   AlbedoColorErrors Finish();  // once
 
  private:
   double min_region_fraction_;
   int width_ = -1;
-  ExactErrorStatistics delta_e_;
-  SpillFile pixels_;                  // per evaluated pixel: truth bits, albedo; pixel order
+  SpillFile pixels_;                     // per evaluated pixel a ComparedAlbedoPixel; pixel order
+  ExactErrorStatistics delta_e_;         // replays pixels_
   std::vector<uint32_t> bucket_counts_;  // evaluated pixels per hash bucket of the truth bits
+  std::vector<ComparedAlbedoPixel> band_pixels_;  // AddRows' rows (per row from row * width), kept from band to band
+  std::vector<uint32_t> band_row_counts_;
 };
 
 }  // namespace scanbench

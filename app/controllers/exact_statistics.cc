@@ -22,14 +22,6 @@ std::runtime_error SpillError(const fs::path& folder, const std::string& what) {
                             std::strerror(errno) + ")");
 }
 
-// Non-NaN doubles to unsigned integers in the same order (negative values'
-// bits reversed below the positive ones').
-uint64_t OrderKey(double value) {
-  uint64_t bits = 0;
-  std::memcpy(&bits, &value, sizeof(bits));
-  return (bits >> 63) ? ~bits : bits | (uint64_t{1} << 63);
-}
-
 }  // namespace
 
 SpillFile::SpillFile(const fs::path& folder) : folder_(folder.empty() ? fs::temp_directory_path() : folder) {
@@ -132,74 +124,126 @@ void SpillFile::ForEachRecord(size_t record_bytes,
 }
 
 ExactErrorStatistics::ExactErrorStatistics(const fs::path& spill_folder)
-    : histogram_(size_t{1} << kBucketBits, 0), spill_(spill_folder) {}
+    : histogram_(size_t{1} << kBucketBits, 0), spill_(std::make_unique<SpillFile>(spill_folder)) {}
 
-void ExactErrorStatistics::Add(std::span<const double> values) {
-  for (const double value : values) {
-    // SummarizeErrors: std::accumulate from 0.0 in order; the largest by operator<.
-    sum_ += value;
-    if (count_ == 0 || max_ < value) max_ = value;
-    ++count_;
-    ++histogram_[OrderKey(value) >> (64 - kBucketBits)];
-  }
-  spill_.Append(values.data(), values.size_bytes());
+ExactErrorStatistics::ExactErrorStatistics(Replay replay)
+    : histogram_(size_t{1} << kBucketBits, 0), replay_(std::move(replay)) {
+  if (!replay_) throw std::invalid_argument("ExactErrorStatistics: an empty replay");
 }
 
-double ExactErrorStatistics::ValueOfRank(size_t rank) {
-  if (rank >= count_) {
-    throw std::invalid_argument("ExactErrorStatistics::ValueOfRank: rank " + std::to_string(rank) + " of " +
-                                std::to_string(count_) + " values");
+ExactErrorStatistics::ExactErrorStatistics(ExactErrorStatistics&&) noexcept = default;
+ExactErrorStatistics& ExactErrorStatistics::operator=(ExactErrorStatistics&&) noexcept = default;
+ExactErrorStatistics::~ExactErrorStatistics() = default;
+
+void ExactErrorStatistics::Add(std::span<const double> values) {
+  for (const double value : values) Count(value);
+  if (spill_) spill_->Append(values.data(), values.size_bytes());
+}
+
+void ExactErrorStatistics::ForEachValue(const std::function<void(std::span<const double>)>& visit) {
+  if (!spill_) {
+    replay_(visit);
+    return;
   }
-  // The bucket of leading bits that holds the rank; while it holds too many
-  // values, a histogram of the next bits among them (one pass each).
-  int prefix_bits = kBucketBits;
-  uint64_t prefix = 0;
-  size_t in_bucket = 0;
-  for (size_t b = 0, before = 0; b < histogram_.size(); ++b) {
-    if (rank < before + histogram_[b]) {
-      prefix = b;
-      in_bucket = histogram_[b];
-      rank -= before;
-      break;
-    }
-    before += histogram_[b];
-  }
-  const auto matches = [&](uint64_t key) { return (key >> (64 - prefix_bits)) == prefix; };
-  while (in_bucket > kMaxSelected && prefix_bits < 64) {
-    const int next_bits = std::min(kBucketBits, 64 - prefix_bits);
-    std::vector<uint64_t> finer(size_t{1} << next_bits, 0);
-    spill_.ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
-      for (size_t i = 0; i < count; ++i) {
-        double value;
-        std::memcpy(&value, records + i * sizeof(double), sizeof(value));
-        const uint64_t key = OrderKey(value);
-        if (matches(key)) ++finer[(key >> (64 - prefix_bits - next_bits)) & ((uint64_t{1} << next_bits) - 1)];
-      }
-    });
-    for (size_t b = 0, before = 0; b < finer.size(); ++b) {
-      if (rank < before + finer[b]) {
-        prefix = (prefix << next_bits) | b;
-        in_bucket = finer[b];
-        rank -= before;
-        break;
-      }
-      before += finer[b];
-    }
-    prefix_bits += next_bits;
-  }
-  std::vector<double> selected;
-  selected.reserve(std::min(in_bucket, kMaxSelected));
-  spill_.ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
-    for (size_t i = 0; i < count; ++i) {
-      double value;
-      std::memcpy(&value, records + i * sizeof(double), sizeof(value));
-      // All 64 bits fixed: every value in the bucket is this one; one suffices.
-      if (matches(OrderKey(value)) && (prefix_bits < 64 || selected.empty())) selected.push_back(value);
+  spill_->ForEachRecord(sizeof(double), [&](const uint8_t* records, size_t count) {
+    // The spill's chunks are whole doubles, copied into an aligned buffer.
+    double values[4096];
+    for (size_t i = 0; i < count; i += std::size(values)) {
+      const size_t n = std::min(std::size(values), count - i);
+      std::memcpy(values, records + i * sizeof(double), n * sizeof(double));
+      visit(std::span<const double>(values, n));
     }
   });
-  if (prefix_bits >= 64) return selected.front();
-  std::nth_element(selected.begin(), selected.begin() + rank, selected.end());
-  return selected[rank];
+}
+
+double ExactErrorStatistics::ValueOfRank(size_t rank) { return ValuesOfRanks(std::span<const size_t>(&rank, 1))[0]; }
+
+std::vector<double> ExactErrorStatistics::ValuesOfRanks(std::span<const size_t> ranks) {
+  // Per rank: the bucket of leading bits that holds it; while that holds too
+  // many values, a histogram of the next bits among them. The ranks share
+  // every pass over the values.
+  struct Search {
+    size_t rank = 0;  // within the bucket
+    int prefix_bits = kBucketBits;
+    uint64_t prefix = 0;
+    size_t in_bucket = 0;
+    std::vector<uint64_t> finer;
+    int next_bits = 0;
+    std::vector<double> selected;
+    bool Matches(uint64_t key) const { return (key >> (64 - prefix_bits)) == prefix; }
+    bool Refines() const { return in_bucket > kMaxSelected && prefix_bits < 64; }
+  };
+  std::vector<Search> searches(ranks.size());
+  for (size_t i = 0; i < ranks.size(); ++i) {
+    if (ranks[i] >= count_) {
+      throw std::invalid_argument("ExactErrorStatistics::ValueOfRank: rank " + std::to_string(ranks[i]) + " of " +
+                                  std::to_string(count_) + " values");
+    }
+    Search& search = searches[i];
+    search.rank = ranks[i];
+    for (size_t b = 0, before = 0; b < histogram_.size(); ++b) {
+      if (search.rank < before + histogram_[b]) {
+        search.prefix = b;
+        search.in_bucket = histogram_[b];
+        search.rank -= before;
+        break;
+      }
+      before += histogram_[b];
+    }
+  }
+  while (std::any_of(searches.begin(), searches.end(), [](const Search& s) { return s.Refines(); })) {
+    for (Search& search : searches) {
+      search.next_bits = search.Refines() ? std::min(kBucketBits, 64 - search.prefix_bits) : 0;
+      search.finer.assign(search.next_bits > 0 ? size_t{1} << search.next_bits : 0, 0);
+    }
+    ForEachValue([&](std::span<const double> values) {
+      for (const double value : values) {
+        const uint64_t key = OrderKey(value);
+        for (Search& search : searches) {
+          if (search.next_bits > 0 && search.Matches(key)) {
+            ++search.finer[(key >> (64 - search.prefix_bits - search.next_bits)) &
+                           ((uint64_t{1} << search.next_bits) - 1)];
+          }
+        }
+      }
+    });
+    for (Search& search : searches) {
+      if (search.next_bits == 0) continue;
+      for (size_t b = 0, before = 0; b < search.finer.size(); ++b) {
+        if (search.rank < before + search.finer[b]) {
+          search.prefix = (search.prefix << search.next_bits) | b;
+          search.in_bucket = search.finer[b];
+          search.rank -= before;
+          break;
+        }
+        before += search.finer[b];
+      }
+      search.prefix_bits += search.next_bits;
+      search.finer = {};
+    }
+  }
+  for (Search& search : searches) search.selected.reserve(std::min(search.in_bucket, kMaxSelected));
+  ForEachValue([&](std::span<const double> values) {
+    for (const double value : values) {
+      const uint64_t key = OrderKey(value);
+      for (Search& search : searches) {
+        // All 64 bits fixed: every value in the bucket is this one; one suffices.
+        if (search.Matches(key) && (search.prefix_bits < 64 || search.selected.empty())) {
+          search.selected.push_back(value);
+        }
+      }
+    }
+  });
+  std::vector<double> result;
+  for (Search& search : searches) {
+    if (search.prefix_bits >= 64) {
+      result.push_back(search.selected.front());
+      continue;
+    }
+    std::nth_element(search.selected.begin(), search.selected.begin() + search.rank, search.selected.end());
+    result.push_back(search.selected[search.rank]);
+  }
+  return result;
 }
 
 ErrorStatistics ExactErrorStatistics::Finish() {
@@ -207,12 +251,14 @@ ErrorStatistics ExactErrorStatistics::Finish() {
   stats.num_pixels = count_;
   if (count_ == 0) return stats;
   stats.mean = sum_ / count_;
-  // SummarizeErrors' ranks.
+  // SummarizeErrors' ranks, both found in the same passes.
   const auto rank_of = [&](double fraction) {
     return std::min(count_ - 1, static_cast<size_t>(fraction * (count_ - 1) + 0.5));
   };
-  stats.median = ValueOfRank(rank_of(0.5));
-  stats.percentile_95 = ValueOfRank(rank_of(0.95));
+  const size_t ranks[] = {rank_of(0.5), rank_of(0.95)};
+  const std::vector<double> values = ValuesOfRanks(ranks);
+  stats.median = values[0];
+  stats.percentile_95 = values[1];
   stats.max = max_;
   return stats;
 }

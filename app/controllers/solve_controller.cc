@@ -392,9 +392,28 @@ struct GroundTruthEvaluation::State {
   ImageU8 on_sample;  // whole size
   int rows_added = 0;
   size_t unsolved_on_sample = 0;
-  ExactErrorStatistics angles, albedo_errors;
-  AlbedoColorComparison color;
-  State(const fs::path& spill_folder) : angles(spill_folder), albedo_errors(spill_folder), color(0.002, spill_folder) {}
+  AlbedoColorComparison color;  // spills each evaluated pixel's albedo and truth
+  ExactErrorStatistics angles;  // spills the angles
+  // Not spilled: the albedo's absolute errors are made again from the colour
+  // comparison's pixels, in the same order (AbsoluteErrorsOfRows': pixel, channel).
+  ExactErrorStatistics albedo_errors;
+  std::vector<double> band_angles;  // AddBand's, per row from row * width; reused
+  std::vector<uint32_t> band_angle_counts;
+  explicit State(const fs::path& spill_folder)
+      : color(0.002, spill_folder),
+        angles(spill_folder),
+        albedo_errors([this](const std::function<void(std::span<const double>)>& visit) {
+          std::vector<double> values;
+          color.ForEachPixel([&](std::span<const ComparedAlbedoPixel> pixels) {
+            values.clear();
+            for (const ComparedAlbedoPixel& pixel : pixels) {
+              for (int c = 0; c < 3; ++c) {
+                values.push_back(AbsoluteErrorValue(pixel.albedo_linear_rec709[c], pixel.truth_linear_rec709[c]));
+              }
+            }
+            visit(values);
+          });
+        }) {}
 };
 
 GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const GroundTruthFiles& truth, int width,
@@ -415,8 +434,11 @@ GroundTruthEvaluation::~GroundTruthEvaluation() = default;
 ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_threads) {
   State& s = *state_;
   const int width = s.on_sample.width(), rows = band.status.height(), y0 = s.rows_added;
-  if (band.status.width() != width || rows < 1 || y0 + rows > s.on_sample.height()) {
-    throw std::invalid_argument("GroundTruthEvaluation::AddBand: a band of " + ShapeText(band.status) + " after " +
+  if (band.status.width() != width || rows < 1 || y0 + rows > s.on_sample.height() ||
+      !band.normal_in_table.SameSize(band.status) || band.normal_in_table.channels() != 3 ||
+      !band.albedo.SameSize(band.status) || band.albedo.channels() != 3) {
+    throw std::invalid_argument("GroundTruthEvaluation::AddBand: a band of " + ShapeText(band.status) + " (normals " +
+                                ShapeText(band.normal_in_table) + ", albedo " + ShapeText(band.albedo) + ") after " +
                                 std::to_string(y0) + " rows of " + ShapeText(s.on_sample));
   }
   s.rows_added += rows;
@@ -427,16 +449,53 @@ ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_t
     solved_on_sample.data()[i] = on_sample && solved;
     s.unsolved_on_sample += on_sample && !solved;
   }
+  const auto read_truth = [&](const fs::path& path) {
+    ImageF truth_rows = ReadImageFloatRows(path, y0, y0 + rows);
+    if (truth_rows.width() != width || truth_rows.channels() != 3) {
+      throw std::runtime_error(path.string() + ": " + ShapeText(truth_rows) + " rows, the solution's are " +
+                               SizeText(width, rows) + "x3");
+    }
+    return truth_rows;
+  };
+  // The angles per row (AngleBetweenDegrees, AngularErrorsOfRows' values),
+  // each row into its stretch of one buffer kept from band to band; the
+  // statistics take them in pixel order.
   ImageF error_rows(width, rows, 1, 0.0f);
-  std::vector<double> values;
-  AngularErrorsOfRows(band.normal_in_table, ReadImageFloatRows(s.normal_path, y0, y0 + rows), 0, solved_on_sample,
-                      num_threads, &values, &error_rows);
-  s.angles.Add(values);
-  values.clear();
-  const ImageF truth_albedo = ReadImageFloatRows(s.albedo_path, y0, y0 + rows);
-  AbsoluteErrorsOfRows(band.albedo, truth_albedo, 0, solved_on_sample, num_threads, &values);
-  s.albedo_errors.Add(values);
+  {
+    const ImageF truth_normals = read_truth(s.normal_path);
+    s.band_angles.resize(static_cast<size_t>(width) * rows);
+    s.band_angle_counts.assign(rows, 0);
+    ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
+      const uint8_t* evaluated = solved_on_sample.row(r);
+      const float* estimate = band.normal_in_table.row(r);
+      const float* truth = truth_normals.row(r);
+      float* map = error_rows.row(r);
+      double* angles = s.band_angles.data() + static_cast<size_t>(r) * width;
+      uint32_t count = 0;
+      for (int x = 0; x < width; ++x) {
+        if (evaluated[x] == 0) continue;
+        const double angle = AngleBetweenDegrees(estimate + 3 * static_cast<size_t>(x), truth + 3 * static_cast<size_t>(x));
+        angles[count++] = angle;
+        map[x] = static_cast<float>(angle);
+      }
+      s.band_angle_counts[r] = count;
+    });
+    for (int r = 0; r < rows; ++r) {
+      s.angles.Add(std::span<const double>(s.band_angles.data() + static_cast<size_t>(r) * width, s.band_angle_counts[r]));
+    }
+  }
+  const ImageF truth_albedo = read_truth(s.albedo_path);
   s.color.AddRows(band.albedo, solved_on_sample, truth_albedo, num_threads);
+  // The albedo's absolute error of every channel, pooled in pixel order.
+  for (int r = 0; r < rows; ++r) {
+    const uint8_t* evaluated = solved_on_sample.row(r);
+    const float* estimate = band.albedo.row(r);
+    const float* truth = truth_albedo.row(r);
+    for (int x = 0; x < width; ++x) {
+      if (evaluated[x] == 0) continue;
+      for (int c = 0; c < 3; ++c) s.albedo_errors.Add(AbsoluteErrorValue(estimate[3 * x + c], truth[3 * x + c]));
+    }
+  }
   return error_rows;
 }
 

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <numbers>
 #include <random>
+#include <vector>
 
 #include <Eigen/LU>
 #include <gtest/gtest.h>
@@ -248,6 +249,43 @@ TEST(ColorScience, Ciede2000FromLinearRec709EqualsTheReference) {
   }
   std::cout << "largest |FastLab - Lab| = " << max_lab << ", |Ciede2000FromLinearRec709 - reference| = " << max_delta_e
             << ", with a neutral colour " << max_delta_e_neutral << "\n";
+}
+
+// The many-pairs form (four at a time with AVX2) gives every pair's scalar
+// value bit for bit: random float colours with the same kinds as above (dark,
+// neutral, out of gamut), pairs 180 deg apart in hue, equal pairs and black
+// (the fast form's deferrals to the published formula), and counts that
+// leave a scalar tail.
+TEST(ColorScience, ManyPairsEqualTheScalarFormBitForBit) {
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<float> reflectance(0, 1.2f), small(-0.02f, 0.02f), negative(-0.05f, 0.0f);
+  const size_t count = 400003;
+  std::vector<float> colours1(3 * count), colours2(3 * count);
+  for (size_t i = 0; i < count; ++i) {
+    float* rgb1 = colours1.data() + 3 * i;
+    float* rgb2 = colours2.data() + 3 * i;
+    for (int c = 0; c < 3; ++c) rgb1[c] = reflectance(rng);
+    if (i % 10 == 0) for (int c = 0; c < 3; ++c) rgb1[c] *= 1e-3f;  // dark
+    if (i % 10 == 1) rgb1[1] = rgb1[2] = rgb1[0];                      // neutral
+    if (i % 10 == 2) rgb1[0] = negative(rng);                          // out of gamut
+    for (int c = 0; c < 3; ++c) rgb2[c] = rgb1[c] + small(rng);
+    if (i % 10 == 3) for (int c = 0; c < 3; ++c) rgb2[c] = rgb1[c];   // equal
+    if (i % 10 == 4) for (int c = 0; c < 3; ++c) rgb2[c] = 1.0f - rgb1[c];  // opposite hues about a grey
+    if (i % 1000 == 5) for (int c = 0; c < 3; ++c) rgb1[c] = rgb2[c] = 0.0f;  // black
+  }
+  for (const size_t n : {count, size_t{1}, size_t{3}, size_t{4}, size_t{7}}) {
+    std::vector<double> values(n + 1, -1.0);
+    Ciede2000FromLinearRec709(colours1.data(), colours2.data(), n, values.data());
+    for (size_t i = 0; i < n; ++i) {
+      const float* rgb1 = colours1.data() + 3 * i;
+      const float* rgb2 = colours2.data() + 3 * i;
+      const double scalar = Ciede2000FromLinearRec709(Eigen::Vector3d(rgb1[0], rgb1[1], rgb1[2]),
+                                                      Eigen::Vector3d(rgb2[0], rgb2[1], rgb2[2]));
+      ASSERT_EQ(std::bit_cast<uint64_t>(values[i]), std::bit_cast<uint64_t>(scalar))
+          << "pair " << i << " of " << n << ": " << values[i] << " != " << scalar;
+    }
+    EXPECT_EQ(values[n], -1.0) << "nothing written past the last pair";
+  }
 }
 
 TEST(ColorScience, SrgbTransferCurveKnownValues) {

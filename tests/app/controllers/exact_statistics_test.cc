@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -20,19 +22,42 @@ void ExpectBitEqual(double actual, double expected, const char* what) {
   EXPECT_EQ(std::memcmp(&actual, &expected, sizeof(double)), 0) << what << ": " << actual << " != " << expected;
 }
 
+void ExpectSameSummary(const ErrorStatistics& actual, const ErrorStatistics& expected) {
+  EXPECT_EQ(actual.num_pixels, expected.num_pixels);
+  ExpectBitEqual(actual.mean, expected.mean, "mean");
+  ExpectBitEqual(actual.median, expected.median, "median");
+  ExpectBitEqual(actual.percentile_95, expected.percentile_95, "p95");
+  ExpectBitEqual(actual.max, expected.max, "max");
+}
+
 // Values added in bands of `band` each; the summary must be SummarizeErrors'.
+// The same with no spill: added one at a time, replayed in reverse order in
+// chunks of 1000 (a replay may give them in any order).
 void ExpectSummaryOf(const std::vector<double>& values, size_t band, const std::filesystem::path& folder = {}) {
   ExactErrorStatistics exact(folder);
   for (size_t i = 0; i < values.size(); i += band) {
     exact.Add(std::span(values).subspan(i, std::min(band, values.size() - i)));
   }
   const ErrorStatistics expected = SummarizeErrors(values);
-  const ErrorStatistics actual = exact.Finish();
-  EXPECT_EQ(actual.num_pixels, expected.num_pixels);
-  ExpectBitEqual(actual.mean, expected.mean, "mean");
-  ExpectBitEqual(actual.median, expected.median, "median");
-  ExpectBitEqual(actual.percentile_95, expected.percentile_95, "p95");
-  ExpectBitEqual(actual.max, expected.max, "max");
+  {
+    SCOPED_TRACE("spilled");
+    ExpectSameSummary(exact.Finish(), expected);
+  }
+  int replays = 0;
+  ExactErrorStatistics replayed([&](const std::function<void(std::span<const double>)>& visit) {
+    ++replays;
+    const std::vector<double> reversed(values.rbegin(), values.rend());
+    for (size_t i = 0; i < reversed.size(); i += 1000) {
+      visit(std::span(reversed).subspan(i, std::min<size_t>(1000, reversed.size() - i)));
+    }
+  });
+  for (const double value : values) replayed.Add(value);
+  EXPECT_THROW(exact.Add(1.0), std::logic_error) << "a spilled statistic takes spans only";
+  SCOPED_TRACE("replayed");
+  ExpectSameSummary(replayed.Finish(), expected);
+  if (!values.empty()) {
+    EXPECT_GE(replays, 1) << "the order statistics read the values again";
+  }
 }
 
 TEST(ExactStatisticsTest, EqualsSummarizeErrorsOnRandomValuesWithTies) {
