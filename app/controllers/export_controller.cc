@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -1312,12 +1313,14 @@ void ExportController::Run() {
   if (truth.valid()) {
     TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
   }
-  Derive(&inputs, &maps);
-  if (reference) {
-    TimedStage(timings, "evaluate_height", "", [&] { EvaluateHeight(*reference, maps); });
-    reference.reset();
-  }
-  TimedStage(timings, "load_albedo_confidence", "", [&] { LoadAlbedoAndConfidence(&inputs); });
+  DeriveHeight(&inputs, &maps);
+  // Past the height the steps need only what exists by now, so they run
+  // side by side and fill the cores the mostly single-threaded ones leave
+  // idle: occlusion (on the pool) here, cavity, the roughness chain and then
+  // albedo and confidence's decode (its memory once the roughness chain's
+  // temporaries are gone), and the height's evaluation each on a thread.
+  DeriveConcurrently(&inputs, &maps, reference ? &*reference : nullptr);
+  reference.reset();
   if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
   const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
@@ -1386,14 +1389,14 @@ ExportInputs ExportController::Load() {
 }
 
 // albedo.exr and confidence.exr (by channel name), decoded concurrently.
+// No progress of its own: it runs beside the occlusion.
 void ExportController::LoadAlbedoAndConfidence(ExportInputs* inputs) {
-  BeginStage("load albedo and confidence");
+  ThrowIfStopRequested("load albedo and confidence");
   const int width = summary_.image_width, height = summary_.image_height;
   const fs::path& dir = inputs->result_dir;
   auto albedo = std::async(std::launch::async, [&] { return ReadResultMap(dir / "albedo.exr", 3, width, height); });
   inputs->confidence = ReadResultMap(dir / "confidence.exr", 3, width, height, kConfidenceChannels);
   inputs->albedo = albedo.get();
-  ReportProgress("load albedo and confidence", 1);
 }
 
 // The flattened normals (or the solved ones as they are), a stage of its own;
@@ -1415,56 +1418,122 @@ ExportMaps ExportController::Flatten(ExportInputs* inputs_to_release) {
   return maps;
 }
 
-// Height, occlusion, cavity and roughness mips from the flattened normals,
-// each a stage of its own.
-void ExportController::Derive(ExportInputs* inputs_to_release, ExportMaps* maps_out) {
-  ExportInputs& inputs = *inputs_to_release;
-  ExportMaps& maps = *maps_out;
+// Height from the flattened normals, a stage of its own.
+void ExportController::DeriveHeight(ExportInputs* inputs, ExportMaps* maps) {
   const double mm = summary_.mm_per_pixel;
-  std::vector<StageTiming>& timings = summary_.stage_seconds;
-  TimedStage(timings, "height", "height from normals", [&] {
-    summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
-                                        &maps.height_mm, StageCallback("height from normals"));
+  TimedStage(summary_.stage_seconds, "height", "height from normals", [&] {
+    summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps->normals, &inputs->valid,
+                                       &maps->height_mm, StageCallback("height from normals"));
     RequireSuccess(summary_.height, "height from normals");
-    const float* heights = maps.height_mm.data();
-    const auto [lowest, highest] = std::minmax_element(heights, heights + maps.height_mm.size());
+    const float* heights = maps->height_mm.data();
+    const auto [lowest, highest] = std::minmax_element(heights, heights + maps->height_mm.size());
     summary_.height_min_mm = *lowest;
     summary_.height_max_mm = *highest;
   });
+}
 
-  TimedStage(timings, "occlusion_cavity", "ambient occlusion", [&] {
-    AmbientOcclusionOptions occlusion_options = options_.occlusion;
-    occlusion_options.mm_per_pixel = mm;
-    summary_.occlusion = AmbientOcclusionFromHeight(occlusion_options, maps.height_mm, &maps.occlusion,
-                                                    StageCallback("ambient occlusion"));
-    RequireSuccess(summary_.occlusion, "ambient occlusion");
-    CavityOptions cavity_options = options_.cavity;
-    cavity_options.mm_per_pixel = mm;
-    BeginStage("cavity");
-    summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, StageCallback("cavity"));
-    RequireSuccess(summary_.cavity, "cavity");
-  });
+// Occlusion on this thread (it reports the progress); cavity, the roughness
+// chain followed by albedo and confidence, and the height's evaluation on
+// threads of their own, which only check for a stop (one progress stage at a
+// time). Each records its wall time under its own stage name, so the
+// concurrent stages' times overlap. The first failure is rethrown once every
+// step has ended.
+void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* maps_in,
+                                          const HeightReference* reference) {
+  ExportInputs& inputs = *inputs_in;
+  ExportMaps& maps = *maps_in;
+  const double mm = summary_.mm_per_pixel;
+  // A failed step ends the others at their next check, as a stop would.
+  std::atomic<bool> failed{false};
+  const ProgressCallback stop_check = [this, &failed](double) { return !IsStopRequested() && !failed; };
+  auto failing = [&failed](auto&& step) {
+    return [&failed, step] {
+      try {
+        step();
+      } catch (...) {
+        failed = true;
+        throw;
+      }
+    };
+  };
+  std::vector<StageTiming> occlusion_timing, cavity_timing, roughness_timings, evaluate_timing;
+  auto timed = [this](std::vector<StageTiming>& timings, const std::string& name, auto&& step) {
+    TimedStage(timings, name, "", step);
+  };
 
+  auto cavity = std::async(std::launch::async, failing([&] {
+    timed(cavity_timing, "cavity", [&] {
+      CavityOptions cavity_options = options_.cavity;
+      cavity_options.mm_per_pixel = mm;
+      summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, stop_check);
+      RequireSuccess(summary_.cavity, "cavity");
+    });
+  }));
+  auto roughness_then_inputs = std::async(std::launch::async, failing([&] {
+    DeriveRoughness(&inputs, &maps, &roughness_timings, stop_check);
+    timed(roughness_timings, "load_albedo_confidence", [&] { LoadAlbedoAndConfidence(&inputs); });
+  }));
+  std::future<void> evaluate;
+  if (reference) {
+    evaluate = std::async(std::launch::async, failing([&] {
+      timed(evaluate_timing, "evaluate_height", [&] { EvaluateHeight(*reference, maps); });
+    }));
+  }
+  std::exception_ptr failure;
+  try {
+    TimedStage(occlusion_timing, "occlusion", "ambient occlusion", [&] {
+      AmbientOcclusionOptions occlusion_options = options_.occlusion;
+      occlusion_options.mm_per_pixel = mm;
+      const ProgressCallback report = StageCallback("ambient occlusion");
+      summary_.occlusion = AmbientOcclusionFromHeight(
+          occlusion_options, maps.height_mm, &maps.occlusion,
+          [&](double fraction) { return report(fraction) && !failed; });
+      RequireSuccess(summary_.occlusion, "ambient occlusion");
+    });
+  } catch (...) {
+    failed = true;
+    failure = std::current_exception();
+  }
+  for (std::future<void>* step : {&cavity, &roughness_then_inputs, &evaluate}) {
+    if (!step->valid()) continue;
+    try {
+      step->get();
+    } catch (...) {
+      if (!failure) failure = std::current_exception();
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+  for (const auto* timings : {&occlusion_timing, &cavity_timing, &roughness_timings, &evaluate_timing}) {
+    summary_.stage_seconds.insert(summary_.stage_seconds.end(), timings->begin(), timings->end());
+  }
+}
+
+// Mip 0's roughness from the specular map (when the result has one), then
+// the roughness mips from the flattened normals; `progress` only checks for a
+// stop (these run beside the occlusion).
+void ExportController::DeriveRoughness(ExportInputs* inputs_in, ExportMaps* maps_in,
+                                       std::vector<StageTiming>* timings, const ProgressCallback& progress) {
+  ExportInputs& inputs = *inputs_in;
+  ExportMaps& maps = *maps_in;
   ImageF mip0_roughness;  // with a specular map: its alpha feathered into the base roughness
   if (!inputs.specular_alpha.empty()) {
-    TimedStage(timings, "specular_roughness", "specular roughness", [&] {
+    TimedStage(*timings, "specular_roughness", "", [&] {
       // Mip 0 of today's normal-variance chain is base_roughness everywhere;
       // the chain folds the normal variance into the coarser levels on top of
       // whatever mip 0 holds.
       const ImageF base(summary_.image_width, summary_.image_height, 1,
                         static_cast<float>(options_.gloss.base_roughness));
-      summary_.specular_roughness =
-          BlendSpecularRoughness(options_.specular_roughness, inputs.specular_alpha, base, &inputs.valid,
-                                 &mip0_roughness, StageCallback("specular roughness"));
+      summary_.specular_roughness = BlendSpecularRoughness(options_.specular_roughness, inputs.specular_alpha, base,
+                                                           &inputs.valid, &mip0_roughness, progress);
       RequireSuccess(*summary_.specular_roughness, "specular roughness");
       summary_.roughness_source = "specular_map+normal_variance";
     });
     inputs.specular_alpha = ImageF();  // its last user
   }
-  TimedStage(timings, "gloss_mips", "roughness mips", [&] {
-    summary_.gloss =
-        BuildGlossMipChain(options_.gloss, maps.normals, mip0_roughness.empty() ? nullptr : &mip0_roughness,
-                           &inputs.valid, &maps.mips, StageCallback("roughness mips"));
+  TimedStage(*timings, "gloss_mips", "", [&] {
+    summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals,
+                                        mip0_roughness.empty() ? nullptr : &mip0_roughness, &inputs.valid,
+                                        &maps.mips, progress);
     RequireSuccess(summary_.gloss, "roughness mips");
   });
   // Mip 0's normals are the flattened normals normalised again; the files and
