@@ -130,7 +130,7 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MarchInterior(
 // values come in (+0 and -0 aside, which give the same visibility).
 __attribute__((target_clones("avx512f", "avx2", "default"))) void MarchInterior4(
     const float* const* r0, const float* const* r1, const float* centre, const float* fx, const float* fy,
-    const float* inv, int begin, int end, float* max_tangent) {
+    const float* inv, int begin, int end, float* __restrict max_tangent) {
   const float* r00 = r0[0];
   const float* r01 = r0[1];
   const float* r02 = r0[2];
