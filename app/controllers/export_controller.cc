@@ -783,7 +783,7 @@ std::optional<EngineTarget> EngineTargetOf(ExportOptions::Preset preset) {
 
 // The generic presets' maps: base colour, normals, height, occlusion,
 // cavity, the roughness and normal mip chains and the tiles.
-void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, const ExportMaps& maps,
+void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, ExportMaps& maps,
                      FilePlanner& plan) {
   const IntegerEncoding& unit_interval = kUnitInterval;
   const double mm = summary.mm_per_pixel;
@@ -792,7 +792,9 @@ void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, c
   plan.AddHeight("height", maps.height_mm, mm);
   plan.AddMap("ao", maps.occlusion, "Raw", unit_interval, "ambient occlusion, cosine-weighted visibility, 1 = open",
               mm);
-  plan.AddMap("cavity", maps.cavity, "Raw", unit_interval, "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
+  // The cavity's one user is its file: moved in, so it is freed once written.
+  plan.AddMap("cavity", std::move(maps.cavity), "Raw", unit_interval,
+              "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
   for (size_t k = 0; k < maps.mips.size(); ++k) {
     const double pixel_mm = mm * std::ldexp(1.0, static_cast<int>(k));
     plan.AddMap("roughness_mip" + std::to_string(k), maps.mips[k].roughness, "Raw", unit_interval,
@@ -900,8 +902,10 @@ std::string MaterialXOf(const ExportOptions& options, const ExportSummary& summa
 // Every file of the export: the maps (generic or in an engine's layout), the
 // solver's confidence, the mask, the sRGB preview (generic presets), the
 // MaterialX document and, for gltf, the .gltf and its .bin.
+// The maps whose only user is their file (the confidence, the generic
+// presets' cavity) are moved into it, so that they are freed once written.
 std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSummary& summary,
-                                  const ExportInputs& inputs, const ExportMaps& maps) {
+                                  ExportInputs& inputs, ExportMaps& maps) {
   const double mm = summary.mm_per_pixel;
   FilePlanner plan(options, summary, inputs.result_dir.filename().string());
   const std::optional<EngineTarget> engine = EngineTargetOf(options.preset);
@@ -918,7 +922,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
     PlanGenericMaps(summary, inputs, maps, plan);
   }
   ExportFile* confidence =
-      plan.AddMap("confidence", inputs.confidence, "Raw", {},
+      plan.AddMap("confidence", std::move(inputs.confidence), "Raw", {},
                   "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
   confidence->channel_names = kConfidenceChannels;
   ImageU8 mask(inputs.valid.width(), inputs.valid.height(), 1);
@@ -961,7 +965,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
 // Compression dominates; the files are independent, so they are written
 // concurrently. `report` gets the fraction of files done (up to 0.9). The
 // first failure is rethrown once every write has ended.
-void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFile>& files,
+void WriteFilesConcurrently(const fs::path& staging, std::vector<ExportFile>& files,
                             const std::function<void(double)>& report) {
   // On the shared pool, one file per thread at a time: each integer file
   // holds its quantised copy while it encodes, so a thread per file would
@@ -978,7 +982,11 @@ void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFil
   ParallelFor(
       count, ResolveThreadCount(0), 1,
       [&](int first, int last, int) {
-        for (int i = first; i < last; ++i) WriteExportFile(staging / files[order[i]].relative_path, files[order[i]]);
+        for (int i = first; i < last; ++i) {
+          ExportFile& file = files[order[i]];
+          WriteExportFile(staging / file.relative_path, file);
+          file.float_image.reset(), file.u8_image.reset();  // frees what the file owns (borrowed maps stay)
+        }
       },
       [&](int done) {
         report(0.9 * done / count);
@@ -1002,30 +1010,44 @@ void RecordWrittenFiles(const fs::path& staging, std::vector<ExportFile>* files,
 // preview.html beside material.json: the base colour, flattened normals
 // (tangent frame, whatever the files' convention), mip 0's roughness, the
 // occlusion and height on a tile and a sphere, listing the files written.
-// The page is the maps' last user: it takes them (no full-size copies).
-void WritePreview(const fs::path& staging, ExportInputs* inputs, ExportMaps* maps,
+// Its textures need only the maps, so they are made while the files are
+// written (PreviewTexturesOf); the page itself needs the files' sizes.
+PreviewPageOptions PreviewOptionsOf(const ExportInputs& inputs, const ExportSummary& summary) {
+  PreviewPageOptions options;
+  options.title = summary.material_name;
+  options.basecolor_note = inputs.albedo_color.color_space == "linear_rec709"
+                               ? "linear Rec.709, " + inputs.albedo_color.scale
+                               : "white-balanced camera RGB (not colour calibrated)";
+  return options;
+}
+
+constexpr char kPreviewPath[] = "preview.html";
+
+PreviewPageTextures PreviewTexturesOf(const fs::path& staging, const ExportInputs& inputs, const ExportMaps& maps,
+                                      const ExportSummary& summary, const ProgressCallback& progress) {
+  PreviewPageMapViews views;
+  views.basecolor_linear_rec709 = &inputs.albedo;
+  views.normal_in_tangent = &maps.normals;
+  if (!maps.mips.empty()) views.roughness_alpha = &maps.mips[0].roughness;
+  views.occlusion = &maps.occlusion;
+  views.height_mm = &maps.height_mm;
+  views.valid = &inputs.valid;
+  return MakePreviewTextures(PreviewOptionsOf(inputs, summary), views, summary.mm_per_pixel, staging / kPreviewPath,
+                             progress);
+}
+
+void WritePreview(const fs::path& staging, const ExportInputs& inputs, const PreviewPageTextures& textures,
                   const ProgressCallback& progress, std::vector<ExportFile>* files, ExportSummary* summary) {
-  PreviewPageMaps preview;
-  preview.basecolor_linear_rec709 = std::move(inputs->albedo);
-  preview.normal_in_tangent = std::move(maps->normals);
-  if (!maps->mips.empty()) preview.roughness_alpha = std::move(maps->mips[0].roughness);
-  preview.occlusion = std::move(maps->occlusion);
-  preview.height_mm = std::move(maps->height_mm);
-  preview.valid = inputs->valid;
+  if (textures.summary.IsCancelled()) throw Cancelled("preview page");
   std::vector<PreviewPageFile> listed;
   for (const ExportFile& file : *files) listed.push_back({file.relative_path, file.bytes});
-  PreviewPageOptions options;
-  options.title = summary->material_name;
-  options.basecolor_note = inputs->albedo_color.color_space == "linear_rec709"
-                               ? "linear Rec.709, " + inputs->albedo_color.scale
-                               : "white-balanced camera RGB (not colour calibrated)";
   ExportFile page;
   page.kind = "preview";
-  page.relative_path = "preview.html";
+  page.relative_path = kPreviewPath;
   page.format = "html";
   page.encoding = "self-contained preview page (three.js inline, maps as 8-bit data: PNGs); open in a browser";
-  summary->preview = WritePreviewPage(options, preview, summary->mm_per_pixel, listed, staging / page.relative_path,
-                                      progress);
+  summary->preview = WritePreviewPage(PreviewOptionsOf(inputs, *summary), textures, listed,
+                                      staging / page.relative_path, progress);
   RequireSuccess(*summary->preview, "preview page");
   page.sha256 = Sha256HexOfFile(staging / page.relative_path);
   page.bytes = summary->preview->bytes;
@@ -1326,9 +1348,19 @@ void ExportController::Run() {
   const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
   StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
   std::vector<ExportFile> files;
+  // The preview's textures (a downsample and PNGs per map, mostly
+  // single-threaded) are made on a thread of their own while the files are
+  // written; the page follows once the files' sizes are known.
+  std::future<PreviewPageTextures> preview_textures;
   TimedStage(timings, "write_files", "write files", [&] {
     files = PlanFiles(options_, summary_, inputs, maps);
     fs::create_directory(staged.staging() / summary_.material_name);
+    if (options_.preview_page) {
+      const ProgressCallback stop_check = [this](double) { return !IsStopRequested(); };
+      preview_textures = std::async(std::launch::async, [&, stop_check] {
+        return PreviewTexturesOf(staged.staging(), inputs, maps, summary_, stop_check);
+      });
+    }
     WriteFilesConcurrently(staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); });
     ThrowIfStopRequested("write files");
     RecordWrittenFiles(staged.staging(), &files, &summary_);
@@ -1338,8 +1370,10 @@ void ExportController::Run() {
     maps.tiles.clear();
   });
   if (options_.preview_page) {
+    // What the page took after the files: the rest of the textures, then the page.
     TimedStage(timings, "preview", "preview page", [&] {
-      WritePreview(staged.staging(), &inputs, &maps, StageCallback("preview page"), &files, &summary_);
+      WritePreview(staged.staging(), inputs, preview_textures.get(), StageCallback("preview page"), &files,
+                   &summary_);
     });
   }
   summary_.export_dir = staged.final_dir();
