@@ -962,18 +962,36 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
 
 // --- Writing -----------------------------------------------------------------
 
+// The generic presets' normal file (OpenGL: it borrows the map, no copy), as
+// PlanFiles plans it: the normals are final once flattened, so the export
+// writes this file while the evaluation and the height run (they leave a core
+// mostly idle). Engine presets and DirectX normals: none (written with the rest).
+std::optional<ExportFile> EarlyNormalFile(const ExportOptions& options, const ExportSummary& summary,
+                                          const ExportInputs& inputs, const ExportMaps& maps) {
+  if (IsEnginePreset(options.preset) || options.normal_convention != ExportOptions::NormalConvention::kOpenGl) {
+    return std::nullopt;
+  }
+  FilePlanner plan(options, summary, inputs.result_dir.filename().string());
+  plan.AddNormal("normal", maps.normals, summary.mm_per_pixel);
+  return std::move(plan.Take().front());
+}
+
+
 // Compression dominates; the files are independent, so they are written
 // concurrently. `report` gets the fraction of files done (up to 0.9). The
 // first failure is rethrown once every write has ended.
 void WriteFilesConcurrently(const fs::path& staging, std::vector<ExportFile>& files,
-                            const std::function<void(double)>& report) {
+                            const std::function<void(double)>& report, const std::string& written_kind = "") {
   // On the shared pool, one file per thread at a time: each integer file
   // holds its quantised copy while it encodes, so a thread per file would
   // hold them all at once.
   // Largest first, so that no thread is left with a large file while the others are done.
-  const int count = static_cast<int>(files.size());
-  std::vector<int> order(count);
-  for (int i = 0; i < count; ++i) order[i] = i;
+  // `written_kind`'s file is already written (EarlyNormalFile).
+  std::vector<int> order;
+  for (int i = 0; i < static_cast<int>(files.size()); ++i) {
+    if (files[i].kind != written_kind) order.push_back(i);
+  }
+  const int count = static_cast<int>(order.size());
   auto samples = [&files](int i) {
     const ExportFile& f = files[i];
     return static_cast<double>(f.width) * f.height * f.channels * (f.is_float ? 2 : 1);
@@ -1326,11 +1344,23 @@ void ExportController::Run() {
   // and integrated) runs right after the flattening, before the other maps
   // exist, and keeps only the reference height for after the export's own.
   ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
+  const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
+  StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
+  fs::create_directory(staged.staging() / summary_.material_name);
   // The ground truth (simulated sessions) decodes on a thread of its own
   // while the normals are flattened (a decoder is mostly single-threaded).
   std::future<DecodedTruth> truth;
   if (inputs.session.ground_truth) truth = std::async(std::launch::async, [&] { return DecodeTruth(inputs); });
   ExportMaps maps = Flatten(&inputs);
+  // The normal map is final now: its file (generic presets) is written on a
+  // thread of its own beside the evaluation and the height.
+  std::optional<ExportFile> early_normal = EarlyNormalFile(options_, summary_, inputs, maps);
+  std::future<void> early_normal_written;
+  if (early_normal) {
+    early_normal_written = std::async(std::launch::async, [&staged, &early_normal] {
+      WriteExportFile(staged.staging() / early_normal->relative_path, *early_normal);
+    });
+  }
   std::optional<HeightReference> reference;
   if (truth.valid()) {
     TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
@@ -1345,8 +1375,6 @@ void ExportController::Run() {
   reference.reset();
   if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
-  const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
-  StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
   std::vector<ExportFile> files;
   // The preview's textures (a downsample and PNGs per map, mostly
   // single-threaded) are made on a thread of their own while the files are
@@ -1354,14 +1382,23 @@ void ExportController::Run() {
   std::future<PreviewPageTextures> preview_textures;
   TimedStage(timings, "write_files", "write files", [&] {
     files = PlanFiles(options_, summary_, inputs, maps);
-    fs::create_directory(staged.staging() / summary_.material_name);
+    std::string written_kind;
+    if (early_normal_written.valid()) {
+      early_normal_written.get();  // rethrows its failure
+      written_kind = early_normal->kind;
+      const auto planned = std::find_if(files.begin(), files.end(), [&](const ExportFile& f) { return f.kind == written_kind; });
+      if (planned == files.end() || planned->relative_path != early_normal->relative_path) {
+        throw std::logic_error("export plan's normal file differs from the one written early");
+      }
+    }
     if (options_.preview_page) {
       const ProgressCallback stop_check = [this](double) { return !IsStopRequested(); };
       preview_textures = std::async(std::launch::async, [&, stop_check] {
         return PreviewTexturesOf(staged.staging(), inputs, maps, summary_, stop_check);
       });
     }
-    WriteFilesConcurrently(staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); });
+    WriteFilesConcurrently(
+        staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); }, written_kind);
     ThrowIfStopRequested("write files");
     RecordWrittenFiles(staged.staging(), &files, &summary_);
     for (ExportFile& file : files) file.float_image.reset(), file.u8_image.reset();  // written

@@ -74,17 +74,35 @@ ImageF Downsample(const ImageF& image, const ImageU8& valid, int x0, int y0, int
                   int out_height) {
   if (width == out_width && height == out_height) return Crop(image, x0, y0, width, height);
   const int channels = image.channels();
-  std::vector<double> sum(size_t(out_width) * out_height * channels, 0.0), sum_all(sum.size(), 0.0);
-  std::vector<double> count(size_t(out_width) * out_height, 0.0), count_all(count.size(), 0.0);
+  // One texture row at a time (its source rows are consecutive): sums of a
+  // row's texels only, in the same order as over the whole texture.
+  std::vector<double> sum(size_t(out_width) * channels), sum_all(sum.size());
+  std::vector<double> count(out_width), count_all(out_width);
   // Each source column's texture column, once (not a division per pixel).
   std::vector<int> column_of(width);
   for (int x = 0; x < width; ++x) column_of[x] = int(int64_t(x) * out_width / width);
+  ImageF out(out_width, out_height, channels);
+  auto flush = [&](int out_y) {
+    float* texel = out.row(out_y);
+    for (int o = 0; o < out_width; ++o) {
+      for (int c = 0; c < channels; ++c) {
+        texel[o * channels + c] = float(count[o] > 0 ? sum[o * channels + c] / count[o]
+                                                      : sum_all[o * channels + c] / std::max(1.0, count_all[o]));
+      }
+    }
+    std::fill(sum.begin(), sum.end(), 0.0);
+    std::fill(sum_all.begin(), sum_all.end(), 0.0);
+    std::fill(count.begin(), count.end(), 0.0);
+    std::fill(count_all.begin(), count_all.end(), 0.0);
+  };
+  int out_y = 0;
   for (int y = 0; y < height; ++y) {
-    const size_t row_begin = size_t(int64_t(y) * out_height / height) * out_width;
+    const int row_of_y = int(int64_t(y) * out_height / height);
+    for (; out_y < row_of_y; ++out_y) flush(out_y);
     const float* pixel = image.row(y0 + y) + size_t(x0) * channels;
     const uint8_t* solved_row = valid.empty() ? nullptr : valid.row(y0 + y) + x0;
     for (int x = 0; x < width; ++x, pixel += channels) {
-      const size_t o = row_begin + column_of[x];
+      const size_t o = column_of[x];
       const bool solved = solved_row == nullptr || solved_row[x] != 0;
       for (int c = 0; c < channels; ++c) {
         sum_all[o * channels + c] += pixel[c];
@@ -94,13 +112,7 @@ ImageF Downsample(const ImageF& image, const ImageU8& valid, int x0, int y0, int
       if (solved) count[o] += 1;
     }
   }
-  ImageF out(out_width, out_height, channels);
-  for (size_t o = 0; o < count.size(); ++o) {
-    for (int c = 0; c < channels; ++c) {
-      out.data()[o * channels + c] = float(count[o] > 0 ? sum[o * channels + c] / count[o]
-                                                         : sum_all[o * channels + c] / std::max(1.0, count_all[o]));
-    }
-  }
+  for (; out_y < out_height; ++out_y) flush(out_y);
   return out;
 }
 
