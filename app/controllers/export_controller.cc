@@ -136,11 +136,15 @@ ImageF ReadResultMap(const fs::path& path, int channels, int width, int height,
   bool in_order = true;
   for (int c = 0; c < channels; ++c) in_order = in_order && source[c] == c;
   if (in_order) return image;
-  ImageF ordered(image.width(), image.height(), channels);
+  // In place, a pixel at a time: a reordered copy would be another full-size
+  // map at the moment the export's memory is highest.
+  std::vector<float> pixel(channels);
   for (size_t i = 0; i < image.num_pixels(); ++i) {
-    for (int c = 0; c < channels; ++c) ordered.data()[i * channels + c] = image.data()[i * channels + source[c]];
+    float* values = image.data() + i * channels;
+    std::copy_n(values, channels, pixel.data());
+    for (int c = 0; c < channels; ++c) values[c] = pixel[source[c]];
   }
-  return ordered;
+  return image;
 }
 
 // specular.exr's roughness_alpha (issue #13): the channels by name (OpenEXR
@@ -1532,16 +1536,19 @@ void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* m
     TimedStage(timings, name, "", step);
   };
 
-  auto cavity = std::async(std::launch::async, failing([&] {
+  std::shared_future<void> cavity = std::async(std::launch::async, failing([&] {
     timed(cavity_timing, "cavity", [&] {
       CavityOptions cavity_options = options_.cavity;
       cavity_options.mm_per_pixel = mm;
       summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, stop_check);
       RequireSuccess(summary_.cavity, "cavity");
     });
-  }));
-  auto roughness_then_inputs = std::async(std::launch::async, failing([&] {
+  })).share();
+  // Albedo and confidence (400 MB at 16 MP, and their decoders' buffers)
+  // only once the cavity's full-size temporaries are gone too.
+  auto roughness_then_inputs = std::async(std::launch::async, failing([&, cavity_done = cavity] {
     DeriveRoughness(&inputs, &maps, &roughness_timings, stop_check);
+    cavity_done.wait();
     timed(roughness_timings, "load_albedo_confidence", [&] { LoadAlbedoAndConfidence(&inputs); });
   }));
   std::future<void> evaluate;
@@ -1565,14 +1572,17 @@ void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* m
     failed = true;
     failure = std::current_exception();
   }
-  for (std::future<void>* step : {&cavity, &roughness_then_inputs, &evaluate}) {
-    if (!step->valid()) continue;
+  auto join = [&failure](auto& step) {
+    if (!step.valid()) return;
     try {
-      step->get();
+      step.get();
     } catch (...) {
       if (!failure) failure = std::current_exception();
     }
-  }
+  };
+  join(cavity);
+  join(roughness_then_inputs);
+  join(evaluate);
   if (failure) std::rethrow_exception(failure);
   for (const auto* timings : {&occlusion_timing, &cavity_timing, &roughness_timings, &evaluate_timing}) {
     summary_.stage_seconds.insert(summary_.stage_seconds.end(), timings->begin(), timings->end());
