@@ -122,34 +122,114 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void MarchInterior(
   }
 }
 
+// Four samples' rises for pixels [begin, end), inside the row for all four
+// (r0[i], r1[i] already offset by sample i's dx): the centre heights and the
+// horizons are read and written once for the four, which saves a third of
+// the memory operations of four MarchInterior passes. Each sample's rise is
+// MarchInterior's to the bit, and a maximum does not depend on the order its
+// values come in (+0 and -0 aside, which give the same visibility).
+__attribute__((target_clones("avx512f", "avx2", "default"))) void MarchInterior4(
+    const float* const* r0, const float* const* r1, const float* centre, const float* fx, const float* fy,
+    const float* inv, int begin, int end, float* __restrict max_tangent) {
+  const float* r00 = r0[0];
+  const float* r01 = r0[1];
+  const float* r02 = r0[2];
+  const float* r03 = r0[3];
+  const float* r10 = r1[0];
+  const float* r11 = r1[1];
+  const float* r12 = r1[2];
+  const float* r13 = r1[3];
+  const float fx0 = fx[0], fx1 = fx[1], fx2 = fx[2], fx3 = fx[3];
+  const float fy0 = fy[0], fy1 = fy[1], fy2 = fy[2], fy3 = fy[3];
+  const float inv0 = inv[0], inv1 = inv[1], inv2 = inv[2], inv3 = inv[3];
+  for (int x = begin; x < end; ++x) {
+    const float c = centre[x];
+    float m = max_tangent[x];
+    {
+      const float a = r00[x] + fx0 * (r00[x + 1] - r00[x]);
+      const float b = r10[x] + fx0 * (r10[x + 1] - r10[x]);
+      m = std::max(m, (a + fy0 * (b - a) - c) * inv0);
+    }
+    {
+      const float a = r01[x] + fx1 * (r01[x + 1] - r01[x]);
+      const float b = r11[x] + fx1 * (r11[x + 1] - r11[x]);
+      m = std::max(m, (a + fy1 * (b - a) - c) * inv1);
+    }
+    {
+      const float a = r02[x] + fx2 * (r02[x + 1] - r02[x]);
+      const float b = r12[x] + fx2 * (r12[x + 1] - r12[x]);
+      m = std::max(m, (a + fy2 * (b - a) - c) * inv2);
+    }
+    {
+      const float a = r03[x] + fx3 * (r03[x + 1] - r03[x]);
+      const float b = r13[x] + fx3 * (r13[x + 1] - r13[x]);
+      m = std::max(m, (a + fy3 * (b - a) - c) * inv3);
+    }
+    max_tangent[x] = m;
+  }
+}
+
 // Raises max_tangent[x] for one azimuth's samples to the steepest rise
 // (height difference over distance) seen from each pixel of row y.
 void MarchRow(const ImageF& height_mm, int y, const std::vector<MarchSample>& samples, float* max_tangent) {
   const int width = height_mm.width(), rows = height_mm.height();
   const float* centre = height_mm.row(y);
-  for (const MarchSample& s : samples) {
-    const float* r0 = height_mm.row(std::clamp(y + s.dy, 0, rows - 1));
-    const float* r1 = height_mm.row(std::clamp(y + s.dy + 1, 0, rows - 1));
-    const float fx = s.fx, fy = s.fy, inv = s.inv_distance_mm;
-    // a + f * (b - a) keeps a flat field exactly flat (no rounding rise).
-    auto rise = [&](int x, int x0, int x1) {
-      const float a = r0[x0] + fx * (r0[x1] - r0[x0]);
-      const float b = r1[x0] + fx * (r1[x1] - r1[x0]);
-      return (a + fy * (b - a) - centre[x]) * inv;
-    };
-    // Interior: x + dx and x + dx + 1 both inside the row.
+  // Sample i's rows, its interior [begin, end) (x + dx and x + dx + 1 both
+  // inside the row) and everything outside it.
+  struct Span {
+    const float* r0;
+    const float* r1;
+    int begin, end;
+  };
+  auto span_of = [&](const MarchSample& s) {
     const int begin = std::clamp(-s.dx, 0, width);
-    const int end = std::clamp(width - 1 - s.dx, begin, width);
-    for (int x = 0; x < begin; ++x) {
-      max_tangent[x] = std::max(max_tangent[x], rise(x, std::clamp(x + s.dx, 0, width - 1),
-                                                     std::clamp(x + s.dx + 1, 0, width - 1)));
+    return Span{height_mm.row(std::clamp(y + s.dy, 0, rows - 1)), height_mm.row(std::clamp(y + s.dy + 1, 0, rows - 1)),
+                begin, std::clamp(width - 1 - s.dx, begin, width)};
+  };
+  // Pixels [from, to) of sample s outside its interior: the clamp-to-edge rise.
+  auto edge = [&](const MarchSample& s, const Span& span, int from, int to) {
+    // a + f * (b - a) keeps a flat field exactly flat (no rounding rise).
+    for (int x = from; x < to; ++x) {
+      const int x0 = std::clamp(x + s.dx, 0, width - 1), x1 = std::clamp(x + s.dx + 1, 0, width - 1);
+      const float a = span.r0[x0] + s.fx * (span.r0[x1] - span.r0[x0]);
+      const float b = span.r1[x0] + s.fx * (span.r1[x1] - span.r1[x0]);
+      max_tangent[x] = std::max(max_tangent[x], (a + s.fy * (b - a) - centre[x]) * s.inv_distance_mm);
     }
-    MarchInterior(r0 + s.dx, r1 + s.dx, centre, fx, fy, inv, begin, end, max_tangent);
-    for (int x = end; x < width; ++x) {
-      max_tangent[x] = std::max(max_tangent[x], rise(x, std::clamp(x + s.dx, 0, width - 1),
-                                                     std::clamp(x + s.dx + 1, 0, width - 1)));
+  };
+  // One sample over the whole row.
+  auto march_one = [&](const MarchSample& s, const Span& span, int from, int to) {
+    const int begin = std::clamp(span.begin, from, to), end = std::clamp(span.end, begin, to);
+    edge(s, span, from, begin);
+    MarchInterior(span.r0 + s.dx, span.r1 + s.dx, centre, s.fx, s.fy, s.inv_distance_mm, begin, end, max_tangent);
+    edge(s, span, end, to);
+  };
+  size_t i = 0;
+  for (; i + 4 <= samples.size(); i += 4) {
+    Span spans[4];
+    const float* r0[4];
+    const float* r1[4];
+    float fx[4], fy[4], inv[4];
+    int begin = 0, end = width;
+    for (int j = 0; j < 4; ++j) {
+      const MarchSample& s = samples[i + j];
+      spans[j] = span_of(s);
+      r0[j] = spans[j].r0 + s.dx;
+      r1[j] = spans[j].r1 + s.dx;
+      fx[j] = s.fx;
+      fy[j] = s.fy;
+      inv[j] = s.inv_distance_mm;
+      begin = std::max(begin, spans[j].begin);
+      end = std::min(end, spans[j].end);
     }
+    end = std::max(end, begin);
+    // Outside the four's common interior one sample at a time, inside it the four together.
+    for (int j = 0; j < 4; ++j) {
+      march_one(samples[i + j], spans[j], 0, begin);
+      march_one(samples[i + j], spans[j], end, width);
+    }
+    MarchInterior4(r0, r1, centre, fx, fy, inv, begin, end, max_tangent);
   }
+  for (; i < samples.size(); ++i) march_one(samples[i], span_of(samples[i]), 0, width);
 }
 
 // The samples of every azimuth, the same for every pixel.

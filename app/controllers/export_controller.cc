@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -135,11 +136,15 @@ ImageF ReadResultMap(const fs::path& path, int channels, int width, int height,
   bool in_order = true;
   for (int c = 0; c < channels; ++c) in_order = in_order && source[c] == c;
   if (in_order) return image;
-  ImageF ordered(image.width(), image.height(), channels);
+  // In place, a pixel at a time: a reordered copy would be another full-size
+  // map at the moment the export's memory is highest.
+  std::vector<float> pixel(channels);
   for (size_t i = 0; i < image.num_pixels(); ++i) {
-    for (int c = 0; c < channels; ++c) ordered.data()[i * channels + c] = image.data()[i * channels + source[c]];
+    float* values = image.data() + i * channels;
+    std::copy_n(values, channels, pixel.data());
+    for (int c = 0; c < channels; ++c) values[c] = pixel[source[c]];
   }
-  return ordered;
+  return image;
 }
 
 // specular.exr's roughness_alpha (issue #13): the channels by name (OpenEXR
@@ -839,7 +844,7 @@ std::optional<EngineTarget> EngineTargetOf(ExportOptions::Preset preset) {
 
 // The generic presets' maps: base colour, normals, height, occlusion,
 // cavity, the roughness and normal mip chains and the tiles.
-void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, const ExportMaps& maps,
+void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, ExportMaps& maps,
                      FilePlanner& plan) {
   const IntegerEncoding& unit_interval = kUnitInterval;
   const double mm = summary.mm_per_pixel;
@@ -848,7 +853,9 @@ void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, c
   plan.AddHeight("height", maps.height_mm, mm);
   plan.AddMap("ao", maps.occlusion, "Raw", unit_interval, "ambient occlusion, cosine-weighted visibility, 1 = open",
               mm);
-  plan.AddMap("cavity", maps.cavity, "Raw", unit_interval, "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
+  // The cavity's one user is its file: moved in, so it is freed once written.
+  plan.AddMap("cavity", std::move(maps.cavity), "Raw", unit_interval,
+              "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
   for (size_t k = 0; k < maps.mips.size(); ++k) {
     const double pixel_mm = mm * std::ldexp(1.0, static_cast<int>(k));
     plan.AddMap("roughness_mip" + std::to_string(k), maps.mips[k].roughness, "Raw", unit_interval,
@@ -956,8 +963,10 @@ std::string MaterialXOf(const ExportOptions& options, const ExportSummary& summa
 // Every file of the export: the maps (generic or in an engine's layout), the
 // solver's confidence, the mask, the sRGB preview (generic presets), the
 // MaterialX document and, for gltf, the .gltf and its .bin.
+// The maps whose only user is their file (the confidence, the generic
+// presets' cavity) are moved into it, so that they are freed once written.
 std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSummary& summary,
-                                  const ExportInputs& inputs, const ExportMaps& maps) {
+                                  ExportInputs& inputs, ExportMaps& maps) {
   const double mm = summary.mm_per_pixel;
   FilePlanner plan(options, summary, inputs.result_dir.filename().string());
   const std::optional<EngineTarget> engine = EngineTargetOf(options.preset);
@@ -974,7 +983,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
     PlanGenericMaps(summary, inputs, maps, plan);
   }
   ExportFile* confidence =
-      plan.AddMap("confidence", inputs.confidence, "Raw", {},
+      plan.AddMap("confidence", std::move(inputs.confidence), "Raw", {},
                   "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
   confidence->channel_names = kConfidenceChannels;
   ImageU8 mask(inputs.valid.width(), inputs.valid.height(), 1);
@@ -1014,18 +1023,36 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
 
 // --- Writing -----------------------------------------------------------------
 
+// The generic presets' normal file (OpenGL: it borrows the map, no copy), as
+// PlanFiles plans it: the normals are final once flattened, so the export
+// writes this file while the evaluation and the height run (they leave a core
+// mostly idle). Engine presets and DirectX normals: none (written with the rest).
+std::optional<ExportFile> EarlyNormalFile(const ExportOptions& options, const ExportSummary& summary,
+                                          const ExportInputs& inputs, const ExportMaps& maps) {
+  if (IsEnginePreset(options.preset) || options.normal_convention != ExportOptions::NormalConvention::kOpenGl) {
+    return std::nullopt;
+  }
+  FilePlanner plan(options, summary, inputs.result_dir.filename().string());
+  plan.AddNormal("normal", maps.normals, summary.mm_per_pixel);
+  return std::move(plan.Take().front());
+}
+
+
 // Compression dominates; the files are independent, so they are written
 // concurrently. `report` gets the fraction of files done (up to 0.9). The
 // first failure is rethrown once every write has ended.
-void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFile>& files,
-                            const std::function<void(double)>& report) {
+void WriteFilesConcurrently(const fs::path& staging, std::vector<ExportFile>& files,
+                            const std::function<void(double)>& report, const std::string& written_kind = "") {
   // On the shared pool, one file per thread at a time: each integer file
   // holds its quantised copy while it encodes, so a thread per file would
   // hold them all at once.
   // Largest first, so that no thread is left with a large file while the others are done.
-  const int count = static_cast<int>(files.size());
-  std::vector<int> order(count);
-  for (int i = 0; i < count; ++i) order[i] = i;
+  // `written_kind`'s file is already written (EarlyNormalFile).
+  std::vector<int> order;
+  for (int i = 0; i < static_cast<int>(files.size()); ++i) {
+    if (files[i].kind != written_kind) order.push_back(i);
+  }
+  const int count = static_cast<int>(order.size());
   auto samples = [&files](int i) {
     const ExportFile& f = files[i];
     return static_cast<double>(f.width) * f.height * f.channels * (f.is_float ? 2 : 1);
@@ -1034,7 +1061,11 @@ void WriteFilesConcurrently(const fs::path& staging, const std::vector<ExportFil
   ParallelFor(
       count, ResolveThreadCount(0), 1,
       [&](int first, int last, int) {
-        for (int i = first; i < last; ++i) WriteExportFile(staging / files[order[i]].relative_path, files[order[i]]);
+        for (int i = first; i < last; ++i) {
+          ExportFile& file = files[order[i]];
+          WriteExportFile(staging / file.relative_path, file);
+          file.float_image.reset(), file.u8_image.reset();  // frees what the file owns (borrowed maps stay)
+        }
       },
       [&](int done) {
         report(0.9 * done / count);
@@ -1058,30 +1089,44 @@ void RecordWrittenFiles(const fs::path& staging, std::vector<ExportFile>* files,
 // preview.html beside material.json: the base colour, flattened normals
 // (tangent frame, whatever the files' convention), mip 0's roughness, the
 // occlusion and height on a tile and a sphere, listing the files written.
-// The page is the maps' last user: it takes them (no full-size copies).
-void WritePreview(const fs::path& staging, ExportInputs* inputs, ExportMaps* maps,
+// Its textures need only the maps, so they are made while the files are
+// written (PreviewTexturesOf); the page itself needs the files' sizes.
+PreviewPageOptions PreviewOptionsOf(const ExportInputs& inputs, const ExportSummary& summary) {
+  PreviewPageOptions options;
+  options.title = summary.material_name;
+  options.basecolor_note = inputs.albedo_color.color_space == "linear_rec709"
+                               ? "linear Rec.709, " + inputs.albedo_color.scale
+                               : "white-balanced camera RGB (not colour calibrated)";
+  return options;
+}
+
+constexpr char kPreviewPath[] = "preview.html";
+
+PreviewPageTextures PreviewTexturesOf(const fs::path& staging, const ExportInputs& inputs, const ExportMaps& maps,
+                                      const ExportSummary& summary, const ProgressCallback& progress) {
+  PreviewPageMapViews views;
+  views.basecolor_linear_rec709 = &inputs.albedo;
+  views.normal_in_tangent = &maps.normals;
+  if (!maps.mips.empty()) views.roughness_alpha = &maps.mips[0].roughness;
+  views.occlusion = &maps.occlusion;
+  views.height_mm = &maps.height_mm;
+  views.valid = &inputs.valid;
+  return MakePreviewTextures(PreviewOptionsOf(inputs, summary), views, summary.mm_per_pixel, staging / kPreviewPath,
+                             progress);
+}
+
+void WritePreview(const fs::path& staging, const ExportInputs& inputs, const PreviewPageTextures& textures,
                   const ProgressCallback& progress, std::vector<ExportFile>* files, ExportSummary* summary) {
-  PreviewPageMaps preview;
-  preview.basecolor_linear_rec709 = std::move(inputs->albedo);
-  preview.normal_in_tangent = std::move(maps->normals);
-  if (!maps->mips.empty()) preview.roughness_alpha = std::move(maps->mips[0].roughness);
-  preview.occlusion = std::move(maps->occlusion);
-  preview.height_mm = std::move(maps->height_mm);
-  preview.valid = inputs->valid;
+  if (textures.summary.IsCancelled()) throw Cancelled("preview page");
   std::vector<PreviewPageFile> listed;
   for (const ExportFile& file : *files) listed.push_back({file.relative_path, file.bytes});
-  PreviewPageOptions options;
-  options.title = summary->material_name;
-  options.basecolor_note = inputs->albedo_color.color_space == "linear_rec709"
-                               ? "linear Rec.709, " + inputs->albedo_color.scale
-                               : "white-balanced camera RGB (not colour calibrated)";
   ExportFile page;
   page.kind = "preview";
-  page.relative_path = "preview.html";
+  page.relative_path = kPreviewPath;
   page.format = "html";
   page.encoding = "self-contained preview page (three.js inline, maps as 8-bit data: PNGs); open in a browser";
-  summary->preview = WritePreviewPage(options, preview, summary->mm_per_pixel, listed, staging / page.relative_path,
-                                      progress);
+  summary->preview = WritePreviewPage(PreviewOptionsOf(inputs, *summary), textures, listed,
+                                      staging / page.relative_path, progress);
   RequireSuccess(*summary->preview, "preview page");
   page.sha256 = Sha256HexOfFile(staging / page.relative_path);
   page.bytes = summary->preview->bytes;
@@ -1360,30 +1405,61 @@ void ExportController::Run() {
   // and integrated) runs right after the flattening, before the other maps
   // exist, and keeps only the reference height for after the export's own.
   ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
+  const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
+  StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
+  fs::create_directory(staged.staging() / summary_.material_name);
   // The ground truth (simulated sessions) decodes on a thread of its own
   // while the normals are flattened (a decoder is mostly single-threaded).
   std::future<DecodedTruth> truth;
   if (inputs.session.ground_truth) truth = std::async(std::launch::async, [&] { return DecodeTruth(inputs); });
   ExportMaps maps = Flatten(&inputs);
+  // The normal map is final now: its file (generic presets) is written on a
+  // thread of its own beside the evaluation and the height.
+  std::optional<ExportFile> early_normal = EarlyNormalFile(options_, summary_, inputs, maps);
+  std::future<void> early_normal_written;
+  if (early_normal) {
+    early_normal_written = std::async(std::launch::async, [&staged, &early_normal] {
+      WriteExportFile(staged.staging() / early_normal->relative_path, *early_normal);
+    });
+  }
   std::optional<HeightReference> reference;
   if (truth.valid()) {
     TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
   }
-  Derive(&inputs, &maps);
-  if (reference) {
-    TimedStage(timings, "evaluate_height", "", [&] { EvaluateHeight(*reference, maps); });
-    reference.reset();
-  }
-  TimedStage(timings, "load_albedo_confidence", "", [&] { LoadAlbedoAndConfidence(&inputs); });
+  DeriveHeight(&inputs, &maps);
+  // Past the height the steps need only what exists by now, so they run
+  // side by side and fill the cores the mostly single-threaded ones leave
+  // idle: occlusion (on the pool) here, cavity, the roughness chain and then
+  // albedo and confidence's decode (its memory once the roughness chain's
+  // temporaries are gone), and the height's evaluation each on a thread.
+  DeriveConcurrently(&inputs, &maps, reference ? &*reference : nullptr);
+  reference.reset();
   if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
-  const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
-  StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
   std::vector<ExportFile> files;
+  // The preview's textures (a downsample and PNGs per map, mostly
+  // single-threaded) are made on a thread of their own while the files are
+  // written; the page follows once the files' sizes are known.
+  std::future<PreviewPageTextures> preview_textures;
   TimedStage(timings, "write_files", "write files", [&] {
     files = PlanFiles(options_, summary_, inputs, maps);
-    fs::create_directory(staged.staging() / summary_.material_name);
-    WriteFilesConcurrently(staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); });
+    std::string written_kind;
+    if (early_normal_written.valid()) {
+      early_normal_written.get();  // rethrows its failure
+      written_kind = early_normal->kind;
+      const auto planned = std::find_if(files.begin(), files.end(), [&](const ExportFile& f) { return f.kind == written_kind; });
+      if (planned == files.end() || planned->relative_path != early_normal->relative_path) {
+        throw std::logic_error("export plan's normal file differs from the one written early");
+      }
+    }
+    if (options_.preview_page) {
+      const ProgressCallback stop_check = [this](double) { return !IsStopRequested(); };
+      preview_textures = std::async(std::launch::async, [&, stop_check] {
+        return PreviewTexturesOf(staged.staging(), inputs, maps, summary_, stop_check);
+      });
+    }
+    WriteFilesConcurrently(
+        staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); }, written_kind);
     ThrowIfStopRequested("write files");
     RecordWrittenFiles(staged.staging(), &files, &summary_);
     for (ExportFile& file : files) file.float_image.reset(), file.u8_image.reset();  // written
@@ -1392,8 +1468,10 @@ void ExportController::Run() {
     maps.tiles.clear();
   });
   if (options_.preview_page) {
+    // What the page took after the files: the rest of the textures, then the page.
     TimedStage(timings, "preview", "preview page", [&] {
-      WritePreview(staged.staging(), &inputs, &maps, StageCallback("preview page"), &files, &summary_);
+      WritePreview(staged.staging(), inputs, preview_textures.get(), StageCallback("preview page"), &files,
+                   &summary_);
     });
   }
   summary_.export_dir = staged.final_dir();
@@ -1443,14 +1521,14 @@ ExportInputs ExportController::Load() {
 }
 
 // albedo.exr and confidence.exr (by channel name), decoded concurrently.
+// No progress of its own: it runs beside the occlusion.
 void ExportController::LoadAlbedoAndConfidence(ExportInputs* inputs) {
-  BeginStage("load albedo and confidence");
+  ThrowIfStopRequested("load albedo and confidence");
   const int width = summary_.image_width, height = summary_.image_height;
   const fs::path& dir = inputs->result_dir;
   auto albedo = std::async(std::launch::async, [&] { return ReadResultMap(dir / "albedo.exr", 3, width, height); });
   inputs->confidence = ReadResultMap(dir / "confidence.exr", 3, width, height, kConfidenceChannels);
   inputs->albedo = albedo.get();
-  ReportProgress("load albedo and confidence", 1);
 }
 
 // The flattened normals (or the solved ones as they are), a stage of its own;
@@ -1472,56 +1550,128 @@ ExportMaps ExportController::Flatten(ExportInputs* inputs_to_release) {
   return maps;
 }
 
-// Height, occlusion, cavity and roughness mips from the flattened normals,
-// each a stage of its own.
-void ExportController::Derive(ExportInputs* inputs_to_release, ExportMaps* maps_out) {
-  ExportInputs& inputs = *inputs_to_release;
-  ExportMaps& maps = *maps_out;
+// Height from the flattened normals, a stage of its own.
+void ExportController::DeriveHeight(ExportInputs* inputs, ExportMaps* maps) {
   const double mm = summary_.mm_per_pixel;
-  std::vector<StageTiming>& timings = summary_.stage_seconds;
-  TimedStage(timings, "height", "height from normals", [&] {
-    summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps.normals, &inputs.valid,
-                                        &maps.height_mm, StageCallback("height from normals"));
+  TimedStage(summary_.stage_seconds, "height", "height from normals", [&] {
+    summary_.height = HeightFromNormals(ScaledHeightOptions(options_, mm), maps->normals, &inputs->valid,
+                                       &maps->height_mm, StageCallback("height from normals"));
     RequireSuccess(summary_.height, "height from normals");
-    const float* heights = maps.height_mm.data();
-    const auto [lowest, highest] = std::minmax_element(heights, heights + maps.height_mm.size());
+    const float* heights = maps->height_mm.data();
+    const auto [lowest, highest] = std::minmax_element(heights, heights + maps->height_mm.size());
     summary_.height_min_mm = *lowest;
     summary_.height_max_mm = *highest;
   });
+}
 
-  TimedStage(timings, "occlusion_cavity", "ambient occlusion", [&] {
-    AmbientOcclusionOptions occlusion_options = options_.occlusion;
-    occlusion_options.mm_per_pixel = mm;
-    summary_.occlusion = AmbientOcclusionFromHeight(occlusion_options, maps.height_mm, &maps.occlusion,
-                                                    StageCallback("ambient occlusion"));
-    RequireSuccess(summary_.occlusion, "ambient occlusion");
-    CavityOptions cavity_options = options_.cavity;
-    cavity_options.mm_per_pixel = mm;
-    BeginStage("cavity");
-    summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, StageCallback("cavity"));
-    RequireSuccess(summary_.cavity, "cavity");
-  });
+// Occlusion on this thread (it reports the progress); cavity, the roughness
+// chain followed by albedo and confidence, and the height's evaluation on
+// threads of their own, which only check for a stop (one progress stage at a
+// time). Each records its wall time under its own stage name, so the
+// concurrent stages' times overlap. The first failure is rethrown once every
+// step has ended.
+void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* maps_in,
+                                          const HeightReference* reference) {
+  ExportInputs& inputs = *inputs_in;
+  ExportMaps& maps = *maps_in;
+  const double mm = summary_.mm_per_pixel;
+  // A failed step ends the others at their next check, as a stop would.
+  std::atomic<bool> failed{false};
+  const ProgressCallback stop_check = [this, &failed](double) { return !IsStopRequested() && !failed; };
+  auto failing = [&failed](auto&& step) {
+    return [&failed, step] {
+      try {
+        step();
+      } catch (...) {
+        failed = true;
+        throw;
+      }
+    };
+  };
+  std::vector<StageTiming> occlusion_timing, cavity_timing, roughness_timings, evaluate_timing;
+  auto timed = [this](std::vector<StageTiming>& timings, const std::string& name, auto&& step) {
+    TimedStage(timings, name, "", step);
+  };
 
+  std::shared_future<void> cavity = std::async(std::launch::async, failing([&] {
+    timed(cavity_timing, "cavity", [&] {
+      CavityOptions cavity_options = options_.cavity;
+      cavity_options.mm_per_pixel = mm;
+      summary_.cavity = CavityFromHeight(cavity_options, maps.height_mm, &maps.cavity, stop_check);
+      RequireSuccess(summary_.cavity, "cavity");
+    });
+  })).share();
+  // Albedo and confidence (400 MB at 16 MP, and their decoders' buffers)
+  // only once the cavity's full-size temporaries are gone too.
+  auto roughness_then_inputs = std::async(std::launch::async, failing([&, cavity_done = cavity] {
+    DeriveRoughness(&inputs, &maps, &roughness_timings, stop_check);
+    cavity_done.wait();
+    timed(roughness_timings, "load_albedo_confidence", [&] { LoadAlbedoAndConfidence(&inputs); });
+  }));
+  std::future<void> evaluate;
+  if (reference) {
+    evaluate = std::async(std::launch::async, failing([&] {
+      timed(evaluate_timing, "evaluate_height", [&] { EvaluateHeight(*reference, maps); });
+    }));
+  }
+  std::exception_ptr failure;
+  try {
+    TimedStage(occlusion_timing, "occlusion", "ambient occlusion", [&] {
+      AmbientOcclusionOptions occlusion_options = options_.occlusion;
+      occlusion_options.mm_per_pixel = mm;
+      const ProgressCallback report = StageCallback("ambient occlusion");
+      summary_.occlusion = AmbientOcclusionFromHeight(
+          occlusion_options, maps.height_mm, &maps.occlusion,
+          [&](double fraction) { return report(fraction) && !failed; });
+      RequireSuccess(summary_.occlusion, "ambient occlusion");
+    });
+  } catch (...) {
+    failed = true;
+    failure = std::current_exception();
+  }
+  auto join = [&failure](auto& step) {
+    if (!step.valid()) return;
+    try {
+      step.get();
+    } catch (...) {
+      if (!failure) failure = std::current_exception();
+    }
+  };
+  join(cavity);
+  join(roughness_then_inputs);
+  join(evaluate);
+  if (failure) std::rethrow_exception(failure);
+  for (const auto* timings : {&occlusion_timing, &cavity_timing, &roughness_timings, &evaluate_timing}) {
+    summary_.stage_seconds.insert(summary_.stage_seconds.end(), timings->begin(), timings->end());
+  }
+}
+
+// Mip 0's roughness from the specular map (when the result has one), then
+// the roughness mips from the flattened normals; `progress` only checks for a
+// stop (these run beside the occlusion).
+void ExportController::DeriveRoughness(ExportInputs* inputs_in, ExportMaps* maps_in,
+                                       std::vector<StageTiming>* timings, const ProgressCallback& progress) {
+  ExportInputs& inputs = *inputs_in;
+  ExportMaps& maps = *maps_in;
   ImageF mip0_roughness;  // with a specular map: its alpha feathered into the base roughness
   if (!inputs.specular_alpha.empty()) {
-    TimedStage(timings, "specular_roughness", "specular roughness", [&] {
+    TimedStage(*timings, "specular_roughness", "", [&] {
       // Mip 0 of today's normal-variance chain is base_roughness everywhere;
       // the chain folds the normal variance into the coarser levels on top of
       // whatever mip 0 holds.
       const ImageF base(summary_.image_width, summary_.image_height, 1,
                         static_cast<float>(options_.gloss.base_roughness));
-      summary_.specular_roughness =
-          BlendSpecularRoughness(options_.specular_roughness, inputs.specular_alpha, base, &inputs.valid,
-                                 &mip0_roughness, StageCallback("specular roughness"));
+      summary_.specular_roughness = BlendSpecularRoughness(options_.specular_roughness, inputs.specular_alpha, base,
+                                                           &inputs.valid, &mip0_roughness, progress);
       RequireSuccess(*summary_.specular_roughness, "specular roughness");
       summary_.roughness_source = "specular_map+normal_variance";
     });
     inputs.specular_alpha = ImageF();  // its last user
   }
-  TimedStage(timings, "gloss_mips", "roughness mips", [&] {
-    summary_.gloss =
-        BuildGlossMipChain(options_.gloss, maps.normals, mip0_roughness.empty() ? nullptr : &mip0_roughness,
-                           &inputs.valid, &maps.mips, StageCallback("roughness mips"));
+  TimedStage(*timings, "gloss_mips", "", [&] {
+    summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals,
+                                        mip0_roughness.empty() ? nullptr : &mip0_roughness, &inputs.valid,
+                                        &maps.mips, progress);
     RequireSuccess(summary_.gloss, "roughness mips");
   });
   // Mip 0's normals are the flattened normals normalised again; the files and

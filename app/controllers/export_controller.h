@@ -119,11 +119,16 @@ class ExportController : public BaseController {
  private:
   ExportInputs Load();
   ExportMaps Flatten(ExportInputs* inputs);  // releases the solved normals once used
-  void Derive(ExportInputs* inputs, ExportMaps* maps);
+  void DeriveHeight(ExportInputs* inputs, ExportMaps* maps);
+  struct HeightReference;  // what the ground-truth evaluation keeps for the height
+  // Occlusion, cavity, roughness, albedo and confidence's decode and the
+  // height's evaluation (with a reference), side by side.
+  void DeriveConcurrently(ExportInputs* inputs, ExportMaps* maps, const HeightReference* reference);
+  void DeriveRoughness(ExportInputs* inputs, ExportMaps* maps, std::vector<StageTiming>* timings,
+                       const ProgressCallback& progress);
   void LoadAlbedoAndConfidence(ExportInputs* inputs);
   void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
   struct DecodedTruth;     // the session's ground truth files, decoded
-  struct HeightReference;  // what the ground-truth evaluation keeps for the height
   DecodedTruth DecodeTruth(const ExportInputs& inputs) const;
   HeightReference EvaluateNormals(const ExportInputs& inputs, const ExportMaps& maps, DecodedTruth truth);
   void EvaluateHeight(const HeightReference& reference, const ExportMaps& maps);

@@ -57,23 +57,52 @@ std::pair<int, int> TextureSize(int width, int height, int max_px) {
   return {std::max(1, int(std::lround(width / factor))), std::max(1, int(std::lround(height / factor)))};
 }
 
-// Box average of each texture pixel's source pixels, the solved ones only
+template <typename T>
+Image<T> Crop(const Image<T>& image, int x0, int y0, int width, int height) {
+  Image<T> out(width, height, image.channels());
+  for (int y = 0; y < height; ++y) {
+    std::copy_n(image.row(y0 + y) + size_t(x0) * image.channels(), size_t(width) * image.channels(), out.row(y));
+  }
+  return out;
+}
+
+// Box average of each texture pixel's source pixels in the region (x0, y0,
+// width x height) of `image` (no copy of the region), the solved ones only
 // where there are any (unsolved pixels hold placeholders: normal (0, 0, 1),
-// albedo 0).
-ImageF Downsample(const ImageF& image, const ImageU8& valid, int out_width, int out_height) {
-  if (image.SameSize(out_width, out_height)) return image;
+// albedo 0). `valid` is the whole image's mask, or empty.
+ImageF Downsample(const ImageF& image, const ImageU8& valid, int x0, int y0, int width, int height, int out_width,
+                  int out_height) {
+  if (width == out_width && height == out_height) return Crop(image, x0, y0, width, height);
   const int channels = image.channels();
-  std::vector<double> sum(size_t(out_width) * out_height * channels, 0.0), sum_all(sum.size(), 0.0);
-  std::vector<double> count(size_t(out_width) * out_height, 0.0), count_all(count.size(), 0.0);
+  // One texture row at a time (its source rows are consecutive): sums of a
+  // row's texels only, in the same order as over the whole texture.
+  std::vector<double> sum(size_t(out_width) * channels), sum_all(sum.size());
+  std::vector<double> count(out_width), count_all(out_width);
   // Each source column's texture column, once (not a division per pixel).
-  std::vector<int> column_of(image.width());
-  for (int x = 0; x < image.width(); ++x) column_of[x] = int(int64_t(x) * out_width / image.width());
-  for (int y = 0; y < image.height(); ++y) {
-    const size_t row_begin = size_t(int64_t(y) * out_height / image.height()) * out_width;
-    const float* pixel = image.row(y);
-    const uint8_t* solved_row = valid.empty() ? nullptr : valid.row(y);
-    for (int x = 0; x < image.width(); ++x, pixel += channels) {
-      const size_t o = row_begin + column_of[x];
+  std::vector<int> column_of(width);
+  for (int x = 0; x < width; ++x) column_of[x] = int(int64_t(x) * out_width / width);
+  ImageF out(out_width, out_height, channels);
+  auto flush = [&](int out_y) {
+    float* texel = out.row(out_y);
+    for (int o = 0; o < out_width; ++o) {
+      for (int c = 0; c < channels; ++c) {
+        texel[o * channels + c] = float(count[o] > 0 ? sum[o * channels + c] / count[o]
+                                                      : sum_all[o * channels + c] / std::max(1.0, count_all[o]));
+      }
+    }
+    std::fill(sum.begin(), sum.end(), 0.0);
+    std::fill(sum_all.begin(), sum_all.end(), 0.0);
+    std::fill(count.begin(), count.end(), 0.0);
+    std::fill(count_all.begin(), count_all.end(), 0.0);
+  };
+  int out_y = 0;
+  for (int y = 0; y < height; ++y) {
+    const int row_of_y = int(int64_t(y) * out_height / height);
+    for (; out_y < row_of_y; ++out_y) flush(out_y);
+    const float* pixel = image.row(y0 + y) + size_t(x0) * channels;
+    const uint8_t* solved_row = valid.empty() ? nullptr : valid.row(y0 + y) + x0;
+    for (int x = 0; x < width; ++x, pixel += channels) {
+      const size_t o = column_of[x];
       const bool solved = solved_row == nullptr || solved_row[x] != 0;
       for (int c = 0; c < channels; ++c) {
         sum_all[o * channels + c] += pixel[c];
@@ -83,24 +112,10 @@ ImageF Downsample(const ImageF& image, const ImageU8& valid, int out_width, int 
       if (solved) count[o] += 1;
     }
   }
-  ImageF out(out_width, out_height, channels);
-  for (size_t o = 0; o < count.size(); ++o) {
-    for (int c = 0; c < channels; ++c) {
-      out.data()[o * channels + c] = float(count[o] > 0 ? sum[o * channels + c] / count[o]
-                                                         : sum_all[o * channels + c] / std::max(1.0, count_all[o]));
-    }
-  }
+  for (; out_y < out_height; ++out_y) flush(out_y);
   return out;
 }
 
-template <typename T>
-Image<T> Crop(const Image<T>& image, int x0, int y0, int width, int height) {
-  Image<T> out(width, height, image.channels());
-  for (int y = 0; y < height; ++y) {
-    std::copy_n(image.row(y0 + y) + size_t(x0) * image.channels(), size_t(width) * image.channels(), out.row(y));
-  }
-  return out;
-}
 
 // A non-finite value (never from the export, which checks its inputs) reads 0.
 uint8_t ToByte(double unit) {
@@ -185,12 +200,37 @@ std::string PreviewPageFragment(bool normal_map, double light_azimuth_deg, doubl
   return fragment;
 }
 
-PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageMaps& maps,
-                                    double mm_per_pixel, const std::vector<PreviewPageFile>& files,
-                                    const fs::path& html_path, const ProgressCallback& progress) {
+PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const PreviewPageMaps& maps,
+                                        double mm_per_pixel, const fs::path& html_path,
+                                        const ProgressCallback& progress) {
+  return MakePreviewTextures(options, PreviewPageMapViews::Of(maps), mm_per_pixel, html_path, progress);
+}
+
+PreviewPageMapViews PreviewPageMapViews::Of(const PreviewPageMaps& maps) {
+  return {&maps.basecolor_linear_rec709, &maps.normal_in_tangent, &maps.roughness_alpha, &maps.occlusion,
+          &maps.height_mm, &maps.valid};
+}
+
+PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const PreviewPageMapViews& views,
+                                        double mm_per_pixel, const fs::path& html_path,
+                                        const ProgressCallback& progress) {
   options.Check();
+  // The maps by reference, a null view as an empty map.
+  static const ImageF kNoMap;
+  static const ImageU8 kNoMask;
+  auto map_of = [](const ImageF* map) -> const ImageF& { return map ? *map : kNoMap; };
+  const struct {
+    const ImageF& basecolor_linear_rec709;
+    const ImageF& normal_in_tangent;
+    const ImageF& roughness_alpha;
+    const ImageF& occlusion;
+    const ImageF& height_mm;
+    const ImageU8& valid;
+  } maps{map_of(views.basecolor_linear_rec709), map_of(views.normal_in_tangent), map_of(views.roughness_alpha),
+         map_of(views.occlusion),               map_of(views.height_mm),         views.valid ? *views.valid : kNoMask};
   const auto start = std::chrono::steady_clock::now();
-  PreviewPageSummary summary;
+  PreviewPageTextures made;
+  PreviewPageSummary& summary = made.summary;
   const ImageF& base = maps.basecolor_linear_rec709;
   const int width = base.width(), height = base.height();
   // Maps that do not fit together are the caller's mistake: thrown before any work.
@@ -212,8 +252,8 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   if (!std::isfinite(mm_per_pixel) || !(mm_per_pixel > 0)) {
     throw fail("mm_per_pixel = " + std::to_string(mm_per_pixel) + " must be finite and > 0");
   }
-  const std::string_view page_template = RequiredAsset(kTemplateName, "app/io/preview_page.html");
-  const std::string_view three = RequiredAsset(kThreeName, "third_party/three/three.module.min.js");
+  RequiredAsset(kTemplateName, "app/io/preview_page.html");  // missing assets fail before any work
+  RequiredAsset(kThreeName, "third_party/three/three.module.min.js");
 
   const auto [tw, th] = TextureSize(width, height, options.max_texture_px);
   summary.texture_width = tw;
@@ -223,7 +263,6 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   const int crop_h = std::max(1, int(std::lround(height * options.sphere_crop)));
   const int crop_x = (width - crop_w) / 2, crop_y = (height - crop_h) / 2;
   const auto [sw, sh] = TextureSize(crop_w, crop_h, options.max_sphere_texture_px);
-  const ImageU8 valid_crop = maps.valid.empty() ? ImageU8() : Crop(maps.valid, crop_x, crop_y, crop_w, crop_h);
 
   double height_min = 0, height_max = 0;
   if (!maps.height_mm.empty()) {
@@ -283,43 +322,73 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   for (const Texture& texture : textures) {
     encoded.push_back(std::async(std::launch::async, [&, texture] {
       const ImageU8 no_mask;
-      const ImageF small = Downsample(*texture.image, texture.solved_only ? maps.valid : no_mask, tw, th);
+      const ImageU8& mask = texture.solved_only ? maps.valid : no_mask;
+      const ImageF small = Downsample(*texture.image, mask, 0, 0, width, height, tw, th);
       std::string sphere_uri;
       if (texture.on_sphere) {
-        const ImageF crop = Crop(*texture.image, crop_x, crop_y, crop_w, crop_h);
-        sphere_uri = PngDataUri(texture.encode(Downsample(crop, texture.solved_only ? valid_crop : no_mask, sw, sh)));
+        sphere_uri =
+            PngDataUri(texture.encode(Downsample(*texture.image, mask, crop_x, crop_y, crop_w, crop_h, sw, sh)));
       }
       return std::pair{PngDataUri(texture.encode(small)), sphere_uri};
     }));
   }
-  nlohmann::json map_entries = nlohmann::json::array();
   bool stop = false;
   for (size_t i = 0; i < encoded.size(); ++i) {
-    const auto [uri, sphere_uri] = encoded[i].get();  // waits for every one, also after a stop
-    nlohmann::json entry = {{"use", textures[i].use}, {"label", textures[i].label}, {"note", textures[i].note},
-                            {"uri", uri}};
-    if (!sphere_uri.empty()) entry["sphere_uri"] = sphere_uri;
-    map_entries.push_back(std::move(entry));
+    auto [uri, sphere_uri] = encoded[i].get();  // waits for every one, also after a stop
+    made.textures.push_back({textures[i].use, textures[i].label, textures[i].note, std::move(uri),
+                             std::move(sphere_uri)});
     if (progress && !progress(0.9 * (i + 1) / encoded.size())) stop = true;
   }
   if (stop) {
+    made.textures.clear();
     summary.SetCancelled("preview page cancelled; nothing written");
-    return summary;
+    return made;
   }
+  made.mm_per_pixel = mm_per_pixel;
+  made.image_width = width;
+  made.image_height = height;
+  made.crop_width = crop_w;
+  made.crop_height = crop_h;
+  made.height_min_mm = height_min;
+  made.height_max_mm = height_max;
+  summary.termination = Termination::kSuccess;
+  summary.seconds = SecondsSince(start);
+  return made;
+}
 
+PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageTextures& textures,
+                                    const std::vector<PreviewPageFile>& files, const fs::path& html_path,
+                                    const ProgressCallback& progress) {
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  PreviewPageSummary summary = textures.summary;
+  if (!textures.summary.IsUsable()) {
+    throw std::invalid_argument(html_path.string() + ": the preview's textures were not made (" +
+                                textures.summary.message + ")");
+  }
+  const std::string_view page_template = RequiredAsset(kTemplateName, "app/io/preview_page.html");
+  const std::string_view three = RequiredAsset(kThreeName, "third_party/three/three.module.min.js");
+  nlohmann::json map_entries = nlohmann::json::array();
+  for (const PreviewPageTexture& texture : textures.textures) {
+    nlohmann::json entry = {{"use", texture.use}, {"label", texture.label}, {"note", texture.note},
+                            {"uri", texture.uri}};
+    if (!texture.sphere_uri.empty()) entry["sphere_uri"] = texture.sphere_uri;
+    map_entries.push_back(std::move(entry));
+  }
+  const double mm_per_pixel = textures.mm_per_pixel;
   nlohmann::json file_entries = nlohmann::json::array();
   for (const PreviewPageFile& file : files) file_entries.push_back({{"path", file.path}, {"bytes", file.bytes}});
   const std::string title = options.title.empty() ? "scanbench material" : options.title;
   const nlohmann::json data = {{"title", title},
                                {"mm_per_pixel", mm_per_pixel},
-                               {"width_mm", width * mm_per_pixel},
-                               {"height_mm", height * mm_per_pixel},
-                               {"image", {{"width", width}, {"height", height}}},
-                               {"texture", {{"width", tw}, {"height", th}}},
+                               {"width_mm", textures.image_width * mm_per_pixel},
+                               {"height_mm", textures.image_height * mm_per_pixel},
+                               {"image", {{"width", textures.image_width}, {"height", textures.image_height}}},
+                               {"texture", {{"width", summary.texture_width}, {"height", summary.texture_height}}},
                                {"sphere_crop", {{"fraction", options.sphere_crop},
-                                                {"width_mm", crop_w * mm_per_pixel},
-                                                {"height_mm", crop_h * mm_per_pixel}}},
-                               {"height_range_mm", {height_min, height_max}},
+                                                {"width_mm", textures.crop_width * mm_per_pixel},
+                                                {"height_mm", textures.crop_height * mm_per_pixel}}},
+                               {"height_range_mm", {textures.height_min_mm, textures.height_max_mm}},
                                {"maps", map_entries},
                                {"files", file_entries}};
   // In this order each placeholder is found in the template, never in what an earlier one put in.
@@ -335,8 +404,16 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
   WriteFileAtomic(html_path, page, OverwritePolicy::kRefuse);
   summary.bytes = page.size();
   summary.termination = Termination::kSuccess;
-  summary.seconds = SecondsSince(start);
+  summary.seconds += SecondsSince(start);
   return summary;
+}
+
+PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageMaps& maps,
+                                    double mm_per_pixel, const std::vector<PreviewPageFile>& files,
+                                    const fs::path& html_path, const ProgressCallback& progress) {
+  const PreviewPageTextures textures = MakePreviewTextures(options, maps, mm_per_pixel, html_path, progress);
+  if (textures.summary.IsCancelled()) return textures.summary;
+  return WritePreviewPage(options, textures, files, html_path, progress);
 }
 
 }  // namespace scanbench

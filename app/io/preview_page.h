@@ -68,8 +68,52 @@ struct PreviewPageSummary : AlgorithmSummary {
 // or normal map, or a non-positive mm_per_pixel throw std::invalid_argument
 // naming the map before any work; an empty roughness, occlusion or height map
 // is left out of the page. Progress over the textures; cancelling writes nothing.
+// The same as MakePreviewTextures, then the page from them.
 PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageMaps& maps,
                                     double mm_per_pixel, const std::vector<PreviewPageFile>& files,
+                                    const std::filesystem::path& html_path, const ProgressCallback& progress = {});
+
+// The page in two steps, so that the slow one (a downsample and two PNGs per
+// map) can run while the files the page lists are still being written (the
+// export): the textures need only the maps, the page only the textures and
+// the files' sizes.
+struct PreviewPageTexture {
+  std::string use, label, note;  // three.js slot ("" = listed only), what the map is
+  std::string uri, sphere_uri;   // data: PNGs of the tile's and the sphere's texture ("" = not on the sphere)
+};
+struct PreviewPageTextures {
+  PreviewPageSummary summary;    // success, cancelled (no textures), the texture size and the seconds so far
+  std::vector<PreviewPageTexture> textures;
+  double mm_per_pixel = 0;
+  int image_width = 0, image_height = 0;  // of the maps, px
+  int crop_width = 0, crop_height = 0;    // of the sphere's crop, px
+  double height_min_mm = 0, height_max_mm = 0;
+};
+// The maps borrowed (null = an empty map), e.g. while they are also being
+// written to files: the same fields as PreviewPageMaps.
+struct PreviewPageMapViews {
+  const ImageF* basecolor_linear_rec709 = nullptr;
+  const ImageF* normal_in_tangent = nullptr;
+  const ImageF* roughness_alpha = nullptr;
+  const ImageF* occlusion = nullptr;
+  const ImageF* height_mm = nullptr;
+  const ImageU8* valid = nullptr;
+  static PreviewPageMapViews Of(const PreviewPageMaps& maps);
+};
+// The textures of the maps: throws like WritePreviewPage (naming `html_path`,
+// where the page will go), progress up to 0.9; a cancel gives a cancelled
+// summary and no textures.
+PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const PreviewPageMapViews& maps,
+                                        double mm_per_pixel, const std::filesystem::path& html_path,
+                                        const ProgressCallback& progress = {});
+PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const PreviewPageMaps& maps,
+                                        double mm_per_pixel, const std::filesystem::path& html_path,
+                                        const ProgressCallback& progress = {});
+// The page from textures made by MakePreviewTextures with the same options
+// (throws std::invalid_argument for cancelled ones) and the files it lists;
+// `progress` is asked once before the page is written.
+PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const PreviewPageTextures& textures,
+                                    const std::vector<PreviewPageFile>& files,
                                     const std::filesystem::path& html_path, const ProgressCallback& progress = {});
 
 // The URL fragment for the options above, e.g. PreviewPageFragment(false, 90, 30, false)

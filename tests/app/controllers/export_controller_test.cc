@@ -691,7 +691,7 @@ TEST_F(ExportControllerTest, BadSpecularMapIsNamedAndLeavesNoExport) {
 }
 
 TEST_F(ExportControllerTest, CancelLeavesNothingBehind) {
-  for (const std::string stop_at : {"height from normals", "write files", "preview page"}) {
+  for (const std::string stop_at : {"height from normals", "ambient occlusion", "write files", "preview page"}) {
     SCOPED_TRACE(stop_at);
     ExportOptions options;
     options.output_root = local_ / "exports";

@@ -184,6 +184,49 @@ TEST(PreviewPageTest, CancelWritesNothing) {
   EXPECT_FALSE(fs::exists(dir / "preview.html"));
 }
 
+// The export makes the textures from borrowed maps while it writes its files,
+// then the page: the same bytes as in one step. The maps are downsampled
+// (1100 x 700 to 1024 x 652), each texture row from its own source rows:
+// roughness 0.04 on the even rows (solved), 0.64 on the odd ones (unsolved),
+// so a texel reads sqrt(0.04) when one of its rows is even, else the mean of
+// all its pixels, sqrt(0.64).
+TEST(PreviewPageTest, TwoStepsFromBorrowedMapsWriteTheSamePage) {
+  TemporaryFolder dir;
+  constexpr int width = 1100, height = 700;
+  PreviewPageMaps maps = RidgedMaps(width, height);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      maps.roughness_alpha(x, y) = y % 2 == 0 ? 0.04f : 0.64f;
+      maps.valid(x, y) = y % 2 == 0;
+    }
+  }
+  const std::vector<PreviewPageFile> files = {{"ridged/ridged_normal.png", 123456}};
+  PreviewPageOptions options;
+  options.title = "two steps";
+  ASSERT_TRUE(WritePreviewPage(options, maps, 0.1, files, dir / "one.html").IsUsable());
+  const PreviewPageTextures textures =
+      MakePreviewTextures(options, PreviewPageMapViews::Of(maps), 0.1, dir / "two.html");
+  ASSERT_TRUE(textures.summary.IsUsable()) << textures.summary.message;
+  EXPECT_FALSE(fs::exists(dir / "two.html"));  // the textures alone write nothing
+  const PreviewPageSummary two = WritePreviewPage(options, textures, files, dir / "two.html");
+  ASSERT_TRUE(two.IsUsable()) << two.message;
+  EXPECT_EQ(ReadText(dir / "one.html"), ReadText(dir / "two.html"));
+
+  const nlohmann::json data = PageData(ReadText(dir / "two.html"));
+  ASSERT_EQ(data["texture"]["height"], 652);
+  const ImageU8 roughness = DecodeDataUri(data["maps"][2]["uri"], dir / "roughness.png");
+  ASSERT_EQ(roughness.height(), 652);
+  int mixed = 0;
+  for (int texel_row = 0; texel_row < roughness.height(); ++texel_row) {
+    bool has_even_row = false;
+    for (int y = 0; y < height; ++y) has_even_row |= y * 652 / height == texel_row && y % 2 == 0;
+    mixed += has_even_row;
+    EXPECT_EQ(roughness(7, texel_row, 0), has_even_row ? 51 : 204) << "texel row " << texel_row;
+  }
+  EXPECT_GT(mixed, 300);
+  EXPECT_LT(mixed, 652);
+}
+
 TEST(PreviewPageTest, FragmentNamesTheOptions) {
   EXPECT_EQ(PreviewPageFragment(false, 90, 30, false), "#normal=off&light=90,30&panel=off");
   EXPECT_EQ(PreviewPageFragment(true, 120, 40, true), "#light=120,40");
