@@ -17,7 +17,6 @@
 // every lossless OpenEXR compression. The CPU figures are steadier than wall
 // time on a shared machine, but a loaded machine still inflates them (caches,
 // frequency); the sizes are exact. Figures, not pass/fail.
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -28,18 +27,12 @@
 
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
+#include "benchmarks/process_cpu.h"
 
 namespace scanbench {
 namespace {
 
 namespace fs = std::filesystem;
-
-double ProcessCpuSeconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  auto seconds = [](const timeval& t) { return t.tv_sec + t.tv_usec * 1e-6; };
-  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
-}
 
 struct Timing {
   double cpu_s = 0, wall_s = 0;

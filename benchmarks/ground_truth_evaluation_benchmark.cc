@@ -11,7 +11,6 @@
 // (those come from the full-precision bands); every pixel counts as solved.
 // Figures, not pass/fail; wall time depends on the machine's load, CPU time
 // (user + system of the process) much less.
-#include <sys/resource.h>
 
 #include <chrono>
 #include <cstdio>
@@ -22,17 +21,12 @@
 #include "app/controllers/solve_controller.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "benchmarks/process_cpu.h"
 
 namespace scanbench {
 namespace {
 
 namespace fs = std::filesystem;
-
-double CpuSeconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec + 1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
 
 double Since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -63,16 +57,16 @@ int Run(int argc, char** argv) {
   solution.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kSolved));
 
   const auto start = std::chrono::steady_clock::now();
-  const double cpu_start = CpuSeconds();
+  const double cpu_start = ProcessCpuSeconds();
   GroundTruthEvaluation evaluation(session_dir, *session.ground_truth, width, height, result_dir);
   for (int y = 0; y < height; y += band_rows) {
     evaluation.AddBand(SolutionRows(solution, y, std::min(band_rows, height - y)), threads);
   }
-  const double bands_wall = Since(start), bands_cpu = CpuSeconds() - cpu_start;
+  const double bands_wall = Since(start), bands_cpu = ProcessCpuSeconds() - cpu_start;
   const auto finish_start = std::chrono::steady_clock::now();
-  const double finish_cpu_start = CpuSeconds();
+  const double finish_cpu_start = ProcessCpuSeconds();
   const GroundTruthComparison comparison = evaluation.Finish();
-  const double finish_wall = Since(finish_start), finish_cpu = CpuSeconds() - finish_cpu_start;
+  const double finish_wall = Since(finish_start), finish_cpu = ProcessCpuSeconds() - finish_cpu_start;
 
   std::printf("%dx%d, %d threads, bands of %d rows\n", width, height, threads, band_rows);
   std::printf("bands:  wall %.3f s, CPU %.3f s\nfinish: wall %.3f s, CPU %.3f s\ntotal:  wall %.3f s, CPU %.3f s\n",

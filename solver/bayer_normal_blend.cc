@@ -136,15 +136,21 @@ bool GateOpen(const BayerNormalBlendOptions& options, const PhotometricSolution&
                      [&](const GateSums& sums) { return sums.Exceeds(options.gate_cell_ratio, factor); });
 }
 
-void CheckMaps(const PhotometricSolution& bayer, const LightField& field, const PhotometricSolution& demosaiced) {
+// Throws std::invalid_argument naming `who` and the map unless `image` is the
+// light field's size with `channels` channels.
+template <typename Map>
+void CheckMapShape(const char* who, const LightField& field, const Map& image, int channels, const char* name) {
   const int width = field.width(), height = field.height();
+  if (!image.SameSize(width, height) || image.channels() != channels) {
+    throw std::invalid_argument(std::string(who) + ": " + name + " is " + SizeText(image.width(), image.height()) +
+                                " x " + std::to_string(image.channels()) + "; it must be the light field's " +
+                                SizeText(width, height) + " x " + std::to_string(channels));
+  }
+}
+
+void CheckMaps(const PhotometricSolution& bayer, const LightField& field, const PhotometricSolution& demosaiced) {
   auto check = [&](const auto& image, int channels, const char* name) {
-    if (!image.SameSize(width, height) || image.channels() != channels) {
-      throw std::invalid_argument(std::string("BlendBayerNormals: ") + name + " is " +
-                                  SizeText(image.width(), image.height()) + " x " +
-                                  std::to_string(image.channels()) + "; it must be the light field's " +
-                                  SizeText(width, height) + " x " + std::to_string(channels));
-    }
+    CheckMapShape("BlendBayerNormals", field, image, channels, name);
   };
   check(bayer.normal_in_table, 3, "bayer.normal_in_table");
   check(bayer.status, 1, "bayer.status");
@@ -203,12 +209,7 @@ BayerBlendCellsSummary SelectBayerBlendCells(const BayerNormalBlendOptions& opti
   options.Check();
   const int width = light_field.width(), height = light_field.height(), cell = options.cell_size;
   auto check = [&](const auto& image, int channels, const char* name) {
-    if (!image.SameSize(width, height) || image.channels() != channels) {
-      throw std::invalid_argument(std::string("SelectBayerBlendCells: ") + name + " is " +
-                                  SizeText(image.width(), image.height()) + " x " +
-                                  std::to_string(image.channels()) + "; it must be the light field's " +
-                                  SizeText(width, height) + " x " + std::to_string(channels));
-    }
+    CheckMapShape("SelectBayerBlendCells", light_field, image, channels, name);
   };
   check(demosaiced.normal_in_table, 3, "demosaiced.normal_in_table");
   check(demosaiced.status, 1, "demosaiced.status");
