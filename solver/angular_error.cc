@@ -26,22 +26,32 @@ void CheckRowsFit(const ImageF& estimate, const ImageF& truth_rows, int y_begin,
   }
 }
 
-// value(x, y, row_truth) per masked pixel of the rows, appended in pixel
-// order; the rows are computed in parallel, each into its own list.
+// value(x, y, row_truth, out) writes a masked pixel's `per_pixel` values to
+// `out`; they are appended in pixel order. The rows are computed in parallel,
+// each into its own stretch of one buffer (no list per row growing by
+// doubling), then appended row by row.
 template <typename Value>
-void AppendRowValues(const ImageF& truth_rows, int y_begin, const ImageU8& mask, int num_threads,
+void AppendRowValues(const ImageF& truth_rows, int y_begin, const ImageU8& mask, int num_threads, int per_pixel,
                      std::vector<double>* errors, const Value& value) {
   const int rows = truth_rows.height(), width = truth_rows.width();
-  std::vector<std::vector<double>> per_row(rows);
+  const size_t row_stride = static_cast<size_t>(width) * per_pixel;
+  std::vector<double> values(row_stride * rows);
+  std::vector<size_t> counts(rows, 0);
   ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
     const int y = y_begin + r;
     const float* truth = truth_rows.row(r);
+    double* out = values.data() + row_stride * r;
     for (int x = 0; x < width; ++x) {
       if (!mask.empty() && mask(x, y) == 0) continue;
-      value(x, y, truth + static_cast<size_t>(x) * truth_rows.channels(), &per_row[r]);
+      value(x, y, truth + static_cast<size_t>(x) * truth_rows.channels(), out);
+      out += per_pixel;
     }
+    counts[r] = static_cast<size_t>(out - (values.data() + row_stride * r));
   });
-  for (const std::vector<double>& row : per_row) errors->insert(errors->end(), row.begin(), row.end());
+  for (int r = 0; r < rows; ++r) {
+    const double* row = values.data() + row_stride * r;
+    errors->insert(errors->end(), row, row + counts[r]);
+  }
 }
 
 // Whole images: the truth has the estimate's height too.
@@ -104,22 +114,19 @@ void AngularErrorsOfRows(const ImageF& estimated, const ImageF& truth_rows, int 
     std::fill(error_map_deg->row(y_begin), error_map_deg->row(y_begin) + size_t(truth_rows.height()) * estimated.width(),
               0.0f);
   }
-  AppendRowValues(truth_rows, y_begin, mask, num_threads, errors,
-                  [&](int x, int y, const float* truth, std::vector<double>* out) {
-                    const double angle = AngleBetweenDegrees(&estimated(x, y), truth);
-                    out->push_back(angle);
-                    if (error_map_deg != nullptr) (*error_map_deg)(x, y) = static_cast<float>(angle);
-                  });
+  AppendRowValues(truth_rows, y_begin, mask, num_threads, 1, errors, [&](int x, int y, const float* truth, double* out) {
+    out[0] = AngleBetweenDegrees(&estimated(x, y), truth);
+    if (error_map_deg != nullptr) (*error_map_deg)(x, y) = static_cast<float>(out[0]);
+  });
 }
 
 void AbsoluteErrorsOfRows(const ImageF& estimated, const ImageF& truth_rows, int y_begin, const ImageU8& mask,
                           int num_threads, std::vector<double>* errors) {
   CheckRowsFit(estimated, truth_rows, y_begin, mask, estimated.channels());
-  AppendRowValues(truth_rows, y_begin, mask, num_threads, errors,
-                  [&](int x, int y, const float* truth, std::vector<double>* out) {
-                    for (int c = 0; c < estimated.channels(); ++c) {
-                      out->push_back(AbsoluteErrorValue(estimated(x, y, c), truth[c]));
-                    }
+  const int channels = estimated.channels();
+  AppendRowValues(truth_rows, y_begin, mask, num_threads, channels, errors,
+                  [&](int x, int y, const float* truth, double* out) {
+                    for (int c = 0; c < channels; ++c) out[c] = AbsoluteErrorValue(estimated(x, y, c), truth[c]);
                   });
 }
 

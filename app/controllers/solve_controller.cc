@@ -397,8 +397,7 @@ struct GroundTruthEvaluation::State {
   // Not spilled: the albedo's absolute errors are made again from the colour
   // comparison's pixels, in the same order (AbsoluteErrorsOfRows': pixel, channel).
   ExactErrorStatistics albedo_errors;
-  std::vector<double> band_angles;  // AddBand's, per row from row * width; reused
-  std::vector<uint32_t> band_angle_counts;
+  std::vector<double> band_values;  // AddBand's, reused from band to band
   explicit State(const fs::path& spill_folder)
       : color(0.002, spill_folder),
         angles(spill_folder),
@@ -457,45 +456,18 @@ ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_t
     }
     return truth_rows;
   };
-  // The angles per row (AngleBetweenDegrees, AngularErrorsOfRows' values),
-  // each row into its stretch of one buffer kept from band to band; the
-  // statistics take them in pixel order.
   ImageF error_rows(width, rows, 1, 0.0f);
-  {
-    const ImageF truth_normals = read_truth(s.normal_path);
-    s.band_angles.resize(static_cast<size_t>(width) * rows);
-    s.band_angle_counts.assign(rows, 0);
-    ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
-      const uint8_t* evaluated = solved_on_sample.row(r);
-      const float* estimate = band.normal_in_table.row(r);
-      const float* truth = truth_normals.row(r);
-      float* map = error_rows.row(r);
-      double* angles = s.band_angles.data() + static_cast<size_t>(r) * width;
-      uint32_t count = 0;
-      for (int x = 0; x < width; ++x) {
-        if (evaluated[x] == 0) continue;
-        const double angle = AngleBetweenDegrees(estimate + 3 * static_cast<size_t>(x), truth + 3 * static_cast<size_t>(x));
-        angles[count++] = angle;
-        map[x] = static_cast<float>(angle);
-      }
-      s.band_angle_counts[r] = count;
-    });
-    for (int r = 0; r < rows; ++r) {
-      s.angles.Add(std::span<const double>(s.band_angles.data() + static_cast<size_t>(r) * width, s.band_angle_counts[r]));
-    }
-  }
+  s.band_values.clear();
+  AngularErrorsOfRows(band.normal_in_table, read_truth(s.normal_path), 0, solved_on_sample, num_threads,
+                      &s.band_values, &error_rows);
+  s.angles.Add(s.band_values);
   const ImageF truth_albedo = read_truth(s.albedo_path);
   s.color.AddRows(band.albedo, solved_on_sample, truth_albedo, num_threads);
-  // The albedo's absolute error of every channel, pooled in pixel order.
-  for (int r = 0; r < rows; ++r) {
-    const uint8_t* evaluated = solved_on_sample.row(r);
-    const float* estimate = band.albedo.row(r);
-    const float* truth = truth_albedo.row(r);
-    for (int x = 0; x < width; ++x) {
-      if (evaluated[x] == 0) continue;
-      for (int c = 0; c < 3; ++c) s.albedo_errors.Add(AbsoluteErrorValue(estimate[3 * x + c], truth[3 * x + c]));
-    }
-  }
+  // The albedo's absolute error of every channel, pooled in pixel order (the
+  // order the replay above makes them again in).
+  s.band_values.clear();
+  AbsoluteErrorsOfRows(band.albedo, truth_albedo, 0, solved_on_sample, num_threads, &s.band_values);
+  s.albedo_errors.Add(s.band_values);
   return error_rows;
 }
 
