@@ -27,9 +27,8 @@ int SolveDatasetCommand(SolveDatasetState state) {
     state.options.solver.min_sample_value = 0;
   }
   if (state.options.output_dir.empty()) {
-    state.options.output_dir = fs::path("scanbench-datasets") /
-                               (fs::absolute(state.dataset_dir).lexically_normal().filename().string() + "-" +
-                                PhotometricMethodName(state.options.solver.method));
+    state.options.output_dir =
+        DefaultDatasetOutputFolder("scanbench-datasets", state.dataset_dir, state.options.solver.method);
     fs::create_directories(state.options.output_dir.parent_path());
   }
   DatasetController controller(state.dataset_dir, state.options);
@@ -58,7 +57,7 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
       "confidence and, with Normal_gt.mat, the angular error over the mask");
   command->add_option("dataset", state->dataset_dir, "Dataset folder")->required()->check(CLI::ExistingDirectory);
   command->add_option("--output", state->options.output_dir,
-                      "Output folder (default scanbench-datasets/<name>-<method>)");
+                      "Output folder (default scanbench-datasets/<name>-<method>, or -2, -3, ... beside an earlier one)");
   command->add_flag("--overwrite", state->options.overwrite, "Replace an existing output folder");
   command->add_flag("--lsq-baseline", state->lsq_baseline,
                     "The benchmark's least-squares baseline (jacobi_svd, every sample kept)");

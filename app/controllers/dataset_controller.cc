@@ -103,6 +103,22 @@ void DatasetSolveOptions::Check() const {
   }
 }
 
+fs::path DefaultDatasetOutputFolder(const fs::path& parent, const fs::path& dataset_dir,
+                                    PhotometricSolverOptions::Method method) {
+  fs::path dataset = fs::absolute(dataset_dir).lexically_normal();
+  if (dataset.filename().empty()) dataset = dataset.parent_path();  // "ballPNG/" names ballPNG too
+  const std::string dataset_name = dataset.filename().empty() ? "dataset" : dataset.filename().string();
+  const std::string name = dataset_name + "-" + PhotometricMethodName(method);
+  constexpr int kMaxAttempts = 10000;
+  for (int attempt = 1; attempt <= kMaxAttempts; ++attempt) {
+    const fs::path folder = parent / (attempt == 1 ? name : name + "-" + std::to_string(attempt));
+    std::error_code error;
+    if (!fs::exists(folder, error) && !error) return folder;
+  }
+  throw std::invalid_argument(parent.string() + ": " + std::to_string(kMaxAttempts) + " folders named " + name +
+                              "* exist already; pass --output");
+}
+
 DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
                                 const ProgressCallback& progress) {
   if (dataset.images.empty()) {

@@ -29,6 +29,13 @@ struct DatasetSolveOptions {
   void Check() const;
 };
 
+// The folder `solve-dataset` writes to when none is given:
+// <parent>/<dataset folder name>-<method>, or the first of -2, -3, ... that does
+// not exist yet, so a re-solve writes a new result beside the earlier one.
+std::filesystem::path DefaultDatasetOutputFolder(const std::filesystem::path& parent,
+                                                 const std::filesystem::path& dataset_dir,
+                                                 PhotometricSolverOptions::Method method);
+
 // Everything a solve of a loaded dataset gives, without files.
 struct DatasetSolveResult {
   PhotometricSolution solution;

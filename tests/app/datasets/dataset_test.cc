@@ -231,6 +231,20 @@ TEST(DatasetControllerTest, WritesMapsConfidenceAndErrorReport) {
   EXPECT_THAT([&] { again.Run(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("already exists")));
 }
 
+TEST(DatasetControllerTest, DefaultOutputFolderIsNewBesideEarlierResults) {
+  TemporaryFolder folder;
+  const auto method = PhotometricSolverOptions::Method::kAdaptive;
+  const fs::path first = DefaultDatasetOutputFolder(folder / "out", "data/ballPNG/", method);
+  EXPECT_EQ(first, folder / "out" / "ballPNG-adaptive");
+  fs::create_directories(first);
+  const fs::path second = DefaultDatasetOutputFolder(folder / "out", "data/ballPNG", method);
+  EXPECT_EQ(second, folder / "out" / "ballPNG-adaptive-2");
+  fs::create_directories(second);
+  EXPECT_EQ(DefaultDatasetOutputFolder(folder / "out", "data/ballPNG", method), folder / "out" / "ballPNG-adaptive-3");
+  EXPECT_EQ(DefaultDatasetOutputFolder(folder / "out", "data/ballPNG", PhotometricSolverOptions::Method::kQr),
+            folder / "out" / "ballPNG-qr");
+}
+
 TEST(DatasetControllerTest, RingLightsKeepsASubsetAndSaysWhichFiles) {
   TemporaryFolder folder;
   std::vector<Eigen::Vector3d> dirs, intensities;
