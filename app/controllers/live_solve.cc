@@ -105,6 +105,9 @@ class LiveDecoder {
       }
       preparation_->AddFrame(record, DecodeSessionFrame(session_dir_, session, record));
       ++verified_;
+      // Once, after the first frame: the table points (2 s of CPU at 16 MP,
+      // on this thread alone) while the camera takes the next frames.
+      if (!preparation_->holds_surface_points()) preparation_->HoldSurfacePoints(1);
     } catch (const std::exception& error) {
       problems_.push_back(record.file + ": " + error.what());
       failed_ = !preparation_;  // without a light field there is nothing to add frames to
@@ -185,6 +188,9 @@ void LiveSolveController::Run() {
   // Every frame hashed while capturing: the load only checks the manifest.
   const int num_frames = static_cast<int>(rig_.leds.size()) + 1;
   if (verified == num_frames) solve_options.verify_checksums = false;
+  // The first pass's maps written as it is solved, not after the depth
+  // refinement's decision (the same files; a draped sample writes again).
+  solve_options.stream_first_pass = true;
   SolveController solve(session_dir_, solve_options);
   if (preparation) {
     summary_.frames_decoded_live = preparation->num_frames();

@@ -505,7 +505,7 @@ GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 304,
+static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 312,
               "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
 #endif
 
@@ -639,6 +639,7 @@ struct SolvePreparation::State {
   fs::path calibration_dir;  // what the light field was made from
   Lighting lighting;
   PreparedFrames frames;
+  bool holds_points = false;  // HoldSurfacePoints made the light field's points
 };
 
 SolvePreparation::SolvePreparation(const fs::path& session_dir, const Session& session, const SolveOptions& options)
@@ -656,6 +657,20 @@ void SolvePreparation::AddFrame(const FrameRecord& record, DecodedRaw decoded) {
 }
 
 int SolvePreparation::num_frames() const { return static_cast<int>(state_->frames.size()); }
+
+void SolvePreparation::HoldSurfacePoints(int num_threads) {
+  // Only the rig description's field is on the table plane made on request;
+  // a calibration set's is measured per pixel.
+  const auto* field = dynamic_cast<const PointLightField*>(state_->lighting.light_field.get());
+  if (!state_->calibration_dir.empty() || field == nullptr || state_->holds_points) return;
+  const CameraGeometry& camera = state_->lighting.camera;
+  state_->lighting.light_field = std::make_unique<PointLightField>(
+      field->lights(), std::make_unique<HeldSurfacePoints>(ComputeTablePoints(camera, num_threads)),
+      CameraCentreInTable(camera));
+  state_->holds_points = true;
+}
+
+bool SolvePreparation::holds_surface_points() const { return state_->holds_points; }
 
 SolveController::SolveController(fs::path session_dir, SolveOptions options)
     : session_dir_(std::move(session_dir)), options_(std::move(options)) {}
@@ -694,11 +709,13 @@ void ForEachMap(Solution& s, const F& f) {
 // system's cache at 16 MP, not the process's memory). Once the decision is
 // taken the bands are handed on to be written (the table plane kept) or only
 // the normals and status read back (the re-solves start from them), so a
-// draped sample's first pass is never encoded nor evaluated.
+// draped sample's first pass is never encoded nor evaluated. A solve that
+// streams the first pass's maps meanwhile (SolveOptions::stream_first_pass)
+// spills only the normals and status (13 bytes a pixel; no Replay).
 class FirstPassSpill {
  public:
-  FirstPassSpill(const fs::path& folder, int width, int height, int num_threads)
-      : width_(width), blocks_(width, height), spill_(folder), num_threads_(num_threads) {}
+  FirstPassSpill(const fs::path& folder, int width, int height, int num_threads, bool all_maps = true)
+      : width_(width), all_maps_(all_maps), blocks_(width, height), spill_(folder), num_threads_(num_threads) {}
 
   void Add(const PhotometricSolution& band) {
     blocks_.AddRows(band, num_threads_);
@@ -708,7 +725,7 @@ class FirstPassSpill {
       if (image.empty() != (channels_[map] == 0) || (!image.empty() && image.channels() != channels_[map])) {
         throw std::logic_error("FirstPassSpill: the bands' maps differ");
       }
-      spill_.Append(image.data(), image.size() * sizeof(*image.data()));
+      if (Spilled(map)) spill_.Append(image.data(), image.size() * sizeof(*image.data()));
       ++map;
     });
     band_rows_.push_back(band.status.height());
@@ -718,6 +735,7 @@ class FirstPassSpill {
 
   // The bands as they were added, in order.
   void Replay(const std::function<void(PhotometricSolution& band)>& sink) {
+    if (!all_maps_) throw std::logic_error("FirstPassSpill::Replay: only the normals and status were spilled");
     size_t offset = 0;
     for (const int rows : band_rows_) {
       PhotometricSolution band;
@@ -752,7 +770,7 @@ class FirstPassSpill {
         const size_t bytes = size_t(width_) * rows * channels_[map] * sizeof(*image.data());
         if (map == 0) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
         if (map == 2) spill_.ReadAt(offset, first.status.row(y), bytes);
-        offset += bytes;
+        if (Spilled(map)) offset += bytes;
         ++map;
       });
       y += rows;
@@ -760,8 +778,14 @@ class FirstPassSpill {
     return first;
   }
 
+  bool all_maps() const { return all_maps_; }
+
  private:
+  // Map `map` (ForEachMap's order) goes to the spill: all, or the normals and status.
+  bool Spilled(int map) const { return all_maps_ || map == 0 || map == 2; }
+
   int width_;
+  bool all_maps_;
   std::array<int, 9> channels_{};  // per map (ForEachMap's order), 0 = empty
   std::vector<int> band_rows_;
   DepthDecisionBlocks blocks_;
@@ -866,9 +890,12 @@ void SolveController::Run() {
   const GroundTruthFiles* truth = session.ground_truth ? &*session.ground_truth : nullptr;
   // Only point LEDs can be moved off the table plane (RefineOnDepth): then
   // the first pass is spilled until the decision whether to re-solve is
-  // taken; otherwise its bands are written as they are solved.
+  // taken (or, with stream_first_pass, written as it is solved, and only its
+  // normals and status spilled for the re-solves); otherwise its bands are
+  // written as they are solved.
   const bool may_refine = options_.depth.enabled &&
                           dynamic_cast<const PointLightField*>(lighting.light_field.get()) != nullptr;
+  const bool stream_first_pass = may_refine && options_.stream_first_pass;
   const auto result_stream = [&] {
     return std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height, summary_.albedo_color,
                                           exr, session_dir_, truth, options_.solver.num_threads);
@@ -877,14 +904,16 @@ void SolveController::Run() {
   std::unique_ptr<ResultStream> stream;
   if (may_refine) {
     first_pass = std::make_unique<FirstPassSpill>(staged.staging(), summary_.width, summary_.height,
-                                                  options_.solver.num_threads);
-  } else {
-    stream = result_stream();
+                                                  options_.solver.num_threads, !stream_first_pass);
   }
+  if (!may_refine || stream_first_pass) stream = result_stream();
   TimedStage(timings, "solve", "solve", [&] {
     const BandedSolveSummary banded = SolveBanded(
         BandedOptions(options_), frames.Stack(), *lighting.light_field,
-        [&](int, PhotometricSolution& band) { first_pass ? first_pass->Add(band) : stream->Add(band); },
+        [&](int, PhotometricSolution& band) {
+          if (first_pass) first_pass->Add(band);  // before the stream: it colours the albedo in place
+          if (stream) stream->Add(band);
+        },
         StageCallback("solve"));
     summary_.solver = banded.solver;
     summary_.clipped_samples = banded.clipped_samples;
@@ -903,10 +932,12 @@ void SolveController::Run() {
     if (first_pass) {
       if (std::optional<DepthRefinementSummary> kept =
               TablePlaneKept(options_.depth, first_pass->decision_blocks(), lighting.camera)) {
-        return *kept;  // the spilled first pass is written below
+        return *kept;  // the spilled first pass is written below (or was streamed)
       }
       // Draped: the re-solves start from the first pass (held from here on),
-      // and the maps are those of the last re-solve, streamed from it.
+      // and the maps are those of the last re-solve, streamed from it. A
+      // first pass streamed meanwhile is not the result: its files go.
+      stream.reset();
       PhotometricSolution solution = first_pass->NormalsAndStatus();
       first_pass.reset();
       DepthRefinementSummary depth =
@@ -933,13 +964,13 @@ void SolveController::Run() {
   frames.leds.clear();
   frames.dark = RawImage();
   lighting.light_field.reset();  // its per-pixel surface points: 193 MB at 16 MP
-  if (first_pass) {
+  if (first_pass && first_pass->all_maps()) {
     // The table plane kept: the first pass's bands, written and evaluated now
     // (its time the stages' below).
     stream = result_stream();
     first_pass->Replay([&](PhotometricSolution& band) { stream->Add(band); });
-    first_pass.reset();
   }
+  first_pass.reset();  // a streamed first pass's spilled normals and status
   summary_.specular = stream->specular();
   timings.push_back({"color", stream->color_seconds()});
 
