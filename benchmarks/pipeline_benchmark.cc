@@ -301,7 +301,10 @@ json ChildLatency(const Args& args, bool live) {
     frames = capture.summary().frames_captured;
   }
   const double latency = std::chrono::duration<double>(result_written - *last_frame).count();
+  json cpu = nullptr;  // the process's CPU time from the last frame to the result (live only)
+  if (live) cpu = live_solve.summary().cpu_seconds_after_last_frame;
   return {{"seconds", latency},
+          {"cpu_seconds_after_last_frame", cpu},
           {"mode", live ? "solve-while-capture" : "sequential"},
           {"capture_seconds", *capture_seconds},
           {"frames", frames},

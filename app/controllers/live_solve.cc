@@ -21,6 +21,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// User + system CPU seconds of the whole process so far.
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return double(t.tv_sec) + 1e-6 * double(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
 // Decodes journalled frames on its own thread in the order they come, into a
 // SolvePreparation made at the first frame. At most `capacity` frames wait;
 // Push blocks beyond that. A frame or a preparation the worker cannot make is
@@ -144,7 +152,7 @@ std::string LiveSolveSummary::BriefReport() const {
   std::ostringstream out;
   out << "Live solve: " << capture.frames_captured << " frames captured, " << capture.frames_resumed
       << " already there; " << frames_decoded_live << " decoded while capturing; result "
-      << solve.result_dir.string() << " " << Fixed(seconds_after_last_frame, 2) << " s after the last frame";
+      << solve.result_dir.string() << " " << Fixed(seconds_after_last_frame, 2) << " s after the last frame (" << Fixed(cpu_seconds_after_last_frame, 2) << " s of CPU)";
   return out.str();
 }
 
@@ -167,11 +175,13 @@ void LiveSolveController::Run() {
   // decoder drops its queue.
   LiveDecoder decoder(session_dir_, options_.solve, options_.queue_frames);
   auto last_frame = std::chrono::steady_clock::now();
+  double last_frame_cpu = ProcessCpuSeconds();
   {
     CaptureController capture(session_dir_, rig_, camera_, lights_, options_.capture);
     capture.SetProgressCallback(ForwardTo(capture));
     capture.SetFrameJournalledCallback([&](const Session&, const FrameRecord& record) {
       last_frame = std::chrono::steady_clock::now();
+      last_frame_cpu = ProcessCpuSeconds();
       if (IsStopRequested()) capture.RequestStop();
       decoder.Push(record);
     });
@@ -179,7 +189,10 @@ void LiveSolveController::Run() {
     summary_.capture = capture.summary();
   }
   // A resume that found every frame there: the wait starts now.
-  if (summary_.capture.frames_captured == 0) last_frame = std::chrono::steady_clock::now();
+  if (summary_.capture.frames_captured == 0) {
+    last_frame = std::chrono::steady_clock::now();
+    last_frame_cpu = ProcessCpuSeconds();
+  }
 
   int verified = 0;
   std::optional<SolvePreparation> preparation = decoder.Finish(&summary_.live_problems, &verified);
@@ -200,6 +213,7 @@ void LiveSolveController::Run() {
   solve.Run();
   summary_.solve = solve.summary();
   summary_.seconds_after_last_frame = SecondsSince(last_frame);
+  summary_.cpu_seconds_after_last_frame = ProcessCpuSeconds() - last_frame_cpu;
 }
 
 }  // namespace scanbench

@@ -35,6 +35,9 @@ struct LiveSolveSummary {
   int frames_decoded_live = 0;             // decoded while capturing (the solve decoded the rest)
   std::vector<std::string> live_problems;  // what the worker could not do; the solve then did it itself
   double seconds_after_last_frame = 0;     // last frame journalled -> result folder in place
+  // The process's CPU time (user + system, all threads) over the same span:
+  // what the wait costs on a machine shared with other work.
+  double cpu_seconds_after_last_frame = 0;
 
   std::string BriefReport() const;
 };
