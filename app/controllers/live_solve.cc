@@ -36,8 +36,8 @@ double ProcessCpuSeconds() {
 // `scanbench solve` would.
 class LiveDecoder {
  public:
-  LiveDecoder(fs::path session_dir, const SolveOptions& options, int capacity)
-      : session_dir_(std::move(session_dir)), options_(options), capacity_(capacity),
+  LiveDecoder(fs::path session_dir, const SolveOptions& options, int capacity, bool develop_ahead)
+      : session_dir_(std::move(session_dir)), options_(options), capacity_(capacity), develop_ahead_(develop_ahead),
         thread_([this] { Loop(); }) {}
 
   // Drops what still waits; a frame being decoded is finished first.
@@ -116,6 +116,8 @@ class LiveDecoder {
       // Once, after the first frame: the table points (2 s of CPU at 16 MP,
       // on this thread alone) while the camera takes the next frames.
       if (!preparation_->holds_surface_points()) preparation_->HoldSurfacePoints(1);
+      // An LED frame demosaiced now, not in the solve (the dark frame comes first).
+      if (develop_ahead_) preparation_->DevelopFrame(session, record);
     } catch (const std::exception& error) {
       problems_.push_back(record.file + ": " + error.what());
       failed_ = !preparation_;  // without a light field there is nothing to add frames to
@@ -125,6 +127,7 @@ class LiveDecoder {
   const fs::path session_dir_;
   const SolveOptions options_;
   const int capacity_;
+  const bool develop_ahead_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<FrameRecord> queue_;  // under mutex_
@@ -151,7 +154,7 @@ void LiveSolveOptions::Check() const {
 std::string LiveSolveSummary::BriefReport() const {
   std::ostringstream out;
   out << "Live solve: " << capture.frames_captured << " frames captured, " << capture.frames_resumed
-      << " already there; " << frames_decoded_live << " decoded while capturing; result "
+      << " already there; " << frames_decoded_live << " decoded while capturing (" << frames_developed_live << " developed); result "
       << solve.result_dir.string() << " " << Fixed(seconds_after_last_frame, 2) << " s after the last frame (" << Fixed(cpu_seconds_after_last_frame, 2) << " s of CPU)";
   return out.str();
 }
@@ -173,7 +176,7 @@ void LiveSolveController::Run() {
   summary_ = LiveSolveSummary();
   // Declared before the capture: on a throw the capture is gone before the
   // decoder drops its queue.
-  LiveDecoder decoder(session_dir_, options_.solve, options_.queue_frames);
+  LiveDecoder decoder(session_dir_, options_.solve, options_.queue_frames, options_.develop_ahead);
   auto last_frame = std::chrono::steady_clock::now();
   double last_frame_cpu = ProcessCpuSeconds();
   {
@@ -207,6 +210,7 @@ void LiveSolveController::Run() {
   SolveController solve(session_dir_, solve_options);
   if (preparation) {
     summary_.frames_decoded_live = preparation->num_frames();
+    summary_.frames_developed_live = preparation->num_developed_frames();
     solve.UsePreparation(std::move(*preparation));
   }
   solve.SetProgressCallback(ForwardTo(solve));

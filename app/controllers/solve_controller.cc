@@ -147,12 +147,16 @@ struct RawFrames {
   std::string first_led_file;
   // One line per frame whose exposure differs from the session's (imports).
   std::vector<std::string> exposure_notes;
+  // Per LED frame, the frame developed ahead (SolvePreparation::DevelopFrame)
+  // or null; not owned. Empty without a preparation.
+  std::vector<const DevelopedFrame*> developed_ahead;
 
   RawFrameStack Stack() const {
     RawFrameStack stack;
     stack.dark = &dark;
     for (const RawImage& led : leds) stack.frames.push_back(&led);
     stack.exposure_scales = exposure_scales;
+    stack.developed = developed_ahead;
     return stack;
   }
 };
@@ -639,18 +643,28 @@ DecodedRaw DecodeSessionFrame(const fs::path& session_dir, const Session& sessio
   return decoded;
 }
 
+// An LED frame developed whole ahead of the solve (SolvePreparation::DevelopFrame).
+struct DevelopedAhead {
+  std::string sha256;       // the frame's, as its record names it
+  std::string dark_sha256;  // the dark frame's it was developed against
+  DevelopedFrame developed;
+};
+
 struct SolvePreparation::State {
   fs::path session_dir;
   fs::path calibration_dir;  // what the light field was made from
+  RawDevelopOptions develop;  // DevelopOptionsFor the solve's options
   Lighting lighting;
   PreparedFrames frames;
   bool holds_points = false;  // HoldSurfacePoints made the light field's points
+  std::map<std::string, DevelopedAhead> developed;  // by file
 };
 
 SolvePreparation::SolvePreparation(const fs::path& session_dir, const Session& session, const SolveOptions& options)
     : state_(std::make_unique<State>()) {
   state_->session_dir = session_dir;
   state_->calibration_dir = options.calibration_dir;
+  state_->develop = DevelopOptionsFor(BandedOptions(options));
   state_->lighting = MakeLighting(options, session_dir, session);
 }
 SolvePreparation::SolvePreparation(SolvePreparation&&) noexcept = default;
@@ -676,6 +690,50 @@ void SolvePreparation::HoldSurfacePoints(int num_threads) {
 }
 
 bool SolvePreparation::holds_surface_points() const { return state_->holds_points; }
+
+bool SolvePreparation::DevelopFrame(const Session& session, const FrameRecord& record) {
+  const FrameRecord* dark_record = FindDarkFrame(session);
+  if (record.kind != FrameKind::kLed || dark_record == nullptr) return false;
+  const auto frame = state_->frames.find(record.file);
+  const auto dark = state_->frames.find(dark_record->file);
+  if (frame == state_->frames.end() || frame->second.sha256 != record.sha256 || dark == state_->frames.end() ||
+      dark->second.sha256 != dark_record->sha256) {
+    return false;
+  }
+  state_->developed[record.file] =
+      DevelopedAhead{record.sha256, dark_record->sha256,
+                     DevelopRaw(frame->second.decoded.image, &dark->second.decoded.image, state_->develop)};
+  return true;
+}
+
+int SolvePreparation::num_developed_frames() const { return static_cast<int>(state_->developed.size()); }
+
+namespace {
+
+// The frames `prepared` developed ahead for exactly these records and this
+// development (null where it did not), in the order of frames.leds.
+std::vector<const DevelopedFrame*> DevelopedAheadFor(const SolvePreparation::State& prepared, const Session& session,
+                                                     const RawDevelopOptions& develop) {
+  const RawDevelopOptions& made = prepared.develop;
+  const int num_lights = static_cast<int>(session.rig.leds.size());
+  std::vector<const DevelopedFrame*> developed(num_lights, nullptr);
+  if (made.demosaic != develop.demosaic || made.clip_fraction != develop.clip_fraction ||
+      made.keep_mosaic != develop.keep_mosaic) {
+    return developed;
+  }
+  const FrameRecord* dark = FindDarkFrame(session);
+  for (int k = 0; k < num_lights; ++k) {
+    const FrameRecord* record = FindLedFrame(session, k);
+    const auto found = prepared.developed.find(record->file);
+    if (found != prepared.developed.end() && found->second.sha256 == record->sha256 &&
+        found->second.dark_sha256 == dark->sha256) {
+      developed[k] = &found->second.developed;
+    }
+  }
+  return developed;
+}
+
+}  // namespace
 
 SolveController::SolveController(fs::path session_dir, SolveOptions options)
     : session_dir_(std::move(session_dir)), options_(std::move(options)) {}
@@ -967,6 +1025,9 @@ void SolveController::Run() {
                                               frames.camera_from_xyz, frames.first_led_file);
     return made;
   });
+  if (prepared && !prepared->developed.empty()) {
+    frames.developed_ahead = DevelopedAheadFor(*prepared, session, DevelopOptionsFor(BandedOptions(options_)));
+  }
   summary_.light_model = lighting.light_model;
   summary_.warnings = lighting.warnings;
   summary_.warnings.insert(summary_.warnings.end(), frames.exposure_notes.begin(), frames.exposure_notes.end());
@@ -1020,9 +1081,12 @@ void SolveController::Run() {
   });
   // The streaming's own stages below (beside the solve with stream_first_pass).
   if (stream && !stream_first_pass) timings.back().seconds -= stream->sink_seconds();
-  // The raw frames (32 MB each at 16 MP) are not held through the later stages.
+  // The raw frames (32 MB each at 16 MP) are not held through the later
+  // stages, nor the frames developed ahead.
   frames.leds.clear();
   frames.dark = RawImage();
+  frames.developed_ahead.clear();
+  prepared.reset();
   const auto raw_frames = [&]() -> const RawFrames& {
     if (frames.leds.empty()) frames = DecodeFrames(session_dir_, session, options_.solver.num_threads, {});
     return frames;

@@ -147,6 +147,16 @@ class SolvePreparation {
   // set's measured light field. The result is the same either way.
   void HoldSurfacePoints(int num_threads);
   bool holds_surface_points() const;
+  // Develops the held frame of `record` (an LED frame of `session`) whole,
+  // against the held dark frame, as the solve's bands would be developed
+  // (DevelopOptionsFor, banded_solve.h), and keeps it: the solve then copies
+  // its bands' rows from it instead of demosaicing them after the last frame
+  // (RawFrameStack::developed; the same values). 18 bytes a pixel with the
+  // Bayer blend's mosaic (290 MB a frame at 16 MP), held until the solve has
+  // run. Returns false (and keeps nothing) when the frame or the dark frame
+  // is not held, or `record` is not an LED frame.
+  bool DevelopFrame(const Session& session, const FrameRecord& record);
+  int num_developed_frames() const;
 
   struct State;  // the light field and the frames (solve_controller.cc)
 
