@@ -63,6 +63,7 @@ class LiveDecoder {
   std::optional<SolvePreparation> Finish(std::vector<std::string>* problems, int* verified) {
     {
       std::unique_lock<std::mutex> lock(mutex_);
+      capture_done_ = true;  // from here on the solve waits: only decode
       changed_.wait(lock, [&] { return queue_.empty() && !busy_; });
       closing_ = true;
     }
@@ -98,6 +99,16 @@ class LiveDecoder {
     }
   }
 
+  // Whether to do more than decode `record`: not once the capture is done
+  // or while more frames wait. What this thread would do alone after the
+  // last frame the solve does faster on every thread (the points on request,
+  // the development band by band); a loaded machine leaves this niced thread
+  // behind the capture.
+  bool AheadOfTheCapture() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !capture_done_ && queue_.empty();
+  }
+
   void DecodeOne(const FrameRecord& record) {
     if (failed_) return;
     try {
@@ -113,11 +124,11 @@ class LiveDecoder {
       }
       preparation_->AddFrame(record, DecodeSessionFrame(session_dir_, session, record));
       ++verified_;
-      // Once, after the first frame: the table points (2 s of CPU at 16 MP,
-      // on this thread alone) while the camera takes the next frames.
-      if (!preparation_->holds_surface_points()) preparation_->HoldSurfacePoints(1);
+      // Once: the table points (2 s of CPU at 16 MP, on this thread alone)
+      // while the camera takes the next frames.
+      if (!preparation_->holds_surface_points() && AheadOfTheCapture()) preparation_->HoldSurfacePoints(1);
       // An LED frame demosaiced now, not in the solve (the dark frame comes first).
-      if (develop_ahead_) preparation_->DevelopFrame(session, record);
+      if (develop_ahead_ && AheadOfTheCapture()) preparation_->DevelopFrame(session, record);
     } catch (const std::exception& error) {
       problems_.push_back(record.file + ": " + error.what());
       failed_ = !preparation_;  // without a light field there is nothing to add frames to
@@ -133,6 +144,7 @@ class LiveDecoder {
   std::deque<FrameRecord> queue_;  // under mutex_
   bool busy_ = false;              // under mutex_: a frame is being decoded
   bool closing_ = false;           // under mutex_
+  bool capture_done_ = false;      // under mutex_: Finish was called
   // The worker's alone until Finish joins it.
   std::optional<SolvePreparation> preparation_;
   std::vector<std::string> problems_;

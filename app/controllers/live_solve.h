@@ -39,7 +39,10 @@ struct LiveSolveSummary {
   CaptureSummary capture;
   SolveSummary solve;
   int frames_decoded_live = 0;             // decoded while capturing (the solve decoded the rest)
-  int frames_developed_live = 0;           // of those, LED frames developed whole (develop_ahead)
+  // Of those, LED frames developed whole (develop_ahead); a frame the decoder
+  // reached only after the last frame, or with more frames waiting, is left
+  // to the solve's development.
+  int frames_developed_live = 0;
   std::vector<std::string> live_problems;  // what the worker could not do; the solve then did it itself
   double seconds_after_last_frame = 0;     // last frame journalled -> result folder in place
   // The process's CPU time (user + system, all threads) over the same span:

@@ -3,7 +3,8 @@
 // while it is solved (SolveOptions::stream_first_pass), on a flat sample
 // (the table plane kept) and a draped one (the streamed files dropped, the
 // re-solve written), and a preparation whose light field holds its table
-// points (SolvePreparation::HoldSurfacePoints). Each result folder must equal
+// points (SolvePreparation::HoldSurfacePoints) and its LED frames developed
+// ahead (SolvePreparation::DevelopFrame). Each result folder must equal
 // the default solve's file for file.
 #include <cstring>
 #include <fstream>
@@ -110,7 +111,7 @@ TEST(SolveLatencyTest, StreamedFirstPassWritesTheSameResult) {
   }
 }
 
-TEST(SolveLatencyTest, PreparationWithHeldTablePointsSolvesTheSame) {
+TEST(SolveLatencyTest, PreparationWithHeldPointsAndFramesDevelopedAheadSolvesTheSame) {
   TemporaryFolder folder;
   const fs::path session_dir = Simulate(folder, "flat", 2.5);
   SolveOptions options;
@@ -123,9 +124,13 @@ TEST(SolveLatencyTest, PreparationWithHeldTablePointsSolvesTheSame) {
   EXPECT_FALSE(prepared.holds_surface_points());
   prepared.HoldSurfacePoints(2);
   EXPECT_TRUE(prepared.holds_surface_points());
+  int developed = 0;
   for (const FrameRecord& record : session.frames) {
     prepared.AddFrame(record, DecodeSessionFrame(session_dir, session, record));
+    developed += prepared.DevelopFrame(session, record);  // the dark frame is first: each LED frame after it
   }
+  EXPECT_EQ(developed, static_cast<int>(session.rig.leds.size()));
+  EXPECT_EQ(prepared.num_developed_frames(), developed);
   const SolveSummary held = Solve(session_dir, options, std::move(prepared));
   ExpectSameFigures(on_request, held);
   ExpectSameMaps(on_request.result_dir, held.result_dir);
