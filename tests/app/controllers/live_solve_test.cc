@@ -6,6 +6,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <iterator>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -59,13 +60,22 @@ class LiveSolveTest : public ::testing::Test {
   }
 
   static void ExpectBitEqualMaps(const fs::path& live, const fs::path& after) {
-    for (const char* name : {"normal.exr", "albedo.exr", "confidence.exr"}) {
+    for (const char* name : {"normal.exr", "albedo.exr", "confidence.exr", "specular.exr"}) {
       const ImageF a = ReadImageFloat(live / name);
       const ImageF b = ReadImageFloat(after / name);
       ASSERT_EQ(a.width(), b.width()) << name;
       ASSERT_EQ(a.height(), b.height()) << name;
       ASSERT_EQ(a.channels(), b.channels()) << name;
       EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << name << " differs";
+    }
+    // The PNGs byte for byte (the live solve writes them on its own thread beside the solve).
+    const auto bytes = [](const fs::path& path) {
+      std::ifstream in(path, std::ios::binary);
+      return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    };
+    for (const char* name : {"normal.png", "albedo_srgb.png", "status.png", "solved_mask.png"}) {
+      ASSERT_TRUE(fs::exists(live / name)) << name;
+      EXPECT_TRUE(bytes(live / name) == bytes(after / name)) << name << " differs";
     }
   }
 
