@@ -909,17 +909,18 @@ class ResultStream {
   double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
 };
 
-// Hands solved bands to a ResultStream on a thread of its own
+// Hands solved bands to `write` (the first pass's decision blocks and spill,
+// then the ResultStream) on a thread of its own
 // (SolveOptions::stream_first_pass), so that one band's files are encoded
 // while the next band is solved: the solve's threads and this one share the
 // cores, and what one leaves idle (a band's last file, the solve's serial
-// steps) the other takes. The stream gets the bands in order, as it would
-// from the solve's thread, so the files are the same. At most `capacity`
-// bands wait (about 28 MB each at 16 MP); Add blocks beyond that.
+// steps) the other takes. `write` gets the bands in order, as it would on
+// the solve's thread, so the files are the same. At most `capacity` bands
+// wait (about 28 MB each at 16 MP); Add blocks beyond that.
 class BackgroundBandWriter {
  public:
-  BackgroundBandWriter(ResultStream* stream, int capacity)
-      : stream_(stream), capacity_(capacity), thread_([this] { Loop(); }) {}
+  BackgroundBandWriter(std::function<void(PhotometricSolution& band)> write, int capacity)
+      : write_(std::move(write)), capacity_(capacity), thread_([this] { Loop(); }) {}
   BackgroundBandWriter(const BackgroundBandWriter&) = delete;
   BackgroundBandWriter& operator=(const BackgroundBandWriter&) = delete;
   // Drops what still waits (a failed or cancelled solve); a band being written is finished first.
@@ -969,7 +970,7 @@ class BackgroundBandWriter {
       changed_.notify_all();  // room in the queue
       std::exception_ptr failure;
       try {
-        stream_->Add(band);
+        write_(band);
       } catch (...) {
         failure = std::current_exception();
       }
@@ -983,7 +984,7 @@ class BackgroundBandWriter {
     }
   }
 
-  ResultStream* stream_;
+  const std::function<void(PhotometricSolution& band)> write_;
   const int capacity_;
   std::mutex mutex_;
   std::condition_variable changed_;
@@ -1061,18 +1062,15 @@ void SolveController::Run() {
   TimedStage(timings, "solve", "solve", [&] {
     // With stream_first_pass the bands are written on a thread of their own
     // beside the solve (its time then includes the writing it waited for).
+    const auto take_band = [&](PhotometricSolution& band) {
+      if (first_pass) first_pass->Add(band);  // before the stream: it colours the albedo in place
+      if (stream) stream->Add(band);
+    };
     std::optional<BackgroundBandWriter> writer;
-    if (stream_first_pass) writer.emplace(stream.get(), 2);
+    if (stream_first_pass) writer.emplace(take_band, 2);
     const BandedSolveSummary banded = SolveBanded(
         BandedOptions(options_), frames.Stack(), *lighting.light_field,
-        [&](int, PhotometricSolution& band) {
-          if (first_pass) first_pass->Add(band);  // before the stream: it colours the albedo in place
-          if (writer) {
-            writer->Add(std::move(band));
-          } else if (stream) {
-            stream->Add(band);
-          }
-        },
+        [&](int, PhotometricSolution& band) { writer ? writer->Add(std::move(band)) : take_band(band); },
         StageCallback("solve"));
     summary_.solver = banded.solver;
     summary_.clipped_samples = banded.clipped_samples;
