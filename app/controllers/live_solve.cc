@@ -109,6 +109,11 @@ class LiveDecoder {
     return !capture_done_ && queue_.empty();
   }
 
+  bool CaptureDone() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return capture_done_;
+  }
+
   void DecodeOne(const FrameRecord& record) {
     if (failed_) return;
     try {
@@ -124,9 +129,10 @@ class LiveDecoder {
       }
       preparation_->AddFrame(record, DecodeSessionFrame(session_dir_, session, record));
       ++verified_;
-      // Once: the table points (2 s of CPU at 16 MP, on this thread alone)
-      // while the camera takes the next frames.
-      if (!preparation_->holds_surface_points() && AheadOfTheCapture()) preparation_->HoldSurfacePoints(1);
+      // Once, at the first frame however many wait (the capture waits for
+      // the queue meanwhile): the table points, 2 s of CPU at 16 MP on this
+      // thread alone, while the camera takes the next frames.
+      if (!preparation_->holds_surface_points() && !CaptureDone()) preparation_->HoldSurfacePoints(1);
       // An LED frame demosaiced now, not in the solve (the dark frame comes first).
       if (develop_ahead_ && AheadOfTheCapture()) preparation_->DevelopFrame(session, record);
     } catch (const std::exception& error) {
@@ -223,6 +229,7 @@ void LiveSolveController::Run() {
   if (preparation) {
     summary_.frames_decoded_live = preparation->num_frames();
     summary_.frames_developed_live = preparation->num_developed_frames();
+    summary_.surface_points_held = preparation->holds_surface_points();
     solve.UsePreparation(std::move(*preparation));
   }
   solve.SetProgressCallback(ForwardTo(solve));

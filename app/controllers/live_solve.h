@@ -43,6 +43,8 @@ struct LiveSolveSummary {
   // reached only after the last frame, or with more frames waiting, is left
   // to the solve's development.
   int frames_developed_live = 0;
+  // The light field's table points made while capturing (else the solve made them band by band).
+  bool surface_points_held = false;
   std::vector<std::string> live_problems;  // what the worker could not do; the solve then did it itself
   double seconds_after_last_frame = 0;     // last frame journalled -> result folder in place
   // The process's CPU time (user + system, all threads) over the same span:
