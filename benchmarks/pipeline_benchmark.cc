@@ -301,7 +301,18 @@ json ChildLatency(const Args& args, bool live) {
     frames = capture.summary().frames_captured;
   }
   const double latency = std::chrono::duration<double>(result_written - *last_frame).count();
+  json cpu = nullptr;  // the process's CPU time from the last frame to the result (live only)
+  json developed = nullptr;  // LED frames developed while capturing (live only)
+  json points_held = nullptr;  // the table points made while capturing (live only)
+  if (live) {
+    cpu = live_solve.summary().cpu_seconds_after_last_frame;
+    developed = live_solve.summary().frames_developed_live;
+    points_held = live_solve.summary().surface_points_held;
+  }
   return {{"seconds", latency},
+          {"cpu_seconds_after_last_frame", cpu},
+          {"frames_developed_live", developed},
+          {"surface_points_held", points_held},
           {"mode", live ? "solve-while-capture" : "sequential"},
           {"capture_seconds", *capture_seconds},
           {"frames", frames},

@@ -316,6 +316,27 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   return summary;
 }
 
+// Rows [row_begin, row_end) of `ahead` (`frame` developed whole with
+// `develop`): what DevelopRawRows of those rows gives, the clipped raw
+// samples counted in `frame`'s rows as it counts them.
+DevelopedFrame DevelopedRows(const DevelopedFrame& ahead, const RawImage& frame, const RawDevelopOptions& develop,
+                             int row_begin, int row_end) {
+  const int rows = row_end - row_begin;
+  DevelopedFrame band;
+  band.rgb = CropRows(ahead.rgb, row_begin, rows);
+  band.valid = CropRows(ahead.valid, row_begin, rows);
+  if (develop.keep_mosaic) {
+    band.mosaic = CropRows(ahead.mosaic, row_begin, rows);
+    band.mosaic_valid = CropRows(ahead.mosaic_valid, row_begin, rows);
+  }
+  const int clip_level = static_cast<int>(develop.clip_fraction * frame.white_level);
+  for (int y = row_begin; y < row_end; ++y) {
+    const uint16_t* raw = frame.mosaic.row(y);
+    band.num_clipped_samples += std::count_if(raw, raw + frame.width(), [&](uint16_t v) { return v >= clip_level; });
+  }
+  return band;
+}
+
 void CheckFrames(const RawFrameStack& frames, const LightField& light_field) {
   if (frames.frames.empty() || static_cast<int>(frames.frames.size()) != light_field.num_lights()) {
     throw std::invalid_argument("SolveBanded: " + std::to_string(frames.frames.size()) +
@@ -333,6 +354,19 @@ void CheckFrames(const RawFrameStack& frames, const LightField& light_field) {
           "SolveBanded: a frame of " +
           (frame ? SizeText(frame->width(), frame->height()) : std::string("null")) + " for a light field of " +
           SizeText(light_field.width(), light_field.height()) + "; every frame must be the light field's size");
+    }
+  }
+  if (!frames.developed.empty() && frames.developed.size() != frames.frames.size()) {
+    throw std::invalid_argument("SolveBanded: " + std::to_string(frames.developed.size()) +
+                                " frames developed ahead for " + std::to_string(frames.frames.size()) +
+                                " frames; give one entry (or null) per frame or none");
+  }
+  for (const DevelopedFrame* ahead : frames.developed) {
+    if (ahead != nullptr && (!ahead->rgb.SameSize(light_field.width(), light_field.height()) ||
+                             ahead->rgb.channels() != 3 || !ahead->valid.SameSize(ahead->rgb))) {
+      throw std::invalid_argument("SolveBanded: a frame developed ahead of " + ShapeText(ahead->rgb) +
+                                  " (valid " + ShapeText(ahead->valid) + ") for a light field of " +
+                                  SizeText(light_field.width(), light_field.height()) + "; it must be RGB of its size");
     }
   }
 }
@@ -390,6 +424,12 @@ PhotometricSolution SolutionRows(const PhotometricSolution& solution, int first,
   return band;
 }
 
+RawDevelopOptions DevelopOptionsFor(const BandedSolveOptions& options) {
+  RawDevelopOptions develop = options.develop;
+  develop.keep_mosaic = options.bayer_domain || options.bayer_blend;
+  return develop;
+}
+
 int BandRowsUnit(const PhotometricSolverOptions& solver) {
   return std::lcm(std::lcm(solver.tile_size, CoherentLobeOptions().block_size), BayerNormalBlendOptions().cell_size);
 }
@@ -435,9 +475,14 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
                                 "; it must be the blend's cell grid of " + SizeText(cell_cols, cell_rows));
   }
 
-  RawDevelopOptions develop = options.develop;
-  const bool with_mosaic = options.bayer_domain || options.bayer_blend;
-  develop.keep_mosaic = with_mosaic;
+  const RawDevelopOptions develop = DevelopOptionsFor(options);
+  const bool with_mosaic = develop.keep_mosaic;
+  for (const DevelopedFrame* ahead : frames.developed) {
+    if (ahead != nullptr && with_mosaic && !ahead->mosaic.SameSize(ahead->rgb)) {
+      throw std::invalid_argument("SolveBanded: a frame developed ahead without its mosaic (mosaic " +
+                                  ShapeText(ahead->mosaic) + "); the Bayer-domain solve needs it");
+    }
+  }
   double blend_weight_sum = 0;
   size_t blend_pixels_weighed = 0;
   double bayer_cost = 1;  // the Bayer solve's time per band against the demosaiced one's, as last measured
@@ -465,7 +510,9 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
         num_frames, threads, 1,
         [&](int first, int last, int) {
           for (int k = first; k < last; ++k) {
-            developed[k] = DevelopRawRows(*frames.frames[k], frames.dark, develop, dev0, dev1);
+            const DevelopedFrame* ahead = frames.developed.empty() ? nullptr : frames.developed[k];
+            developed[k] = ahead ? DevelopedRows(*ahead, *frames.frames[k], develop, dev0, dev1)
+                                 : DevelopRawRows(*frames.frames[k], frames.dark, develop, dev0, dev1);
             clipped += developed[k].num_clipped_samples;
             const double scale = frames.exposure_scales.empty() ? 1.0 : frames.exposure_scales[k];
             if (scale != 1) {

@@ -74,7 +74,20 @@ struct RawFrameStack {
   // Per frame, what its developed values are multiplied by (an exposure that
   // differs from the session's); empty = 1 for all.
   std::vector<double> exposure_scales;
+  // Optional, per frame (empty = none; a null entry = that frame is developed
+  // as usual), not owned: the frame developed whole ahead of the solve
+  // (DevelopRaw against `dark` with DevelopOptionsFor's options, no exposure
+  // scale), e.g. by the live solve while the next frames are captured. The
+  // solve then copies each band's rows from it instead of developing them:
+  // the same values, since a band's development equals the whole frame's
+  // rows (tests/calibration/raw_develop_test.cc).
+  std::vector<const DevelopedFrame*> developed;
 };
+
+// The development SolveBanded runs with `options` (keep_mosaic when a
+// Bayer-domain solve needs the mosaic): what a frame developed ahead
+// (RawFrameStack::developed) must have been developed with.
+RawDevelopOptions DevelopOptionsFor(const BandedSolveOptions& options);
 
 // Rows beyond a band that a Bayer-domain band solve includes (even: the CFA phase holds).
 inline constexpr int kBayerMarginRows = 2;

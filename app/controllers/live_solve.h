@@ -25,6 +25,12 @@ struct LiveSolveOptions {
   // Journalled frames waiting for the decoder before the capture waits for
   // it, [1, 64]; each waiting frame is only its record (the file is on disk).
   int queue_frames = 4;
+  // Develop (demosaic) each LED frame whole as it lands
+  // (SolvePreparation::DevelopFrame), so that after the last frame only its
+  // development is left: 18 bytes a pixel more per frame held (2.9 GB for 10
+  // LEDs at 16 MP, with the Bayer blend's mosaic) until the solve has run.
+  // Off: the solve develops every band after the last frame. The same result.
+  bool develop_ahead = true;
 
   void Check() const;
 };
@@ -33,8 +39,17 @@ struct LiveSolveSummary {
   CaptureSummary capture;
   SolveSummary solve;
   int frames_decoded_live = 0;             // decoded while capturing (the solve decoded the rest)
+  // Of those, LED frames developed whole (develop_ahead); a frame the decoder
+  // reached only after the last frame, or with more frames waiting, is left
+  // to the solve's development.
+  int frames_developed_live = 0;
+  // The light field's table points made while capturing (else the solve made them band by band).
+  bool surface_points_held = false;
   std::vector<std::string> live_problems;  // what the worker could not do; the solve then did it itself
   double seconds_after_last_frame = 0;     // last frame journalled -> result folder in place
+  // The process's CPU time (user + system, all threads) over the same span:
+  // what the wait costs on a machine shared with other work.
+  double cpu_seconds_after_last_frame = 0;
 
   std::string BriefReport() const;
 };

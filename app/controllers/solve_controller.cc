@@ -3,11 +3,16 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
+#include <exception>
 #include <functional>
 #include <iomanip>
+#include <mutex>
 #include <regex>
 #include <sstream>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -142,12 +147,16 @@ struct RawFrames {
   std::string first_led_file;
   // One line per frame whose exposure differs from the session's (imports).
   std::vector<std::string> exposure_notes;
+  // Per LED frame, the frame developed ahead (SolvePreparation::DevelopFrame)
+  // or null; not owned. Empty without a preparation.
+  std::vector<const DevelopedFrame*> developed_ahead;
 
   RawFrameStack Stack() const {
     RawFrameStack stack;
     stack.dark = &dark;
     for (const RawImage& led : leds) stack.frames.push_back(&led);
     stack.exposure_scales = exposure_scales;
+    stack.developed = developed_ahead;
     return stack;
   }
 };
@@ -505,7 +514,7 @@ GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 304,
+static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 312,
               "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
 #endif
 
@@ -634,17 +643,28 @@ DecodedRaw DecodeSessionFrame(const fs::path& session_dir, const Session& sessio
   return decoded;
 }
 
+// An LED frame developed whole ahead of the solve (SolvePreparation::DevelopFrame).
+struct DevelopedAhead {
+  std::string sha256;       // the frame's, as its record names it
+  std::string dark_sha256;  // the dark frame's it was developed against
+  DevelopedFrame developed;
+};
+
 struct SolvePreparation::State {
   fs::path session_dir;
   fs::path calibration_dir;  // what the light field was made from
+  RawDevelopOptions develop;  // DevelopOptionsFor the solve's options
   Lighting lighting;
   PreparedFrames frames;
+  bool holds_points = false;  // HoldSurfacePoints made the light field's points
+  std::map<std::string, DevelopedAhead> developed;  // by file
 };
 
 SolvePreparation::SolvePreparation(const fs::path& session_dir, const Session& session, const SolveOptions& options)
     : state_(std::make_unique<State>()) {
   state_->session_dir = session_dir;
   state_->calibration_dir = options.calibration_dir;
+  state_->develop = DevelopOptionsFor(BandedOptions(options));
   state_->lighting = MakeLighting(options, session_dir, session);
 }
 SolvePreparation::SolvePreparation(SolvePreparation&&) noexcept = default;
@@ -656,6 +676,64 @@ void SolvePreparation::AddFrame(const FrameRecord& record, DecodedRaw decoded) {
 }
 
 int SolvePreparation::num_frames() const { return static_cast<int>(state_->frames.size()); }
+
+void SolvePreparation::HoldSurfacePoints(int num_threads) {
+  // Only the rig description's field is on the table plane made on request;
+  // a calibration set's is measured per pixel.
+  const auto* field = dynamic_cast<const PointLightField*>(state_->lighting.light_field.get());
+  if (!state_->calibration_dir.empty() || field == nullptr || state_->holds_points) return;
+  const CameraGeometry& camera = state_->lighting.camera;
+  state_->lighting.light_field = std::make_unique<PointLightField>(
+      field->lights(), std::make_unique<HeldSurfacePoints>(ComputeTablePoints(camera, num_threads)),
+      CameraCentreInTable(camera));
+  state_->holds_points = true;
+}
+
+bool SolvePreparation::holds_surface_points() const { return state_->holds_points; }
+
+bool SolvePreparation::DevelopFrame(const Session& session, const FrameRecord& record) {
+  const FrameRecord* dark_record = FindDarkFrame(session);
+  if (record.kind != FrameKind::kLed || dark_record == nullptr) return false;
+  const auto frame = state_->frames.find(record.file);
+  const auto dark = state_->frames.find(dark_record->file);
+  if (frame == state_->frames.end() || frame->second.sha256 != record.sha256 || dark == state_->frames.end() ||
+      dark->second.sha256 != dark_record->sha256) {
+    return false;
+  }
+  state_->developed[record.file] =
+      DevelopedAhead{record.sha256, dark_record->sha256,
+                     DevelopRaw(frame->second.decoded.image, &dark->second.decoded.image, state_->develop)};
+  return true;
+}
+
+int SolvePreparation::num_developed_frames() const { return static_cast<int>(state_->developed.size()); }
+
+namespace {
+
+// The frames `prepared` developed ahead for exactly these records and this
+// development (null where it did not), in the order of frames.leds.
+std::vector<const DevelopedFrame*> DevelopedAheadFor(const SolvePreparation::State& prepared, const Session& session,
+                                                     const RawDevelopOptions& develop) {
+  const RawDevelopOptions& made = prepared.develop;
+  const int num_lights = static_cast<int>(session.rig.leds.size());
+  std::vector<const DevelopedFrame*> developed(num_lights, nullptr);
+  if (made.demosaic != develop.demosaic || made.clip_fraction != develop.clip_fraction ||
+      made.keep_mosaic != develop.keep_mosaic) {
+    return developed;
+  }
+  const FrameRecord* dark = FindDarkFrame(session);
+  for (int k = 0; k < num_lights; ++k) {
+    const FrameRecord* record = FindLedFrame(session, k);
+    const auto found = prepared.developed.find(record->file);
+    if (found != prepared.developed.end() && found->second.sha256 == record->sha256 &&
+        found->second.dark_sha256 == dark->sha256) {
+      developed[k] = &found->second.developed;
+    }
+  }
+  return developed;
+}
+
+}  // namespace
 
 SolveController::SolveController(fs::path session_dir, SolveOptions options)
     : session_dir_(std::move(session_dir)), options_(std::move(options)) {}
@@ -694,11 +772,13 @@ void ForEachMap(Solution& s, const F& f) {
 // system's cache at 16 MP, not the process's memory). Once the decision is
 // taken the bands are handed on to be written (the table plane kept) or only
 // the normals and status read back (the re-solves start from them), so a
-// draped sample's first pass is never encoded nor evaluated.
+// draped sample's first pass is never encoded nor evaluated. A solve that
+// streams the first pass's maps meanwhile (SolveOptions::stream_first_pass)
+// spills only the normals and status (13 bytes a pixel; no Replay).
 class FirstPassSpill {
  public:
-  FirstPassSpill(const fs::path& folder, int width, int height, int num_threads)
-      : width_(width), blocks_(width, height), spill_(folder), num_threads_(num_threads) {}
+  FirstPassSpill(const fs::path& folder, int width, int height, int num_threads, bool all_maps = true)
+      : width_(width), all_maps_(all_maps), blocks_(width, height), spill_(folder), num_threads_(num_threads) {}
 
   void Add(const PhotometricSolution& band) {
     blocks_.AddRows(band, num_threads_);
@@ -708,7 +788,7 @@ class FirstPassSpill {
       if (image.empty() != (channels_[map] == 0) || (!image.empty() && image.channels() != channels_[map])) {
         throw std::logic_error("FirstPassSpill: the bands' maps differ");
       }
-      spill_.Append(image.data(), image.size() * sizeof(*image.data()));
+      if (Spilled(map)) spill_.Append(image.data(), image.size() * sizeof(*image.data()));
       ++map;
     });
     band_rows_.push_back(band.status.height());
@@ -718,6 +798,7 @@ class FirstPassSpill {
 
   // The bands as they were added, in order.
   void Replay(const std::function<void(PhotometricSolution& band)>& sink) {
+    if (!all_maps_) throw std::logic_error("FirstPassSpill::Replay: only the normals and status were spilled");
     size_t offset = 0;
     for (const int rows : band_rows_) {
       PhotometricSolution band;
@@ -752,7 +833,7 @@ class FirstPassSpill {
         const size_t bytes = size_t(width_) * rows * channels_[map] * sizeof(*image.data());
         if (map == 0) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
         if (map == 2) spill_.ReadAt(offset, first.status.row(y), bytes);
-        offset += bytes;
+        if (Spilled(map)) offset += bytes;
         ++map;
       });
       y += rows;
@@ -760,8 +841,14 @@ class FirstPassSpill {
     return first;
   }
 
+  bool all_maps() const { return all_maps_; }
+
  private:
+  // Map `map` (ForEachMap's order) goes to the spill: all, or the normals and status.
+  bool Spilled(int map) const { return all_maps_ || map == 0 || map == 2; }
+
   int width_;
+  bool all_maps_;
   std::array<int, 9> channels_{};  // per map (ForEachMap's order), 0 = empty
   std::vector<int> band_rows_;
   DepthDecisionBlocks blocks_;
@@ -822,6 +909,92 @@ class ResultStream {
   double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
 };
 
+// Hands solved bands to `write` (the first pass's decision blocks and spill,
+// then the ResultStream) on a thread of its own
+// (SolveOptions::stream_first_pass), so that one band's files are encoded
+// while the next band is solved: the solve's threads and this one share the
+// cores, and what one leaves idle (a band's last file, the solve's serial
+// steps) the other takes. `write` gets the bands in order, as it would on
+// the solve's thread, so the files are the same. At most `capacity` bands
+// wait (about 28 MB each at 16 MP); Add blocks beyond that.
+class BackgroundBandWriter {
+ public:
+  BackgroundBandWriter(std::function<void(PhotometricSolution& band)> write, int capacity)
+      : write_(std::move(write)), capacity_(capacity), thread_([this] { Loop(); }) {}
+  BackgroundBandWriter(const BackgroundBandWriter&) = delete;
+  BackgroundBandWriter& operator=(const BackgroundBandWriter&) = delete;
+  // Drops what still waits (a failed or cancelled solve); a band being written is finished first.
+  ~BackgroundBandWriter() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closing_ = true;
+      queue_.clear();
+    }
+    changed_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+
+  // Rethrows the writer's failure, if an earlier band's write failed.
+  void Add(PhotometricSolution band) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return failure_ || static_cast<int>(queue_.size()) < capacity_; });
+    if (failure_) std::rethrow_exception(failure_);
+    queue_.push_back(std::move(band));
+    changed_.notify_all();
+  }
+
+  // Waits until every band is written; rethrows the writer's failure.
+  void Finish() {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      changed_.wait(lock, [&] { return failure_ || (queue_.empty() && !busy_); });
+      closing_ = true;
+    }
+    changed_.notify_all();
+    thread_.join();
+    if (failure_) std::rethrow_exception(failure_);
+  }
+
+ private:
+  void Loop() {
+    for (;;) {
+      PhotometricSolution band;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        changed_.wait(lock, [&] { return closing_ || !queue_.empty(); });
+        if (queue_.empty() || failure_) return;  // closing, or failed
+        band = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+      }
+      changed_.notify_all();  // room in the queue
+      std::exception_ptr failure;
+      try {
+        write_(band);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        busy_ = false;
+        if (failure) failure_ = failure;
+      }
+      changed_.notify_all();
+      if (failure) return;
+    }
+  }
+
+  const std::function<void(PhotometricSolution& band)> write_;
+  const int capacity_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<PhotometricSolution> queue_;  // under mutex_
+  bool busy_ = false;                      // under mutex_: a band is being written
+  bool closing_ = false;                   // under mutex_
+  std::exception_ptr failure_;             // under mutex_
+  std::thread thread_;                     // last: starts once everything above exists
+};
+
 }  // namespace
 
 void SolveController::Run() {
@@ -853,6 +1026,9 @@ void SolveController::Run() {
                                               frames.camera_from_xyz, frames.first_led_file);
     return made;
   });
+  if (prepared && !prepared->developed.empty()) {
+    frames.developed_ahead = DevelopedAheadFor(*prepared, session, DevelopOptionsFor(BandedOptions(options_)));
+  }
   summary_.light_model = lighting.light_model;
   summary_.warnings = lighting.warnings;
   summary_.warnings.insert(summary_.warnings.end(), frames.exposure_notes.begin(), frames.exposure_notes.end());
@@ -866,9 +1042,12 @@ void SolveController::Run() {
   const GroundTruthFiles* truth = session.ground_truth ? &*session.ground_truth : nullptr;
   // Only point LEDs can be moved off the table plane (RefineOnDepth): then
   // the first pass is spilled until the decision whether to re-solve is
-  // taken; otherwise its bands are written as they are solved.
+  // taken (or, with stream_first_pass, written as it is solved, and only its
+  // normals and status spilled for the re-solves); otherwise its bands are
+  // written as they are solved.
   const bool may_refine = options_.depth.enabled &&
                           dynamic_cast<const PointLightField*>(lighting.light_field.get()) != nullptr;
+  const bool stream_first_pass = may_refine && options_.stream_first_pass;
   const auto result_stream = [&] {
     return std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height, summary_.albedo_color,
                                           exr, session_dir_, truth, options_.solver.num_threads);
@@ -877,23 +1056,35 @@ void SolveController::Run() {
   std::unique_ptr<ResultStream> stream;
   if (may_refine) {
     first_pass = std::make_unique<FirstPassSpill>(staged.staging(), summary_.width, summary_.height,
-                                                  options_.solver.num_threads);
-  } else {
-    stream = result_stream();
+                                                  options_.solver.num_threads, !stream_first_pass);
   }
+  if (!may_refine || stream_first_pass) stream = result_stream();
   TimedStage(timings, "solve", "solve", [&] {
+    // With stream_first_pass the bands are written on a thread of their own
+    // beside the solve (its time then includes the writing it waited for).
+    const auto take_band = [&](PhotometricSolution& band) {
+      if (first_pass) first_pass->Add(band);  // before the stream: it colours the albedo in place
+      if (stream) stream->Add(band);
+    };
+    std::optional<BackgroundBandWriter> writer;
+    if (stream_first_pass) writer.emplace(take_band, 2);
     const BandedSolveSummary banded = SolveBanded(
         BandedOptions(options_), frames.Stack(), *lighting.light_field,
-        [&](int, PhotometricSolution& band) { first_pass ? first_pass->Add(band) : stream->Add(band); },
+        [&](int, PhotometricSolution& band) { writer ? writer->Add(std::move(band)) : take_band(band); },
         StageCallback("solve"));
     summary_.solver = banded.solver;
     summary_.clipped_samples = banded.clipped_samples;
     RequireSuccess(banded, "solve");
+    if (writer) writer->Finish();
   });
-  if (stream) timings.back().seconds -= stream->sink_seconds();  // the streaming's own stages below
-  // The raw frames (32 MB each at 16 MP) are not held through the later stages.
+  // The streaming's own stages below (beside the solve with stream_first_pass).
+  if (stream && !stream_first_pass) timings.back().seconds -= stream->sink_seconds();
+  // The raw frames (32 MB each at 16 MP) are not held through the later
+  // stages, nor the frames developed ahead.
   frames.leds.clear();
   frames.dark = RawImage();
+  frames.developed_ahead.clear();
+  prepared.reset();
   const auto raw_frames = [&]() -> const RawFrames& {
     if (frames.leds.empty()) frames = DecodeFrames(session_dir_, session, options_.solver.num_threads, {});
     return frames;
@@ -903,10 +1094,12 @@ void SolveController::Run() {
     if (first_pass) {
       if (std::optional<DepthRefinementSummary> kept =
               TablePlaneKept(options_.depth, first_pass->decision_blocks(), lighting.camera)) {
-        return *kept;  // the spilled first pass is written below
+        return *kept;  // the spilled first pass is written below (or was streamed)
       }
       // Draped: the re-solves start from the first pass (held from here on),
-      // and the maps are those of the last re-solve, streamed from it.
+      // and the maps are those of the last re-solve, streamed from it. A
+      // first pass streamed meanwhile is not the result: its files go.
+      stream.reset();
       PhotometricSolution solution = first_pass->NormalsAndStatus();
       first_pass.reset();
       DepthRefinementSummary depth =
@@ -933,13 +1126,13 @@ void SolveController::Run() {
   frames.leds.clear();
   frames.dark = RawImage();
   lighting.light_field.reset();  // its per-pixel surface points: 193 MB at 16 MP
-  if (first_pass) {
+  if (first_pass && first_pass->all_maps()) {
     // The table plane kept: the first pass's bands, written and evaluated now
     // (its time the stages' below).
     stream = result_stream();
     first_pass->Replay([&](PhotometricSolution& band) { stream->Add(band); });
-    first_pass.reset();
   }
+  first_pass.reset();  // a streamed first pass's spilled normals and status
   summary_.specular = stream->specular();
   timings.push_back({"color", stream->color_seconds()});
 

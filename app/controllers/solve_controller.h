@@ -54,6 +54,13 @@ struct SolveOptions {
   // Draped samples (issue #15): re-solve with the surface points moved to the
   // integrated height (app/controllers/depth_refinement.h).
   DepthRefinementOptions depth;
+  // Latency, not the result (the live solve sets it): when the depth
+  // refinement may re-solve, write the first pass's maps while it is solved
+  // instead of spilling it whole until the decision, keeping only its normals
+  // and status aside (13 instead of 44 bytes a pixel); a draped sample's
+  // streamed files are dropped and the re-solve's written. The same files;
+  // about 0.1 GB more peak and, on a draped sample, an encoding for nothing.
+  bool stream_first_pass = false;
 
   void Check() const;
 };
@@ -132,6 +139,24 @@ class SolvePreparation {
   // any other frame itself.
   void AddFrame(const FrameRecord& record, DecodedRaw decoded);
   int num_frames() const;
+  // The rig light field's table-plane points made once and held
+  // (ComputeTablePoints on num_threads, 0 = all: the same floats the solve
+  // otherwise makes on request, band by band; 12 bytes a pixel, 193 MB at
+  // 16 MP), so that the solve after the last frame does not undistort every
+  // pixel's ray again (about 2 s of CPU at 16 MP). Nothing for a calibration
+  // set's measured light field. The result is the same either way.
+  void HoldSurfacePoints(int num_threads);
+  bool holds_surface_points() const;
+  // Develops the held frame of `record` (an LED frame of `session`) whole,
+  // against the held dark frame, as the solve's bands would be developed
+  // (DevelopOptionsFor, banded_solve.h), and keeps it: the solve then copies
+  // its bands' rows from it instead of demosaicing them after the last frame
+  // (RawFrameStack::developed; the same values). 18 bytes a pixel with the
+  // Bayer blend's mosaic (290 MB a frame at 16 MP), held until the solve has
+  // run. Returns false (and keeps nothing) when the frame or the dark frame
+  // is not held, or `record` is not an LED frame.
+  bool DevelopFrame(const Session& session, const FrameRecord& record);
+  int num_developed_frames() const;
 
   struct State;  // the light field and the frames (solve_controller.cc)
 

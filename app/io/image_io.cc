@@ -16,6 +16,9 @@
 #include <sstream>
 #include <stdexcept>
 #include <system_error>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -347,15 +350,58 @@ OIIO::ImageSpec ExrSpec(const fs::path& path, int width, int height, int channel
 // `count` float values as half samples: converted (round to nearest) here,
 // clamped to half's finite range (a conversion of an out-of-range value would
 // give an infinity), small values on encoding.half_absolute_step's grid.
+#if defined(__x86_64__)
+// HalfSamples' values eight at a time with AVX and F16C, the same bits: the
+// grid's division, rounding to nearest (even) and product are the scalar
+// ones, NaN passes the clamp as in std::clamp (max/min return their second
+// operand when one is NaN), and F16C's conversion to nearest even is the one
+// Imath::half takes itself when built for F16C. Returns the values done (a
+// multiple of 8); the caller converts the rest.
+__attribute__((target("avx,f16c"))) size_t HalfSamplesF16c(const float* values, size_t count, float step,
+                                                            uint16_t* out) {
+  const __m256 low = _mm256_set1_ps(-kHalfMax), high = _mm256_set1_ps(kHalfMax);
+  const __m256 step8 = _mm256_set1_ps(step), limit8 = _mm256_set1_ps(1024 * step);
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  size_t i = 0;
+  for (; i + 8 <= count; i += 8) {
+    const __m256 v = _mm256_loadu_ps(values + i);
+    __m256 h = _mm256_min_ps(high, _mm256_max_ps(low, v));
+    if (step != 0) {
+      const __m256 on_grid = _mm256_mul_ps(
+          _mm256_round_ps(_mm256_div_ps(v, step8), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC), step8);
+      const __m256 small = _mm256_cmp_ps(_mm256_andnot_ps(sign, v), limit8, _CMP_LT_OQ);
+      h = _mm256_blendv_ps(h, on_grid, small);
+    }
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i),
+                     _mm256_cvtps_ph(h, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+  }
+  return i;
+}
+
+bool HasF16c() {
+  static const bool has = __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+  return has;
+}
+#endif
+
 std::vector<Imath::half> HalfSamples(const float* values, size_t count, const ExrEncoding& encoding) {
   std::vector<Imath::half> halves(count);
+  size_t done = 0;
+#if defined(__x86_64__)
+  static_assert(sizeof(Imath::half) == sizeof(uint16_t));
+  if (HasF16c()) {
+    std::vector<uint16_t> bits(count);
+    done = HalfSamplesF16c(values, count, static_cast<float>(encoding.half_absolute_step), bits.data());
+    std::memcpy(static_cast<void*>(halves.data()), bits.data(), done * sizeof(uint16_t));
+  }
+#endif
   if (encoding.half_absolute_step == 0) {
-    for (size_t i = 0; i < count; ++i) halves[i] = Imath::half(std::clamp(values[i], -kHalfMax, kHalfMax));
+    for (size_t i = done; i < count; ++i) halves[i] = Imath::half(std::clamp(values[i], -kHalfMax, kHalfMax));
   } else {
     // Below 1024 steps the grid's multiples are exact halves (11-bit
     // significand), so the one rounding here is the only one.
     const float step = static_cast<float>(encoding.half_absolute_step), limit = 1024 * step;
-    for (size_t i = 0; i < count; ++i) {
+    for (size_t i = done; i < count; ++i) {
       const float v = values[i];
       halves[i] = Imath::half(std::abs(v) < limit ? std::nearbyint(v / step) * step : std::clamp(v, -kHalfMax, kHalfMax));
     }

@@ -105,6 +105,12 @@ TEST(ScanbenchCliTest, CaptureWithSolveWritesTheResult) {
   EXPECT_TRUE(LoadSession(session_dir).capture_complete);
   ASSERT_EQ(CountResults(session_dir), 1u);
   EXPECT_TRUE(fs::exists(fs::directory_iterator(session_dir / "results")->path() / "normal.exr"));
+  // Without the development ahead: every frame is left to the solve's bands.
+  const CommandResult undeveloped =
+      RunScanbench("capture " + Quoted(folder / "plain") + " --sample-name plain --width 320 --height 212 "
+                   "--no-exposure-check --solve --solve-no-develop-ahead --label live");
+  ASSERT_EQ(undeveloped.exit_code, 0) << undeveloped.output;
+  EXPECT_THAT(undeveloped.output, HasSubstr("11 decoded while capturing (0 developed)"));
   const CommandResult bad = RunScanbench("capture " + Quoted(folder / "x") + " --sample-name x --solve-queue 0");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_THAT(bad.output, HasSubstr("--solve-queue"));

@@ -453,5 +453,63 @@ TEST(BandedSolveTest, StopsWhenCancelledAndRejectsBadInput) {
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("band_rows = 0")));
 }
 
+// The live solve's frames developed whole while the capture runs
+// (RawFrameStack::developed): the bands' rows copied from them give the
+// solve of the bands developed in place, bit for bit, with a frame's exposure
+// scale, clipped highlights, one frame left to the solve's own development,
+// and with the Bayer blend (which also reads the kept mosaic).
+TEST(BandedSolveTest, FramesDevelopedAheadGiveTheSameSolve) {
+  const RawScene raw = MakeRawScene();
+  for (const bool blend : {false, true}) {
+    SCOPED_TRACE(blend ? "bayer blend" : "demosaiced");
+    BandedSolveOptions options;
+    options.solver.tile_size = 32;
+    options.solver.num_threads = 2;
+    options.band_rows = 32;
+    options.bayer_blend = blend;
+    const RawFrameStack stack = raw.Stack();
+    PhotometricSolution in_place;
+    const BandedSolveSummary in_place_summary = SolveBanded(options, stack, *raw.scene.light_field, &in_place);
+    ASSERT_TRUE(in_place_summary.IsUsable()) << in_place_summary.message;
+
+    std::vector<DevelopedFrame> ahead;
+    for (const RawImage& frame : raw.frames) ahead.push_back(DevelopRaw(frame, &raw.dark, DevelopOptionsFor(options)));
+    RawFrameStack with_ahead = raw.Stack();
+    for (const DevelopedFrame& frame : ahead) with_ahead.developed.push_back(&frame);
+    with_ahead.developed[1] = nullptr;  // developed by the solve
+    PhotometricSolution copied;
+    const BandedSolveSummary copied_summary = SolveBanded(options, with_ahead, *raw.scene.light_field, &copied);
+    ASSERT_TRUE(copied_summary.IsUsable()) << copied_summary.message;
+
+    EXPECT_GT(in_place_summary.clipped_samples, 0u);
+    EXPECT_EQ(copied_summary.clipped_samples, in_place_summary.clipped_samples);
+    ExpectSameBits(copied.normal_in_table, in_place.normal_in_table, "normal_in_table");
+    ExpectSameBits(copied.albedo, in_place.albedo, "albedo");
+    ExpectSameBits(copied.status, in_place.status, "status");
+    ExpectSameBits(copied.lights_used, in_place.lights_used, "lights_used");
+    ExpectSameBits(copied.condition_number, in_place.condition_number, "condition_number");
+    ExpectSameBits(copied.residual, in_place.residual, "residual");
+    ExpectSameBits(copied.solve_path, in_place.solve_path, "solve_path");
+    ExpectSameBits(copied.specular, in_place.specular, "specular");
+    ExpectSameBits(copied.specular_status, in_place.specular_status, "specular_status");
+    EXPECT_EQ(copied_summary.solver.pixels_by_path, in_place_summary.solver.pixels_by_path);
+    EXPECT_EQ(copied_summary.solver.pixels_bayer_blended, in_place_summary.solver.pixels_bayer_blended);
+    ExpectSameBits(copied_summary.bayer_blend_weights, in_place_summary.bayer_blend_weights, "blend weights");
+  }
+
+  // A frame developed ahead without the mosaic the blend needs, or of another size, is refused.
+  BandedSolveOptions blend_options;
+  blend_options.bayer_blend = true;
+  RawDevelopOptions no_mosaic;
+  const DevelopedFrame without_mosaic = DevelopRaw(raw.frames[0], &raw.dark, no_mosaic);
+  RawFrameStack stack = raw.Stack();
+  stack.developed.assign(raw.frames.size(), nullptr);
+  stack.developed[0] = &without_mosaic;
+  PhotometricSolution unused;
+  EXPECT_THROW(SolveBanded(blend_options, stack, *raw.scene.light_field, &unused), std::invalid_argument);
+  stack.developed.pop_back();
+  EXPECT_THROW(SolveBanded(BandedSolveOptions(), stack, *raw.scene.light_field, &unused), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace scanbench

@@ -12,6 +12,7 @@
 #include <optional>
 #include <random>
 
+#include <Imath/half.h>
 #include <OpenImageIO/imageio.h>
 
 #include "tests/app/io/test_dng_util.h"
@@ -717,6 +718,47 @@ TEST(ImageIoChromaticitiesTest, MalformedAttributeNamesTheFile) {
     ADD_FAILURE() << "expected an error";
   } catch (const std::runtime_error& e) {
     EXPECT_THAT(e.what(), HasSubstr("bad.png: scanbench:chromaticities = '0.64 0.33 oops' is not 8 finite numbers"));
+  }
+}
+
+
+// The half conversion (eight values at a time with F16C where the CPU has it)
+// gives Imath::half's bits for every kind of value: random magnitudes from
+// half's subnormals to beyond its range, exact ties between two halves (to
+// even), signed zeros, and a count that leaves a remainder of 7; with and
+// without the absolute grid.
+TEST(ImageIoTest, ExrHalfSamplesAreImathsRoundingBitForBit) {
+  TempDir dir;
+  ImageF image(61, 9, 3);  // 1647 values
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> exponent(-30.0f, 18.0f);
+  std::uniform_int_distribution<int> half_bits(0, 0x7bff);
+  for (size_t i = 0; i < image.size(); ++i) {
+    float v = std::exp2(exponent(rng));
+    if (i % 5 == 1) {  // midway between two adjacent finite halves: a tie
+      Imath::half a, b;
+      a.setBits(static_cast<uint16_t>(half_bits(rng)));
+      b.setBits(static_cast<uint16_t>(a.bits() + 1));
+      v = (float(a) + float(b)) / 2;
+    }
+    image.data()[i] = (i % 2 ? -v : v);
+  }
+  image.data()[0] = 0.0f;
+  image.data()[1] = -0.0f;
+  image.data()[2] = 1e9f;
+  for (const double step : {0.0, std::ldexp(1.0, -12)}) {
+    SCOPED_TRACE("half_absolute_step " + std::to_string(step));
+    WriteExr(dir / "h.exr", image, OverwritePolicy::kReplace, {}, {}, {ExrSampleType::kHalf, ExrCompression::kNone, step});
+    const ImageF read = ReadImageFloat(dir / "h.exr");
+    ASSERT_EQ(read.size(), image.size());
+    const float limit = static_cast<float>(1024 * step);
+    for (size_t i = 0; i < image.size(); ++i) {
+      const float v = image.data()[i];
+      const float expected = float(Imath::half(
+          std::abs(v) < limit ? std::nearbyint(v / float(step)) * float(step) : std::clamp(v, -65504.0f, 65504.0f)));
+      ASSERT_EQ(std::signbit(read.data()[i]), std::signbit(expected)) << i << ": " << v;
+      ASSERT_EQ(read.data()[i], expected) << i << ": " << v;
+    }
   }
 }
 
