@@ -148,9 +148,10 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
                       "--solve: journalled frames waiting for the decoder before the capture waits for it")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
-  command->add_flag("!--solve-no-develop-ahead", state->solve_develop_ahead,
-                    "--solve: leave the demosaicing to the solve after the last frame instead of developing each "
-                    "frame as it lands (which holds 18 bytes a pixel per LED frame until the solve: 2.9 GB at 16 MP)");
+  command->add_flag("--solve-develop-ahead", state->solve_develop_ahead,
+                    "--solve: develop (demosaic) each frame as it lands instead of leaving it to the solve after the "
+                    "last frame: less work after it, but 18 bytes a pixel per LED frame held until the solve "
+                    "(2.9 GB at 16 MP)");
   AddSolveOptions(*command->add_option_group("solve", "With --solve: the solve's options, as scanbench solve's"),
                   state->solve_options);
   command->callback([state, exit_code] {

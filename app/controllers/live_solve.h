@@ -29,8 +29,11 @@ struct LiveSolveOptions {
   // (SolvePreparation::DevelopFrame), so that after the last frame only its
   // development is left: 18 bytes a pixel more per frame held (2.9 GB for 10
   // LEDs at 16 MP, with the Bayer blend's mosaic) until the solve has run.
-  // Off: the solve develops every band after the last frame. The same result.
-  bool develop_ahead = true;
+  // Off (the default): the solve develops every band after the last frame,
+  // the same result. Off because it holds ten full-frame developed images,
+  // which issue #14's memory-bounded pipeline rules out; on where the
+  // memory is there and the seconds after the last frame count.
+  bool develop_ahead = false;
 
   void Check() const;
 };
