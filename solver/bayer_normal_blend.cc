@@ -298,6 +298,16 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
   CheckCellWeights(options, width, height, "BlendBayerNormals");
   const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
   const bool has_lobes = !demosaiced->specular_status.empty();
+  const bool with_lobe_bayer = options.lobe_bayer != nullptr && !options.lobe_bayer->status.empty();
+  if (with_lobe_bayer) {
+    auto check = [&](const auto& image, int channels, const char* name) {
+      CheckMapShape("BlendBayerNormals", light_field, image, channels, name);
+    };
+    check(options.lobe_bayer->normal_in_table, 3, "lobe_bayer.normal_in_table");
+    check(options.lobe_bayer->status, 1, "lobe_bayer.status");
+    check(options.lobe_bayer->residual, 1, "lobe_bayer.residual");
+    check(options.lobe_bayer->lights_used, 1, "lobe_bayer.lights_used");
+  }
   std::vector<CellRowCounts> counts(cell_rows);
 
   BayerNormalBlendSummary summary;
@@ -315,18 +325,22 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
       for (int y = y0; y < y1; ++y) {
         for (int x = x0; x < x1; ++x) {
           if (demosaiced->status(x, y) != solved) continue;
-          const int lights = bayer.lights_used(x, y);
-          if (bayer.status(x, y) != solved || lights < kMinLightsForNoise ||
-              (has_lobes && demosaiced->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated))) {
+          // A lobe pixel's Bayer normal is the shared lobe's re-solve (the
+          // Bayer-domain solve has no lobe), where there is one.
+          const bool lobe =
+              has_lobes && demosaiced->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated);
+          const PhotometricSolution* own_solve = lobe ? (with_lobe_bayer ? options.lobe_bayer : nullptr) : &bayer;
+          const int lights = own_solve != nullptr ? own_solve->lights_used(x, y) : 0;
+          if (own_solve == nullptr || own_solve->status(x, y) != solved || lights < kMinLightsForNoise) {
             ++row_counts.kept;
             continue;
           }
           const Eigen::Vector3d nd(demosaiced->normal_in_table(x, y, 0), demosaiced->normal_in_table(x, y, 1),
                                    demosaiced->normal_in_table(x, y, 2));
-          const Eigen::Vector3d nb(bayer.normal_in_table(x, y, 0), bayer.normal_in_table(x, y, 1),
-                                   bayer.normal_in_table(x, y, 2));
+          const Eigen::Vector3d nb(own_solve->normal_in_table(x, y, 0), own_solve->normal_in_table(x, y, 1),
+                                   own_solve->normal_in_table(x, y, 2));
           const double angle = std::atan2(nd.cross(nb).norm(), nd.dot(nb));
-          const double residual = bayer.residual(x, y);
+          const double residual = own_solve->residual(x, y);
           disagreement += angle * angle;
           sample_variance += residual * residual * lights / (lights - 3);
           normal_sum += nd;
@@ -354,7 +368,9 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
       row_counts.blended += members.size();
       for (const int index : members) {
         float* out = demosaiced->normal_in_table.data() + 3 * size_t(index);
-        const float* own = bayer.normal_in_table.data() + 3 * size_t(index);
+        const bool lobe = has_lobes && demosaiced->specular_status.data()[index] ==
+                                           static_cast<uint8_t>(SpecularStatus::kEstimated);
+        const float* own = (lobe ? options.lobe_bayer : &bayer)->normal_in_table.data() + 3 * size_t(index);
         Eigen::Vector3d mixed;
         for (int c = 0; c < 3; ++c) mixed[c] = weight * own[c] + (1 - weight) * out[c];
         mixed.normalize();

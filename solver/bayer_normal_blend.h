@@ -59,6 +59,12 @@ struct BayerNormalBlendOptions {
   // every pass they move the normals, the surface and again the weights, and
   // the loop does not settle (docs/solver.md). Null = estimate.
   const ImageF* cell_weights = nullptr;
+  // Optional, not owned: the Bayer-domain normals of the pixels with a
+  // shared lobe (RefineCoherentLobe's input.lobe_bayer: the light field's
+  // size; normal, status, residual, lights_used). A demosaiced lobe pixel
+  // solved there is weighed with that normal and residual; the others keep
+  // the demosaiced normal. Null or empty = every lobe pixel keeps it.
+  const PhotometricSolution* lobe_bayer = nullptr;
   // Worker threads; 0 = all hardware threads, in [0, 256].
   int num_threads = 0;
   void Check() const;
@@ -106,8 +112,9 @@ ImageU8 BayerBlendRegion(const ImageU8& cells, int cell_size, int width, int hei
 
 // Blends `bayer`'s normals into `demosaiced` (the same frames, the same size,
 // light_field's size). Pixels whose demosaiced fit has a specular lobe
-// (specular_status kEstimated: the Bayer-domain solve has no shared lobe) or
-// that either solve left unsolved (e.g. outside the region the Bayer-domain
+// (specular_status kEstimated: the Bayer-domain solve has no lobe) are
+// weighed with options.lobe_bayer's normal where it has one, else keep the
+// demosaiced normal, as do pixels that either solve left unsolved (e.g. outside the region the Bayer-domain
 // solve was given, BayerBlendRegion) keep the demosaiced normal; everything but
 // the normal map is left as it is. `bayer` needs its residual and
 // lights_used maps. Throws std::invalid_argument on maps that do not fit.

@@ -101,6 +101,7 @@ struct CoherentLobeSummary : AlgorithmSummary {
   size_t groups_fresnel = 0;    // of those, with the Fresnel-transmitted diffuse term
   size_t pixels_refined = 0;    // pixels that took the shared-lobe result
   size_t pixels_kept = 0;       // candidates in fitted groups that kept their per-pixel result (BIC)
+  size_t pixels_bayer = 0;      // refined pixels re-solved from their raw samples (input.lobe_mosaics)
   double mean_anisotropy = 0;   // mean alpha_b / alpha_t (>= 1) over the fitted groups
   double seconds = 0;
   std::string BriefReport() const;
@@ -114,7 +115,14 @@ struct CoherentLobeSummary : AlgorithmSummary {
 // robust_min_scale and robust_loss_width for the noise floor and the Tukey
 // width). Throws std::invalid_argument on inputs that do not fit the
 // solution; a cancelled run returns kCancelled with the blocks done so far
-// refined and the rest as they were.
+// refined and the rest as they were. With input.lobe_mosaics (and
+// input.lobe_bayer) every pixel that takes the shared lobe is re-solved once
+// more from its own raw CFA samples under the group's final lobe (shape, F0,
+// diffuse term; its demosaiced normal the start, the highlight down-weighted
+// as there): *input.lobe_bayer is made the light field's size with normal,
+// status (kSolved only there, else kOutsideRegion), residual and lights_used,
+// what BlendBayerNormals weighs against the demosaiced normal on lobe
+// pixels. Without lobe pixels it stays all unsolved.
 CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
                                        const PhotometricSolverOptions& solver_options,
                                        const PhotometricSolverInput& input, PhotometricSolution* solution,

@@ -307,7 +307,8 @@ int SolveTiles(const tiled::SolveJob& job, const std::vector<Tile>& tiles, int n
 }
 
 PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const tiled::SolveJob& job,
-                                  const ProgressCallback& progress) {
+                                  const ProgressCallback& progress, const BayerSolverInput* lobe_mosaics = nullptr,
+                                  PhotometricSolution* lobe_bayer = nullptr) {
   const auto start = std::chrono::steady_clock::now();
   const int width = job.field->width(), height = job.field->height();
   CheckUniformPinvField(options, *job.field);
@@ -346,6 +347,8 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
     input.sample_valid = *job.sample_valid;
     input.light_field = job.field;
     input.region = job.region;
+    input.lobe_mosaics = lobe_mosaics;
+    input.lobe_bayer = lobe_bayer;
     const CoherentLobeSummary refined = RefineCoherentLobe(coherent_options, options, input, job.solution,
                                                            SubRange(progress, tiles_share, 1.0));
     summary.pixels_coherent_lobe = refined.pixels_refined;
@@ -536,7 +539,10 @@ PhotometricSolverSummary SolvePhotometricStereo(const PhotometricSolverOptions& 
   job.with_albedo = options.compute_albedo;
   job.with_confidence = options.compute_confidence;
   job.solution = solution;
-  return RunSolve(options, job, progress);
+  if ((input.lobe_mosaics == nullptr) != (input.lobe_bayer == nullptr)) {
+    throw InputError("lobe_mosaics and lobe_bayer must be given together");
+  }
+  return RunSolve(options, job, progress, input.lobe_mosaics, input.lobe_bayer);
 }
 
 PhotometricSolverSummary SolvePhotometricStereoBayer(const PhotometricSolverOptions& options,
