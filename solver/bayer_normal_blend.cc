@@ -18,7 +18,7 @@ namespace {
 constexpr int kMinLightsForNoise = 4;
 
 struct CellRowCounts {
-  size_t blended = 0, kept = 0, compared = 0;
+  size_t blended = 0, kept = 0, compared = 0, lobe_replaced = 0;
   double weight_sum = 0;
 };
 
@@ -195,7 +195,9 @@ void BayerNormalBlendOptions::Check() const {
 
 std::string BayerNormalBlendSummary::BriefReport() const {
   return "Bayer-domain normal blend: " + std::to_string(pixels_blended) + " px blended, " +
-         std::to_string(pixels_kept) + " kept demosaiced, mean Bayer weight " + Fixed(mean_weight, 3);
+         std::to_string(pixels_kept) + " kept demosaiced, mean Bayer weight " + Fixed(mean_weight, 3) +
+         (pixels_lobe_replaced > 0 ? ", " + std::to_string(pixels_lobe_replaced) + " lobe px from their raw samples"
+                                   : std::string());
 }
 
 std::string BayerBlendCellsSummary::BriefReport() const {
@@ -325,22 +327,36 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
       for (int y = y0; y < y1; ++y) {
         for (int x = x0; x < x1; ++x) {
           if (demosaiced->status(x, y) != solved) continue;
-          // A lobe pixel's Bayer normal is the shared lobe's re-solve (the
-          // Bayer-domain solve has no lobe), where there is one.
-          const bool lobe =
-              has_lobes && demosaiced->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated);
-          const PhotometricSolution* own_solve = lobe ? (with_lobe_bayer ? options.lobe_bayer : nullptr) : &bayer;
-          const int lights = own_solve != nullptr ? own_solve->lights_used(x, y) : 0;
-          if (own_solve == nullptr || own_solve->status(x, y) != solved || lights < kMinLightsForNoise) {
+          if (has_lobes && demosaiced->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated)) {
+            // A lobe pixel takes the shared lobe's re-solve from its own raw
+            // samples outright, where there is one (the Bayer-domain solve
+            // has no lobe). Weighed like the others, by its residual, it
+            // kept too little of it: that residual is mostly the shared
+            // shape's misfit to the pixel's fibres, which the demosaiced fit
+            // shares, not noise (satin 0.860 deg against 0.829;
+            // docs/solver.md).
+            if (with_lobe_bayer && options.lobe_bayer->status(x, y) == solved &&
+                options.lobe_bayer->lights_used(x, y) >= kMinLightsForNoise) {
+              for (int c = 0; c < 3; ++c) {
+                demosaiced->normal_in_table(x, y, c) = options.lobe_bayer->normal_in_table(x, y, c);
+              }
+              ++row_counts.lobe_replaced;
+            } else {
+              ++row_counts.kept;
+            }
+            continue;
+          }
+          const int lights = bayer.lights_used(x, y);
+          if (bayer.status(x, y) != solved || lights < kMinLightsForNoise) {
             ++row_counts.kept;
             continue;
           }
           const Eigen::Vector3d nd(demosaiced->normal_in_table(x, y, 0), demosaiced->normal_in_table(x, y, 1),
                                    demosaiced->normal_in_table(x, y, 2));
-          const Eigen::Vector3d nb(own_solve->normal_in_table(x, y, 0), own_solve->normal_in_table(x, y, 1),
-                                   own_solve->normal_in_table(x, y, 2));
+          const Eigen::Vector3d nb(bayer.normal_in_table(x, y, 0), bayer.normal_in_table(x, y, 1),
+                                   bayer.normal_in_table(x, y, 2));
           const double angle = std::atan2(nd.cross(nb).norm(), nd.dot(nb));
-          const double residual = own_solve->residual(x, y);
+          const double residual = bayer.residual(x, y);
           disagreement += angle * angle;
           sample_variance += residual * residual * lights / (lights - 3);
           normal_sum += nd;
@@ -368,9 +384,7 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
       row_counts.blended += members.size();
       for (const int index : members) {
         float* out = demosaiced->normal_in_table.data() + 3 * size_t(index);
-        const bool lobe = has_lobes && demosaiced->specular_status.data()[index] ==
-                                           static_cast<uint8_t>(SpecularStatus::kEstimated);
-        const float* own = (lobe ? options.lobe_bayer : &bayer)->normal_in_table.data() + 3 * size_t(index);
+        const float* own = bayer.normal_in_table.data() + 3 * size_t(index);
         Eigen::Vector3d mixed;
         for (int c = 0; c < 3; ++c) mixed[c] = weight * own[c] + (1 - weight) * out[c];
         mixed.normalize();
@@ -387,6 +401,7 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
   for (const CellRowCounts& row : counts) {
     summary.pixels_blended += row.blended;
     summary.pixels_kept += row.kept;
+    summary.pixels_lobe_replaced += row.lobe_replaced;
     compared += row.compared;
     weight_sum += row.weight_sum;
   }

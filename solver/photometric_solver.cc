@@ -516,6 +516,7 @@ std::string PhotometricSolverSummary::BriefReport() const {
     out << "; " << pixels_bayer_blended << " blended with the Bayer-domain normal (mean weight "
         << Fixed(bayer_blend_mean_weight, 2) << "; Bayer-domain solve on " << pixels_bayer_solved << " px)";
   }
+  if (pixels_bayer_lobe > 0) out << "; " << pixels_bayer_lobe << " shared-lobe normals re-solved from the raw samples";
   if (tiles_skipped > 0) out << "; " << tiles_skipped << " of " << num_tiles << " tiles outside the region";
   if (!message.empty()) out << " (" << message << ")";
   return out.str();

@@ -267,6 +267,9 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   size_t pixels_bayer_blended = 0;
   double bayer_blend_mean_weight = 0;
   size_t pixels_bayer_solved = 0;
+  // Of the shared lobe's pixels, those whose normal is its re-solve from
+  // their own raw samples (PhotometricSolverInput::lobe_mosaics, the blend).
+  size_t pixels_bayer_lobe = 0;
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }

@@ -110,6 +110,7 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
   whole->pixels_coherent_lobe += band.pixels_coherent_lobe;
   whole->pixels_bayer_blended += band.pixels_bayer_blended;
   whole->pixels_bayer_solved += band.pixels_bayer_solved;
+  whole->pixels_bayer_lobe += band.pixels_bayer_lobe;
   whole->seconds += band.seconds;
 }
 
@@ -333,6 +334,7 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   summary.pixels_bayer_blended = blended->pixels_blended;
   summary.bayer_blend_mean_weight = blended->mean_weight;
   summary.pixels_bayer_solved = region_pixels;
+  summary.pixels_bayer_lobe = blended->pixels_lobe_replaced;
   // The band's whole solve.
   summary.seconds += blend_seconds + bayer_summary.seconds + SecondsSince(mix_start);
   return summary;
