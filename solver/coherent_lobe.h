@@ -66,6 +66,11 @@ struct CoherentLobeOptions {
   // their two albedo chromaticity clusters (r, g of rgb / sum) are further
   // apart than this, >= 0 (a large value never splits).
   double albedo_split = 0.03;
+  // At most this many albedo groups per block (k-means on the albedo
+  // chromaticity), in [1, 8]; more than 2 only where every group can be
+  // fitted on its own (min_pixels pixels, half of them with a per-pixel
+  // lobe), else 2 (satin 0.829 -> 0.781 deg with 3; docs/solver.md).
+  int max_albedo_groups = 3;
   // The pass runs only on solves with at most this many lights, in [3, 1000]:
   // with many lights the per-pixel lobe is determined on its own (DiLiGenT's
   // 96: ball 1.803 -> 1.792 deg, bear 4.379 -> 4.318, for 2.2x bear's solve
@@ -121,8 +126,8 @@ struct CoherentLobeSummary : AlgorithmSummary {
 // diffuse term; its demosaiced normal the start, the highlight down-weighted
 // as there): *input.lobe_bayer is made the light field's size with normal,
 // status (kSolved only there, else kOutsideRegion), residual and lights_used,
-// what BlendBayerNormals weighs against the demosaiced normal on lobe
-// pixels. Without lobe pixels it stays all unsolved.
+// what BlendBayerNormals takes on lobe pixels. With fewer than min_pixels
+// lobe pixels in all (nothing to fit) it is left empty.
 CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
                                        const PhotometricSolverOptions& solver_options,
                                        const PhotometricSolverInput& input, PhotometricSolution* solution,

@@ -283,7 +283,10 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
     rgb_input.sample_valid.push_back(&frame.valid);
   }
   rgb_input.light_field = raw.scene.light_field.get();
-  PhotometricSolution whole, bayer;
+  // The shared lobe's pixels re-solved from their raw samples, as the banded blend does.
+  PhotometricSolution whole, bayer, lobe_bayer;
+  rgb_input.lobe_mosaics = &bayer_input;
+  rgb_input.lobe_bayer = &lobe_bayer;
   const PhotometricSolverSummary whole_summary = SolvePhotometricStereo(options.solver, rgb_input, &whole);
   ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
   // The Bayer solve as the banded one runs it: no lobe, the sheen as asked (off).
@@ -296,6 +299,7 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   const PhotometricSolution demosaiced = whole;
   BayerNormalBlendOptions blend;
   blend.num_threads = 2;
+  blend.lobe_bayer = &lobe_bayer;
   // Only on the cells the demosaiced solve selects (the gate), and there
   // each pixel as the Bayer solve of the whole frame gives it.
   const BayerBlendCellsSummary cells = SelectBayerBlendCells(blend, demosaiced, *raw.scene.light_field);
