@@ -62,8 +62,9 @@ struct BayerNormalBlendOptions {
   // Optional, not owned: the Bayer-domain normals of the pixels with a
   // shared lobe (RefineCoherentLobe's input.lobe_bayer: the light field's
   // size; normal, status, lights_used). A demosaiced lobe pixel solved there
-  // takes that normal (no weight: see BlendBayerNormals); the others keep
-  // the demosaiced normal. Null or empty = every lobe pixel keeps it.
+  // takes that normal (no weight: see BlendBayerNormals), whatever
+  // cell_weights say; the others keep the demosaiced normal. Null or empty =
+  // every lobe pixel keeps it.
   const PhotometricSolution* lobe_bayer = nullptr;
   // Worker threads; 0 = all hardware threads, in [0, 256].
   int num_threads = 0;
