@@ -6,9 +6,10 @@
 // one fitted to an anisotropic highlight (satin) bends the normal to explain
 // it. RefineCoherentLobe runs after the per-pixel passes. It cuts the image
 // into square blocks; a block with at least min_pixels pixels of lobe support
-// (SpecularStatus::kEstimated) has its solved pixels split into at most two
-// groups of similar albedo chromaticity (warp and weft in one block), and each
-// group with enough lobe pixels of its own alternates
+// (SpecularStatus::kEstimated) has its solved pixels split into groups of
+// similar albedo chromaticity (warp and weft in one block; a third, e.g. where
+// they mix, only where every group can be fitted: max_albedo_groups), and
+// each group with enough lobe pixels of its own alternates
 //   1. one anisotropic GGX lobe (F0, alpha_t, alpha_b, tangent azimuth) for
 //      the whole group, the normals held (each pixel's diffuse amplitude
 //      re-solved linearly at every trial; a grid over the shape, then a
@@ -62,9 +63,10 @@ struct CoherentLobeOptions {
   // Bounds of both GGX alphas, 0 < min_alpha < max_alpha <= 1.
   double min_alpha = 0.02;
   double max_alpha = 0.6;
-  // A block's supported pixels are split into two groups when the centres of
-  // their two albedo chromaticity clusters (r, g of rgb / sum) are further
-  // apart than this, >= 0 (a large value never splits).
+  // A block's supported pixels are split into groups when the centres of
+  // their albedo chromaticity clusters (r, g of rgb / sum) are further apart
+  // than this (a further centre only beyond it from those chosen), >= 0 (a
+  // large value never splits).
   double albedo_split = 0.03;
   // At most this many albedo groups per block (k-means on the albedo
   // chromaticity), in [1, 8]; more than 2 only where every group can be
