@@ -225,12 +225,6 @@ void CropDevelopedRows(int first, int rows, std::vector<DevelopedFrame>* develop
   }
 }
 
-// The Bayer-domain normals of the band's rows [row0, row1) inside `region`
-// (band-sized, the gate's cells), from the developed mosaics of the rows
-// [dev0, ...). The window is the band itself: bands are whole tiles, so its
-// tiles are the whole-frame solve's, and without the albedo (not asked for)
-// no pixel reads a neighbour, so each pixel in the region is the whole-frame
-// Bayer solve's bit for bit.
 // The mosaics of the band's rows [row0, row1) from those developed from row
 // dev0 on, as a BayerSolverInput without light field or region.
 struct BandMosaics {
@@ -258,6 +252,12 @@ struct BandMosaics {
   BayerSolverInput input;
 };
 
+// The Bayer-domain normals of the band's rows [row0, row1) inside `region`
+// (band-sized, the gate's cells), from the band's mosaics. The window is the
+// band itself: bands are whole tiles, so its tiles are the whole-frame
+// solve's, and without the albedo (not asked for) no pixel reads a
+// neighbour, so each pixel in the region is the whole-frame Bayer solve's
+// bit for bit.
 PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver, const BandMosaics& band,
                                           const LightField& light_field, int row0, int row1,
                                           const ImageU8& region, PhotometricSolution* bayer,
