@@ -18,7 +18,7 @@ namespace {
 constexpr int kMinLightsForNoise = 4;
 
 struct CellRowCounts {
-  size_t blended = 0, kept = 0, compared = 0;
+  size_t blended = 0, kept = 0, compared = 0, lobe_replaced = 0;
   double weight_sum = 0;
 };
 
@@ -195,7 +195,9 @@ void BayerNormalBlendOptions::Check() const {
 
 std::string BayerNormalBlendSummary::BriefReport() const {
   return "Bayer-domain normal blend: " + std::to_string(pixels_blended) + " px blended, " +
-         std::to_string(pixels_kept) + " kept demosaiced, mean Bayer weight " + Fixed(mean_weight, 3);
+         std::to_string(pixels_kept) + " kept demosaiced, mean Bayer weight " + Fixed(mean_weight, 3) +
+         (pixels_lobe_replaced > 0 ? ", " + std::to_string(pixels_lobe_replaced) + " lobe px from their raw samples"
+                                   : std::string());
 }
 
 std::string BayerBlendCellsSummary::BriefReport() const {
@@ -298,6 +300,16 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
   CheckCellWeights(options, width, height, "BlendBayerNormals");
   const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
   const bool has_lobes = !demosaiced->specular_status.empty();
+  const bool with_lobe_bayer = options.lobe_bayer != nullptr && !options.lobe_bayer->status.empty();
+  if (with_lobe_bayer) {
+    auto check = [&](const auto& image, int channels, const char* name) {
+      CheckMapShape("BlendBayerNormals", light_field, image, channels, name);
+    };
+    check(options.lobe_bayer->normal_in_table, 3, "lobe_bayer.normal_in_table");
+    check(options.lobe_bayer->status, 1, "lobe_bayer.status");
+    check(options.lobe_bayer->residual, 1, "lobe_bayer.residual");
+    check(options.lobe_bayer->lights_used, 1, "lobe_bayer.lights_used");
+  }
   std::vector<CellRowCounts> counts(cell_rows);
 
   BayerNormalBlendSummary summary;
@@ -315,9 +327,27 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
       for (int y = y0; y < y1; ++y) {
         for (int x = x0; x < x1; ++x) {
           if (demosaiced->status(x, y) != solved) continue;
+          if (has_lobes && demosaiced->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated)) {
+            // A lobe pixel takes the shared lobe's re-solve from its own raw
+            // samples outright, where there is one (the Bayer-domain solve
+            // has no lobe). Weighed like the others, by its residual, it
+            // kept too little of it: that residual is mostly the shared
+            // shape's misfit to the pixel's fibres, which the demosaiced fit
+            // shares, not noise (satin 0.860 deg against 0.829;
+            // docs/solver.md).
+            if (with_lobe_bayer && options.lobe_bayer->status(x, y) == solved &&
+                options.lobe_bayer->lights_used(x, y) >= kMinLightsForNoise) {
+              for (int c = 0; c < 3; ++c) {
+                demosaiced->normal_in_table(x, y, c) = options.lobe_bayer->normal_in_table(x, y, c);
+              }
+              ++row_counts.lobe_replaced;
+            } else {
+              ++row_counts.kept;
+            }
+            continue;
+          }
           const int lights = bayer.lights_used(x, y);
-          if (bayer.status(x, y) != solved || lights < kMinLightsForNoise ||
-              (has_lobes && demosaiced->specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated))) {
+          if (bayer.status(x, y) != solved || lights < kMinLightsForNoise) {
             ++row_counts.kept;
             continue;
           }
@@ -371,6 +401,7 @@ BayerNormalBlendSummary BlendBayerNormals(const BayerNormalBlendOptions& options
   for (const CellRowCounts& row : counts) {
     summary.pixels_blended += row.blended;
     summary.pixels_kept += row.kept;
+    summary.pixels_lobe_replaced += row.lobe_replaced;
     compared += row.compared;
     weight_sum += row.weight_sum;
   }

@@ -59,6 +59,13 @@ struct BayerNormalBlendOptions {
   // every pass they move the normals, the surface and again the weights, and
   // the loop does not settle (docs/solver.md). Null = estimate.
   const ImageF* cell_weights = nullptr;
+  // Optional, not owned: the Bayer-domain normals of the pixels with a
+  // shared lobe (RefineCoherentLobe's input.lobe_bayer: the light field's
+  // size; normal, status, lights_used). A demosaiced lobe pixel solved there
+  // takes that normal (no weight: see BlendBayerNormals), whatever
+  // cell_weights say; the others keep the demosaiced normal. Null or empty =
+  // every lobe pixel keeps it.
+  const PhotometricSolution* lobe_bayer = nullptr;
   // Worker threads; 0 = all hardware threads, in [0, 256].
   int num_threads = 0;
   void Check() const;
@@ -66,7 +73,8 @@ struct BayerNormalBlendOptions {
 
 struct BayerNormalBlendSummary : AlgorithmSummary {
   size_t pixels_blended = 0;  // took a non-zero share of the Bayer normal
-  size_t pixels_kept = 0;     // solved, but left as the demosaiced solve's (a lobe, or no Bayer fit, or w = 0)
+  size_t pixels_kept = 0;     // solved, but left as the demosaiced solve's (a lobe without lobe_bayer, or no Bayer fit, or w = 0)
+  size_t pixels_lobe_replaced = 0;  // lobe pixels that took options.lobe_bayer's normal
   size_t pixels_weighed = 0;  // solved by both, without a lobe: the pixels a weight was estimated for
   double mean_weight = 0;     // mean Bayer share over pixels_weighed
   // The weight of every cell (the estimated ones, or options.cell_weights'),
@@ -106,8 +114,11 @@ ImageU8 BayerBlendRegion(const ImageU8& cells, int cell_size, int width, int hei
 
 // Blends `bayer`'s normals into `demosaiced` (the same frames, the same size,
 // light_field's size). Pixels whose demosaiced fit has a specular lobe
-// (specular_status kEstimated: the Bayer-domain solve has no shared lobe) or
-// that either solve left unsolved (e.g. outside the region the Bayer-domain
+// (specular_status kEstimated: the Bayer-domain solve has no lobe) take
+// options.lobe_bayer's normal where it has one (the shared lobe re-solved
+// from the pixel's own raw samples: its residual is mostly the shared
+// shape's misfit, not noise, so no weight is estimated for it), else keep
+// the demosaiced normal, as do pixels that either solve left unsolved (e.g. outside the region the Bayer-domain
 // solve was given, BayerBlendRegion) keep the demosaiced normal; everything but
 // the normal map is left as it is. `bayer` needs its residual and
 // lights_used maps. Throws std::invalid_argument on maps that do not fit.

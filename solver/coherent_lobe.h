@@ -6,9 +6,10 @@
 // one fitted to an anisotropic highlight (satin) bends the normal to explain
 // it. RefineCoherentLobe runs after the per-pixel passes. It cuts the image
 // into square blocks; a block with at least min_pixels pixels of lobe support
-// (SpecularStatus::kEstimated) has its solved pixels split into at most two
-// groups of similar albedo chromaticity (warp and weft in one block), and each
-// group with enough lobe pixels of its own alternates
+// (SpecularStatus::kEstimated) has its solved pixels split into groups of
+// similar albedo chromaticity (warp and weft in one block; a third, e.g. where
+// they mix, only where every group can be fitted: max_albedo_groups), and
+// each group with enough lobe pixels of its own alternates
 //   1. one anisotropic GGX lobe (F0, alpha_t, alpha_b, tangent azimuth) for
 //      the whole group, the normals held (each pixel's diffuse amplitude
 //      re-solved linearly at every trial; a grid over the shape, then a
@@ -62,10 +63,16 @@ struct CoherentLobeOptions {
   // Bounds of both GGX alphas, 0 < min_alpha < max_alpha <= 1.
   double min_alpha = 0.02;
   double max_alpha = 0.6;
-  // A block's supported pixels are split into two groups when the centres of
-  // their two albedo chromaticity clusters (r, g of rgb / sum) are further
-  // apart than this, >= 0 (a large value never splits).
+  // A block's supported pixels are split into groups when the centres of
+  // their albedo chromaticity clusters (r, g of rgb / sum) are further apart
+  // than this (a further centre only beyond it from those chosen), >= 0 (a
+  // large value never splits).
   double albedo_split = 0.03;
+  // At most this many albedo groups per block (k-means on the albedo
+  // chromaticity), in [1, 8]; more than 2 only where every group can be
+  // fitted on its own (min_pixels pixels, half of them with a per-pixel
+  // lobe), else 2 (satin 0.829 -> 0.781 deg with 3; docs/solver.md).
+  int max_albedo_groups = 3;
   // The pass runs only on solves with at most this many lights, in [3, 1000]:
   // with many lights the per-pixel lobe is determined on its own (DiLiGenT's
   // 96: ball 1.803 -> 1.792 deg, bear 4.379 -> 4.318, for 2.2x bear's solve
@@ -101,6 +108,7 @@ struct CoherentLobeSummary : AlgorithmSummary {
   size_t groups_fresnel = 0;    // of those, with the Fresnel-transmitted diffuse term
   size_t pixels_refined = 0;    // pixels that took the shared-lobe result
   size_t pixels_kept = 0;       // candidates in fitted groups that kept their per-pixel result (BIC)
+  size_t pixels_bayer = 0;      // refined pixels re-solved from their raw samples (input.lobe_mosaics)
   double mean_anisotropy = 0;   // mean alpha_b / alpha_t (>= 1) over the fitted groups
   double seconds = 0;
   std::string BriefReport() const;
@@ -114,7 +122,14 @@ struct CoherentLobeSummary : AlgorithmSummary {
 // robust_min_scale and robust_loss_width for the noise floor and the Tukey
 // width). Throws std::invalid_argument on inputs that do not fit the
 // solution; a cancelled run returns kCancelled with the blocks done so far
-// refined and the rest as they were.
+// refined and the rest as they were. With input.lobe_mosaics (and
+// input.lobe_bayer) every pixel that takes the shared lobe is re-solved once
+// more from its own raw CFA samples under the group's final lobe (shape, F0,
+// diffuse term; its demosaiced normal the start, the highlight down-weighted
+// as there): *input.lobe_bayer is made the light field's size with normal,
+// status (kSolved only there, else kOutsideRegion), residual and lights_used,
+// what BlendBayerNormals takes on lobe pixels. With fewer than min_pixels
+// lobe pixels in all (nothing to fit) it is left empty.
 CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
                                        const PhotometricSolverOptions& solver_options,
                                        const PhotometricSolverInput& input, PhotometricSolution* solution,

@@ -307,7 +307,8 @@ int SolveTiles(const tiled::SolveJob& job, const std::vector<Tile>& tiles, int n
 }
 
 PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const tiled::SolveJob& job,
-                                  const ProgressCallback& progress) {
+                                  const ProgressCallback& progress, const BayerSolverInput* lobe_mosaics = nullptr,
+                                  PhotometricSolution* lobe_bayer = nullptr) {
   const auto start = std::chrono::steady_clock::now();
   const int width = job.field->width(), height = job.field->height();
   CheckUniformPinvField(options, *job.field);
@@ -346,6 +347,8 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
     input.sample_valid = *job.sample_valid;
     input.light_field = job.field;
     input.region = job.region;
+    input.lobe_mosaics = lobe_mosaics;
+    input.lobe_bayer = lobe_bayer;
     const CoherentLobeSummary refined = RefineCoherentLobe(coherent_options, options, input, job.solution,
                                                            SubRange(progress, tiles_share, 1.0));
     summary.pixels_coherent_lobe = refined.pixels_refined;
@@ -513,6 +516,7 @@ std::string PhotometricSolverSummary::BriefReport() const {
     out << "; " << pixels_bayer_blended << " blended with the Bayer-domain normal (mean weight "
         << Fixed(bayer_blend_mean_weight, 2) << "; Bayer-domain solve on " << pixels_bayer_solved << " px)";
   }
+  if (pixels_bayer_lobe > 0) out << "; " << pixels_bayer_lobe << " shared-lobe normals re-solved from the raw samples";
   if (tiles_skipped > 0) out << "; " << tiles_skipped << " of " << num_tiles << " tiles outside the region";
   if (!message.empty()) out << " (" << message << ")";
   return out.str();
@@ -536,7 +540,10 @@ PhotometricSolverSummary SolvePhotometricStereo(const PhotometricSolverOptions& 
   job.with_albedo = options.compute_albedo;
   job.with_confidence = options.compute_confidence;
   job.solution = solution;
-  return RunSolve(options, job, progress);
+  if ((input.lobe_mosaics == nullptr) != (input.lobe_bayer == nullptr)) {
+    throw InputError("lobe_mosaics and lobe_bayer must be given together");
+  }
+  return RunSolve(options, job, progress, input.lobe_mosaics, input.lobe_bayer);
 }
 
 PhotometricSolverSummary SolvePhotometricStereoBayer(const PhotometricSolverOptions& options,

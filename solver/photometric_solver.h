@@ -193,6 +193,9 @@ const char* PhotometricMethodName(PhotometricSolverOptions::Method method);
 PhotometricSolverOptions::Method PhotometricMethodFromName(const std::string& name);
 std::vector<PhotometricSolverOptions::Method> AllPhotometricMethods();
 
+struct BayerSolverInput;
+struct PhotometricSolution;
+
 struct PhotometricSolverInput {
   // One linear RGB image per light (3 channels, dark frame subtracted), in the
   // order of the light field's lights.
@@ -203,6 +206,14 @@ struct PhotometricSolverInput {
   // Optional (1 channel): pixels to solve are non-zero; the rest get
   // kOutsideRegion. Only the tiles that meet the region are worked on.
   const ImageU8* region = nullptr;
+  // Optional, both or neither (RAW sessions' blend, solver/bayer_normal_blend.h):
+  // the raw mosaics of the same frames (their light field and region are
+  // this input's); the shared-lobe pass (RefineCoherentLobe) then also
+  // re-solves every pixel it refines from the pixel's own CFA samples under
+  // the same lobe, into *lobe_bayer (the Bayer-domain normals the blend
+  // weighs on lobe pixels).
+  const BayerSolverInput* lobe_mosaics = nullptr;
+  PhotometricSolution* lobe_bayer = nullptr;
 };
 
 // Bayer-domain input: the normal is solved at every raw pixel from its own
@@ -256,6 +267,9 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   size_t pixels_bayer_blended = 0;
   double bayer_blend_mean_weight = 0;
   size_t pixels_bayer_solved = 0;
+  // Of the shared lobe's pixels, those whose normal is its re-solve from
+  // their own raw samples (PhotometricSolverInput::lobe_mosaics, the blend).
+  size_t pixels_bayer_lobe = 0;
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }

@@ -110,6 +110,7 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
   whole->pixels_coherent_lobe += band.pixels_coherent_lobe;
   whole->pixels_bayer_blended += band.pixels_bayer_blended;
   whole->pixels_bayer_solved += band.pixels_bayer_solved;
+  whole->pixels_bayer_lobe += band.pixels_bayer_lobe;
   whole->seconds += band.seconds;
 }
 
@@ -137,12 +138,19 @@ void MaskAndCropBand(const BandedSolveOptions& options, int first, int rows, std
   }
 }
 
+// `lobe_mosaics` / `lobe_bayer` (both or neither): the band's mosaics, whose
+// shared-lobe pixels are re-solved in the Bayer domain into *lobe_bayer
+// (PhotometricSolverInput).
 PhotometricSolverSummary SolveRgbBand(const BandedSolveOptions& options, const std::vector<DevelopedFrame>& developed,
                                       const LightField& light_field, int row0, int row1,
-                                      PhotometricSolution* band_solution, const ProgressCallback& progress) {
+                                      PhotometricSolution* band_solution, const ProgressCallback& progress,
+                                      const BayerSolverInput* lobe_mosaics = nullptr,
+                                      PhotometricSolution* lobe_bayer = nullptr) {
   const LightFieldRows band_field(light_field, row0, row1 - row0);
   PhotometricSolverInput input = RgbInput(developed);
   input.light_field = &band_field;
+  input.lobe_mosaics = lobe_mosaics;
+  input.lobe_bayer = lobe_bayer;
   return SolvePhotometricStereo(options.solver, input, band_solution, progress);
 }
 
@@ -217,35 +225,45 @@ void CropDevelopedRows(int first, int rows, std::vector<DevelopedFrame>* develop
   }
 }
 
-// The Bayer-domain normals of the band's rows [row0, row1) inside `region`
-// (band-sized, the gate's cells), from the developed mosaics of the rows
-// [dev0, ...). The window is the band itself: bands are whole tiles, so its
-// tiles are the whole-frame solve's, and without the albedo (not asked for)
-// no pixel reads a neighbour, so each pixel in the region is the whole-frame
-// Bayer solve's bit for bit.
-PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver,
-                                          const std::vector<DevelopedFrame>& developed, CfaPattern cfa,
-                                          const LightField& light_field, int dev0, int row0, int row1,
-                                          const ImageU8& region, PhotometricSolution* bayer,
-                                          const ProgressCallback& progress) {
-  // Developed without margin rows (no sample masks) the mosaics are the band's already.
-  const bool cropped = developed.front().mosaic.height() != row1 - row0;
+// The mosaics of the band's rows [row0, row1) from those developed from row
+// dev0 on, as a BayerSolverInput without light field or region.
+struct BandMosaics {
+  BandMosaics(const std::vector<DevelopedFrame>& developed, CfaPattern cfa, int dev0, int row0, int row1) {
+    // Developed without margin rows (no sample masks) the mosaics are the band's already.
+    const bool cropped = developed.front().mosaic.height() != row1 - row0;
+    if (cropped) {
+      for (const DevelopedFrame& frame : developed) {
+        mosaics.push_back(CropRows(frame.mosaic, row0 - dev0, row1 - row0));
+        valid.push_back(CropRows(frame.mosaic_valid, row0 - dev0, row1 - row0));
+      }
+    }
+    for (size_t k = 0; k < developed.size(); ++k) {
+      input.mosaics.push_back(cropped ? &mosaics[k] : &developed[k].mosaic);
+      input.sample_valid.push_back(cropped ? &valid[k] : &developed[k].mosaic_valid);
+    }
+    // row0 is even, so the 2x2 tile's colours are the frame's.
+    for (int p = 0; p < 4; ++p) input.cfa_channels[p] = CfaColorAt(cfa, p & 1, p >> 1);
+  }
+  BandMosaics(const BandMosaics&) = delete;
+  BandMosaics& operator=(const BandMosaics&) = delete;
+
   std::vector<ImageF> mosaics;
   std::vector<ImageU8> valid;
-  if (cropped) {
-    for (const DevelopedFrame& frame : developed) {
-      mosaics.push_back(CropRows(frame.mosaic, row0 - dev0, row1 - row0));
-      valid.push_back(CropRows(frame.mosaic_valid, row0 - dev0, row1 - row0));
-    }
-  }
-  const LightFieldRows band_field(light_field, row0, row1 - row0);
   BayerSolverInput input;
-  for (size_t k = 0; k < developed.size(); ++k) {
-    input.mosaics.push_back(cropped ? &mosaics[k] : &developed[k].mosaic);
-    input.sample_valid.push_back(cropped ? &valid[k] : &developed[k].mosaic_valid);
-  }
-  // row0 is even, so the 2x2 tile's colours are the frame's.
-  for (int p = 0; p < 4; ++p) input.cfa_channels[p] = CfaColorAt(cfa, p & 1, p >> 1);
+};
+
+// The Bayer-domain normals of the band's rows [row0, row1) inside `region`
+// (band-sized, the gate's cells), from the band's mosaics. The window is the
+// band itself: bands are whole tiles, so its tiles are the whole-frame
+// solve's, and without the albedo (not asked for) no pixel reads a
+// neighbour, so each pixel in the region is the whole-frame Bayer solve's
+// bit for bit.
+PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver, const BandMosaics& band,
+                                          const LightField& light_field, int row0, int row1,
+                                          const ImageU8& region, PhotometricSolution* bayer,
+                                          const ProgressCallback& progress) {
+  const LightFieldRows band_field(light_field, row0, row1 - row0);
+  BayerSolverInput input = band.input;
   input.light_field = &band_field;
   input.region = &region;
   return SolvePhotometricStereoBayer(solver, input, bayer, progress);
@@ -267,13 +285,18 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   if (developed->front().rgb.height() != row1 - row0) CropDevelopedRows(row0 - dev0, row1 - row0, developed);
   constexpr double kBlendShare = 0.02;  // choosing the cells and blending: a few passes over the band's maps
   const double rgb_end = (1 - kBlendShare) / (1 + *bayer_cost);
-  PhotometricSolverSummary summary =
-      SolveRgbBand(options, *developed, light_field, row0, row1, band_solution, SubRange(progress, 0, rgb_end));
+  // The shared lobe's pixels get their Bayer-domain normals in its pass
+  // (the Bayer-domain solve below has no lobe).
+  const BandMosaics band_mosaics(*developed, cfa, dev0, row0, row1);
+  PhotometricSolution lobe_bayer;
+  PhotometricSolverSummary summary = SolveRgbBand(options, *developed, light_field, row0, row1, band_solution,
+                                                  SubRange(progress, 0, rgb_end), &band_mosaics.input, &lobe_bayer);
   if (!summary.IsUsable()) return summary;
   const auto blend_start = std::chrono::steady_clock::now();
   BayerNormalBlendOptions blend;
   blend.num_threads = options.solver.num_threads;
   blend.gate_ratio = options.bayer_blend_gate_ratio;
+  blend.lobe_bayer = &lobe_bayer;
   ImageF band_weights;  // the band's rows of the given weights (bands are whole cells)
   if (options.bayer_blend_weights != nullptr) {
     const int cell = blend.cell_size;
@@ -298,7 +321,7 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   bayer_solver.compute_confidence = true;
   PhotometricSolution bayer;
   const PhotometricSolverSummary bayer_summary =
-      SolveBayerRegion(bayer_solver, *developed, cfa, light_field, dev0, row0, row1, region, &bayer,
+      SolveBayerRegion(bayer_solver, band_mosaics, light_field, row0, row1, region, &bayer,
                        SubRange(progress, rgb_end, 1 - kBlendShare));
   if (!bayer_summary.IsUsable()) return bayer_summary;
   const auto mix_start = std::chrono::steady_clock::now();
@@ -311,6 +334,7 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   summary.pixels_bayer_blended = blended->pixels_blended;
   summary.bayer_blend_mean_weight = blended->mean_weight;
   summary.pixels_bayer_solved = region_pixels;
+  summary.pixels_bayer_lobe = blended->pixels_lobe_replaced;
   // The band's whole solve.
   summary.seconds += blend_seconds + bayer_summary.seconds + SecondsSince(mix_start);
   return summary;

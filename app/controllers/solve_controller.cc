@@ -550,9 +550,10 @@ std::string SolveInputsCanonicalText(const Session& session, const SolveOptions&
   // blend as 2 since it became the default (frozen depth-loop weights, the
   // Bayer solve without sheen and lobe), so that a result of the opt-in
   // blend (true) is not taken for one of today's; 3 since the gate (the
-  // Bayer solve only on the cells SelectBayerBlendCells picks).
+  // Bayer solve only on the cells SelectBayerBlendCells picks); 4 since the
+  // shared lobe's pixels take its re-solve from their raw samples (issue #13).
   if (options.bayer_domain) text["develop"]["bayer_domain"] = true;
-  if (BandedOptions(options).bayer_blend) text["develop"]["bayer_blend"] = 3;
+  if (BandedOptions(options).bayer_blend) text["develop"]["bayer_blend"] = 4;
   text["albedo_color"] = AlbedoColorSourceName(options.albedo_color.source);
   text["depth_refinement"] = DepthOptionsJson(options.depth);  // issue #15
   if (options.float32_maps) text["exr_maps"] = "float32";

@@ -283,7 +283,10 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
     rgb_input.sample_valid.push_back(&frame.valid);
   }
   rgb_input.light_field = raw.scene.light_field.get();
-  PhotometricSolution whole, bayer;
+  // The shared lobe's pixels re-solved from their raw samples, as the banded blend does.
+  PhotometricSolution whole, bayer, lobe_bayer;
+  rgb_input.lobe_mosaics = &bayer_input;
+  rgb_input.lobe_bayer = &lobe_bayer;
   const PhotometricSolverSummary whole_summary = SolvePhotometricStereo(options.solver, rgb_input, &whole);
   ASSERT_TRUE(whole_summary.IsUsable()) << whole_summary.message;
   // The Bayer solve as the banded one runs it: no lobe, the sheen as asked (off).
@@ -296,6 +299,7 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   const PhotometricSolution demosaiced = whole;
   BayerNormalBlendOptions blend;
   blend.num_threads = 2;
+  blend.lobe_bayer = &lobe_bayer;
   // Only on the cells the demosaiced solve selects (the gate), and there
   // each pixel as the Bayer solve of the whole frame gives it.
   const BayerBlendCellsSummary cells = SelectBayerBlendCells(blend, demosaiced, *raw.scene.light_field);
@@ -353,7 +357,8 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   ExpectSameBits(summary.bayer_blend_weights, blended.cell_weights, "bayer_blend_weights");
 
   // Given back (the depth loop's frozen weights) they give the same blend;
-  // given as 0 they keep the demosaiced normals, as 1 the Bayer ones.
+  // given as 0 they keep the demosaiced normals, as 1 the Bayer ones; the
+  // shared lobe's pixels take their raw re-solve whatever the weights.
   const ImageF estimated = summary.bayer_blend_weights;
   options.bayer_blend_weights = &estimated;
   PhotometricSolution frozen;
@@ -364,7 +369,21 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   const ImageF zeros(estimated.width(), estimated.height(), 1, 0.0f);
   options.bayer_blend_weights = &zeros;
   ASSERT_TRUE(SolveBanded(options, stack, *raw.scene.light_field, &frozen).IsUsable());
-  ExpectSameBits(frozen.normal_in_table, demosaiced.normal_in_table, "normal_in_table, weights 0");
+  PhotometricSolution kept = demosaiced;
+  ASSERT_TRUE(lobe_bayer.status.SameSize(kept.status.width(), kept.status.height()));
+  size_t lobe_taken = 0;
+  for (int y = 0; y < kept.status.height(); ++y) {
+    for (int x = 0; x < kept.status.width(); ++x) {
+      if (demosaiced.specular_status(x, y) != uint8_t(SpecularStatus::kEstimated) ||
+          lobe_bayer.status(x, y) != uint8_t(PixelStatus::kSolved) || lobe_bayer.lights_used(x, y) < 4) {
+        continue;
+      }
+      for (int c = 0; c < 3; ++c) kept.normal_in_table(x, y, c) = lobe_bayer.normal_in_table(x, y, c);
+      ++lobe_taken;
+    }
+  }
+  EXPECT_EQ(lobe_taken, summary.solver.pixels_bayer_lobe);
+  ExpectSameBits(frozen.normal_in_table, kept.normal_in_table, "normal_in_table, weights 0");
   const ImageF ones(estimated.width(), estimated.height(), 1, 1.0f);
   options.bayer_blend_weights = &ones;
   ASSERT_TRUE(SolveBanded(options, stack, *raw.scene.light_field, &frozen).IsUsable());

@@ -353,13 +353,14 @@ TEST_F(BatchControllerTest, FingerprintCoversResultInputsOnly) {
   SolveOptions no_depth;  // issue #15: the depth-aware re-solves change the result
   no_depth.depth.enabled = false;
   EXPECT_NE(SolveInputsFingerprint(session, no_depth), fingerprint);
-  // Issue #13: the Bayer blend, the default, is recorded as 3 since the gate
-  // (2 before it, the opt-in blend before that true); without it the text
+  // Issue #13: the Bayer blend, the default, is recorded as 4 since the
+  // shared lobe's raw re-solve (3 since the gate, 2 before it, the opt-in
+  // blend before that true); without it the text
   // has no key, as the results from before the blend.
   SolveOptions no_blend;
   no_blend.bayer_blend = false;
   EXPECT_NE(SolveInputsFingerprint(session, no_blend), fingerprint);
-  EXPECT_THAT(SolveInputsCanonicalText(session, defaults), HasSubstr("\"bayer_blend\":3"));
+  EXPECT_THAT(SolveInputsCanonicalText(session, defaults), HasSubstr("\"bayer_blend\":4"));
   EXPECT_THAT(SolveInputsCanonicalText(session, no_blend), ::testing::Not(HasSubstr("bayer_blend")));
   EXPECT_THAT(SolveInputsCanonicalText(session, defaults), HasSubstr(session.frames[3].sha256));
   EXPECT_THAT(SolveInputsCanonicalText(session, defaults), HasSubstr("scanbench " SCANBENCH_VERSION));

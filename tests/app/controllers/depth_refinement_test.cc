@@ -330,8 +330,13 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   // Measured with the Bayer blend (the default since issue #13's second
   // step): flat 0.633, table plane 1.601, with the loop 0.558 (0.88x; without
   // the blend 1.819, 2.423, 1.164: 0.64x, the blend gains more on the flat
-  // sample at this small size).
-  EXPECT_LE(depth_interior, 0.95 * flat_interior);
+  // sample at this small size). Since the shared lobe's pixels take their
+  // raw re-solve (session 2026-12-03 #3): flat 0.449, table plane 1.492,
+  // with the loop 0.559 (1.24x: the flat sample gains, the draped one with
+  // the loop stays where it was), so the loop's result is held to its own
+  // figure and the ratio to the issue's 1.3x.
+  EXPECT_LE(depth_interior, 1.3 * flat_interior);
+  EXPECT_LE(depth_interior, 0.58);
   EXPECT_LT(depth_interior, plane_interior);
 
   EXPECT_FALSE(draped_plane.depth.refined);
@@ -339,8 +344,10 @@ TEST(DepthRefinementTest, DrapedSampleSolvesNearlyAsWellAsTheFlatOne) {
   EXPECT_GT(draped_default.depth.first_height_range_mm, 30.0);
   // Measured: flat 0.602, table plane 1.505, with the loop 0.580 (0.96x the
   // flat sample's error: the issue asks for at most 1.3x; without the blend
-  // 1.722, 2.564, 1.430: 0.83x).
-  EXPECT_LE(depth_error, 1.0 * flat_error);
+  // 1.722, 2.564, 1.430: 0.83x). With the raw re-solve of the shared lobe's
+  // pixels: flat 0.454, table plane 1.413, with the loop 0.580 (1.28x).
+  EXPECT_LE(depth_error, 1.3 * flat_error);
+  EXPECT_LE(depth_error, 0.60);
   EXPECT_GT(plane_error, 1.3 * flat_error) << "without the loop the folds must cost accuracy";
   EXPECT_GT(draped_default.depth.shadow_edge_samples, 10000u);
   // The surface moved by centimetres first, then less.
