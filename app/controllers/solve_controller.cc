@@ -388,7 +388,8 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
 }  // namespace
 
 struct GroundTruthEvaluation::State {
-  fs::path normal_path, albedo_path;
+  std::optional<ImageRowReader> normal_reader, albedo_reader;  // the truth maps, opened once
+  ImageF truth_normal_rows, truth_albedo_rows;                  // AddBand's, reused from band to band
   ImageU8 on_sample;  // whole size
   int rows_added = 0;
   size_t unsolved_on_sample = 0;
@@ -418,8 +419,8 @@ struct GroundTruthEvaluation::State {
 GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const GroundTruthFiles& truth, int width,
                                              int height, const fs::path& spill_folder)
     : state_(std::make_unique<State>(spill_folder)) {
-  state_->normal_path = session_dir / truth.normal_file;
-  state_->albedo_path = session_dir / truth.albedo_file;
+  state_->normal_reader.emplace(session_dir / truth.normal_file);
+  state_->albedo_reader.emplace(session_dir / truth.albedo_file);
   state_->on_sample = SampleMaskFromGroundTruth(session_dir, truth);
   if (!state_->on_sample.SameSize(width, height)) {
     throw std::runtime_error((session_dir / truth.mask_file).string() + ": " +
@@ -448,20 +449,20 @@ ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_t
     solved_on_sample.data()[i] = on_sample && solved;
     s.unsolved_on_sample += on_sample && !solved;
   }
-  const auto read_truth = [&](const fs::path& path) {
-    ImageF truth_rows = ReadImageFloatRows(path, y0, y0 + rows);
-    if (truth_rows.width() != width || truth_rows.channels() != 3) {
-      throw std::runtime_error(path.string() + ": " + ShapeText(truth_rows) + " rows, the solution's are " +
+  const auto read_truth = [&](ImageRowReader& reader, ImageF* truth_rows) -> const ImageF& {
+    reader.ReadRows(y0, y0 + rows, truth_rows);
+    if (truth_rows->width() != width || truth_rows->channels() != 3) {
+      throw std::runtime_error(reader.path().string() + ": " + ShapeText(*truth_rows) + " rows, the solution's are " +
                                SizeText(width, rows) + "x3");
     }
-    return truth_rows;
+    return *truth_rows;
   };
   ImageF error_rows(width, rows, 1, 0.0f);
   s.band_values.clear();
-  AngularErrorsOfRows(band.normal_in_table, read_truth(s.normal_path), 0, solved_on_sample, num_threads,
-                      &s.band_values, &error_rows);
+  AngularErrorsOfRows(band.normal_in_table, read_truth(*s.normal_reader, &s.truth_normal_rows), 0, solved_on_sample,
+                      num_threads, &s.band_values, &error_rows);
   s.angles.Add(s.band_values);
-  const ImageF truth_albedo = read_truth(s.albedo_path);
+  const ImageF& truth_albedo = read_truth(*s.albedo_reader, &s.truth_albedo_rows);
   s.color.AddRows(band.albedo, solved_on_sample, truth_albedo, num_threads);
   // The albedo's absolute error of every channel, pooled in pixel order (the
   // order the replay above makes them again in).
