@@ -89,7 +89,14 @@ class ExactErrorStatistics {
   std::vector<double> ValuesOfRanks(std::span<const size_t> ranks);
 
  private:
-  static constexpr int kBucketBits = 16;
+  // The first histogram's leading bits: sign, exponent and 8 mantissa bits,
+  // 1/256 of an octave a bucket, so the bucket of a median or p95 of 10 to
+  // 50 M smooth values holds well under kMaxSelected and one pass selects
+  // (with 16 bits the albedo's errors needed a pass more to split their
+  // bucket); 8 MB of counts.
+  static constexpr int kBucketBits = 20;
+  // A bucket still too full is split by this many more bits per pass.
+  static constexpr int kRefineBits = 16;
   // Non-NaN doubles to unsigned integers in the same order (negative values'
   // bits reversed below the positive ones').
   static uint64_t OrderKey(double value) {

@@ -405,10 +405,11 @@ struct GroundTruthEvaluation::State {
         albedo_errors([this](const std::function<void(std::span<const double>)>& visit) {
           std::vector<double> values;
           color.ForEachPixel([&](std::span<const ComparedAlbedoPixel> pixels) {
-            values.clear();
-            for (const ComparedAlbedoPixel& pixel : pixels) {
+            values.resize(3 * pixels.size());
+            for (size_t i = 0; i < pixels.size(); ++i) {
               for (int c = 0; c < 3; ++c) {
-                values.push_back(AbsoluteErrorValue(pixel.albedo_linear_rec709[c], pixel.truth_linear_rec709[c]));
+                values[3 * i + c] =
+                    AbsoluteErrorValue(pixels[i].albedo_linear_rec709[c], pixels[i].truth_linear_rec709[c]);
               }
             }
             visit(values);
