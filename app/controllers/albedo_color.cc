@@ -285,6 +285,9 @@ void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& ma
     delta_e_.Add(std::span<const double>(band_delta_e_.data() + first, band_row_counts_[r]));
     pixels_.Append(row, band_row_counts_[r] * sizeof(ComparedAlbedoPixel));
   }
+  // Nothing left buffered: ForEachPixel only reads, so Finish and a replay
+  // of the pixels (the albedo's errors) may run at once.
+  pixels_.Flush();
 }
 
 void AlbedoColorComparison::ForEachPixel(const std::function<void(std::span<const ComparedAlbedoPixel>)>& visit) {

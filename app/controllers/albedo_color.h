@@ -137,7 +137,8 @@ class AlbedoColorComparison {
   void AddRows(const ImageF& albedo_rows, const ImageU8& mask_rows, const ImageF& truth_rows, int num_threads = 0);
   // visit(pixels) over every pixel added so far, in pixel order, in chunks
   // (read back from the spill file): what other figures of the same pixels
-  // (the albedo's absolute error) can be made of again.
+  // (the albedo's absolute error) can be made of again. It only reads, so it
+  // may run on another thread beside Finish.
   void ForEachPixel(const std::function<void(std::span<const ComparedAlbedoPixel>)>& visit);
   AlbedoColorErrors Finish();  // once
 

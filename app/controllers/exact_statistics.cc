@@ -60,6 +60,7 @@ SpillFile::~SpillFile() {
 }
 
 void SpillFile::Flush() {
+  if (buffer_.empty()) return;
   const uint8_t* data = buffer_.data();
   size_t left = buffer_.size();
   while (left > 0) {

@@ -44,9 +44,11 @@ class SpillFile {
   // visit(records, count) over everything appended, in order, in chunks of
   // whole records of record_bytes (> 0, dividing size()).
   void ForEachRecord(size_t record_bytes, const std::function<void(const uint8_t* records, size_t count)>& visit);
+  // Writes what Append buffered. After it, and until the next Append, ReadAt
+  // and ForEachRecord only read (pread), so several threads may read at once.
+  void Flush();
 
  private:
-  void Flush();
   std::filesystem::path folder_;
   int fd_ = -1;
   size_t size_ = 0;
