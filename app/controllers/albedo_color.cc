@@ -250,6 +250,7 @@ void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& ma
   const int width = albedo_rows.width(), rows = truth_rows.height();
   band_pixels_.resize(static_cast<size_t>(width) * rows);
   band_delta_e_.resize(static_cast<size_t>(width) * rows);
+  band_buckets_.resize(static_cast<size_t>(width) * rows);
   band_row_counts_.assign(rows, 0);
   ParallelRows(rows, num_threads, {}, 0, 1, [&](int r) {
     // A row's evaluated albedos, truths and CIEDE2000s, packed: the pool's
@@ -272,16 +273,25 @@ void AlbedoColorComparison::AddRows(const ImageF& albedo_rows, const ImageU8& ma
     // colour is neutral.
     Ciede2000FromLinearRec709(albedo, truth, count, band_delta_e_.data() + first);
     ComparedAlbedoPixel* out = band_pixels_.data() + first;
+    uint32_t* buckets = band_buckets_.data() + first;
     for (uint32_t i = 0; i < count; ++i) {
       std::copy_n(truth + 3 * i, 3, out[i].truth_linear_rec709);
       std::copy_n(albedo + 3 * i, 3, out[i].albedo_linear_rec709);
+      buckets[i] = RegionBucket(TruthBits(out[i]));
     }
     band_row_counts_[r] = count;
   });
   for (int r = 0; r < rows; ++r) {
     const size_t first = static_cast<size_t>(r) * width;
     const ComparedAlbedoPixel* row = band_pixels_.data() + first;
-    for (uint32_t i = 0; i < band_row_counts_[r]; ++i) ++bucket_counts_[RegionBucket(TruthBits(row[i]))];
+    // The counts (4 MB) are hit at random: fetched a few pixels ahead.
+    const uint32_t* buckets = band_buckets_.data() + first;
+    const uint32_t count = band_row_counts_[r];
+    constexpr uint32_t kAhead = 16;
+    for (uint32_t i = 0; i < count; ++i) {
+      if (i + kAhead < count) __builtin_prefetch(&bucket_counts_[buckets[i + kAhead]], 1);
+      ++bucket_counts_[buckets[i]];
+    }
     delta_e_.Add(std::span<const double>(band_delta_e_.data() + first, band_row_counts_[r]));
     pixels_.Append(row, band_row_counts_[r] * sizeof(ComparedAlbedoPixel));
   }

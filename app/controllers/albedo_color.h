@@ -151,6 +151,7 @@ class AlbedoColorComparison {
   // AddRows' rows (each row's evaluated pixels from row * width), kept from band to band.
   std::vector<ComparedAlbedoPixel> band_pixels_;
   std::vector<double> band_delta_e_;
+  std::vector<uint32_t> band_buckets_;  // each pixel's hash bucket of its truth bits
   std::vector<uint32_t> band_row_counts_;
 };
 
