@@ -730,16 +730,20 @@ class FirstPassSpill {
 
   const DepthDecisionBlocks& decision_blocks() const { return blocks_; }
 
-  // The bands as they were added, in order.
+  // The bands as they were added, in order. One band's maps are reused for
+  // the next (the sink holds none of them after it returns): no fresh pages
+  // to fault in and fill per band.
   void Replay(const std::function<void(PhotometricSolution& band)>& sink) {
     size_t offset = 0;
+    PhotometricSolution band;
     for (const int rows : band_rows_) {
-      PhotometricSolution band;
       int map = 0;
       ForEachMap(band, [&](auto& image) {
         using Img = std::decay_t<decltype(image)>;
         if (channels_[map] > 0) {
-          image = Img(width_, rows, channels_[map]);
+          if (!image.SameSize(width_, rows) || image.channels() != channels_[map]) {
+            image = Img(width_, rows, channels_[map]);
+          }
           const size_t bytes = image.size() * sizeof(*image.data());
           spill_.ReadAt(offset, image.data(), bytes);
           offset += bytes;
