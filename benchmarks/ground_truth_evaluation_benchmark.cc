@@ -65,7 +65,7 @@ int Run(int argc, char** argv) {
   const double bands_wall = Since(start), bands_cpu = ProcessCpuSeconds() - cpu_start;
   const auto finish_start = std::chrono::steady_clock::now();
   const double finish_cpu_start = ProcessCpuSeconds();
-  const GroundTruthComparison comparison = evaluation.Finish();
+  const GroundTruthComparison comparison = evaluation.Finish(threads);
   const double finish_wall = Since(finish_start), finish_cpu = ProcessCpuSeconds() - finish_cpu_start;
 
   std::printf("%dx%d, %d threads, bands of %d rows\n", width, height, threads, band_rows);

@@ -4,6 +4,7 @@
 #include <array>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -90,9 +91,16 @@ DevelopedFrame DevelopRawRows(const RawImage& frame, const RawImage* dark, const
   const int clip_level = static_cast<int>(options.clip_fraction * frame.white_level);
   cv::Mat shifted(read_rows, width, CV_16UC1);
   cv::Mat clipped(read_rows, width, CV_8UC1, cv::Scalar(0));
+  // The kept mosaic's divisor of each pixel of an even and of an odd row (the
+  // CFA repeats every 2x2), so that its rows divide as one vector loop.
+  std::array<std::vector<float>, 2> mosaic_divisor;
   if (options.keep_mosaic) {
     developed.mosaic = ImageF(width, row_end - row_begin, 1);
     developed.mosaic_valid = ImageU8(width, row_end - row_begin, 1);
+    for (int parity = 0; parity < 2; ++parity) {
+      mosaic_divisor[parity].resize(width);
+      for (int x = 0; x < width; ++x) mosaic_divisor[parity][x] = range[CfaColorAt(frame.cfa, x, parity)];
+    }
   }
   for (int y = read_begin; y < read_end; ++y) {
     const uint16_t* raw = frame.mosaic.row(y);
@@ -107,10 +115,19 @@ DevelopedFrame DevelopRawRows(const RawImage& frame, const RawImage* dark, const
         clip[x] = 1;
         developed.num_clipped_samples += counted;
       }
-      if (options.keep_mosaic && counted) {
-        developed.mosaic(x, y - row_begin) = float(int(raw[x]) - reference) / range[CfaColorAt(frame.cfa, x, y)];
-        developed.mosaic_valid(x, y - row_begin) = raw[x] >= clip_level ? 0 : 1;
+    }
+    if (options.keep_mosaic && counted) {
+      // The same per-sample expression as the demosaic's input above, its own
+      // loops (a division per sample, vectorised).
+      float* mosaic = developed.mosaic.row(y - row_begin);
+      uint8_t* mosaic_valid = developed.mosaic_valid.row(y - row_begin);
+      const float* divisor = mosaic_divisor[y & 1].data();
+      if (dark_row != nullptr) {
+        for (int x = 0; x < width; ++x) mosaic[x] = float(int(raw[x]) - int(dark_row[x])) / divisor[x];
+      } else {
+        for (int x = 0; x < width; ++x) mosaic[x] = float(int(raw[x]) - int(frame.BlackAt(x, y))) / divisor[x];
       }
+      for (int x = 0; x < width; ++x) mosaic_valid[x] = raw[x] >= clip_level ? 0 : 1;
     }
   }
 

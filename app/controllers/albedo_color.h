@@ -111,17 +111,17 @@ AlbedoColorErrors CompareAlbedoColor(const ImageF& albedo_linear_rec709, const I
 struct ComparedAlbedoPixel {
   float truth_linear_rec709[3];
   float albedo_linear_rec709[3];
-  double delta_e;  // Ciede2000FromLinearRec709 of the two
 };
 
 // CompareAlbedoColor band by band (the solve's evaluation, so that neither a
 // full-size albedo nor a full-size truth is held): AddRows for the bands in
 // order, then Finish gives exactly what CompareAlbedoColor gives on the whole
-// images. Per evaluated pixel its truth, its albedo and their CIEDE2000 (a
-// ComparedAlbedoPixel, 32 bytes) go to one spill file (SpillFile,
-// exact_statistics.h), read back by the CIEDE2000's order statistics
-// (ExactErrorStatistics with a replay) and by ForEachPixel; in memory only
-// counts per hash bucket of the truth values. Finish finds the uniform regions
+// images. Per evaluated pixel its truth and its albedo (a ComparedAlbedoPixel,
+// 24 bytes) go to one spill file (SpillFile, exact_statistics.h), read back
+// by ForEachPixel, and their CIEDE2000 to the spill of its order statistics
+// (ExactErrorStatistics: 8 bytes, so its selection reads a quarter of what a
+// replay of the pixels would); in memory only counts per hash bucket of the
+// truth values. Finish finds the uniform regions
 // from those buckets: a region has at least min_pixels pixels, so its bucket
 // has too, and at most evaluated / min_pixels buckets do; only their pixels
 // are counted exactly.
@@ -137,7 +137,8 @@ class AlbedoColorComparison {
   void AddRows(const ImageF& albedo_rows, const ImageU8& mask_rows, const ImageF& truth_rows, int num_threads = 0);
   // visit(pixels) over every pixel added so far, in pixel order, in chunks
   // (read back from the spill file): what other figures of the same pixels
-  // (the albedo's absolute error) can be made of again.
+  // (the albedo's absolute error) can be made of again. It only reads, so it
+  // may run on another thread beside Finish.
   void ForEachPixel(const std::function<void(std::span<const ComparedAlbedoPixel>)>& visit);
   AlbedoColorErrors Finish();  // once
 
@@ -145,9 +146,12 @@ class AlbedoColorComparison {
   double min_region_fraction_;
   int width_ = -1;
   SpillFile pixels_;                     // per evaluated pixel a ComparedAlbedoPixel; pixel order
-  ExactErrorStatistics delta_e_;         // replays pixels_
+  ExactErrorStatistics delta_e_;         // spills the CIEDE2000 values, pixel order
   std::vector<uint32_t> bucket_counts_;  // evaluated pixels per hash bucket of the truth bits
-  std::vector<ComparedAlbedoPixel> band_pixels_;  // AddRows' rows (per row from row * width), kept from band to band
+  // AddRows' rows (each row's evaluated pixels from row * width), kept from band to band.
+  std::vector<ComparedAlbedoPixel> band_pixels_;
+  std::vector<double> band_delta_e_;
+  std::vector<uint32_t> band_buckets_;  // each pixel's hash bucket of its truth bits
   std::vector<uint32_t> band_row_counts_;
 };
 

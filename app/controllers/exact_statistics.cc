@@ -60,6 +60,7 @@ SpillFile::~SpillFile() {
 }
 
 void SpillFile::Flush() {
+  if (buffer_.empty()) return;
   const uint8_t* data = buffer_.data();
   size_t left = buffer_.size();
   while (left > 0) {
@@ -193,7 +194,7 @@ std::vector<double> ExactErrorStatistics::ValuesOfRanks(std::span<const size_t> 
   }
   while (std::any_of(searches.begin(), searches.end(), [](const Search& s) { return s.Refines(); })) {
     for (Search& search : searches) {
-      search.next_bits = search.Refines() ? std::min(kBucketBits, 64 - search.prefix_bits) : 0;
+      search.next_bits = search.Refines() ? std::min(kRefineBits, 64 - search.prefix_bits) : 0;
       search.finer.assign(search.next_bits > 0 ? size_t{1} << search.next_bits : 0, 0);
     }
     ForEachValue([&](std::span<const double> values) {

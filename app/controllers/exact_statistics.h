@@ -44,9 +44,11 @@ class SpillFile {
   // visit(records, count) over everything appended, in order, in chunks of
   // whole records of record_bytes (> 0, dividing size()).
   void ForEachRecord(size_t record_bytes, const std::function<void(const uint8_t* records, size_t count)>& visit);
+  // Writes what Append buffered. After it, and until the next Append, ReadAt
+  // and ForEachRecord only read (pread), so several threads may read at once.
+  void Flush();
 
  private:
-  void Flush();
   std::filesystem::path folder_;
   int fd_ = -1;
   size_t size_ = 0;
@@ -89,7 +91,14 @@ class ExactErrorStatistics {
   std::vector<double> ValuesOfRanks(std::span<const size_t> ranks);
 
  private:
-  static constexpr int kBucketBits = 16;
+  // The first histogram's leading bits: sign, exponent and 8 mantissa bits,
+  // 1/256 of an octave a bucket, so the bucket of a median or p95 of 10 to
+  // 50 M smooth values holds well under kMaxSelected and one pass selects
+  // (with 16 bits the albedo's errors needed a pass more to split their
+  // bucket); 8 MB of counts.
+  static constexpr int kBucketBits = 20;
+  // A bucket still too full is split by this many more bits per pass.
+  static constexpr int kRefineBits = 16;
   // Non-NaN doubles to unsigned integers in the same order (negative values'
   // bits reversed below the positive ones').
   static uint64_t OrderKey(double value) {

@@ -201,7 +201,9 @@ class GroundTruthEvaluation {
   // map (degrees, 1 channel, 0 off the evaluated pixels). num_threads 0 = all.
   ImageF AddBand(const PhotometricSolution& band, int num_threads = 0);
   // Every row added; angular_error_deg is left empty (the rows went to AddBand's caller).
-  GroundTruthComparison Finish();
+  // Its statistics' reads run side by side on up to `num_threads` threads (0 = all);
+  // the figures do not depend on it.
+  GroundTruthComparison Finish(int num_threads = 0);
 
  private:
   struct State;

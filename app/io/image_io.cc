@@ -6,12 +6,14 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -220,12 +222,50 @@ struct OpenedInput {
   OIIO::ImageSpec spec;
 };
 
-OpenedInput OpenInput(const fs::path& path) {
+// OpenImageIO picks its OpenEXR reader (the default one or the one on the
+// OpenEXR core library) from the process-wide "openexr:core" when a reader is
+// created, so every reader is created under this lock: the one that asks for
+// the core reader sets the attribute and restores it before the lock is let go.
+std::mutex& ReaderChoiceMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+// The OpenEXR core library's reader of `path`, opened; null when there is
+// none or it cannot open the file (the caller then uses the default reader).
+std::unique_ptr<OIIO::ImageInput> OpenExrCoreInput(const fs::path& path, const OIIO::ImageSpec& config) {
+  std::unique_ptr<OIIO::ImageInput> input;
+  {
+    const std::lock_guard<std::mutex> lock(ReaderChoiceMutex());
+    int before = 0;
+    OIIO::getattribute("openexr:core", before);
+    OIIO::attribute("openexr:core", 1);
+    input = OIIO::ImageInput::create("openexr", /*do_open=*/false);
+    OIIO::attribute("openexr:core", before);
+  }
+  OIIO::ImageSpec spec;
+  if (!input || !input->open(path.string(), spec, config)) {
+    if (input) input->geterror();  // cleared: the default reader says why, if it fails too
+    OIIO::geterror();
+    return nullptr;
+  }
+  return input;
+}
+
+// `openexr_core`: an .exr file through the core library's reader when it opens it.
+OpenedInput OpenInput(const fs::path& path, bool openexr_core = false) {
   if (!fs::exists(path)) throw PathError(path, "does not exist");
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
   OpenedInput opened;
-  opened.input = OIIO::ImageInput::open(path.string(), &config);
+  std::string extension = path.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (openexr_core && extension == ".exr") opened.input = OpenExrCoreInput(path, config);
+  if (!opened.input) {
+    const std::lock_guard<std::mutex> lock(ReaderChoiceMutex());
+    opened.input = OIIO::ImageInput::open(path.string(), &config);
+  }
   if (!opened.input) {
     throw PathError(path, "cannot be read as an image (" + OiioMessage(OIIO::geterror()) + ")");
   }
@@ -550,6 +590,52 @@ ImageF ReadImageFloatRows(const fs::path& path, int y_begin, int y_end) {
                               OiioMessage(opened.input->geterror()) + ")");
   }
   return rows;
+}
+
+struct ImageRowReader::State {
+  fs::path path;
+  OpenedInput opened;
+  bool native_float = false;  // every channel stored as float: read as stored
+};
+
+ImageRowReader::ImageRowReader(const fs::path& path) : state_(std::make_unique<State>()) {
+  state_->path = path;
+  state_->opened = OpenInput(path, /*openexr_core=*/true);
+  const OIIO::ImageSpec& spec = state_->opened.spec;
+  state_->native_float = spec.format == OIIO::TypeDesc::FLOAT &&
+                         std::all_of(spec.channelformats.begin(), spec.channelformats.end(),
+                                     [](const OIIO::TypeDesc& t) { return t == OIIO::TypeDesc::FLOAT; });
+}
+
+ImageRowReader::ImageRowReader(ImageRowReader&&) noexcept = default;
+ImageRowReader& ImageRowReader::operator=(ImageRowReader&&) noexcept = default;
+ImageRowReader::~ImageRowReader() = default;
+
+const fs::path& ImageRowReader::path() const { return state_->path; }
+int ImageRowReader::width() const { return state_->opened.spec.width; }
+int ImageRowReader::height() const { return state_->opened.spec.height; }
+int ImageRowReader::channels() const { return state_->opened.spec.nchannels; }
+
+void ImageRowReader::ReadRows(int y_begin, int y_end, ImageF* rows) {
+  const OIIO::ImageSpec& spec = state_->opened.spec;
+  const fs::path& path = state_->path;
+  if (!(0 <= y_begin && y_begin < y_end && y_end <= spec.height)) {
+    throw std::invalid_argument(path.string() + ": rows [" + std::to_string(y_begin) + ", " + std::to_string(y_end) +
+                                ") must lie within its " + std::to_string(spec.height) + " rows and not be empty");
+  }
+  if (!rows->SameSize(spec.width, y_end - y_begin) || rows->channels() != spec.nchannels) {
+    *rows = ImageF(spec.width, y_end - y_begin, spec.nchannels);
+  }
+  OIIO::ImageInput& input = *state_->opened.input;
+  const bool read =
+      state_->native_float
+          ? input.read_native_scanlines(0, 0, spec.y + y_begin, spec.y + y_end, 0, 0, spec.nchannels, rows->data())
+          : input.read_scanlines(0, 0, spec.y + y_begin, spec.y + y_end, 0, 0, spec.nchannels,
+                                 OIIO::TypeDesc::FLOAT, rows->data());
+  if (!read) {
+    throw PathError(path, "cannot read rows " + std::to_string(y_begin) + " to " + std::to_string(y_end) + " (" +
+                              OiioMessage(input.geterror()) + ")");
+  }
 }
 
 ImageU16 ReadImageU16(const fs::path& path) {

@@ -81,10 +81,11 @@ TEST(ExactStatisticsTest, EqualsSummarizeErrorsOnRandomValuesWithTies) {
 // finer histograms narrow it down; all equal: the leading bits are all of them.
 TEST(ExactStatisticsTest, EqualsSummarizeErrorsWhenOneBucketHoldsMillions) {
   std::mt19937_64 random(6);
-  std::uniform_real_distribution<double> narrow(1.0, 1.0 + 1.0 / 64);
+  // Within one bucket of the first histogram (1/256 of an octave).
+  std::uniform_real_distribution<double> narrow(1.0, 1.0 + 1.0 / 1024);
   std::vector<double> values(2'500'000);
   for (double& v : values) v = narrow(random);
-  for (size_t i = 0; i < values.size(); i += 3) values[i] = 1.0078125;  // a third tied, in the middle
+  for (size_t i = 0; i < values.size(); i += 3) values[i] = 1.00048828125;  // a third tied, in the middle
   ExpectSummaryOf(values, 100'000);
   std::fill(values.begin(), values.end(), 0.229);
   ExpectSummaryOf(values, 1'000'000);

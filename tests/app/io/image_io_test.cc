@@ -96,7 +96,33 @@ TEST(ImageIoTest, RowsReadBandByBandEqualTheWholeImage) {
       std::copy(rows.data(), rows.data() + rows.size(), banded.row(y0));
     }
     ExpectSameImage(whole, banded);
+    // The same through one opened reader (for an EXR the OpenEXR core
+    // library's), its buffer reused from band to band.
+    ImageRowReader reader(path);
+    ASSERT_EQ(reader.width(), whole.width());
+    ASSERT_EQ(reader.height(), whole.height());
+    ASSERT_EQ(reader.channels(), whole.channels());
+    ImageF read_rows(1, 1, 1), by_reader(whole.width(), whole.height(), whole.channels());
+    for (int y0 = 0; y0 < whole.height(); y0 += 20) {
+      const int y1 = std::min(whole.height(), y0 + 20);
+      reader.ReadRows(y0, y1, &read_rows);
+      ASSERT_EQ(read_rows.height(), y1 - y0);
+      std::copy(read_rows.data(), read_rows.data() + read_rows.size(), by_reader.row(y0));
+    }
+    ExpectSameImage(whole, by_reader);
+    EXPECT_THAT(ErrorOf([&] { reader.ReadRows(60, 72, &read_rows); }), HasSubstr("must lie within its 71 rows"));
   }
+  // Uncompressed float, as the simulator writes the ground truth.
+  const auto raw_path = dir / "raw.exr";
+  WriteExr(raw_path, image, OverwritePolicy::kRefuse, {}, {}, {ExrSampleType::kFloat32, ExrCompression::kNone});
+  ImageRowReader reader(raw_path);
+  ImageF read_rows, by_reader(image.width(), image.height(), image.channels());
+  for (int y0 = 0; y0 < image.height(); y0 += 16) {
+    const int y1 = std::min(image.height(), y0 + 16);
+    reader.ReadRows(y0, y1, &read_rows);
+    std::copy(read_rows.data(), read_rows.data() + read_rows.size(), by_reader.row(y0));
+  }
+  ExpectSameImage(image, by_reader);
   EXPECT_THAT(ErrorOf([&] { ReadImageFloatRows(float_path, 60, 72); }), HasSubstr("must lie within its 71 rows"));
   EXPECT_THAT(ErrorOf([&] { ReadImageFloatRows(float_path, 5, 5); }), HasSubstr("not be empty"));
 }
