@@ -108,6 +108,7 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
   for (int p = 0; p < kNumSolvePaths; ++p) whole->pixels_by_path[p] += band.pixels_by_path[p];
   for (int s = 0; s < kNumSpecularStatuses; ++s) whole->pixels_by_specular[s] += band.pixels_by_specular[s];
   whole->pixels_coherent_lobe += band.pixels_coherent_lobe;
+  whole->pixels_coherent_sheen += band.pixels_coherent_sheen;
   whole->pixels_bayer_blended += band.pixels_bayer_blended;
   whole->pixels_bayer_solved += band.pixels_bayer_solved;
   whole->seconds += band.seconds;
