@@ -90,6 +90,7 @@ class BlockRefiner {
       }
     }
     if (static_cast<int>(candidates_.size()) < options_.min_pixels) return;
+    if (LobePixels(x0, y0, x1, y1) > options_.max_lobe_fraction * double(candidates_.size())) return;
     counts->candidates += candidates_.size();
     SplitByAlbedo();
     for (int g = 0; g < 2; ++g) {
@@ -112,6 +113,21 @@ class BlockRefiner {
     if (s.status(x, y) != static_cast<uint8_t>(PixelStatus::kSolved)) return false;
     if (s.solve_path(x, y) == static_cast<uint8_t>(SolvePath::kRobust)) return false;
     return s.specular_status.empty() || s.specular_status(x, y) != static_cast<uint8_t>(SpecularStatus::kEstimated);
+  }
+
+  // Solved pixels of the block's region with a specular lobe (per pixel or shared).
+  int LobePixels(int x0, int y0, int x1, int y1) const {
+    const PhotometricSolution& s = *job_.solution;
+    if (s.specular_status.empty()) return 0;
+    int count = 0;
+    for (int y = y0; y < y1; ++y) {
+      for (int x = x0; x < x1; ++x) {
+        if (job_.region != nullptr && (*job_.region)(x, y) == 0) continue;
+        count += s.status(x, y) == static_cast<uint8_t>(PixelStatus::kSolved) &&
+                 s.specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated);
+      }
+    }
+    return count;
   }
 
   // Two-means on the albedo chromaticity (RGB input); one cluster when the
@@ -316,6 +332,53 @@ class BlockRefiner {
     }
   }
 
+  // Is the residual the sheen explains white (a sheen: the same F0 in every
+  // intensity-divided channel) or the colour of the diffuse albedo (an error
+  // of the diffuse model)? Per colour channel c, the projected sums A_c, B_c
+  // of SheenGain at the current normals; the gain of one white F0 against
+  // that of F0_c = k rho_c (rho_c the group's mean albedo in channel c).
+  void ColourTest(double width, double* white_gain, double* diffuse_gain) {
+    double big_a[3] = {0, 0, 0}, big_b[3] = {0, 0, 0}, rho[3] = {0, 0, 0}, members[3] = {0, 0, 0};
+    for (const Pixel& p : pixels_) {
+      const Eigen::Vector3d n = p.m.normalized();
+      Eigen::Vector3d t = Eigen::Vector3d::Zero();
+      double ss = 0;
+      Eigen::Vector3d sb = Eigen::Vector3d::Zero();
+      Eigen::Matrix3d rhs = Eigen::Matrix3d::Zero();  // column c: sum l b_c
+      for (int k = p.first; k < p.first + p.count; ++k) {
+        const double sk = VelvetSheenOf(VelvetSheenGeometryOf(n, lights_k_[k], halves_[k], views_[k]), width);
+        t += sk * lights_k_[k];
+        ss += sk * sk;
+        for (int c = 0; c < 3; ++c) {
+          const double b = rgb_ ? values_[k][1 + c] : values_[k][0];
+          sb[c] += sk * b;
+          rhs.col(c) += b * lights_k_[k];
+        }
+      }
+      const double a = ss - t.dot(p.gram_inverse * t);
+      const Eigen::Matrix3d m = p.gram_inverse * rhs;
+      if (rgb_) {
+        for (int c = 0; c < 3; ++c) {
+          big_a[c] += a, big_b[c] += sb[c] - t.dot(m.col(c));
+          rho[c] += m.col(c).norm(), members[c] += 1;
+        }
+      } else {
+        const int c = job_.cfa_channels[(p.y & 1) * 2 + (p.x & 1)];
+        big_a[c] += a, big_b[c] += sb[0] - t.dot(m.col(0));
+        rho[c] += m.col(0).norm(), members[c] += 1;
+      }
+    }
+    double sa = 0, sb = 0, ra = 0, rb = 0;
+    for (int c = 0; c < 3; ++c) {
+      if (!(members[c] > 0)) continue;
+      const double r = rho[c] / members[c];
+      sa += big_a[c], sb += big_b[c];
+      ra += r * r * big_a[c], rb += r * big_b[c];
+    }
+    *white_gain = sa > 0 && sb > 0 ? sb * sb / sa : 0.0;
+    *diffuse_gain = ra > 0 && rb > 0 ? rb * rb / ra : 0.0;
+  }
+
   // The fit pixels: the group's candidates on every kFitRowStep-th row, at
   // most max_fit_pixels of them, evenly spread.
   void ChooseFitCells() {
@@ -353,7 +416,12 @@ class BlockRefiner {
     const double lambert = std::max(rss_ls, floor_rss), sheen = std::max(rss, floor_rss);
     const bool pays = samples * std::log(lambert / sheen) > 2 * options_.bic_penalty * std::log(samples);
     const bool drops = rss <= (1 - options_.min_residual_drop) * rss_ls;
-    if (!pays || !drops) return;
+    double white_gain = 0, diffuse_gain = 0;
+    ColourTest(width, &white_gain, &diffuse_gain);
+    // (Not in the Bayer domain: one raw sample per light and pixel carries
+    // too little colour to tell, cloth there 0.592 -> 0.61 deg with it.)
+    const bool white = !options_.dichromatic || job_.bayer || white_gain >= options_.white_margin * diffuse_gain;
+    if (!pays || !drops || !white) return;
     ++counts->taken;
     counts->f0_sum += f0, counts->width_sum += width;
     // Every candidate of the group under the group's sheen.
@@ -431,6 +499,12 @@ void CoherentSheenOptions::Check() const {
   }
   if (!(min_residual_drop >= 0 && min_residual_drop < 1)) {
     throw FieldError(kOptions, "min_residual_drop", min_residual_drop, "must lie in [0, 1)");
+  }
+  if (!(white_margin > 0) || !std::isfinite(white_margin)) {
+    throw FieldError(kOptions, "white_margin", white_margin, "must be finite and > 0");
+  }
+  if (!(max_lobe_fraction >= 0) || std::isnan(max_lobe_fraction)) {
+    throw FieldError(kOptions, "max_lobe_fraction", max_lobe_fraction, "must be >= 0");
   }
   if (num_threads < 0 || num_threads > 256) throw FieldError(kOptions, "num_threads", num_threads, "must lie in [0, 256]");
 }

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <functional>
 #include <iterator>
@@ -368,7 +366,6 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
     const CoherentSheenSummary sheen =
         tiled::RefineCoherentSheenOfJob(sheen_options, worker_job, SubRange(progress, lobe_end, 1.0));
     summary.pixels_coherent_sheen = sheen.pixels_refined;
-    if (std::getenv("SCANBENCH_SHEEN_DEBUG")) std::fprintf(stderr, "%s\n", sheen.BriefReport().c_str());
     cancelled = sheen.IsCancelled();
   }
   if (!cancelled && job.bayer && job.with_albedo) {
