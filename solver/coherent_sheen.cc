@@ -31,7 +31,7 @@ constexpr int kGoldenSteps = 8;
 // Fixed-point steps of a pixel's re-solve under a given sheen (the sheen
 // moves with the normal only slightly: a few per cent of the reading), and
 // the relative change of the scaled normal that ends them.
-constexpr int kResolveIterations = 4;
+constexpr int kResolveIterations = 8;
 constexpr double kResolveConverged = 1e-7;
 // Residual floor of the model selection, relative to the albedo (as
 // FitDiffuseSheen's): below about the quantisation of a 14-bit reading.
