@@ -110,6 +110,7 @@ class BlockRefiner {
   bool Candidate(int x, int y) const {
     const PhotometricSolution& s = *job_.solution;
     if (job_.region != nullptr && (*job_.region)(x, y) == 0) return false;
+    if (job_.sheen_pixels != nullptr && (*job_.sheen_pixels)(x, y) == 0) return false;
     if (s.status(x, y) != static_cast<uint8_t>(PixelStatus::kSolved)) return false;
     if (s.solve_path(x, y) == static_cast<uint8_t>(SolvePath::kRobust)) return false;
     return s.specular_status.empty() || s.specular_status(x, y) != static_cast<uint8_t>(SpecularStatus::kEstimated);
@@ -453,6 +454,7 @@ class BlockRefiner {
       (*job_.albedo_mosaic)(x, y) = static_cast<float>(length);
     }
     if (!s.residual.empty()) s.residual(x, y) = static_cast<float>(std::min(std::sqrt(p.rss / p.count) / length, 1e30));
+    if (!s.coherent_sheen.empty()) s.coherent_sheen(x, y) = 1;
     return true;
   }
 

@@ -362,6 +362,7 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
     summary.pixels_coherent_lobe = refined.pixels_refined;
     cancelled = refined.IsCancelled();
   }
+  job.solution->coherent_sheen = coherent_sheen ? ImageU8(width, height, 1, uint8_t{0}) : ImageU8();
   if (!cancelled && coherent_sheen) {
     const CoherentSheenSummary sheen =
         tiled::RefineCoherentSheenOfJob(sheen_options, worker_job, SubRange(progress, lobe_end, 1.0));
@@ -574,6 +575,10 @@ PhotometricSolverSummary SolvePhotometricStereoBayer(const PhotometricSolverOpti
   tiled::SolveJob job;
   job.options = &options;
   job.field = input.light_field;
+  if (input.sheen_pixels != nullptr && !input.sheen_pixels->SameSize(input.light_field->width(), input.light_field->height())) {
+    throw InputError("sheen_pixels must be a 1-channel image of the light field's size");
+  }
+  job.sheen_pixels = input.sheen_pixels;
   job.images = &input.mosaics;
   job.sample_valid = &input.sample_valid;
   job.region = input.region;

@@ -224,6 +224,11 @@ struct BayerSolverInput {
   std::vector<const ImageU8*> sample_valid;  // optional, as PhotometricSolverInput
   const LightField* light_field = nullptr;
   const ImageU8* region = nullptr;           // optional, as PhotometricSolverInput
+  // Optional (1 channel): the shared velvet sheen (adaptive_coherent_sheen)
+  // only on these pixels, e.g. those a demosaiced solve of the same frames
+  // re-solved under it (PhotometricSolution::coherent_sheen): one raw sample
+  // per light carries too little colour for its dichromatic test.
+  const ImageU8* sheen_pixels = nullptr;
 };
 
 struct PhotometricSolution {
@@ -239,6 +244,9 @@ struct PhotometricSolution {
   // and roughness_alpha (GGX alpha, (0, 1]); both 0 unless kEstimated.
   ImageF specular;
   ImageU8 specular_status;  // SpecularStatus per pixel
+  // 1 where the pixel was re-solved under a velvet sheen shared by its block
+  // (adaptive_coherent_sheen), else 0; empty unless that pass ran.
+  ImageU8 coherent_sheen;
 };
 
 struct PhotometricSolverSummary : AlgorithmSummary {

@@ -227,8 +227,8 @@ void CropDevelopedRows(int first, int rows, std::vector<DevelopedFrame>* develop
 PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver,
                                           const std::vector<DevelopedFrame>& developed, CfaPattern cfa,
                                           const LightField& light_field, int dev0, int row0, int row1,
-                                          const ImageU8& region, PhotometricSolution* bayer,
-                                          const ProgressCallback& progress) {
+                                          const ImageU8& region, const ImageU8* sheen_pixels,
+                                          PhotometricSolution* bayer, const ProgressCallback& progress) {
   // Developed without margin rows (no sample masks) the mosaics are the band's already.
   const bool cropped = developed.front().mosaic.height() != row1 - row0;
   std::vector<ImageF> mosaics;
@@ -249,6 +249,7 @@ PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver
   for (int p = 0; p < 4; ++p) input.cfa_channels[p] = CfaColorAt(cfa, p & 1, p >> 1);
   input.light_field = &band_field;
   input.region = &region;
+  input.sheen_pixels = sheen_pixels;
   return SolvePhotometricStereoBayer(solver, input, bayer, progress);
 }
 
@@ -289,8 +290,11 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   const double blend_seconds = SecondsSince(blend_start);
 
   // No lobe in the Bayer solve (its pixels keep the demosaiced normal), the
-  // sheen only when asked: on Lambertian pixels the sheen fit takes noise
-  // for sheen and biases the normals the weight then trusts (docs/solver.md).
+  // per-pixel sheen only when asked: on Lambertian pixels the sheen fit takes
+  // noise for sheen and biases the normals the weight then trusts
+  // (docs/solver.md). The shared sheen (the default) only on the pixels the
+  // demosaiced solve re-solved under one: its groups have the colour to tell
+  // a white sheen from shading and shadow, the raw pixels' do not.
   PhotometricSolverOptions bayer_solver = options.solver;
   bayer_solver.adaptive_lobe = false;
   bayer_solver.adaptive_coherent_lobe = false;
@@ -299,7 +303,8 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   bayer_solver.compute_confidence = true;
   PhotometricSolution bayer;
   const PhotometricSolverSummary bayer_summary =
-      SolveBayerRegion(bayer_solver, *developed, cfa, light_field, dev0, row0, row1, region, &bayer,
+      SolveBayerRegion(bayer_solver, *developed, cfa, light_field, dev0, row0, row1, region,
+                       band_solution->coherent_sheen.empty() ? nullptr : &band_solution->coherent_sheen, &bayer,
                        SubRange(progress, rgb_end, 1 - kBlendShare));
   if (!bayer_summary.IsUsable()) return bayer_summary;
   const auto mix_start = std::chrono::steady_clock::now();
