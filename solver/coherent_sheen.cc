@@ -91,13 +91,6 @@ class BlockRefiner {
     }
     if (static_cast<int>(candidates_.size()) < options_.min_pixels) return;
     if (LobePixels(x0, y0, x1, y1) > options_.max_lobe_fraction * double(candidates_.size())) return;
-    // (Not where the demosaiced solve's decision is given, sheen_pixels: a
-    // Bayer-domain solve re-solves many more pixels robustly, its single raw
-    // samples being noisier.)
-    if (job_.sheen_pixels == nullptr &&
-        RobustPixels(x0, y0, x1, y1) > options_.max_robust_fraction * double(candidates_.size())) {
-      return;
-    }
     counts->candidates += candidates_.size();
     SplitByAlbedo();
     for (int g = 0; g < 2; ++g) {
@@ -133,21 +126,6 @@ class BlockRefiner {
         if (job_.region != nullptr && (*job_.region)(x, y) == 0) continue;
         count += s.status(x, y) == static_cast<uint8_t>(PixelStatus::kSolved) &&
                  s.specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated);
-      }
-    }
-    return count;
-  }
-
-  // Solved pixels of the block's region re-solved robustly (cast shadows,
-  // clipped samples, residuals above the trigger).
-  int RobustPixels(int x0, int y0, int x1, int y1) const {
-    const PhotometricSolution& s = *job_.solution;
-    int count = 0;
-    for (int y = y0; y < y1; ++y) {
-      for (int x = x0; x < x1; ++x) {
-        if (job_.region != nullptr && (*job_.region)(x, y) == 0) continue;
-        count += s.status(x, y) == static_cast<uint8_t>(PixelStatus::kSolved) &&
-                 s.solve_path(x, y) == static_cast<uint8_t>(SolvePath::kRobust);
       }
     }
     return count;
@@ -526,9 +504,6 @@ void CoherentSheenOptions::Check() const {
   }
   if (!(white_margin > 0) || !std::isfinite(white_margin)) {
     throw FieldError(kOptions, "white_margin", white_margin, "must be finite and > 0");
-  }
-  if (!(max_robust_fraction >= 0) || std::isnan(max_robust_fraction)) {
-    throw FieldError(kOptions, "max_robust_fraction", max_robust_fraction, "must be >= 0");
   }
   if (!(max_lobe_fraction >= 0) || std::isnan(max_lobe_fraction)) {
     throw FieldError(kOptions, "max_lobe_fraction", max_lobe_fraction, "must be >= 0");

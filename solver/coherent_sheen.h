@@ -71,19 +71,14 @@ struct CoherentSheenOptions {
   // The group's sheen must also lower its fit pixels' residual sum of squares
   // by at least this fraction, in [0, 1): a Lambertian block whose residual
   // has some other smooth structure (fibre footprints, shadow edges) then
-  // keeps its least-squares result however many samples it has (cloth 0.588
-  // deg, draped 0.405; 0.02: 0.586, 0.406; docs/solver.md).
+  // keeps its least-squares result however many samples it has (cloth 0.587
+  // deg, draped 0.406; 0.02: 0.585, 0.407; docs/solver.md).
   double min_residual_drop = 0.05;
   // A block is left alone where its solved pixels with a specular lobe (the
   // per-pixel GGX fit's or the shared lobe's) are more than this fraction of
   // its candidates, >= 0: a glossy material's lobe tails in the neighbouring
   // pixels are not a velvet sheen (DiLiGenT ball at 10 lights, docs/solver.md).
   double max_lobe_fraction = 0.05;
-  // The same for its robustly re-solved pixels, >= 0: the penumbrae of cast
-  // shadows around them are not a velvet sheen either (the draped sample
-  // 0.406 -> 0.405 deg; a large value: no limit). Only where the pass
-  // decides on its own: not on a Bayer-domain solve given sheen_pixels.
-  double max_robust_fraction = 0.1;
   // The dichromatic test: the sheen is white, the diffuse coloured, so a
   // group takes the sheen only where one F0 for all colour channels explains
   // at least white_margin times as much of the residual as an F0 in
