@@ -393,16 +393,19 @@ class BlockRefiner {
     for (size_t i = 0; i < count; ++i) fit_cells_.push_back(row_cells_[i * n / count]);
   }
 
-  void RefineGroup(Counts* counts) {
-    ChooseFitCells();
-    Gather(fit_cells_);
-    if (static_cast<int>(pixels_.size()) < std::min(options_.min_pixels, options_.max_fit_pixels) / 2) return;
-    ++counts->tried;
-    // A quick look first, at the least-squares normals on every other rung
-    // of the width ladder: the residual a sheen can take out of the fit
-    // pixels (their scaled normals projected out) must reach half the
-    // drop asked for, or the group keeps its least-squares results without
-    // the re-solves (the cost of a Lambertian scene: 16 MP, 10 LEDs).
+  // A quick look, at the least-squares normals of the group's candidates on
+  // two rows of the block, on every other rung of the width ladder: the
+  // residual a sheen can take out of them (their scaled normals projected
+  // out) must reach half the drop asked for, or the group keeps its
+  // least-squares results without gathering the fit pixels or re-solving
+  // any (the cost of a Lambertian scene: 16 MP, 10 LEDs).
+  bool QuickLook() {
+    row_cells_.clear();
+    for (const Cell& c : group_) {
+      if (c.y - y0_ == kFitRowStep / 2 || c.y - y0_ == kFitRowStep / 2 + options_.block_size / 2) row_cells_.push_back(c);
+    }
+    Gather(row_cells_);
+    if (pixels_.size() < 8) return true;  // too few to judge: the full fit decides
     PrepareGeometry();
     double best_gain = 0, rss_ls_sum = 0;
     for (const Pixel& p : pixels_) rss_ls_sum += p.rss_ls;
@@ -411,7 +414,16 @@ class BlockRefiner {
       double amplitude = 0;
       best_gain = std::max(best_gain, SheenGain(std::exp(lo + (hi - lo) * i / (kWidthLadder - 1)), &amplitude));
     }
-    if (!(best_gain >= 0.5 * options_.min_residual_drop * rss_ls_sum)) return;
+    return best_gain >= 0.5 * options_.min_residual_drop * rss_ls_sum;
+  }
+
+  void RefineGroup(Counts* counts) {
+    ++counts->tried;
+    if (!QuickLook()) return;
+    ChooseFitCells();
+    Gather(fit_cells_);
+    if (static_cast<int>(pixels_.size()) < std::min(options_.min_pixels, options_.max_fit_pixels) / 2) return;
+    PrepareGeometry();
     double width = 1, f0 = 0;
     for (int iteration = 0; iteration < options_.iterations; ++iteration) {
       if (iteration > 0) PrepareGeometry();
