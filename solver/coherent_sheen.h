@@ -71,8 +71,8 @@ struct CoherentSheenOptions {
   // The group's sheen must also lower its fit pixels' residual sum of squares
   // by at least this fraction, in [0, 1): a Lambertian block whose residual
   // has some other smooth structure (fibre footprints, shadow edges) then
-  // keeps its least-squares result however many samples it has (cloth 0.587
-  // deg, draped 0.406; 0.02: 0.585, 0.407; docs/solver.md).
+  // keeps its least-squares result however many samples it has (cloth 0.589
+  // deg, draped 0.406; 0.02: about 0.585, 0.407; docs/solver.md).
   double min_residual_drop = 0.05;
   // A block is left alone where its solved pixels with a specular lobe (the
   // per-pixel GGX fit's or the shared lobe's) are more than this fraction of
