@@ -62,9 +62,11 @@ double ProcessCpuSeconds() {
   return now.tv_sec + 1e-9 * now.tv_nsec;
 }
 
-// adaptive_lobe = false: adaptive's robust pass as before the lobe fit (Lambertian IRLS).
+// adaptive_lobe = false: adaptive's robust pass as before the lobe fit (Lambertian IRLS);
+// coherent_sheen = false: adaptive without the shared velvet sheen (its cost).
 void BM_Solve(benchmark::State& state, Method method, Lights lights, int width, int height,
-              bool adaptive_lobe = PhotometricSolverOptions().adaptive_lobe) {
+              bool adaptive_lobe = PhotometricSolverOptions().adaptive_lobe,
+              bool coherent_sheen = PhotometricSolverOptions().adaptive_coherent_sheen) {
   const SyntheticScene& scene = Scene(lights, width, height);
   PhotometricSolverInput input;
   input.images = scene.ImagePointers();
@@ -72,6 +74,7 @@ void BM_Solve(benchmark::State& state, Method method, Lights lights, int width, 
   PhotometricSolverOptions options;
   options.method = method;
   options.adaptive_lobe = adaptive_lobe;
+  options.adaptive_coherent_sheen = coherent_sheen;
   options.num_threads = static_cast<int>(state.range(0));
   PhotometricSolution solution;
   PhotometricSolverSummary summary;
@@ -117,6 +120,8 @@ SCANBENCH_SOLVE_CASE(1MP_distant_jacobi_svd, Method::kJacobiSvd, Lights::kDistan
 // 16 MP (4928 x 3264, the D5100's full sensor), 10 lights, 2 threads: the target.
 SCANBENCH_SOLVE_CASE(16MP_near_adaptive, Method::kAdaptive, Lights::kNearField, 4928, 3264, ->Arg(2));
 BENCHMARK_CAPTURE(BM_Solve, 16MP_near_adaptive_irls, Method::kAdaptive, Lights::kNearField, 4928, 3264, false)
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Arg(2);
+BENCHMARK_CAPTURE(BM_Solve, 16MP_near_adaptive_no_sheen, Method::kAdaptive, Lights::kNearField, 4928, 3264, true, false)
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Arg(2);
 SCANBENCH_SOLVE_CASE(16MP_near_jacobi_svd, Method::kJacobiSvd, Lights::kNearField, 4928, 3264, ->Arg(2));
 SCANBENCH_SOLVE_CASE(16MP_near_normal_equations, Method::kNormalEquations, Lights::kNearField, 4928, 3264, ->Arg(2));

@@ -14,6 +14,7 @@
 #include "core/format.h"
 #include "core/parallel_for.h"
 #include "solver/coherent_lobe.h"
+#include "solver/coherent_sheen.h"
 #include "solver/cpu_dispatch.h"
 #include "solver/pixel_kernels.h"
 #include "solver/tile_lights.h"
@@ -334,7 +335,17 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   // pixels (RGB input only; it reads the solved specular maps).
   const bool coherent = options.method == Method::kAdaptive && options.adaptive_lobe &&
                         options.adaptive_coherent_lobe && !job.bayer && !job.solution->specular.empty();
-  const double tiles_share = coherent ? 0.8 : 1.0;
+  // Then a velvet sheen shared by neighbouring least-squares pixels (RGB and
+  // Bayer input; after the lobe, whose pixels it leaves alone).
+  const CoherentSheenOptions sheen_options = [&] {
+    CoherentSheenOptions o;
+    o.num_threads = summary.num_threads;
+    return o;
+  }();
+  const bool coherent_sheen = options.method == Method::kAdaptive && options.adaptive_coherent_sheen &&
+                              job.num_lights <= sheen_options.max_lights;
+  const double tiles_share = coherent && coherent_sheen ? 0.7 : coherent ? 0.8 : coherent_sheen ? 0.85 : 1.0;
+  const double lobe_end = coherent ? (coherent_sheen ? 0.9 : 1.0) : tiles_share;
   const int tiles_done = stopped_before ? 0
                                         : SolveTiles(worker_job, tiles, summary.num_threads,
                                                      SubRange(progress, 0.0, tiles_share), &summary.pixels_by_path);
@@ -350,9 +361,16 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
     input.lobe_mosaics = lobe_mosaics;
     input.lobe_bayer = lobe_bayer;
     const CoherentLobeSummary refined = RefineCoherentLobe(coherent_options, options, input, job.solution,
-                                                           SubRange(progress, tiles_share, 1.0));
+                                                           SubRange(progress, tiles_share, lobe_end));
     summary.pixels_coherent_lobe = refined.pixels_refined;
     cancelled = refined.IsCancelled();
+  }
+  job.solution->coherent_sheen = coherent_sheen ? ImageU8(width, height, 1, uint8_t{0}) : ImageU8();
+  if (!cancelled && coherent_sheen) {
+    const CoherentSheenSummary sheen =
+        tiled::RefineCoherentSheenOfJob(sheen_options, worker_job, SubRange(progress, lobe_end, 1.0));
+    summary.pixels_coherent_sheen = sheen.pixels_refined;
+    cancelled = sheen.IsCancelled();
   }
   if (!cancelled && job.bayer && job.with_albedo) {
     DemosaicAlbedo(albedo_mosaic, job.solution->status, job.cfa_channels, &job.solution->albedo);
@@ -372,7 +390,7 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   if (cancelled) {
     summary.SetCancelled(tiles_done < num_tiles ? "cancelled after " + std::to_string(tiles_done) + " of " +
                                                       std::to_string(num_tiles) + " tiles"
-                                                : std::string("cancelled in the coherent-lobe pass"));
+                                                : std::string("cancelled in the coherent-lobe or coherent-sheen pass"));
   } else {
     summary.termination = Termination::kSuccess;
   }
@@ -512,6 +530,7 @@ std::string PhotometricSolverSummary::BriefReport() const {
     out << "; specular lobe estimated at " << pixels_by_specular[0] << ", unsupported at " << pixels_by_specular[2];
   }
   if (pixels_coherent_lobe > 0) out << "; " << pixels_coherent_lobe << " refined by a shared anisotropic lobe";
+  if (pixels_coherent_sheen > 0) out << "; " << pixels_coherent_sheen << " re-solved under a shared velvet sheen";
   if (pixels_bayer_blended > 0) {
     out << "; " << pixels_bayer_blended << " blended with the Bayer-domain normal (mean weight "
         << Fixed(bayer_blend_mean_weight, 2) << "; Bayer-domain solve on " << pixels_bayer_solved << " px)";
@@ -563,6 +582,10 @@ PhotometricSolverSummary SolvePhotometricStereoBayer(const PhotometricSolverOpti
   tiled::SolveJob job;
   job.options = &options;
   job.field = input.light_field;
+  if (input.sheen_pixels != nullptr && !input.sheen_pixels->SameSize(input.light_field->width(), input.light_field->height())) {
+    throw InputError("sheen_pixels must be a 1-channel image of the light field's size");
+  }
+  job.sheen_pixels = input.sheen_pixels;
   job.images = &input.mosaics;
   job.sample_valid = &input.sample_valid;
   job.region = input.region;

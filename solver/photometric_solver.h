@@ -148,6 +148,12 @@ struct PhotometricSolverOptions {
   // Off by default: it helps the simulated cloth but fits noise on Lambertian
   // scenes (docs/solver.md, "Velvet sheen").
   bool adaptive_sheen = false;
+  // adaptive, at most CoherentSheenOptions::max_lights lights: after the
+  // per-pixel passes, the least-squares pixels of a block and albedo group
+  // are re-solved under one velvet sheen fitted to all of them, where the
+  // group's samples together support it (RefineCoherentSheen,
+  // solver/coherent_sheen.h; RGB and Bayer-domain input).
+  bool adaptive_coherent_sheen = true;
 
   // Side of the square tiles the image is solved in, pixels, in [8, 4096].
   // Bounds the scratch memory per thread and is the unit of the light-field
@@ -229,6 +235,11 @@ struct BayerSolverInput {
   std::vector<const ImageU8*> sample_valid;  // optional, as PhotometricSolverInput
   const LightField* light_field = nullptr;
   const ImageU8* region = nullptr;           // optional, as PhotometricSolverInput
+  // Optional (1 channel): the shared velvet sheen (adaptive_coherent_sheen)
+  // only on these pixels, e.g. those a demosaiced solve of the same frames
+  // re-solved under it (PhotometricSolution::coherent_sheen): one raw sample
+  // per light carries too little colour for its dichromatic test.
+  const ImageU8* sheen_pixels = nullptr;
 };
 
 struct PhotometricSolution {
@@ -244,6 +255,9 @@ struct PhotometricSolution {
   // and roughness_alpha (GGX alpha, (0, 1]); both 0 unless kEstimated.
   ImageF specular;
   ImageU8 specular_status;  // SpecularStatus per pixel
+  // 1 where the pixel was re-solved under a velvet sheen shared by its block
+  // (adaptive_coherent_sheen), else 0; empty unless that pass ran.
+  ImageU8 coherent_sheen;
 };
 
 struct PhotometricSolverSummary : AlgorithmSummary {
@@ -259,6 +273,7 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   std::array<size_t, kNumSolvePaths> pixels_by_path{};
   std::array<size_t, kNumSpecularStatuses> pixels_by_specular{};  // all 0 when no specular maps were made
   size_t pixels_coherent_lobe = 0;    // pixels whose result is the shared lobe's (adaptive_coherent_lobe)
+  size_t pixels_coherent_sheen = 0;   // pixels re-solved under a shared velvet sheen (adaptive_coherent_sheen)
   // Raw sessions' default (BlendBayerNormals, solver/bayer_normal_blend.h, run
   // by the banded solve): pixels whose normal took a share of a Bayer-domain
   // solve's, and that share's mean over the pixels it was weighed on (those

@@ -799,6 +799,27 @@ inline SheenTerm EvaluateSheen(const Eigen::Vector3d& n, const Eigen::Vector3d& 
 
 }  // namespace
 
+VelvetSheenGeometry VelvetSheenGeometryOf(const Eigen::Vector3d& n, const Eigen::Vector3d& light,
+                                          const Eigen::Vector3d& half, const Eigen::Vector3d& view) {
+  VelvetSheenGeometry g;
+  const double nl = n.dot(light);
+  if (!(nl > 0)) return g;
+  const double raw_nv = n.dot(view);
+  const double nv = !(raw_nv > kLobeMinViewCosine) ? kLobeMinViewCosine : std::min(raw_nv, 1.0);
+  const double c = std::clamp(n.dot(half), 0.0, 1.0);
+  const double s2 = 1 - c * c;
+  if (s2 > 1e-6) g.cot2 = c * c / s2, g.inv_sin4 = 1 / (s2 * s2);
+  g.q = nl / (4 * (nl + nv - nl * nv));
+  return g;
+}
+
+double VelvetSheenOf(const VelvetSheenGeometry& geometry, double width) {
+  if (!(geometry.q > 0)) return 0;
+  const double a2 = width * width;
+  const double g = 1 + kVelvetAmplitude * std::exp(-geometry.cot2 / a2) * geometry.inv_sin4;
+  return g * geometry.q / (1 + kVelvetAmplitude * a2);
+}
+
 double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& half,
                         const Eigen::Vector3d& view, double width) {
   if (!(width > 0) || !n.allFinite() || !light.allFinite() || !half.allFinite() || !view.allFinite()) return 0;

@@ -123,6 +123,19 @@ PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view
 double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& half,
                         const Eigen::Vector3d& view, double width);
 
+// VelvetSheenShape split into its width-free factors for one sample, so that
+// a fit over the width (RefineCoherentSheen, solver/coherent_sheen.h) computes
+// the geometry once: S = VelvetSheenOf(VelvetSheenGeometryOf(n, l, h, v), a).
+struct VelvetSheenGeometry {
+  double cot2 = 0;      // cot^2 th_h
+  double inv_sin4 = 0;  // 1 / sin^4 th_h; 0 where th_h ~ 0 (the exponential has vanished there)
+  double q = 0;         // (n . l) / (4 (n.l + n.v - (n.l)(n.v))); 0 when n . l <= 0
+};
+VelvetSheenGeometry VelvetSheenGeometryOf(const Eigen::Vector3d& n, const Eigen::Vector3d& light,
+                                          const Eigen::Vector3d& half, const Eigen::Vector3d& view);
+// S for the factors and width a > 0.
+double VelvetSheenOf(const VelvetSheenGeometry& geometry, double width);
+
 // Diffuse plus a white velvet sheen, per pixel:
 //   b_k = rho_d (n . l_k) + rho_s S(n, l_k, v; a)       (S: VelvetSheenShape)
 // i.e. the seed's cloth BRDF with a constant Fresnel factor (rho_s = F0).

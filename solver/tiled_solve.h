@@ -37,6 +37,7 @@ struct SolveJob {
   PhotometricSolution* solution = nullptr;
   ImageF* albedo_mosaic = nullptr;  // Bayer mode: the albedo of each raw pixel's own channel
   const SpanKernels* kernels = nullptr;  // the hot loops' instruction set; null = ActiveKernelIsa()
+  const ImageU8* sheen_pixels = nullptr;  // optional: the coherent sheen's candidates (BayerSolverInput)
 };
 
 // The job's kernels: job.kernels, else those of ActiveKernelIsa().

@@ -55,6 +55,9 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
   command.add_flag("--no-coherent-lobe", [&options](std::int64_t) { options.adaptive_coherent_lobe = false; },
                    "adaptive: no shared anisotropic lobe per block after the per-pixel lobe fits "
                    "(each pixel keeps its own isotropic lobe)");
+  command.add_flag("--no-coherent-sheen", [&options](std::int64_t) { options.adaptive_coherent_sheen = false; },
+                   "adaptive: no velvet sheen shared per block and albedo group after the per-pixel fits "
+                   "(the least-squares pixels keep their Lambertian result)");
   command.add_flag("--sheen", options.adaptive_sheen,
                    "adaptive: re-solve pixels whose least-squares residual carries a velvet sheen's pattern with "
                    "the diffuse + velvet sheen model (off by default: it fits noise on Lambertian scenes)");

@@ -108,6 +108,7 @@ void Accumulate(const PhotometricSolverSummary& band, PhotometricSolverSummary* 
   for (int p = 0; p < kNumSolvePaths; ++p) whole->pixels_by_path[p] += band.pixels_by_path[p];
   for (int s = 0; s < kNumSpecularStatuses; ++s) whole->pixels_by_specular[s] += band.pixels_by_specular[s];
   whole->pixels_coherent_lobe += band.pixels_coherent_lobe;
+  whole->pixels_coherent_sheen += band.pixels_coherent_sheen;
   whole->pixels_bayer_blended += band.pixels_bayer_blended;
   whole->pixels_bayer_solved += band.pixels_bayer_solved;
   whole->pixels_bayer_lobe += band.pixels_bayer_lobe;
@@ -260,12 +261,13 @@ struct BandMosaics {
 // bit for bit.
 PhotometricSolverSummary SolveBayerRegion(const PhotometricSolverOptions& solver, const BandMosaics& band,
                                           const LightField& light_field, int row0, int row1,
-                                          const ImageU8& region, PhotometricSolution* bayer,
-                                          const ProgressCallback& progress) {
+                                          const ImageU8& region, const ImageU8* sheen_pixels,
+                                          PhotometricSolution* bayer, const ProgressCallback& progress) {
   const LightFieldRows band_field(light_field, row0, row1 - row0);
   BayerSolverInput input = band.input;
   input.light_field = &band_field;
   input.region = &region;
+  input.sheen_pixels = sheen_pixels;
   return SolvePhotometricStereoBayer(solver, input, bayer, progress);
 }
 
@@ -311,8 +313,11 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   const double blend_seconds = SecondsSince(blend_start);
 
   // No lobe in the Bayer solve (its pixels keep the demosaiced normal), the
-  // sheen only when asked: on Lambertian pixels the sheen fit takes noise
-  // for sheen and biases the normals the weight then trusts (docs/solver.md).
+  // per-pixel sheen only when asked: on Lambertian pixels the sheen fit takes
+  // noise for sheen and biases the normals the weight then trusts
+  // (docs/solver.md). The shared sheen (the default) only on the pixels the
+  // demosaiced solve re-solved under one: its groups have the colour to tell
+  // a white sheen from shading and shadow, the raw pixels' do not.
   PhotometricSolverOptions bayer_solver = options.solver;
   bayer_solver.adaptive_lobe = false;
   bayer_solver.adaptive_coherent_lobe = false;
@@ -321,7 +326,8 @@ PhotometricSolverSummary SolveBlendedBand(const BandedSolveOptions& options, std
   bayer_solver.compute_confidence = true;
   PhotometricSolution bayer;
   const PhotometricSolverSummary bayer_summary =
-      SolveBayerRegion(bayer_solver, band_mosaics, light_field, row0, row1, region, &bayer,
+      SolveBayerRegion(bayer_solver, band_mosaics, light_field, row0, row1, region,
+                       band_solution->coherent_sheen.empty() ? nullptr : &band_solution->coherent_sheen, &bayer,
                        SubRange(progress, rgb_end, 1 - kBlendShare));
   if (!bayer_summary.IsUsable()) return bayer_summary;
   const auto mix_start = std::chrono::steady_clock::now();

@@ -87,8 +87,11 @@ const char* RobustLossName(PhotometricSolverOptions::RobustLoss loss) {
 
 // Every field of PhotometricSolverOptions but num_threads (same result on any
 // count): what the inputs fingerprint hashes and what report.json records.
+// adaptive_coherent_sheen (issue #13's shared sheen, the adaptive method's
+// default) only where it runs, so that results made before it, and with
+// --no-coherent-sheen or another method, keep their fingerprints.
 nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
-  return {{"method", PhotometricMethodName(solver.method)},
+  nlohmann::json json = {{"method", PhotometricMethodName(solver.method)},
           {"luminance_weights", solver.luminance_weights},
           {"min_lights", solver.min_lights},
           {"max_condition_number", solver.max_condition_number},
@@ -108,7 +111,12 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"adaptive_lobe", solver.adaptive_lobe},
           {"adaptive_coherent_lobe", solver.adaptive_coherent_lobe},
           {"adaptive_sheen", solver.adaptive_sheen}};
+  if (solver.method == PhotometricSolverOptions::Method::kAdaptive && solver.adaptive_coherent_sheen) {
+    json["adaptive_coherent_sheen"] = true;
+  }
+  return json;
 }
+
 
 nlohmann::json DepthOptionsJson(const DepthRefinementOptions& depth) {
   return {{"enabled", depth.enabled},

@@ -277,8 +277,10 @@ TEST(StiffCasesTest, StrongSpecularHighlightWithTenLights) {
 
 // A velvet sheen (the seed's cloth BRDF: white F0 0.05, width 0.9) on a dark
 // blue sphere under the rig's two rings: its smooth bias stays under the
-// residual trigger, and only the adaptive sheen pass (adaptive_sheen) removes
-// most of it; on the Lambertian scene that pass changes next to nothing.
+// residual trigger; the per-pixel sheen pass (adaptive_sheen) and the shared
+// sheen (adaptive_coherent_sheen, the default) each remove most of it; on
+// the Lambertian scene the per-pixel pass changes next to nothing and the
+// shared one nothing at all.
 TEST(StiffCasesTest, VelvetSheenWithTenLights) {
   SyntheticSceneOptions scene_options;
   scene_options.num_lights = 10;
@@ -301,9 +303,11 @@ TEST(StiffCasesTest, VelvetSheenWithTenLights) {
       }
     }
   }
-  auto mean_error = [](const SyntheticScene& scene, bool sheen, PhotometricSolution* solution) {
+  auto mean_error = [](const SyntheticScene& scene, bool sheen, PhotometricSolution* solution,
+                       bool coherent_sheen = false) {
     PhotometricSolverOptions options;
     options.adaptive_sheen = sheen;
+    options.adaptive_coherent_sheen = coherent_sheen;
     SolvePhotometricStereo(options, InputFor(scene), solution);
     ExpectAllFinite(*solution);
     return AngularErrorDegrees(solution->normal_in_table, scene.normal_in_table, scene.object).mean;
@@ -321,6 +325,13 @@ TEST(StiffCasesTest, VelvetSheenWithTenLights) {
   const double lambert_before = mean_error(lambert, false, &solution);
   const double lambert_after = mean_error(lambert, true, &solution);
   EXPECT_LT(lambert_after, lambert_before + 0.02);
+  // The shared sheen (the default): it leaves every pixel solved that least squares solved.
+  mean_error(velvet, false, &solution);
+  const size_t solved = testing::CountStatus(solution, PixelStatus::kSolved);
+  const double shared = mean_error(velvet, false, &solution, true);
+  EXPECT_LT(shared, 0.5 * before) << "default without it " << before;
+  EXPECT_EQ(testing::CountStatus(solution, PixelStatus::kSolved), solved);
+  EXPECT_EQ(mean_error(lambert, false, &solution, true), lambert_before);
 }
 
 // Saturated highlights that are not marked: the adaptive robust pass still

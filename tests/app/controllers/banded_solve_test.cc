@@ -295,7 +295,11 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   bayer_solver.adaptive_coherent_lobe = false;
   bayer_solver.compute_specular = false;
   bayer_solver.compute_albedo = false;
-  ASSERT_TRUE(SolvePhotometricStereoBayer(bayer_solver, bayer_input, &bayer).IsUsable());
+  // The shared sheen only where the demosaiced solve took it, as the banded
+  // solve hands it over.
+  BayerSolverInput fed_input = bayer_input;
+  fed_input.sheen_pixels = &whole.coherent_sheen;
+  ASSERT_TRUE(SolvePhotometricStereoBayer(bayer_solver, fed_input, &bayer).IsUsable());
   const PhotometricSolution demosaiced = whole;
   BayerNormalBlendOptions blend;
   blend.num_threads = 2;
@@ -306,7 +310,7 @@ TEST(BandedSolveTest, BayerBlendBandsMatchTheWholeFrameBlend) {
   ASSERT_TRUE(cells.IsUsable()) << cells.message;
   ASSERT_GT(cells.blocks_open, 0u) << cells.BriefReport();          // the test would be empty otherwise
   ASSERT_LT(cells.blocks_open, cells.blocks) << cells.BriefReport();  // and the gate untested
-  BayerSolverInput gated_input = bayer_input;
+  BayerSolverInput gated_input = fed_input;
   const ImageU8 region = BayerBlendRegion(cells.cells, blend.cell_size, whole.status.width(), whole.status.height());
   gated_input.region = &region;
   PhotometricSolution gated_bayer;
