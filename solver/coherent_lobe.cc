@@ -1151,25 +1151,8 @@ CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
   solver_options.Check();
   const auto start = std::chrono::steady_clock::now();
   CoherentLobeSummary summary;
-  if (solution == nullptr) throw std::invalid_argument("coherent lobe: solution is null");
-  if (input.light_field == nullptr) throw std::invalid_argument("coherent lobe: light_field is null");
+  tiled::CheckRgbRefinementInput("coherent lobe", input, solution);
   const int width = input.light_field->width(), height = input.light_field->height();
-  if (static_cast<int>(input.images.size()) != input.light_field->num_lights()) {
-    throw std::invalid_argument("coherent lobe: " + std::to_string(input.images.size()) +
-                                " images for a light field of " + std::to_string(input.light_field->num_lights()) +
-                                " lights; they must match");
-  }
-  for (size_t k = 0; k < input.images.size(); ++k) {
-    if (input.images[k] == nullptr || input.images[k]->channels() != 3 ||
-        !input.images[k]->SameSize(width, height)) {
-      throw std::invalid_argument("coherent lobe: image " + std::to_string(k) + " must be a 3-channel image of " +
-                                  std::to_string(width) + " x " + std::to_string(height));
-    }
-  }
-  if (!input.sample_valid.empty() && input.sample_valid.size() != input.images.size()) {
-    throw std::invalid_argument("coherent lobe: " + std::to_string(input.sample_valid.size()) +
-                                " sample masks for " + std::to_string(input.images.size()) + " images");
-  }
   // The Bayer-domain re-solves' output: every pixel not solved until one is.
   tiled::SolveJob bayer_job;
   const bool with_bayer = input.lobe_mosaics != nullptr;

@@ -615,25 +615,8 @@ CoherentSheenSummary RefineCoherentSheen(const CoherentSheenOptions& options,
                                          const ProgressCallback& progress) {
   options.Check();
   solver_options.Check();
-  if (solution == nullptr) throw std::invalid_argument("coherent sheen: solution is null");
-  if (input.light_field == nullptr) throw std::invalid_argument("coherent sheen: light_field is null");
+  tiled::CheckRgbRefinementInput("coherent sheen", input, solution);
   const int width = input.light_field->width(), height = input.light_field->height();
-  if (static_cast<int>(input.images.size()) != input.light_field->num_lights()) {
-    throw std::invalid_argument("coherent sheen: " + std::to_string(input.images.size()) +
-                                " images for a light field of " + std::to_string(input.light_field->num_lights()) +
-                                " lights; they must match");
-  }
-  for (size_t k = 0; k < input.images.size(); ++k) {
-    if (input.images[k] == nullptr || input.images[k]->channels() != 3 ||
-        !input.images[k]->SameSize(width, height)) {
-      throw std::invalid_argument("coherent sheen: image " + std::to_string(k) + " must be a 3-channel image of " +
-                                  std::to_string(width) + " x " + std::to_string(height));
-    }
-  }
-  if (!input.sample_valid.empty() && input.sample_valid.size() != input.images.size()) {
-    throw std::invalid_argument("coherent sheen: " + std::to_string(input.sample_valid.size()) +
-                                " sample masks for " + std::to_string(input.images.size()) + " images");
-  }
   if (!solution->normal_in_table.SameSize(width, height) || !solution->status.SameSize(width, height) ||
       !solution->solve_path.SameSize(width, height) ||
       (!solution->albedo.empty() && !solution->albedo.SameSize(width, height)) ||

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace scanbench::tiled {
 namespace {
@@ -230,6 +232,29 @@ void GatherSamples(const Span& span, int i, bool with_rgb, PixelSamples* samples
       for (int c = 0; c < 3; ++c) rgb[c] = b.rgb[static_cast<size_t>(3 * k + c) * n + i];
     }
     samples->Add(d[0], d[1], d[2], value, rgb[0], rgb[1], rgb[2]);
+  }
+}
+
+void CheckRgbRefinementInput(const char* pass, const PhotometricSolverInput& input,
+                             const PhotometricSolution* solution) {
+  const std::string name(pass);
+  if (solution == nullptr) throw std::invalid_argument(name + ": solution is null");
+  if (input.light_field == nullptr) throw std::invalid_argument(name + ": light_field is null");
+  const int width = input.light_field->width(), height = input.light_field->height();
+  if (static_cast<int>(input.images.size()) != input.light_field->num_lights()) {
+    throw std::invalid_argument(name + ": " + std::to_string(input.images.size()) + " images for a light field of " +
+                                std::to_string(input.light_field->num_lights()) + " lights; they must match");
+  }
+  for (size_t k = 0; k < input.images.size(); ++k) {
+    if (input.images[k] == nullptr || input.images[k]->channels() != 3 ||
+        !input.images[k]->SameSize(width, height)) {
+      throw std::invalid_argument(name + ": image " + std::to_string(k) + " must be a 3-channel image of " +
+                                  std::to_string(width) + " x " + std::to_string(height));
+    }
+  }
+  if (!input.sample_valid.empty() && input.sample_valid.size() != input.images.size()) {
+    throw std::invalid_argument(name + ": " + std::to_string(input.sample_valid.size()) + " sample masks for " +
+                                std::to_string(input.images.size()) + " images");
   }
 }
 

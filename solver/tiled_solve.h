@@ -43,6 +43,13 @@ struct SolveJob {
 // The job's kernels: job.kernels, else those of ActiveKernelIsa().
 const SpanKernels& KernelsOf(const SolveJob& job);
 
+// The checks a refinement pass over an RGB solve (the shared lobe, the shared
+// sheen) makes of its input first: a solution, a light field, one 3-channel
+// image of the field's size per light, a sample mask per image or none.
+// Throws std::invalid_argument naming `pass` and the rule broken.
+void CheckRgbRefinementInput(const char* pass, const PhotometricSolverInput& input,
+                             const PhotometricSolution* solution);
+
 // How a tile's pixels get their lights.
 enum class TileLights {
   kUniform,       // one set of lights (and one light matrix) for the whole tile
