@@ -4,15 +4,12 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <condition_variable>
-#include <deque>
-#include <mutex>
 #include <optional>
 #include <sstream>
-#include <thread>
 
 #include "app/io/file_util.h"
 #include "app/session/session.h"
+#include "core/bounded_worker.h"
 #include "core/field_error.h"
 #include "core/format.h"
 
@@ -29,90 +26,41 @@ double ProcessCpuSeconds() {
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
-// Decodes journalled frames on its own thread in the order they come, into a
-// SolvePreparation made at the first frame. At most `capacity` frames wait;
-// Push blocks beyond that. A frame or a preparation the worker cannot make is
-// noted and left to the solve, which then fails (or succeeds) exactly as
-// `scanbench solve` would.
+// Decodes journalled frames on its own thread (a BoundedWorker) in the order
+// they come, into a SolvePreparation made at the first frame. At most
+// `capacity` frames wait; Push blocks beyond that. A frame or a preparation
+// the worker cannot make is noted and left to the solve, which then fails (or
+// succeeds) exactly as `scanbench solve` would.
 class LiveDecoder {
  public:
   LiveDecoder(fs::path session_dir, const SolveOptions& options, int capacity, bool develop_ahead)
-      : session_dir_(std::move(session_dir)), options_(options), capacity_(capacity), develop_ahead_(develop_ahead),
-        thread_([this] { Loop(); }) {}
+      : session_dir_(std::move(session_dir)), options_(options), develop_ahead_(develop_ahead),
+        worker_([this](FrameRecord& record) { DecodeOne(record); }, capacity, [] {
+          // Below the capture's threads (Linux nice is per thread): the camera and
+          // the LED board's timing come first, the decoder has until the last frame.
+          setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 10);
+        }) {}
 
-  // Drops what still waits; a frame being decoded is finished first.
-  ~LiveDecoder() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      closing_ = true;
-      queue_.clear();
-    }
-    changed_.notify_all();
-    if (thread_.joinable()) thread_.join();
-  }
+  // Destroying it drops what still waits; a frame being decoded is finished first.
 
-  void Push(const FrameRecord& record) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait(lock, [&] { return static_cast<int>(queue_.size()) < capacity_; });
-    queue_.push_back(record);
-    changed_.notify_all();
-  }
+  void Push(const FrameRecord& record) { worker_.Push(record); }
 
   // Waits for every pushed frame; the preparation, if it could be made.
   // `verified`: frames whose file was hashed against its record.
   std::optional<SolvePreparation> Finish(std::vector<std::string>* problems, int* verified) {
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      capture_done_ = true;  // from here on the solve waits: only decode
-      changed_.wait(lock, [&] { return queue_.empty() && !busy_; });
-      closing_ = true;
-    }
-    changed_.notify_all();
-    thread_.join();
+    worker_.Finish();  // from here on the solve waits: only decode (finishing())
     *problems = problems_;
     *verified = verified_;
     return std::move(preparation_);
   }
 
  private:
-  void Loop() {
-    // Below the capture's threads (Linux nice is per thread): the camera and
-    // the LED board's timing come first, the decoder has until the last frame.
-    setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 10);
-    for (;;) {
-      FrameRecord record;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        changed_.wait(lock, [&] { return closing_ || !queue_.empty(); });
-        if (queue_.empty()) return;  // closing
-        record = std::move(queue_.front());
-        queue_.pop_front();
-        busy_ = true;
-      }
-      changed_.notify_all();  // room in the queue
-      DecodeOne(record);
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        busy_ = false;
-      }
-      changed_.notify_all();
-    }
-  }
-
-  // Whether to do more than decode `record`: not once the capture is done
+  // Whether to do more than decode the frame: not once the capture is done
   // or while more frames wait. What this thread would do alone after the
   // last frame the solve does faster on every thread (the points on request,
   // the development band by band); a loaded machine leaves this niced thread
   // behind the capture.
-  bool AheadOfTheCapture() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return !capture_done_ && queue_.empty();
-  }
-
-  bool CaptureDone() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return capture_done_;
-  }
+  bool AheadOfTheCapture() const { return !worker_.finishing() && worker_.waiting() == 0; }
 
   void DecodeOne(const FrameRecord& record) {
     if (failed_) return;
@@ -132,7 +80,7 @@ class LiveDecoder {
       // Once, at the first frame however many wait (the capture waits for
       // the queue meanwhile): the table points, 2 s of CPU at 16 MP on this
       // thread alone, while the camera takes the next frames.
-      if (!preparation_->holds_surface_points() && !CaptureDone()) preparation_->HoldSurfacePoints(1);
+      if (!preparation_->holds_surface_points() && !worker_.finishing()) preparation_->HoldSurfacePoints(1);
       // An LED frame demosaiced now, not in the solve (the dark frame comes first).
       if (develop_ahead_ && AheadOfTheCapture()) preparation_->DevelopFrame(session, record);
     } catch (const std::exception& error) {
@@ -143,20 +91,13 @@ class LiveDecoder {
 
   const fs::path session_dir_;
   const SolveOptions options_;
-  const int capacity_;
   const bool develop_ahead_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::deque<FrameRecord> queue_;  // under mutex_
-  bool busy_ = false;              // under mutex_: a frame is being decoded
-  bool closing_ = false;           // under mutex_
-  bool capture_done_ = false;      // under mutex_: Finish was called
   // The worker's alone until Finish joins it.
   std::optional<SolvePreparation> preparation_;
   std::vector<std::string> problems_;
   bool failed_ = false;
   int verified_ = 0;
-  std::thread thread_;  // last: starts once everything above exists
+  BoundedWorker<FrameRecord> worker_;  // last: its thread starts once everything above exists, and ends first
 };
 
 }  // namespace

@@ -3,16 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <condition_variable>
 #include <cstring>
-#include <deque>
 #include <exception>
 #include <functional>
 #include <iomanip>
-#include <mutex>
 #include <regex>
 #include <sstream>
-#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -27,6 +23,7 @@
 #include "app/controllers/calibrated_lighting.h"  // issue #4
 #include "calibration/camera_model.h"
 #include "calibration/rig_light_field.h"
+#include "core/bounded_worker.h"
 #include "core/field_error.h"
 #include "core/format.h"
 #include "core/parallel_for.h"
@@ -936,92 +933,6 @@ class ResultStream {
   double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
 };
 
-// Hands solved bands to `write` (the first pass's decision blocks and spill,
-// then the ResultStream) on a thread of its own
-// (SolveOptions::stream_first_pass), so that one band's files are encoded
-// while the next band is solved: the solve's threads and this one share the
-// cores, and what one leaves idle (a band's last file, the solve's serial
-// steps) the other takes. `write` gets the bands in order, as it would on
-// the solve's thread, so the files are the same. At most `capacity` bands
-// wait (about 28 MB each at 16 MP); Add blocks beyond that.
-class BackgroundBandWriter {
- public:
-  BackgroundBandWriter(std::function<void(PhotometricSolution& band)> write, int capacity)
-      : write_(std::move(write)), capacity_(capacity), thread_([this] { Loop(); }) {}
-  BackgroundBandWriter(const BackgroundBandWriter&) = delete;
-  BackgroundBandWriter& operator=(const BackgroundBandWriter&) = delete;
-  // Drops what still waits (a failed or cancelled solve); a band being written is finished first.
-  ~BackgroundBandWriter() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      closing_ = true;
-      queue_.clear();
-    }
-    changed_.notify_all();
-    if (thread_.joinable()) thread_.join();
-  }
-
-  // Rethrows the writer's failure, if an earlier band's write failed.
-  void Add(PhotometricSolution band) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait(lock, [&] { return failure_ || static_cast<int>(queue_.size()) < capacity_; });
-    if (failure_) std::rethrow_exception(failure_);
-    queue_.push_back(std::move(band));
-    changed_.notify_all();
-  }
-
-  // Waits until every band is written; rethrows the writer's failure.
-  void Finish() {
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      changed_.wait(lock, [&] { return failure_ || (queue_.empty() && !busy_); });
-      closing_ = true;
-    }
-    changed_.notify_all();
-    thread_.join();
-    if (failure_) std::rethrow_exception(failure_);
-  }
-
- private:
-  void Loop() {
-    for (;;) {
-      PhotometricSolution band;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        changed_.wait(lock, [&] { return closing_ || !queue_.empty(); });
-        if (queue_.empty() || failure_) return;  // closing, or failed
-        band = std::move(queue_.front());
-        queue_.pop_front();
-        busy_ = true;
-      }
-      changed_.notify_all();  // room in the queue
-      std::exception_ptr failure;
-      try {
-        write_(band);
-      } catch (...) {
-        failure = std::current_exception();
-      }
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        busy_ = false;
-        if (failure) failure_ = failure;
-      }
-      changed_.notify_all();
-      if (failure) return;
-    }
-  }
-
-  const std::function<void(PhotometricSolution& band)> write_;
-  const int capacity_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::deque<PhotometricSolution> queue_;  // under mutex_
-  bool busy_ = false;                      // under mutex_: a band is being written
-  bool closing_ = false;                   // under mutex_
-  std::exception_ptr failure_;             // under mutex_
-  std::thread thread_;                     // last: starts once everything above exists
-};
-
 }  // namespace
 
 void SolveController::Run() {
@@ -1093,11 +1004,18 @@ void SolveController::Run() {
       if (first_pass) first_pass->Add(band);  // before the stream: it colours the albedo in place
       if (stream) stream->Add(band);
     };
-    std::optional<BackgroundBandWriter> writer;
+    // With stream_first_pass solved bands go to `take_band` (the first
+    // pass's decision blocks and spill, then the ResultStream) on a thread of
+    // their own, so that one band's files are encoded while the next band is
+    // solved: the solve's threads and this one share the cores, and what one
+    // leaves idle (a band's last file, the solve's serial steps) the other
+    // takes. The bands come in order, as on the solve's thread, so the files
+    // are the same. Two bands wait at most (about 28 MB each at 16 MP).
+    std::optional<BoundedWorker<PhotometricSolution>> writer;
     if (stream_first_pass) writer.emplace(take_band, 2);
     const BandedSolveSummary banded = SolveBanded(
         BandedOptions(options_), frames.Stack(), *lighting.light_field,
-        [&](int, PhotometricSolution& band) { writer ? writer->Add(std::move(band)) : take_band(band); },
+        [&](int, PhotometricSolution& band) { writer ? writer->Push(std::move(band)) : take_band(band); },
         StageCallback("solve"));
     summary_.solver = banded.solver;
     summary_.clipped_samples = banded.clipped_samples;
