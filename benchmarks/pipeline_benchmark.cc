@@ -88,6 +88,9 @@ struct Args {
   fs::path json_file;
   fs::path work_dir;  // where the temporary folder goes; "" = the system's temp folder
   bool keep = false;
+  // Only the two capture-to-result stages (no floor, solve or export; no
+  // session needed, --width/--height or --session's size).
+  bool latency_only = false;
   // Child stages (internal).
   std::string child;
   fs::path child_out;
@@ -132,6 +135,14 @@ uintmax_t BytesUnder(const fs::path& folder) {
   uintmax_t total = 0;
   for (const auto& [path, bytes] : FilesUnder(folder)) total += bytes;
   return total;
+}
+
+// User + system CPU seconds of this process so far, all threads.
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return double(t.tv_sec) + 1e-6 * double(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
 void CheckRun(int code, const std::string& what) {
@@ -271,12 +282,14 @@ json ChildLatency(const Args& args, bool live) {
   // The capture reports "capture" at 1 right after it journals the last frame
   // (and switches the LEDs off).
   std::optional<fs::file_time_type> last_frame;
+  double last_frame_cpu = 0;
   const auto capture_start = std::chrono::steady_clock::now();
   std::optional<double> capture_seconds;
   CheckRun(RunController(controller,
                          [&](const ProgressReport& report) {
                            if (report.stage == "capture" && report.fraction >= 1 && !last_frame) {
                              last_frame = fs::file_time_type::clock::now();
+                             last_frame_cpu = ProcessCpuSeconds();
                              capture_seconds = SecondsSince(capture_start);
                            }
                          }),
@@ -286,6 +299,7 @@ json ChildLatency(const Args& args, bool live) {
   double solve_seconds = 0;
   fs::path result;
   int frames = 0;
+  std::vector<StageTiming> sequential_timings;
   if (live) {
     result = live_solve.summary().solve.result_dir;
     result_written = fs::last_write_time(result / "report.json");
@@ -299,18 +313,32 @@ json ChildLatency(const Args& args, bool live) {
     result_written = fs::file_time_type::clock::now();
     result = solve.summary().result_dir;
     frames = capture.summary().frames_captured;
+    sequential_timings = solve.summary().timings;
   }
   const double latency = std::chrono::duration<double>(result_written - *last_frame).count();
-  json cpu = nullptr;  // the process's CPU time from the last frame to the result (live only)
+  // The process's CPU time from the last frame to the result: the live
+  // solve's own figure (from the journalling of the last frame), else from
+  // the capture's last progress report. Both include the simulated LED
+  // board's thread (simavr, about 0.06 CPU-s a second), which a real bench
+  // does not have.
+  double cpu = ProcessCpuSeconds() - last_frame_cpu;
   json developed = nullptr;  // LED frames developed while capturing (live only)
   json points_held = nullptr;  // the table points made while capturing (live only)
+  json decoded = nullptr;  // frames decoded while capturing (live only)
+  json stages = json::array();  // the solve's own stages after the last frame
   if (live) {
     cpu = live_solve.summary().cpu_seconds_after_last_frame;
     developed = live_solve.summary().frames_developed_live;
+    decoded = live_solve.summary().frames_decoded_live;
     points_held = live_solve.summary().surface_points_held;
+    stages = Timings(live_solve.summary().solve.timings);
+  } else {
+    stages = Timings(sequential_timings);
   }
   return {{"seconds", latency},
           {"cpu_seconds_after_last_frame", cpu},
+          {"solve_stages", stages},
+          {"frames_decoded_live", decoded},
           {"frames_developed_live", developed},
           {"surface_points_held", points_held},
           {"mode", live ? "solve-while-capture" : "sequential"},
@@ -432,10 +460,12 @@ StageOutcome TryStage(const Args& args, const fs::path& work, const std::string&
   return outcome;
 }
 
-json Figure(const std::string& name, const StageRun& run, double floor_s, std::optional<double> target_ratio,
-            std::optional<double> target_seconds, std::optional<double> target_peak) {
+// floor_s: nullopt when the floor was not measured (--latency-only): no ratio.
+json Figure(const std::string& name, const StageRun& run, std::optional<double> floor_s,
+            std::optional<double> target_ratio, std::optional<double> target_seconds,
+            std::optional<double> target_peak) {
   const double seconds = run.figures.at("seconds").get<double>();
-  const double ratio = seconds / floor_s;
+  const double ratio = floor_s ? seconds / *floor_s : 0;
   bool met = true;
   std::string target;
   if (target_ratio) {
@@ -450,9 +480,10 @@ json Figure(const std::string& name, const StageRun& run, double floor_s, std::o
     met = met && run.peak_rss_bytes <= *target_peak;
     target += ", <= " + Gb(*target_peak);
   }
-  PrintRow(name, Cell(seconds, 2, 10), Cell(ratio, 2, 8), Gb(run.peak_rss_bytes), target, met ? "yes" : "no");
+  PrintRow(name, Cell(seconds, 2, 10), floor_s ? Cell(ratio, 2, 8) : "", Gb(run.peak_rss_bytes), target,
+           met ? "yes" : "no");
   json figure = run.figures;
-  figure["ratio_to_floor"] = ratio;
+  figure["ratio_to_floor"] = floor_s ? json(ratio) : json(nullptr);
   figure["peak_rss_bytes"] = run.peak_rss_bytes;
   json targets = json::object();
   if (target_ratio) targets["ratio_to_floor"] = *target_ratio;
@@ -468,6 +499,73 @@ void PrintStages(const json& stages) {
     PrintRow("  " + stage.at("stage").get<std::string>(), Cell(stage.at("seconds").get<double>(), 2, 10), "", "",
              "", "");
   }
+}
+
+using LatencyOutcomes = std::vector<std::pair<std::string, StageOutcome>>;
+
+// The capture-to-result stages, sequential first, then the live path the
+// target is for: a new session captured on the simulated bench each.
+LatencyOutcomes RunLatencies(const Args& args, const fs::path& work) {
+  // The capture stages run the simavr LED board in real time, which a busy
+  // machine can make miss its timing: their failure is reported beside the
+  // figures of the other stages rather than losing them.
+  LatencyOutcomes outcomes;
+  outcomes.emplace_back("latency_sequential",
+                        TryStage(args, work, "latency", {"--session", (work / "capture_session").string()}));
+  outcomes.emplace_back("latency",
+                        TryStage(args, work, "latency-live", {"--session", (work / "live_capture_session").string()}));
+  return outcomes;
+}
+
+// Their rows and JSON; false when one failed.
+bool ReportLatencies(const LatencyOutcomes& latencies, std::optional<double> floor_s, json* report) {
+  bool all_ran = true;
+  for (const auto& [key, outcome] : latencies) {
+    if (!outcome.run) {
+      all_ran = false;
+      PrintRow("capture-to-result (" + key + ")", "failed", "", "", "", "");
+      (*report)[key] = {{"failed", outcome.error}};
+      continue;
+    }
+    const StageRun& run = *outcome.run;
+    (*report)[key] = Figure("capture-to-result (" + run.figures.at("mode").get<std::string>() + ")", run, floor_s,
+                            std::nullopt, kLatencyTargetSeconds, std::nullopt);
+    PrintRow("  capture of " + std::to_string(run.figures.at("frames").get<int>()) + " frames",
+             Cell(run.figures.at("capture_seconds").get<double>(), 2, 10), "", "", "", "");
+    PrintRow("  CPU after the last frame (s): " + Fixed(run.figures.at("cpu_seconds_after_last_frame").get<double>(), 2),
+             "", "", "", "", "");
+    PrintStages(run.figures.at("solve_stages"));
+  }
+  for (const auto& [key, outcome] : latencies) {
+    if (!outcome.run) std::printf("%s: %s\n", key.c_str(), outcome.error.c_str());
+  }
+  return all_ran;
+}
+
+// --latency-only: the two capture-to-result stages alone.
+int RunLatencyOnly(const Args& args, const fs::path& work) {
+  std::array<double, 3> load_start{};
+  if (getloadavg(load_start.data(), 3) != 3) load_start = {};
+  const LatencyOutcomes latencies = RunLatencies(args, work);
+  std::array<double, 3> load_end{};
+  if (getloadavg(load_end.data(), 3) != 3) load_end = {};
+  std::printf("Capture-to-result at %dx%d, %d threads (no floor, solve or export: --latency-only)\n", args.width,
+              args.height, args.threads);
+  std::printf("Load average at the start %s, at the end %s (1 min), on %ld CPUs\n", Fixed(load_start[0], 2).c_str(),
+              Fixed(load_end[0], 2).c_str(), sysconf(_SC_NPROCESSORS_ONLN));
+  PrintRow("figure", "seconds", "x floor", "peak RSS", "target", "met");
+  json report = {{"schema", "scanbench.pipeline_benchmark"},
+                 {"schema_version", 1},
+                 {"latency_only", true},
+                 {"width", args.width},
+                 {"height", args.height},
+                 {"threads", args.threads},
+                 {"cpus", sysconf(_SC_NPROCESSORS_ONLN)},
+                 {"load_average_1min", {{"start", load_start[0]}, {"end", load_end[0]}}}};
+  const bool all_ran = ReportLatencies(latencies, std::nullopt, &report);
+  std::fflush(stdout);
+  if (!args.json_file.empty()) WriteFileAtomic(args.json_file, report.dump(2) + "\n", OverwritePolicy::kReplace);
+  return all_ran ? 0 : 1;
 }
 
 int RunParent(Args args) {
@@ -493,6 +591,18 @@ int RunParent(Args args) {
     fs::remove_all(work);
   };
   try {
+    if (args.latency_only) {
+      if (!args.session.empty()) {  // only its size
+        SessionLoadOptions load;
+        load.verify_checksums = false;
+        const Session session = LoadSession(args.session, load);
+        args.width = session.camera.width;
+        args.height = session.camera.height;
+      }
+      const int code = RunLatencyOnly(args, work);
+      clean_up();
+      return code;
+    }
     std::array<double, 3> load_start{};
     if (getloadavg(load_start.data(), 3) != 3) load_start = {};
     const bool reused = !args.session.empty();
@@ -529,12 +639,7 @@ int RunParent(Args args) {
     const StageRun exported = RunStage(args, work, "export", {"--result", result_dir.string()});
     const fs::path export_dir = exported.figures.at("export_dir").get<std::string>();
     if (reused) made_in_session.push_back(export_dir);
-    // The capture stages run the simavr LED board in real time, which a busy
-    // machine can make miss its timing: their failure is reported beside the
-    // figures of the other stages rather than losing them.
-    const std::pair<const char*, StageOutcome> latencies[] = {
-        {"latency_sequential", TryStage(args, work, "latency", {"--session", (work / "capture_session").string()})},
-        {"latency", TryStage(args, work, "latency-live", {"--session", (work / "live_capture_session").string()})}};
+    const LatencyOutcomes latencies = RunLatencies(args, work);
 
     const double floor_s = decode.figures.at("seconds").get<double>() + write.figures.at("seconds").get<double>();
     const double result_bytes = solve.figures.at("bytes_written").get<double>();
@@ -591,24 +696,7 @@ int RunParent(Args args) {
     PrintStages(exported.figures.at("stages"));
     PrintRow("  export folder " + Mb(exported.figures.at("bytes_written").get<double>()), "", "", "", "", "");
 
-    // Sequential first, then the live path the target is for.
-    bool all_ran = true;
-    for (const auto& [key, outcome] : latencies) {
-      if (!outcome.run) {
-        all_ran = false;
-        PrintRow(std::string("capture-to-result (") + key + ")", "failed", "", "", "", "");
-        report[key] = {{"failed", outcome.error}};
-        continue;
-      }
-      const StageRun& run = *outcome.run;
-      report[key] = Figure("capture-to-result (" + run.figures.at("mode").get<std::string>() + ")", run, floor_s,
-                           std::nullopt, kLatencyTargetSeconds, std::nullopt);
-      PrintRow("  capture of " + std::to_string(run.figures.at("frames").get<int>()) + " frames",
-               Cell(run.figures.at("capture_seconds").get<double>(), 2, 10), "", "", "", "");
-    }
-    for (const auto& [key, outcome] : latencies) {
-      if (!outcome.run) std::printf("%s: %s\n", key, outcome.error.c_str());
-    }
+    const bool all_ran = ReportLatencies(latencies, floor_s, &report);
     std::fflush(stdout);
     if (!args.json_file.empty()) WriteFileAtomic(args.json_file, report.dump(2) + "\n", OverwritePolicy::kReplace);
     clean_up();
@@ -634,6 +722,9 @@ int main(int argc, char** argv) {
   app.add_option("--json", args.json_file, "Also write the figures as JSON here");
   app.add_option("--work-dir", args.work_dir, "Folder for the temporary files (default: the system's temp folder)");
   app.add_flag("--keep", args.keep, "Keep the temporary folder and what the run added to --session");
+  app.add_flag("--latency-only", args.latency_only,
+               "Only the two capture-to-result stages (sequential and solve-while-capture), no floor, solve or "
+               "export; at --width x --height, or --session's size");
   app.add_option("--child", args.child)->group("");  // internal: run one stage
   app.add_option("--child-out", args.child_out)->group("");
   app.add_option("--result", args.result)->group("");

@@ -98,11 +98,51 @@ if(stages LESS 3)
   message(FATAL_ERROR "solve lists ${stages} stage times")
 endif()
 
+foreach(stage latency latency_sequential)
+  string(JSON cpu GET "${report}" ${stage} cpu_seconds_after_last_frame)
+  string(JSON solve_stages LENGTH "${report}" ${stage} solve_stages)
+  if(NOT cpu GREATER 0 OR solve_stages LESS 3)
+    message(FATAL_ERROR "${stage}: CPU after the last frame '${cpu}' s, ${solve_stages} solve stage times")
+  endif()
+endforeach()
+if(NOT table MATCHES "\n  CPU after the last frame \\(s\\): ${number}\n")
+  message(FATAL_ERROR "table has no 'CPU after the last frame' row")
+endif()
+
 # Nothing left behind but the JSON: the temporary folder is removed.
 file(GLOB left "${WORK_DIR}/pipeline_benchmark.*")
 if(left)
   message(FATAL_ERROR "temporary folder left behind: ${left}")
 endif()
+
+# --latency-only: the two capture-to-result rows alone, without a ratio to a floor it did not measure.
+set(latency_json "${WORK_DIR}/latency.json")
+execute_process(
+  COMMAND "${BENCHMARK}" --latency-only --width 160 --height 106 --json "${latency_json}" --work-dir "${WORK_DIR}"
+  RESULT_VARIABLE rc OUTPUT_VARIABLE table ERROR_VARIABLE log)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "pipeline_benchmark --latency-only exited with ${rc}:\n${log}")
+endif()
+foreach(row
+    "^Capture-to-result at 160x106, 2 threads \\(no floor, solve or export: --latency-only\\)\n"
+    "\ncapture-to-result \\(sequential\\) +${number} +${number} GB +<= 3\\.0 s +(yes|no)\n"
+    "\ncapture-to-result \\(solve-while-capture\\) +${number} +${number} GB +<= 3\\.0 s +(yes|no)\n")
+  if(NOT table MATCHES "${row}")
+    message(FATAL_ERROR "--latency-only table has no row matching '${row}':\n${table}")
+  endif()
+endforeach()
+if(table MATCHES "\n(floor[: ]|solve \\(|export \\()")
+  message(FATAL_ERROR "--latency-only ran more than the latency:\n${table}")
+endif()
+file(READ "${latency_json}" report)
+foreach(stage latency latency_sequential)
+  string(JSON seconds GET "${report}" ${stage} seconds)
+  string(JSON cpu GET "${report}" ${stage} cpu_seconds_after_last_frame)
+  string(JSON ratio TYPE "${report}" ${stage} ratio_to_floor)
+  if(NOT seconds GREATER 0 OR NOT cpu GREATER 0 OR NOT ratio STREQUAL "NULL")
+    message(FATAL_ERROR "--latency-only ${stage}: seconds '${seconds}', CPU '${cpu}', ratio type ${ratio}")
+  endif()
+endforeach()
 
 # A reused session (--session): named in the header, and what the run added
 # to it (its result and export; exports/, which it made) is gone afterwards.
