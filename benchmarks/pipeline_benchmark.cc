@@ -145,6 +145,20 @@ double ProcessCpuSeconds() {
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
+// This process's resident and peak resident bytes (/proc/self/status VmRSS,
+// VmHWM); 0 where not readable.
+std::pair<double, double> ResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  double rss = 0, peak = 0;
+  while (std::getline(status, line)) {
+    const auto kib = [&] { return 1024.0 * std::atof(line.c_str() + line.find(':') + 1); };
+    if (line.rfind("VmRSS:", 0) == 0) rss = kib();
+    if (line.rfind("VmHWM:", 0) == 0) peak = kib();
+  }
+  return {rss, peak};
+}
+
 void CheckRun(int code, const std::string& what) {
   if (code != kExitSuccess) throw std::runtime_error(what + " failed (exit code " + std::to_string(code) + ")");
 }
@@ -283,6 +297,7 @@ json ChildLatency(const Args& args, bool live) {
   // (and switches the LEDs off).
   std::optional<fs::file_time_type> last_frame;
   double last_frame_cpu = 0;
+  std::pair<double, double> last_frame_rss{0, 0};  // resident, peak so far
   const auto capture_start = std::chrono::steady_clock::now();
   std::optional<double> capture_seconds;
   CheckRun(RunController(controller,
@@ -290,6 +305,7 @@ json ChildLatency(const Args& args, bool live) {
                            if (report.stage == "capture" && report.fraction >= 1 && !last_frame) {
                              last_frame = fs::file_time_type::clock::now();
                              last_frame_cpu = ProcessCpuSeconds();
+                             last_frame_rss = ResidentBytes();
                              capture_seconds = SecondsSince(capture_start);
                            }
                          }),
@@ -338,6 +354,10 @@ json ChildLatency(const Args& args, bool live) {
   return {{"seconds", latency},
           {"cpu_seconds_after_last_frame", cpu},
           {"solve_stages", stages},
+          // The process at the last frame (the simulated rig, the frames
+          // decoded so far): what the peak RSS beyond it is the solve's.
+          {"rss_at_last_frame_bytes", last_frame_rss.first},
+          {"peak_rss_at_last_frame_bytes", last_frame_rss.second},
           {"frames_decoded_live", decoded},
           {"frames_developed_live", developed},
           {"surface_points_held", points_held},
@@ -533,6 +553,9 @@ bool ReportLatencies(const LatencyOutcomes& latencies, std::optional<double> flo
     PrintRow("  capture of " + std::to_string(run.figures.at("frames").get<int>()) + " frames",
              Cell(run.figures.at("capture_seconds").get<double>(), 2, 10), "", "", "", "");
     PrintRow("  CPU after the last frame (s): " + Fixed(run.figures.at("cpu_seconds_after_last_frame").get<double>(), 2),
+             "", "", "", "", "");
+    PrintRow("  RSS at the last frame " + Gb(run.figures.at("rss_at_last_frame_bytes").get<double>()) +
+                 " (peak so far " + Gb(run.figures.at("peak_rss_at_last_frame_bytes").get<double>()) + ")",
              "", "", "", "", "");
     PrintStages(run.figures.at("solve_stages"));
   }
