@@ -341,11 +341,13 @@ json ChildLatency(const Args& args, bool live) {
   json developed = nullptr;  // LED frames developed while capturing (live only)
   json points_held = nullptr;  // the table points made while capturing (live only)
   json decoded = nullptr;  // frames decoded while capturing (live only)
+  json until_solve = nullptr;  // last frame -> the solve's start (live only)
   json stages = json::array();  // the solve's own stages after the last frame
   if (live) {
     cpu = live_solve.summary().cpu_seconds_after_last_frame;
     developed = live_solve.summary().frames_developed_live;
     decoded = live_solve.summary().frames_decoded_live;
+    until_solve = live_solve.summary().seconds_until_solve;
     points_held = live_solve.summary().surface_points_held;
     stages = Timings(live_solve.summary().solve.timings);
   } else {
@@ -359,6 +361,7 @@ json ChildLatency(const Args& args, bool live) {
           {"rss_at_last_frame_bytes", last_frame_rss.first},
           {"peak_rss_at_last_frame_bytes", last_frame_rss.second},
           {"frames_decoded_live", decoded},
+          {"seconds_until_solve", until_solve},
           {"frames_developed_live", developed},
           {"surface_points_held", points_held},
           {"mode", live ? "solve-while-capture" : "sequential"},

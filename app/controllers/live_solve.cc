@@ -174,6 +174,7 @@ void LiveSolveController::Run() {
     solve.UsePreparation(std::move(*preparation));
   }
   solve.SetProgressCallback(ForwardTo(solve));
+  summary_.seconds_until_solve = SecondsSince(last_frame);
   solve.Run();
   summary_.solve = solve.summary();
   summary_.seconds_after_last_frame = SecondsSince(last_frame);

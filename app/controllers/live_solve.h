@@ -50,6 +50,9 @@ struct LiveSolveSummary {
   bool surface_points_held = false;
   std::vector<std::string> live_problems;  // what the worker could not do; the solve then did it itself
   double seconds_after_last_frame = 0;     // last frame journalled -> result folder in place
+  // Of those, until the solve started: the capture's end (LEDs off, the
+  // session marked complete) and the decoder's last frames.
+  double seconds_until_solve = 0;
   // The process's CPU time (user + system, all threads) over the same span:
   // what the wait costs on a machine shared with other work.
   double cpu_seconds_after_last_frame = 0;
