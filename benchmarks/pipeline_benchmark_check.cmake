@@ -116,10 +116,12 @@ if(left)
   message(FATAL_ERROR "temporary folder left behind: ${left}")
 endif()
 
-# --latency-only: the two capture-to-result rows alone, without a ratio to a floor it did not measure.
+# --latency-only: the two capture-to-result rows alone, without a ratio to a floor it did not measure
+# (with --develop-ahead: the live row's decoder develops frames; how many depends on the load).
 set(latency_json "${WORK_DIR}/latency.json")
 execute_process(
-  COMMAND "${BENCHMARK}" --latency-only --width 160 --height 106 --json "${latency_json}" --work-dir "${WORK_DIR}"
+  COMMAND "${BENCHMARK}" --latency-only --develop-ahead --width 160 --height 106 --json "${latency_json}"
+          --work-dir "${WORK_DIR}"
   RESULT_VARIABLE rc OUTPUT_VARIABLE table ERROR_VARIABLE log)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "pipeline_benchmark --latency-only exited with ${rc}:\n${log}")
@@ -144,6 +146,10 @@ foreach(stage latency latency_sequential)
     message(FATAL_ERROR "--latency-only ${stage}: seconds '${seconds}', CPU '${cpu}', ratio type ${ratio}")
   endif()
 endforeach()
+string(JSON developed GET "${report}" latency frames_developed_live)
+if(NOT developed MATCHES "^([0-9]|10)$")
+  message(FATAL_ERROR "--latency-only --develop-ahead: frames_developed_live '${developed}'")
+endif()
 
 # A reused session (--session): named in the header, and what the run added
 # to it (its result and export; exports/, which it made) is gone afterwards.
