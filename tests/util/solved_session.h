@@ -1,5 +1,5 @@
-// Test helpers for the export tests: a small simulated session solved with
-// the default options, and a JSON file read back.
+// Test helpers for the tests that need a simulated session on disk: one
+// solved with the default options, one with folds, and a JSON file read back.
 #pragma once
 
 #include <filesystem>
@@ -25,6 +25,18 @@ inline std::filesystem::path SimulateAndSolve(const std::filesystem::path& sessi
   SolveController solve(session, SolveOptions());
   solve.Run();
   return solve.summary().result_dir;
+}
+
+// Simulates `session` (width x height, the default textile scene and seed)
+// draped in folds of the given amplitude, and returns its folder.
+inline std::filesystem::path SimulateFoldedSession(const std::filesystem::path& session, int width, int height,
+                                                   double fold_amplitude_mm) {
+  SimulateOptions simulate;
+  simulate.rig.width = width;
+  simulate.rig.height = height;
+  simulate.scene.fold_amplitude_mm = fold_amplitude_mm;
+  SimulateController(session, simulate).Run();
+  return session;
 }
 
 inline nlohmann::json ReadJsonFile(const std::filesystem::path& path) {

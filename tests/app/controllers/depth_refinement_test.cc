@@ -12,7 +12,6 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "app/controllers/simulate_controller.h"
 #include "app/controllers/solve_controller.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
@@ -20,6 +19,7 @@
 #include "app/sim/textile_scene.h"
 #include "calibration/camera_model.h"
 #include "core/field_error.h"
+#include "tests/util/solved_session.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -32,13 +32,7 @@ using testing::TemporaryFolder;
 constexpr int kWidth = 400, kHeight = 264;
 
 fs::path SimulateFolds(const TemporaryFolder& folder, const std::string& name, double fold_amplitude_mm) {
-  SimulateOptions options;
-  options.rig.width = kWidth;
-  options.rig.height = kHeight;
-  options.scene.fold_amplitude_mm = fold_amplitude_mm;
-  const fs::path session_dir = folder / name;
-  SimulateController(session_dir, options).Run();
-  return session_dir;
+  return testing::SimulateFoldedSession(folder / name, kWidth, kHeight, fold_amplitude_mm);
 }
 
 SolveSummary Solve(const fs::path& session_dir, bool depth_refine) {

@@ -14,10 +14,10 @@
 
 #include <gtest/gtest.h>
 
-#include "app/controllers/simulate_controller.h"
 #include "app/controllers/solve_controller.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
+#include "tests/util/solved_session.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -29,13 +29,7 @@ using testing::TemporaryFolder;
 constexpr int kWidth = 400, kHeight = 264;
 
 fs::path Simulate(const TemporaryFolder& folder, const std::string& name, double fold_amplitude_mm) {
-  SimulateOptions options;
-  options.rig.width = kWidth;
-  options.rig.height = kHeight;
-  options.scene.fold_amplitude_mm = fold_amplitude_mm;
-  const fs::path session_dir = folder / name;
-  SimulateController(session_dir, options).Run();
-  return session_dir;
+  return testing::SimulateFoldedSession(folder / name, kWidth, kHeight, fold_amplitude_mm);
 }
 
 SolveSummary Solve(const fs::path& session_dir, SolveOptions options, std::optional<SolvePreparation> prepared = {}) {
