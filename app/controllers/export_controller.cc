@@ -1677,15 +1677,16 @@ void ExportController::DeriveRoughness(ExportInputs* inputs_in, ExportMaps* maps
     });
     inputs.specular_alpha = ImageF();  // its last user
   }
+  // Mip 0's normals are the flattened normals normalised again; the files and
+  // the preview take maps.normals, so they are not made (192 MB at 16 MP).
+  GlossMipOptions gloss = options_.gloss;
+  gloss.mip0_normals = false;
   TimedStage(*timings, "gloss_mips", "", [&] {
-    summary_.gloss = BuildGlossMipChain(options_.gloss, maps.normals,
+    summary_.gloss = BuildGlossMipChain(gloss, maps.normals,
                                         mip0_roughness.empty() ? nullptr : &mip0_roughness, &inputs.valid,
                                         &maps.mips, progress);
     RequireSuccess(summary_.gloss, "roughness mips");
   });
-  // Mip 0's normals are the flattened normals normalised again; the files and
-  // the preview take maps.normals, so they are not kept (192 MB at 16 MP).
-  if (!maps.mips.empty()) maps.mips[0].normal_in_tangent = ImageF();
 }
 
 // A tile that does not fit is a warning, not a failure: the other maps stand.
