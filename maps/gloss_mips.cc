@@ -164,7 +164,9 @@ Mip0 BuildMip0(const ImageF& normal_in_tangent, const ImageF* roughness, const I
   const int width = normal_in_tangent.width(), height = normal_in_tangent.height();
   const bool vmf = options.model == GlossMipOptions::Model::kVmf;
   const bool has_level1 = level1.first > 0;
-  Mip0 mip0{{ImageF(width, height, 3), ImageF(width, height, 1)}, LevelSums(level1.first, level1.second, vmf)};
+  const bool normals = options.mip0_normals;
+  Mip0 mip0{{normals ? ImageF(width, height, 3) : ImageF(), ImageF(width, height, 1)},
+            LevelSums(level1.first, level1.second, vmf)};
   LevelSums& sums = mip0.level1_sums;
   double cached_alpha = -1, cached_length = 0;
   for (int y = 0; y < height; ++y) {
@@ -184,13 +186,17 @@ Mip0 BuildMip0(const ImageF& normal_in_tangent, const ImageF* roughness, const I
       const double length = std::sqrt(nx * nx + ny * ny + nz * nz);
       if (!std::isfinite(length) || length < kMinNormalLength) {
         ++s->invalid_normals;
-        mip0.level.normal_in_tangent(x, y, 0) = 0.0f;
-        mip0.level.normal_in_tangent(x, y, 1) = 0.0f;
-        mip0.level.normal_in_tangent(x, y, 2) = 1.0f;
+        if (normals) {
+          mip0.level.normal_in_tangent(x, y, 0) = 0.0f;
+          mip0.level.normal_in_tangent(x, y, 1) = 0.0f;
+          mip0.level.normal_in_tangent(x, y, 2) = 1.0f;
+        }
         continue;
       }
       const std::array<double, 3> unit{nx / length, ny / length, nz / length};
-      for (int c = 0; c < 3; ++c) mip0.level.normal_in_tangent(x, y, c) = static_cast<float>(unit[c]);
+      if (normals) {
+        for (int c = 0; c < 3; ++c) mip0.level.normal_in_tangent(x, y, c) = static_cast<float>(unit[c]);
+      }
       if (valid != nullptr && (*valid)(x, y) == 0) {
         ++s->masked_pixels;
         continue;

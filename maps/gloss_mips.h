@@ -34,6 +34,10 @@ struct GlossMipOptions {
   Model model = Model::kVmf;
   double base_roughness = 0.3;   // GGX alpha of mip 0 where no roughness map is given, [kMinGgxAlpha, 1]
   int max_levels = 0;            // mips including mip 0; 0 = down to 1x1, >= 0
+  // false: levels[0].normal_in_tangent is left empty (it is the input
+  // normalised again; the export writes the input itself, so making it was
+  // 192 MB of fresh pages at 16 MP for nothing). The other levels are the same.
+  bool mip0_normals = true;
   void Check() const;
 };
 const char* GlossModelName(GlossMipOptions::Model model);

@@ -63,7 +63,8 @@ void BuildEdges(const SlopeSteps& steps, Level* level) {
   level->target_down.assign(padded, 0.0f);
   level->kind_right.assign(padded, kNoEdge);
   level->kind_down.assign(padded, kNoEdge);
-  for (int y = 0; y < h; ++y) {
+  // Each row writes only its own pixels' edges: rows in parallel.
+  ParallelRows(h, 0, {}, 0, 1, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
       const size_t p = level->Padded(x, y);
@@ -78,7 +79,7 @@ void BuildEdges(const SlopeSteps& steps, Level* level) {
         if (both) level->target_down[p] = 0.5f * (steps.down[i] + steps.down[i + w]);
       }
     }
-  }
+  });
 }
 
 // Rows whose inner pixels (all but the first and last) have four slope
@@ -329,26 +330,25 @@ void PullPushFill(int width, int height, std::vector<float> weight, std::vector<
 
 // Right-hand side of the normal equations L h = b (L the free-boundary graph
 // Laplacian, every edge weight 1, trapezoidal targets from the per-pixel
-// steps): b = sum of incoming edge targets - sum of outgoing.
+// steps): b = sum of incoming edge targets - sum of outgoing. Each pixel
+// gathers its four terms from 0 in the order a row-major scatter over the
+// edges adds them (the edge from above, from the left, then its own right and
+// down edges), so the rows run in parallel with the scatter's bits.
 cv::Mat PoissonRightHandSide(int width, int height, const std::vector<float>& step_right,
                              const std::vector<float>& step_down) {
-  cv::Mat rhs(height, width, CV_64F, cv::Scalar(0));
-  for (int y = 0; y < height; ++y) {
+  cv::Mat rhs(height, width, CV_64F);
+  ParallelRows(height, 0, {}, 0, 1, [&](int y) {
     double* out = rhs.ptr<double>(y);
     for (int x = 0; x < width; ++x) {
       const size_t i = static_cast<size_t>(y) * width + x;
-      if (x + 1 < width) {
-        const double target = 0.5 * (step_right[i] + step_right[i + 1]);
-        out[x] -= target;
-        out[x + 1] += target;
-      }
-      if (y + 1 < height) {
-        const double target = 0.5 * (step_down[i] + step_down[i + width]);
-        out[x] -= target;
-        rhs.ptr<double>(y + 1)[x] += target;
-      }
+      double b = 0;
+      if (y > 0) b += 0.5 * (step_down[i - width] + step_down[i]);
+      if (x > 0) b += 0.5 * (step_right[i - 1] + step_right[i]);
+      if (x + 1 < width) b -= 0.5 * (step_right[i] + step_right[i + 1]);
+      if (y + 1 < height) b -= 0.5 * (step_down[i] + step_down[i + width]);
+      out[x] = b;
     }
-  }
+  });
   return rhs;
 }
 
@@ -391,7 +391,10 @@ std::vector<double> PathEigenvalues(int n, int period) {
 // 64, which is what cv::dct does with a column, so the result is the same
 // bits as cv::dct's (checked bit for bit on random 200 x 150 and 4928 x 3264
 // matrices, both directions, when this was written; the export's 16 MP maps
-// came out identical).
+// came out identical). Each thread transposes its blocks into two buffers
+// of its own, made once: a block is 1.7 MB at 16 MP, above the allocator's
+// mmap threshold (core/memory.h), so three new matrices a block were 385 MB
+// of fresh pages a transform (a quarter of the export's page faults).
 cv::Mat DctOnThePool(const cv::Mat& in, int flags) {
   constexpr int kBand = 64;
   cv::Mat out(in.size(), CV_64F);
@@ -401,12 +404,17 @@ cv::Mat DctOnThePool(const cv::Mat& in, int flags) {
       cv::dct(in.rowRange(begin, end), out.rowRange(begin, end), flags | cv::DCT_ROWS);
     }
   });
-  ParallelFor((in.cols + kBand - 1) / kBand, 0, 1, [&](int first, int last, int) {
+  const int threads = ResolveThreadCount(0);
+  std::vector<cv::Mat> blocks(threads), transformed(threads);  // per worker, reused from block to block
+  ParallelFor((in.cols + kBand - 1) / kBand, threads, 1, [&](int first, int last, int worker) {
+    cv::Mat& block = blocks[worker];
+    cv::Mat& block_out = transformed[worker];
     for (int band = first; band < last; ++band) {
       const int begin = band * kBand, end = std::min(in.cols, begin + kBand);
-      cv::Mat transformed;
-      cv::dct(out.colRange(begin, end).t(), transformed, flags | cv::DCT_ROWS);
-      cv::Mat(transformed.t()).copyTo(out.colRange(begin, end));
+      cv::transpose(out.colRange(begin, end), block);  // (re)allocates only when the block's shape changes
+      cv::dct(block, block_out, flags | cv::DCT_ROWS);
+      cv::Mat target = out.colRange(begin, end);
+      cv::transpose(block_out, target);  // into the columns themselves: `target` has the shape already
     }
   });
   return out;
@@ -421,10 +429,10 @@ cv::Mat SolveNeumannPoisson(const cv::Mat& rhs) {
   if (w % 2 == 0 && h % 2 == 0) {
     cv::Mat spectrum = DctOnThePool(rhs, 0);
     const std::vector<double> ex = PathEigenvalues(w, 2 * w), ey = PathEigenvalues(h, 2 * h);
-    for (int y = 0; y < h; ++y) {
+    ParallelRows(h, 0, {}, 0, 1, [&](int y) {
       double* row = spectrum.ptr<double>(y);
       for (int x = 0; x < w; ++x) row[x] = (x == 0 && y == 0) ? 0.0 : row[x] / (ex[x] + ey[y]);
-    }
+    });
     return DctOnThePool(spectrum, cv::DCT_INVERSE);
   }
   cv::Mat mirrored;
@@ -488,19 +496,28 @@ FullLevelSlopes SlopesFromNormals(const ImageF& normal_in_tangent, const ImageU8
   full.steps.down.assign(level.num_pixels(), 0.0f);
   const double mm = options.mm_per_pixel;
   const float max_slope = static_cast<float>(options.max_slope);
-  for (size_t i = 0; i < level.num_pixels(); ++i) {
-    const float* n = normal_in_tangent.data() + 3 * i;
-    const bool wanted = valid == nullptr || valid->data()[i] != 0;
-    const bool finite = std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]);
-    const bool usable = finite && n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-12f;
-    if (wanted && !usable) ++full.unusable_normals;
-    if (!wanted || !usable) continue;
-    // Near-grazing or back-facing normals: clamp the slope instead of dividing by ~0.
-    const float nz = std::max(n[2], 1e-6f);
-    full.steps.right[i] = static_cast<float>(std::clamp(-n[0] / nz, -max_slope, max_slope) * mm);
-    full.steps.down[i] = static_cast<float>(std::clamp(n[1] / nz, -max_slope, max_slope) * mm);
-    level.valid[i] = 1;
-    ++full.valid_count;
+  // Rows in parallel; their counts are added after.
+  std::vector<size_t> row_unusable(level.height, 0), row_valid(level.height, 0);
+  ParallelRows(level.height, 0, {}, 0, 1, [&](int y) {
+    const size_t row_begin = static_cast<size_t>(y) * level.width;
+    for (size_t i = row_begin; i < row_begin + level.width; ++i) {
+      const float* n = normal_in_tangent.data() + 3 * i;
+      const bool wanted = valid == nullptr || valid->data()[i] != 0;
+      const bool finite = std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2]);
+      const bool usable = finite && n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 1e-12f;
+      if (wanted && !usable) ++row_unusable[y];
+      if (!wanted || !usable) continue;
+      // Near-grazing or back-facing normals: clamp the slope instead of dividing by ~0.
+      const float nz = std::max(n[2], 1e-6f);
+      full.steps.right[i] = static_cast<float>(std::clamp(-n[0] / nz, -max_slope, max_slope) * mm);
+      full.steps.down[i] = static_cast<float>(std::clamp(n[1] / nz, -max_slope, max_slope) * mm);
+      level.valid[i] = 1;
+      ++row_valid[y];
+    }
+  });
+  for (int y = 0; y < level.height; ++y) {
+    full.unusable_normals += row_unusable[y];
+    full.valid_count += row_valid[y];
   }
   return full;
 }
@@ -639,11 +656,11 @@ MethodResult SolveByDct(const HeightFromNormalsOptions& options, const Level& fu
       if (holes_settled) break;
     }
     summary->converged = all_valid || holes_settled;
-    for (int y = 0; y < height; ++y) {
+    ParallelRows(height, 0, {}, 0, 1, [&](int y) {
       const double* row = dct_height.ptr<double>(y);
       float* out = result.height_padded.data() + full.Padded(0, y);
       for (int x = 0; x < width; ++x) out[x] = static_cast<float>(row[x]);
-    }
+    });
     summary->levels = 1;
     work.Advance(0.9);
   }

@@ -66,21 +66,45 @@ SpecularRoughnessSummary BlendSpecularRoughness(const SpecularRoughnessOptions& 
     const float a = specular_alpha(x, y);
     return is_valid(x, y) && std::isfinite(a) && a > 0.0f;
   };
-  // Perceptual roughness of the estimates (0 elsewhere) and their indicator.
-  cv::Mat r_sum(height, width, CV_64F, cv::Scalar(0)), count(height, width, CV_64F, cv::Scalar(0));
-  cv::Mat not_estimated(height, width, CV_8U, cv::Scalar(1));
-  size_t any_estimated = 0;
+  // The estimates' bounding box grown by w: the feather lies within it.
+  // Outside it nothing is blended, so the distance transform and the window
+  // sums run on it alone (at 16 MP a solve estimates a lobe on a few pixels:
+  // full-size, they were two 128 MB double maps, a distance transform and two
+  // box filters over the whole image). Its values are the whole image's, bit
+  // for bit: every estimate (the distance transform's only zeros) lies
+  // inside, beyond the box the estimate maps are zero as the box filter's
+  // constant border is, and the running window sums stay exactly 0 over the
+  // all-zero rows and columns before it (tested against the whole-image form).
+  int x_min = width, y_min = height, x_max = -1, y_max = -1;
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       if (!estimated(x, y)) continue;
-      r_sum.at<double>(y, x) = std::sqrt(std::clamp(double(specular_alpha(x, y)), kMinGgxAlpha, 1.0));
-      count.at<double>(y, x) = 1;
-      not_estimated.at<uint8_t>(y, x) = 0;
-      ++any_estimated;
+      x_min = std::min(x_min, x), x_max = std::max(x_max, x);
+      y_min = std::min(y_min, y), y_max = std::max(y_max, y);
     }
   }
-  cv::Mat distance;  // to the nearest estimated pixel, pixels (Euclidean)
-  if (any_estimated > 0 && w > 0) {
+  const bool any_estimated = x_max >= 0;
+  cv::Rect region;  // in the image; empty without estimates or feather
+  if (any_estimated && w > 0) {
+    const int rx0 = std::max(0, x_min - w), ry0 = std::max(0, y_min - w);
+    const int rx1 = std::min(width, x_max + w + 1), ry1 = std::min(height, y_max + w + 1);
+    region = cv::Rect(rx0, ry0, rx1 - rx0, ry1 - ry0);
+  }
+  // Perceptual roughness of the estimates (0 elsewhere) and their indicator, over the region.
+  cv::Mat r_sum(region.height, region.width, CV_64F, cv::Scalar(0));
+  cv::Mat count(region.height, region.width, CV_64F, cv::Scalar(0));
+  cv::Mat not_estimated(region.height, region.width, CV_8U, cv::Scalar(1));
+  cv::Mat distance;  // to the nearest estimated pixel, pixels (Euclidean), over the region
+  if (!region.empty()) {
+    for (int y = region.y; y < region.y + region.height; ++y) {
+      for (int x = region.x; x < region.x + region.width; ++x) {
+        if (!estimated(x, y)) continue;
+        r_sum.at<double>(y - region.y, x - region.x) =
+            std::sqrt(std::clamp(double(specular_alpha(x, y)), kMinGgxAlpha, 1.0));
+        count.at<double>(y - region.y, x - region.x) = 1;
+        not_estimated.at<uint8_t>(y - region.y, x - region.x) = 0;
+      }
+    }
     cv::distanceTransform(not_estimated, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
     // Window sums of both: their ratio is the mean r of the estimates nearby.
     const cv::Size window(2 * w + 1, 2 * w + 1);
@@ -105,13 +129,14 @@ SpecularRoughnessSummary BlendSpecularRoughness(const SpecularRoughnessOptions& 
       }
       fallback = std::clamp(fallback, kMinGgxAlpha, 1.0);
       double alpha = fallback;
+      const bool in_region = region.contains(cv::Point(x, y));
+      const int ry = y - region.y, rx = x - region.x;
       if (estimated(x, y)) {
         alpha = std::clamp(double(specular_alpha(x, y)), kMinGgxAlpha, 1.0);
         ++s.from_specular;
-      } else if (is_valid(x, y) && !distance.empty() && distance.at<float>(y, x) <= w &&
-                 count.at<double>(y, x) > 0.5) {
-        const double weight = Smoothstep(1.0 - distance.at<float>(y, x) / (w + 1.0));
-        const double r = weight * (r_sum.at<double>(y, x) / count.at<double>(y, x)) +
+      } else if (is_valid(x, y) && in_region && distance.at<float>(ry, rx) <= w && count.at<double>(ry, rx) > 0.5) {
+        const double weight = Smoothstep(1.0 - distance.at<float>(ry, rx) / (w + 1.0));
+        const double r = weight * (r_sum.at<double>(ry, rx) / count.at<double>(ry, rx)) +
                          (1.0 - weight) * std::sqrt(fallback);
         alpha = std::clamp(r * r, kMinGgxAlpha, 1.0);
         ++s.blended;

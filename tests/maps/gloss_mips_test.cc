@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -322,6 +323,49 @@ TEST(GlossMipChain, OddSizesWeighEveryMipZeroTexelEqually) {
                                 ? std::sqrt(0.04 + (1 - r * r) / (r * (3 - r * r)))
                                 : NormalLengthToGgxAlpha(r * GgxAlphaToNormalLength(0.2));
     EXPECT_NEAR(levels[2].roughness(0, 0), expected, 1e-6) << GlossModelName(model);
+  }
+}
+
+TEST(GlossMipChain, WithoutMipZeroNormalsEveryOtherLevelIsTheSame) {
+  // Random normals (one invalid), a roughness map and a mask, odd sizes.
+  constexpr int kW = 37, kH = 23;
+  std::mt19937 rng(14);
+  std::uniform_real_distribution<float> tilt(-0.6f, 0.6f), alpha(0.05f, 0.8f);
+  ImageF normals(kW, kH, 3), roughness(kW, kH, 1);
+  ImageU8 valid(kW, kH, 1, 1);
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      normals(x, y, 0) = tilt(rng), normals(x, y, 1) = tilt(rng), normals(x, y, 2) = 1.0f;
+      roughness(x, y) = alpha(rng);
+      valid(x, y) = rng() % 7 != 0;
+    }
+  }
+  normals(3, 4, 0) = normals(3, 4, 1) = normals(3, 4, 2) = 0.0f;
+  for (const Model model : {Model::kVmf, Model::kGgxNormalLength}) {
+    GlossMipOptions options;
+    options.model = model;
+    std::vector<GlossMipLevel> with, without;
+    const GlossMipSummary a = BuildGlossMipChain(options, normals, &roughness, &valid, &with);
+    options.mip0_normals = false;
+    const GlossMipSummary b = BuildGlossMipChain(options, normals, &roughness, &valid, &without);
+    ASSERT_EQ(a.termination, Termination::kSuccess) << a.message;
+    EXPECT_EQ(a.message, b.message);
+    EXPECT_EQ(a.mean_roughness, b.mean_roughness);
+    EXPECT_EQ(a.invalid_normals, b.invalid_normals);
+    ASSERT_EQ(with.size(), without.size());
+    EXPECT_FALSE(with[0].normal_in_tangent.empty());
+    EXPECT_TRUE(without[0].normal_in_tangent.empty());
+    for (size_t k = 0; k < with.size(); ++k) {
+      const auto& r1 = with[k].roughness;
+      const auto& r2 = without[k].roughness;
+      ASSERT_TRUE(r1.SameSize(r2)) << k;
+      EXPECT_EQ(std::memcmp(r1.data(), r2.data(), r1.size() * sizeof(float)), 0) << "roughness of level " << k;
+      if (k == 0) continue;
+      const auto& n1 = with[k].normal_in_tangent;
+      const auto& n2 = without[k].normal_in_tangent;
+      ASSERT_TRUE(n1.SameSize(n2)) << k;
+      EXPECT_EQ(std::memcmp(n1.data(), n2.data(), n1.size() * sizeof(float)), 0) << "normals of level " << k;
+    }
   }
 }
 
