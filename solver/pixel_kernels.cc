@@ -144,7 +144,17 @@ class NormalEquationsSolve {
 
 void NormalEquationsSolve::Solve(const Span& span) {
   const bool uniform = span.lights == TileLights::kUniform;
-  if (span.lights == TileLights::kExact) {
+  const double* used = span.buffers->acc.data() + kCount * n_;
+  // Interpolated tiles know the condition number of every pixel that uses
+  // all the lights; the others (shadowed samples) take the kernel's, when
+  // there are any.
+  bool need_conditions = span.lights == TileLights::kExact;
+  if (span.lights == TileLights::kInterpolated) {
+    for (int i = 0; i < span.count && !need_conditions; ++i) {
+      need_conditions = static_cast<int>(used[i]) != settings_.num_lights;
+    }
+  }
+  if (need_conditions) {
     ConditionArgs c;
     c.count = span.count;
     c.capacity = n_;
@@ -167,7 +177,6 @@ void NormalEquationsSolve::Solve(const Span& span) {
   std::fill_n(fits_.lights_used.begin(), count, 0);
   // The common case of a uniform tile first: a pixel using all its usable
   // lights (the shared matrix, checked once here).
-  const double* used = span.buffers->acc.data() + kCount * n_;
   const int shared_usable = uniform && span.shared->condition <= settings_.options.max_condition_number &&
                                     span.shared->usable >= std::max(3, settings_.options.min_lights)
                                 ? span.shared->usable
@@ -256,14 +265,20 @@ void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
     SetInverse(i, entry.inverse);
   } else {
     // Interpolated tiles have every light usable: a pixel using them all
-    // has the interpolated condition number of the nodes. The kernel
-    // inverts the Gram matrix itself outside uniform tiles.
+    // has the interpolated condition number of the nodes; the other pixels
+    // of interpolated and exact tiles have the kernel's (Solve) unless it
+    // left them to the scalar function. The kernel inverts the Gram matrix
+    // itself outside uniform tiles.
     const bool interpolated = span.lights == TileLights::kInterpolated && used == settings_.num_lights;
-    const bool from_kernel = span.lights == TileLights::kExact && condition_fallback_[i] == 0;
+    const bool from_kernel = span.lights != TileLights::kUniform && condition_fallback_[i] == 0;
     const double known = interpolated ? span.buffers->all_lights_condition[i] : from_kernel ? condition_[i] : -1.0;
-    double inverse[6] = {1, 0, 0, 1, 0, 1};
-    InvertGram(g00, g01, g02, g11, g12, g22, known, &condition, inverse);
-    if (span.lights == TileLights::kUniform) SetInverse(i, inverse);
+    if (span.lights == TileLights::kUniform) {
+      double inverse[6] = {1, 0, 0, 1, 0, 1};
+      InvertGram(g00, g01, g02, g11, g12, g22, known, &condition, inverse);
+      SetInverse(i, inverse);
+    } else {
+      condition = known >= 0 ? known : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
+    }
   }
   if (!(condition <= options.max_condition_number)) {
     fits_.status[i] = static_cast<uint8_t>(PixelStatus::kIllConditioned);
@@ -333,12 +348,14 @@ class AdaptiveKernel final : public PixelKernel {
     solve_.AddResiduals(span);
     const SpanFits& fits = solve_.fits();
     const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
+    bool any_refitted = false;
     for (int i = 0; i < span.count; ++i) {
       refitted_[i] = 0;
       if (!span.Wanted(i)) continue;
       const bool sheen = settings_.options.adaptive_sheen && fits.status[i] == solved;
       if (!WantsRobust(span, i, fits) && !sheen) continue;
       refitted_[i] = 1;
+      any_refitted = true;
       const int x = span.x0 + i;
       const PixelFit fit = fits.Fit(i);
       if (WantsRobust(span, i, fits)) {
@@ -369,7 +386,8 @@ class AdaptiveKernel final : public PixelKernel {
       }
       out->Store(fit, x, span.y, span.LightPath());
     }
-    out->StoreFits(fits, span, refitted_.data());
+    // No skip list where nothing was refitted: StoreFits' loops without a test.
+    out->StoreFits(fits, span, any_refitted ? refitted_.data() : nullptr);
   }
 
  private:
