@@ -31,6 +31,10 @@ struct AccumulateArgs {
   bool uniform = false, bayer = false, albedo = false;
   const float* const* pixels = nullptr;  // per light: the row from x0 (RGB interleaved or mosaic)
   const uint8_t* const* marks = nullptr; // per light: 0 = sample marked invalid
+  // Per light: the same span of the next row (samples, then marks), asked
+  // of the memory while this row's block of the light is summed; null: none.
+  const float* const* next_pixels = nullptr;
+  const uint8_t* const* next_marks = nullptr;
   float w0 = 0, w1 = 0, w2 = 0;          // luminance weights
   float threshold = 0;                   // shadow level; -infinity keeps every finite sample
   const float* shared_dir = nullptr;     // uniform tiles: 3 per light
@@ -120,6 +124,30 @@ struct PointLightArgs {
 enum PointLightValue : int { kLightX, kLightY, kLightZ, kAxisX, kAxisY, kAxisZ, kMu, kReference2, kRed, kGreen, kBlue,
                              kPointLightValues };
 
+// One row of an interpolated tile's lights (TileLightSampler's bilinear
+// interpolation between node rows): first each node column's values at the
+// row (linear in y), then, within each cell between two node columns,
+// value(t) = start + step * t (in float) with start and step from the
+// cell's two ends (in double).
+struct InterpolateArgs {
+  int num_values = 0;   // 3 per light
+  int num_columns = 0;  // node columns
+  int num_cells = 0;    // cells along the row: max(1, num_columns - 1)
+  int capacity = 0;     // stride of the output planes
+  double fy = 0;        // the row's position between the node rows, in [0, 1]
+  const int* cell_begin = nullptr;  // per cell: its first pixel, from the span's start
+  const int* cell_count = nullptr;  // per cell: its pixels (the last one includes its right node)
+  const double* cell_scale = nullptr;  // per cell: 1 / its width in pixels (0 for a single column)
+  // Per node column: the node above and below the row, num_values each.
+  const float* const* top_dirs = nullptr;
+  const float* const* bottom_dirs = nullptr;
+  const float* const* top_inv = nullptr;
+  const float* const* bottom_inv = nullptr;
+  double* scratch = nullptr;  // 2 * num_columns * num_values + 2 * num_values doubles
+  float* dirs = nullptr;      // out: [q * capacity + i]
+  float* inv = nullptr;       // out: likewise
+};
+
 struct SpanKernels {
   KernelIsa isa = KernelIsa::kBaseline;
   void (*accumulate)(const AccumulateArgs& args) = nullptr;
@@ -128,6 +156,7 @@ struct SpanKernels {
   void (*solve)(const SolveArgs& args) = nullptr;
   void (*conditions)(const ConditionArgs& args) = nullptr;
   void (*light_rules)(const LightRulesArgs& args) = nullptr;
+  void (*interpolate)(const InterpolateArgs& args) = nullptr;
 };
 
 // The kernels built for `isa` (which must be supported: KernelIsaSupported).

@@ -115,6 +115,20 @@ inline void AccumulateLight(int n, const LightConstants c, const float* __restri
   }
 }
 
+// The next row's samples (and marks) of a block: a light's row is a short
+// run in memory, too short for the hardware prefetcher. Asked for one light
+// and block at a time, between the sums, so that the requests spread over
+// the row's work instead of queueing up at its start.
+template <bool kBayer>
+inline void PrefetchBlock(const float* next_pixels, const uint8_t* next_marks, int i0, int n) {
+  const char* first = reinterpret_cast<const char*>(next_pixels + (kBayer ? i0 : 3 * i0));
+  const ptrdiff_t bytes = static_cast<ptrdiff_t>(n) * (kBayer ? 1 : 3) * static_cast<ptrdiff_t>(sizeof(float));
+  for (ptrdiff_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(first + offset);
+  __builtin_prefetch(first + bytes - 1);  // the last line, where the block does not start on one
+  __builtin_prefetch(next_marks + i0);
+  __builtin_prefetch(next_marks + i0 + n - 1);
+}
+
 // All lights over the block of pixels [i0, i0 + n), then the sums widened
 // into acc.
 template <bool kUniform, bool kBayer, bool kAlbedo, bool kFull>
@@ -137,6 +151,7 @@ inline void AccumulateBlock(const AccumulateArgs& a, int i0, int tail) {
     const float* dir = a.dir + plane;
     const float* inv = a.inv + plane;
     float* rgb = a.rgb + plane;
+    if (a.next_pixels != nullptr) PrefetchBlock<kBayer>(a.next_pixels[k], a.next_marks[k], i0, n);
     AccumulateLight<kUniform, kBayer, kAlbedo>(
         n, c, a.pixels[k] + (kBayer ? i0 : 3 * i0), a.marks[k] + i0, dir, dir + cap, dir + 2 * cap, inv,
         inv + cap, inv + 2 * cap, inv + a.even_channel * cap, inv + a.odd_channel * cap, a.lum + k * cap + i0,
@@ -498,8 +513,54 @@ void PointLights(const PointLightArgs& a) {
   }
 }
 
+// Each node column's values at the row: (1 - fy) top + fy bottom, in double.
+inline void BlendColumn(int n, double fy, const float* __restrict top, const float* __restrict bottom,
+                        double* __restrict out) {
+  for (int q = 0; q < n; ++q) out[q] = (1 - fy) * top[q] + fy * bottom[q];
+}
+
+// A cell's start and step per value, from its two ends.
+inline void CellLine(int n, double scale, const double* __restrict left, const double* __restrict right,
+                     float* __restrict start, float* __restrict step) {
+  for (int q = 0; q < n; ++q) {
+    start[q] = static_cast<float>(left[q]);
+    step[q] = static_cast<float>((right[q] - left[q]) * scale);
+  }
+}
+
+inline void FillLine(int n, float start, float step, float* __restrict out) {
+  for (int t = 0; t < n; ++t) out[t] = start + step * static_cast<float>(t);
+}
+
+void Interpolate(const InterpolateArgs& a) {
+  const int n = a.num_values;
+  const ptrdiff_t cap = a.capacity;
+  double* dir_columns = a.scratch;
+  double* inv_columns = dir_columns + static_cast<ptrdiff_t>(a.num_columns) * n;
+  float* lines = reinterpret_cast<float*>(inv_columns + static_cast<ptrdiff_t>(a.num_columns) * n);
+  float* dir_start = lines;
+  float* dir_step = lines + n;
+  float* inv_start = lines + 2 * n;
+  float* inv_step = lines + 3 * n;
+  for (int j = 0; j < a.num_columns; ++j) {
+    BlendColumn(n, a.fy, a.top_dirs[j], a.bottom_dirs[j], dir_columns + j * n);
+    BlendColumn(n, a.fy, a.top_inv[j], a.bottom_inv[j], inv_columns + j * n);
+  }
+  for (int c = 0; c < a.num_cells; ++c) {
+    const int right = c + 1 < a.num_columns ? c + 1 : a.num_columns - 1;
+    CellLine(n, a.cell_scale[c], dir_columns + c * n, dir_columns + right * n, dir_start, dir_step);
+    CellLine(n, a.cell_scale[c], inv_columns + c * n, inv_columns + right * n, inv_start, inv_step);
+    const int begin = a.cell_begin[c], count = a.cell_count[c];
+    for (int q = 0; q < n; ++q) {
+      FillLine(count, dir_start[q], dir_step[q], a.dirs + q * cap + begin);
+      FillLine(count, inv_start[q], inv_step[q], a.inv + q * cap + begin);
+    }
+  }
+}
+
 }  // namespace
 
-const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals, &PointLights, &Solve, &Conditions, &LightRules};
+const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals,  &PointLights,
+                           &Solve,             &Conditions, &LightRules, &Interpolate};
 
 }  // namespace scanbench::tiled::SCANBENCH_ISA_NAMESPACE

@@ -8,28 +8,22 @@
 namespace scanbench::tiled {
 namespace {
 
-// The next row of every light's span is a separate short run in memory, too
-// short for the hardware prefetcher: ask for it now, use it next row.
-void PrefetchNextRow(const SolveJob& job, int x0, int count, int y, int channels) {
-  if (y + 1 >= job.field->height()) return;
-  const size_t bytes = static_cast<size_t>(count) * channels * sizeof(float);
-  for (int k = 0; k < job.num_lights; ++k) {
-    const char* next = reinterpret_cast<const char*>((*job.images)[k]->row(y + 1) + static_cast<size_t>(x0) * channels);
-    for (size_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(next + offset);
-  }
-}
-
 // All lights of one span: the rows' addresses and the per-span constants,
 // then the hot loop of the job's instruction set (span_kernels_impl.h).
 template <bool kUniform, bool kBayer, bool kAlbedo>
 void AccumulateSpan(const SolveJob& job, const SharedLights& shared, int x0, int count, int y, SpanBuffers* b) {
   const PhotometricSolverOptions& options = *job.options;
   constexpr int kChannels = kBayer ? 1 : 3;
+  // The kernel asks for the next row's samples while it sums this one's.
+  const bool next = y + 1 < job.field->height();
   for (int k = 0; k < job.num_lights; ++k) {
     b->rows[k] = (*job.images)[k]->row(y) + static_cast<size_t>(x0) * kChannels;
     b->marks[k] = job.sample_valid->empty() ? b->ones.data() : (*job.sample_valid)[k]->row(y) + x0;
+    if (next) {
+      b->next_rows[k] = (*job.images)[k]->row(y + 1) + static_cast<size_t>(x0) * kChannels;
+      b->next_marks[k] = job.sample_valid->empty() ? b->ones.data() : (*job.sample_valid)[k]->row(y + 1) + x0;
+    }
   }
-  PrefetchNextRow(job, x0, count, y, kChannels);
   AccumulateArgs a;
   a.count = count;
   a.num_lights = job.num_lights;
@@ -39,6 +33,8 @@ void AccumulateSpan(const SolveJob& job, const SharedLights& shared, int x0, int
   a.albedo = kAlbedo;
   a.pixels = b->rows.data();
   a.marks = b->marks.data();
+  a.next_pixels = next ? b->next_rows.data() : nullptr;
+  a.next_marks = next ? b->next_marks.data() : nullptr;
   a.w0 = static_cast<float>(options.luminance_weights[0]);
   a.w1 = static_cast<float>(options.luminance_weights[1]);
   a.w2 = static_cast<float>(options.luminance_weights[2]);
@@ -73,6 +69,8 @@ SpanBuffers::SpanBuffers(int lights, int span_capacity) : num_lights(lights), ca
   ones.assign(capacity, 1);
   rows.assign(num_lights, nullptr);
   marks.assign(num_lights, nullptr);
+  next_rows.assign(num_lights, nullptr);
+  next_marks.assign(num_lights, nullptr);
   acc.assign(static_cast<size_t>(kNumAcc) * capacity, 0.0);
   light_bad.assign(capacity, 0);
   clipped.assign(capacity, 0.0f);
