@@ -200,6 +200,39 @@ void StoreFitRows(const SolveJob& job, const SpanFits& fits, const Span& span, c
   }
 }
 
+// The span's stretch of the next row of every result image, asked of the
+// memory now: the images were filled before the solve and have long left the
+// caches, and each line is read before it is written. The next row's
+// samples are summed in the meantime.
+template <typename T>
+void PrefetchForWrite(const Image<T>& image, int x0, int count, int y) {
+  if (image.empty() || y >= image.height()) return;
+  const char* first = reinterpret_cast<const char*>(image.row(y) + static_cast<size_t>(x0) * image.channels());
+  const size_t bytes = static_cast<size_t>(count) * image.channels() * sizeof(T);
+  for (size_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(first + offset, 1);
+  __builtin_prefetch(first + bytes - 1, 1);
+}
+
+void PrefetchNextFits(const SolveJob& job, const Span& span) {
+  const PhotometricSolution& s = *job.solution;
+  const int x0 = span.x0, count = span.count, y = span.y + 1;
+  PrefetchForWrite(s.normal_in_table, x0, count, y);
+  if (job.bayer) {
+    PrefetchForWrite(*job.albedo_mosaic, x0, count, y);
+  } else if (job.with_albedo) {
+    PrefetchForWrite(s.albedo, x0, count, y);
+  }
+  PrefetchForWrite(s.status, x0, count, y);
+  PrefetchForWrite(s.lights_used, x0, count, y);
+  PrefetchForWrite(s.solve_path, x0, count, y);
+  if (job.with_confidence) {
+    PrefetchForWrite(s.condition_number, x0, count, y);
+    PrefetchForWrite(s.residual, x0, count, y);
+  }
+  PrefetchForWrite(s.specular, x0, count, y);
+  PrefetchForWrite(s.specular_status, x0, count, y);
+}
+
 }  // namespace
 
 // Store's values, a row of one image at a time (each a short contiguous run
@@ -210,6 +243,7 @@ void PixelWriter::StoreFits(const SpanFits& fits, const Span& span, const uint8_
   } else {
     StoreFitRows<false>(job_, fits, span, skip, &pixels_by_path_);
   }
+  PrefetchNextFits(job_, span);
 }
 
 void GatherSamples(const Span& span, int i, bool with_rgb, PixelSamples* samples) {
