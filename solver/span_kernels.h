@@ -78,8 +78,11 @@ struct SolveArgs {
   double min_albedo = 0;      // shorter scaled normals have no signal
   int solved = 0, no_signal = 0, facing_away = 0;  // the PixelStatus codes to write
   const double* acc = nullptr;      // [a * capacity + i], a in tiled::Acc
-  const double* inverse = nullptr;  // [e * capacity + i], e = 00, 01, 02, 11, 12, 22 of the symmetric inverse
-  const double* ready = nullptr;    // 1: solve the pixel, 0: not
+  // Unless invert_gram: the symmetric inverse's 00, 01, 02, 11, 12, 22 of a
+  // pixel marked 2 in `ready` at [e * capacity + i], else `shared_inverse`'s.
+  const double* inverse = nullptr;
+  const double* shared_inverse = nullptr;  // 6 values
+  const double* ready = nullptr;    // 1: solve the pixel (2: with its own inverse), 0: not
   double* status = nullptr;         // out: the status code where ready, -1 elsewhere
   double* scaled = nullptr;         // out: [c * capacity + i], luminance scaled normal; 0 unless solved
   double* normal = nullptr;         // out: [c * capacity + i], unit; (0, 0, 1) unless solved

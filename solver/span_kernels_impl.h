@@ -234,6 +234,10 @@ inline void SolvePixels(int n, ptrdiff_t cap, const SolveArgs& a, const double* 
                         double* __restrict n1, double* __restrict n2, double* __restrict length_out,
                         double* __restrict a0, double* __restrict a1, double* __restrict a2) {
   const double min_albedo = a.min_albedo;
+  double shared[6] = {0, 0, 0, 0, 0, 0};
+  if (!kInvert) {
+    for (int e = 0; e < 6; ++e) shared[e] = a.shared_inverse[e];
+  }
   const double solved = a.solved, no_signal = a.no_signal, facing_away = a.facing_away;
   // Every array is a separate buffer (the restrict qualifiers say so, but GCC
   // 12 still counts alias checks between the planes of one buffer).
@@ -251,8 +255,10 @@ inline void SolvePixels(int n, ptrdiff_t cap, const SolveArgs& a, const double* 
       m00 = c00 * inv_det, m01 = c01 * inv_det, m02 = c02 * inv_det;
       m11 = c11 * inv_det, m12 = c12 * inv_det, m22 = c22 * inv_det;
     } else {
-      m00 = given[0 * cap + i], m01 = given[1 * cap + i], m02 = given[2 * cap + i];
-      m11 = given[3 * cap + i], m12 = given[4 * cap + i], m22 = given[5 * cap + i];
+      const bool own = ready[i] > 1.5;
+      m00 = own ? given[0 * cap + i] : shared[0], m01 = own ? given[1 * cap + i] : shared[1];
+      m02 = own ? given[2 * cap + i] : shared[2], m11 = own ? given[3 * cap + i] : shared[3];
+      m12 = own ? given[4 * cap + i] : shared[4], m22 = own ? given[5 * cap + i] : shared[5];
     }
     const double b0 = acc[kB0 * cap + i], b1 = acc[kB1 * cap + i], b2 = acc[kB2 * cap + i];
     const double x = m00 * b0 + m01 * b1 + m02 * b2;
