@@ -99,6 +99,10 @@ class NormalEquationsSolve {
     outcome_.assign(n_, 0.0);
     condition_.assign(n_, 0.0);
     condition_fallback_.assign(n_, 1.0);
+    gathered_.assign(static_cast<size_t>(kG22 + 1) * n_, 0.0);
+    gathered_condition_.assign(n_, 0.0);
+    gathered_fallback_.assign(n_, 1.0);
+    gathered_index_.assign(n_, 0);
   }
 
   // fits() for every pixel of the span: status, normal, albedo, condition number.
@@ -108,6 +112,9 @@ class NormalEquationsSolve {
   const SpanFits& fits() const { return fits_; }
 
  private:
+  // Interpolated tiles: condition_ and condition_fallback_ of the pixels not
+  // using every light (the others have the nodes' condition number).
+  void InterpolatedConditions(const Span& span);
   // Status, lights used and condition number of pixel i where it cannot be
   // solved; else marks it ready (and, in uniform tiles, gives its inverse).
   void PreparePixel(const Span& span, int i);
@@ -142,21 +149,41 @@ class NormalEquationsSolve {
   // Exact tiles: each pixel's condition number from the kernel, unless
   // condition_fallback_ (then ConditionNumberFromGram's).
   std::vector<double> condition_, condition_fallback_;
+  // InterpolatedConditions' gathered pixels: Gram rows as in acc, their indices, the kernel's results.
+  std::vector<double> gathered_, gathered_condition_, gathered_fallback_;
+  std::vector<int> gathered_index_;
 };
+
+// Interpolated tiles know the condition number of every pixel that uses all
+// the lights; the others (shadowed samples) take the kernel's: their Gram
+// matrices gathered, the kernel run over them alone, its results put back.
+void NormalEquationsSolve::InterpolatedConditions(const Span& span) {
+  const double* acc = span.buffers->acc.data();
+  const double* used = acc + kCount * n_;
+  int m = 0;
+  for (int i = 0; i < span.count; ++i) {
+    if (static_cast<int>(used[i]) == settings_.num_lights) continue;
+    for (int e = kG00; e <= kG22; ++e) gathered_[e * n_ + m] = acc[e * n_ + i];
+    gathered_index_[m++] = i;
+  }
+  if (m == 0) return;
+  ConditionArgs c;
+  c.count = m;
+  c.capacity = n_;
+  c.acc = gathered_.data();
+  c.condition = gathered_condition_.data();
+  c.fallback = gathered_fallback_.data();
+  settings_.kernels->conditions(c);
+  for (int j = 0; j < m; ++j) {
+    condition_[gathered_index_[j]] = gathered_condition_[j];
+    condition_fallback_[gathered_index_[j]] = gathered_fallback_[j];
+  }
+}
 
 void NormalEquationsSolve::Solve(const Span& span) {
   const bool uniform = span.lights == TileLights::kUniform;
   const double* used = span.buffers->acc.data() + kCount * n_;
-  // Interpolated tiles know the condition number of every pixel that uses
-  // all the lights; the others (shadowed samples) take the kernel's, when
-  // there are any.
-  bool need_conditions = span.lights == TileLights::kExact;
-  if (span.lights == TileLights::kInterpolated) {
-    for (int i = 0; i < span.count && !need_conditions; ++i) {
-      need_conditions = static_cast<int>(used[i]) != settings_.num_lights;
-    }
-  }
-  if (need_conditions) {
+  if (span.lights == TileLights::kExact) {
     ConditionArgs c;
     c.count = span.count;
     c.capacity = n_;
@@ -164,6 +191,8 @@ void NormalEquationsSolve::Solve(const Span& span) {
     c.condition = condition_.data();
     c.fallback = condition_fallback_.data();
     settings_.kernels->conditions(c);
+  } else if (span.lights == TileLights::kInterpolated) {
+    InterpolatedConditions(span);
   }
   // Uniform tiles: every pixel using all the tile's usable lights takes the
   // shared inverse; the others are given theirs in the planes (ready 2).
