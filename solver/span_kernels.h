@@ -151,6 +151,33 @@ struct InterpolateArgs {
   float* inv = nullptr;       // out: likewise
 };
 
+// A span's fits (planar doubles) into the result images' row (interleaved
+// floats), every pixel of the span: what PixelWriter::StoreFits writes where
+// no pixel is skipped. Returns the pixels solved.
+struct StoreArgs {
+  int count = 0, capacity = 0;
+  uint8_t solved = 0;                       // PixelStatus::kSolved
+  uint8_t light_path = 0, no_path = 0;      // SolvePath of a solved pixel and of the others
+  uint8_t unsupported = 0, not_solved = 0;  // SpecularStatus of solved and other pixels
+  const uint8_t* status = nullptr;
+  const int* lights_used = nullptr;
+  const double* normal = nullptr;            // [c * capacity + i]
+  const double* albedo = nullptr;            // [c * capacity + i]; read where albedo_out is set
+  const double* luminance_albedo = nullptr;  // read where mosaic_out is set
+  const double* condition = nullptr, *residual = nullptr;  // read where their outputs are set
+  // The rows from the span's first pixel; null where the image is not filled.
+  float* normal_out = nullptr;    // 3 per pixel
+  float* albedo_out = nullptr;    // 3 per pixel, 0 unless solved
+  float* mosaic_out = nullptr;    // 1 per pixel, the luminance albedo, 0 unless solved
+  uint8_t* status_out = nullptr;
+  uint8_t* lights_out = nullptr;  // clamped to [0, 255]
+  uint8_t* path_out = nullptr;
+  float* condition_out = nullptr;  // at most the largest float
+  float* residual_out = nullptr;   // at most 1e30, 0 unless solved
+  float* specular_out = nullptr;   // 2 per pixel, 0
+  uint8_t* specular_status_out = nullptr;
+};
+
 struct SpanKernels {
   KernelIsa isa = KernelIsa::kBaseline;
   void (*accumulate)(const AccumulateArgs& args) = nullptr;
@@ -160,6 +187,7 @@ struct SpanKernels {
   void (*conditions)(const ConditionArgs& args) = nullptr;
   void (*light_rules)(const LightRulesArgs& args) = nullptr;
   void (*interpolate)(const InterpolateArgs& args) = nullptr;
+  int (*store)(const StoreArgs& args) = nullptr;
 };
 
 // The kernels built for `isa` (which must be supported: KernelIsaSupported).

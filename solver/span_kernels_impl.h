@@ -564,9 +564,82 @@ void Interpolate(const InterpolateArgs& a) {
   }
 }
 
+inline void StoreTriple(int n, const double* __restrict v0, const double* __restrict v1,
+                        const double* __restrict v2, float* __restrict out) {
+  for (int i = 0; i < n; ++i) {
+    out[3 * i] = static_cast<float>(v0[i]);
+    out[3 * i + 1] = static_cast<float>(v1[i]);
+    out[3 * i + 2] = static_cast<float>(v2[i]);
+  }
+}
+
+inline void StoreSolvedTriple(int n, uint8_t solved, const uint8_t* __restrict status, const double* __restrict v0,
+                              const double* __restrict v1, const double* __restrict v2, float* __restrict out) {
+  for (int i = 0; i < n; ++i) {
+    const bool ok = status[i] == solved;
+    out[3 * i] = ok ? static_cast<float>(v0[i]) : 0.0f;
+    out[3 * i + 1] = ok ? static_cast<float>(v1[i]) : 0.0f;
+    out[3 * i + 2] = ok ? static_cast<float>(v2[i]) : 0.0f;
+  }
+}
+
+inline int StoreCodes(int n, const StoreArgs& a, const uint8_t* __restrict status, const int* __restrict used,
+                      uint8_t* __restrict status_out, uint8_t* __restrict lights_out, uint8_t* __restrict path_out) {
+  const uint8_t solved = a.solved, light_path = a.light_path, no_path = a.no_path;
+  int solved_count = 0;
+  for (int i = 0; i < n; ++i) {
+    const bool ok = status[i] == solved;
+    status_out[i] = status[i];
+    lights_out[i] = static_cast<uint8_t>(used[i] < 0 ? 0 : used[i] > 255 ? 255 : used[i]);
+    path_out[i] = ok ? light_path : no_path;
+    solved_count += ok ? 1 : 0;
+  }
+  return solved_count;
+}
+
+inline void StoreConfidence(int n, uint8_t solved, const uint8_t* __restrict status,
+                            const double* __restrict condition, const double* __restrict residual,
+                            float* __restrict condition_out, float* __restrict residual_out) {
+  const double float_max = __FLT_MAX__;
+  for (int i = 0; i < n; ++i) {
+    const bool ok = status[i] == solved;
+    condition_out[i] = static_cast<float>(condition[i] < float_max ? condition[i] : float_max);
+    residual_out[i] = ok ? static_cast<float>(residual[i] < 1e30 ? residual[i] : 1e30) : 0.0f;
+  }
+}
+
+int Store(const StoreArgs& a) {
+  const int n = a.count;
+  const ptrdiff_t cap = a.capacity;
+  StoreTriple(n, a.normal, a.normal + cap, a.normal + 2 * cap, a.normal_out);
+  if (a.mosaic_out != nullptr) {
+    const uint8_t solved = a.solved;
+    const uint8_t* __restrict status = a.status;
+    const double* __restrict length = a.luminance_albedo;
+    float* __restrict out = a.mosaic_out;
+    for (int i = 0; i < n; ++i) out[i] = status[i] == solved ? static_cast<float>(length[i]) : 0.0f;
+  }
+  if (a.albedo_out != nullptr) {
+    StoreSolvedTriple(n, a.solved, a.status, a.albedo, a.albedo + cap, a.albedo + 2 * cap, a.albedo_out);
+  }
+  const int solved_count = StoreCodes(n, a, a.status, a.lights_used, a.status_out, a.lights_out, a.path_out);
+  if (a.condition_out != nullptr) {
+    StoreConfidence(n, a.solved, a.status, a.condition, a.residual, a.condition_out, a.residual_out);
+  }
+  if (a.specular_out != nullptr) {
+    const uint8_t solved = a.solved, unsupported = a.unsupported, not_solved = a.not_solved;
+    const uint8_t* __restrict status = a.status;
+    float* __restrict specular = a.specular_out;
+    uint8_t* __restrict specular_status = a.specular_status_out;
+    for (int i = 0; i < 2 * n; ++i) specular[i] = 0.0f;
+    for (int i = 0; i < n; ++i) specular_status[i] = status[i] == solved ? unsupported : not_solved;
+  }
+  return solved_count;
+}
+
 }  // namespace
 
 const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals,  &PointLights,
-                           &Solve,             &Conditions, &LightRules, &Interpolate};
+                           &Solve,             &Conditions, &LightRules, &Interpolate, &Store};
 
 }  // namespace scanbench::tiled::SCANBENCH_ISA_NAMESPACE

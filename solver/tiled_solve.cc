@@ -114,16 +114,15 @@ PixelFit SpanFits::Fit(int i) const {
 
 namespace {
 
-// StoreFits' loops for one span; kAll: every pixel is written (no region,
-// nothing skipped), loops without a test that the compiler vectorises.
-template <bool kAll>
+// StoreFits' loops for a span with a region or skipped pixels (the others
+// go to the per-ISA store kernel).
 void StoreFitRows(const SolveJob& job, const SpanFits& fits, const Span& span, const uint8_t* skip,
                   std::array<size_t, kNumSolvePaths>* pixels_by_path) {
   PhotometricSolution& s = *job.solution;
   const int count = span.count, n = fits.capacity, x0 = span.x0, y = span.y;
   const uint8_t solved_code = static_cast<uint8_t>(PixelStatus::kSolved);
   const uint8_t* __restrict status_in = fits.status.data();
-  auto write = [&](int i) { return kAll || (span.Wanted(i) && (skip == nullptr || skip[i] == 0)); };
+  auto write = [&](int i) { return span.Wanted(i) && (skip == nullptr || skip[i] == 0); };
   {
     float* __restrict out = s.normal_in_table.row(y) + static_cast<size_t>(x0) * 3;
     const double* __restrict n0 = fits.normal.data();
@@ -239,9 +238,46 @@ void PrefetchNextFits(const SolveJob& job, const Span& span) {
 // instead of eight interleaved ones per pixel).
 void PixelWriter::StoreFits(const SpanFits& fits, const Span& span, const uint8_t* skip) {
   if (span.region == nullptr && skip == nullptr) {
-    StoreFitRows<true>(job_, fits, span, skip, &pixels_by_path_);
+    // Every pixel written: the per-ISA kernel's loops.
+    PhotometricSolution& s = *job_.solution;
+    const int x0 = span.x0, y = span.y;
+    StoreArgs a;
+    a.count = span.count;
+    a.capacity = fits.capacity;
+    a.solved = static_cast<uint8_t>(PixelStatus::kSolved);
+    a.light_path = static_cast<uint8_t>(span.LightPath());
+    a.no_path = static_cast<uint8_t>(SolvePath::kNone);
+    a.unsupported = static_cast<uint8_t>(SpecularStatus::kUnsupported);
+    a.not_solved = static_cast<uint8_t>(SpecularStatus::kNotSolved);
+    a.status = fits.status.data();
+    a.lights_used = fits.lights_used.data();
+    a.normal = fits.normal.data();
+    a.albedo = fits.albedo.data();
+    a.luminance_albedo = fits.luminance_albedo.data();
+    a.condition = fits.condition_number.data();
+    a.residual = fits.residual.data();
+    a.normal_out = s.normal_in_table.row(y) + static_cast<size_t>(x0) * 3;
+    if (job_.bayer) {
+      a.mosaic_out = job_.albedo_mosaic->row(y) + x0;
+    } else if (job_.with_albedo) {
+      a.albedo_out = s.albedo.row(y) + static_cast<size_t>(x0) * 3;
+    }
+    a.status_out = s.status.row(y) + x0;
+    a.lights_out = s.lights_used.row(y) + x0;
+    a.path_out = s.solve_path.row(y) + x0;
+    if (job_.with_confidence) {
+      a.condition_out = s.condition_number.row(y) + x0;
+      a.residual_out = s.residual.row(y) + x0;
+    }
+    if (!s.specular.empty()) {
+      a.specular_out = s.specular.row(y) + static_cast<size_t>(x0) * 2;
+      a.specular_status_out = s.specular_status.row(y) + x0;
+    }
+    const int solved = KernelsOf(job_).store(a);
+    pixels_by_path_[a.light_path] += solved;
+    pixels_by_path_[a.no_path] += span.count - solved;
   } else {
-    StoreFitRows<false>(job_, fits, span, skip, &pixels_by_path_);
+    StoreFitRows(job_, fits, span, skip, &pixels_by_path_);
   }
   PrefetchNextFits(job_, span);
 }
