@@ -199,11 +199,25 @@ bool MethodEstimatesLobe(const PhotometricSolverOptions& options) {
   return options.method == Method::kDiffuseLobe || (options.method == Method::kAdaptive && options.adaptive_lobe);
 }
 
+// `image` as a width x height x channels image with every value `value`:
+// filled in place when it already has that shape (a solution solved into
+// again, e.g. band after band: no fresh memory, whose first touch costs more
+// than the fill), else made anew; empty when `wanted` is false.
+template <typename T>
+void Reset(bool wanted, int width, int height, int channels, T value, Image<T>* image) {
+  if (!wanted) {
+    *image = Image<T>();
+  } else if (image->SameSize(width, height) && image->channels() == channels) {
+    std::fill(image->data(), image->data() + image->size(), value);
+  } else {
+    *image = Image<T>(width, height, channels, value);
+  }
+}
+
 // Every output at its "not solved" value, sized to the light field; the job
 // the workers get (Bayer: the per-raw-pixel albedo goes to `albedo_mosaic`).
-// The images are fresh memory, and filling them is mostly the page faults of
-// their first touch (0.7 GB at 16 MP): each is built as one task on the
-// solve's threads.
+// Fresh images are mostly the page faults of their first touch (0.7 GB at
+// 16 MP): each is set up as one task on the solve's threads.
 tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosaic) {
   const int width = job.field->width(), height = job.field->height();
   PhotometricSolution* solution = job.solution;
@@ -211,21 +225,22 @@ tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosai
   // The largest first, so that the threads finish together.
   const std::function<void()> fills[] = {
       [&] {
-        solution->normal_in_table = ImageF(width, height, 3, 0.0f);
+        Reset(true, width, height, 3, 0.0f, &solution->normal_in_table);
         float* normal = solution->normal_in_table.data();
         for (size_t i = 0; i < solution->normal_in_table.num_pixels(); ++i) normal[3 * i + 2] = 1;
       },
-      [&] { solution->albedo = job.with_albedo ? ImageF(width, height, 3, 0.0f) : ImageF(); },
-      [&] { solution->specular = lobe ? ImageF(width, height, 2, 0.0f) : ImageF(); },
-      [&] { solution->condition_number = job.with_confidence ? ImageF(width, height, 1, 0.0f) : ImageF(); },
-      [&] { solution->residual = job.with_confidence ? ImageF(width, height, 1, 0.0f) : ImageF(); },
-      [&] { *albedo_mosaic = job.bayer ? ImageF(width, height, 1, 0.0f) : ImageF(); },
-      [&] { solution->status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion)); },
-      [&] { solution->lights_used = ImageU8(width, height, 1, 0); },
-      [&] { solution->solve_path = ImageU8(width, height, 1, static_cast<uint8_t>(SolvePath::kNone)); },
+      [&] { Reset(job.with_albedo, width, height, 3, 0.0f, &solution->albedo); },
+      [&] { Reset(lobe, width, height, 2, 0.0f, &solution->specular); },
+      [&] { Reset(job.with_confidence, width, height, 1, 0.0f, &solution->condition_number); },
+      [&] { Reset(job.with_confidence, width, height, 1, 0.0f, &solution->residual); },
+      [&] { Reset(job.bayer, width, height, 1, 0.0f, albedo_mosaic); },
       [&] {
-        solution->specular_status =
-            lobe ? ImageU8(width, height, 1, static_cast<uint8_t>(SpecularStatus::kNotSolved)) : ImageU8();
+        Reset(true, width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion), &solution->status);
+      },
+      [&] { Reset(true, width, height, 1, uint8_t{0}, &solution->lights_used); },
+      [&] { Reset(true, width, height, 1, static_cast<uint8_t>(SolvePath::kNone), &solution->solve_path); },
+      [&] {
+        Reset(lobe, width, height, 1, static_cast<uint8_t>(SpecularStatus::kNotSolved), &solution->specular_status);
       },
   };
   const int num_fills = static_cast<int>(std::size(fills));

@@ -94,10 +94,15 @@ class NormalEquationsSolve {
     scaled_.assign(static_cast<size_t>(3) * n_, 0.0);
     residual2_.assign(n_, 0.0);
     inverse_.assign(static_cast<size_t>(6) * n_, 0.0);
+    masks_.assign(n_, 0);
     ready_.assign(n_, 0.0);
     outcome_.assign(n_, 0.0);
     condition_.assign(n_, 0.0);
     condition_fallback_.assign(n_, 1.0);
+    gathered_.assign(static_cast<size_t>(kG22 + 1) * n_, 0.0);
+    gathered_condition_.assign(n_, 0.0);
+    gathered_fallback_.assign(n_, 1.0);
+    gathered_index_.assign(n_, 0);
   }
 
   // fits() for every pixel of the span: status, normal, albedo, condition number.
@@ -107,6 +112,9 @@ class NormalEquationsSolve {
   const SpanFits& fits() const { return fits_; }
 
  private:
+  // Interpolated tiles: condition_ and condition_fallback_ of the pixels not
+  // using every light (the others have the nodes' condition number).
+  void InterpolatedConditions(const Span& span);
   // Status, lights used and condition number of pixel i where it cannot be
   // solved; else marks it ready (and, in uniform tiles, gives its inverse).
   void PreparePixel(const Span& span, int i);
@@ -134,16 +142,47 @@ class NormalEquationsSolve {
   SpanFits fits_;
   std::vector<double> scaled_;     // luminance scaled normal, [c * n + i]; 0 unless solved
   std::vector<double> residual2_;  // sum of squared residuals
-  std::vector<double> inverse_;    // uniform tiles: each pixel's inverse Gram matrix, [e * n + i]
-  std::vector<double> ready_;      // 1 where the kernel solves the pixel
+  std::vector<double> inverse_;    // uniform tiles: a pixel's own inverse Gram matrix, [e * n + i] (ready 2)
+  std::vector<uint64_t> masks_;    // uniform tiles: the lights each pixel uses (bit k: light k)
+  std::vector<double> ready_;      // 1 where the kernel solves the pixel (2: with its own inverse)
   std::vector<double> outcome_;    // the kernel's status code where ready
   // Exact tiles: each pixel's condition number from the kernel, unless
   // condition_fallback_ (then ConditionNumberFromGram's).
   std::vector<double> condition_, condition_fallback_;
+  // InterpolatedConditions' gathered pixels: Gram rows as in acc, their indices, the kernel's results.
+  std::vector<double> gathered_, gathered_condition_, gathered_fallback_;
+  std::vector<int> gathered_index_;
 };
+
+// Interpolated tiles know the condition number of every pixel that uses all
+// the lights; the others (shadowed samples) take the kernel's: their Gram
+// matrices gathered, the kernel run over them alone, its results put back.
+void NormalEquationsSolve::InterpolatedConditions(const Span& span) {
+  const double* acc = span.buffers->acc.data();
+  const double* used = acc + kCount * n_;
+  int m = 0;
+  for (int i = 0; i < span.count; ++i) {
+    if (static_cast<int>(used[i]) == settings_.num_lights) continue;
+    for (int e = kG00; e <= kG22; ++e) gathered_[e * n_ + m] = acc[e * n_ + i];
+    gathered_index_[m++] = i;
+  }
+  if (m == 0) return;
+  ConditionArgs c;
+  c.count = m;
+  c.capacity = n_;
+  c.acc = gathered_.data();
+  c.condition = gathered_condition_.data();
+  c.fallback = gathered_fallback_.data();
+  settings_.kernels->conditions(c);
+  for (int j = 0; j < m; ++j) {
+    condition_[gathered_index_[j]] = gathered_condition_[j];
+    condition_fallback_[gathered_index_[j]] = gathered_fallback_[j];
+  }
+}
 
 void NormalEquationsSolve::Solve(const Span& span) {
   const bool uniform = span.lights == TileLights::kUniform;
+  const double* used = span.buffers->acc.data() + kCount * n_;
   if (span.lights == TileLights::kExact) {
     ConditionArgs c;
     c.count = span.count;
@@ -152,27 +191,60 @@ void NormalEquationsSolve::Solve(const Span& span) {
     c.condition = condition_.data();
     c.fallback = condition_fallback_.data();
     settings_.kernels->conditions(c);
+  } else if (span.lights == TileLights::kInterpolated) {
+    InterpolatedConditions(span);
   }
-  if (uniform) {
-    // Every pixel using all the tile's usable lights takes the shared
-    // inverse: the planes start with it, the others overwrite theirs.
-    const Eigen::Matrix3d& m = span.shared->inverse;
-    const double shared[6] = {m(0, 0), m(0, 1), m(0, 2), m(1, 1), m(1, 2), m(2, 2)};
-    for (int e = 0; e < 6; ++e) std::fill_n(inverse_.begin() + e * n_, span.count, shared[e]);
-  }
+  // Uniform tiles: every pixel using all the tile's usable lights takes the
+  // shared inverse; the others are given theirs in the planes (ready 2).
+  const Eigen::Matrix3d& m = span.shared->inverse;
+  const double shared_inverse[6] = {m(0, 0), m(0, 1), m(0, 2), m(1, 1), m(1, 2), m(2, 2)};
   const int count = span.count;
-  std::fill_n(ready_.begin(), count, 0.0);
-  std::fill_n(fits_.condition_number.begin(), count, 0.0);
-  std::fill_n(fits_.residual.begin(), count, 0.0);
-  std::fill_n(fits_.lights_used.begin(), count, 0);
-  // The common case of a uniform tile first: a pixel using all its usable
-  // lights (the shared matrix, checked once here).
-  const double* used = span.buffers->acc.data() + kCount * n_;
-  const int shared_usable = uniform && span.shared->condition <= settings_.options.max_condition_number &&
-                                    span.shared->usable >= std::max(3, settings_.options.min_lights)
+  const PhotometricSolverOptions& options = settings_.options;
+  const int min_used = std::max(3, options.min_lights);
+  // The common cases first, in one pass without branches over a span with
+  // no region: a pixel of a uniform tile using all its usable lights (the
+  // shared matrix, checked once here), a pixel of an interpolated tile using
+  // every light within the condition limit (the nodes' condition number).
+  // Every other pixel goes through the per-pixel rules below.
+  const int shared_usable = uniform && span.shared->condition <= options.max_condition_number &&
+                                    span.shared->usable >= min_used
                                 ? span.shared->usable
                                 : -1;
+  const bool interpolated = span.lights == TileLights::kInterpolated && settings_.num_lights >= min_used;
+  const int fast_used = uniform ? shared_usable : interpolated ? settings_.num_lights : -1;
+  int slow = 0;  // pixels left to the per-pixel rules
+  {
+    const double target = span.region == nullptr ? fast_used : -1.0;
+    const double max_condition = options.max_condition_number;
+    const uint8_t* __restrict bad = span.buffers->light_bad.data();
+    const double* __restrict node_condition = span.buffers->all_lights_condition.data();
+    const double shared_condition = uniform ? span.shared->condition : 0.0;
+    double* __restrict ready = ready_.data();
+    double* __restrict condition = fits_.condition_number.data();
+    double* __restrict residual = fits_.residual.data();
+    int* __restrict lights_used = fits_.lights_used.data();
+    for (int i = 0; i < count; ++i) {
+      const double c = uniform ? shared_condition : node_condition[i];
+      const bool fast = (used[i] == target) & (bad[i] == 0) & (c <= max_condition);
+      ready[i] = fast ? 1.0 : 0.0;
+      condition[i] = fast ? c : 0.0;
+      residual[i] = 0.0;
+      lights_used[i] = fast ? fast_used : 0;
+      slow += !fast;
+    }
+  }
+  if (uniform && slow > 0 && settings_.num_lights <= 64) {
+    // Which lights each pixel uses, for PreparePixel's inverses per subset:
+    // one pass per light over the span.
+    uint64_t* __restrict masks = masks_.data();
+    std::fill_n(masks, count, uint64_t{0});
+    for (int k = 0; k < settings_.num_lights; ++k) {
+      const float* __restrict ok = span.buffers->ok.data() + static_cast<size_t>(k) * n_;
+      for (int i = 0; i < count; ++i) masks[i] |= uint64_t(ok[i] > 0) << k;
+    }
+  }
   for (int i = 0; i < count; ++i) {
+    if (ready_[i] != 0) continue;
     if (!span.Wanted(i)) {
       fits_.status[i] = static_cast<uint8_t>(PixelStatus::kOutsideRegion);
     } else if (span.buffers->light_bad[i]) {
@@ -196,6 +268,7 @@ void NormalEquationsSolve::Solve(const Span& span) {
   a.facing_away = static_cast<int>(PixelStatus::kFacingAway);
   a.acc = span.buffers->acc.data();
   a.inverse = inverse_.data();
+  a.shared_inverse = shared_inverse;
   a.ready = ready_.data();
   a.status = outcome_.data();
   a.scaled = scaled_.data();
@@ -235,17 +308,15 @@ void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
   const double g00 = acc[kG00 * n + i], g01 = acc[kG01 * n + i], g02 = acc[kG02 * n + i];
   const double g11 = acc[kG11 * n + i], g12 = acc[kG12 * n + i], g22 = acc[kG22 * n + i];
   double condition = 0;
+  bool own_inverse = false;  // SetInverse gave the pixel its own (ready 2)
   if (span.lights == TileLights::kUniform && used == span.shared->usable) {
-    condition = span.shared->condition;  // the inverse planes hold the shared one already (Solve)
+    condition = span.shared->condition;  // the shared inverse (ready 1)
   } else if (span.lights == TileLights::kUniform && settings_.num_lights <= 64) {
     // A uniform tile's Gram matrix depends only on which lights a pixel
     // uses (unit weights, the same directions, summed in the same order):
     // pixels with the same shadowed lights share its condition number and
     // inverse, computed once.
-    uint64_t mask = 0;
-    for (int k = 0; k < settings_.num_lights; ++k) {
-      mask |= uint64_t(span.buffers->ok[static_cast<size_t>(k) * n + i] > 0) << k;
-    }
+    const uint64_t mask = masks_[i];  // Solve's
     SubsetInverse& entry = subsets_[(mask * 0x9E3779B97F4A7C15ull) >> (64 - kSubsetBits)];
     if (entry.generation != span.shared->generation || entry.mask != mask) {
       entry.generation = span.shared->generation;
@@ -254,16 +325,24 @@ void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
     }
     condition = entry.condition;
     SetInverse(i, entry.inverse);
+    own_inverse = true;
   } else {
     // Interpolated tiles have every light usable: a pixel using them all
-    // has the interpolated condition number of the nodes. The kernel
-    // inverts the Gram matrix itself outside uniform tiles.
+    // has the interpolated condition number of the nodes; the other pixels
+    // of interpolated and exact tiles have the kernel's (Solve) unless it
+    // left them to the scalar function. The kernel inverts the Gram matrix
+    // itself outside uniform tiles.
     const bool interpolated = span.lights == TileLights::kInterpolated && used == settings_.num_lights;
-    const bool from_kernel = span.lights == TileLights::kExact && condition_fallback_[i] == 0;
+    const bool from_kernel = span.lights != TileLights::kUniform && condition_fallback_[i] == 0;
     const double known = interpolated ? span.buffers->all_lights_condition[i] : from_kernel ? condition_[i] : -1.0;
-    double inverse[6] = {1, 0, 0, 1, 0, 1};
-    InvertGram(g00, g01, g02, g11, g12, g22, known, &condition, inverse);
-    if (span.lights == TileLights::kUniform) SetInverse(i, inverse);
+    if (span.lights == TileLights::kUniform) {
+      double inverse[6] = {1, 0, 0, 1, 0, 1};
+      InvertGram(g00, g01, g02, g11, g12, g22, known, &condition, inverse);
+      SetInverse(i, inverse);
+      own_inverse = true;
+    } else {
+      condition = known >= 0 ? known : ConditionNumberFromGram(g00, g01, g02, g11, g12, g22);
+    }
   }
   if (!(condition <= options.max_condition_number)) {
     fits_.status[i] = static_cast<uint8_t>(PixelStatus::kIllConditioned);
@@ -271,7 +350,7 @@ void NormalEquationsSolve::PreparePixel(const Span& span, int i) {
     return;
   }
   fits_.condition_number[i] = condition;
-  ready_[i] = 1;
+  ready_[i] = own_inverse ? 2 : 1;
 }
 
 // Exact, no cancellation: the samples are read again rather than expanding
@@ -333,12 +412,14 @@ class AdaptiveKernel final : public PixelKernel {
     solve_.AddResiduals(span);
     const SpanFits& fits = solve_.fits();
     const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
+    bool any_refitted = false;
     for (int i = 0; i < span.count; ++i) {
       refitted_[i] = 0;
       if (!span.Wanted(i)) continue;
       const bool sheen = settings_.options.adaptive_sheen && fits.status[i] == solved;
       if (!WantsRobust(span, i, fits) && !sheen) continue;
       refitted_[i] = 1;
+      any_refitted = true;
       const int x = span.x0 + i;
       const PixelFit fit = fits.Fit(i);
       if (WantsRobust(span, i, fits)) {
@@ -369,7 +450,8 @@ class AdaptiveKernel final : public PixelKernel {
       }
       out->Store(fit, x, span.y, span.LightPath());
     }
-    out->StoreFits(fits, span, refitted_.data());
+    // No skip list where nothing was refitted: StoreFits' loops without a test.
+    out->StoreFits(fits, span, any_refitted ? refitted_.data() : nullptr);
   }
 
  private:

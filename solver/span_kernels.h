@@ -31,6 +31,10 @@ struct AccumulateArgs {
   bool uniform = false, bayer = false, albedo = false;
   const float* const* pixels = nullptr;  // per light: the row from x0 (RGB interleaved or mosaic)
   const uint8_t* const* marks = nullptr; // per light: 0 = sample marked invalid
+  // Per light: the same span of the next row (samples, then marks), asked
+  // of the memory while this row's block of the light is summed; null: none.
+  const float* const* next_pixels = nullptr;
+  const uint8_t* const* next_marks = nullptr;
   float w0 = 0, w1 = 0, w2 = 0;          // luminance weights
   float threshold = 0;                   // shadow level; -infinity keeps every finite sample
   const float* shared_dir = nullptr;     // uniform tiles: 3 per light
@@ -74,8 +78,11 @@ struct SolveArgs {
   double min_albedo = 0;      // shorter scaled normals have no signal
   int solved = 0, no_signal = 0, facing_away = 0;  // the PixelStatus codes to write
   const double* acc = nullptr;      // [a * capacity + i], a in tiled::Acc
-  const double* inverse = nullptr;  // [e * capacity + i], e = 00, 01, 02, 11, 12, 22 of the symmetric inverse
-  const double* ready = nullptr;    // 1: solve the pixel, 0: not
+  // Unless invert_gram: the symmetric inverse's 00, 01, 02, 11, 12, 22 of a
+  // pixel marked 2 in `ready` at [e * capacity + i], else `shared_inverse`'s.
+  const double* inverse = nullptr;
+  const double* shared_inverse = nullptr;  // 6 values
+  const double* ready = nullptr;    // 1: solve the pixel (2: with its own inverse), 0: not
   double* status = nullptr;         // out: the status code where ready, -1 elsewhere
   double* scaled = nullptr;         // out: [c * capacity + i], luminance scaled normal; 0 unless solved
   double* normal = nullptr;         // out: [c * capacity + i], unit; (0, 0, 1) unless solved
@@ -120,6 +127,57 @@ struct PointLightArgs {
 enum PointLightValue : int { kLightX, kLightY, kLightZ, kAxisX, kAxisY, kAxisZ, kMu, kReference2, kRed, kGreen, kBlue,
                              kPointLightValues };
 
+// One row of an interpolated tile's lights (TileLightSampler's bilinear
+// interpolation between node rows): first each node column's values at the
+// row (linear in y), then, within each cell between two node columns,
+// value(t) = start + step * t (in float) with start and step from the
+// cell's two ends (in double).
+struct InterpolateArgs {
+  int num_values = 0;   // 3 per light
+  int num_columns = 0;  // node columns
+  int num_cells = 0;    // cells along the row: max(1, num_columns - 1)
+  int capacity = 0;     // stride of the output planes
+  double fy = 0;        // the row's position between the node rows, in [0, 1]
+  const int* cell_begin = nullptr;  // per cell: its first pixel, from the span's start
+  const int* cell_count = nullptr;  // per cell: its pixels (the last one includes its right node)
+  const double* cell_scale = nullptr;  // per cell: 1 / its width in pixels (0 for a single column)
+  // Per node column: the node above and below the row, num_values each.
+  const float* const* top_dirs = nullptr;
+  const float* const* bottom_dirs = nullptr;
+  const float* const* top_inv = nullptr;
+  const float* const* bottom_inv = nullptr;
+  double* scratch = nullptr;  // 2 * num_columns * num_values + 2 * num_values doubles
+  float* dirs = nullptr;      // out: [q * capacity + i]
+  float* inv = nullptr;       // out: likewise
+};
+
+// A span's fits (planar doubles) into the result images' row (interleaved
+// floats), every pixel of the span: what PixelWriter::StoreFits writes where
+// no pixel is skipped. Returns the pixels solved.
+struct StoreArgs {
+  int count = 0, capacity = 0;
+  uint8_t solved = 0;                       // PixelStatus::kSolved
+  uint8_t light_path = 0, no_path = 0;      // SolvePath of a solved pixel and of the others
+  uint8_t unsupported = 0, not_solved = 0;  // SpecularStatus of solved and other pixels
+  const uint8_t* status = nullptr;
+  const int* lights_used = nullptr;
+  const double* normal = nullptr;            // [c * capacity + i]
+  const double* albedo = nullptr;            // [c * capacity + i]; read where albedo_out is set
+  const double* luminance_albedo = nullptr;  // read where mosaic_out is set
+  const double* condition = nullptr, *residual = nullptr;  // read where their outputs are set
+  // The rows from the span's first pixel; null where the image is not filled.
+  float* normal_out = nullptr;    // 3 per pixel
+  float* albedo_out = nullptr;    // 3 per pixel, 0 unless solved
+  float* mosaic_out = nullptr;    // 1 per pixel, the luminance albedo, 0 unless solved
+  uint8_t* status_out = nullptr;
+  uint8_t* lights_out = nullptr;  // clamped to [0, 255]
+  uint8_t* path_out = nullptr;
+  float* condition_out = nullptr;  // at most the largest float
+  float* residual_out = nullptr;   // at most 1e30, 0 unless solved
+  float* specular_out = nullptr;   // 2 per pixel, 0
+  uint8_t* specular_status_out = nullptr;
+};
+
 struct SpanKernels {
   KernelIsa isa = KernelIsa::kBaseline;
   void (*accumulate)(const AccumulateArgs& args) = nullptr;
@@ -128,6 +186,8 @@ struct SpanKernels {
   void (*solve)(const SolveArgs& args) = nullptr;
   void (*conditions)(const ConditionArgs& args) = nullptr;
   void (*light_rules)(const LightRulesArgs& args) = nullptr;
+  void (*interpolate)(const InterpolateArgs& args) = nullptr;
+  int (*store)(const StoreArgs& args) = nullptr;
 };
 
 // The kernels built for `isa` (which must be supported: KernelIsaSupported).

@@ -115,6 +115,20 @@ inline void AccumulateLight(int n, const LightConstants c, const float* __restri
   }
 }
 
+// The next row's samples (and marks) of a block: a light's row is a short
+// run in memory, too short for the hardware prefetcher. Asked for one light
+// and block at a time, between the sums, so that the requests spread over
+// the row's work instead of queueing up at its start.
+template <bool kBayer>
+inline void PrefetchBlock(const float* next_pixels, const uint8_t* next_marks, int i0, int n) {
+  const char* first = reinterpret_cast<const char*>(next_pixels + (kBayer ? i0 : 3 * i0));
+  const ptrdiff_t bytes = static_cast<ptrdiff_t>(n) * (kBayer ? 1 : 3) * static_cast<ptrdiff_t>(sizeof(float));
+  for (ptrdiff_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(first + offset);
+  __builtin_prefetch(first + bytes - 1);  // the last line, where the block does not start on one
+  __builtin_prefetch(next_marks + i0);
+  __builtin_prefetch(next_marks + i0 + n - 1);
+}
+
 // All lights over the block of pixels [i0, i0 + n), then the sums widened
 // into acc.
 template <bool kUniform, bool kBayer, bool kAlbedo, bool kFull>
@@ -137,6 +151,7 @@ inline void AccumulateBlock(const AccumulateArgs& a, int i0, int tail) {
     const float* dir = a.dir + plane;
     const float* inv = a.inv + plane;
     float* rgb = a.rgb + plane;
+    if (a.next_pixels != nullptr) PrefetchBlock<kBayer>(a.next_pixels[k], a.next_marks[k], i0, n);
     AccumulateLight<kUniform, kBayer, kAlbedo>(
         n, c, a.pixels[k] + (kBayer ? i0 : 3 * i0), a.marks[k] + i0, dir, dir + cap, dir + 2 * cap, inv,
         inv + cap, inv + 2 * cap, inv + a.even_channel * cap, inv + a.odd_channel * cap, a.lum + k * cap + i0,
@@ -219,6 +234,10 @@ inline void SolvePixels(int n, ptrdiff_t cap, const SolveArgs& a, const double* 
                         double* __restrict n1, double* __restrict n2, double* __restrict length_out,
                         double* __restrict a0, double* __restrict a1, double* __restrict a2) {
   const double min_albedo = a.min_albedo;
+  double shared[6] = {0, 0, 0, 0, 0, 0};
+  if (!kInvert) {
+    for (int e = 0; e < 6; ++e) shared[e] = a.shared_inverse[e];
+  }
   const double solved = a.solved, no_signal = a.no_signal, facing_away = a.facing_away;
   // Every array is a separate buffer (the restrict qualifiers say so, but GCC
   // 12 still counts alias checks between the planes of one buffer).
@@ -236,8 +255,10 @@ inline void SolvePixels(int n, ptrdiff_t cap, const SolveArgs& a, const double* 
       m00 = c00 * inv_det, m01 = c01 * inv_det, m02 = c02 * inv_det;
       m11 = c11 * inv_det, m12 = c12 * inv_det, m22 = c22 * inv_det;
     } else {
-      m00 = given[0 * cap + i], m01 = given[1 * cap + i], m02 = given[2 * cap + i];
-      m11 = given[3 * cap + i], m12 = given[4 * cap + i], m22 = given[5 * cap + i];
+      const bool own = ready[i] > 1.5;
+      m00 = own ? given[0 * cap + i] : shared[0], m01 = own ? given[1 * cap + i] : shared[1];
+      m02 = own ? given[2 * cap + i] : shared[2], m11 = own ? given[3 * cap + i] : shared[3];
+      m12 = own ? given[4 * cap + i] : shared[4], m22 = own ? given[5 * cap + i] : shared[5];
     }
     const double b0 = acc[kB0 * cap + i], b1 = acc[kB1 * cap + i], b2 = acc[kB2 * cap + i];
     const double x = m00 * b0 + m01 * b1 + m02 * b2;
@@ -498,8 +519,127 @@ void PointLights(const PointLightArgs& a) {
   }
 }
 
+// Each node column's values at the row: (1 - fy) top + fy bottom, in double.
+inline void BlendColumn(int n, double fy, const float* __restrict top, const float* __restrict bottom,
+                        double* __restrict out) {
+  for (int q = 0; q < n; ++q) out[q] = (1 - fy) * top[q] + fy * bottom[q];
+}
+
+// A cell's start and step per value, from its two ends.
+inline void CellLine(int n, double scale, const double* __restrict left, const double* __restrict right,
+                     float* __restrict start, float* __restrict step) {
+  for (int q = 0; q < n; ++q) {
+    start[q] = static_cast<float>(left[q]);
+    step[q] = static_cast<float>((right[q] - left[q]) * scale);
+  }
+}
+
+inline void FillLine(int n, float start, float step, float* __restrict out) {
+  for (int t = 0; t < n; ++t) out[t] = start + step * static_cast<float>(t);
+}
+
+void Interpolate(const InterpolateArgs& a) {
+  const int n = a.num_values;
+  const ptrdiff_t cap = a.capacity;
+  double* dir_columns = a.scratch;
+  double* inv_columns = dir_columns + static_cast<ptrdiff_t>(a.num_columns) * n;
+  float* lines = reinterpret_cast<float*>(inv_columns + static_cast<ptrdiff_t>(a.num_columns) * n);
+  float* dir_start = lines;
+  float* dir_step = lines + n;
+  float* inv_start = lines + 2 * n;
+  float* inv_step = lines + 3 * n;
+  for (int j = 0; j < a.num_columns; ++j) {
+    BlendColumn(n, a.fy, a.top_dirs[j], a.bottom_dirs[j], dir_columns + j * n);
+    BlendColumn(n, a.fy, a.top_inv[j], a.bottom_inv[j], inv_columns + j * n);
+  }
+  for (int c = 0; c < a.num_cells; ++c) {
+    const int right = c + 1 < a.num_columns ? c + 1 : a.num_columns - 1;
+    CellLine(n, a.cell_scale[c], dir_columns + c * n, dir_columns + right * n, dir_start, dir_step);
+    CellLine(n, a.cell_scale[c], inv_columns + c * n, inv_columns + right * n, inv_start, inv_step);
+    const int begin = a.cell_begin[c], count = a.cell_count[c];
+    for (int q = 0; q < n; ++q) {
+      FillLine(count, dir_start[q], dir_step[q], a.dirs + q * cap + begin);
+      FillLine(count, inv_start[q], inv_step[q], a.inv + q * cap + begin);
+    }
+  }
+}
+
+inline void StoreTriple(int n, const double* __restrict v0, const double* __restrict v1,
+                        const double* __restrict v2, float* __restrict out) {
+  for (int i = 0; i < n; ++i) {
+    out[3 * i] = static_cast<float>(v0[i]);
+    out[3 * i + 1] = static_cast<float>(v1[i]);
+    out[3 * i + 2] = static_cast<float>(v2[i]);
+  }
+}
+
+inline void StoreSolvedTriple(int n, uint8_t solved, const uint8_t* __restrict status, const double* __restrict v0,
+                              const double* __restrict v1, const double* __restrict v2, float* __restrict out) {
+  for (int i = 0; i < n; ++i) {
+    const bool ok = status[i] == solved;
+    out[3 * i] = ok ? static_cast<float>(v0[i]) : 0.0f;
+    out[3 * i + 1] = ok ? static_cast<float>(v1[i]) : 0.0f;
+    out[3 * i + 2] = ok ? static_cast<float>(v2[i]) : 0.0f;
+  }
+}
+
+inline int StoreCodes(int n, const StoreArgs& a, const uint8_t* __restrict status, const int* __restrict used,
+                      uint8_t* __restrict status_out, uint8_t* __restrict lights_out, uint8_t* __restrict path_out) {
+  const uint8_t solved = a.solved, light_path = a.light_path, no_path = a.no_path;
+  int solved_count = 0;
+  for (int i = 0; i < n; ++i) {
+    const bool ok = status[i] == solved;
+    status_out[i] = status[i];
+    lights_out[i] = static_cast<uint8_t>(used[i] < 0 ? 0 : used[i] > 255 ? 255 : used[i]);
+    path_out[i] = ok ? light_path : no_path;
+    solved_count += ok ? 1 : 0;
+  }
+  return solved_count;
+}
+
+inline void StoreConfidence(int n, uint8_t solved, const uint8_t* __restrict status,
+                            const double* __restrict condition, const double* __restrict residual,
+                            float* __restrict condition_out, float* __restrict residual_out) {
+  const double float_max = __FLT_MAX__;
+  for (int i = 0; i < n; ++i) {
+    const bool ok = status[i] == solved;
+    condition_out[i] = static_cast<float>(condition[i] < float_max ? condition[i] : float_max);
+    residual_out[i] = ok ? static_cast<float>(residual[i] < 1e30 ? residual[i] : 1e30) : 0.0f;
+  }
+}
+
+int Store(const StoreArgs& a) {
+  const int n = a.count;
+  const ptrdiff_t cap = a.capacity;
+  StoreTriple(n, a.normal, a.normal + cap, a.normal + 2 * cap, a.normal_out);
+  if (a.mosaic_out != nullptr) {
+    const uint8_t solved = a.solved;
+    const uint8_t* __restrict status = a.status;
+    const double* __restrict length = a.luminance_albedo;
+    float* __restrict out = a.mosaic_out;
+    for (int i = 0; i < n; ++i) out[i] = status[i] == solved ? static_cast<float>(length[i]) : 0.0f;
+  }
+  if (a.albedo_out != nullptr) {
+    StoreSolvedTriple(n, a.solved, a.status, a.albedo, a.albedo + cap, a.albedo + 2 * cap, a.albedo_out);
+  }
+  const int solved_count = StoreCodes(n, a, a.status, a.lights_used, a.status_out, a.lights_out, a.path_out);
+  if (a.condition_out != nullptr) {
+    StoreConfidence(n, a.solved, a.status, a.condition, a.residual, a.condition_out, a.residual_out);
+  }
+  if (a.specular_out != nullptr) {
+    const uint8_t solved = a.solved, unsupported = a.unsupported, not_solved = a.not_solved;
+    const uint8_t* __restrict status = a.status;
+    float* __restrict specular = a.specular_out;
+    uint8_t* __restrict specular_status = a.specular_status_out;
+    for (int i = 0; i < 2 * n; ++i) specular[i] = 0.0f;
+    for (int i = 0; i < n; ++i) specular_status[i] = status[i] == solved ? unsupported : not_solved;
+  }
+  return solved_count;
+}
+
 }  // namespace
 
-const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals, &PointLights, &Solve, &Conditions, &LightRules};
+const SpanKernels kKernels{SCANBENCH_ISA_ENUM, &Accumulate, &Residuals,  &PointLights,
+                           &Solve,             &Conditions, &LightRules, &Interpolate, &Store};
 
 }  // namespace scanbench::tiled::SCANBENCH_ISA_NAMESPACE

@@ -204,45 +204,61 @@ void TileLightSampler::FillRow(TileLights lights, int x0, int x1, int y, SpanBuf
 }
 
 // Between two node rows bilinear interpolation is linear in x within each
-// cell: fill every cell's stretch of the row from its two ends.
-void TileLightSampler::FillInterpolatedRow(int x0, int y, SpanBuffers* buffers) const {
-  const int n = buffers->capacity;
+// cell: every cell's stretch of the row from its two ends, in the per-ISA
+// kernel (SpanKernels::interpolate); the condition numbers likewise here.
+void TileLightSampler::FillInterpolatedRow(int x0, int y, SpanBuffers* buffers) {
   const int nx = static_cast<int>(node_x_.size()), ny = static_cast<int>(node_y_.size());
   int j = 0;
   while (j + 2 < ny && node_y_[j + 1] <= y) ++j;
   const int j1 = std::min(j + 1, ny - 1);
   const double fy = node_y_[j1] > node_y_[j] ? double(y - node_y_[j]) / (node_y_[j1] - node_y_[j]) : 0.0;
-  for (int i = 0; i + 1 < std::max(2, nx); ++i) {
+  const int num_cells = std::max(2, nx) - 1;
+  const int num_values = 3 * num_lights_;
+  cell_begin_.resize(num_cells);
+  cell_count_.resize(num_cells);
+  cell_scale_.resize(num_cells);
+  column_rows_.resize(4 * static_cast<size_t>(nx));
+  interpolate_scratch_.resize(2 * static_cast<size_t>(nx) * num_values + 2 * static_cast<size_t>(num_values));
+  for (int i = 0; i < num_cells; ++i) {
     const int i1 = std::min(i + 1, nx - 1);
     const int xa = node_x_[i], xb = node_x_[i1];
     const int end = i1 == nx - 1 ? xb + 1 : xb;  // the last cell includes its right node
     const double step_scale = xb > xa ? 1.0 / (xb - xa) : 0.0;
-    const LightProbe& top_left = nodes_[j * nx + i];
-    const LightProbe& top_right = nodes_[j * nx + i1];
-    const LightProbe& bottom_left = nodes_[j1 * nx + i];
-    const LightProbe& bottom_right = nodes_[j1 * nx + i1];
-    {
-      const double left = (1 - fy) * node_condition_[j * nx + i] + fy * node_condition_[j1 * nx + i];
-      const double right = (1 - fy) * node_condition_[j * nx + i1] + fy * node_condition_[j1 * nx + i1];
-      double* __restrict condition = &buffers->all_lights_condition[xa - x0];
-      for (int t = 0; t < end - xa; ++t) condition[t] = left + (right - left) * step_scale * t;
-    }
-    for (int q = 0; q < 3 * num_lights_; ++q) {
-      const double dir_left = (1 - fy) * top_left.dirs[q] + fy * bottom_left.dirs[q];
-      const double dir_right = (1 - fy) * top_right.dirs[q] + fy * bottom_right.dirs[q];
-      const double inv_left = (1 - fy) * top_left.inv[q] + fy * bottom_left.inv[q];
-      const double inv_right = (1 - fy) * top_right.inv[q] + fy * bottom_right.inv[q];
-      const float dir_step = static_cast<float>((dir_right - dir_left) * step_scale);
-      const float inv_step = static_cast<float>((inv_right - inv_left) * step_scale);
-      const float dir_start = static_cast<float>(dir_left), inv_start = static_cast<float>(inv_left);
-      float* __restrict dir = &buffers->dir[static_cast<size_t>(q) * n + (xa - x0)];
-      float* __restrict inv = &buffers->inv[static_cast<size_t>(q) * n + (xa - x0)];
-      for (int t = 0; t < end - xa; ++t) {
-        dir[t] = dir_start + dir_step * static_cast<float>(t);
-        inv[t] = inv_start + inv_step * static_cast<float>(t);
-      }
-    }
+    cell_begin_[i] = xa - x0;
+    cell_count_[i] = end - xa;
+    cell_scale_[i] = step_scale;
+    const double left = (1 - fy) * node_condition_[j * nx + i] + fy * node_condition_[j1 * nx + i];
+    const double right = (1 - fy) * node_condition_[j * nx + i1] + fy * node_condition_[j1 * nx + i1];
+    double* __restrict condition = &buffers->all_lights_condition[xa - x0];
+    for (int t = 0; t < end - xa; ++t) condition[t] = left + (right - left) * step_scale * t;
   }
+  const float** top_dirs = column_rows_.data();
+  const float** bottom_dirs = top_dirs + nx;
+  const float** top_inv = top_dirs + 2 * nx;
+  const float** bottom_inv = top_dirs + 3 * nx;
+  for (int i = 0; i < nx; ++i) {
+    top_dirs[i] = nodes_[j * nx + i].dirs.data();
+    bottom_dirs[i] = nodes_[j1 * nx + i].dirs.data();
+    top_inv[i] = nodes_[j * nx + i].inv.data();
+    bottom_inv[i] = nodes_[j1 * nx + i].inv.data();
+  }
+  InterpolateArgs a;
+  a.num_values = num_values;
+  a.num_columns = nx;
+  a.num_cells = num_cells;
+  a.capacity = buffers->capacity;
+  a.fy = fy;
+  a.cell_begin = cell_begin_.data();
+  a.cell_count = cell_count_.data();
+  a.cell_scale = cell_scale_.data();
+  a.top_dirs = top_dirs;
+  a.bottom_dirs = bottom_dirs;
+  a.top_inv = top_inv;
+  a.bottom_inv = bottom_inv;
+  a.scratch = interpolate_scratch_.data();
+  a.dirs = buffers->dir.data();
+  a.inv = buffers->inv.data();
+  KernelsOf(job_).interpolate(a);
 }
 
 // The whole row from the field at once, then Probe's rules per light in the

@@ -48,7 +48,7 @@ class TileLightSampler {
   bool NodesMatchCentre() const;
   bool InterpolationHolds();
   void ComputeNodeConditions();
-  void FillInterpolatedRow(int x0, int y, SpanBuffers* buffers) const;
+  void FillInterpolatedRow(int x0, int y, SpanBuffers* buffers);
   void FillExactRow(int x0, int x1, int y, SpanBuffers* buffers);
 
   const SolveJob& job_;
@@ -58,6 +58,11 @@ class TileLightSampler {
   std::vector<LightProbe> nodes_;             // the light field at the nodes
   std::vector<double> node_condition_;        // condition number of all lights at each node
   LightProbe centre_, interpolated_, truth_;
+  // FillInterpolatedRow's arguments to the kernel: per cell, per node column, scratch.
+  std::vector<int> cell_begin_, cell_count_;
+  std::vector<double> cell_scale_;
+  std::vector<const float*> column_rows_;
+  std::vector<double> interpolate_scratch_;
   SharedLights shared_;
 };
 

@@ -8,28 +8,22 @@
 namespace scanbench::tiled {
 namespace {
 
-// The next row of every light's span is a separate short run in memory, too
-// short for the hardware prefetcher: ask for it now, use it next row.
-void PrefetchNextRow(const SolveJob& job, int x0, int count, int y, int channels) {
-  if (y + 1 >= job.field->height()) return;
-  const size_t bytes = static_cast<size_t>(count) * channels * sizeof(float);
-  for (int k = 0; k < job.num_lights; ++k) {
-    const char* next = reinterpret_cast<const char*>((*job.images)[k]->row(y + 1) + static_cast<size_t>(x0) * channels);
-    for (size_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(next + offset);
-  }
-}
-
 // All lights of one span: the rows' addresses and the per-span constants,
 // then the hot loop of the job's instruction set (span_kernels_impl.h).
 template <bool kUniform, bool kBayer, bool kAlbedo>
 void AccumulateSpan(const SolveJob& job, const SharedLights& shared, int x0, int count, int y, SpanBuffers* b) {
   const PhotometricSolverOptions& options = *job.options;
   constexpr int kChannels = kBayer ? 1 : 3;
+  // The kernel asks for the next row's samples while it sums this one's.
+  const bool next = y + 1 < job.field->height();
   for (int k = 0; k < job.num_lights; ++k) {
     b->rows[k] = (*job.images)[k]->row(y) + static_cast<size_t>(x0) * kChannels;
     b->marks[k] = job.sample_valid->empty() ? b->ones.data() : (*job.sample_valid)[k]->row(y) + x0;
+    if (next) {
+      b->next_rows[k] = (*job.images)[k]->row(y + 1) + static_cast<size_t>(x0) * kChannels;
+      b->next_marks[k] = job.sample_valid->empty() ? b->ones.data() : (*job.sample_valid)[k]->row(y + 1) + x0;
+    }
   }
-  PrefetchNextRow(job, x0, count, y, kChannels);
   AccumulateArgs a;
   a.count = count;
   a.num_lights = job.num_lights;
@@ -39,6 +33,8 @@ void AccumulateSpan(const SolveJob& job, const SharedLights& shared, int x0, int
   a.albedo = kAlbedo;
   a.pixels = b->rows.data();
   a.marks = b->marks.data();
+  a.next_pixels = next ? b->next_rows.data() : nullptr;
+  a.next_marks = next ? b->next_marks.data() : nullptr;
   a.w0 = static_cast<float>(options.luminance_weights[0]);
   a.w1 = static_cast<float>(options.luminance_weights[1]);
   a.w2 = static_cast<float>(options.luminance_weights[2]);
@@ -73,6 +69,8 @@ SpanBuffers::SpanBuffers(int lights, int span_capacity) : num_lights(lights), ca
   ones.assign(capacity, 1);
   rows.assign(num_lights, nullptr);
   marks.assign(num_lights, nullptr);
+  next_rows.assign(num_lights, nullptr);
+  next_marks.assign(num_lights, nullptr);
   acc.assign(static_cast<size_t>(kNumAcc) * capacity, 0.0);
   light_bad.assign(capacity, 0);
   clipped.assign(capacity, 0.0f);
@@ -116,16 +114,15 @@ PixelFit SpanFits::Fit(int i) const {
 
 namespace {
 
-// StoreFits' loops for one span; kAll: every pixel is written (no region,
-// nothing skipped), loops without a test that the compiler vectorises.
-template <bool kAll>
+// StoreFits' loops for a span with a region or skipped pixels (the others
+// go to the per-ISA store kernel).
 void StoreFitRows(const SolveJob& job, const SpanFits& fits, const Span& span, const uint8_t* skip,
                   std::array<size_t, kNumSolvePaths>* pixels_by_path) {
   PhotometricSolution& s = *job.solution;
   const int count = span.count, n = fits.capacity, x0 = span.x0, y = span.y;
   const uint8_t solved_code = static_cast<uint8_t>(PixelStatus::kSolved);
   const uint8_t* __restrict status_in = fits.status.data();
-  auto write = [&](int i) { return kAll || (span.Wanted(i) && (skip == nullptr || skip[i] == 0)); };
+  auto write = [&](int i) { return span.Wanted(i) && (skip == nullptr || skip[i] == 0); };
   {
     float* __restrict out = s.normal_in_table.row(y) + static_cast<size_t>(x0) * 3;
     const double* __restrict n0 = fits.normal.data();
@@ -202,16 +199,87 @@ void StoreFitRows(const SolveJob& job, const SpanFits& fits, const Span& span, c
   }
 }
 
+// The span's stretch of the next row of every result image, asked of the
+// memory now: the images were filled before the solve and have long left the
+// caches, and each line is read before it is written. The next row's
+// samples are summed in the meantime.
+template <typename T>
+void PrefetchForWrite(const Image<T>& image, int x0, int count, int y) {
+  if (image.empty() || y >= image.height()) return;
+  const char* first = reinterpret_cast<const char*>(image.row(y) + static_cast<size_t>(x0) * image.channels());
+  const size_t bytes = static_cast<size_t>(count) * image.channels() * sizeof(T);
+  for (size_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(first + offset, 1);
+  __builtin_prefetch(first + bytes - 1, 1);
+}
+
+void PrefetchNextFits(const SolveJob& job, const Span& span) {
+  const PhotometricSolution& s = *job.solution;
+  const int x0 = span.x0, count = span.count, y = span.y + 1;
+  PrefetchForWrite(s.normal_in_table, x0, count, y);
+  if (job.bayer) {
+    PrefetchForWrite(*job.albedo_mosaic, x0, count, y);
+  } else if (job.with_albedo) {
+    PrefetchForWrite(s.albedo, x0, count, y);
+  }
+  PrefetchForWrite(s.status, x0, count, y);
+  PrefetchForWrite(s.lights_used, x0, count, y);
+  PrefetchForWrite(s.solve_path, x0, count, y);
+  if (job.with_confidence) {
+    PrefetchForWrite(s.condition_number, x0, count, y);
+    PrefetchForWrite(s.residual, x0, count, y);
+  }
+  PrefetchForWrite(s.specular, x0, count, y);
+  PrefetchForWrite(s.specular_status, x0, count, y);
+}
+
 }  // namespace
 
 // Store's values, a row of one image at a time (each a short contiguous run
 // instead of eight interleaved ones per pixel).
 void PixelWriter::StoreFits(const SpanFits& fits, const Span& span, const uint8_t* skip) {
   if (span.region == nullptr && skip == nullptr) {
-    StoreFitRows<true>(job_, fits, span, skip, &pixels_by_path_);
+    // Every pixel written: the per-ISA kernel's loops.
+    PhotometricSolution& s = *job_.solution;
+    const int x0 = span.x0, y = span.y;
+    StoreArgs a;
+    a.count = span.count;
+    a.capacity = fits.capacity;
+    a.solved = static_cast<uint8_t>(PixelStatus::kSolved);
+    a.light_path = static_cast<uint8_t>(span.LightPath());
+    a.no_path = static_cast<uint8_t>(SolvePath::kNone);
+    a.unsupported = static_cast<uint8_t>(SpecularStatus::kUnsupported);
+    a.not_solved = static_cast<uint8_t>(SpecularStatus::kNotSolved);
+    a.status = fits.status.data();
+    a.lights_used = fits.lights_used.data();
+    a.normal = fits.normal.data();
+    a.albedo = fits.albedo.data();
+    a.luminance_albedo = fits.luminance_albedo.data();
+    a.condition = fits.condition_number.data();
+    a.residual = fits.residual.data();
+    a.normal_out = s.normal_in_table.row(y) + static_cast<size_t>(x0) * 3;
+    if (job_.bayer) {
+      a.mosaic_out = job_.albedo_mosaic->row(y) + x0;
+    } else if (job_.with_albedo) {
+      a.albedo_out = s.albedo.row(y) + static_cast<size_t>(x0) * 3;
+    }
+    a.status_out = s.status.row(y) + x0;
+    a.lights_out = s.lights_used.row(y) + x0;
+    a.path_out = s.solve_path.row(y) + x0;
+    if (job_.with_confidence) {
+      a.condition_out = s.condition_number.row(y) + x0;
+      a.residual_out = s.residual.row(y) + x0;
+    }
+    if (!s.specular.empty()) {
+      a.specular_out = s.specular.row(y) + static_cast<size_t>(x0) * 2;
+      a.specular_status_out = s.specular_status.row(y) + x0;
+    }
+    const int solved = KernelsOf(job_).store(a);
+    pixels_by_path_[a.light_path] += solved;
+    pixels_by_path_[a.no_path] += span.count - solved;
   } else {
-    StoreFitRows<false>(job_, fits, span, skip, &pixels_by_path_);
+    StoreFitRows(job_, fits, span, skip, &pixels_by_path_);
   }
+  PrefetchNextFits(job_, span);
 }
 
 void GatherSamples(const Span& span, int i, bool with_rgb, PixelSamples* samples) {

@@ -77,6 +77,8 @@ struct SpanBuffers {
   std::vector<uint8_t> ones;    // stands in for a missing sample mask
   std::vector<const float*> rows;      // per light: the span's samples in the image
   std::vector<const uint8_t*> marks;  // per light: the span's sample_valid (or `ones`)
+  std::vector<const float*> next_rows;         // per light: the next row's samples (prefetched)
+  std::vector<const uint8_t*> next_marks;      // per light: the next row's sample_valid (or `ones`)
   std::vector<double> acc;      // [a * capacity + i], a in Acc (summed in float per span, see span_kernels_impl.h)
   std::vector<uint8_t> light_bad;              // non-finite light at the pixel
   std::vector<float> clipped;                  // 1 where a sample was marked invalid (clipped)

@@ -3,6 +3,7 @@
 // override refuses what the CPU lacks, and the summary names the one that ran.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -138,6 +139,40 @@ TEST(CpuDispatchTest, EveryVariantGivesTheBaselinesResults) {
       ExpectSameSolution(baseline, Solve(options, input, isa), kTolerance,
                          std::string(c.name) + ", " + KernelIsaName(isa));
     }
+  }
+}
+
+// The interpolated-lights path by itself (adaptive's least squares in the
+// near field, no robust re-solve, no sample marked clipped): its row fill,
+// its condition numbers of shadowed pixels and the result writes of whole
+// spans run in the per-ISA kernels. Every variant gives the baseline's maps,
+// and most pixels took that path (else the test would not test it).
+TEST(CpuDispatchTest, InterpolatedPathVariantsGiveTheBaselinesResults) {
+  if (WiderIsas().empty()) GTEST_SKIP() << "this CPU has no AVX2: only the baseline kernels run here";
+  const Scene near = MakeScene(SyntheticSceneOptions::Lights::kNearField);
+  const PhotometricSolverInput input = testing::InputFor(near.scene);
+  PhotometricSolverOptions options;
+  options.method = Method::kAdaptive;
+  options.adaptive_robust_residual = std::numeric_limits<double>::infinity();
+  options.adaptive_coherent_lobe = false;
+  options.adaptive_coherent_sheen = false;
+  options.min_sample_value = 0.01;  // shadowed samples: pixels that use fewer than all lights
+  options.tile_size = 96;
+  PhotometricSolution baseline;
+  PhotometricSolverSummary summary;
+  {
+    const ScopedKernelIsa forced(KernelIsa::kBaseline);
+    summary = SolvePhotometricStereo(options, input, &baseline);
+  }
+  EXPECT_GT(summary.pixels_by_path[int(SolvePath::kInterpolatedLights)], summary.num_pixels / 2);
+  size_t partly_lit = 0;
+  for (size_t i = 0; i < baseline.status.size(); ++i) {
+    partly_lit += baseline.status.data()[i] == uint8_t(PixelStatus::kSolved) && baseline.lights_used.data()[i] < 8;
+  }
+  EXPECT_GT(partly_lit, 100u) << "pixels with shadowed lights, whose condition numbers the kernel computes";
+  for (KernelIsa isa : WiderIsas()) {
+    ExpectSameSolution(baseline, Solve(options, input, isa), kTolerance,
+                       std::string("adaptive near, least squares, ") + KernelIsaName(isa));
   }
 }
 

@@ -271,6 +271,46 @@ TEST(PhotometricSolverTest, SingleAndManyThreadsAgree) {
   }
 }
 
+// A solution solved into again keeps its images where they have the right
+// shape (filled in place) and must end up exactly as a fresh one: here after
+// a whole-image adaptive solve (specular maps filled), a normal_equations
+// solve within a region (no specular maps; outside pixels not solved again).
+TEST(PhotometricSolverTest, SolvingIntoAnEarlierSolutionGivesAFreshSolvesMaps) {
+  const SyntheticScene scene = MakeSyntheticScene(SyntheticSceneOptions());
+  PhotometricSolverInput input = InputFor(scene);
+  PhotometricSolution reused;
+  PhotometricSolverOptions options;
+  options.num_threads = 1;
+  SolvePhotometricStereo(options, input, &reused);
+  ASSERT_FALSE(reused.specular.empty());
+  const float* normal_data = reused.normal_in_table.data();
+  ImageU8 region(128, 128, 1, 0);
+  for (int y = 10; y < 90; ++y) {
+    for (int x = 30; x < 110; ++x) region(x, y) = 1;
+  }
+  input.region = &region;
+  options.method = PhotometricSolverOptions::Method::kNormalEquations;
+  PhotometricSolution fresh;
+  const PhotometricSolverSummary summary = SolvePhotometricStereo(options, input, &fresh);
+  const PhotometricSolverSummary again = SolvePhotometricStereo(options, input, &reused);
+  EXPECT_EQ(reused.normal_in_table.data(), normal_data) << "the normal image was not reused";
+  EXPECT_TRUE(reused.specular.empty());
+  EXPECT_TRUE(reused.specular_status.empty());
+  EXPECT_EQ(again.pixels_by_status, summary.pixels_by_status);
+  EXPECT_GT(summary.pixels_by_status[static_cast<int>(PixelStatus::kOutsideRegion)], 0u);
+  auto expect_equal = [](const auto& a, const auto& b, const char* what) {
+    ASSERT_EQ(a.size(), b.size()) << what;
+    for (size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a.data()[i], b.data()[i]) << what << " at index " << i;
+  };
+  expect_equal(fresh.normal_in_table, reused.normal_in_table, "normal");
+  expect_equal(fresh.albedo, reused.albedo, "albedo");
+  expect_equal(fresh.condition_number, reused.condition_number, "condition");
+  expect_equal(fresh.residual, reused.residual, "residual");
+  expect_equal(fresh.status, reused.status, "status");
+  expect_equal(fresh.lights_used, reused.lights_used, "lights_used");
+  expect_equal(fresh.solve_path, reused.solve_path, "solve_path");
+}
+
 TEST(PhotometricSolverTest, OptionsCheckNamesTheField) {
   PhotometricSolverOptions options;
   options.min_lights = 2;
