@@ -66,6 +66,12 @@ struct CoherentSheenOptions {
   // with many lights a Lambertian fit's residual has other structure to
   // explain (DiLiGenT's 96), the pass is for the rig's ten.
   int max_lights = 24;
+  // The gate, before any fit: on the candidates of two rows of the block at
+  // their least-squares normals, the residual a sheen of one of the gate's
+  // widths can take out (their scaled normals projected out) must be at least
+  // this fraction of the rows' residual sum of squares, in [0, 1) (0: every
+  // block is fitted). Rejects a Lambertian block after one look at 64 pixels.
+  double gate_ratio = 0.05;
   // BIC penalty per shared parameter, in units of ln(samples), >= 0 (1 = BIC).
   double bic_penalty = 1.0;
   // The group's sheen must also lower its fit pixels' residual sum of squares
@@ -98,6 +104,8 @@ struct CoherentSheenOptions {
 struct CoherentSheenSummary : AlgorithmSummary {
   bool skipped_lights = false;   // more lights than max_lights: nothing done
   size_t pixels_candidate = 0;   // solved least-squares pixels in blocks worked on
+  size_t blocks_gated = 0;       // blocks with enough candidates the gate looked at
+  size_t blocks_passed = 0;      // of those, past the gate (gate_ratio)
   size_t groups_tried = 0;       // block albedo groups a shared sheen was fitted to
   size_t groups_taken = 0;       // of those, that took it (BIC and min_residual_drop)
   size_t pixels_refined = 0;     // pixels re-solved under a shared sheen

@@ -749,7 +749,8 @@ constexpr double kSheenWidths[] = {0.5, 0.7, 1.0, 1.4};
 constexpr double kSheenMinWidth = 0.3;     // fitted width range: narrower is a rim no rig angle reaches,
 constexpr double kSheenMaxWidth = 2.0;     // broader is flat
 constexpr double kSheenTestWidth = 1.0;    // the residual test's width (mid-ladder)
-constexpr double kVelvetAmplitude = 4.0;   // Ashikhmin's amplitude of the inverted Gaussian
+constexpr double kVelvetAmplitude = kVelvetSheenAmplitude;
+static_assert(kLobeMinViewCosine == kVelvetSheenMinViewCosine, "the sheen's n . v floor is the lobe's");
 constexpr int kSheenIterations = 12;       // Gauss-Newton steps
 constexpr double kSheenNormalStep = 2e-4;  // rad (0.01 deg): a smaller step of the normal has converged
 // Residual floor of the model selection, relative to rho_d: below about the

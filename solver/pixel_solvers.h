@@ -126,6 +126,11 @@ double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, 
 // VelvetSheenShape split into its width-free factors for one sample, so that
 // a fit over the width (RefineCoherentSheen, solver/coherent_sheen.h) computes
 // the geometry once: S = VelvetSheenOf(VelvetSheenGeometryOf(n, l, h, v), a).
+// The velvet sheen's constants: Ashikhmin's amplitude K of the inverted
+// Gaussian in G = 1 + K exp(-cot^2 th_h / a^2) / sin^4 th_h, and the floor of
+// n . v (near-grazing views only rescale the sheen).
+inline constexpr double kVelvetSheenAmplitude = 4.0;
+inline constexpr double kVelvetSheenMinViewCosine = 0.1;
 struct VelvetSheenGeometry {
   double cot2 = 0;      // cot^2 th_h
   double inv_sin4 = 0;  // 1 / sin^4 th_h; 0 where th_h ~ 0 (the exponential has vanished there)
