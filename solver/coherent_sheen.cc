@@ -37,6 +37,9 @@ constexpr double kResolveConverged = 1e-7;
 // Residual floor of the model selection, relative to the albedo (as
 // FitDiffuseSheen's): below about the quantisation of a 14-bit reading.
 constexpr double kResidualFloor = 1e-3;
+// A fitted width within this fraction of the log width range of either bound
+// is not taken (see RefineGroup).
+constexpr double kWidthMargin = 0.05;
 // The fit pixels: the candidates on every kFitRowStep-th row of the block
 // (only those rows' samples are gathered unless the group takes the sheen).
 constexpr int kFitRowStep = 4;
@@ -106,6 +109,7 @@ void SplitInTwo(const std::vector<Eigen::Vector2d>& chroma, double split, std::v
 
 // One pixel of the gate: its projected sums per gate width and its residual.
 struct GatePixel {
+  int candidate = 0;  // index in the block's candidates
   double a[kMaxGateWidths] = {}, b[kMaxGateWidths] = {};
   double rss = 0;
 };
@@ -139,6 +143,9 @@ class BlockRefiner {
         if (cluster_[i] == g) group_.push_back(candidates_[i]);
       }
       if (static_cast<int>(group_.size()) < options_.min_pixels) continue;
+      // The gate once more on the group's own pixels of the gate's rows
+      // (where they are too few to judge, the fit decides).
+      if (GateRatio(cluster_, g, true) < options_.gate_ratio) continue;
       RefineGroup(counts);
     }
   }
@@ -165,7 +172,7 @@ class BlockRefiner {
       const uint8_t* status = s.status.row(y);
       const uint8_t* path = s.solve_path.row(y);
       const uint8_t* specular = s.specular_status.empty() ? nullptr : s.specular_status.row(y);
-      uint8_t* mask = &mask_[static_cast<size_t>(y - y0_) * w];
+      int* mask = &mask_[static_cast<size_t>(y - y0_) * w];
       for (int x = x0_; x < x1_; ++x) {
         if ((region != nullptr && region[x] == 0) || status[x] != kSolved) continue;
         if (specular != nullptr && specular[x] == kLobe) {
@@ -173,26 +180,28 @@ class BlockRefiner {
           continue;
         }
         if ((sheen != nullptr && sheen[x] == 0) || path[x] == kRobust) continue;
-        mask[x - x0_] = 1;
-        ++row_counts_[y - y0_];
         candidates_.push_back({x, y});
+        mask[x - x0_] = static_cast<int>(candidates_.size());
+        ++row_counts_[y - y0_];
       }
     }
     if (static_cast<int>(candidates_.size()) < options_.min_pixels) return false;
     return !(lobe_pixels > options_.max_lobe_fraction * double(candidates_.size()));
   }
 
-  // The block's light sharing (once per block: the gate and every Gather use it).
-  void ClassifyLights() {
-    if (classified_) return;
-    kind_ = lights_.Classify(tiled::LightSharing::kWithinTolerance, x0_, y0_, x1_, y1_);
+  // The lights of rows [ya, yb) of the block (the gate's rows, or the whole
+  // block for the fit): classified once per extent.
+  void ClassifyLights(int ya, int yb) {
+    if (classified_ && ya >= classified_y0_ && yb <= classified_y1_) return;
+    kind_ = lights_.Classify(tiled::LightSharing::kWithinTolerance, x0_, ya, x1_, yb);
     classified_ = true;
+    classified_y0_ = ya, classified_y1_ = yb;
   }
 
   // Row y's samples (x0_ to x1_) into buffers_: the lights and the
-  // accumulated normal equations (SpanBuffers::acc).
+  // accumulated normal equations (SpanBuffers::acc). The lights as
+  // classified last (ClassifyLights): y must lie in that extent.
   void AccumulateRow(int y) {
-    ClassifyLights();
     lights_.FillRow(kind_, x0_, x1_, y, &buffers_);
     const tiled::AccumulateSpanFn accumulate =
         kind_ == tiled::TileLights::kUniform ? accumulate_uniform_ : accumulate_exact_;
@@ -240,18 +249,24 @@ class BlockRefiner {
   bool Gate() {
     const int w = x1_ - x0_;
     ChooseGateRows();
+    if (gate_rows_.empty()) return false;
     const double inv_max_width2 = 1 / (options_.max_width * options_.max_width);
     int num_widths = 0;
     for (double a = options_.max_width; a >= options_.min_width * (1 - 1e-9) && num_widths < kMaxGateWidths;
          a /= std::sqrt(3.0)) {
       ++num_widths;
     }
+    num_widths_ = num_widths;
     gate_pixels_.clear();
     gate_chroma_.clear();
+    // The lights of the rows' extent only (a quarter to three quarters down
+    // a full block): half the light field probes of the whole block's.
+    ClassifyLights(*std::min_element(gate_rows_.begin(), gate_rows_.end()),
+                   *std::max_element(gate_rows_.begin(), gate_rows_.end()) + 1);
     const size_t n = static_cast<size_t>(buffers_.capacity);
     const int num_lights = job_.num_lights;
     for (const int y : gate_rows_) {
-      const uint8_t* mask = &mask_[static_cast<size_t>(y - y0_) * w];
+      const int* mask = &mask_[static_cast<size_t>(y - y0_) * w];
       AccumulateRow(y);
       const bool uniform = kind_ == tiled::TileLights::kUniform;
       const float* shared_dir = lights_.shared().dir.data();
@@ -323,6 +338,7 @@ class BlockRefiner {
         }
         for (int k = 0; k < used; ++k) e[k] = std::exp(e[k]);
         GatePixel pixel;
+        pixel.candidate = mask[i] - 1;
         for (int j = 0; j < num_widths; ++j) {
           Eigen::Vector3d t = Eigen::Vector3d::Zero();
           double ss = 0, sr = 0;
@@ -359,24 +375,32 @@ class BlockRefiner {
       std::fill(gate_cluster_.begin(), gate_cluster_.end(), 0);
     }
     double best_ratio = 0;
-    for (int g = 0; g < 2; ++g) {
-      double big_a[kMaxGateWidths] = {}, big_b[kMaxGateWidths] = {};
-      double rss = 0;
-      int pixels = 0;
-      for (size_t p = 0; p < gate_pixels_.size(); ++p) {
-        if (gate_cluster_[p] != g) continue;
-        for (int j = 0; j < num_widths; ++j) big_a[j] += gate_pixels_[p].a[j], big_b[j] += gate_pixels_[p].b[j];
-        rss += gate_pixels_[p].rss;
-        ++pixels;
-      }
-      if (pixels < kGateMinPixels) continue;
-      double best = 0;
-      for (int j = 0; j < num_widths; ++j) {
-        if (big_a[j] > 0 && big_b[j] > 0) best = std::max(best, big_b[j] * big_b[j] / big_a[j]);
-      }
-      if (rss > 0) best_ratio = std::max(best_ratio, best / rss);
-    }
+    for (int g = 0; g < 2; ++g) best_ratio = std::max(best_ratio, GateRatio(gate_cluster_, g, false));
     return best_ratio >= options_.gate_ratio;
+  }
+
+  // The gate's ratio of the gate pixels labelled `group` in `labels` (one
+  // label per gate pixel, or with by_candidate per candidate of the block):
+  // the best width's gain over their residual sum of squares. Fewer than
+  // kGateMinPixels: 0 per gate pixel (the block's other group judges it), 1
+  // per candidate (a fit group too thin on the gate's rows: the fit decides).
+  double GateRatio(const std::vector<int>& labels, int group, bool by_candidate) const {
+    double big_a[kMaxGateWidths] = {}, big_b[kMaxGateWidths] = {};
+    double rss = 0;
+    int pixels = 0;
+    for (size_t p = 0; p < gate_pixels_.size(); ++p) {
+      const GatePixel& pixel = gate_pixels_[p];
+      if (labels[by_candidate ? pixel.candidate : p] != group) continue;
+      for (int j = 0; j < num_widths_; ++j) big_a[j] += pixel.a[j], big_b[j] += pixel.b[j];
+      rss += pixel.rss;
+      ++pixels;
+    }
+    if (pixels < kGateMinPixels) return by_candidate ? 1.0 : 0.0;
+    double best = 0;
+    for (int j = 0; j < num_widths_; ++j) {
+      if (big_a[j] > 0 && big_b[j] > 0) best = std::max(best, big_b[j] * big_b[j] / big_a[j]);
+    }
+    return rss > 0 ? best / rss : 0.0;
   }
 
   // Two-means on the albedo chromaticity (RGB input); one cluster when the
@@ -402,7 +426,7 @@ class BlockRefiner {
   void Gather(const std::vector<Cell>& cells) {
     pixels_.clear();
     lights_k_.clear(), halves_.clear(), values_.clear(), views_.clear();
-    ClassifyLights();
+    ClassifyLights(y0_, y1_);
     tiled::Span span;
     span.lights = kind_;
     span.x0 = x0_;
@@ -497,7 +521,7 @@ class BlockRefiner {
 
   // The width (ladder, then golden section between the best rung's
   // neighbours, on log a) and F0 of the group's sheen at the current normals.
-  void FitShared(double* width, double* f0) {
+  double FitShared(double* width, double* f0) {
     const double lo = std::log(options_.min_width), hi = std::log(options_.max_width);
     double best_gain = -1, best_log = lo;
     int best_rung = 0;
@@ -527,6 +551,7 @@ class BlockRefiner {
     if (gc > best_gain) best_gain = gc, best_log = c, *f0 = fc;
     if (gd > best_gain) best_gain = gd, best_log = d, *f0 = fd;
     *width = std::exp(best_log);
+    return best_gain;
   }
 
   // Pixel p's scaled normal under a sheen (width, f0): least squares on the
@@ -628,8 +653,16 @@ class BlockRefiner {
     double width = 1, f0 = 0;
     for (int iteration = 0; iteration < options_.iterations; ++iteration) {
       if (iteration > 0) PrepareGeometry();
-      FitShared(&width, &f0);
+      const double gain = FitShared(&width, &f0);
       if (!(f0 > 0)) return;
+      if (iteration == 0) {
+        // The gate once more, on the fit pixels at their least-squares
+        // normals with the fitted width: below gate_ratio of their residual
+        // no re-solve is spent (a Lambertian group past the gate by chance).
+        double rss_ls = 0;
+        for (const Pixel& p : pixels_) rss_ls += p.rss_ls;
+        if (gain < options_.gate_ratio * rss_ls) return;
+      }
       for (Pixel& p : pixels_) Resolve(&p, width, f0);
     }
     // Model selection on the fit pixels' samples together: the shared sheen
@@ -644,12 +677,19 @@ class BlockRefiner {
     const double lambert = std::max(rss_ls, floor_rss), sheen = std::max(rss, floor_rss);
     const bool pays = samples * std::log(lambert / sheen) > 2 * options_.bic_penalty * std::log(samples);
     const bool drops = rss <= (1 - options_.min_residual_drop) * rss_ls;
+    // A width pinned at (or within kWidthMargin of) a bound of the search is
+    // not a velvet sheen's: the fit follows some other smooth residual (a
+    // third of the draped Lambertian sample's takes, in its first pass on the
+    // table-plane light field; no cloth group, whose widths lie in 0.46-1.48).
+    const double log_range = std::log(options_.max_width / options_.min_width);
+    const bool interior = std::log(width / options_.min_width) > kWidthMargin * log_range &&
+                          std::log(options_.max_width / width) > kWidthMargin * log_range;
     double white_gain = 0, diffuse_gain = 0;
     ColourTest(width, &white_gain, &diffuse_gain);
     // (Not in the Bayer domain: one raw sample per light and pixel carries
     // too little colour to tell, cloth there 0.592 -> 0.61 deg with it.)
     const bool white = !options_.dichromatic || job_.bayer || white_gain >= options_.white_margin * diffuse_gain;
-    if (!pays || !drops || !white) return;
+    if (!pays || !drops || !white || !interior) return;
     ++counts->taken;
     counts->f0_sum += f0, counts->width_sum += width;
     // Every candidate of the group under the group's sheen.
@@ -695,12 +735,14 @@ class BlockRefiner {
   PixelSamples samples_;
   int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0;
   bool classified_ = false;
+  int classified_y0_ = 0, classified_y1_ = 0;  // the rows ClassifyLights classified
   tiled::TileLights kind_ = tiled::TileLights::kExact;
   std::vector<Cell> candidates_, group_, fit_cells_, row_cells_;
-  std::vector<uint8_t> mask_;  // the block's candidates, (y - y0_) * width + (x - x0_)
+  std::vector<int> mask_;  // 1 + index in candidates_ (0: none) at (y - y0_) * width + (x - x0_)
   std::vector<int> row_counts_;  // candidates per row of the block
   std::vector<int> gate_rows_;
   std::vector<GatePixel> gate_pixels_;
+  int num_widths_ = 0;  // the gate's widths
   std::vector<double> gate_scratch_;  // 7 per light: the gate's per-sample stages
   std::vector<Eigen::Vector2d> gate_chroma_;
   std::vector<int> gate_cluster_;

@@ -814,13 +814,6 @@ VelvetSheenGeometry VelvetSheenGeometryOf(const Eigen::Vector3d& n, const Eigen:
   return g;
 }
 
-double VelvetSheenOf(const VelvetSheenGeometry& geometry, double width) {
-  if (!(geometry.q > 0)) return 0;
-  const double a2 = width * width;
-  const double g = 1 + kVelvetAmplitude * std::exp(-geometry.cot2 / a2) * geometry.inv_sin4;
-  return g * geometry.q / (1 + kVelvetAmplitude * a2);
-}
-
 double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& half,
                         const Eigen::Vector3d& view, double width) {
   if (!(width > 0) || !n.allFinite() || !light.allFinite() || !half.allFinite() || !view.allFinite()) return 0;
