@@ -125,6 +125,8 @@ class BlockRefiner {
         lights_(job),
         accumulate_exact_(tiled::ChooseAccumulator(job.bayer, rgb_, false)),
         accumulate_uniform_(tiled::ChooseAccumulator(job.bayer, rgb_, true)),
+        accumulate_luminance_exact_(tiled::ChooseAccumulator(job.bayer, false, false)),
+        accumulate_luminance_uniform_(tiled::ChooseAccumulator(job.bayer, false, true)),
         samples_(job.num_lights),
         gate_scratch_(7 * static_cast<size_t>(job.num_lights)) {}
 
@@ -199,12 +201,15 @@ class BlockRefiner {
   }
 
   // Row y's samples (x0_ to x1_) into buffers_: the lights and the
-  // accumulated normal equations (SpanBuffers::acc). The lights as
-  // classified last (ClassifyLights): y must lie in that extent.
-  void AccumulateRow(int y) {
+  // accumulated normal equations (SpanBuffers::acc; with luminance_only not
+  // the per-channel sums nor SpanBuffers::rgb). The lights as classified
+  // last (ClassifyLights): y must lie in that extent.
+  void AccumulateRow(int y, bool luminance_only = false) {
     lights_.FillRow(kind_, x0_, x1_, y, &buffers_);
+    const bool uniform = kind_ == tiled::TileLights::kUniform;
     const tiled::AccumulateSpanFn accumulate =
-        kind_ == tiled::TileLights::kUniform ? accumulate_uniform_ : accumulate_exact_;
+        luminance_only ? (uniform ? accumulate_luminance_uniform_ : accumulate_luminance_exact_)
+                       : (uniform ? accumulate_uniform_ : accumulate_exact_);
     accumulate(job_, lights_.shared(), x0_, x1_ - x0_, y, &buffers_);
   }
 
@@ -267,7 +272,7 @@ class BlockRefiner {
     const int num_lights = job_.num_lights;
     for (const int y : gate_rows_) {
       const int* mask = &mask_[static_cast<size_t>(y - y0_) * w];
-      AccumulateRow(y);
+      AccumulateRow(y, true);
       const bool uniform = kind_ == tiled::TileLights::kUniform;
       const float* shared_dir = lights_.shared().dir.data();
       const float* dir = buffers_.dir.data();
@@ -740,6 +745,8 @@ class BlockRefiner {
   tiled::SpanBuffers buffers_;
   tiled::TileLightSampler lights_;
   const tiled::AccumulateSpanFn accumulate_exact_, accumulate_uniform_;
+  // The same without the per-channel sums (the gate reads the luminance only).
+  const tiled::AccumulateSpanFn accumulate_luminance_exact_, accumulate_luminance_uniform_;
   PixelSamples samples_;
   int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0;
   bool classified_ = false;
