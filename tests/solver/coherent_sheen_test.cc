@@ -231,15 +231,16 @@ TEST(CoherentSheen, RunsInTheBayerDomain) {
   input.light_field = velvet.light_field.get();
   double error[2];
   for (int on = 0; on < 2; ++on) {
-    PhotometricSolverOptions options;
-    options.adaptive_coherent_sheen = on == 1;
+    PhotometricSolverOptions solver_options;
+    solver_options.adaptive_coherent_sheen = on == 1;
     PhotometricSolution solution;
-    const PhotometricSolverSummary summary = SolvePhotometricStereoBayer(options, input, &solution);
+    const PhotometricSolverSummary summary = SolvePhotometricStereoBayer(solver_options, input, &solution);
     ASSERT_TRUE(summary.IsUsable()) << summary.message;
     ExpectAllFinite(solution);
     error[on] = AngularErrorDegrees(solution.normal_in_table, velvet.normal_in_table, velvet.object).mean;
-    if (on == 1) EXPECT_GT(summary.pixels_coherent_sheen, 0u);
-
+    if (on == 1) {
+      EXPECT_GT(summary.pixels_coherent_sheen, 0u);
+    }
   }
   ASSERT_GT(error[0], 0.5);
   EXPECT_LT(error[1], 0.5 * error[0]);
