@@ -24,6 +24,7 @@
 #include <benchmark/benchmark.h>
 
 #include "solver/angular_error.h"
+#include "solver/coherent_sheen.h"
 #include "solver/photometric_solver.h"
 #include "solver/synthetic_scene.h"
 
@@ -124,6 +125,46 @@ void BM_Solve(benchmark::State& state, Method method, Lights lights, int width, 
   state.counters["exact"] = summary.pixels_by_path[int(SolvePath::kExactLights)] / pixels;
 }
 
+// The shared velvet sheen's pass alone (RefineCoherentSheen) on the adaptive
+// solve without it, the per-pixel solve outside the timing: what the pass
+// costs on a Lambertian scene (its gate should leave nearly every block after
+// one look). Reports the pass's CPU seconds per iteration and its counts.
+void BM_CoherentSheenPass(benchmark::State& state, Lights lights, int width, int height) {
+  const SyntheticScene& scene = Scene(lights, width, height);
+  PhotometricSolverInput input;
+  input.images = scene.ImagePointers();
+  input.light_field = scene.light_field.get();
+  PhotometricSolverOptions options;
+  options.method = Method::kAdaptive;
+  options.adaptive_coherent_sheen = false;
+  options.num_threads = static_cast<int>(state.range(0));
+  PhotometricSolution solved;
+  SolvePhotometricStereo(options, input, &solved);
+  solved.coherent_sheen = ImageU8(width, height, 1, uint8_t{0});
+  CoherentSheenOptions sheen_options;
+  sheen_options.num_threads = options.num_threads;
+  CoherentSheenSummary summary;
+  PhotometricSolution solution;
+  double cpu_seconds = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    solution = solved;
+    state.ResumeTiming();
+    const double cpu_start = ProcessCpuSeconds();
+    summary = RefineCoherentSheen(sheen_options, options, input, &solution);
+    cpu_seconds += ProcessCpuSeconds() - cpu_start;
+    benchmark::DoNotOptimize(summary.pixels_refined);
+  }
+  state.counters["cpu_s"] = cpu_seconds / std::max<double>(1, state.iterations());
+  state.counters["blocks_gated"] = static_cast<double>(summary.blocks_gated);
+  state.counters["blocks_passed"] = static_cast<double>(summary.blocks_passed);
+  state.counters["groups_tried"] = static_cast<double>(summary.groups_tried);
+  state.counters["groups_taken"] = static_cast<double>(summary.groups_taken);
+  state.counters["px_refined"] = static_cast<double>(summary.pixels_refined);
+  state.counters["mean_err_deg"] =
+      AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, scene.object).mean;
+}
+
 #define SCANBENCH_SOLVE_CASE(name, method, lights, width, height, ...) \
   BENCHMARK_CAPTURE(BM_Solve, name, method, lights, width, height)     \
       ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)__VA_ARGS__
@@ -158,6 +199,8 @@ BENCHMARK_CAPTURE(BM_Solve, 16MP_near_adaptive_no_sheen, Method::kAdaptive, Ligh
 BENCHMARK_CAPTURE(BM_Solve, 16MP_near_interpolated, Method::kAdaptive, Lights::kNearField, 4928, 3264,
                   AdaptivePasses::kLeastSquares, true)
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Arg(2);
+BENCHMARK_CAPTURE(BM_CoherentSheenPass, 16MP_near_coherent_sheen_pass, Lights::kNearField, 4928, 3264)
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3)->Arg(2);
 SCANBENCH_SOLVE_CASE(16MP_near_jacobi_svd, Method::kJacobiSvd, Lights::kNearField, 4928, 3264, ->Arg(2));
 // The exact-lights path (and below, the shared one), cold and warm.
 BENCHMARK_CAPTURE(BM_Solve, 16MP_near_normal_equations, Method::kNormalEquations, Lights::kNearField, 4928, 3264,

@@ -15,6 +15,7 @@
 #include "core/format.h"
 #include "core/parallel_for.h"
 #include "solver/pixel_solvers.h"
+#include "solver/span_kernels.h"
 #include "solver/tile_lights.h"
 #include "solver/tiled_solve.h"
 
@@ -36,9 +37,22 @@ constexpr double kResolveConverged = 1e-7;
 // Residual floor of the model selection, relative to the albedo (as
 // FitDiffuseSheen's): below about the quantisation of a 14-bit reading.
 constexpr double kResidualFloor = 1e-3;
+// A fitted width within this fraction of the log width range of either bound
+// is not taken (see RefineGroup).
+constexpr double kWidthMargin = 0.05;
 // The fit pixels: the candidates on every kFitRowStep-th row of the block
 // (only those rows' samples are gathered unless the group takes the sheen).
 constexpr int kFitRowStep = 4;
+// The gate's widths: max_width, then each 1/sqrt(3) of the one before down to
+// min_width (2, 1.15, 0.67, 0.38 by default), so that each rung's
+// exp(-cot^2 / a^2) is the cube of the one before: one exp per sample.
+constexpr int kMaxGateWidths = 8;
+// Fewest usable pixels on the gate's rows to judge an albedo group by (and
+// the block: fewer in all, it is left alone).
+constexpr int kGateMinPixels = 8;
+// The gate looks at up to this many rows of a block: the fullest row of each
+// half, then the fullest others until they hold a block width of candidates.
+constexpr int kMaxGateRows = 4;
 
 struct Cell {
   int x = 0, y = 0;
@@ -55,8 +69,49 @@ struct Pixel {
 };
 
 struct Counts {
-  size_t candidates = 0, tried = 0, taken = 0, refined = 0;
+  size_t candidates = 0, gated = 0, passed = 0, tried = 0, taken = 0, refined = 0;
   double f0_sum = 0, width_sum = 0;
+};
+
+// Two-means on albedo chromaticities (r, g of rgb / sum) into *cluster (0 or
+// 1 each): all 0 when the two centres are within `split`.
+void SplitInTwo(const std::vector<Eigen::Vector2d>& chroma, double split, std::vector<int>* cluster) {
+  const size_t count = chroma.size();
+  cluster->assign(count, 0);
+  if (count == 0) return;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& c : chroma) mean += c;
+  mean /= double(count);
+  size_t far_a = 0, far_b = 0;
+  for (size_t i = 0; i < count; ++i) {
+    if ((chroma[i] - mean).squaredNorm() > (chroma[far_a] - mean).squaredNorm()) far_a = i;
+  }
+  for (size_t i = 0; i < count; ++i) {
+    if ((chroma[i] - chroma[far_a]).squaredNorm() > (chroma[far_b] - chroma[far_a]).squaredNorm()) far_b = i;
+  }
+  Eigen::Vector2d centre[2] = {chroma[far_a], chroma[far_b]};
+  if (!((centre[0] - centre[1]).norm() > split)) return;
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    Eigen::Vector2d sum[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+    int members[2] = {0, 0};
+    for (size_t i = 0; i < count; ++i) {
+      const int c = (chroma[i] - centre[1]).squaredNorm() < (chroma[i] - centre[0]).squaredNorm();
+      (*cluster)[i] = c;
+      sum[c] += chroma[i];
+      ++members[c];
+    }
+    for (int c = 0; c < 2; ++c) {
+      if (members[c] > 0) centre[c] = sum[c] / members[c];
+    }
+  }
+  if (!((centre[0] - centre[1]).norm() > split)) std::fill(cluster->begin(), cluster->end(), 0);
+}
+
+// One pixel of the gate: its projected sums per gate width and its residual.
+struct GatePixel {
+  int candidate = 0;  // index in the block's candidates
+  double a[kMaxGateWidths] = {}, b[kMaxGateWidths] = {};
+  double rss = 0;
 };
 
 class BlockRefiner {
@@ -70,28 +125,19 @@ class BlockRefiner {
         lights_(job),
         accumulate_exact_(tiled::ChooseAccumulator(job.bayer, rgb_, false)),
         accumulate_uniform_(tiled::ChooseAccumulator(job.bayer, rgb_, true)),
-        samples_(job.num_lights) {}
+        accumulate_luminance_exact_(tiled::ChooseAccumulator(job.bayer, false, false)),
+        accumulate_luminance_uniform_(tiled::ChooseAccumulator(job.bayer, false, true)),
+        samples_(job.num_lights),
+        gate_scratch_(7 * static_cast<size_t>(job.num_lights)) {}
 
   void Refine(int x0, int y0, int x1, int y1, Counts* counts) {
     x0_ = x0, y0_ = y0, x1_ = x1, y1_ = y1;
     classified_ = false;
-    candidates_.clear();
-    chroma_.clear();
-    const PhotometricSolution& s = *job_.solution;
-    for (int y = y0; y < y1; ++y) {
-      for (int x = x0; x < x1; ++x) {
-        if (!Candidate(x, y)) continue;
-        candidates_.push_back({x, y});
-        if (rgb_) {
-          const double r = s.albedo(x, y, 0), g = s.albedo(x, y, 1), b = s.albedo(x, y, 2);
-          const double sum = r + g + b;
-          chroma_.emplace_back(sum > 0 ? r / sum : 1.0 / 3, sum > 0 ? g / sum : 1.0 / 3);
-        }
-      }
-    }
-    if (static_cast<int>(candidates_.size()) < options_.min_pixels) return;
-    if (LobePixels(x0, y0, x1, y1) > options_.max_lobe_fraction * double(candidates_.size())) return;
+    if (!Scan()) return;
     counts->candidates += candidates_.size();
+    ++counts->gated;
+    if (!Gate()) return;
+    ++counts->passed;
     SplitByAlbedo();
     for (int g = 0; g < 2; ++g) {
       group_.clear();
@@ -99,70 +145,285 @@ class BlockRefiner {
         if (cluster_[i] == g) group_.push_back(candidates_[i]);
       }
       if (static_cast<int>(group_.size()) < options_.min_pixels) continue;
+      // The gate once more on the group's own pixels of the gate's rows
+      // (where they are too few to judge, the fit decides).
+      if (GateRatio(cluster_, g, true) < options_.gate_ratio) continue;
       RefineGroup(counts);
     }
   }
 
  private:
-  // Solved least-squares pixels of the region: no specular lobe (the shared
-  // lobe's or the per-pixel one's), no robust re-solve (its weights left
-  // samples out that the sheen fit would take back).
-  bool Candidate(int x, int y) const {
+  // The block's candidates into candidates_ (row order) and mask_: solved
+  // least-squares pixels of the region, i.e. no specular lobe (the shared
+  // lobe's or the per-pixel one's) and no robust re-solve (its weights left
+  // samples out that the sheen fit would take back). False where the block
+  // is left alone: too few candidates, or mostly glossy (max_lobe_fraction).
+  bool Scan() {
     const PhotometricSolution& s = *job_.solution;
-    if (job_.region != nullptr && (*job_.region)(x, y) == 0) return false;
-    if (job_.sheen_pixels != nullptr && (*job_.sheen_pixels)(x, y) == 0) return false;
-    if (s.status(x, y) != static_cast<uint8_t>(PixelStatus::kSolved)) return false;
-    if (s.solve_path(x, y) == static_cast<uint8_t>(SolvePath::kRobust)) return false;
-    return s.specular_status.empty() || s.specular_status(x, y) != static_cast<uint8_t>(SpecularStatus::kEstimated);
-  }
-
-  // Solved pixels of the block's region with a specular lobe (per pixel or shared).
-  int LobePixels(int x0, int y0, int x1, int y1) const {
-    const PhotometricSolution& s = *job_.solution;
-    if (s.specular_status.empty()) return 0;
-    int count = 0;
-    for (int y = y0; y < y1; ++y) {
-      for (int x = x0; x < x1; ++x) {
-        if (job_.region != nullptr && (*job_.region)(x, y) == 0) continue;
-        count += s.status(x, y) == static_cast<uint8_t>(PixelStatus::kSolved) &&
-                 s.specular_status(x, y) == static_cast<uint8_t>(SpecularStatus::kEstimated);
+    constexpr uint8_t kSolved = static_cast<uint8_t>(PixelStatus::kSolved);
+    constexpr uint8_t kRobust = static_cast<uint8_t>(SolvePath::kRobust);
+    constexpr uint8_t kLobe = static_cast<uint8_t>(SpecularStatus::kEstimated);
+    const int w = x1_ - x0_;
+    mask_.assign(static_cast<size_t>(w) * (y1_ - y0_), 0);
+    row_counts_.assign(y1_ - y0_, 0);
+    candidates_.clear();
+    int lobe_pixels = 0;
+    for (int y = y0_; y < y1_; ++y) {
+      const uint8_t* region = job_.region != nullptr ? job_.region->row(y) : nullptr;
+      const uint8_t* sheen = job_.sheen_pixels != nullptr ? job_.sheen_pixels->row(y) : nullptr;
+      const uint8_t* status = s.status.row(y);
+      const uint8_t* path = s.solve_path.row(y);
+      const uint8_t* specular = s.specular_status.empty() ? nullptr : s.specular_status.row(y);
+      int* mask = &mask_[static_cast<size_t>(y - y0_) * w];
+      for (int x = x0_; x < x1_; ++x) {
+        if ((region != nullptr && region[x] == 0) || status[x] != kSolved) continue;
+        if (specular != nullptr && specular[x] == kLobe) {
+          ++lobe_pixels;
+          continue;
+        }
+        if ((sheen != nullptr && sheen[x] == 0) || path[x] == kRobust) continue;
+        candidates_.push_back({x, y});
+        mask[x - x0_] = static_cast<int>(candidates_.size());
+        ++row_counts_[y - y0_];
       }
     }
-    return count;
+    if (static_cast<int>(candidates_.size()) < options_.min_pixels) return false;
+    return !(lobe_pixels > options_.max_lobe_fraction * double(candidates_.size()));
+  }
+
+  // The lights of rows [ya, yb) of the block (the gate's rows, or the whole
+  // block for the fit): classified once per extent.
+  void ClassifyLights(int ya, int yb) {
+    if (classified_ && ya >= classified_y0_ && yb <= classified_y1_) return;
+    kind_ = lights_.Classify(tiled::LightSharing::kWithinTolerance, x0_, ya, x1_, yb);
+    classified_ = true;
+    classified_y0_ = ya, classified_y1_ = yb;
+  }
+
+  // Row y's samples (x0_ to x1_) into buffers_: the lights and the
+  // accumulated normal equations (SpanBuffers::acc; with luminance_only not
+  // the per-channel sums nor SpanBuffers::rgb). The lights as classified
+  // last (ClassifyLights): y must lie in that extent.
+  void AccumulateRow(int y, bool luminance_only = false) {
+    lights_.FillRow(kind_, x0_, x1_, y, &buffers_);
+    const bool uniform = kind_ == tiled::TileLights::kUniform;
+    const tiled::AccumulateSpanFn accumulate =
+        luminance_only ? (uniform ? accumulate_luminance_uniform_ : accumulate_luminance_exact_)
+                       : (uniform ? accumulate_uniform_ : accumulate_exact_);
+    accumulate(job_, lights_.shared(), x0_, x1_ - x0_, y, &buffers_);
+  }
+
+  // The gate's rows into gate_rows_: the row with the most candidates in
+  // each half of the block (nearest its quarter point among equals: a quarter
+  // and three quarters down a full block), then the fullest of the others
+  // until the rows hold a block width of candidates (kMaxGateRows at most).
+  void ChooseGateRows() {
+    const int h = y1_ - y0_, w = x1_ - x0_;
+    gate_rows_.clear();
+    int held = 0;
+    auto fullest = [&](int begin, int end, int centre) {
+      int best = -1;
+      for (int r = begin; r < end; ++r) {
+        if (row_counts_[r] == 0 || std::find(gate_rows_.begin(), gate_rows_.end(), y0_ + r) != gate_rows_.end()) continue;
+        if (best < 0 || row_counts_[r] > row_counts_[best] ||
+            (row_counts_[r] == row_counts_[best] && std::abs(r - centre) < std::abs(best - centre))) {
+          best = r;
+        }
+      }
+      if (best >= 0) gate_rows_.push_back(y0_ + best), held += row_counts_[best];
+      return best >= 0;
+    };
+    fullest(0, h / 2, h / 4);
+    fullest(h / 2, h, (3 * h) / 4);
+    while (held < w && static_cast<int>(gate_rows_.size()) < kMaxGateRows && fullest(0, h, h / 2)) {
+    }
+  }
+
+  // The gate: does the block's least-squares residual carry a velvet sheen's
+  // pattern at all? On the candidates of the gate's rows (ChooseGateRows),
+  // at their least-squares scaled normals m (from
+  // the accumulated normal equations: no re-solve, no sample copies), the
+  // sheen shape S_k of each sample at the gate's widths a; per width, the
+  // pixels' scaled normals projected out as in SheenGain,
+  //   gain(a) = B^2 / A,  B = sum_p sum_k S_k r_k,  A = sum_p (sum_k S_k^2 - t_p' G_p^-1 t_p),
+  //   r_k = b_k - l_k . m,  t_p = sum_k S_k l_k,  G_p = sum_k l_k l_k'
+  // (B > 0: a sheen adds light). The block goes on to the fit only where the
+  // best width's gain is at least gate_ratio of the rows' residual sum of
+  // squares. O(samples), one exp per sample: what a block of a Lambertian
+  // scene costs.
+  bool Gate() {
+    const int w = x1_ - x0_;
+    ChooseGateRows();
+    if (gate_rows_.empty()) return false;
+    const double inv_max_width2 = 1 / (options_.max_width * options_.max_width);
+    int num_widths = 0;
+    for (double a = options_.max_width; a >= options_.min_width * (1 - 1e-9) && num_widths < kMaxGateWidths;
+         a /= std::sqrt(3.0)) {
+      ++num_widths;
+    }
+    num_widths_ = num_widths;
+    gate_pixels_.clear();
+    gate_chroma_.clear();
+    // The lights of the rows' extent only (a quarter to three quarters down
+    // a full block): half the light field probes of the whole block's.
+    ClassifyLights(*std::min_element(gate_rows_.begin(), gate_rows_.end()),
+                   *std::max_element(gate_rows_.begin(), gate_rows_.end()) + 1);
+    const size_t n = static_cast<size_t>(buffers_.capacity);
+    const int num_lights = job_.num_lights;
+    for (const int y : gate_rows_) {
+      const int* mask = &mask_[static_cast<size_t>(y - y0_) * w];
+      AccumulateRow(y, true);
+      const bool uniform = kind_ == tiled::TileLights::kUniform;
+      const float* shared_dir = lights_.shared().dir.data();
+      const float* dir = buffers_.dir.data();
+      const double* acc = buffers_.acc.data();
+      for (int i = 0; i < w; ++i) {
+        if (mask[i] == 0 || buffers_.light_bad[i]) continue;
+        if (!(acc[tiled::kCount * n + i] >= kMinSamples)) continue;
+        // G^-1 by its adjugate (G symmetric).
+        const double g00 = acc[tiled::kG00 * n + i], g01 = acc[tiled::kG01 * n + i], g02 = acc[tiled::kG02 * n + i];
+        const double g11 = acc[tiled::kG11 * n + i], g12 = acc[tiled::kG12 * n + i], g22 = acc[tiled::kG22 * n + i];
+        const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
+        const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
+        const double det = g00 * c00 + g01 * c01 + g02 * c02;
+        const double trace = g00 + g11 + g22;
+        if (!(det > 1e-9 * trace * trace * trace)) continue;  // far past any max_condition_number
+        Eigen::Matrix3d inverse;
+        inverse << c00, c01, c02, c01, c11, c12, c02, c12, c22;
+        inverse /= det;
+        const Eigen::Vector3d m =
+            inverse * Eigen::Vector3d(acc[tiled::kB0 * n + i], acc[tiled::kB1 * n + i], acc[tiled::kB2 * n + i]);
+        const double length = m.norm();
+        if (!(length >= std::max(solver_.min_albedo, 1e-12))) continue;
+        const Eigen::Vector3d normal = m / length;
+        float view_f[3];
+        job_.field->ViewDirection(x0_ + i, y, view_f);
+        Eigen::Vector3d view(view_f[0], view_f[1], view_f[2]);
+        view = view.allFinite() && view.norm() > 0 ? view.normalized() : Eigen::Vector3d::UnitZ();
+        const double nv = std::clamp(normal.dot(view), kVelvetSheenMinViewCosine, 1.0);
+        // In stages over the pixel's used samples, each loop free of the one
+        // before's latency (the divisions, the exp): the lights and residuals,
+        // the sheen geometry, the exps, the sums per width.
+        double* lx = &gate_scratch_[0];
+        double* ly = lx + num_lights;
+        double* lz = ly + num_lights;
+        double* res = lz + num_lights;
+        double* q = res + num_lights;
+        double* u = q + num_lights;
+        double* e = u + num_lights;
+        int used = 0;
+        double rss_pixel = 0;
+        for (int k = 0; k < num_lights; ++k) {
+          const size_t at = k * n + i;
+          if (!(buffers_.ok[at] > 0)) continue;
+          if (uniform) {
+            lx[used] = shared_dir[3 * k], ly[used] = shared_dir[3 * k + 1], lz[used] = shared_dir[3 * k + 2];
+          } else {
+            lx[used] = dir[3 * k * n + i], ly[used] = dir[(3 * k + 1) * n + i], lz[used] = dir[(3 * k + 2) * n + i];
+          }
+          res[used] = buffers_.lum[at] - (lx[used] * m.x() + ly[used] * m.y() + lz[used] * m.z());
+          rss_pixel += res[used] * res[used];
+          ++used;
+        }
+        // S up to its per-width normalisation, which B^2 / A does not see:
+        // q (1 + K exp(-cot^2 / a^2) / sin^4), as VelvetSheenOf (0 where
+        // n . l <= 0); cos^2 th_h = (n . s)^2 / |s|^2 with s = l + v, no
+        // square root.
+        const double nvx = normal.dot(view);
+        for (int k = 0; k < used; ++k) {
+          const double nl = normal.x() * lx[k] + normal.y() * ly[k] + normal.z() * lz[k];
+          const double sx = lx[k] + view.x(), sy = ly[k] + view.y(), sz = lz[k] + view.z();
+          const double sum2 = sx * sx + sy * sy + sz * sz, ns = nl + nvx;
+          const double c2 = !(sum2 > 1e-12) ? nv * nv : ns > 0 ? std::min(ns * ns / sum2, 1.0) : 0.0;
+          const double s2 = 1 - c2;
+          const double inv_s2 = s2 > 1e-6 ? 1 / s2 : 0.0;
+          q[k] = nl > 0 ? nl / (4 * (nl + nv - nl * nv)) : 0.0;
+          u[k] = kVelvetSheenAmplitude * q[k] * inv_s2 * inv_s2;
+          e[k] = -c2 * inv_s2 * inv_max_width2;
+        }
+        for (int k = 0; k < used; ++k) e[k] = std::exp(e[k]);
+        GatePixel pixel;
+        pixel.candidate = mask[i] - 1;
+        for (int j = 0; j < num_widths; ++j) {
+          Eigen::Vector3d t = Eigen::Vector3d::Zero();
+          double ss = 0, sr = 0;
+          for (int k = 0; k < used; ++k) {
+            const double shape = q[k] + u[k] * e[k];
+            t += shape * Eigen::Vector3d(lx[k], ly[k], lz[k]);
+            ss += shape * shape;
+            sr += shape * res[k];
+            e[k] *= e[k] * e[k];
+          }
+          pixel.a[j] = ss - t.dot(inverse * t);
+          pixel.b[j] = sr;
+        }
+        pixel.rss = rss_pixel;
+        gate_pixels_.push_back(pixel);
+        if (rgb_) gate_chroma_.push_back(Chromaticity(x0_ + i, y));
+      }
+    }
+    // Fewer usable pixels than that on the block's fullest rows (too few
+    // samples: the steep rim of an object): the fit would not find the
+    // pixels it needs either.
+    if (static_cast<int>(gate_pixels_.size()) < kGateMinPixels) return false;
+    // Per albedo group of the rows' pixels (as the fit's groups: a sheen on
+    // the warp is not cancelled by a weft, or a table, whose residual runs
+    // the other way), the best width's gain against the group's residual;
+    // the rows' pixels together where neither group has kGateMinPixels.
+    if (rgb_) {
+      SplitInTwo(gate_chroma_, options_.albedo_split, &gate_cluster_);
+    } else {
+      gate_cluster_.assign(gate_pixels_.size(), 0);
+    }
+    if (std::count(gate_cluster_.begin(), gate_cluster_.end(), 0) < kGateMinPixels &&
+        std::count(gate_cluster_.begin(), gate_cluster_.end(), 1) < kGateMinPixels) {
+      std::fill(gate_cluster_.begin(), gate_cluster_.end(), 0);
+    }
+    double best_ratio = 0;
+    for (int g = 0; g < 2; ++g) best_ratio = std::max(best_ratio, GateRatio(gate_cluster_, g, false));
+    return best_ratio >= options_.gate_ratio;
+  }
+
+  // The gate's ratio of the gate pixels labelled `group` in `labels` (one
+  // label per gate pixel, or with by_candidate per candidate of the block):
+  // the best width's gain over their residual sum of squares. Fewer than
+  // kGateMinPixels: 0 per gate pixel (the block's other group judges it), 1
+  // per candidate (a fit group too thin on the gate's rows: the fit decides).
+  double GateRatio(const std::vector<int>& labels, int group, bool by_candidate) const {
+    double big_a[kMaxGateWidths] = {}, big_b[kMaxGateWidths] = {};
+    double rss = 0;
+    int pixels = 0;
+    for (size_t p = 0; p < gate_pixels_.size(); ++p) {
+      const GatePixel& pixel = gate_pixels_[p];
+      if (labels[by_candidate ? pixel.candidate : p] != group) continue;
+      for (int j = 0; j < num_widths_; ++j) big_a[j] += pixel.a[j], big_b[j] += pixel.b[j];
+      rss += pixel.rss;
+      ++pixels;
+    }
+    if (pixels < kGateMinPixels) return by_candidate ? 1.0 : 0.0;
+    double best = 0;
+    for (int j = 0; j < num_widths_; ++j) {
+      if (big_a[j] > 0 && big_b[j] > 0) best = std::max(best, big_b[j] * big_b[j] / big_a[j]);
+    }
+    return rss > 0 ? best / rss : 0.0;
   }
 
   // Two-means on the albedo chromaticity (RGB input); one cluster when the
   // centres are within albedo_split.
   void SplitByAlbedo() {
-    const size_t count = candidates_.size();
-    cluster_.assign(count, 0);
+    cluster_.assign(candidates_.size(), 0);
     if (!rgb_) return;
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (const Eigen::Vector2d& c : chroma_) mean += c;
-    mean /= double(count);
-    size_t far_a = 0, far_b = 0;
-    for (size_t i = 0; i < count; ++i) {
-      if ((chroma_[i] - mean).squaredNorm() > (chroma_[far_a] - mean).squaredNorm()) far_a = i;
-    }
-    for (size_t i = 0; i < count; ++i) {
-      if ((chroma_[i] - chroma_[far_a]).squaredNorm() > (chroma_[far_b] - chroma_[far_a]).squaredNorm()) far_b = i;
-    }
-    Eigen::Vector2d centre[2] = {chroma_[far_a], chroma_[far_b]};
-    if (!((centre[0] - centre[1]).norm() > options_.albedo_split)) return;
-    for (int iteration = 0; iteration < 8; ++iteration) {
-      Eigen::Vector2d sum[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
-      int members[2] = {0, 0};
-      for (size_t i = 0; i < count; ++i) {
-        const int c = (chroma_[i] - centre[1]).squaredNorm() < (chroma_[i] - centre[0]).squaredNorm();
-        cluster_[i] = c;
-        sum[c] += chroma_[i];
-        ++members[c];
-      }
-      for (int c = 0; c < 2; ++c) {
-        if (members[c] > 0) centre[c] = sum[c] / members[c];
-      }
-    }
-    if (!((centre[0] - centre[1]).norm() > options_.albedo_split)) std::fill(cluster_.begin(), cluster_.end(), 0);
+    chroma_.clear();
+    for (const Cell& cell : candidates_) chroma_.push_back(Chromaticity(cell.x, cell.y));
+    SplitInTwo(chroma_, options_.albedo_split, &cluster_);
+  }
+
+  // r, g of rgb / sum of the pixel's solved albedo.
+  Eigen::Vector2d Chromaticity(int x, int y) const {
+    const PhotometricSolution& s = *job_.solution;
+    const double r = s.albedo(x, y, 0), g = s.albedo(x, y, 1), b = s.albedo(x, y, 2);
+    const double sum = r + g + b;
+    return sum > 0 ? Eigen::Vector2d(r / sum, g / sum) : Eigen::Vector2d(1.0 / 3, 1.0 / 3);
   }
 
   // The samples of `cells` (in row order) into pixels_ and the sample
@@ -170,12 +431,7 @@ class BlockRefiner {
   void Gather(const std::vector<Cell>& cells) {
     pixels_.clear();
     lights_k_.clear(), halves_.clear(), values_.clear(), views_.clear();
-    if (!classified_) {
-      kind_ = lights_.Classify(tiled::LightSharing::kWithinTolerance, x0_, y0_, x1_, y1_);
-      classified_ = true;
-    }
-    const tiled::AccumulateSpanFn accumulate =
-        kind_ == tiled::TileLights::kUniform ? accumulate_uniform_ : accumulate_exact_;
+    ClassifyLights(y0_, y1_);
     tiled::Span span;
     span.lights = kind_;
     span.x0 = x0_;
@@ -186,8 +442,7 @@ class BlockRefiner {
     for (const Cell& cell : cells) {
       if (cell.y != row) {
         row = cell.y;
-        lights_.FillRow(kind_, x0_, x1_, row, &buffers_);
-        accumulate(job_, lights_.shared(), x0_, span.count, row, &buffers_);
+        AccumulateRow(row);
         span.y = row;
       }
       const int i = cell.x - x0_;
@@ -271,7 +526,7 @@ class BlockRefiner {
 
   // The width (ladder, then golden section between the best rung's
   // neighbours, on log a) and F0 of the group's sheen at the current normals.
-  void FitShared(double* width, double* f0) {
+  double FitShared(double* width, double* f0) {
     const double lo = std::log(options_.min_width), hi = std::log(options_.max_width);
     double best_gain = -1, best_log = lo;
     int best_rung = 0;
@@ -301,6 +556,7 @@ class BlockRefiner {
     if (gc > best_gain) best_gain = gc, best_log = c, *f0 = fc;
     if (gd > best_gain) best_gain = gd, best_log = d, *f0 = fd;
     *width = std::exp(best_log);
+    return best_gain;
   }
 
   // Pixel p's scaled normal under a sheen (width, f0): least squares on the
@@ -393,42 +649,33 @@ class BlockRefiner {
     for (size_t i = 0; i < count; ++i) fit_cells_.push_back(row_cells_[i * n / count]);
   }
 
-  // A quick look, at the least-squares normals of the group's candidates on
-  // two rows of the block, on every other rung of the width ladder: the
-  // residual a sheen can take out of them (their scaled normals projected
-  // out) must reach half the drop asked for, or the group keeps its
-  // least-squares results without gathering the fit pixels or re-solving
-  // any (the cost of a Lambertian scene: 16 MP, 10 LEDs).
-  bool QuickLook() {
-    row_cells_.clear();
-    for (const Cell& c : group_) {
-      if (c.y - y0_ == kFitRowStep / 2 || c.y - y0_ == kFitRowStep / 2 + options_.block_size / 2) row_cells_.push_back(c);
-    }
-    Gather(row_cells_);
-    if (pixels_.size() < 8) return true;  // too few to judge: the full fit decides
-    PrepareGeometry();
-    double best_gain = 0, rss_ls_sum = 0;
-    for (const Pixel& p : pixels_) rss_ls_sum += p.rss_ls;
-    const double lo = std::log(options_.min_width), hi = std::log(options_.max_width);
-    for (int i = 1; i < kWidthLadder; i += 2) {
-      double amplitude = 0;
-      best_gain = std::max(best_gain, SheenGain(std::exp(lo + (hi - lo) * i / (kWidthLadder - 1)), &amplitude));
-    }
-    return best_gain >= 0.5 * options_.min_residual_drop * rss_ls_sum;
-  }
-
   void RefineGroup(Counts* counts) {
     ++counts->tried;
-    if (!QuickLook()) return;
     ChooseFitCells();
     Gather(fit_cells_);
     if (static_cast<int>(pixels_.size()) < std::min(options_.min_pixels, options_.max_fit_pixels) / 2) return;
     PrepareGeometry();
+    // The gate once more, on the fit pixels at their least-squares normals,
+    // first on every other rung of the width ladder (a quarter of the width
+    // search's cost), then at the fitted width: below gate_ratio of their
+    // residual no search and no re-solve is spent (a Lambertian group past
+    // the gate by chance).
+    double rss_ls_fit = 0;
+    for (const Pixel& p : pixels_) rss_ls_fit += p.rss_ls;
+    {
+      const double lo = std::log(options_.min_width), hi = std::log(options_.max_width);
+      double best = 0, amplitude = 0;
+      for (int i = 1; i < kWidthLadder; i += 2) {
+        best = std::max(best, SheenGain(std::exp(lo + (hi - lo) * i / (kWidthLadder - 1)), &amplitude));
+      }
+      if (best < options_.gate_ratio * rss_ls_fit) return;
+    }
     double width = 1, f0 = 0;
     for (int iteration = 0; iteration < options_.iterations; ++iteration) {
       if (iteration > 0) PrepareGeometry();
-      FitShared(&width, &f0);
+      const double gain = FitShared(&width, &f0);
       if (!(f0 > 0)) return;
+      if (iteration == 0 && gain < options_.gate_ratio * rss_ls_fit) return;
       for (Pixel& p : pixels_) Resolve(&p, width, f0);
     }
     // Model selection on the fit pixels' samples together: the shared sheen
@@ -443,12 +690,19 @@ class BlockRefiner {
     const double lambert = std::max(rss_ls, floor_rss), sheen = std::max(rss, floor_rss);
     const bool pays = samples * std::log(lambert / sheen) > 2 * options_.bic_penalty * std::log(samples);
     const bool drops = rss <= (1 - options_.min_residual_drop) * rss_ls;
+    // A width pinned at (or within kWidthMargin of) a bound of the search is
+    // not a velvet sheen's: the fit follows some other smooth residual (a
+    // third of the draped Lambertian sample's takes, in its first pass on the
+    // table-plane light field; no cloth group, whose widths lie in 0.46-1.48).
+    const double log_range = std::log(options_.max_width / options_.min_width);
+    const bool interior = std::log(width / options_.min_width) > kWidthMargin * log_range &&
+                          std::log(options_.max_width / width) > kWidthMargin * log_range;
     double white_gain = 0, diffuse_gain = 0;
     ColourTest(width, &white_gain, &diffuse_gain);
     // (Not in the Bayer domain: one raw sample per light and pixel carries
     // too little colour to tell, cloth there 0.592 -> 0.61 deg with it.)
     const bool white = !options_.dichromatic || job_.bayer || white_gain >= options_.white_margin * diffuse_gain;
-    if (!pays || !drops || !white) return;
+    if (!pays || !drops || !white || !interior) return;
     ++counts->taken;
     counts->f0_sum += f0, counts->width_sum += width;
     // Every candidate of the group under the group's sheen.
@@ -491,11 +745,22 @@ class BlockRefiner {
   tiled::SpanBuffers buffers_;
   tiled::TileLightSampler lights_;
   const tiled::AccumulateSpanFn accumulate_exact_, accumulate_uniform_;
+  // The same without the per-channel sums (the gate reads the luminance only).
+  const tiled::AccumulateSpanFn accumulate_luminance_exact_, accumulate_luminance_uniform_;
   PixelSamples samples_;
   int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0;
   bool classified_ = false;
+  int classified_y0_ = 0, classified_y1_ = 0;  // the rows ClassifyLights classified
   tiled::TileLights kind_ = tiled::TileLights::kExact;
   std::vector<Cell> candidates_, group_, fit_cells_, row_cells_;
+  std::vector<int> mask_;  // 1 + index in candidates_ (0: none) at (y - y0_) * width + (x - x0_)
+  std::vector<int> row_counts_;  // candidates per row of the block
+  std::vector<int> gate_rows_;
+  std::vector<GatePixel> gate_pixels_;
+  int num_widths_ = 0;  // the gate's widths
+  std::vector<double> gate_scratch_;  // 7 per light: the gate's per-sample stages
+  std::vector<Eigen::Vector2d> gate_chroma_;
+  std::vector<int> gate_cluster_;
   std::vector<Eigen::Vector2d> chroma_;
   std::vector<int> cluster_;
   std::vector<Pixel> pixels_;
@@ -528,6 +793,9 @@ void CoherentSheenOptions::Check() const {
   if (!(min_residual_drop >= 0 && min_residual_drop < 1)) {
     throw FieldError(kOptions, "min_residual_drop", min_residual_drop, "must lie in [0, 1)");
   }
+  if (!(gate_ratio >= 0 && gate_ratio < 1)) {
+    throw FieldError(kOptions, "gate_ratio", gate_ratio, "must lie in [0, 1)");
+  }
   if (!(white_margin > 0) || !std::isfinite(white_margin)) {
     throw FieldError(kOptions, "white_margin", white_margin, "must be finite and > 0");
   }
@@ -541,7 +809,7 @@ std::string CoherentSheenSummary::BriefReport() const {
   std::ostringstream out;
   out << "Coherent sheen: " << TerminationName(termination) << ", " << pixels_refined << " of " << pixels_candidate
       << " candidate pixels re-solved under a shared velvet sheen in " << groups_taken << " of " << groups_tried
-      << " groups (mean F0 " << Fixed(mean_f0, 4) << ", width " << Fixed(mean_width, 3) << "), " << Fixed(seconds, 2)
+      << " groups fitted in the " << blocks_passed << " of " << blocks_gated << " blocks past the gate (mean F0 " << Fixed(mean_f0, 4) << ", width " << Fixed(mean_width, 3) << "), " << Fixed(seconds, 2)
       << " s";
   if (!message.empty()) out << " (" << message << ")";
   return out.str();
@@ -587,6 +855,8 @@ CoherentSheenSummary RefineCoherentSheenOfJob(const CoherentSheenOptions& option
   double f0_sum = 0, width_sum = 0;
   for (const Counts& c : counts) {
     summary.pixels_candidate += c.candidates;
+    summary.blocks_gated += c.gated;
+    summary.blocks_passed += c.passed;
     summary.groups_tried += c.tried;
     summary.groups_taken += c.taken;
     summary.pixels_refined += c.refined;

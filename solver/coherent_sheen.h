@@ -6,10 +6,15 @@
 // sheen on Lambertian scenes. RefineCoherentSheen runs after the per-pixel
 // passes (and after the shared lobe). It cuts the image into square blocks;
 // a block's candidate pixels (solved, in the region, least-squares result:
-// no specular lobe, no robust re-solve) are split into at most two groups of
-// similar albedo chromaticity (warp and weft; RGB input only), and for each
-// group with enough candidates, on an even spread of its pixels, it
-// alternates
+// no specular lobe, no robust re-solve) first pass a gate (gate_ratio): on
+// the candidates of the block's two fullest rows, at their least-squares
+// normals, the residual a sheen of one of a few widths can take out must be
+// a share of their residual in at least one albedo group, or the block is
+// left after that one look (a Lambertian block: the cost of the pass on a
+// Lambertian scene). Past the gate, the candidates are split into at most
+// two groups of similar albedo chromaticity (warp and weft; RGB input only),
+// and for each group with enough candidates that passes the gate on its own
+// gate pixels, on an even spread of its pixels, it alternates
 //   1. one velvet sheen (white amplitude F0 and width a) for the whole group,
 //      each pixel's Lambertian part projected out (its scaled normal is free:
 //      the sheen is fitted on what the Lambertian model cannot explain), the
@@ -19,9 +24,10 @@
 //      point, a few 3x3 solves),
 // and keeps the sheen for the group only where it pays by BIC on those
 // pixels' samples together (two shared parameters against hundreds of
-// samples), lowers their residual by at least min_residual_drop and, on RGB
-// input, is white (dichromatic: the residual it explains is the same in
-// every colour channel, not in the albedo's proportions). Blocks whose
+// samples), lowers their residual by at least min_residual_drop, has a
+// width inside the search range (not pinned at a bound) and, on RGB input,
+// is white (dichromatic: the residual it explains is the same in every
+// colour channel, not in the albedo's proportions). Blocks whose
 // pixels are mostly glossy (max_lobe_fraction) are left alone. Then
 // every candidate of the group is re-solved under the group's sheen. A group
 // that does not take it keeps its least-squares results bit for bit.
@@ -66,14 +72,24 @@ struct CoherentSheenOptions {
   // with many lights a Lambertian fit's residual has other structure to
   // explain (DiLiGenT's 96), the pass is for the rig's ten.
   int max_lights = 24;
+  // The gate, before any fit: on the candidates of the block's two fullest
+  // rows at their least-squares normals, the residual a sheen of one of the
+  // gate's widths can take out (their scaled normals projected out) must be
+  // at least this fraction of their residual sum of squares in one albedo
+  // group, in [0, 1) (0: every block is fitted); then the same on each fit
+  // group's own pixels of those rows, and on its fit pixels before their
+  // re-solve. A Lambertian block costs one look at 64 pixels (16 MP, 10 LEDs:
+  // 3 % of the blocks pass; 0.05: cloth 0.592 deg against 0.590).
+  double gate_ratio = 0.025;
   // BIC penalty per shared parameter, in units of ln(samples), >= 0 (1 = BIC).
   double bic_penalty = 1.0;
   // The group's sheen must also lower its fit pixels' residual sum of squares
   // by at least this fraction, in [0, 1): a Lambertian block whose residual
-  // has some other smooth structure (fibre footprints, shadow edges) then
-  // keeps its least-squares result however many samples it has (cloth 0.589
-  // deg, draped 0.406; 0.02: about 0.585, 0.407; docs/solver.md).
-  double min_residual_drop = 0.05;
+  // has some other smooth structure (fibre footprints, shadow edges, the
+  // table-plane light field of a draped sample's first pass) then keeps its
+  // least-squares result however many samples it has (cloth 0.594 deg,
+  // draped 0.40531; 0.05: 0.590, 0.40564; 0.10: 0.592, 0.40537; docs/solver.md).
+  double min_residual_drop = 0.12;
   // A block is left alone where its solved pixels with a specular lobe (the
   // per-pixel GGX fit's or the shared lobe's) are more than this fraction of
   // its candidates, >= 0: a glossy material's lobe tails in the neighbouring
@@ -98,6 +114,8 @@ struct CoherentSheenOptions {
 struct CoherentSheenSummary : AlgorithmSummary {
   bool skipped_lights = false;   // more lights than max_lights: nothing done
   size_t pixels_candidate = 0;   // solved least-squares pixels in blocks worked on
+  size_t blocks_gated = 0;       // blocks with enough candidates the gate looked at
+  size_t blocks_passed = 0;      // of those, past the gate (gate_ratio)
   size_t groups_tried = 0;       // block albedo groups a shared sheen was fitted to
   size_t groups_taken = 0;       // of those, that took it (BIC and min_residual_drop)
   size_t pixels_refined = 0;     // pixels re-solved under a shared sheen

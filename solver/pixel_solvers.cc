@@ -749,7 +749,8 @@ constexpr double kSheenWidths[] = {0.5, 0.7, 1.0, 1.4};
 constexpr double kSheenMinWidth = 0.3;     // fitted width range: narrower is a rim no rig angle reaches,
 constexpr double kSheenMaxWidth = 2.0;     // broader is flat
 constexpr double kSheenTestWidth = 1.0;    // the residual test's width (mid-ladder)
-constexpr double kVelvetAmplitude = 4.0;   // Ashikhmin's amplitude of the inverted Gaussian
+constexpr double kVelvetAmplitude = kVelvetSheenAmplitude;
+static_assert(kLobeMinViewCosine == kVelvetSheenMinViewCosine, "the sheen's n . v floor is the lobe's");
 constexpr int kSheenIterations = 12;       // Gauss-Newton steps
 constexpr double kSheenNormalStep = 2e-4;  // rad (0.01 deg): a smaller step of the normal has converged
 // Residual floor of the model selection, relative to rho_d: below about the
@@ -811,13 +812,6 @@ VelvetSheenGeometry VelvetSheenGeometryOf(const Eigen::Vector3d& n, const Eigen:
   if (s2 > 1e-6) g.cot2 = c * c / s2, g.inv_sin4 = 1 / (s2 * s2);
   g.q = nl / (4 * (nl + nv - nl * nv));
   return g;
-}
-
-double VelvetSheenOf(const VelvetSheenGeometry& geometry, double width) {
-  if (!(geometry.q > 0)) return 0;
-  const double a2 = width * width;
-  const double g = 1 + kVelvetAmplitude * std::exp(-geometry.cot2 / a2) * geometry.inv_sin4;
-  return g * geometry.q / (1 + kVelvetAmplitude * a2);
 }
 
 double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, const Eigen::Vector3d& half,

@@ -3,6 +3,8 @@
 // Public so that they can be tested and benchmarked on their own.
 #pragma once
 
+#include <cmath>
+
 #include <vector>
 
 #include <Eigen/Core>
@@ -126,6 +128,11 @@ double VelvetSheenShape(const Eigen::Vector3d& n, const Eigen::Vector3d& light, 
 // VelvetSheenShape split into its width-free factors for one sample, so that
 // a fit over the width (RefineCoherentSheen, solver/coherent_sheen.h) computes
 // the geometry once: S = VelvetSheenOf(VelvetSheenGeometryOf(n, l, h, v), a).
+// The velvet sheen's constants: Ashikhmin's amplitude K of the inverted
+// Gaussian in G = 1 + K exp(-cot^2 th_h / a^2) / sin^4 th_h, and the floor of
+// n . v (near-grazing views only rescale the sheen).
+inline constexpr double kVelvetSheenAmplitude = 4.0;
+inline constexpr double kVelvetSheenMinViewCosine = 0.1;
 struct VelvetSheenGeometry {
   double cot2 = 0;      // cot^2 th_h
   double inv_sin4 = 0;  // 1 / sin^4 th_h; 0 where th_h ~ 0 (the exponential has vanished there)
@@ -133,8 +140,14 @@ struct VelvetSheenGeometry {
 };
 VelvetSheenGeometry VelvetSheenGeometryOf(const Eigen::Vector3d& n, const Eigen::Vector3d& light,
                                           const Eigen::Vector3d& half, const Eigen::Vector3d& view);
-// S for the factors and width a > 0.
-double VelvetSheenOf(const VelvetSheenGeometry& geometry, double width);
+// S for the factors and width a > 0 (inline: the shared sheen's width search
+// evaluates it for every sample at every trial width).
+inline double VelvetSheenOf(const VelvetSheenGeometry& geometry, double width) {
+  if (!(geometry.q > 0)) return 0;
+  const double a2 = width * width;
+  const double g = 1 + kVelvetSheenAmplitude * std::exp(-geometry.cot2 / a2) * geometry.inv_sin4;
+  return g * geometry.q / (1 + kVelvetSheenAmplitude * a2);
+}
 
 // Diffuse plus a white velvet sheen, per pixel:
 //   b_k = rho_d (n . l_k) + rho_s S(n, l_k, v; a)       (S: VelvetSheenShape)

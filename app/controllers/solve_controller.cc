@@ -86,7 +86,9 @@ const char* RobustLossName(PhotometricSolverOptions::RobustLoss loss) {
 // count): what the inputs fingerprint hashes and what report.json records.
 // adaptive_coherent_sheen (issue #13's shared sheen, the adaptive method's
 // default) only where it runs, so that results made before it, and with
-// --no-coherent-sheen or another method, keep their fingerprints.
+// --no-coherent-sheen or another method, keep their fingerprints; its value
+// is the pass's revision where that changes results (true: the first; 2:
+// the per-block gate, session 2026-12-03 #4).
 nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
   nlohmann::json json = {{"method", PhotometricMethodName(solver.method)},
           {"luminance_weights", solver.luminance_weights},
@@ -109,7 +111,7 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"adaptive_coherent_lobe", solver.adaptive_coherent_lobe},
           {"adaptive_sheen", solver.adaptive_sheen}};
   if (solver.method == PhotometricSolverOptions::Method::kAdaptive && solver.adaptive_coherent_sheen) {
-    json["adaptive_coherent_sheen"] = true;
+    json["adaptive_coherent_sheen"] = 2;
   }
   return json;
 }

@@ -150,6 +150,41 @@ TEST(CoherentSheen, LeavesALambertianSceneBitForBit) {
   }
 }
 
+// The gate (gate_ratio): on the Lambertian sphere it turns every block down
+// after its one look, and gate_ratio 0 (every block fitted) shows it saves
+// fits only: the result is the same, nothing taken. On the velvet sphere
+// every block it looks at goes on to the fit, and the groups take the sheen.
+TEST(CoherentSheen, GateSkipsLambertianBlocksAndKeepsVelvetOnes) {
+  PhotometricSolverOptions options;
+  options.adaptive_coherent_sheen = false;
+  const SyntheticScene lambert = MakeSyntheticScene(SphereOptions());
+  PhotometricSolution least_squares;
+  SolvePhotometricStereo(options, InputFor(lambert), &least_squares);
+  PhotometricSolution gated = least_squares, ungated = least_squares;
+  const CoherentSheenSummary skipped = RefineCoherentSheen(CoherentSheenOptions(), options, InputFor(lambert), &gated);
+  ASSERT_TRUE(skipped.IsUsable()) << skipped.message;
+  EXPECT_GE(skipped.blocks_gated, 12u) << skipped.BriefReport();  // 16 blocks of 32 px, most with candidates
+  EXPECT_EQ(skipped.blocks_passed, 0u) << skipped.BriefReport();
+  EXPECT_EQ(skipped.groups_tried, 0u);
+  CoherentSheenOptions no_gate;
+  no_gate.gate_ratio = 0;
+  const CoherentSheenSummary fitted = RefineCoherentSheen(no_gate, options, InputFor(lambert), &ungated);
+  EXPECT_EQ(fitted.blocks_passed, fitted.blocks_gated);
+  EXPECT_GE(fitted.groups_tried, fitted.blocks_passed);
+  EXPECT_EQ(fitted.groups_taken, 0u) << fitted.BriefReport();
+  EXPECT_TRUE(SameSolution(gated, least_squares));
+  EXPECT_TRUE(SameSolution(ungated, least_squares));
+
+  SyntheticScene velvet = MakeSyntheticScene(SphereOptions());
+  AddSheen(kSheenF0, kSheenWidth, false, &velvet);
+  PhotometricSolution solution;
+  SolvePhotometricStereo(options, InputFor(velvet), &solution);
+  const CoherentSheenSummary kept = RefineCoherentSheen(CoherentSheenOptions(), options, InputFor(velvet), &solution);
+  EXPECT_GE(kept.blocks_gated, 12u) << kept.BriefReport();
+  EXPECT_EQ(kept.blocks_passed, kept.blocks_gated) << kept.BriefReport();
+  EXPECT_GT(kept.groups_taken, kept.blocks_passed / 2) << kept.BriefReport();
+}
+
 // A residual in the albedo's colour (an error of the diffuse model, not a
 // white sheen) of the same shape: the dichromatic test turns it down, and
 // without that test the pass would have taken it.
@@ -196,15 +231,16 @@ TEST(CoherentSheen, RunsInTheBayerDomain) {
   input.light_field = velvet.light_field.get();
   double error[2];
   for (int on = 0; on < 2; ++on) {
-    PhotometricSolverOptions options;
-    options.adaptive_coherent_sheen = on == 1;
+    PhotometricSolverOptions solver_options;
+    solver_options.adaptive_coherent_sheen = on == 1;
     PhotometricSolution solution;
-    const PhotometricSolverSummary summary = SolvePhotometricStereoBayer(options, input, &solution);
+    const PhotometricSolverSummary summary = SolvePhotometricStereoBayer(solver_options, input, &solution);
     ASSERT_TRUE(summary.IsUsable()) << summary.message;
     ExpectAllFinite(solution);
     error[on] = AngularErrorDegrees(solution.normal_in_table, velvet.normal_in_table, velvet.object).mean;
-    if (on == 1) EXPECT_GT(summary.pixels_coherent_sheen, 0u);
-
+    if (on == 1) {
+      EXPECT_GT(summary.pixels_coherent_sheen, 0u);
+    }
   }
   ASSERT_GT(error[0], 0.5);
   EXPECT_LT(error[1], 0.5 * error[0]);
@@ -277,6 +313,8 @@ TEST(CoherentSheen, RejectsBadOptionsAndInputs) {
   throws([](CoherentSheenOptions* o) { o->min_width = 3; });
   throws([](CoherentSheenOptions* o) { o->max_width = 20; });
   throws([](CoherentSheenOptions* o) { o->min_residual_drop = 1; });
+  throws([](CoherentSheenOptions* o) { o->gate_ratio = -0.1; });
+  throws([](CoherentSheenOptions* o) { o->gate_ratio = 1; });
   throws([](CoherentSheenOptions* o) { o->bic_penalty = -1; });
   throws([](CoherentSheenOptions* o) { o->white_margin = 0; });
   throws([](CoherentSheenOptions* o) { o->max_lobe_fraction = std::nan(""); });
