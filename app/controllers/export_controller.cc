@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <mutex>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -1578,22 +1579,30 @@ void ExportController::DeriveHeight(ExportInputs* inputs, ExportMaps* maps) {
 // threads of their own, which only check for a stop (one progress stage at a
 // time). Each records its wall time under its own stage name, so the
 // concurrent stages' times overlap. The first failure is rethrown once every
-// step has ended.
+// step has ended (the steps catch their own: their futures never throw).
 void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* maps_in,
                                           const HeightReference* reference) {
   ExportInputs& inputs = *inputs_in;
   ExportMaps& maps = *maps_in;
   const double mm = summary_.mm_per_pixel;
-  // A failed step ends the others at their next check, as a stop would.
+  // A failed step ends the others at their next check, as a stop would. Its
+  // error is kept before `failed` is set, so that it, not the others'
+  // cancellation that follows from it, is the one rethrown.
   std::atomic<bool> failed{false};
+  std::mutex failure_mutex;
+  std::exception_ptr failure;
+  auto record_failure = [&](std::exception_ptr error) {
+    std::lock_guard lock(failure_mutex);
+    if (!failure) failure = std::move(error);
+    failed = true;
+  };
   const ProgressCallback stop_check = [this, &failed](double) { return !IsStopRequested() && !failed; };
-  auto failing = [&failed](auto&& step) {
-    return [&failed, step] {
+  auto failing = [&record_failure](auto&& step) {
+    return [&record_failure, step] {
       try {
         step();
       } catch (...) {
-        failed = true;
-        throw;
+        record_failure(std::current_exception());
       }
     };
   };
@@ -1623,7 +1632,6 @@ void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* m
       timed(evaluate_timing, "evaluate_height", [&] { EvaluateHeight(*reference, maps); });
     }));
   }
-  std::exception_ptr failure;
   try {
     TimedStage(occlusion_timing, "occlusion", "ambient occlusion", [&] {
       AmbientOcclusionOptions occlusion_options = options_.occlusion;
@@ -1635,20 +1643,11 @@ void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* m
       RequireSuccess(summary_.occlusion, "ambient occlusion");
     });
   } catch (...) {
-    failed = true;
-    failure = std::current_exception();
+    record_failure(std::current_exception());
   }
-  auto join = [&failure](auto& step) {
-    if (!step.valid()) return;
-    try {
-      step.get();
-    } catch (...) {
-      if (!failure) failure = std::current_exception();
-    }
-  };
-  join(cavity);
-  join(roughness_then_inputs);
-  join(evaluate);
+  cavity.wait();
+  roughness_then_inputs.wait();
+  if (evaluate.valid()) evaluate.wait();
   if (failure) std::rethrow_exception(failure);
   for (const auto* timings : {&occlusion_timing, &cavity_timing, &roughness_timings, &evaluate_timing}) {
     summary_.stage_seconds.insert(summary_.stage_seconds.end(), timings->begin(), timings->end());
