@@ -3,52 +3,11 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <cstdlib>
-#include <cstring>
-#include <new>
 #include <stdexcept>
 #include <string>
-#include <type_traits>
-#include <utility>
 #include <vector>
 
 namespace scanbench {
-
-namespace image_internal {
-
-// Storage of zero-filled images: calloc, whose large blocks come from fresh
-// pages that the kernel has zeroed already, and elements default-inserted
-// without a store of their own. A 16 MP float RGB image is 193 MB, and a
-// memset of it costs as much as the page faults it causes; most images are
-// overwritten whole right after. Only valid because Image never shrinks and
-// regrows its vector (a regrown tail would keep old values).
-template <typename T>
-struct ZeroedAllocator {
-  static_assert(std::is_arithmetic_v<T>);
-  using value_type = T;
-  ZeroedAllocator() = default;
-  template <typename U>
-  ZeroedAllocator(const ZeroedAllocator<U>&) {}
-
-  T* allocate(size_t n) {
-    if (void* p = std::calloc(n, sizeof(T))) return static_cast<T*>(p);
-    throw std::bad_alloc();
-  }
-  void deallocate(T* p, size_t) { std::free(p); }
-  // Default-insertion leaves calloc's zeros; value construction is as usual.
-  template <typename U>
-  void construct(U* p) noexcept {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <typename U, typename... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-  }
-  template <typename U>
-  bool operator==(const ZeroedAllocator<U>&) const { return true; }
-};
-
-}  // namespace image_internal
 
 template <typename T>
 class Image {
@@ -61,13 +20,7 @@ class Image {
                                   std::to_string(height) + "x" + std::to_string(channels) +
                                   " must not be negative");
     }
-    const size_t size = static_cast<size_t>(width) * height * channels;
-    const T zero{};
-    if (std::memcmp(&fill, &zero, sizeof(T)) == 0) {
-      data_.resize(size);  // calloc's zeros (ZeroedAllocator)
-    } else {
-      data_.assign(size, fill);
-    }
+    data_.assign(static_cast<size_t>(width) * height * channels, fill);
   }
 
   int width() const { return width_; }
@@ -99,7 +52,7 @@ class Image {
   int width_ = 0;
   int height_ = 0;
   int channels_ = 0;
-  std::vector<T, image_internal::ZeroedAllocator<T>> data_;
+  std::vector<T> data_;
 };
 
 // For error messages: "1232x816" and "1232x816x3".
