@@ -1,7 +1,6 @@
 #include "solver/coherent_sheen.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -13,7 +12,6 @@
 
 #include "core/field_error.h"
 #include "core/format.h"
-#include "core/parallel_for.h"
 #include "solver/pixel_solvers.h"
 #include "solver/span_kernels.h"
 #include "solver/tile_lights.h"
@@ -830,28 +828,16 @@ CoherentSheenSummary RefineCoherentSheenOfJob(const CoherentSheenOptions& option
     return summary;
   }
   const int width = job.field->width(), height = job.field->height();
-  const int block = options.block_size;
-  const int blocks_x = (width + block - 1) / block, blocks_y = (height + block - 1) / block;
-  const int num_blocks = blocks_x * blocks_y;
-  const int num_threads = std::clamp(ResolveThreadCount(options.num_threads), 1, std::max(1, num_blocks));
-  std::vector<std::unique_ptr<BlockRefiner>> workers(num_threads);
-  std::vector<Counts> counts(num_threads);
-  std::atomic<int> blocks_done{0};
-  // Each block writes only its own pixels and reads only its own samples and
-  // per-pixel results, so the result does not depend on the thread count.
-  const bool finished = ParallelFor(
-      num_blocks, num_threads, 4,
-      [&](int first, int last, int worker) {
+  const int num_workers = BlockPassWorkers(options.num_threads, width, height, options.block_size);
+  std::vector<std::unique_ptr<BlockRefiner>> workers(num_workers);
+  std::vector<Counts> counts(num_workers);
+  RunBlockPass(
+      width, height, options.block_size, num_workers,
+      [&](int x0, int y0, int x1, int y1, int worker) {
         if (!workers[worker]) workers[worker] = std::make_unique<BlockRefiner>(options, job);
-        for (int b = first; b < last; ++b) {
-          const int bx = b % blocks_x, by = b / blocks_x;
-          workers[worker]->Refine(bx * block, by * block, std::min(width, (bx + 1) * block),
-                                  std::min(height, (by + 1) * block), &counts[worker]);
-          ++blocks_done;
-        }
+        workers[worker]->Refine(x0, y0, x1, y1, &counts[worker]);
       },
-      progress ? std::function<bool(int)>([&](int done) { return progress(double(done) / num_blocks); })
-               : std::function<bool(int)>());
+      progress, &summary);
   double f0_sum = 0, width_sum = 0;
   for (const Counts& c : counts) {
     summary.pixels_candidate += c.candidates;
@@ -867,13 +853,6 @@ CoherentSheenSummary RefineCoherentSheenOfJob(const CoherentSheenOptions& option
     summary.mean_width = width_sum / summary.groups_taken;
   }
   summary.seconds = SecondsSince(start);
-  if (!finished) {
-    summary.SetCancelled("cancelled after " + std::to_string(blocks_done.load()) + " of " +
-                         std::to_string(num_blocks) + " blocks");
-  } else {
-    summary.termination = Termination::kSuccess;
-    if (progress) progress(1.0);
-  }
   return summary;
 }
 

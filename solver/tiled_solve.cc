@@ -1,9 +1,12 @@
 #include "solver/tiled_solve.h"
 
 #include <algorithm>
+#include <atomic>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "core/parallel_for.h"
 
 namespace scanbench::tiled {
 namespace {
@@ -323,6 +326,44 @@ void CheckRgbRefinementInput(const char* pass, const PhotometricSolverInput& inp
   if (!input.sample_valid.empty() && input.sample_valid.size() != input.images.size()) {
     throw std::invalid_argument(name + ": " + std::to_string(input.sample_valid.size()) + " sample masks for " +
                                 std::to_string(input.images.size()) + " images");
+  }
+}
+
+namespace {
+
+int NumBlocks(int width, int height, int block_size) {
+  return ((width + block_size - 1) / block_size) * ((height + block_size - 1) / block_size);
+}
+
+}  // namespace
+
+int BlockPassWorkers(int requested_threads, int width, int height, int block_size) {
+  return std::clamp(ResolveThreadCount(requested_threads), 1, std::max(1, NumBlocks(width, height, block_size)));
+}
+
+void RunBlockPass(int width, int height, int block_size, int num_workers, const BlockRefine& refine_block,
+                  const ProgressCallback& progress, AlgorithmSummary* summary) {
+  const int blocks_x = (width + block_size - 1) / block_size;
+  const int num_blocks = NumBlocks(width, height, block_size);
+  std::atomic<int> blocks_done{0};
+  const bool finished = ParallelFor(
+      num_blocks, num_workers, 4,
+      [&](int first, int last, int worker) {
+        for (int b = first; b < last; ++b) {
+          const int bx = b % blocks_x, by = b / blocks_x;
+          refine_block(bx * block_size, by * block_size, std::min(width, (bx + 1) * block_size),
+                       std::min(height, (by + 1) * block_size), worker);
+          ++blocks_done;
+        }
+      },
+      progress ? std::function<bool(int)>([&](int done) { return progress(double(done) / num_blocks); })
+               : std::function<bool(int)>());
+  if (!finished) {
+    summary->SetCancelled("cancelled after " + std::to_string(blocks_done.load()) + " of " +
+                          std::to_string(num_blocks) + " blocks");
+  } else {
+    summary->termination = Termination::kSuccess;
+    if (progress) progress(1.0);
   }
 }
 

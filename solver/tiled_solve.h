@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -49,6 +50,19 @@ const SpanKernels& KernelsOf(const SolveJob& job);
 // Throws std::invalid_argument naming `pass` and the rule broken.
 void CheckRgbRefinementInput(const char* pass, const PhotometricSolverInput& input,
                              const PhotometricSolution* solution);
+
+// A refinement pass's loop over its blocks (the shared lobe, the shared
+// sheen): every block_size square of width x height, the last row and column
+// cut to the image, handed to `refine_block(x0, y0, x1, y1, worker)` on
+// `num_workers` threads of the pool (BlockPassWorkers), worker in
+// [0, num_workers). Each block writes only its own pixels, so the result does
+// not depend on the thread count. `progress` gets the fraction of blocks done
+// and may stop the pass; `summary` ends succeeded, or cancelled after so many
+// blocks.
+using BlockRefine = std::function<void(int x0, int y0, int x1, int y1, int worker)>;
+int BlockPassWorkers(int requested_threads, int width, int height, int block_size);
+void RunBlockPass(int width, int height, int block_size, int num_workers, const BlockRefine& refine_block,
+                  const ProgressCallback& progress, AlgorithmSummary* summary);
 
 // How a tile's pixels get their lights.
 enum class TileLights {

@@ -181,7 +181,9 @@ TEST(SpecularRoughnessTest, RegionAroundTheEstimatesEqualsTheWholeImageForm) {
         size_t differing = 0;
         for (size_t i = 0; i < out.size(); ++i) differing += std::memcmp(&out.data()[i], &expected.data()[i], 4) != 0;
         EXPECT_EQ(differing, 0u) << "pattern " << pattern << ", w " << w << (mask ? ", masked" : "");
-        if (pattern != 4 || mask == nullptr) EXPECT_GT(s.blended, 0u) << "pattern " << pattern << ", w " << w;
+        if (pattern != 4 || mask == nullptr) {
+          EXPECT_GT(s.blended, 0u) << "pattern " << pattern << ", w " << w;
+        }
       }
     }
   }
