@@ -1228,16 +1228,8 @@ CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
                                 " x " + std::to_string(height));
   }
 
-  tiled::SolveJob job;
-  job.options = &solver_options;
-  job.field = input.light_field;
-  job.images = &input.images;
-  job.sample_valid = &input.sample_valid;
-  job.region = input.region;
-  job.num_lights = input.light_field->num_lights();
-  job.with_albedo = true;
-  job.with_confidence = !solution->residual.empty();
-  job.solution = solution;
+  const tiled::SolveJob job =
+      tiled::RgbSolveJob(solver_options, input, solution, /*with_albedo=*/true, !solution->residual.empty());
 
   const int num_workers = tiled::BlockPassWorkers(options.num_threads, width, height, options.block_size);
   std::vector<std::unique_ptr<BlockRefiner>> workers(num_workers);

@@ -874,16 +874,8 @@ CoherentSheenSummary RefineCoherentSheen(const CoherentSheenOptions& options,
     throw std::invalid_argument("coherent sheen: the solution is not the light field's " + std::to_string(width) +
                                 " x " + std::to_string(height));
   }
-  tiled::SolveJob job;
-  job.options = &solver_options;
-  job.field = input.light_field;
-  job.images = &input.images;
-  job.sample_valid = &input.sample_valid;
-  job.region = input.region;
-  job.num_lights = input.light_field->num_lights();
-  job.with_albedo = !solution->albedo.empty();
-  job.with_confidence = !solution->residual.empty();
-  job.solution = solution;
+  const tiled::SolveJob job =
+      tiled::RgbSolveJob(solver_options, input, solution, !solution->albedo.empty(), !solution->residual.empty());
   return tiled::RefineCoherentSheenOfJob(options, job, progress);
 }
 

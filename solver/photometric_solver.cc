@@ -564,16 +564,8 @@ PhotometricSolverSummary SolvePhotometricStereo(const PhotometricSolverOptions& 
   CheckImages(input.images, 3, *input.light_field, "image");
   CheckSampleMasks(input.sample_valid, input.images.size(), input.light_field->width(), input.light_field->height());
   if (solution == nullptr) throw InputError("solution is null");
-  tiled::SolveJob job;
-  job.options = &options;
-  job.field = input.light_field;
-  job.images = &input.images;
-  job.sample_valid = &input.sample_valid;
-  job.region = input.region;
-  job.num_lights = input.light_field->num_lights();
-  job.with_albedo = options.compute_albedo;
-  job.with_confidence = options.compute_confidence;
-  job.solution = solution;
+  const tiled::SolveJob job =
+      tiled::RgbSolveJob(options, input, solution, options.compute_albedo, options.compute_confidence);
   if ((input.lobe_mosaics == nullptr) != (input.lobe_bayer == nullptr)) {
     throw InputError("lobe_mosaics and lobe_bayer must be given together");
   }

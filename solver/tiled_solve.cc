@@ -337,6 +337,21 @@ int NumBlocks(int width, int height, int block_size) {
 
 }  // namespace
 
+SolveJob RgbSolveJob(const PhotometricSolverOptions& options, const PhotometricSolverInput& input,
+                     PhotometricSolution* solution, bool with_albedo, bool with_confidence) {
+  SolveJob job;
+  job.options = &options;
+  job.field = input.light_field;
+  job.images = &input.images;
+  job.sample_valid = &input.sample_valid;
+  job.region = input.region;
+  job.num_lights = input.light_field->num_lights();
+  job.with_albedo = with_albedo;
+  job.with_confidence = with_confidence;
+  job.solution = solution;
+  return job;
+}
+
 int BlockPassWorkers(int requested_threads, int width, int height, int block_size) {
   return std::clamp(ResolveThreadCount(requested_threads), 1, std::max(1, NumBlocks(width, height, block_size)));
 }

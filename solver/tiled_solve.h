@@ -41,6 +41,11 @@ struct SolveJob {
   const ImageU8* sheen_pixels = nullptr;  // optional: the coherent sheen's candidates (BayerSolverInput)
 };
 
+// The job of an RGB solve (or a refinement pass over one) of `input` into
+// `solution`.
+SolveJob RgbSolveJob(const PhotometricSolverOptions& options, const PhotometricSolverInput& input,
+                     PhotometricSolution* solution, bool with_albedo, bool with_confidence);
+
 // The job's kernels: job.kernels, else those of ActiveKernelIsa().
 const SpanKernels& KernelsOf(const SolveJob& job);
 
