@@ -9,6 +9,9 @@
 
 #include <fstream>
 #include <optional>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "tests/app/io/test_dng_util.h"
 
@@ -229,6 +232,29 @@ TEST(FileUtilTest, Sha256OfFileMatchesBytes) {
   TempDir dir;
   WriteFileAtomic(dir / "abc.txt", std::string_view("abc"), OverwritePolicy::kRefuse);
   EXPECT_EQ(Sha256HexOfFile(dir / "abc.txt"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+}
+
+TEST(FileUtilTest, Sha256OfFileLargerThanItsReadChunkMatchesTheBytes) {
+  // 3 MiB and a tail: the file is hashed through a 1 MiB buffer.
+  TempDir dir;
+  std::vector<uint8_t> bytes((size_t{3} << 20) + 17);
+  std::mt19937 random(7);
+  for (uint8_t& byte : bytes) byte = static_cast<uint8_t>(random());
+  WriteFileAtomic(dir / "frame.dng", std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                  OverwritePolicy::kRefuse);
+  EXPECT_EQ(Sha256HexOfFile(dir / "frame.dng"), Sha256Hex(bytes));
+  bytes.back() ^= 1;
+  EXPECT_NE(Sha256HexOfFile(dir / "frame.dng"), Sha256Hex(bytes));
+}
+
+TEST(FileUtilTest, Sha256OfMissingFileNamesIt) {
+  TempDir dir;
+  try {
+    Sha256HexOfFile(dir / "led_03.dng");
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("led_03.dng: does not exist"), std::string::npos) << e.what();
+  }
 }
 
 TEST(FileUtilTest, ReadFileBytesMissingFileNamesIt) {
