@@ -896,11 +896,11 @@ class ResultStream {
 
   void Add(PhotometricSolution& band) {
     const auto start = std::chrono::steady_clock::now();
-    ImageU8 solved(band.status.width(), band.status.height(), 1);
-    for (size_t i = 0; i < solved.size(); ++i) {
-      solved.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    if (!solved_.SameSize(band.status)) solved_ = ImageU8(band.status.width(), band.status.height(), 1);
+    for (size_t i = 0; i < solved_.size(); ++i) {
+      solved_.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
     }
-    ApplyAlbedoColor(color_, solved, &band.albedo);
+    ApplyAlbedoColor(color_, solved_, &band.albedo);
     color_seconds_ += SecondsSince(start);
     specular_.Add(band);
     // The maps open at the first band: whether there is a specular map is the solve's.
@@ -932,6 +932,7 @@ class ResultStream {
   SpecularMapTally specular_;
   std::optional<GroundTruthEvaluation> evaluation_;
   std::optional<SolutionMapStream> maps_;
+  ImageU8 solved_;  // the band's solved pixels, kept from band to band
   double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
 };
 
