@@ -12,10 +12,8 @@
 // Arguments: the result folder, the thread count (default 2), the repeats
 // (default 3). The files go to a scratch folder beside the result and are
 // removed; their sizes are printed. The solution read back is the files'
-// (half normals, albedo and confidence), so normal.png's bytes differ from
-// the result's; the work is the same.
-#include <sys/resource.h>
-
+// (16-bit normals, half albedo and confidence), so normal.png is the
+// result's byte for byte and the EXRs nearly so in size; the work is the same.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -24,26 +22,24 @@
 #include "app/controllers/banded_solve.h"
 #include "app/controllers/map_writer.h"
 #include "app/io/image_io.h"
-#include "core/parallel_for.h"
+#include "benchmarks/process_cpu.h"
 
 namespace scanbench {
 namespace {
 
 namespace fs = std::filesystem;
 
-double ProcessCpuSeconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  const auto seconds = [](const timeval& t) { return t.tv_sec + t.tv_usec * 1e-6; };
-  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
-}
-
 // The solution the result's files hold (what the solve handed them, as far
-// as the files keep it: status.png's code 7 is a solved pixel whose lobe is
-// unsupported).
+// as the files keep it: the normals from normal.png's 16-bit codes, which
+// encode to the same codes again, so normal.png is the result's byte for
+// byte; status.png's code 7 is a solved pixel whose lobe is unsupported).
 PhotometricSolution SolutionOfResult(const fs::path& result) {
   PhotometricSolution solution;
-  solution.normal_in_table = ReadImageFloat(result / "normal.exr");
+  const ImageU16 normal_codes = ReadImageU16(result / "normal.png");
+  solution.normal_in_table = ImageF(normal_codes.width(), normal_codes.height(), 3);
+  for (size_t i = 0; i < normal_codes.size(); ++i) {
+    solution.normal_in_table.data()[i] = static_cast<float>(normal_codes.data()[i] / 65535.0 * 2.0 - 1.0);
+  }
   solution.albedo = ReadImageFloat(result / "albedo.exr");
   const ImageU8 codes = ReadImageU8(result / "status.png");
   const ImageF confidence = ReadImageFloat(result / "confidence.exr");

@@ -787,11 +787,13 @@ void ForEachMap(Solution& s, const F& f) {
   f(s.specular);
   f(s.specular_status);
 }
+constexpr int kNormalMap = 0, kStatusMap = 2, kSolvePathMap = 6;  // their places in ForEachMap's order
 
 // The first pass of a solve whose depth refinement may re-solve (point LEDs,
 // refinement on): each solved band goes into the decision blocks and, every
-// map of it, into an unlinked spill file (44 bytes a pixel: 0.7 GB of the file
-// system's cache at 16 MP, not the process's memory). Once the decision is
+// map of it that is written or evaluated (not solve_path), into an unlinked
+// spill file (43 bytes a pixel: 0.7 GB of the file system's cache at 16 MP,
+// not the process's memory). Once the decision is
 // taken the bands are handed on to be written (the table plane kept) or only
 // the normals and status read back (the re-solves start from them), so a
 // draped sample's first pass is never encoded nor evaluated. A solve that
@@ -829,7 +831,7 @@ class FirstPassSpill {
       int map = 0;
       ForEachMap(band, [&](auto& image) {
         using Img = std::decay_t<decltype(image)>;
-        if (channels_[map] > 0) {
+        if (channels_[map] > 0 && Spilled(map)) {
           if (!image.SameSize(width_, rows) || image.channels() != channels_[map]) {
             image = Img(width_, rows, channels_[map]);
           }
@@ -857,8 +859,8 @@ class FirstPassSpill {
       PhotometricSolution shapes;  // only for the maps' sample types
       ForEachMap(shapes, [&](auto& image) {
         const size_t bytes = size_t(width_) * rows * channels_[map] * sizeof(*image.data());
-        if (map == 0) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
-        if (map == 2) spill_.ReadAt(offset, first.status.row(y), bytes);
+        if (map == kNormalMap) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
+        if (map == kStatusMap) spill_.ReadAt(offset, first.status.row(y), bytes);
         if (Spilled(map)) offset += bytes;
         ++map;
       });
@@ -870,8 +872,10 @@ class FirstPassSpill {
   bool all_maps() const { return all_maps_; }
 
  private:
-  // Map `map` (ForEachMap's order) goes to the spill: all, or the normals and status.
-  bool Spilled(int map) const { return all_maps_ || map == 0 || map == 2; }
+  // Map `map` (ForEachMap's order) goes to the spill: all but solve_path
+  // (neither written nor evaluated: a replayed band has none), or the
+  // normals and status.
+  bool Spilled(int map) const { return all_maps_ ? map != kSolvePathMap : map == kNormalMap || map == kStatusMap; }
 
   int width_;
   bool all_maps_;
