@@ -98,6 +98,7 @@ int Run(const fs::path& result, int threads, int repeats) {
     fs::create_directories(scratch);
     const double cpu_start = ProcessCpuSeconds();
     const auto start = std::chrono::steady_clock::now();
+    double commit_s = 0;
     {
       SolutionMapStream stream(scratch, width, height, !solution.specular.empty(), with_error_map);
       for (size_t b = 0; b < bands.size(); ++b) {
@@ -106,7 +107,9 @@ int Run(const fs::path& result, int threads, int repeats) {
                                       : std::function<ImageF()>(),
                        threads);
       }
+      const auto commit_start = std::chrono::steady_clock::now();
       stream.Commit();
+      commit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - commit_start).count();
     }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double cpu = ProcessCpuSeconds() - cpu_start;
@@ -116,8 +119,8 @@ int Run(const fs::path& result, int threads, int repeats) {
       total += bytes;
       sizes += " " + name + " " + std::to_string(bytes);
     }
-    std::printf("run %d: wall %.2f s, CPU %.2f s (%.0f %% of %d threads), %.1f MB:%s\n", repeat + 1, wall, cpu,
-                100 * cpu / (wall * threads), threads, total / 1e6, sizes.c_str());
+    std::printf("run %d: wall %.2f s (Commit %.2f s), CPU %.2f s (%.0f %% of %d threads), %.1f MB:%s\n", repeat + 1,
+                wall, commit_s, cpu, 100 * cpu / (wall * threads), threads, total / 1e6, sizes.c_str());
     std::fflush(stdout);
   }
   fs::remove_all(scratch);

@@ -510,15 +510,21 @@ std::map<std::string, std::string> SolutionMapStream::Commit() {
     throw std::logic_error("SolutionMapStream::Commit: " + std::to_string(rows_added_) + " of " +
                            std::to_string(height_) + " rows added");
   }
+  // Each file's close (its last chunks, OpenEXR's offset table), fsync and
+  // rename on the pool, the fsyncs side by side rather than one after another.
+  std::vector<ImageRowWriter*> writers;
   std::map<std::string, std::string> outputs;
   for (Map& map : maps_) {
-    map.writer.Commit();
+    writers.push_back(&map.writer);
     outputs[map.kind] = map.name;
   }
   if (error_map_) {
-    error_map_->Commit();
+    writers.push_back(error_map_.get());
     outputs["angular_error_deg"] = "angular_error_deg.exr";
   }
+  ParallelFor(static_cast<int>(writers.size()), ResolveThreadCount(0), 1, [&](int begin, int end, int) {
+    for (int i = begin; i < end; ++i) writers[i]->Commit();
+  });  // rethrows a failure
   committed_ = true;
   return outputs;
 }
