@@ -1,9 +1,12 @@
 #include "app/controllers/map_writer.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <future>
 #include <stdexcept>
 #include <vector>
@@ -18,23 +21,110 @@
 
 namespace scanbench {
 
-ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent) {
-  ImageU16 encoded(normal_in_tangent.width(), normal_in_tangent.height(), 3);
+namespace {
+
+// *image shaped width x height x channels: its buffer kept when it already
+// has that shape (a band's buffer reused for the next: no fresh pages to
+// fault in and zero), else made anew. The caller writes every sample.
+template <typename T>
+Image<T>& Shaped(Image<T>* image, int width, int height, int channels) {
+  if (!image->SameSize(width, height) || image->channels() != channels) *image = Image<T>(width, height, channels);
+  return *image;
+}
+
+// lround((clamp((n + 1) / 2, 0, 1)) * 65535) in double, as
+// floor(x + 0.5) so that the loop vectorises (lround is a libm call per
+// sample): the same codes. x = fl(value * 65535) is at least 0; floor(x +
+// 0.5) could differ from lround(x) only where x + 0.5 is not a double and
+// rounds up onto an integer, which needs x = 0.5 - 2^-54 exactly; x is
+// value * 65535 with value = fl(float + 1) / 2, a multiple of 2^-25 wherever
+// it is below 0.5 (tested against lround over floats near -1, 0 and 1 and
+// random ones).
+void EncodeNormalsPng16(const ImageF& normal_in_tangent, ImageU16* out) {
+  ImageU16& encoded = Shaped(out, normal_in_tangent.width(), normal_in_tangent.height(), 3);
+  const float* in = normal_in_tangent.data();
+  uint16_t* codes = encoded.data();
   for (size_t i = 0; i < encoded.size(); ++i) {
-    const double value = std::clamp((double(normal_in_tangent.data()[i]) + 1.0) * 0.5, 0.0, 1.0);
-    encoded.data()[i] = static_cast<uint16_t>(std::lround(value * 65535.0));
+    const double value = std::clamp((double(in[i]) + 1.0) * 0.5, 0.0, 1.0);
+    codes[i] = static_cast<uint16_t>(static_cast<int32_t>(value * 65535.0 + 0.5));
   }
+}
+
+// SrgbQuantizer::Of(8)'s codes by a table: the code at each "node" (the
+// floats that share their top 16 bits, 128 a binary octave) and the lowest
+// float of every code. Within a node in (0, 1) the code rises by at most one
+// (a node spans at most 1/128 of its value, the curve's 8-bit code at most
+// 0.87 of a step there), so a value's code is its node's, or one more where
+// it reaches the next code's lowest float: two loads and a comparison
+// instead of the quantizer's interpolated guess and two search loops. Made
+// from the quantizer itself, so the same codes (checked when it is built,
+// and by the tests over every code's edges).
+class SrgbPreviewTable {
+ public:
+  SrgbPreviewTable() {
+    const SrgbQuantizer& quantizer = SrgbQuantizer::Of(8);
+    const auto code = [&](uint32_t bits) { return static_cast<int>(quantizer(std::bit_cast<float>(bits))); };
+    for (uint32_t node = 0; node < kNodes; ++node) {
+      node_code_[node] = static_cast<uint8_t>(code(node << 16));
+      if (code(((node + 1) << 16) - 1) > node_code_[node] + 1) {
+        throw std::logic_error("SrgbPreviewTable: more than one code change within a node");
+      }
+    }
+    lowest_.fill(std::numeric_limits<float>::infinity());  // lowest_[256]: never reached
+    for (int k = 1; k <= 255; ++k) {
+      uint32_t below = 0, reaches = kOneBits;  // code(below) < k <= code(reaches)
+      while (reaches - below > 1) {
+        const uint32_t middle = below + (reaches - below) / 2;
+        (code(middle) >= k ? reaches : below) = middle;
+      }
+      lowest_[k] = std::bit_cast<float>(reaches);
+    }
+    lowest_[0] = 0;
+  }
+
+  uint8_t operator()(float linear) const {
+    if (!(linear > 0)) return 0;  // also NaN
+    if (linear >= 1) return 255;
+    const int code = node_code_[std::bit_cast<uint32_t>(linear) >> 16];
+    return static_cast<uint8_t>(code + (linear >= lowest_[code + 1]));
+  }
+
+ private:
+  static constexpr uint32_t kOneBits = 0x3F800000;  // 1.0f
+  static constexpr uint32_t kNodes = kOneBits >> 16;
+  std::array<uint8_t, kNodes> node_code_{};
+  std::array<float, 257> lowest_{};
+};
+
+const SrgbPreviewTable& PreviewTable() {
+  static const SrgbPreviewTable table;
+  return table;
+}
+
+void EncodeSrgbPreview(const ImageF& linear_rgb, ImageU8* out) {
+  ImageU8& encoded = Shaped(out, linear_rgb.width(), linear_rgb.height(), linear_rgb.channels());
+  const SrgbPreviewTable& table = PreviewTable();
+  const float* in = linear_rgb.data();
+  uint8_t* codes = encoded.data();
+  for (size_t i = 0; i < encoded.size(); ++i) codes[i] = table(in[i]);
+}
+
+}  // namespace
+
+ImageU16 EncodeNormalsPng16(const ImageF& normal_in_tangent) {
+  ImageU16 encoded;
+  EncodeNormalsPng16(normal_in_tangent, &encoded);
   return encoded;
 }
 
 uint8_t SrgbPreviewCode(float linear) {
   // lround(SrgbEncode(v) * 255) without a pow per sample (48 M of them at 16 MP).
-  return static_cast<uint8_t>(SrgbQuantizer::Of(8)(linear));
+  return PreviewTable()(linear);
 }
 
 ImageU8 EncodeSrgbPreview(const ImageF& linear_rgb) {
-  ImageU8 encoded(linear_rgb.width(), linear_rgb.height(), linear_rgb.channels());
-  for (size_t i = 0; i < encoded.size(); ++i) encoded.data()[i] = SrgbPreviewCode(linear_rgb.data()[i]);
+  ImageU8 encoded;
+  EncodeSrgbPreview(linear_rgb, &encoded);
   return encoded;
 }
 
@@ -92,13 +182,27 @@ constexpr int kResidualSignificantBits = 8;
 // Measured at 16 MP: 18.3 -> 12.2 MB.
 constexpr double kErrorMapHalfStepDeg = 1.0 / 512;
 
-// `value` rounded to `bits` significant bits (to nearest, ties to even);
-// zero and non-finite values as they are.
+// `value` rounded to `bits` (1 to 24) significant bits (to nearest, ties to
+// even); zero and non-finite values as they are. A normal float's low 24 -
+// bits significand bits are rounded away in its bit pattern (a carry into the
+// exponent is the next power of two, an overflow infinity, as the libm form
+// gives); zero, subnormal and non-finite values take the libm form
+// (frexp, nearbyint, ldexp: two scalbnf calls per value were 3 % of the
+// result writing's CPU).
 float RoundToSignificantBits(float value, int bits) {
-  if (value == 0 || !std::isfinite(value)) return value;
-  int exponent = 0;
-  const float mantissa = std::frexp(value, &exponent);  // [0.5, 1)
-  return std::ldexp(std::nearbyint(std::ldexp(mantissa, bits)), exponent - bits);
+  uint32_t pattern = std::bit_cast<uint32_t>(value);
+  const uint32_t biased_exponent = (pattern >> 23) & 0xFF;
+  if (biased_exponent == 0 || biased_exponent == 0xFF) {
+    if (value == 0 || !std::isfinite(value)) return value;
+    int exponent = 0;
+    const float mantissa = std::frexp(value, &exponent);  // [0.5, 1)
+    return std::ldexp(std::nearbyint(std::ldexp(mantissa, bits)), exponent - bits);
+  }
+  const int dropped = 24 - bits;
+  if (dropped <= 0) return value;
+  const uint32_t lsb = (pattern >> dropped) & 1;
+  pattern = (pattern + (1u << (dropped - 1)) - 1 + lsb) & ~((1u << dropped) - 1);
+  return std::bit_cast<float>(pattern);
 }
 
 void CheckSpecularShape(const PhotometricSolution& solution) {
@@ -121,8 +225,8 @@ bool IsSpecularUnsupported(const PhotometricSolution& solution, size_t i) {
 // specular.exr's pixels: both channels 0 wherever the lobe is not estimated,
 // and a non-finite value (never expected from the solver) as 0, so that no
 // NaN reaches the file and roughness_alpha > 0 alone marks an estimate.
-ImageF SpecularForFile(const PhotometricSolution& solution) {
-  ImageF out(solution.specular.width(), solution.specular.height(), 2);
+void SpecularForFile(const PhotometricSolution& solution, ImageF* file) {
+  ImageF& out = Shaped(file, solution.specular.width(), solution.specular.height(), 2);
   for (size_t i = 0; i < out.num_pixels(); ++i) {
     const bool estimated = solution.specular_status.data()[i] == static_cast<uint8_t>(SpecularStatus::kEstimated) &&
                            solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
@@ -131,18 +235,28 @@ ImageF SpecularForFile(const PhotometricSolution& solution) {
     out.data()[2 * i] = usable ? std::clamp(f0, 0.0f, 1.0f) : 0.0f;
     out.data()[2 * i + 1] = usable ? std::min(alpha, 1.0f) : 0.0f;
   }
-  return out;
+}
+
+}  // namespace
+
+namespace {
+
+void StatusPngCodes(const PhotometricSolution& solution, ImageU8* out) {
+  const ImageU8& status = solution.status;
+  ImageU8& codes = Shaped(out, status.width(), status.height(), status.channels());
+  std::copy(status.data(), status.data() + status.size(), codes.data());
+  if (solution.specular.empty()) return;
+  CheckSpecularShape(solution);
+  for (size_t i = 0; i < codes.num_pixels(); ++i) {
+    if (IsSpecularUnsupported(solution, i)) codes.data()[i] = kStatusSolvedSpecularUnsupported;
+  }
 }
 
 }  // namespace
 
 ImageU8 StatusPngCodes(const PhotometricSolution& solution) {
-  ImageU8 codes = solution.status;
-  if (solution.specular.empty()) return codes;
-  CheckSpecularShape(solution);
-  for (size_t i = 0; i < codes.num_pixels(); ++i) {
-    if (IsSpecularUnsupported(solution, i)) codes.data()[i] = kStatusSolvedSpecularUnsupported;
-  }
+  ImageU8 codes;
+  StatusPngCodes(solution, &codes);
   return codes;
 }
 
@@ -227,23 +341,21 @@ ExrEncoding ErrorMapExrEncoding(const ExrEncoding& exr) {
   return error_map;
 }
 
-ImageU8 SolvedMask(const PhotometricSolution& solution) {
-  ImageU8 solved(solution.status.width(), solution.status.height(), 1);
+void SolvedMask(const PhotometricSolution& solution, ImageU8* out) {
+  ImageU8& solved = Shaped(out, solution.status.width(), solution.status.height(), 1);
   for (size_t i = 0; i < solved.size(); ++i) {
     solved.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved) ? 255 : 0;
   }
-  return solved;
 }
 
-ImageF ConfidenceForFile(const PhotometricSolution& solution, bool half) {
-  ImageF confidence(solution.status.width(), solution.status.height(), 3);
+void ConfidenceForFile(const PhotometricSolution& solution, bool half, ImageF* out) {
+  ImageF& confidence = Shaped(out, solution.status.width(), solution.status.height(), 3);
   for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
     const float residual = solution.residual.data()[i];
     confidence.data()[3 * i + 0] = solution.lights_used.data()[i];
     confidence.data()[3 * i + 1] = solution.condition_number.data()[i];
     confidence.data()[3 * i + 2] = half ? RoundToSignificantBits(residual, kResidualSignificantBits) : residual;
   }
-  return confidence;
 }
 
 void CheckThreads(int threads) {
@@ -252,13 +364,22 @@ void CheckThreads(int threads) {
 
 }  // namespace
 
+// A band's rows as one file stores them, kept from band to band (the buffer
+// of the type the file takes).
+struct BandRows {
+  ImageU16 u16;
+  ImageU8 u8;
+  ImageF f;
+};
+
 // One result file: its report.json kind, its name, its row writer and how a
-// band of the solution becomes its rows.
+// band of the solution becomes its rows (in `rows` where they need making).
 struct SolutionMapStream::Map {
   const char* kind;
   const char* name;
   ImageRowWriter writer;
-  std::function<void(const PhotometricSolution& band, ImageRowWriter& writer)> add;
+  std::function<void(const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows)> add;
+  BandRows rows{};
 };
 
 SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int width, int height, bool with_specular,
@@ -271,23 +392,25 @@ SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int wi
   // within a band while the other threads idle.
   maps_.push_back({"normal_png16_opengl", "normal.png",
                    ImageRowWriter::Png(path("normal.png"), width, height, 3, 16, policy, {}, kNormalPngEncoding),
-                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
-                     writer.WriteRows(EncodeNormalsPng16(band.normal_in_table));
+                   [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
+                     EncodeNormalsPng16(band.normal_in_table, &rows.u16);
+                     writer.WriteRows(rows.u16);
                    }});
   maps_.push_back({"normal_exr", "normal.exr",
                    ImageRowWriter::Exr(path("normal.exr"), width, height, 3, policy, {}, {}, NormalMapExrEncoding(exr)),
-                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
+                   [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows&) {
                      writer.WriteRows(band.normal_in_table);
                    }});
   maps_.push_back({"albedo_exr", "albedo.exr",
                    ImageRowWriter::Exr(path("albedo.exr"), width, height, 3, policy, {},
                                        AlbedoMetadata(albedo_color, "Linear"), exr),
-                   [](const PhotometricSolution& band, ImageRowWriter& writer) { writer.WriteRows(band.albedo); }});
+                   [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows&) { writer.WriteRows(band.albedo); }});
   maps_.push_back({"confidence", "confidence.exr",
                    ImageRowWriter::Exr(path("confidence.exr"), width, height, 3, policy,
                                        {"lights_used", "condition_number", "residual"}, {}, exr),
-                   [half](const PhotometricSolution& band, ImageRowWriter& writer) {
-                     writer.WriteRows(ConfidenceForFile(band, half));
+                   [half](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
+                     ConfidenceForFile(band, half, &rows.f);
+                     writer.WriteRows(rows.f);
                    }});
   if (with_error_map) {
     error_map_ = std::make_unique<ImageRowWriter>(ImageRowWriter::Exr(path("angular_error_deg.exr"), width, height, 1,
@@ -296,8 +419,9 @@ SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int wi
   maps_.push_back({"albedo_srgb_preview", "albedo_srgb.png",
                    ImageRowWriter::Png(path("albedo_srgb.png"), width, height, 3, 8, policy,
                                        AlbedoMetadata(albedo_color, "sRGB"), kPreviewPngEncoding),
-                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
-                     writer.WriteRows(EncodeSrgbPreview(band.albedo));
+                   [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
+                     EncodeSrgbPreview(band.albedo, &rows.u8);
+                     writer.WriteRows(rows.u8);
                    }});
   if (with_specular) {
     ImageMetadata metadata;
@@ -307,18 +431,21 @@ SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int wi
     maps_.push_back({"specular_exr", "specular.exr",
                      ImageRowWriter::Exr(path("specular.exr"), width, height, 2, policy,
                                          {"specular_f0", "roughness_alpha"}, metadata, exr),
-                     [](const PhotometricSolution& band, ImageRowWriter& writer) {
-                       writer.WriteRows(SpecularForFile(band));
+                     [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
+                       SpecularForFile(band, &rows.f);
+                       writer.WriteRows(rows.f);
                      }});
   }
   maps_.push_back({"status", "status.png", ImageRowWriter::Png(path("status.png"), width, height, 1, 8, policy),
-                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
-                     writer.WriteRows(StatusPngCodes(band));
+                   [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
+                     StatusPngCodes(band, &rows.u8);
+                     writer.WriteRows(rows.u8);
                    }});
   maps_.push_back({"solved_mask", "solved_mask.png",
                    ImageRowWriter::Png(path("solved_mask.png"), width, height, 1, 8, policy),
-                   [](const PhotometricSolution& band, ImageRowWriter& writer) {
-                     writer.WriteRows(SolvedMask(band));
+                   [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
+                     SolvedMask(band, &rows.u8);
+                     writer.WriteRows(rows.u8);
                    }});
 }
 
@@ -360,7 +487,7 @@ void SolutionMapStream::AddBand(const PhotometricSolution& band, const std::func
               [&](int begin, int end, int) {
                 for (int i = begin + first; i < end + first; ++i) {
                   if (i > 0) {
-                    maps_[i - 1].add(band, maps_[i - 1].writer);
+                    maps_[i - 1].add(band, maps_[i - 1].writer, maps_[i - 1].rows);
                     continue;
                   }
                   const ImageF error_rows = alongside();
@@ -383,15 +510,21 @@ std::map<std::string, std::string> SolutionMapStream::Commit() {
     throw std::logic_error("SolutionMapStream::Commit: " + std::to_string(rows_added_) + " of " +
                            std::to_string(height_) + " rows added");
   }
+  // Each file's close (its last chunks, OpenEXR's offset table), fsync and
+  // rename on the pool, the fsyncs side by side rather than one after another.
+  std::vector<ImageRowWriter*> writers;
   std::map<std::string, std::string> outputs;
   for (Map& map : maps_) {
-    map.writer.Commit();
+    writers.push_back(&map.writer);
     outputs[map.kind] = map.name;
   }
   if (error_map_) {
-    error_map_->Commit();
+    writers.push_back(error_map_.get());
     outputs["angular_error_deg"] = "angular_error_deg.exr";
   }
+  ParallelFor(static_cast<int>(writers.size()), ResolveThreadCount(0), 1, [&](int begin, int end, int) {
+    for (int i = begin; i < end; ++i) writers[i]->Commit();
+  });  // rethrows a failure
   committed_ = true;
   return outputs;
 }

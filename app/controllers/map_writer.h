@@ -119,7 +119,8 @@ class SolutionMapStream {
   // go to angular_error_deg.exr (it must be given exactly when the stream has
   // that file). Rethrows a failure of `alongside` or a write.
   void AddBand(const PhotometricSolution& band, const std::function<ImageF()>& alongside = {}, int threads = 0);
-  // Every row added: the files appear. Returns output kind -> file name.
+  // Every row added: the files appear (closed, fsynced and renamed
+  // concurrently on the pool). Returns output kind -> file name.
   std::map<std::string, std::string> Commit();
 
   int rows_added() const { return rows_added_; }

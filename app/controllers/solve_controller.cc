@@ -6,6 +6,7 @@
 #include <cstring>
 #include <exception>
 #include <functional>
+#include <future>
 #include <iomanip>
 #include <regex>
 #include <sstream>
@@ -787,11 +788,13 @@ void ForEachMap(Solution& s, const F& f) {
   f(s.specular);
   f(s.specular_status);
 }
+constexpr int kNormalMap = 0, kStatusMap = 2, kSolvePathMap = 6;  // their places in ForEachMap's order
 
 // The first pass of a solve whose depth refinement may re-solve (point LEDs,
 // refinement on): each solved band goes into the decision blocks and, every
-// map of it, into an unlinked spill file (44 bytes a pixel: 0.7 GB of the file
-// system's cache at 16 MP, not the process's memory). Once the decision is
+// map of it that is written or evaluated (not solve_path), into an unlinked
+// spill file (43 bytes a pixel: 0.7 GB of the file system's cache at 16 MP,
+// not the process's memory). Once the decision is
 // taken the bands are handed on to be written (the table plane kept) or only
 // the normals and status read back (the re-solves start from them), so a
 // draped sample's first pass is never encoded nor evaluated. A solve that
@@ -818,28 +821,45 @@ class FirstPassSpill {
 
   const DepthDecisionBlocks& decision_blocks() const { return blocks_; }
 
-  // The bands as they were added, in order. One band's maps are reused for
-  // the next (the sink holds none of them after it returns): no fresh pages
-  // to fault in and fill per band.
+  // The bands as they were added, in order. The next band is read from the
+  // spill on a thread of its own while the sink takes this one (the read is
+  // a serial 28 MB copy a band at 16 MP, which left the pool idle), into the
+  // other of two bands whose maps are reused (the sink holds none of them
+  // after it returns): no fresh pages to fault in and fill per band.
   void Replay(const std::function<void(PhotometricSolution& band)>& sink) {
     if (!all_maps_) throw std::logic_error("FirstPassSpill::Replay: only the normals and status were spilled");
-    size_t offset = 0;
-    PhotometricSolution band;
-    for (const int rows : band_rows_) {
+    std::array<PhotometricSolution, 2> bands;
+    const auto read = [this](int rows, size_t offset, PhotometricSolution* band) {
       int map = 0;
-      ForEachMap(band, [&](auto& image) {
+      ForEachMap(*band, [&](auto& image) {
         using Img = std::decay_t<decltype(image)>;
-        if (channels_[map] > 0) {
+        if (channels_[map] > 0 && Spilled(map)) {
           if (!image.SameSize(width_, rows) || image.channels() != channels_[map]) {
             image = Img(width_, rows, channels_[map]);
           }
           const size_t bytes = image.size() * sizeof(*image.data());
-          spill_.ReadAt(offset, image.data(), bytes);
+          spill_.ReadAt(offset, image.data(), bytes);  // pread only: the spill was flushed before
           offset += bytes;
         }
         ++map;
       });
-      sink(band);
+      return offset;
+    };
+    if (band_rows_.empty()) return;
+    spill_.Flush();  // so that ReadAt only reads, from either thread
+    size_t next_offset = read(band_rows_[0], 0, &bands[0]);
+    for (size_t b = 0; b < band_rows_.size(); ++b) {
+      std::future<size_t> next;
+      if (b + 1 < band_rows_.size()) {
+        next = std::async(std::launch::async, read, band_rows_[b + 1], next_offset, &bands[(b + 1) % 2]);
+      }
+      try {
+        sink(bands[b % 2]);
+      } catch (...) {
+        if (next.valid()) next.wait();  // its band is this function's
+        throw;
+      }
+      if (next.valid()) next_offset = next.get();
     }
   }
 
@@ -857,8 +877,8 @@ class FirstPassSpill {
       PhotometricSolution shapes;  // only for the maps' sample types
       ForEachMap(shapes, [&](auto& image) {
         const size_t bytes = size_t(width_) * rows * channels_[map] * sizeof(*image.data());
-        if (map == 0) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
-        if (map == 2) spill_.ReadAt(offset, first.status.row(y), bytes);
+        if (map == kNormalMap) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
+        if (map == kStatusMap) spill_.ReadAt(offset, first.status.row(y), bytes);
         if (Spilled(map)) offset += bytes;
         ++map;
       });
@@ -870,8 +890,10 @@ class FirstPassSpill {
   bool all_maps() const { return all_maps_; }
 
  private:
-  // Map `map` (ForEachMap's order) goes to the spill: all, or the normals and status.
-  bool Spilled(int map) const { return all_maps_ || map == 0 || map == 2; }
+  // Map `map` (ForEachMap's order) goes to the spill: all but solve_path
+  // (neither written nor evaluated: a replayed band has none), or the
+  // normals and status.
+  bool Spilled(int map) const { return all_maps_ ? map != kSolvePathMap : map == kNormalMap || map == kStatusMap; }
 
   int width_;
   bool all_maps_;
@@ -896,11 +918,11 @@ class ResultStream {
 
   void Add(PhotometricSolution& band) {
     const auto start = std::chrono::steady_clock::now();
-    ImageU8 solved(band.status.width(), band.status.height(), 1);
-    for (size_t i = 0; i < solved.size(); ++i) {
-      solved.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+    if (!solved_.SameSize(band.status)) solved_ = ImageU8(band.status.width(), band.status.height(), 1);
+    for (size_t i = 0; i < solved_.size(); ++i) {
+      solved_.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
     }
-    ApplyAlbedoColor(color_, solved, &band.albedo);
+    ApplyAlbedoColor(color_, solved_, &band.albedo);
     color_seconds_ += SecondsSince(start);
     specular_.Add(band);
     // The maps open at the first band: whether there is a specular map is the solve's.
@@ -932,6 +954,7 @@ class ResultStream {
   SpecularMapTally specular_;
   std::optional<GroundTruthEvaluation> evaluation_;
   std::optional<SolutionMapStream> maps_;
+  ImageU8 solved_;  // the band's solved pixels, kept from band to band
   double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
 };
 

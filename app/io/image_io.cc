@@ -424,30 +424,46 @@ bool HasF16c() {
 }
 #endif
 
-std::vector<Imath::half> HalfSamples(const float* values, size_t count, const ExrEncoding& encoding) {
-  std::vector<Imath::half> halves(count);
+// Into `out` (count samples; nothing else is written there, so a buffer kept
+// from band to band needs no clearing).
+void HalfSamples(const float* values, size_t count, const ExrEncoding& encoding, Imath::half* out) {
   size_t done = 0;
 #if defined(__x86_64__)
   static_assert(sizeof(Imath::half) == sizeof(uint16_t));
   if (HasF16c()) {
-    std::vector<uint16_t> bits(count);
-    done = HalfSamplesF16c(values, count, static_cast<float>(encoding.half_absolute_step), bits.data());
-    std::memcpy(static_cast<void*>(halves.data()), bits.data(), done * sizeof(uint16_t));
+    done = HalfSamplesF16c(values, count, static_cast<float>(encoding.half_absolute_step),
+                           reinterpret_cast<uint16_t*>(out));
   }
 #endif
   if (encoding.half_absolute_step == 0) {
-    for (size_t i = done; i < count; ++i) halves[i] = Imath::half(std::clamp(values[i], -kHalfMax, kHalfMax));
+    for (size_t i = done; i < count; ++i) out[i] = Imath::half(std::clamp(values[i], -kHalfMax, kHalfMax));
   } else {
     // Below 1024 steps the grid's multiples are exact halves (11-bit
     // significand), so the one rounding here is the only one.
     const float step = static_cast<float>(encoding.half_absolute_step), limit = 1024 * step;
     for (size_t i = done; i < count; ++i) {
       const float v = values[i];
-      halves[i] = Imath::half(std::abs(v) < limit ? std::nearbyint(v / step) * step : std::clamp(v, -kHalfMax, kHalfMax));
+      out[i] = Imath::half(std::abs(v) < limit ? std::nearbyint(v / step) * step : std::clamp(v, -kHalfMax, kHalfMax));
     }
   }
-  return halves;
 }
+
+// A buffer of half samples that keeps its memory: new[] leaves them
+// uninitialised (HalfSamples writes every one), unlike a std::vector's zero fill.
+class HalfBuffer {
+ public:
+  Imath::half* Get(size_t count) {
+    if (count > capacity_) {
+      data_.reset(new Imath::half[count]);
+      capacity_ = count;
+    }
+    return data_.get();
+  }
+
+ private:
+  std::unique_ptr<Imath::half[]> data_;
+  size_t capacity_ = 0;
+};
 
 }  // namespace
 
@@ -462,8 +478,10 @@ void WriteExr(const fs::path& path, const ImageF& image, OverwritePolicy policy,
     return;
   }
   // Half the memory of a float copy.
-  const std::vector<Imath::half> halves = HalfSamples(image.data(), image.size(), encoding);
-  WriteAtomically(path, "openexr", spec, halves.data(), policy);
+  HalfBuffer halves;
+  Imath::half* samples = halves.Get(image.size());
+  HalfSamples(image.data(), image.size(), encoding, samples);
+  WriteAtomically(path, "openexr", spec, samples, policy);
 }
 
 const char* ExrCompressionName(ExrCompression compression) {
@@ -728,6 +746,7 @@ struct ImageRowWriter::State {
   OIIO::TypeDesc memory_type;  // what WriteRows takes: FLOAT (EXR), UINT8 or UINT16 (PNG)
   std::optional<ExrEncoding> exr;
   std::unique_ptr<OIIO::ImageOutput> out;
+  HalfBuffer halves;  // a half EXR's band, kept from band to band
   int rows_written = 0;
   bool committed = false;
 
@@ -783,9 +802,9 @@ void WriteRowsOf(ImageRowWriter::State* state, const Image<T>& rows, OIIO::TypeD
   const int y_begin = state->rows_written, y_end = y_begin + rows.height();
   bool written = false;
   if (state->exr && state->exr->sample_type == ExrSampleType::kHalf) {
-    const std::vector<Imath::half> halves =
-        HalfSamples(reinterpret_cast<const float*>(rows.data()), rows.size(), *state->exr);
-    written = state->out->write_scanlines(y_begin, y_end, 0, OIIO::TypeDesc::HALF, halves.data());
+    Imath::half* halves = state->halves.Get(rows.size());
+    HalfSamples(reinterpret_cast<const float*>(rows.data()), rows.size(), *state->exr, halves);
+    written = state->out->write_scanlines(y_begin, y_end, 0, OIIO::TypeDesc::HALF, halves);
   } else {
     written = state->out->write_scanlines(y_begin, y_end, 0, type, rows.data());
   }

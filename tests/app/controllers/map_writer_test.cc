@@ -248,6 +248,73 @@ TEST(MapWriterTest, ConfidenceAndAlbedoSurviveHalfStorage) {
   EXPECT_NEAR(ReadImageFloat(folder / "albedo.exr")(5, 5, 1), 0.731f, 0.731f / 2048);
 }
 
+// The residual's rounding to 8 significant bits (on the float's bits) is the
+// libm form's (frexp, nearbyint, ldexp), ties to even included: every
+// residual of a solution with random values over half's normal range, the
+// ties on either side of an even and an odd last kept bit, and exact powers of
+// two read back from confidence.exr as the libm form rounds them and half holds them.
+TEST(MapWriterTest, ResidualsOnEightBitsAreTheLibmRounding) {
+  constexpr int width = 256, height = 64;
+  PhotometricSolution solution = SolvedEverywhere(width, height);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> log2_value(-14.0f, 15.9f);
+  std::vector<float> residuals;
+  for (int i = 0; i < width * height; ++i) {
+    float value = std::exp2(log2_value(rng));
+    if (i % 4 == 1) {  // a tie: the dropped 16 bits exactly half a kept step
+      value = std::bit_cast<float>((std::bit_cast<uint32_t>(value) & ~0xFFFFu) | 0x8000u);
+    } else if (i % 4 == 2) {  // one below and one above a tie
+      value = std::bit_cast<float>((std::bit_cast<uint32_t>(value) & ~0xFFFFu) | (i % 8 == 2 ? 0x7FFFu : 0x8001u));
+    } else if (i % 64 == 3) {
+      value = std::exp2(std::floor(log2_value(rng)));
+    }
+    residuals.push_back(i % 16 == 15 ? -value : value);
+  }
+  std::copy(residuals.begin(), residuals.end(), solution.residual.data());
+  TemporaryFolder folder;
+  WriteSolutionMaps(folder.path(), solution);
+  std::vector<std::string> names;
+  const ImageF confidence = ReadImageFloat(folder / "confidence.exr", &names);
+  const int channel = static_cast<int>(std::find(names.begin(), names.end(), "residual") - names.begin());
+  ASSERT_LT(channel, 3);
+  for (int i = 0; i < width * height; ++i) {
+    int exponent = 0;
+    const float mantissa = std::frexp(residuals[i], &exponent);
+    const float expected = std::ldexp(std::nearbyint(std::ldexp(mantissa, 8)), exponent - 8);
+    ASSERT_EQ(confidence.data()[3 * i + channel], expected) << "residual " << residuals[i];
+  }
+}
+
+// normal.png's codes are lround(clamp((n + 1) / 2, 0, 1) * 65535) of every
+// component: floats near -1 (where the code is 0 or 1), near 0 and 1, tiny
+// ones of either sign, out of range, and random ones.
+TEST(MapWriterTest, NormalPngCodesAreTheRoundedScaledComponents) {
+  std::vector<float> values = {-2.0f, -1.0f, 0.0f, -0.0f, 1.0f, 2.0f, 1e-30f, -1e-30f, 1e-45f, -1e-45f};
+  for (float centre : {-1.0f, 0.0f, 1.0f}) {
+    float below = centre, above = centre;
+    for (int i = 0; i < 20000; ++i) {
+      below = std::nextafter(below, -3.0f);
+      above = std::nextafter(above, 3.0f);
+      values.push_back(below);
+      values.push_back(above);
+    }
+  }
+  for (uint32_t bits = std::bit_cast<uint32_t>(1e-12f); bits < std::bit_cast<uint32_t>(1e-3f); bits += 997) {
+    values.push_back(std::bit_cast<float>(bits));
+    values.push_back(-std::bit_cast<float>(bits));
+  }
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> uniform(-1.2f, 1.2f);
+  while (values.size() % 3 != 0 || values.size() < 400000) values.push_back(uniform(rng));
+  ImageF normals(static_cast<int>(values.size() / 3), 1, 3);
+  std::copy(values.begin(), values.end(), normals.data());
+  const ImageU16 codes = EncodeNormalsPng16(normals);
+  for (size_t i = 0; i < values.size(); ++i) {
+    const double value = std::clamp((double(values[i]) + 1.0) * 0.5, 0.0, 1.0);
+    ASSERT_EQ(codes.data()[i], static_cast<uint16_t>(std::lround(value * 65535.0))) << values[i];
+  }
+}
+
 std::string FileBytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
