@@ -27,11 +27,28 @@ cv::Vec<double, 5> DistortionVector(const CameraIntrinsics& k) {
 // undistortion, each pixel on its own, so a span gives the same floats as
 // the whole image.
 void RaysInCamOfSpan(const CameraIntrinsics& intrinsics, int x0, int y, int count, float* rays) {
-  std::vector<cv::Point2d> distorted(count), undistorted(count);
-  for (int i = 0; i < count; ++i) distorted[i] = cv::Point2d(x0 + i, y);
+  // Short spans (TablePlanePoints' pieces and single points) on the stack:
+  // OpenCV's call costs about as much as one point's undistortion already.
+  constexpr int kOnStack = 64;
+  cv::Point2d stack[2 * kOnStack];
+  std::vector<cv::Point2d> heap;
+  cv::Point2d* points = stack;
+  if (count > kOnStack) {
+    heap.resize(2 * static_cast<size_t>(count));
+    points = heap.data();
+  }
+  cv::Point2d* undistorted = points + count;
+  for (int i = 0; i < count; ++i) points[i] = cv::Point2d(x0 + i, y);
+  // The layout std::vector<cv::Point2d> has as an array (count x 1, two
+  // doubles); OpenCV writes into `undistorted` in place.
+  const cv::Mat distorted_mat(count, 1, CV_64FC2, points);
+  cv::Mat undistorted_mat(count, 1, CV_64FC2, undistorted);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12);
-  cv::undistortPoints(distorted, undistorted, CameraMatrix(intrinsics), DistortionVector(intrinsics), cv::noArray(),
-                      cv::noArray(), criteria);
+  cv::undistortPoints(distorted_mat, undistorted_mat, CameraMatrix(intrinsics), DistortionVector(intrinsics),
+                      cv::noArray(), cv::noArray(), criteria);
+  if (undistorted_mat.data != reinterpret_cast<uchar*>(undistorted)) {
+    throw std::logic_error("RaysInCamOfSpan: cv::undistortPoints reallocated its output");
+  }
   for (int i = 0; i < count; ++i) {
     const Eigen::Vector3d ray = Eigen::Vector3d(undistorted[i].x, undistorted[i].y, 1.0).normalized();
     rays[3 * i + 0] = static_cast<float>(ray.x());

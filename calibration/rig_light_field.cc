@@ -32,14 +32,25 @@ std::vector<PointLight> RigPointLights(const RigDescription& rig) {
 namespace {
 
 // The per-thread cache of TablePlanePoints::Point: direct-mapped pieces of
-// kPieceWidth pixels of a row, keyed by instance, row and piece.
+// kPieceWidth pixels of a row, keyed by instance, row and piece, each pixel
+// made when first asked for (`made`, bit i: pixel i of the piece). A pixel
+// after one already made (a caller walking the row) makes the rest of the
+// piece at once; any other is made alone, so a sparse caller (the tile
+// classifier's probes 8 or 16 px apart, the Bayer gate's block centres) pays
+// per point and not per piece. Each pixel is undistorted on its own either
+// way (RaysInCamOfSpan), so the floats are the same.
 constexpr int kPieceWidth = 64;
 constexpr int kCachedPieces = 64;
 struct CachedPiece {
   uint64_t owner = 0;  // 0 = empty (instance ids start at 1)
   int y = -1, piece = -1;
+  uint64_t made = 0;
   float xyz[3 * kPieceWidth];
 };
+
+CachedPiece& SlotOf(std::vector<CachedPiece>& cache, int y, int piece) {
+  return cache[static_cast<size_t>(y * 31 + piece) % kCachedPieces];
+}
 
 std::atomic<uint64_t> next_table_points_id{1};
 
@@ -60,14 +71,34 @@ TablePlanePoints::TablePlanePoints(const CameraGeometry& camera) : camera_(camer
 
 Eigen::Vector3f TablePlanePoints::Point(int x, int y) const {
   thread_local std::vector<CachedPiece> cache(kCachedPieces);
-  const int piece = x / kPieceWidth;
-  CachedPiece& cached = cache[static_cast<size_t>(y * 31 + piece) % kCachedPieces];
+  const int piece = x / kPieceWidth, x0 = piece * kPieceWidth, i = x - x0;
+  CachedPiece& cached = SlotOf(cache, y, piece);
   if (cached.owner != id_ || cached.y != y || cached.piece != piece) {
-    const int x0 = piece * kPieceWidth;
-    ComputeTablePointsOfSpan(camera_, x0, y, std::min(kPieceWidth, width() - x0), cached.xyz);
-    cached.owner = id_, cached.y = y, cached.piece = piece;
+    cached.owner = id_, cached.y = y, cached.piece = piece, cached.made = 0;
   }
-  const float* p = cached.xyz + 3 * (x - piece * kPieceWidth);
+  const uint64_t bit = uint64_t{1} << i;
+  if (!(cached.made & bit)) {
+    // The caller walks the row when the pixel before this one is made (in
+    // this piece, or the last of the previous piece).
+    bool walking = i > 0 && (cached.made & (bit >> 1));
+    if (i == 0 && piece > 0) {
+      const CachedPiece& previous = SlotOf(cache, y, piece - 1);
+      walking = previous.owner == id_ && previous.y == y && previous.piece == piece - 1 &&
+                (previous.made >> (kPieceWidth - 1)) != 0;
+    }
+    int count = 1;
+    if (walking) {
+      // Up to the next pixel already made, or the end of the piece.
+      const int piece_count = std::min(kPieceWidth, width() - x0);
+      const uint64_t made_after = cached.made & ~((bit << 1) - 1);
+      const int end = made_after != 0 ? __builtin_ctzll(made_after) : piece_count;
+      count = end - i;
+    }
+    ComputeTablePointsOfSpan(camera_, x, y, count, cached.xyz + 3 * i);
+    const uint64_t run = count == 64 ? ~uint64_t{0} : ((uint64_t{1} << count) - 1) << i;
+    cached.made |= run;
+  }
+  const float* p = cached.xyz + 3 * i;
   return Eigen::Vector3f(p[0], p[1], p[2]);
 }
 
