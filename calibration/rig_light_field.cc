@@ -35,12 +35,16 @@ namespace {
 // kPieceWidth pixels of a row, keyed by instance, row and piece, each pixel
 // made when first asked for (`made`, bit i: pixel i of the piece). A pixel
 // after one already made (a caller walking the row) makes the rest of the
-// piece at once; any other is made alone, so a sparse caller (the tile
-// classifier's probes 8 or 16 px apart, the Bayer gate's block centres) pays
-// per point and not per piece. Each pixel is undistorted on its own either
-// way (RaysInCamOfSpan), so the floats are the same.
+// piece at once. Any other makes the pixels kLatticeStep apart from it in its
+// piece, in one call: the tile classifier's probes lie on that lattice (its
+// nodes 16 px apart, the checks half-way between them; a tile's last column
+// and the checks before it 8 px apart too), and one call of OpenCV's undistortion costs about
+// two points' work, so a sparse caller pays about per point rather than per
+// piece. Each pixel is undistorted on its own either way
+// (ComputeTablePointsOfRow), so the floats are the same.
 constexpr int kPieceWidth = 64;
-constexpr int kCachedPieces = 64;
+constexpr int kCachedPieces = 128;
+constexpr int kLatticeStep = 8;
 struct CachedPiece {
   uint64_t owner = 0;  // 0 = empty (instance ids start at 1)
   int y = -1, piece = -1;
@@ -78,25 +82,29 @@ Eigen::Vector3f TablePlanePoints::Point(int x, int y) const {
   }
   const uint64_t bit = uint64_t{1} << i;
   if (!(cached.made & bit)) {
-    // The caller walks the row when the pixel before this one is made (in
-    // this piece, or the last of the previous piece).
-    bool walking = i > 0 && (cached.made & (bit >> 1));
-    if (i == 0 && piece > 0) {
-      const CachedPiece& previous = SlotOf(cache, y, piece - 1);
-      walking = previous.owner == id_ && previous.y == y && previous.piece == piece - 1 &&
-                (previous.made >> (kPieceWidth - 1)) != 0;
+    // The caller walks the row when the pixel before this one in the piece
+    // is made: the rest of the piece at once (pixels already made on a
+    // lattice are made again, the same floats). Not across pieces: the
+    // classifier's probes at a tile's last column and the next tile's first
+    // are neighbours too.
+    const int piece_count = std::min(kPieceWidth, width() - x0);
+    if (i > 0 && (cached.made & (bit >> 1))) {
+      const int count = piece_count - i;
+      ComputeTablePointsOfSpan(camera_, x, y, count, cached.xyz + 3 * i);
+      cached.made |= ~uint64_t{0} << i;
+    } else {
+      // The piece's pixels on this pixel's lattice (some may be made already:
+      // made again, the same floats).
+      const int phase = i % kLatticeStep;
+      const int count = (piece_count - phase + kLatticeStep - 1) / kLatticeStep;
+      float xyz[3 * (kPieceWidth / kLatticeStep)];
+      ComputeTablePointsOfRow(camera_, x0 + phase, kLatticeStep, y, count, xyz);
+      for (int m = 0; m < count; ++m) {
+        const int at = phase + m * kLatticeStep;
+        std::copy(xyz + 3 * m, xyz + 3 * m + 3, cached.xyz + 3 * at);
+        cached.made |= uint64_t{1} << at;
+      }
     }
-    int count = 1;
-    if (walking) {
-      // Up to the next pixel already made, or the end of the piece.
-      const int piece_count = std::min(kPieceWidth, width() - x0);
-      const uint64_t made_after = cached.made & ~((bit << 1) - 1);
-      const int end = made_after != 0 ? __builtin_ctzll(made_after) : piece_count;
-      count = end - i;
-    }
-    ComputeTablePointsOfSpan(camera_, x, y, count, cached.xyz + 3 * i);
-    const uint64_t run = count == 64 ? ~uint64_t{0} : ((uint64_t{1} << count) - 1) << i;
-    cached.made |= run;
   }
   const float* p = cached.xyz + 3 * i;
   return Eigen::Vector3f(p[0], p[1], p[2]);
