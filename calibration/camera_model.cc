@@ -22,16 +22,33 @@ cv::Vec<double, 5> DistortionVector(const CameraIntrinsics& k) {
   return cv::Vec<double, 5>(k.k1, k.k2, k.p1, k.p2, k.k3);
 }
 
-// The unit rays in the camera frame of pixels (x0 + i, y), i < count, as
-// floats (the stored form), interleaved into `rays`: OpenCV's iterative
-// undistortion, each pixel on its own, so a span gives the same floats as
-// the whole image.
-void RaysInCamOfSpan(const CameraIntrinsics& intrinsics, int x0, int y, int count, float* rays) {
-  std::vector<cv::Point2d> distorted(count), undistorted(count);
-  for (int i = 0; i < count; ++i) distorted[i] = cv::Point2d(x0 + i, y);
+// The unit rays in the camera frame of pixels (x0 + i step, y), i < count,
+// as floats (the stored form), interleaved into `rays`: OpenCV's iterative
+// undistortion, each pixel on its own, so a span (or every step-th pixel of
+// one) gives the same floats as the whole image.
+void RaysInCamOfRow(const CameraIntrinsics& intrinsics, int x0, int step, int y, int count, float* rays) {
+  // Short spans (TablePlanePoints' pieces and single points) on the stack:
+  // OpenCV's call costs about as much as one point's undistortion already.
+  constexpr int kOnStack = 64;
+  cv::Point2d stack[2 * kOnStack];
+  std::vector<cv::Point2d> heap;
+  cv::Point2d* points = stack;
+  if (count > kOnStack) {
+    heap.resize(2 * static_cast<size_t>(count));
+    points = heap.data();
+  }
+  cv::Point2d* undistorted = points + count;
+  for (int i = 0; i < count; ++i) points[i] = cv::Point2d(x0 + i * step, y);
+  // The layout std::vector<cv::Point2d> has as an array (count x 1, two
+  // doubles); OpenCV writes into `undistorted` in place.
+  const cv::Mat distorted_mat(count, 1, CV_64FC2, points);
+  cv::Mat undistorted_mat(count, 1, CV_64FC2, undistorted);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-12);
-  cv::undistortPoints(distorted, undistorted, CameraMatrix(intrinsics), DistortionVector(intrinsics), cv::noArray(),
-                      cv::noArray(), criteria);
+  cv::undistortPoints(distorted_mat, undistorted_mat, CameraMatrix(intrinsics), DistortionVector(intrinsics),
+                      cv::noArray(), cv::noArray(), criteria);
+  if (undistorted_mat.data != reinterpret_cast<uchar*>(undistorted)) {
+    throw std::logic_error("RaysInCamOfRow: cv::undistortPoints reallocated its output");
+  }
   for (int i = 0; i < count; ++i) {
     const Eigen::Vector3d ray = Eigen::Vector3d(undistorted[i].x, undistorted[i].y, 1.0).normalized();
     rays[3 * i + 0] = static_cast<float>(ray.x());
@@ -106,7 +123,7 @@ ImageF ComputeRayDirectionsInCam(const CameraIntrinsics& intrinsics, int num_thr
   // Row by row bounds the temporary memory at 16 MP; rows on the pool, since
   // the iterative undistortion is seconds of one core at 16 MP.
   ParallelFor(intrinsics.height, ResolveThreadCount(num_threads), 16, [&](int first, int last, int) {
-    for (int y = first; y < last; ++y) RaysInCamOfSpan(intrinsics, 0, y, intrinsics.width, rays.row(y));
+    for (int y = first; y < last; ++y) RaysInCamOfRow(intrinsics, 0, 1, y, intrinsics.width, rays.row(y));
   });
   return rays;
 }
@@ -128,12 +145,16 @@ ImageF ComputeRayDirectionsInTable(const CameraGeometry& camera, int num_threads
 }
 
 void ComputeTablePointsOfSpan(const CameraGeometry& camera, int x0, int y, int count, float* xyz) {
+  ComputeTablePointsOfRow(camera, x0, 1, y, count, xyz);
+}
+
+void ComputeTablePointsOfRow(const CameraGeometry& camera, int x0, int step, int y, int count, float* xyz) {
   const Eigen::Vector3d centre = CameraCentreInTable(camera);
   if (!(centre.z() > 0)) {
     throw std::invalid_argument("camera geometry: camera centre z = " + std::to_string(centre.z()) +
                                 " mm must be above the table (> 0)");
   }
-  RaysInCamOfSpan(camera.intrinsics, x0, y, count, xyz);
+  RaysInCamOfRow(camera.intrinsics, x0, step, y, count, xyz);
   // The same float rotation and double intersection as the whole image's
   // (ComputeRayDirectionsInTable, then the plane), so the same floats.
   const Eigen::Matrix3f table_from_cam_rotation = camera.cam_from_table.rotation().transpose().cast<float>();
@@ -142,7 +163,7 @@ void ComputeTablePointsOfSpan(const CameraGeometry& camera, int x0, int y, int c
     p = table_from_cam_rotation * p;
     const Eigen::Vector3d ray = p.cast<double>();
     if (!(ray.z() < -1e-6)) {
-      throw std::invalid_argument("camera geometry: the ray of pixel " + std::to_string(x0 + i) + "," +
+      throw std::invalid_argument("camera geometry: the ray of pixel " + std::to_string(x0 + i * step) + "," +
                                   std::to_string(y) + " does not reach the table");
     }
     const double t = -centre.z() / ray.z();

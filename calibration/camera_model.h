@@ -53,6 +53,9 @@ ImageF ComputeTablePoints(const CameraGeometry& camera, int num_threads = 0);
 // interleaved into `xyz` (3 count floats), for callers that make them on
 // request instead of holding 12 bytes a pixel. Throws as ComputeTablePoints.
 void ComputeTablePointsOfSpan(const CameraGeometry& camera, int x0, int y, int count, float* xyz);
+// The same of every step-th pixel of a row: pixels (x0 + i step, y), i < count
+// (step >= 1), each undistorted on its own, so again the same floats.
+void ComputeTablePointsOfRow(const CameraGeometry& camera, int x0, int step, int y, int count, float* xyz);
 
 // The camera seen through blocks of block_px x block_px pixels: one pixel per
 // whole block (floor(width / block_px) x floor(height / block_px); a partial

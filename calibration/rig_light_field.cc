@@ -32,14 +32,35 @@ std::vector<PointLight> RigPointLights(const RigDescription& rig) {
 namespace {
 
 // The per-thread cache of TablePlanePoints::Point: direct-mapped pieces of
-// kPieceWidth pixels of a row, keyed by instance, row and piece.
+// kPieceWidth pixels of a row, keyed by instance, row and piece, each pixel
+// made when first asked for (`made`, bit i: pixel i of the piece), since one
+// call of OpenCV's undistortion costs about two points' work and most callers
+// want few pixels of a piece:
+// - a pixel after one already made (a caller walking the row) makes the rest
+//   of the piece at once;
+// - a pixel kLatticeStep px (or a multiple) from one already made makes the
+//   piece's pixels on that lattice: the tile classifier's probes (its nodes
+//   16 px apart, the checks half-way between them; a tile's last column and
+//   the checks before it 8 px apart too);
+// - any other is made alone.
+// On the 16 MP session's solve (2.2 million points asked for) that makes 3.2
+// million points in 0.44 million calls, against 10.2 million in 0.16 million
+// with whole pieces. Each pixel is undistorted on its own either way
+// (ComputeTablePointsOfRow), so the floats are the same.
 constexpr int kPieceWidth = 64;
-constexpr int kCachedPieces = 64;
+constexpr int kCachedPieces = 128;
+constexpr int kLatticeStep = 8;
+constexpr uint64_t kLatticeMask = 0x0101010101010101ull;  // bits 0, 8, ..., 56
 struct CachedPiece {
   uint64_t owner = 0;  // 0 = empty (instance ids start at 1)
   int y = -1, piece = -1;
+  uint64_t made = 0;
   float xyz[3 * kPieceWidth];
 };
+
+CachedPiece& SlotOf(std::vector<CachedPiece>& cache, int y, int piece) {
+  return cache[static_cast<size_t>(y * 31 + piece) % kCachedPieces];
+}
 
 std::atomic<uint64_t> next_table_points_id{1};
 
@@ -60,14 +81,41 @@ TablePlanePoints::TablePlanePoints(const CameraGeometry& camera) : camera_(camer
 
 Eigen::Vector3f TablePlanePoints::Point(int x, int y) const {
   thread_local std::vector<CachedPiece> cache(kCachedPieces);
-  const int piece = x / kPieceWidth;
-  CachedPiece& cached = cache[static_cast<size_t>(y * 31 + piece) % kCachedPieces];
+  const int piece = x / kPieceWidth, x0 = piece * kPieceWidth, i = x - x0;
+  CachedPiece& cached = SlotOf(cache, y, piece);
   if (cached.owner != id_ || cached.y != y || cached.piece != piece) {
-    const int x0 = piece * kPieceWidth;
-    ComputeTablePointsOfSpan(camera_, x0, y, std::min(kPieceWidth, width() - x0), cached.xyz);
-    cached.owner = id_, cached.y = y, cached.piece = piece;
+    cached.owner = id_, cached.y = y, cached.piece = piece, cached.made = 0;
   }
-  const float* p = cached.xyz + 3 * (x - piece * kPieceWidth);
+  const uint64_t bit = uint64_t{1} << i;
+  if (!(cached.made & bit)) {
+    // The caller walks the row when the pixel before this one in the piece
+    // is made: the rest of the piece at once (pixels already made on a
+    // lattice are made again, the same floats). Not across pieces: the
+    // classifier's probes at a tile's last column and the next tile's first
+    // are neighbours too.
+    const int piece_count = std::min(kPieceWidth, width() - x0);
+    if (i > 0 && (cached.made & (bit >> 1))) {
+      const int count = piece_count - i;
+      ComputeTablePointsOfSpan(camera_, x, y, count, cached.xyz + 3 * i);
+      cached.made |= ~uint64_t{0} << i;
+    } else if (cached.made & (kLatticeMask << (i % kLatticeStep))) {
+      // The piece's pixels on this pixel's lattice (those made already are
+      // made again: the same floats).
+      const int phase = i % kLatticeStep;
+      const int count = (piece_count - phase + kLatticeStep - 1) / kLatticeStep;
+      float xyz[3 * (kPieceWidth / kLatticeStep)];
+      ComputeTablePointsOfRow(camera_, x0 + phase, kLatticeStep, y, count, xyz);
+      for (int m = 0; m < count; ++m) {
+        const int at = phase + m * kLatticeStep;
+        std::copy(xyz + 3 * m, xyz + 3 * m + 3, cached.xyz + 3 * at);
+      }
+      cached.made |= kLatticeMask << phase;
+    } else {
+      ComputeTablePointsOfSpan(camera_, x, y, 1, cached.xyz + 3 * i);
+      cached.made |= bit;
+    }
+  }
+  const float* p = cached.xyz + 3 * i;
   return Eigen::Vector3f(p[0], p[1], p[2]);
 }
 

@@ -17,9 +17,12 @@ std::vector<PointLight> RigPointLights(const RigDescription& rig);
 
 // Where each pixel's ray meets the table plane, made on request from the
 // camera model (ComputeTablePointsOfSpan: the same floats as
-// ComputeTablePoints) rather than held: 193 MB at 16 MP. A point asked for
-// alone comes from a small per-thread cache of 64-pixel row pieces, so
-// per-pixel callers in row order undistort each pixel about once.
+// ComputeTablePoints) rather than held: 193 MB at 16 MP. Point() keeps a
+// small per-thread cache of 64-pixel row pieces filled as they are asked
+// for: a caller walking a row makes the rest of a piece in one call, one
+// asking for pixels 8 px apart (the tile classifier's probes) the piece's
+// pixels on that lattice, any other one pixel: sparse callers pay about per
+// point, not per piece.
 class TablePlanePoints final : public SurfacePoints {
  public:
   // Throws std::invalid_argument when the camera is unusable or a ray of the

@@ -146,7 +146,7 @@ struct InterpolateArgs {
   const float* const* bottom_dirs = nullptr;
   const float* const* top_inv = nullptr;
   const float* const* bottom_inv = nullptr;
-  double* scratch = nullptr;  // 2 * num_columns * num_values + 2 * num_values doubles
+  double* scratch = nullptr;  // 2 * num_columns * num_values + 2 * num_cells * num_values doubles
   float* dirs = nullptr;      // out: [q * capacity + i]
   float* inv = nullptr;       // out: likewise
 };

@@ -218,7 +218,7 @@ void TileLightSampler::FillInterpolatedRow(int x0, int y, SpanBuffers* buffers) 
   cell_count_.resize(num_cells);
   cell_scale_.resize(num_cells);
   column_rows_.resize(4 * static_cast<size_t>(nx));
-  interpolate_scratch_.resize(2 * static_cast<size_t>(nx) * num_values + 2 * static_cast<size_t>(num_values));
+  interpolate_scratch_.resize(2 * static_cast<size_t>(nx) * num_values + 2 * static_cast<size_t>(num_cells) * num_values);
   for (int i = 0; i < num_cells; ++i) {
     const int i1 = std::min(i + 1, nx - 1);
     const int xa = node_x_[i], xb = node_x_[i1];

@@ -74,6 +74,34 @@ TEST(RigLightFieldTest, TablePointsOnRequestAreTheHeldPointsBitForBit) {
   }
 }
 
+TEST(RigLightFieldTest, SparseAndMixedPointsAreTheHeldPointsBitForBit) {
+  const CameraGeometry camera = TiltedCamera(150, 70);
+  const ImageF held = ComputeTablePoints(camera);
+  const TablePlanePoints on_request(camera);
+  auto expect_held = [&](int x, int y) {
+    const Eigen::Vector3f p = on_request.Point(x, y);
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(p[c], held(x, y, c)) << x << "," << y << " channel " << c;
+  };
+  // Probes 8 px apart (each made alone), then the same rows walked forwards:
+  // the walk fills the gaps between the points already made.
+  for (int y = 3; y < 70; y += 16) {
+    for (int x = 0; x < 150; x += 8) expect_held(x, y);
+  }
+  for (int y = 3; y < 70; y += 16) {
+    for (int x = 0; x < 150; ++x) expect_held(x, y);
+  }
+  // A fixed pseudo-random order over a few rows, then across the piece
+  // boundaries at 63/64 and 127/128 in both directions.
+  uint32_t state = 12345;
+  for (int n = 0; n < 2000; ++n) {
+    state = state * 1664525u + 1013904223u;
+    expect_held(static_cast<int>((state >> 8) % 150), 20 + static_cast<int>((state >> 24) % 5));
+  }
+  for (const int y : {50, 51}) {
+    for (const int x : {62, 63, 64, 65, 129, 128, 127, 126, 149, 148, 0, 1}) expect_held(x, y);
+  }
+}
+
 TEST(RigLightFieldTest, TheRigFieldEqualsOneOnHeldTablePoints) {
   RigDescription rig;
   rig.camera = TiltedCamera(90, 40);
