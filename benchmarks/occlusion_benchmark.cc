@@ -81,6 +81,7 @@ BENCHMARK_CAPTURE(BM_AmbientOcclusion, 1MP, 1232, 816)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_AmbientOcclusion, 16MP, 4928, 3264)
     ->Args({1, 16, 32, 0})
+    ->Args({1, 16, 16, 0})  // the export's default
     ->Args({2, 16, 32, 0})
     ->Args({2, 16, 32, 1})
     ->Args({2, 8, 16, 0})
