@@ -338,12 +338,14 @@ void VisibilityRow(const ImageF& height_mm, int y, const AzimuthMarches& marches
 // Heights relative to the lowest point, as OpenCV's float image: a flat map
 // becomes exactly zero and stays so through the blur, and large offsets lose
 // no float precision.
-cv::Mat RelativeToLowest(const ImageF& height_mm) {
+// The heights minus their lowest (so a flat map is exactly level and large
+// offsets lose no float precision), the cavity's buffer until it is filled.
+ImageF RelativeToLowest(const ImageF& height_mm) {
   const float lowest = *std::min_element(height_mm.data(), height_mm.data() + height_mm.size());
-  cv::Mat relative(height_mm.height(), height_mm.width(), CV_32F);
+  ImageF relative(height_mm.width(), height_mm.height(), 1);
   for (int y = 0; y < height_mm.height(); ++y) {
     const float* in = height_mm.row(y);
-    float* rel = relative.ptr<float>(y);
+    float* rel = relative.row(y);
     for (int x = 0; x < height_mm.width(); ++x) rel[x] = in[x] - lowest;
   }
   return relative;
@@ -608,20 +610,21 @@ OcclusionSummary CavityFromHeight(const CavityOptions& options, const ImageF& he
   if (cancelled(0.0)) return summary;
 
   const int width = height_mm.width(), rows = height_mm.height();
-  const cv::Mat relative = RelativeToLowest(height_mm);
+  // The map is made in the relative heights' buffer, a row at a time: the
+  // mean of a row no longer needs the row itself.
+  ImageF map = RelativeToLowest(height_mm);
+  const cv::Mat relative(rows, width, CV_32F, map.data());
   const int factor = CoarseFactor(sigma_px, options.min_coarse_sigma_px);
   NeighbourhoodMean mean(relative, sigma_px, factor);
   if (cancelled(0.9)) return summary;
 
-  ImageF map(width, rows, 1);
   const float inv_scale = static_cast<float>(1.0 / options.depth_scale_mm);
   for (int y = 0; y < rows; ++y) {
-    const float* rel = relative.ptr<float>(y);
     const float* neighbourhood = mean.Row(y);
-    float* out_row = map.row(y);
+    float* row = map.row(y);  // relative height in, cavity out
     for (int x = 0; x < width; ++x) {
-      const float depth = neighbourhood[x] - rel[x];
-      out_row[x] = std::clamp(1.0f - depth * inv_scale, 0.0f, 1.0f);
+      const float depth = neighbourhood[x] - row[x];
+      row[x] = std::clamp(1.0f - depth * inv_scale, 0.0f, 1.0f);
     }
   }
   FillFigures(map, &summary);
