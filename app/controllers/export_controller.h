@@ -125,9 +125,11 @@ class ExportController : public BaseController {
   ExportMaps Flatten(ExportInputs* inputs);  // releases the solved normals once used
   void DeriveHeight(ExportInputs* inputs, ExportMaps* maps);
   struct HeightReference;  // what the ground-truth evaluation keeps for the height
-  // Occlusion, cavity, roughness, albedo and confidence's decode and the
-  // height's evaluation (with a reference), side by side.
-  void DeriveConcurrently(ExportInputs* inputs, ExportMaps* maps, const HeightReference* reference);
+  struct RoughnessStep;    // the roughness chain, begun beside the evaluation and the height
+  // Occlusion, cavity, the rest of the roughness chain, albedo and
+  // confidence's decode and the height's evaluation (with a reference), side by side.
+  void DeriveConcurrently(ExportInputs* inputs, ExportMaps* maps, const HeightReference* reference,
+                          RoughnessStep* roughness);
   void DeriveRoughness(ExportInputs* inputs, ExportMaps* maps, std::vector<StageTiming>* timings,
                        const ProgressCallback& progress);
   void LoadAlbedoAndConfidence(ExportInputs* inputs);
