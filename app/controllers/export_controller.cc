@@ -1445,9 +1445,14 @@ void ExportController::Run() {
       WriteExportFile(staged.staging() / early_normal->relative_path, *early_normal);
     });
   }
+  std::optional<HeightReference> reference;
+  if (truth.valid()) {
+    TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
+  }
   // The roughness chain needs only the flattened normals (and the specular
-  // map): it runs beside the evaluation and the height, which leave a core
-  // partly idle, instead of beside the occlusion, which does not.
+  // map): it runs beside the height, which leaves a core partly idle, instead
+  // of beside the occlusion, which does not. (Beside the evaluation too, the
+  // peak rose to 1.50 GB: the evaluation's full-size work and the chain's.)
   RoughnessStep roughness;
   roughness.done = std::async(std::launch::async, [&] {
     try {
@@ -1456,10 +1461,6 @@ void ExportController::Run() {
       roughness.failure = std::current_exception();
     }
   });
-  std::optional<HeightReference> reference;
-  if (truth.valid()) {
-    TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
-  }
   DeriveHeight(&inputs, &maps);
   // Past the height the steps need only what exists by now, so they run
   // side by side and fill the cores the mostly single-threaded ones leave
