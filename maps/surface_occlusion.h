@@ -33,6 +33,10 @@ struct CavityOptions {
   double mm_per_pixel = 0.1;       // pixel pitch of the height map, mm, > 0
   double radius_mm = 1.0;          // Gaussian sigma of the neighbourhood mean, mm, > 0, at most 1000 px
   double depth_scale_mm = 0.2;     // depth below the neighbourhood that maps to cavity 0, mm, > 0
+  // The mean's Gaussian runs on block means f x f px, f the largest integer
+  // with sigma / f >= this, and is scaled back up bicubically (docs/derived-maps.md);
+  // 0 = always at full resolution. px, 0 or >= 2.
+  double min_coarse_sigma_px = 8.0;
   void Check() const;
 };
 

@@ -584,7 +584,10 @@ nlohmann::json OptionsJson(const ExportOptions& options) {
             {"max_slope", h.max_slope}}},
           {"occlusion",
            {{"radius_mm", a.radius_mm}, {"num_directions", a.num_directions}, {"max_steps", a.max_steps}}},
-          {"cavity", {{"radius_mm", c.radius_mm}, {"depth_scale_mm", c.depth_scale_mm}}},
+          {"cavity",
+           {{"radius_mm", c.radius_mm},
+            {"depth_scale_mm", c.depth_scale_mm},
+            {"min_coarse_sigma_px", c.min_coarse_sigma_px}}},
           {"gloss",
            {{"model", GlossModelName(g.model)}, {"base_roughness", g.base_roughness}, {"max_levels", g.max_levels}}},
           {"tile",
@@ -1396,6 +1399,16 @@ std::string ExportSummary::FullReport() const {
 ExportController::ExportController(fs::path result_dir, ExportOptions options)
     : result_dir_(std::move(result_dir)), options_(std::move(options)) {}
 
+// The roughness chain (specular roughness, gloss mips) on a thread of its
+// own from the flattening on; DeriveConcurrently waits for it and rethrows its
+// failure. Destroyed before the inputs and maps it uses (it is declared after
+// them), its future waits for the thread.
+struct ExportController::RoughnessStep {
+  std::vector<StageTiming> timings;
+  std::exception_ptr failure;
+  std::future<void> done;
+};
+
 void ExportController::Run() {
   options_.Check();
   if (const auto engine = EngineTargetOf(options_.preset)) {  // the engine's convention, whatever was asked
@@ -1436,13 +1449,25 @@ void ExportController::Run() {
   if (truth.valid()) {
     TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
   }
+  // The roughness chain needs only the flattened normals (and the specular
+  // map): it runs beside the height, which leaves a core partly idle, instead
+  // of beside the occlusion, which does not. (Beside the evaluation too, the
+  // peak rose to 1.50 GB: the evaluation's full-size work and the chain's.)
+  RoughnessStep roughness;
+  roughness.done = std::async(std::launch::async, [&] {
+    try {
+      DeriveRoughness(&inputs, &maps, &roughness.timings, [this](double) { return !IsStopRequested(); });
+    } catch (...) {
+      roughness.failure = std::current_exception();
+    }
+  });
   DeriveHeight(&inputs, &maps);
   // Past the height the steps need only what exists by now, so they run
   // side by side and fill the cores the mostly single-threaded ones leave
-  // idle: occlusion (on the pool) here, cavity, the roughness chain and then
-  // albedo and confidence's decode (its memory once the roughness chain's
+  // idle: occlusion (on the pool) here, cavity, the roughness chain's end and
+  // then albedo and confidence's decode (its memory once the roughness chain's
   // temporaries are gone), and the height's evaluation each on a thread.
-  DeriveConcurrently(&inputs, &maps, reference ? &*reference : nullptr);
+  DeriveConcurrently(&inputs, &maps, reference ? &*reference : nullptr, &roughness);
   reference.reset();
   if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
@@ -1574,14 +1599,14 @@ void ExportController::DeriveHeight(ExportInputs* inputs, ExportMaps* maps) {
   });
 }
 
-// Occlusion on this thread (it reports the progress); cavity, the roughness
-// chain followed by albedo and confidence, and the height's evaluation on
-// threads of their own, which only check for a stop (one progress stage at a
+// Occlusion on this thread (it reports the progress); cavity, the end of the
+// roughness chain (begun in Run) followed by albedo and confidence, and the
+// height's evaluation on threads of their own, which only check for a stop (one progress stage at a
 // time). Each records its wall time under its own stage name, so the
 // concurrent stages' times overlap. The first failure is rethrown once every
 // step has ended (the steps catch their own: their futures never throw).
 void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* maps_in,
-                                          const HeightReference* reference) {
+                                          const HeightReference* reference, RoughnessStep* roughness) {
   ExportInputs& inputs = *inputs_in;
   ExportMaps& maps = *maps_in;
   const double mm = summary_.mm_per_pixel;
@@ -1606,7 +1631,7 @@ void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* m
       }
     };
   };
-  std::vector<StageTiming> occlusion_timing, cavity_timing, roughness_timings, evaluate_timing;
+  std::vector<StageTiming> occlusion_timing, cavity_timing, evaluate_timing;
   auto timed = [this](std::vector<StageTiming>& timings, const std::string& name, auto&& step) {
     TimedStage(timings, name, "", step);
   };
@@ -1622,9 +1647,10 @@ void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* m
   // Albedo and confidence (400 MB at 16 MP, and their decoders' buffers)
   // only once the cavity's full-size temporaries are gone too.
   auto roughness_then_inputs = std::async(std::launch::async, failing([&, cavity_done = cavity] {
-    DeriveRoughness(&inputs, &maps, &roughness_timings, stop_check);
+    roughness->done.get();
+    if (roughness->failure) std::rethrow_exception(roughness->failure);
     cavity_done.wait();
-    timed(roughness_timings, "load_albedo_confidence", [&] { LoadAlbedoAndConfidence(&inputs); });
+    timed(roughness->timings, "load_albedo_confidence", [&] { LoadAlbedoAndConfidence(&inputs); });
   }));
   std::future<void> evaluate;
   if (reference) {
@@ -1649,7 +1675,7 @@ void ExportController::DeriveConcurrently(ExportInputs* inputs_in, ExportMaps* m
   roughness_then_inputs.wait();
   if (evaluate.valid()) evaluate.wait();
   if (failure) std::rethrow_exception(failure);
-  for (const auto* timings : {&occlusion_timing, &cavity_timing, &roughness_timings, &evaluate_timing}) {
+  for (const auto* timings : {&occlusion_timing, &cavity_timing, &roughness->timings, &evaluate_timing}) {
     summary_.stage_seconds.insert(summary_.stage_seconds.end(), timings->begin(), timings->end());
   }
 }
