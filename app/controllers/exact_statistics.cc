@@ -264,4 +264,32 @@ ErrorStatistics ExactErrorStatistics::Finish() {
   return stats;
 }
 
+void FloatErrorStatistics::Add(std::span<const double> values) {
+  for (const double value : values) {
+    sum_ += value;
+    if (values_.empty() || max_ < value) max_ = value;
+    values_.push_back(static_cast<float>(value));
+  }
+}
+
+ErrorStatistics FloatErrorStatistics::Finish() {
+  ErrorStatistics stats;
+  const size_t count = values_.size();
+  stats.num_pixels = count;
+  if (count == 0) return stats;
+  stats.mean = sum_ / count;
+  stats.max = max_;
+  // SummarizeErrors' ranks; the second searches only above the first.
+  const auto rank_of = [&](double fraction) {
+    return std::min(count - 1, static_cast<size_t>(fraction * (count - 1) + 0.5));
+  };
+  const size_t median = rank_of(0.5), p95 = rank_of(0.95);
+  std::nth_element(values_.begin(), values_.begin() + median, values_.end());
+  stats.median = values_[median];
+  std::nth_element(values_.begin() + median, values_.begin() + p95, values_.end());
+  stats.percentile_95 = values_[p95];
+  values_ = {};
+  return stats;
+}
+
 }  // namespace scanbench

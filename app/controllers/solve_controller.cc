@@ -411,14 +411,13 @@ struct GroundTruthEvaluation::State {
   int rows_added = 0;
   size_t unsolved_on_sample = 0;
   AlbedoColorComparison color;  // spills each evaluated pixel's albedo and truth
-  ExactErrorStatistics angles;  // spills the angles
+  FloatErrorStatistics angles;  // the angles, as floats
   // Not spilled: the albedo's absolute errors are made again from the colour
   // comparison's pixels, in the same order (AbsoluteErrorsOfRows': pixel, channel).
   ExactErrorStatistics albedo_errors;
   std::vector<double> band_values;  // AddBand's, reused from band to band
   explicit State(const fs::path& spill_folder)
       : color(0.002, spill_folder),
-        angles(spill_folder),
         albedo_errors([this](const std::function<void(std::span<const double>)>& visit) {
           std::vector<double> values;
           color.ForEachPixel([&](std::span<const ComparedAlbedoPixel> pixels) {
@@ -445,6 +444,13 @@ GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const 
                              SizeText(state_->on_sample.width(), state_->on_sample.height()) +
                              ", the solution is " + SizeText(width, height));
   }
+  // The values held in memory: room for every sample pixel at once, never a
+  // second copy while growing.
+  const size_t sample_pixels =
+      std::count_if(state_->on_sample.data(), state_->on_sample.data() + state_->on_sample.size(),
+                    [](uint8_t on) { return on != 0; });
+  state_->angles.Reserve(sample_pixels);
+  state_->color.Reserve(sample_pixels);
 }
 
 GroundTruthEvaluation::~GroundTruthEvaluation() = default;
