@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <bit>
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
@@ -272,6 +273,16 @@ void FloatErrorStatistics::Add(std::span<const double> values) {
   }
 }
 
+namespace {
+
+// Non-NaN floats to unsigned integers in the same order.
+uint32_t FloatOrderKey(float value) {
+  const uint32_t bits = std::bit_cast<uint32_t>(value);
+  return (bits >> 31) ? ~bits : bits | (uint32_t{1} << 31);
+}
+
+}  // namespace
+
 ErrorStatistics FloatErrorStatistics::Finish() {
   ErrorStatistics stats;
   const size_t count = values_.size();
@@ -279,15 +290,29 @@ ErrorStatistics FloatErrorStatistics::Finish() {
   if (count == 0) return stats;
   stats.mean = sum_ / count;
   stats.max = max_;
-  // SummarizeErrors' ranks; the second searches only above the first.
+  // SummarizeErrors' ranks, selected by a histogram of the order keys' top 16
+  // bits (one pass), then std::nth_element among the values of the rank's
+  // bucket only (a second pass gathers them): a few times faster than
+  // nth_element over every value.
   const auto rank_of = [&](double fraction) {
     return std::min(count - 1, static_cast<size_t>(fraction * (count - 1) + 0.5));
   };
-  const size_t median = rank_of(0.5), p95 = rank_of(0.95);
-  std::nth_element(values_.begin(), values_.begin() + median, values_.end());
-  stats.median = values_[median];
-  std::nth_element(values_.begin() + median, values_.begin() + p95, values_.end());
-  stats.percentile_95 = values_[p95];
+  constexpr int kShift = 16;
+  std::vector<uint32_t> histogram(size_t{1} << (32 - kShift), 0);
+  for (const float value : values_) ++histogram[FloatOrderKey(value) >> kShift];
+  const auto value_of_rank = [&](size_t rank) {
+    size_t bucket = 0, before = 0;
+    while (rank >= before + histogram[bucket]) before += histogram[bucket++];
+    std::vector<float> selected;
+    selected.reserve(histogram[bucket]);
+    for (const float value : values_) {
+      if ((FloatOrderKey(value) >> kShift) == bucket) selected.push_back(value);
+    }
+    std::nth_element(selected.begin(), selected.begin() + (rank - before), selected.end());
+    return static_cast<double>(selected[rank - before]);
+  };
+  stats.median = value_of_rank(rank_of(0.5));
+  stats.percentile_95 = value_of_rank(rank_of(0.95));
   values_ = {};
   return stats;
 }
