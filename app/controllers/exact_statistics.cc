@@ -266,11 +266,17 @@ ErrorStatistics ExactErrorStatistics::Finish() {
 }
 
 void FloatErrorStatistics::Add(std::span<const double> values) {
+  if (values.empty()) return;
+  if (values_.empty()) max_ = values[0];
   for (const double value : values) {
     sum_ += value;
-    if (values_.empty() || max_ < value) max_ = value;
-    values_.push_back(static_cast<float>(value));
+    if (max_ < value) max_ = value;
   }
+  // The rounding in a loop of its own (vectorised), into room made at once.
+  const size_t first = values_.size();
+  values_.resize(first + values.size());
+  float* out = values_.data() + first;
+  for (size_t i = 0; i < values.size(); ++i) out[i] = static_cast<float>(values[i]);
 }
 
 namespace {
