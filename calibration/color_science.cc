@@ -10,9 +10,8 @@
 
 #include <Eigen/LU>
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#endif
+#include "calibration/color_kernels.h"
+#include "solver/cpu_dispatch.h"
 
 namespace scanbench {
 namespace {
@@ -299,204 +298,52 @@ double Ciede2000FromLinearRec709(const Eigen::Vector3d& rgb1_linear_rec709, cons
   return FastCiede2000(FastLabFromLinearRec709(rgb1_linear_rec709), FastLabFromLinearRec709(rgb2_linear_rec709));
 }
 
-namespace {
+namespace color_kernels {
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#define SCANBENCH_CIEDE2000_AVX2 1
-// The helpers below are always inlined into the AVX2 function: no AVX value crosses a call.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wpsabi"
-// Four doubles. Only +, -, *, / and sqrt, each rounded as the scalar code's
-// (IEEE), no fused multiply-add (the target is AVX2 without FMA): the lanes
-// give the scalar form's bits.
-struct D4 {
-  __m256d v;
-};
-#define SB_AVX2 __attribute__((target("avx2"), always_inline)) inline
-SB_AVX2 D4 Splat(double x) { return {_mm256_set1_pd(x)}; }
-SB_AVX2 D4 operator+(D4 a, D4 b) { return {_mm256_add_pd(a.v, b.v)}; }
-SB_AVX2 D4 operator-(D4 a, D4 b) { return {_mm256_sub_pd(a.v, b.v)}; }
-SB_AVX2 D4 operator*(D4 a, D4 b) { return {_mm256_mul_pd(a.v, b.v)}; }
-SB_AVX2 D4 operator/(D4 a, D4 b) { return {_mm256_div_pd(a.v, b.v)}; }
-SB_AVX2 D4 operator+(double a, D4 b) { return Splat(a) + b; }
-SB_AVX2 D4 operator-(double a, D4 b) { return Splat(a) - b; }
-SB_AVX2 D4 operator*(double a, D4 b) { return Splat(a) * b; }
-SB_AVX2 D4 operator-(D4 a, double b) { return a - Splat(b); }
-SB_AVX2 D4 operator/(D4 a, double b) { return a / Splat(b); }
-SB_AVX2 D4 Sqrt(D4 a) { return {_mm256_sqrt_pd(a.v)}; }
-SB_AVX2 D4 Negate(D4 a) { return {_mm256_xor_pd(a.v, _mm256_set1_pd(-0.0))}; }
-// copysign(magnitude, sign) per lane.
-SB_AVX2 D4 CopySign(D4 magnitude, D4 sign) {
-  const __m256d sign_bit = _mm256_set1_pd(-0.0);
-  return {_mm256_or_pd(_mm256_andnot_pd(sign_bit, magnitude.v), _mm256_and_pd(sign_bit, sign.v))};
-}
-SB_AVX2 __m256d Greater(D4 a, D4 b) { return _mm256_cmp_pd(a.v, b.v, _CMP_GT_OQ); }
-SB_AVX2 __m256d Less(D4 a, D4 b) { return _mm256_cmp_pd(a.v, b.v, _CMP_LT_OQ); }
-SB_AVX2 D4 Select(__m256d mask, D4 if_true, D4 if_false) { return {_mm256_blendv_pd(if_false.v, if_true.v, mask)}; }
-SB_AVX2 D4 Pow7(D4 x) {
-  const D4 x2 = x * x, x4 = x2 * x2;
-  return x4 * x2 * x;
-}
-// f(x) per lane by the scalar libm call (the same bits as the scalar form).
-template <typename F>
-SB_AVX2 D4 PerLane(D4 x, const F& f) {
-  alignas(32) double lanes[4];
-  _mm256_store_pd(lanes, x.v);
-  for (double& lane : lanes) lane = f(lane);
-  return {_mm256_load_pd(lanes)};
-}
-
-// FastCbrt on four lanes: the start from the exponent bits per lane, Halley's steps on all four.
-SB_AVX2 D4 FastCbrt4(D4 t) {
-  constexpr uint64_t kOneBits = 0x3FF0000000000000ull;
-  alignas(32) double lanes[4];
-  _mm256_store_pd(lanes, t.v);
-  for (double& lane : lanes) lane = std::bit_cast<double>(std::bit_cast<uint64_t>(lane) / 3 + (kOneBits - kOneBits / 3));
-  D4 y{_mm256_load_pd(lanes)};
-  for (int step = 0; step < 3; ++step) {
-    const D4 y3 = y * y * y;
-    y = y * ((y3 + 2.0 * t) / (2.0 * y3 + t));
-  }
-  return y;
-}
-
-SB_AVX2 D4 FastLabF4(D4 t) {
-  constexpr double kDelta = 6.0 / 29.0;
-  return Select(Greater(t, Splat(kDelta * kDelta * kDelta)), FastCbrt4(t),
-                t / (3 * kDelta * kDelta) + Splat(4.0 / 29.0));
-}
-
-struct Lab4 {
-  D4 l, a, b;
-};
-
-// FastLabFromLinearRec709 of four colours. Its Eigen 3x3 product sums rows 0
-// and 1 as (m0 r + m1 g) + m2 b (a packet of two rows, column by column) and
-// row 2 as m0 r + (m1 g + m2 b) (Eigen's halving reduction): the same here
-// (ManyPairsEqualTheScalarFormBitForBit fails should Eigen change that).
-SB_AVX2 Lab4 FastLab4(D4 r, D4 g, D4 b) {
-  const Eigen::Matrix3d& m = WhiteRelativeXyzFromLinearRec709();
-  const D4 x = m(0, 0) * r + m(0, 1) * g + m(0, 2) * b;
-  const D4 y = m(1, 0) * r + m(1, 1) * g + m(1, 2) * b;
-  const D4 z = m(2, 0) * r + (m(2, 1) * g + m(2, 2) * b);
-  const D4 fx = FastLabF4(x), fy = FastLabF4(y), fz = FastLabF4(z);
-  return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
-}
-
-// FastCiede2000 on four lanes; *defer marks the lanes where it calls the
-// published formula (their values here are not used).
-SB_AVX2 D4 FastCiede2000x4(const Lab4& lab1, const Lab4& lab2, __m256d* defer) {
-  const D4 a1 = lab1.a, b1 = lab1.b, a2 = lab2.a, b2 = lab2.b;
-  const D4 c1 = Sqrt(a1 * a1 + b1 * b1);
-  const D4 c2 = Sqrt(a2 * a2 + b2 * b2);
-  const D4 c_bar7 = Pow7((c1 + c2) / 2.0);
-  const D4 g = 0.5 * (1.0 - Sqrt(c_bar7 / (c_bar7 + Splat(k25To7))));
-  const D4 a1p = (1.0 + g) * a1;
-  const D4 a2p = (1.0 + g) * a2;
-  const D4 c1p = Sqrt(a1p * a1p + b1 * b1);
-  const D4 c2p = Sqrt(a2p * a2p + b2 * b2);
-  // !(c1p > min && c2p > min)
-  __m256d deferred =
-      _mm256_andnot_pd(_mm256_and_pd(Greater(c1p, Splat(kFastMinChroma)), Greater(c2p, Splat(kFastMinChroma))),
-                       _mm256_castsi256_pd(_mm256_set1_epi64x(-1)));
-  const D4 u1a = a1p / c1p, u1b = b1 / c1p, u2a = a2p / c2p, u2b = b2 / c2p;
-  const D4 cos_dh = u1a * u2a + u1b * u2b;
-  deferred = _mm256_or_pd(deferred, Less(cos_dh, Splat(-1 + kFastOppositeHue)));
-  const D4 sin_dh = u1a * u2b - u1b * u2a;
-  const D4 du_a = u2a - u1a, du_b = u2b - u1b;
-  const D4 delta_big_hp = CopySign(Sqrt(c1p * c2p) * Sqrt(du_a * du_a + du_b * du_b), sin_dh);
-  const __m256d far_apart = Less(cos_dh, Splat(0.0));
-  const D4 turn = CopySign(Splat(1.0), sin_dh);
-  const D4 ma = Select(far_apart, turn * du_b, u1a + u2a);
-  const D4 mb = Select(far_apart, Negate(turn) * du_a, u1b + u2b);
-  alignas(32) double ma_lanes[4], mb_lanes[4], h_lanes[4];
-  _mm256_store_pd(ma_lanes, ma.v);
-  _mm256_store_pd(mb_lanes, mb.v);
-  for (int i = 0; i < 4; ++i) {
-    double h = Degrees(std::atan2(mb_lanes[i], ma_lanes[i]));
-    if (h < 0) h += 360;
-    h_lanes[i] = h;
-  }
-  const D4 h_barp{_mm256_load_pd(h_lanes)};
-  deferred = _mm256_or_pd(deferred, _mm256_or_pd(Less(h_barp, Splat(kFastWrapDegrees)),
-                                                 Greater(h_barp, Splat(360 - kFastWrapDegrees))));
-  const D4 m_norm = Sqrt(ma * ma + mb * mb);
-  const D4 cos1 = ma / m_norm, sin1 = mb / m_norm;
-  const D4 cos2 = cos1 * cos1 - sin1 * sin1, sin2 = 2.0 * sin1 * cos1;
-  const D4 cos3 = cos2 * cos1 - sin2 * sin1, sin3 = sin2 * cos1 + cos2 * sin1;
-  const D4 cos4 = cos2 * cos2 - sin2 * sin2, sin4 = 2.0 * sin2 * cos2;
-  const HueAngles& k = HueAnglesOfT();
-  const D4 t = 1.0 - 0.17 * (cos1 * Splat(k.cos30) + sin1 * Splat(k.sin30)) + 0.24 * cos2 +
-               0.32 * (cos3 * Splat(k.cos6) - sin3 * Splat(k.sin6)) -
-               0.20 * (cos4 * Splat(k.cos63) + sin4 * Splat(k.sin63));
-  const D4 delta_lp = lab2.l - lab1.l;
-  const D4 delta_cp = c2p - c1p;
-  const D4 l_barp = (lab1.l + lab2.l) / 2.0;
-  const D4 c_barp = (c1p + c2p) / 2.0;
-  const D4 hue_offset = (h_barp - 275.0) / 25.0;
-  const D4 delta_theta = 30.0 * PerLane(Negate(hue_offset) * hue_offset, [](double x) { return std::exp(x); });
-  const D4 c_barp7 = Pow7(c_barp);
-  const D4 r_c = 2.0 * Sqrt(c_barp7 / (c_barp7 + Splat(k25To7)));
-  // WeightedDifference.
-  const D4 l50 = (l_barp - 50.0) * (l_barp - 50.0);
-  const D4 s_l = 1.0 + 0.015 * l50 / Sqrt(20.0 + l50);
-  const D4 s_c = 1.0 + 0.045 * c_barp;
-  const D4 s_h = 1.0 + 0.015 * c_barp * t;
-  const D4 r_t = Negate(PerLane(2.0 * delta_theta, [](double x) { return std::sin(Radians(x)); })) * r_c;
-  const D4 dl = delta_lp / s_l;
-  const D4 dc = delta_cp / s_c;
-  const D4 dh = delta_big_hp / s_h;
-  *defer = deferred;
-  return Sqrt(dl * dl + dc * dc + dh * dh + r_t * dc * dh);
-}
-
-__attribute__((target("avx2"))) size_t Ciede2000FromLinearRec709Avx2(const float* rgb1, const float* rgb2,
-                                                                     size_t count, double* delta_e) {
-  size_t i = 0;
-  for (; i + 4 <= count; i += 4) {
-    alignas(32) double channels[6][4];
-    for (int lane = 0; lane < 4; ++lane) {
-      for (int c = 0; c < 3; ++c) {
-        channels[c][lane] = rgb1[3 * (i + lane) + c];
-        channels[3 + c][lane] = rgb2[3 * (i + lane) + c];
-      }
-    }
-    const Lab4 lab1 = FastLab4(D4{_mm256_load_pd(channels[0])}, D4{_mm256_load_pd(channels[1])},
-                               D4{_mm256_load_pd(channels[2])});
-    const Lab4 lab2 = FastLab4(D4{_mm256_load_pd(channels[3])}, D4{_mm256_load_pd(channels[4])},
-                               D4{_mm256_load_pd(channels[5])});
-    __m256d defer;
-    alignas(32) double values[4];
-    _mm256_store_pd(values, FastCiede2000x4(lab1, lab2, &defer).v);
-    const int deferred = _mm256_movemask_pd(defer);
-    for (int lane = 0; lane < 4; ++lane) {
-      if (deferred & (1 << lane)) {
-        const float* p1 = rgb1 + 3 * (i + lane);
-        const float* p2 = rgb2 + 3 * (i + lane);
-        values[lane] = Ciede2000FromLinearRec709(Eigen::Vector3d(p1[0], p1[1], p1[2]),
-                                                 Eigen::Vector3d(p2[0], p2[1], p2[2]));
-      }
-      delta_e[i + lane] = values[lane];
-    }
-  }
-  return i;
-}
-#undef SB_AVX2
-#pragma GCC diagnostic pop
+const ColorKernels& ColorKernelsFor(KernelIsa isa) {
+#ifdef SCANBENCH_COLOR_ISA_VARIANTS
+  if (isa == KernelIsa::kAvx512 && KernelIsaSupported(isa)) return isa_avx512::kKernels;
+  if (isa == KernelIsa::kAvx2 && KernelIsaSupported(isa)) return isa_avx2::kKernels;
+#else
+  (void)isa;
 #endif
+  return isa_baseline::kKernels;
+}
 
-}  // namespace
+}  // namespace color_kernels
 
 void Ciede2000FromLinearRec709(const float* rgb1, const float* rgb2, size_t count, double* delta_e) {
-  size_t done = 0;
-#ifdef SCANBENCH_CIEDE2000_AVX2
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  if (avx2) done = Ciede2000FromLinearRec709Avx2(rgb1, rgb2, count, delta_e);
-#endif
-  for (size_t i = done; i < count; ++i) {
-    const float* p1 = rgb1 + 3 * i;
-    const float* p2 = rgb2 + 3 * i;
-    delta_e[i] = Ciede2000FromLinearRec709(Eigen::Vector3d(p1[0], p1[1], p1[2]), Eigen::Vector3d(p2[0], p2[1], p2[2]));
+  static const color_kernels::Ciede2000Args constants = [] {
+    color_kernels::Ciede2000Args args;
+    const Eigen::Matrix3d& m = WhiteRelativeXyzFromLinearRec709();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) args.xyz_over_white_from_rgb[3 * r + c] = m(r, c);
+    }
+    const HueAngles& k = HueAnglesOfT();
+    args.cos30 = k.cos30, args.sin30 = k.sin30, args.cos6 = k.cos6, args.sin6 = k.sin6;
+    args.cos63 = k.cos63, args.sin63 = k.sin63;
+    args.min_chroma = kFastMinChroma, args.opposite_hue = kFastOppositeHue, args.wrap_degrees = kFastWrapDegrees;
+    return args;
+  }();
+  const color_kernels::ColorKernels& kernels = color_kernels::ColorKernelsFor(ActiveKernelIsa());
+  // A chunk at a time: the deferral marks on the stack.
+  constexpr size_t kChunk = 1024;
+  uint8_t defer[kChunk];
+  for (size_t first = 0; first < count; first += kChunk) {
+    color_kernels::Ciede2000Args args = constants;
+    args.count = std::min(kChunk, count - first);
+    args.rgb1 = rgb1 + 3 * first;
+    args.rgb2 = rgb2 + 3 * first;
+    args.delta_e = delta_e + first;
+    args.defer = defer;
+    kernels.ciede2000_from_linear_rec709(args);
+    for (size_t i = 0; i < args.count; ++i) {
+      if (defer[i] == 0) continue;
+      const float* p1 = args.rgb1 + 3 * i;
+      const float* p2 = args.rgb2 + 3 * i;
+      args.delta_e[i] =
+          Ciede2000FromLinearRec709(Eigen::Vector3d(p1[0], p1[1], p1[2]), Eigen::Vector3d(p2[0], p2[1], p2[2]));
+    }
   }
 }
 

@@ -73,12 +73,18 @@ Eigen::Vector3d FastLabFromLinearRec709(const Eigen::Vector3d& rgb_linear_rec709
 // roundings (3.3e-7 seen against it; tests/calibration/color_science_test.cc).
 double Ciede2000FromLinearRec709(const Eigen::Vector3d& rgb1_linear_rec709, const Eigen::Vector3d& rgb2_linear_rec709);
 
-// Ciede2000FromLinearRec709 of `count` colour pairs, bit for bit: pair i is
-// rgb1[3 i .. 3 i + 2] against rgb2[3 i .. 3 i + 2] (floats), its value goes
-// to delta_e[i]. Where the CPU has AVX2 four pairs at a time (the same
-// operations in the same order; the libm calls -- atan2, exp, sin -- and the
-// pairs where the fast form calls the published formula one at a time); the
-// solve's evaluation makes 11 M of them at 16 MP.
+// Ciede2000FromLinearRec709 of `count` colour pairs: pair i is rgb1[3 i ..
+// 3 i + 2] against rgb2[3 i .. 3 i + 2] (floats), its value goes to
+// delta_e[i]. The solve's evaluation makes 11 M of them at 16 MP, so they run
+// in double vector lanes (8 pairs a vector with AVX-512, 4 with AVX2, picked
+// as the solver picks its kernels: solver/cpu_dispatch.h) with polynomial
+// atan2, exp and sin: not bit for bit the scalar form, but within 1e-10 of the
+// published formula (Ciede2000 of LabFromLinearRec709), and within 1e-5
+// where a colour is neutral, where the published formula itself moves by
+// 1e-7 to 1e-6 between roundings (tests/calibration/color_science_test.cc).
+// Where the fast form calls the published formula, and for non-finite
+// colours, the scalar Ciede2000FromLinearRec709 above gives the value. The
+// calibration's fits use the scalar functions.
 void Ciede2000FromLinearRec709(const float* rgb1, const float* rgb2, size_t count, double* delta_e);
 
 // IEC 61966-2-1 sRGB transfer curve, linear -> encoded; clamps to [0, 1] (NaN reads 0).

@@ -118,10 +118,11 @@ struct ComparedAlbedoPixel {
 // order, then Finish gives exactly what CompareAlbedoColor gives on the whole
 // images. Per evaluated pixel its truth and its albedo (a ComparedAlbedoPixel,
 // 24 bytes) go to one spill file (SpillFile, exact_statistics.h), read back
-// by ForEachPixel, and their CIEDE2000 to the spill of its order statistics
-// (ExactErrorStatistics: 8 bytes, so its selection reads a quarter of what a
-// replay of the pixels would); in memory only counts per hash bucket of the
-// truth values. Finish finds the uniform regions
+// by ForEachPixel (with CountPossibleRegions first, only those whose truth may
+// be a region's); their CIEDE2000 is held as a float
+// (FloatErrorStatistics: the per-pixel median and p95 are those of the
+// values rounded to float); in memory besides only counts per hash bucket of
+// the truth values. Finish finds the uniform regions
 // from those buckets: a region has at least min_pixels pixels, so its bucket
 // has too, and at most evaluated / min_pixels buckets do; only their pixels
 // are counted exactly.
@@ -135,10 +136,20 @@ class AlbedoColorComparison {
   // Rows of the albedo and the truth (3 channels) and of the mask (1
   // channel), one size, following the rows added before. The rows run in parallel.
   void AddRows(const ImageF& albedo_rows, const ImageU8& mask_rows, const ImageF& truth_rows, int num_threads = 0);
-  // visit(pixels) over every pixel added so far, in pixel order, in chunks
-  // (read back from the spill file): what other figures of the same pixels
-  // (the albedo's absolute error) can be made of again. It only reads, so it
-  // may run on another thread beside Finish.
+  // Room for the CIEDE2000 of this many pixels (an upper bound of those to be evaluated).
+  void Reserve(size_t pixels) { delta_e_.Reserve(pixels); }
+  // Optional, before the first AddRows: the truth's rows over a superset of
+  // the pixels that will be evaluated (mask_rows: the sample mask), a band at
+  // a time in any order, so that AddRows spills only the pixels whose truth
+  // falls in a hash bucket holding at least 16 of them (the smallest region
+  // there can be): no other pixel can be a region's. A textile's truth
+  // differs from pixel to pixel and almost nothing is spilled. Without it
+  // every evaluated pixel is spilled.
+  void CountPossibleRegions(const ImageF& truth_rows, const ImageU8& mask_rows);
+  // visit(pixels) over the spilled pixels (every pixel added so far, or after
+  // CountPossibleRegions those that may be a region's), in pixel order, in
+  // chunks (read back from the spill file). It only reads, so it may run on
+  // another thread beside Finish.
   void ForEachPixel(const std::function<void(std::span<const ComparedAlbedoPixel>)>& visit);
   AlbedoColorErrors Finish();  // once
 
@@ -146,13 +157,16 @@ class AlbedoColorComparison {
   double min_region_fraction_;
   int width_ = -1;
   SpillFile pixels_;                     // per evaluated pixel a ComparedAlbedoPixel; pixel order
-  ExactErrorStatistics delta_e_;         // spills the CIEDE2000 values, pixel order
+  FloatErrorStatistics delta_e_;         // the CIEDE2000 values, pixel order
   std::vector<uint32_t> bucket_counts_;  // evaluated pixels per hash bucket of the truth bits
+  std::vector<uint32_t> possible_counts_;  // CountPossibleRegions': its pixels per bucket
+  std::vector<uint8_t> possible_;          // from those at the first AddRows: 1 = spill its pixels
   // AddRows' rows (each row's evaluated pixels from row * width), kept from band to band.
   std::vector<ComparedAlbedoPixel> band_pixels_;
   std::vector<double> band_delta_e_;
   std::vector<uint32_t> band_buckets_;  // each pixel's hash bucket of its truth bits
   std::vector<uint32_t> band_row_counts_;
+  std::vector<uint32_t> band_spilled_counts_;  // each row's pixels spilled (the first ones of its stretch)
 };
 
 }  // namespace scanbench

@@ -411,28 +411,11 @@ struct GroundTruthEvaluation::State {
   ImageU8 on_sample;  // whole size
   int rows_added = 0;
   size_t unsolved_on_sample = 0;
-  AlbedoColorComparison color;  // spills each evaluated pixel's albedo and truth
-  ExactErrorStatistics angles;  // spills the angles
-  // Not spilled: the albedo's absolute errors are made again from the colour
-  // comparison's pixels, in the same order (AbsoluteErrorsOfRows': pixel, channel).
-  ExactErrorStatistics albedo_errors;
+  AlbedoColorComparison color;  // spills the pixels whose truth may be a region's
+  FloatErrorStatistics angles;  // the angles, as floats
+  FloatErrorStatistics albedo_errors;  // the albedo's absolute errors (pixel, channel), as floats
   std::vector<double> band_values;  // AddBand's, reused from band to band
-  explicit State(const fs::path& spill_folder)
-      : color(0.002, spill_folder),
-        angles(spill_folder),
-        albedo_errors([this](const std::function<void(std::span<const double>)>& visit) {
-          std::vector<double> values;
-          color.ForEachPixel([&](std::span<const ComparedAlbedoPixel> pixels) {
-            values.resize(3 * pixels.size());
-            for (size_t i = 0; i < pixels.size(); ++i) {
-              for (int c = 0; c < 3; ++c) {
-                values[3 * i + c] =
-                    AbsoluteErrorValue(pixels[i].albedo_linear_rec709[c], pixels[i].truth_linear_rec709[c]);
-              }
-            }
-            visit(values);
-          });
-        }) {}
+  explicit State(const fs::path& spill_folder) : color(0.002, spill_folder) {}
 };
 
 GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const GroundTruthFiles& truth, int width,
@@ -445,6 +428,30 @@ GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const 
     throw std::runtime_error((session_dir / truth.mask_file).string() + ": " +
                              SizeText(state_->on_sample.width(), state_->on_sample.height()) +
                              ", the solution is " + SizeText(width, height));
+  }
+  // The values held in memory: room for every sample pixel at once, never a
+  // second copy while growing.
+  const size_t sample_pixels =
+      std::count_if(state_->on_sample.data(), state_->on_sample.data() + state_->on_sample.size(),
+                    [](uint8_t on) { return on != 0; });
+  state_->angles.Reserve(sample_pixels);
+  state_->color.Reserve(sample_pixels);
+  state_->albedo_errors.Reserve(3 * sample_pixels);
+  // The truth's colours over the sample, read once before the bands: the
+  // colour comparison then spills only the pixels that may be a uniform
+  // region's (a chart's patches), not a textile's every pixel.
+  ImageF truth_rows;
+  ImageU8 mask_rows;
+  for (int y = 0; y < height; y += kEvaluationBandRows) {
+    const int rows = std::min(kEvaluationBandRows, height - y);
+    state_->albedo_reader->ReadRows(y, y + rows, &truth_rows);
+    if (truth_rows.width() != width || truth_rows.channels() != 3) {
+      throw std::runtime_error(state_->albedo_reader->path().string() + ": " + ShapeText(truth_rows) +
+                               " rows, the solution's are " + SizeText(width, rows) + "x3");
+    }
+    if (!mask_rows.SameSize(width, rows)) mask_rows = ImageU8(width, rows, 1);
+    std::copy(state_->on_sample.row(y), state_->on_sample.row(y) + mask_rows.size(), mask_rows.data());
+    state_->color.CountPossibleRegions(truth_rows, mask_rows);
   }
 }
 
@@ -484,8 +491,7 @@ ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_t
   s.angles.Add(s.band_values);
   const ImageF& truth_albedo = read_truth(*s.albedo_reader, &s.truth_albedo_rows);
   s.color.AddRows(band.albedo, solved_on_sample, truth_albedo, num_threads);
-  // The albedo's absolute error of every channel, pooled in pixel order (the
-  // order the replay above makes them again in).
+  // The albedo's absolute error of every channel, pooled in pixel order.
   s.band_values.clear();
   AbsoluteErrorsOfRows(band.albedo, truth_albedo, 0, solved_on_sample, num_threads, &s.band_values);
   s.albedo_errors.Add(s.band_values);
@@ -500,9 +506,7 @@ GroundTruthComparison GroundTruthEvaluation::Finish(int num_threads) {
   }
   GroundTruthComparison comparison;
   comparison.unsolved_on_sample = s.unsolved_on_sample;
-  // Two independent reads of spilled values side by side (each statistic's
-  // own passes; the colour comparison's pixels are only read by both):
-  // the albedo's errors, replayed from the pixels, the largest.
+  // Side by side: the albedo's errors (the most values) and the rest.
   ParallelFor(2, std::min(2, ResolveThreadCount(num_threads)), 1, [&](int begin, int end, int) {
     for (int item = begin; item < end; ++item) {
       if (item == 0) {

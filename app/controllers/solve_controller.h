@@ -183,11 +183,15 @@ inline constexpr int kEvaluationBandRows = 256;
 struct GroundTruthFiles;
 
 // The evaluation band by band, as the solve streams its bands (issue #14): the
-// truth's rows are read for each band, the error values go to spill files
-// (ExactErrorStatistics, AlbedoColorComparison), so neither a full-size
-// solution, truth nor value list is held; Finish gives exactly what the
+// truth's rows are read for each band, so neither a full-size solution nor
+// truth is held; the angles, the albedo's errors and the CIEDE2000 values are
+// held as floats (FloatErrorStatistics: 20 bytes a sample pixel, 228 MB at 16
+// MP); the truth's colours are read once first, so that only the pixels that
+// may be a uniform region's go to a spill file (AlbedoColorComparison's
+// CountPossibleRegions: almost none of a textile). Finish gives what the
 // whole-frame figures (AngularErrorDegrees, AbsoluteError,
-// CompareAlbedoColor) give. Holds the sample mask (1 byte a pixel).
+// CompareAlbedoColor) give, except that the medians and p95s are those of
+// the values rounded to float. Holds the sample mask (1 byte a pixel).
 class GroundTruthEvaluation {
  public:
   // For a solution of width x height; spill files in `spill_folder` (empty = the temporary folder).

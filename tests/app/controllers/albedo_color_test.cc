@@ -202,7 +202,8 @@ std::vector<AlbedoRegionError> RegionsBySorting(const ImageF& albedo, const Imag
 
 // Band by band with the spill file and hash buckets: the regions (and their
 // order among equal sizes) of a sort of every pixel, and the per-pixel
-// figures of SummarizeErrors over all CIEDE2000 values.
+// figures of SummarizeErrors over all CIEDE2000 values; also with the
+// possible regions counted first (only their pixels spilled).
 TEST(AlbedoColorTest, BandedComparisonFindsTheRegionsOfAFullSort) {
   const int width = 120, height = 90;
   std::mt19937 random(11);
@@ -228,9 +229,19 @@ TEST(AlbedoColorTest, BandedComparisonFindsTheRegionsOfAFullSort) {
     }
   }
   const AlbedoColorErrors whole = CompareAlbedoColor(albedo, truth, mask, 0.002);
+  for (const bool count_first : {false, true})
   for (int band_rows : {1, 7, 32, height}) {
-    SCOPED_TRACE("bands of " + std::to_string(band_rows));
+    SCOPED_TRACE("bands of " + std::to_string(band_rows) + (count_first ? ", possible regions counted first" : ""));
     AlbedoColorComparison comparison(0.002);
+    if (count_first) {
+      // Over every pixel (a superset of the mask), in bands of 13 rows.
+      for (int y = 0; y < height; y += 13) {
+        const int rows = std::min(13, height - y);
+        ImageF truth_rows(width, rows, 3);
+        std::copy(truth.row(y), truth.row(y) + truth_rows.size(), truth_rows.data());
+        comparison.CountPossibleRegions(truth_rows, ImageU8(width, rows, 1, 1));
+      }
+    }
     std::vector<double> per_pixel;
     for (int y = 0; y < height; y += band_rows) {
       const int rows = std::min(band_rows, height - y);
