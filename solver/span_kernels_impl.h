@@ -16,6 +16,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "solver/kernel_math_impl.h"
 #include "solver/span_kernels.h"
 
 #ifndef SCANBENCH_ISA_NAMESPACE
@@ -29,6 +30,10 @@ namespace {
 // vectors of the byte-wide sample marks for every ISA (64 per AVX-512
 // register), or the vectoriser gives up on the loop.
 constexpr int kBlock = 64;
+
+using kernel_math::BitsOf;
+using kernel_math::DoubleFromBits;
+using kernel_math::ExpNonPositive;
 
 // Per-light constants of the hot loop.
 struct LightConstants {
@@ -393,19 +398,6 @@ void LightRules(const LightRulesArgs& a) {
   }
 }
 
-// Bit casts between double and its bits: loops of these still vectorise
-// (GCC turns the copies into lane reinterpretations).
-inline double DoubleFromBits(uint64_t bits) {
-  double value;
-  __builtin_memcpy(&value, &bits, sizeof value);
-  return value;
-}
-inline uint64_t BitsOf(double value) {
-  uint64_t bits;
-  __builtin_memcpy(&bits, &value, sizeof bits);
-  return bits;
-}
-
 // ln c for c > 0 finite (normal), to about 1e-15 relative, branch-free: c =
 // m 2^e with m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh(z), z = (m - 1) /
 // (m + 1), |z| <= 0.172, summed to z^17 (the next term is below 1e-14 of the
@@ -429,35 +421,6 @@ inline double LnPositive(double c) {
   series = 1.0 / 3 + z2 * series;
   series = 1.0 + z2 * series;
   return 2 * z * series + exponent * 0.69314718055994531;
-}
-
-// e^y for y <= 0, to about 1e-14 relative, branch-free; y below -700 gives
-// e^-700 (1e-304, 0 as a float). y = n ln 2 + r with n rounded by the 1.5 *
-// 2^52 trick (round to nearest), |r| <= ln 2 / 2 (ln 2 in two parts, so r is
-// exact to 1e-16 for any n), e^r by its Taylor series to r^12 (the rest is
-// below 1e-14), 2^n built in the exponent bits.
-inline double ExpNonPositive(double y) {
-  const double x = y < -700.0 ? -700.0 : y;
-  constexpr double kRound = 6755399441055744.0;
-  const double shifted = x * 1.4426950408889634 + kRound;
-  const double n = shifted - kRound;
-  const double r = (x - n * 0.693147180369123816490) - n * 1.90821492927058770002e-10;
-  double p = 1.0 / 479001600;
-  p = 1.0 / 39916800 + r * p;
-  p = 1.0 / 3628800 + r * p;
-  p = 1.0 / 362880 + r * p;
-  p = 1.0 / 40320 + r * p;
-  p = 1.0 / 5040 + r * p;
-  p = 1.0 / 720 + r * p;
-  p = 1.0 / 120 + r * p;
-  p = 1.0 / 24 + r * p;
-  p = 1.0 / 6 + r * p;
-  p = 0.5 + r * p;
-  p = 1.0 + r * p;
-  p = 1.0 + r * p;
-  // The low bits of `shifted` hold n (two's complement); n + 1023 is in
-  // [13, 1023] here, a normal exponent.
-  return p * DoubleFromBits((BitsOf(shifted) + 1023) << 52);
 }
 
 // One LED over the span, in double (the surface points are hundreds of mm

@@ -1,21 +1,14 @@
-// Exact summaries of values that arrive band by band (the solve's ground-truth
-// evaluation, issue #14), without holding them in memory: the values go to an
-// unlinked temporary file (SpillFile), or are made again by their owner from
-// what it spilled anyway, and a histogram over their leading bits says which
-// few of them an order statistic lies among, so only those are read back and
-// selected. At 16 MP the albedo's 34 M error values are 270 MB a std::vector
-// would hold; here the histogram (512 KB) and a selection buffer.
+// Summaries of values that arrive band by band (the solve's ground-truth
+// evaluation, issue #14): FloatErrorStatistics holds them as floats; SpillFile
+// keeps records out of memory in an unlinked temporary file (the colour
+// comparison's pixels of possible uniform regions).
 #pragma once
 
-#include <array>
-#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
-#include <memory>
 #include <span>
-#include <stdexcept>
 #include <vector>
 
 #include "solver/angular_error.h"
@@ -49,78 +42,12 @@ class SpillFile {
   void Flush();
 
  private:
+  void WriteAll(const uint8_t* data, size_t size);
+
   std::filesystem::path folder_;
   int fd_ = -1;
   size_t size_ = 0;
   std::vector<uint8_t> buffer_;
-};
-
-// SummarizeErrors (solver/angular_error.h) of the values given to Add in
-// turn, bit for bit: the mean is the same sum in the same order, the median,
-// 95th percentile and maximum the same order statistics (values NaN-free).
-// The values are either kept in its own spill file or, where its owner can
-// give them again (AlbedoColorComparison's spilled pixels hold what the
-// albedo's errors are made of), not kept at all: then a replay hands them
-// over again for the few passes Finish makes.
-class ExactErrorStatistics {
- public:
-  // replay(visit) calls visit with every value added (in chunks, in any order).
-  using Replay = std::function<void(const std::function<void(std::span<const double>)>& visit)>;
-
-  // Keeps the values in a spill file in `spill_folder` (SpillFile).
-  explicit ExactErrorStatistics(const std::filesystem::path& spill_folder = {});
-  // Keeps no values: Finish asks `replay` for them.
-  explicit ExactErrorStatistics(Replay replay);
-  ExactErrorStatistics(ExactErrorStatistics&&) noexcept;
-  ExactErrorStatistics& operator=(ExactErrorStatistics&&) noexcept;
-  ~ExactErrorStatistics();
-
-  void Add(std::span<const double> values);
-  // One value, only with a replay (there is nothing to spill): the per-pixel form.
-  void Add(double value) {
-    if (spill_) throw std::logic_error("ExactErrorStatistics::Add(double): its values are spilled; add a span");
-    Count(value);
-  }
-  size_t count() const { return count_; }
-  // May be called once; reads the values back (a few passes).
-  ErrorStatistics Finish();
-
-  // The value of rank `rank` (0-based, as std::nth_element) among those added.
-  double ValueOfRank(size_t rank);
-  // The values of several ranks, found in the same passes over the values.
-  std::vector<double> ValuesOfRanks(std::span<const size_t> ranks);
-
- private:
-  // The first histogram's leading bits: sign, exponent and 8 mantissa bits,
-  // 1/256 of an octave a bucket, so the bucket of a median or p95 of 10 to
-  // 50 M smooth values holds well under kMaxSelected and one pass selects
-  // (with 16 bits the albedo's errors needed a pass more to split their
-  // bucket); 8 MB of counts.
-  static constexpr int kBucketBits = 20;
-  // A bucket still too full is split by this many more bits per pass.
-  static constexpr int kRefineBits = 16;
-  // Non-NaN doubles to unsigned integers in the same order (negative values'
-  // bits reversed below the positive ones').
-  static uint64_t OrderKey(double value) {
-    const uint64_t bits = std::bit_cast<uint64_t>(value);
-    return (bits >> 63) ? ~bits : bits | (uint64_t{1} << 63);
-  }
-  static size_t Bucket(double value) { return OrderKey(value) >> (64 - kBucketBits); }
-  // SummarizeErrors: std::accumulate from 0.0 in order; the largest by operator<.
-  void Count(double value) {
-    sum_ += value;
-    if (count_ == 0 || max_ < value) max_ = value;
-    ++count_;
-    ++histogram_[Bucket(value)];
-  }
-  void ForEachValue(const std::function<void(std::span<const double>)>& visit);
-
-  size_t count_ = 0;
-  double sum_ = 0;
-  double max_ = 0;
-  std::vector<uint64_t> histogram_;  // 2^kBucketBits counts over the leading bits of the order key
-  std::unique_ptr<SpillFile> spill_;  // null with a replay
-  Replay replay_;
 };
 
 // SummarizeErrors of the values given to Add in turn, held in memory as

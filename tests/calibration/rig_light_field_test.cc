@@ -67,7 +67,7 @@ TEST(RigLightFieldTest, TablePointsOnRequestAreTheHeldPointsBitForBit) {
   }
   // Spans of several lengths and starts.
   std::vector<float> scratch;
-  for (const auto [x0, y, count] : {std::tuple{0, 0, 150}, std::tuple{17, 40, 1}, std::tuple{63, 12, 70},
+  for (const auto& [x0, y, count] : {std::tuple{0, 0, 150}, std::tuple{17, 40, 1}, std::tuple{63, 12, 70},
                                     std::tuple{100, 69, 50}}) {
     const float* points = on_request.Span(x0, y, count, &scratch);
     EXPECT_TRUE(std::equal(points, points + 3 * count, held.row(y) + 3 * x0)) << x0 << "," << y << " x " << count;
