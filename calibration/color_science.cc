@@ -301,13 +301,11 @@ double Ciede2000FromLinearRec709(const Eigen::Vector3d& rgb1_linear_rec709, cons
 namespace color_kernels {
 
 const ColorKernels& ColorKernelsFor(KernelIsa isa) {
-#ifdef SCANBENCH_COLOR_ISA_VARIANTS
-  if (isa == KernelIsa::kAvx512 && KernelIsaSupported(isa)) return isa_avx512::kKernels;
-  if (isa == KernelIsa::kAvx2 && KernelIsaSupported(isa)) return isa_avx2::kKernels;
+#ifdef SCANBENCH_ISA_VARIANTS
+  return KernelsOfIsa(isa, isa_baseline::kKernels, &isa_avx2::kKernels, &isa_avx512::kKernels);
 #else
-  (void)isa;
+  return KernelsOfIsa<ColorKernels>(isa, isa_baseline::kKernels, nullptr, nullptr);
 #endif
-  return isa_baseline::kKernels;
 }
 
 }  // namespace color_kernels

@@ -45,3 +45,24 @@ function(scanbench_add_benchmark)
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LINK_LIBS} benchmark::benchmark benchmark::benchmark_main)
   target_compile_options(${ARG_NAME} PRIVATE ${SCANBENCH_WARNING_FLAGS})
 endfunction()
+
+# scanbench_isa_variant_sources(STEM stem OUT_SRCS var OUT_VARIANTS var)
+# A kernel set compiled once per instruction set and picked at run time
+# (solver/cpu_dispatch.h): <stem>_baseline.cc always; on x86-64 with GCC or
+# Clang also <stem>_avx2.cc and <stem>_avx512.cc with their -m flags. Sets
+# OUT_SRCS to the sources and OUT_VARIANTS to ON when the variants are built
+# (the library then defines SCANBENCH_ISA_VARIANTS for its dispatch).
+function(scanbench_isa_variant_sources)
+  cmake_parse_arguments(ARG "" "STEM;OUT_SRCS;OUT_VARIANTS" "" ${ARGN})
+  set(srcs ${ARG_STEM}_baseline.cc)
+  set(variants OFF)
+  if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$" AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+    set(variants ON)
+    list(APPEND srcs ${ARG_STEM}_avx2.cc ${ARG_STEM}_avx512.cc)
+    set_source_files_properties(${ARG_STEM}_avx2.cc PROPERTIES COMPILE_OPTIONS "-mavx2;-mfma")
+    set_source_files_properties(${ARG_STEM}_avx512.cc PROPERTIES COMPILE_OPTIONS
+      "-mavx2;-mfma;-mavx512f;-mavx512vl;-mavx512bw;-mavx512dq;-mprefer-vector-width=512")
+  endif()
+  set(${ARG_OUT_SRCS} ${srcs} PARENT_SCOPE)
+  set(${ARG_OUT_VARIANTS} ${variants} PARENT_SCOPE)
+endfunction()

@@ -89,12 +89,10 @@ namespace tiled {
 
 const SpanKernels& SpanKernelsFor(KernelIsa isa) {
 #ifdef SCANBENCH_ISA_VARIANTS
-  if (isa == KernelIsa::kAvx512 && KernelIsaSupported(isa)) return isa_avx512::kKernels;
-  if (isa == KernelIsa::kAvx2 && KernelIsaSupported(isa)) return isa_avx2::kKernels;
+  return KernelsOfIsa(isa, isa_baseline::kKernels, &isa_avx2::kKernels, &isa_avx512::kKernels);
 #else
-  (void)isa;
+  return KernelsOfIsa<SpanKernels>(isa, isa_baseline::kKernels, nullptr, nullptr);
 #endif
-  return isa_baseline::kKernels;
 }
 
 }  // namespace tiled

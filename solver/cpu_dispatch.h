@@ -42,4 +42,14 @@ KernelIsa ActiveKernelIsa();
 void OverrideKernelIsa(KernelIsa isa);
 void ClearKernelIsaOverride();
 
+// The table of `isa` among a library's per-ISA builds of one kernel set (the
+// span kernels, the colour kernels): `avx2` and `avx512` are null where the
+// build has no such variant; an ISA this CPU lacks gives the baseline's.
+template <typename Kernels>
+const Kernels& KernelsOfIsa(KernelIsa isa, const Kernels& baseline, const Kernels* avx2, const Kernels* avx512) {
+  if (isa == KernelIsa::kAvx512 && avx512 != nullptr && KernelIsaSupported(isa)) return *avx512;
+  if (isa == KernelIsa::kAvx2 && avx2 != nullptr && KernelIsaSupported(isa)) return *avx2;
+  return baseline;
+}
+
 }  // namespace scanbench
