@@ -17,11 +17,11 @@
 #include <filesystem>
 #include <string>
 
-#include "app/controllers/banded_solve.h"
 #include "app/controllers/solve_controller.h"
 #include "app/io/image_io.h"
 #include "app/session/session.h"
 #include "benchmarks/process_cpu.h"
+#include "pipeline/banded_solve.h"
 
 namespace scanbench {
 namespace {

@@ -1,6 +1,6 @@
 // The CPU and wall time of writing a solve's result files alone: a result
 // folder's maps read back into a solution and streamed again through
-// SolutionMapStream (app/controllers/map_writer.h) in the solve's 128-row
+// SolutionMapStream (app/io/result_maps.h) in the solve's 128-row
 // bands, the error map's rows as the evaluation's item beside the files, as
 // `scanbench solve` writes them. The measurement behind docs/solver.md's
 // "Writing the results" (issue #14): the process's CPU (user + system, every
@@ -19,10 +19,10 @@
 #include <filesystem>
 #include <string>
 
-#include "app/controllers/banded_solve.h"
-#include "app/controllers/map_writer.h"
 #include "app/io/image_io.h"
+#include "app/io/result_maps.h"
 #include "benchmarks/process_cpu.h"
+#include "pipeline/banded_solve.h"
 
 namespace scanbench {
 namespace {

@@ -7,10 +7,10 @@
 #include "app/cli/command_util.h"
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
-#include "app/controllers/bench_template.h"
 #include "app/controllers/import_controller.h"
 #include "app/io/file_util.h"
 #include "app/session/rig_json.h"
+#include "app/sim/bench_template.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;

@@ -5,9 +5,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "app/controllers/calibrated_lighting.h"
 #include "app/io/file_util.h"
 #include "app/io/raw_decoder.h"
+#include "app/session/calibrated_lighting.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
 #include "calibration/color_checker.h"

@@ -7,9 +7,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/controllers/map_writer.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
+#include "app/io/result_maps.h"
 #include "app/session/session.h"
 #include "core/field_error.h"
 #include "core/format.h"

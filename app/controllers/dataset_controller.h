@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "app/controllers/base_controller.h"
-#include "app/controllers/map_writer.h"
 #include "app/io/dataset_io.h"
+#include "app/io/result_maps.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
 

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "app/controllers/base_controller.h"
-#include "app/controllers/calibrated_lighting.h"
+#include "app/session/calibrated_lighting.h"
 #include "calibration/raw_develop.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"

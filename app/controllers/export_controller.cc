@@ -20,20 +20,20 @@
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
-#include "app/controllers/albedo_color.h"
-#include "app/controllers/engine_presets.h"
-#include "calibration/color_science.h"
+#include "app/io/engine_presets.h"
 #include "app/io/file_util.h"
 #include "app/io/gltf_document.h"
 #include "app/io/image_io.h"
 #include "app/io/materialx_document.h"
+#include "app/io/result_maps.h"
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
-#include "solver/angular_error.h"
+#include "calibration/color_science.h"
 #include "core/field_error.h"
 #include "core/format.h"
 #include "core/parallel_for.h"
 #include "core/summary.h"
+#include "solver/angular_error.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -86,7 +86,7 @@ struct ExportController::HeightReference {
 namespace {
 
 constexpr char kWhere[] = "ExportOptions";
-// confidence.exr's channels as the solve writes them (map_writer.cc), read by name.
+// confidence.exr's channels as the solve writes them (result_maps.cc), read by name.
 const std::vector<std::string> kConfidenceChannels = {"lights_used", "condition_number", "residual"};
 
 std::runtime_error FileError(const fs::path& path, const std::string& problem) {

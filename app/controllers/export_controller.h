@@ -28,7 +28,7 @@ namespace scanbench {
 struct ExportOptions {
   // Generic file formats (exr, png16, tiff16) or an engine's own naming,
   // channel packing and normal convention (unreal, unity-hdrp, gltf; see
-  // app/controllers/engine_presets.h and docs/export.md).
+  // app/io/engine_presets.h and docs/export.md).
   enum class Preset { kLinearExr, kPng16, kTiff16, kUnreal, kUnityHdrp, kGltf };
   enum class NormalConvention { kOpenGl, kDirectX };  // +Y up (OpenGL) or +Y down (DirectX)
   // Primaries of the linear EXR base colour (issue #12); integer presets are

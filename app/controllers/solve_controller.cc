@@ -13,22 +13,24 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/controllers/banded_solve.h"
-#include "app/controllers/exact_statistics.h"
-#include "app/controllers/map_writer.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
+#include "app/io/result_maps.h"
+#include "app/session/albedo_color_choice.h"
+#include "app/session/calibrated_lighting.h"  // issue #4
 #include "app/session/calibration_set.h"
 #include "app/session/session.h"
-#include "app/controllers/calibrated_lighting.h"  // issue #4
 #include "calibration/camera_model.h"
 #include "calibration/rig_light_field.h"
 #include "core/bounded_worker.h"
 #include "core/field_error.h"
 #include "core/format.h"
 #include "core/parallel_for.h"
+#include "core/spill_file.h"
 #include "core/summary.h"
+#include "pipeline/banded_solve.h"
+#include "pipeline/error_statistics.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;

@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "app/controllers/albedo_color.h"
 #include "app/controllers/base_controller.h"
-#include "app/controllers/depth_refinement.h"
-#include "app/controllers/map_writer.h"
 #include "app/io/raw_decoder.h"
+#include "app/io/result_maps.h"
 #include "calibration/raw_develop.h"
+#include "pipeline/albedo_color.h"
+#include "pipeline/depth_refinement.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
 
@@ -52,7 +52,7 @@ struct SolveOptions {
   // the RAW files' camera matrix, else white-balanced camera RGB.
   AlbedoColorOptions albedo_color;
   // Draped samples (issue #15): re-solve with the surface points moved to the
-  // integrated height (app/controllers/depth_refinement.h).
+  // integrated height (pipeline/depth_refinement.h).
   DepthRefinementOptions depth;
   // Latency, not the result (the live solve sets it): when the depth
   // refinement may re-solve, write the first pass's maps while it is solved

@@ -8,9 +8,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "app/controllers/map_writer.h"
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
+#include "app/io/result_maps.h"
 #include "calibration/color_science.h"
 
 namespace scanbench {

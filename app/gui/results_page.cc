@@ -14,12 +14,12 @@
 #include <QSettings>
 #include <QVBoxLayout>
 
-#include "app/controllers/albedo_color.h"
 #include "app/gui/colour_legend.h"
 #include "app/gui/export_dialog.h"
 #include "app/gui/image_view.h"
 #include "app/gui/page_widgets.h"
 #include "app/gui/relight_renderer.h"
+#include "app/io/result_maps.h"
 
 namespace scanbench {
 

@@ -133,7 +133,7 @@ void WritePngRows(const std::filesystem::path& path, const PngRowSource& rows, O
                   const ImageMetadata& metadata = {}, const PngEncoding& encoding = {});
 
 // An OpenEXR or PNG written a band of rows at a time, for maps made band by
-// band (the solve streams its maps to disk, app/controllers/map_writer.h): no
+// band (the solve streams its maps to disk, app/io/result_maps.h): no
 // full-size copy of the pixels is held. The file is the whole-image writer's
 // (WriteExr / WritePng of the same pixels, channel names, metadata and
 // encoding) byte for byte, whatever the bands. It is written under a

@@ -275,7 +275,7 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
       EXPECT_EQ(entry["format"], "html");
       continue;
     }
-    if (kind == "materialx") {  // a document, not an image (tests/app/controllers/engine_presets_test.cc)
+    if (kind == "materialx") {  // a document, not an image (tests/app/io/engine_presets_test.cc)
       EXPECT_EQ(entry["path"], "test_twill/test_twill.mtlx");
       EXPECT_EQ(entry["format"], "mtlx");
       continue;

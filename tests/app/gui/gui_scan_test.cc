@@ -20,7 +20,6 @@
 #include <cmath>
 #include <filesystem>
 
-#include "app/controllers/albedo_color.h"
 #include "app/gui/capture_page.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
@@ -30,6 +29,7 @@
 #include "app/gui/sessions_page.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
+#include "app/io/result_maps.h"
 #include "app/session/session.h"
 
 namespace scanbench {

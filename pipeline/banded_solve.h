@@ -5,7 +5,7 @@
 // pixel coordinates. Bands are whole solver tiles and whole coherent-lobe
 // blocks, and the development reads kDevelopMarginRows beyond them, so the
 // result equals SolvePhotometricStereo on the fully developed frames bit for
-// bit (tests/app/controllers/banded_solve_test.cc) while only one band of
+// bit (tests/pipeline/banded_solve_test.cc) while only one band of
 // float RGB is held: 10 lights x 128 rows x 4928 px x 3 floats = 76 MB at
 // 16 MP instead of 2 GB.
 #pragma once

@@ -1,4 +1,4 @@
-#include "app/controllers/calibrated_lighting.h"
+#include "app/session/calibrated_lighting.h"
 
 #include <cmath>
 #include <iomanip>
@@ -7,10 +7,10 @@
 #include <nlohmann/json.hpp>
 
 #include "app/io/file_util.h"
-#include "core/field_error.h"
 #include "calibration/camera_model.h"
 #include "calibration/rig_light_field.h"
 #include "calibration/sampled_light_field.h"
+#include "core/field_error.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;

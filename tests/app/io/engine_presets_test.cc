@@ -4,7 +4,7 @@
 // glTF tile checked against its maps and by the Khronos glTF-Validator, and
 // the MaterialX document of every preset parsed as XML and checked against
 // the standard library's node signatures.
-#include "app/controllers/engine_presets.h"
+#include "app/io/engine_presets.h"
 
 #include <expat.h>
 

@@ -48,7 +48,7 @@ namespace scanbench {
 // The blocks average steep walls' slopes away, so the block range reads low:
 // at 400x264 (50 x 33 blocks) 11 % below the full-size one on the +-25 mm
 // scene, 4 % on the +-2.5 mm one, both far from the 8 mm threshold
-// (tests/app/controllers/depth_refinement_test.cc).
+// (tests/pipeline/depth_refinement_test.cc).
 inline constexpr int kDepthDecisionBlockPx = 8;
 
 struct DepthRefinementOptions {

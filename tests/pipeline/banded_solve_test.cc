@@ -1,4 +1,4 @@
-#include "app/controllers/banded_solve.h"
+#include "pipeline/banded_solve.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "app/controllers/depth_refinement.h"
+#include "pipeline/depth_refinement.h"
 #include "solver/synthetic_scene.h"
 
 namespace scanbench {

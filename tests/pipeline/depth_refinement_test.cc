@@ -1,7 +1,7 @@
 // Issue #15, draped samples: the depth-aware light field on simulated folds of
 // +-25 mm against the default +-2.5 mm, at 400x264 (docs/solver.md has the
 // full-size figures).
-#include "app/controllers/depth_refinement.h"
+#include "pipeline/depth_refinement.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "app/controllers/banded_solve.h"
+#include "pipeline/banded_solve.h"
 
 #include <algorithm>
 #include <atomic>

@@ -1,4 +1,4 @@
-#include "app/controllers/map_writer.h"
+#include "app/io/result_maps.h"
 
 #include <algorithm>
 #include <array>
@@ -546,6 +546,19 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
   stream.AddBand(solution, angular_error_deg.empty() ? std::function<ImageF()>() : [&] { return angular_error_deg; },
                  threads);
   return stream.Commit();
+}
+
+ResultAlbedoColor AlbedoColorOfReport(const std::string& report_json) {
+  const nlohmann::json report = nlohmann::json::parse(report_json, nullptr, /*allow_exceptions=*/false);
+  if (!report.is_object()) throw std::runtime_error("report.json: not a JSON object");
+  ResultAlbedoColor color;
+  if (!report.contains("color") || !report.at("color").is_object()) return color;
+  const nlohmann::json& c = report.at("color");
+  color.color_space = c.value("color_space", color.color_space);
+  color.scale = c.value("scale", color.scale);
+  color.description = c.value("description", color.description);
+  color.scale_source = c.value("scale_source", color.scale_source);
+  return color;
 }
 
 }  // namespace scanbench

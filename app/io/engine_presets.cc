@@ -1,4 +1,4 @@
-#include "app/controllers/engine_presets.h"
+#include "app/io/engine_presets.h"
 
 #include <algorithm>
 #include <cmath>

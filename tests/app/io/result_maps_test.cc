@@ -1,7 +1,7 @@
 // The solution's files from a hand-made solution: the specular map (issue #13)
 // and its mark in status.png, and that nothing changes without one.
-#include "app/controllers/map_writer.h"
-#include "app/controllers/banded_solve.h"
+#include "app/io/result_maps.h"
+#include "pipeline/banded_solve.h"
 
 #include <algorithm>
 #include <cstring>

@@ -1,4 +1,4 @@
-#include "app/controllers/depth_refinement.h"
+#include "pipeline/depth_refinement.h"
 
 #include <algorithm>
 #include <array>

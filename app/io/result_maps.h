@@ -1,4 +1,5 @@
-// Writes a photometric solution as the files a material pipeline picks up.
+// A result folder's maps: writes a photometric solution as the files a
+// material pipeline picks up, and reads back what its report states.
 #pragma once
 
 #include <array>
@@ -13,10 +14,23 @@
 
 #include "app/io/image_io.h"
 
-#include "app/controllers/albedo_color.h"
+#include "pipeline/albedo_color.h"
 #include "solver/photometric_solver.h"
 
 namespace scanbench {
+
+// The albedo's colour as a result's report.json states it (its "color" object);
+// results older than issue #12 (no "color") are white-balanced camera RGB of a
+// relative scale. Read by the export and by the GUI's results page.
+struct ResultAlbedoColor {
+  std::string color_space = "camera_rgb";  // "linear_rec709" or "camera_rgb"
+  std::string scale = "relative";          // "absolute" or "relative"
+  std::string description = "not colour calibrated (the result's report names no colour space)";
+  std::string scale_source;
+};
+// From report.json's text; throws std::runtime_error when it is no JSON object.
+ResultAlbedoColor AlbedoColorOfReport(const std::string& report_json);
+
 
 // Normals in the tangent frame (x right, y up, z out of the sample) as
 // 16-bit RGB: value = (n + 1) / 2 * 65535, i.e. the OpenGL (+Y up) convention.

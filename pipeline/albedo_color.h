@@ -19,12 +19,11 @@
 #include <Eigen/Core>
 
 #include "core/image.h"
-#include "app/controllers/exact_statistics.h"
+#include "core/spill_file.h"
+#include "pipeline/error_statistics.h"
 #include "solver/angular_error.h"
 
 namespace scanbench {
-
-struct CalibrationSet;
 
 struct AlbedoColorOptions {
   enum class Source {
@@ -55,27 +54,6 @@ struct AlbedoColor {
   // report.json's "color".
   std::string ReportJson() const;
 };
-
-// The albedo's colour as a result's report.json states it (its "color" object);
-// results older than issue #12 (no "color") are white-balanced camera RGB of a
-// relative scale. Read by the export and by the GUI's results page.
-struct ResultAlbedoColor {
-  std::string color_space = "camera_rgb";  // "linear_rec709" or "camera_rgb"
-  std::string scale = "relative";          // "absolute" or "relative"
-  std::string description = "not colour calibrated (the result's report names no colour space)";
-  std::string scale_source;
-};
-// From report.json's text; throws std::runtime_error when it is no JSON object.
-ResultAlbedoColor AlbedoColorOfReport(const std::string& report_json);
-
-// Decides the albedo's colour. `set` is the calibration set the solve uses (null
-// = none); `file_camera_from_xyz` is the RAW files' camera matrix (XYZ -> camera
-// native, D65) when they carry one, `file_name` the file it was read from.
-// Throws std::runtime_error when options ask for a source that is not there.
-AlbedoColor ChooseAlbedoColor(const AlbedoColorOptions& options, const CalibrationSet* set,
-                              const std::string& set_name,
-                              const std::optional<Eigen::Matrix3d>& file_camera_from_xyz,
-                              const std::string& file_name);
 
 // albedo (3 channels) <- rec709_from_camera * albedo on the pixels where
 // `solved` is non-zero; the rest keep their fill value.
@@ -117,7 +95,7 @@ struct ComparedAlbedoPixel {
 // full-size albedo nor a full-size truth is held): AddRows for the bands in
 // order, then Finish gives exactly what CompareAlbedoColor gives on the whole
 // images. Per evaluated pixel its truth and its albedo (a ComparedAlbedoPixel,
-// 24 bytes) go to one spill file (SpillFile, exact_statistics.h), read back
+// 24 bytes) go to one spill file (SpillFile, core/spill_file.h), read back
 // by ForEachPixel (with CountPossibleRegions first, only those whose truth may
 // be a region's); their CIEDE2000 is held as a float
 // (FloatErrorStatistics: the per-pixel median and p95 are those of the

@@ -1,4 +1,4 @@
-#include "app/controllers/bench_template.h"
+#include "app/sim/bench_template.h"
 
 #include <cmath>
 
