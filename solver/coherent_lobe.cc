@@ -14,6 +14,7 @@
 
 #include "core/field_error.h"
 #include "core/format.h"
+#include "solver/levenberg_marquardt.h"
 #include "solver/pixel_solvers.h"
 #include "solver/tile_lights.h"
 #include "solver/tiled_solve.h"
@@ -740,83 +741,109 @@ class BlockRefiner {
   }
 
   // Levenberg-Marquardt on the normal (two tangent angles) with the
-  // amplitudes projected out; Tukey weights refreshed every step.
+  // amplitudes projected out (solver/levenberg_marquardt.h); Tukey weights
+  // refreshed every step.
   void SolvePixel(Pixel* p, const Shape& shape, double shared_rho_s) {
     const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
     if (!options_.per_pixel_amplitude) p->rho_s = shared_rho_s;
-    double lambda = 1e-3;
     if (normal_weights_.size() < weights_.size()) normal_weights_.resize(weights_.size());
     Evaluate(*p, p->normal, shape, at, ab, &current_);
     ProjectAmplitudes(*p, current_, weights_, &p->rho_d, &p->rho_s);
-    for (int iteration = 0; iteration < kNormalIterations; ++iteration) {
-      Reweight(*p, current_);
-      const double cost = ProjectAmplitudes(*p, current_, normal_weights_, &p->rho_d, &p->rho_s);
-      if (!std::isfinite(cost)) return;
-      const Eigen::Vector3d helper =
-          std::abs(p->normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-      const Eigen::Vector3d u1 = p->normal.cross(helper).normalized(), u2 = p->normal.cross(u1);
-      // Jacobian columns: the two angles, rho_d, rho_s.
-      if (!NormalDerivatives(*p, shape, at, ab, u1, u2)) {  // no tangent frame of its own: forward differences
-        Evaluate(*p, (p->normal + kDerivativeStep * u1).normalized(), shape, at, ab, &plus_[0]);
-        Evaluate(*p, (p->normal + kDerivativeStep * u2).normalized(), shape, at, ab, &plus_[1]);
-        for (int d = 0; d < 2; ++d) {
-          for (int i = 0; i < p->count; ++i) {
-            plus_[d].nl[i] = (plus_[d].nl[i] - current_.nl[i]) / kDerivativeStep;
-            plus_[d].s[i] = (plus_[d].s[i] - current_.s[i]) / kDerivativeStep;
-          }
-        }
-      }
-      const int params = options_.per_pixel_amplitude ? 4 : 3;
-      Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
-      Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
-      for (int i = 0; i < p->count; ++i) {
-        const double w = normal_weights_[p->first + i];
-        if (!(w > 0)) continue;
-        Eigen::Vector4d j;
-        j[2] = current_.nl[i];
-        j[3] = current_.s[i];
-        const double model = p->rho_d * j[2] + p->rho_s * j[3];
-        for (int d = 0; d < 2; ++d) j[d] = p->rho_d * plus_[d].nl[i] + p->rho_s * plus_[d].s[i];
-        const double r = model - values_[p->first + i][0];
-        hessian.noalias() += w * j * j.transpose();
-        gradient.noalias() += (w * r) * j;
-      }
-      bool accepted = false;
-      double moved = 0;
-      for (int attempt = 0; attempt < 5 && !accepted; ++attempt) {
-        Eigen::Matrix4d damped = hessian;
-        for (int i = 0; i < params; ++i) damped(i, i) += lambda * std::max(hessian(i, i), 1e-12);
-        Eigen::Vector4d step = Eigen::Vector4d::Zero();
-        step.head(params) = damped.topLeftCorner(params, params).ldlt().solve(-gradient.head(params));
-        if (!step.allFinite()) {
-          lambda *= 10;
-          continue;
-        }
-        const Eigen::Vector3d trial = (p->normal + step[0] * u1 + step[1] * u2).normalized();
-        if (!trial.allFinite()) {
-          lambda *= 10;
-          continue;
-        }
-        Evaluate(*p, trial, shape, at, ab, &trial_);
-        double rho_d = p->rho_d, rho_s = p->rho_s;
-        const double trial_cost = ProjectAmplitudes(*p, trial_, normal_weights_, &rho_d, &rho_s);
-        if (trial_cost < cost && rho_d > 0) {
-          moved = (trial - p->normal).norm();
-          p->normal = trial, p->rho_d = rho_d, p->rho_s = rho_s;
-          std::swap(current_, trial_);
-          accepted = true;
-          lambda = std::max(lambda / 3, 1e-9);
-        } else {
-          lambda *= 4;
-        }
-      }
-      if (!accepted || moved < kNormalConverged) break;
-    }
+    NormalFit fit(this, p, shape, at, ab);
+    const LevenbergMarquardtSummary summary = SolveLevenbergMarquardt(NormalFitOptions(), &fit);
+    if (summary.termination == LevenbergMarquardtSummary::Termination::kLinearizationFailed) return;
     // The amplitudes under the Tukey weights alone: what the shape fit,
     // the model selection and the albedo see.
     Reweight(*p, current_);
     ProjectAmplitudes(*p, current_, weights_, &p->rho_d, &p->rho_s);
   }
+
+  static LevenbergMarquardtOptions NormalFitOptions() {
+    LevenbergMarquardtOptions options;
+    options.max_iterations = kNormalIterations;
+    options.max_step_attempts = 5;
+    return options;
+  }
+
+  // SolvePixel's functor: the parameters are the normal's two tangent
+  // angles, rho_d and (per_pixel_amplitude) rho_s, the pixel's amplitudes
+  // re-solved at every trial; the refiner's current_ holds the terms at the
+  // current normal.
+  class NormalFit {
+   public:
+    using Hessian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 4, 4>;
+    using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 4, 1>;
+
+    NormalFit(BlockRefiner* refiner, Pixel* p, const Shape& shape, double at, double ab)
+        : r_(*refiner), p_(*p), shape_(shape), at_(at), ab_(ab), params_(r_.options_.per_pixel_amplitude ? 4 : 3) {}
+
+    bool Linearize(Hessian* jtj, Vector* jtr, double* cost) {
+      r_.Reweight(p_, r_.current_);
+      *cost = r_.ProjectAmplitudes(p_, r_.current_, r_.normal_weights_, &p_.rho_d, &p_.rho_s);
+      if (!std::isfinite(*cost)) return false;
+      const Eigen::Vector3d helper = std::abs(p_.normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+      u1_ = p_.normal.cross(helper).normalized(), u2_ = p_.normal.cross(u1_);
+      // Jacobian columns: the two angles, rho_d, rho_s.
+      if (!r_.NormalDerivatives(p_, shape_, at_, ab_, u1_, u2_)) ForwardDifferences();
+      Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
+      Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
+      for (int i = 0; i < p_.count; ++i) {
+        const double w = r_.normal_weights_[p_.first + i];
+        if (!(w > 0)) continue;
+        Eigen::Vector4d j;
+        j[2] = r_.current_.nl[i];
+        j[3] = r_.current_.s[i];
+        const double model = p_.rho_d * j[2] + p_.rho_s * j[3];
+        for (int d = 0; d < 2; ++d) j[d] = p_.rho_d * r_.plus_[d].nl[i] + p_.rho_s * r_.plus_[d].s[i];
+        const double residual = model - r_.values_[p_.first + i][0];
+        hessian.noalias() += w * j * j.transpose();
+        gradient.noalias() += (w * residual) * j;
+      }
+      *jtj = hessian.topLeftCorner(params_, params_);
+      *jtr = gradient.head(params_);
+      return true;
+    }
+
+    bool Trial(const Vector& step, double* cost) {
+      trial_normal_ = (p_.normal + step[0] * u1_ + step[1] * u2_).normalized();
+      if (!trial_normal_.allFinite()) return false;
+      r_.Evaluate(p_, trial_normal_, shape_, at_, ab_, &r_.trial_);
+      trial_rho_d_ = p_.rho_d, trial_rho_s_ = p_.rho_s;
+      const double trial_cost = r_.ProjectAmplitudes(p_, r_.trial_, r_.normal_weights_, &trial_rho_d_, &trial_rho_s_);
+      *cost = trial_rho_d_ > 0 ? trial_cost : std::numeric_limits<double>::infinity();
+      return true;
+    }
+
+    StepVerdict Take(double /*cost*/, double /*trial_cost*/) {
+      const double moved = (trial_normal_ - p_.normal).norm();
+      p_.normal = trial_normal_, p_.rho_d = trial_rho_d_, p_.rho_s = trial_rho_s_;
+      std::swap(r_.current_, r_.trial_);
+      return moved < kNormalConverged ? StepVerdict::kTakenConverged : StepVerdict::kTaken;
+    }
+
+   private:
+    // No tangent frame of its own (the normal along the azimuth): the
+    // derivatives by forward differences.
+    void ForwardDifferences() {
+      r_.Evaluate(p_, (p_.normal + kDerivativeStep * u1_).normalized(), shape_, at_, ab_, &r_.plus_[0]);
+      r_.Evaluate(p_, (p_.normal + kDerivativeStep * u2_).normalized(), shape_, at_, ab_, &r_.plus_[1]);
+      for (int d = 0; d < 2; ++d) {
+        for (int i = 0; i < p_.count; ++i) {
+          r_.plus_[d].nl[i] = (r_.plus_[d].nl[i] - r_.current_.nl[i]) / kDerivativeStep;
+          r_.plus_[d].s[i] = (r_.plus_[d].s[i] - r_.current_.s[i]) / kDerivativeStep;
+        }
+      }
+    }
+
+    BlockRefiner& r_;
+    Pixel& p_;
+    const Shape& shape_;
+    const double at_, ab_;
+    const int params_;
+    Eigen::Vector3d u1_, u2_;  // the tangent basis of the last linearization
+    Eigen::Vector3d trial_normal_;
+    double trial_rho_d_ = 0, trial_rho_s_ = 0;
+  };
 
   // ---- one group ---------------------------------------------------------
 
