@@ -14,6 +14,7 @@
 
 #include "core/field_error.h"
 #include "core/format.h"
+#include "solver/block_refiner.h"
 #include "solver/levenberg_marquardt.h"
 #include "solver/pixel_solvers.h"
 #include "solver/tile_lights.h"
@@ -186,26 +187,68 @@ class BlockRefiner {
     double anisotropy_sum = 0;
   };
 
-  void Refine(int x0, int y0, int x1, int y1, Counts* counts) {
+  // ---- the steps of RefineBlock (solver/block_refiner.h) ----------------
+
+  // The block's solved pixels and their samples, where it has min_pixels
+  // lobe pixels.
+  bool CollectBlock(int x0, int y0, int x1, int y1, Counts* counts) {
     int lobe_pixels = 0;
     for (int y = y0; y < y1; ++y) {
       for (int x = x0; x < x1; ++x) lobe_pixels += HasLobe(x, y);
     }
     counts->supported += lobe_pixels;
-    if (lobe_pixels < options_.min_pixels || !Collect(x0, y0, x1, y1)) return;
+    return lobe_pixels >= options_.min_pixels && Collect(x0, y0, x1, y1);
+  }
+
+  int GroupByAlbedo() {
     SplitByAlbedo();
-    for (int g = 0; g < num_clusters_; ++g) {
-      group_.clear();
-      int group_lobes = 0;
-      for (size_t i = 0; i < pixels_.size(); ++i) {
-        if (cluster_[i] != g) continue;
-        group_.push_back(static_cast<int>(i));
-        group_lobes += pixels_[i].own_alpha > 0;
+    return num_clusters_;
+  }
+
+  // The group's own pixels must show the lobe: a lobe pixel of one colour
+  // does not make one for a neighbour of another.
+  bool GatherGroup(int g) {
+    group_.clear();
+    int group_lobes = 0;
+    for (size_t i = 0; i < pixels_.size(); ++i) {
+      if (cluster_[i] != g) continue;
+      group_.push_back(static_cast<int>(i));
+      group_lobes += pixels_[i].own_alpha > 0;
+    }
+    return !(2 * group_lobes < options_.min_pixels || static_cast<int>(group_.size()) < options_.min_pixels);
+  }
+
+  // The group's lobe (shape, F0, diffuse term) and every pixel's normal and
+  // amplitudes under it; false when the group shows no lobe.
+  bool FitGroup(Counts* counts) {
+    ChooseFitPixels();
+    if (!ChooseDiffuseTerm(&group_shape_, &group_rho_s_)) return false;
+    if (options_.iterations == 1) {
+      for (int index : group_) SolvePixel(&pixels_[index], group_shape_, group_rho_s_);
+    }
+    for (int iteration = 1; iteration < options_.iterations; ++iteration) {
+      group_shape_ = FitShape(group_shape_, false, &group_rho_s_);
+      if (!options_.per_pixel_amplitude && !(group_rho_s_ > 0)) return false;  // no lobe for the group
+      // Only the pixels the shape is fitted on need their normals before the
+      // last alternation.
+      const bool last = iteration + 1 == options_.iterations;
+      for (int index : last ? group_ : fit_) SolvePixel(&pixels_[index], group_shape_, group_rho_s_);
+    }
+    ++counts->groups;
+    counts->fresnel_groups += fresnel_;
+    counts->anisotropy_sum += std::exp(std::abs(group_shape_.log_alpha_b - group_shape_.log_alpha_t));
+    return true;
+  }
+
+  // Each pixel takes the group's lobe where Select prefers it.
+  void WriteGroup(Counts* counts) {
+    for (int index : group_) {
+      if (Select(pixels_[index], group_shape_)) {
+        ++counts->refined;
+        if (bayer_job_ != nullptr) counts->bayer += ResolveBayer(pixels_[index], group_shape_, group_rho_s_);
+      } else {
+        ++counts->kept;
       }
-      // The group's own pixels must show the lobe: a lobe pixel of one
-      // colour does not make one for a neighbour of another.
-      if (2 * group_lobes < options_.min_pixels || static_cast<int>(group_.size()) < options_.min_pixels) continue;
-      RefineGroup(counts);
     }
   }
 
@@ -879,8 +922,8 @@ class BlockRefiner {
     return sum;
   }
 
-  void RefineGroup(Counts* counts) {
-    // The shape is fitted on an even spread of the group's pixels.
+  // The pixels the shape is fitted on: an even spread of the group's.
+  void ChooseFitPixels() {
     fit_.clear();
     const int n = static_cast<int>(group_.size());
     const int fit_count = std::min(n, options_.max_fit_pixels);
@@ -889,10 +932,15 @@ class BlockRefiner {
       fit_positions_.push_back(static_cast<size_t>(i) * n / fit_count);
       fit_.push_back(group_[fit_positions_.back()]);
     }
-    // Which diffuse term (Lambert's or the Fresnel-transmitted one) the
-    // group's samples support: the first alternation (shape grid and the fit
-    // pixels' re-solve) under each; the lower residual on the samples both
-    // keep wins (the same parameters either way).
+  }
+
+  // Which diffuse term (Lambert's or the Fresnel-transmitted one) the
+  // group's samples support: the first alternation (shape grid and the fit
+  // pixels' re-solve) under each; the lower residual on the samples both
+  // keep wins (the same parameters either way). Its shape and F0 into
+  // *shape and *rho_s, fresnel_ set, the pixels and weights its; false when
+  // neither shows a lobe.
+  bool ChooseDiffuseTerm(Shape* shape, double* rho_s) {
     saved_pixels_.clear();
     for (int index : group_) saved_pixels_.push_back(pixels_[index]);
     saved_weights_ = weights_;
@@ -921,37 +969,16 @@ class BlockRefiner {
       cost[0] += FitResidual(chosen_pixels_[i], shapes[0], rho_ss[0], false);
       cost[1] += FitResidual(pixels_[fit_[f]], shapes[1], rho_ss[1], true);
     }
-    if (!has_lobe[0] && !has_lobe[1]) return;  // no lobe for the group
+    if (!has_lobe[0] && !has_lobe[1]) return false;  // no lobe for the group
     const int chosen = !has_lobe[0] ? 1 : !has_lobe[1] ? 0 : cost[1] < kFresnelMargin * cost[0] ? 1 : 0;
     fresnel_ = chosen == 1;
     if (chosen == 0 && variants == 2) {
       for (size_t i = 0; i < group_.size(); ++i) pixels_[group_[i]] = chosen_pixels_[i];
       weights_.swap(chosen_weights_);
     }
-    Shape shape = shapes[chosen];
-    double rho_s = rho_ss[chosen];
-    if (options_.iterations == 1) {
-      for (int index : group_) SolvePixel(&pixels_[index], shape, rho_s);
-    }
-    for (int iteration = 1; iteration < options_.iterations; ++iteration) {
-      shape = FitShape(shape, false, &rho_s);
-      if (!options_.per_pixel_amplitude && !(rho_s > 0)) return;  // no lobe for the group
-      // Only the pixels the shape is fitted on need their normals before the
-      // last alternation.
-      const bool last = iteration + 1 == options_.iterations;
-      for (int index : last ? group_ : fit_) SolvePixel(&pixels_[index], shape, rho_s);
-    }
-    ++counts->groups;
-    counts->fresnel_groups += fresnel_;
-    counts->anisotropy_sum += std::exp(std::abs(shape.log_alpha_b - shape.log_alpha_t));
-    for (int index : group_) {
-      if (Select(pixels_[index], shape)) {
-        ++counts->refined;
-        if (bayer_job_ != nullptr) counts->bayer += ResolveBayer(pixels_[index], shape, rho_s);
-      } else {
-        ++counts->kept;
-      }
-    }
+    *shape = shapes[chosen];
+    *rho_s = rho_ss[chosen];
+    return true;
   }
 
   // Model selection on the pixel's final weighted samples: the shared-lobe
@@ -1110,6 +1137,8 @@ class BlockRefiner {
   int num_clusters_ = 1;  // of the current block (SplitByAlbedo)
   std::vector<size_t> fit_positions_;  // of fit_'s pixels in group_
   bool fresnel_ = false;               // the current group's diffuse term (DiffuseCosine)
+  Shape group_shape_;                  // the current group's lobe (FitGroup)
+  double group_rho_s_ = 0;             // and its F0 (unless per pixel)
   std::vector<Pixel> saved_pixels_, chosen_pixels_;
   std::vector<double> saved_weights_, chosen_weights_;
   std::vector<FitPixel> fit_pixels_;
@@ -1168,6 +1197,68 @@ std::string CoherentLobeSummary::BriefReport() const {
   return out.str();
 }
 
+namespace {
+
+// The lobe mosaics (input.lobe_mosaics, with input.lobe_bayer) fit the
+// images; *input.lobe_bayer emptied. Throws std::invalid_argument.
+void CheckLobeMosaics(const PhotometricSolverInput& input) {
+  if ((input.lobe_bayer == nullptr) != (input.lobe_mosaics == nullptr)) {
+    throw std::invalid_argument("coherent lobe: lobe_mosaics and lobe_bayer must be given together");
+  }
+  if (input.lobe_mosaics == nullptr) return;
+  const int width = input.light_field->width(), height = input.light_field->height();
+  const BayerSolverInput& bayer = *input.lobe_mosaics;
+  if (bayer.mosaics.size() != input.images.size()) {
+    throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.mosaics.size()) + " lobe mosaics for " +
+                                std::to_string(input.images.size()) + " images");
+  }
+  for (size_t k = 0; k < bayer.mosaics.size(); ++k) {
+    if (bayer.mosaics[k] == nullptr || bayer.mosaics[k]->channels() != 1 ||
+        !bayer.mosaics[k]->SameSize(width, height)) {
+      throw std::invalid_argument("coherent lobe: lobe mosaic " + std::to_string(k) + " must be a 1-channel image of " +
+                                  std::to_string(width) + " x " + std::to_string(height));
+    }
+  }
+  if (!bayer.sample_valid.empty() && bayer.sample_valid.size() != bayer.mosaics.size()) {
+    throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.sample_valid.size()) +
+                                " lobe mosaic sample masks for " + std::to_string(bayer.mosaics.size()) + " mosaics");
+  }
+  for (int p = 0; p < 4; ++p) {
+    if (bayer.cfa_channels[p] < 0 || bayer.cfa_channels[p] > 2) {
+      throw std::invalid_argument("coherent lobe: lobe mosaics' cfa_channels[" + std::to_string(p) + "] = " +
+                                  std::to_string(bayer.cfa_channels[p]) + " must be 0, 1 or 2");
+    }
+  }
+  *input.lobe_bayer = PhotometricSolution();
+}
+
+// The Bayer-domain re-solves' job into *job, its output *input.lobe_bayer
+// made: every pixel not solved until one is.
+void MakeBayerLobeJob(const PhotometricSolverOptions& solver_options, const PhotometricSolverInput& input,
+                      tiled::SolveJob* job) {
+  const int width = input.light_field->width(), height = input.light_field->height();
+  const BayerSolverInput& bayer = *input.lobe_mosaics;
+  PhotometricSolution& out = *input.lobe_bayer;
+  out.normal_in_table = ImageF(width, height, 3, 0.0f);
+  for (size_t i = 0; i < out.normal_in_table.num_pixels(); ++i) out.normal_in_table.data()[3 * i + 2] = 1;
+  out.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
+  out.lights_used = ImageU8(width, height, 1, uint8_t{0});
+  out.residual = ImageF(width, height, 1, 0.0f);
+  job->options = &solver_options;
+  job->field = input.light_field;
+  job->images = &bayer.mosaics;
+  job->sample_valid = &bayer.sample_valid;
+  job->region = input.region;
+  job->bayer = true;
+  job->cfa_channels = bayer.cfa_channels;
+  job->num_lights = input.light_field->num_lights();
+  job->with_albedo = false;
+  job->with_confidence = true;
+  job->solution = input.lobe_bayer;
+}
+
+}  // namespace
+
 CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
                                        const PhotometricSolverOptions& solver_options,
                                        const PhotometricSolverInput& input, PhotometricSolution* solution,
@@ -1177,66 +1268,17 @@ CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
   const auto start = std::chrono::steady_clock::now();
   CoherentLobeSummary summary;
   tiled::CheckRgbRefinementInput("coherent lobe", input, solution);
+  CheckLobeMosaics(input);
   const int width = input.light_field->width(), height = input.light_field->height();
-  // The Bayer-domain re-solves' output: every pixel not solved until one is.
-  tiled::SolveJob bayer_job;
-  const bool with_bayer = input.lobe_mosaics != nullptr;
-  if ((input.lobe_bayer == nullptr) != !with_bayer) {
-    throw std::invalid_argument("coherent lobe: lobe_mosaics and lobe_bayer must be given together");
-  }
-  if (with_bayer) {
-    const BayerSolverInput& bayer = *input.lobe_mosaics;
-    if (bayer.mosaics.size() != input.images.size()) {
-      throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.mosaics.size()) + " lobe mosaics for " +
-                                  std::to_string(input.images.size()) + " images");
-    }
-    for (size_t k = 0; k < bayer.mosaics.size(); ++k) {
-      if (bayer.mosaics[k] == nullptr || bayer.mosaics[k]->channels() != 1 ||
-          !bayer.mosaics[k]->SameSize(width, height)) {
-        throw std::invalid_argument("coherent lobe: lobe mosaic " + std::to_string(k) + " must be a 1-channel image of " +
-                                    std::to_string(width) + " x " + std::to_string(height));
-      }
-    }
-    if (!bayer.sample_valid.empty() && bayer.sample_valid.size() != bayer.mosaics.size()) {
-      throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.sample_valid.size()) +
-                                  " lobe mosaic sample masks for " + std::to_string(bayer.mosaics.size()) + " mosaics");
-    }
-    for (int p = 0; p < 4; ++p) {
-      if (bayer.cfa_channels[p] < 0 || bayer.cfa_channels[p] > 2) {
-        throw std::invalid_argument("coherent lobe: lobe mosaics' cfa_channels[" + std::to_string(p) + "] = " +
-                                    std::to_string(bayer.cfa_channels[p]) + " must be 0, 1 or 2");
-      }
-    }
-    PhotometricSolution& out = *input.lobe_bayer;
-    out = PhotometricSolution();
-  }
-  // The output maps only where a block may fit a lobe: a Lambertian scene
-  // (no or a few lobe pixels) pays a scan of the status map, no allocation.
-  const bool may_fit = with_bayer && !solution->specular_status.empty() &&
+  // The Bayer output maps only where a block may fit a lobe: a Lambertian
+  // scene (no or a few lobe pixels) pays a scan of the status map, no allocation.
+  const bool may_fit = input.lobe_mosaics != nullptr && !solution->specular_status.empty() &&
                        input.light_field->num_lights() <= options.max_lights &&
                        std::count(solution->specular_status.data(),
                                   solution->specular_status.data() + solution->specular_status.size(),
                                   static_cast<uint8_t>(SpecularStatus::kEstimated)) >= options.min_pixels;
-  if (may_fit) {
-    const BayerSolverInput& bayer = *input.lobe_mosaics;
-    PhotometricSolution& out = *input.lobe_bayer;
-    out.normal_in_table = ImageF(width, height, 3, 0.0f);
-    for (size_t i = 0; i < out.normal_in_table.num_pixels(); ++i) out.normal_in_table.data()[3 * i + 2] = 1;
-    out.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
-    out.lights_used = ImageU8(width, height, 1, uint8_t{0});
-    out.residual = ImageF(width, height, 1, 0.0f);
-    bayer_job.options = &solver_options;
-    bayer_job.field = input.light_field;
-    bayer_job.images = &bayer.mosaics;
-    bayer_job.sample_valid = &bayer.sample_valid;
-    bayer_job.region = input.region;
-    bayer_job.bayer = true;
-    bayer_job.cfa_channels = bayer.cfa_channels;
-    bayer_job.num_lights = input.light_field->num_lights();
-    bayer_job.with_albedo = false;
-    bayer_job.with_confidence = true;
-    bayer_job.solution = input.lobe_bayer;
-  }
+  tiled::SolveJob bayer_job;
+  if (may_fit) MakeBayerLobeJob(solver_options, input, &bayer_job);
   if (input.light_field->num_lights() > options.max_lights) {
     summary.termination = Termination::kSuccess;
     summary.skipped_lights = true;
@@ -1257,18 +1299,9 @@ CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
 
   const tiled::SolveJob job =
       tiled::RgbSolveJob(solver_options, input, solution, /*with_albedo=*/true, !solution->residual.empty());
-
-  const int num_workers = tiled::BlockPassWorkers(options.num_threads, width, height, options.block_size);
-  std::vector<std::unique_ptr<BlockRefiner>> workers(num_workers);
-  std::vector<BlockRefiner::Counts> counts(num_workers);
-  tiled::RunBlockPass(
-      width, height, options.block_size, num_workers,
-      [&](int x0, int y0, int x1, int y1, int worker) {
-        if (!workers[worker]) {
-          workers[worker] = std::make_unique<BlockRefiner>(options, solver_options, job, may_fit ? &bayer_job : nullptr);
-        }
-        workers[worker]->Refine(x0, y0, x1, y1, &counts[worker]);
-      },
+  const std::vector<BlockRefiner::Counts> counts = tiled::RunBlockRefiners<BlockRefiner>(
+      width, height, options.block_size, options.num_threads,
+      [&] { return std::make_unique<BlockRefiner>(options, solver_options, job, may_fit ? &bayer_job : nullptr); },
       progress, &summary);
   double anisotropy_sum = 0;
   for (const auto& c : counts) {
