@@ -33,14 +33,6 @@ constexpr double kLobeLogAlphaStep = 1e-2;  // and of log alpha (1 %)
 constexpr double kLobeAlbedoResidual = 2.0;
 constexpr double kLobeAlphaStarts[] = {0.04, 0.1, 0.25, 0.5};
 
-// Phase 3: Levenberg-Marquardt steps (Tukey weights refreshed at each).
-LevenbergMarquardtOptions LobeRefinementOptions() {
-  LevenbergMarquardtOptions options;
-  options.max_iterations = 30;
-  options.max_step_attempts = 6;
-  return options;
-}
-
 struct LobeParams {
   Eigen::Vector3d normal;
   double rho_d = 0, rho_s = 0, log_alpha = 0;
@@ -87,15 +79,17 @@ class LobeFit {
   using Vector = Eigen::Matrix<double, 5, 1>;
 
   // Phase 1: the half vectors and the samples the fit may use (dark_fraction;
-  // none without a half vector).
-  LobeFit(const PixelSamples& samples, const Eigen::Vector3d& view, const RobustFitOptions& options,
-          double floor_scale, LobeScratch* scratch)
+  // none without a half vector). `albedo`: the robust Lambertian fit's, for
+  // the noise floor.
+  LobeFit(const PixelSamples& samples, const Eigen::Vector3d& view, const RobustFitOptions& options, double albedo,
+          LobeScratch* scratch)
       : samples_(samples),
         m_(samples.count()),
         v_(samples.value_data()),
         view_(UnitViewOrZ(view)),
         width_(options.width > 0 ? options.width : kTukeyWidth),
-        floor_scale_(floor_scale),
+        min_scale_(options.min_scale),
+        floor_scale_(options.min_scale * albedo),
         s_(*scratch) {
     BaseWeights(samples, options.dark_fraction, &s_.base);
     HalfVectors(samples, view_, &s_.halves, &s_.base);
@@ -126,17 +120,22 @@ class LobeFit {
       const double rho = TukeyCost(p, alpha2, scale);
       if (rho < best_cost) best_cost = rho, p_ = p;
     }
-    return std::isfinite(best_cost);
-  }
-
-  // Phase 3: Levenberg-Marquardt from the start. Each linearization's one
-  // pass over the samples gives the residuals, their Tukey weights (scale:
-  // 1.4826 MAD of the same residuals, floored), the cost and the normal
-  // equations; a step is taken when it lowers the cost under those weights.
-  void Refine() {
+    if (!std::isfinite(best_cost)) return false;
     s_.residual_of.assign(m_, 0.0);
     s_.weights.assign(m_, 0.0);
-    SolveLevenbergMarquardt(LobeRefinementOptions(), this);
+    return true;
+  }
+
+  // Phase 3: Levenberg-Marquardt from the start (this class its functor).
+  // Each linearization's one pass over the samples gives the residuals,
+  // their Tukey weights (scale: 1.4826 MAD of the same residuals, floored),
+  // the cost and the normal equations; a step is taken when it lowers the
+  // cost under those weights.
+  static LevenbergMarquardtOptions RefinementOptions() {
+    LevenbergMarquardtOptions options;
+    options.max_iterations = 30;
+    options.max_step_attempts = 6;
+    return options;
   }
 
   // Phase 4: on the final weighted samples the lobe's residual against the
@@ -153,7 +152,7 @@ class LobeFit {
   }
 
   // Phase 5: the lobe's result over the robust Lambertian `start`.
-  PixelFit Result(const PixelFit& start, bool with_albedo, double min_scale) const {
+  PixelFit Result(const PixelFit& start, bool with_albedo) const {
     PixelFit fit = start;
     fit.normal = p_.normal;
     fit.luminance_albedo = p_.rho_d;
@@ -171,7 +170,7 @@ class LobeFit {
     // error's p95 went from 0.060 to 0.136), so the albedo stays the robust
     // Lambertian fit's (fit = start): its Tukey weights drop the highlight
     // samples and what is left reads the diffuse colour.
-    const bool lobe_fits_to_noise = fit.residual <= kLobeAlbedoResidual * min_scale;
+    const bool lobe_fits_to_noise = fit.residual <= kLobeAlbedoResidual * min_scale_;
     if (with_albedo && lobe_fits_to_noise) {
       ColourAlbedo(
           samples_, s_.weights, p_.normal,
@@ -317,6 +316,7 @@ class LobeFit {
   const double* v_;  // the readings, 4 per sample (luminance first)
   const Eigen::Vector3d view_;
   const double width_;        // Tukey width in residual scales
+  const double min_scale_;    // RobustFitOptions::min_scale
   const double floor_scale_;  // residual scale floor: min_scale x the Lambertian albedo
   LobeScratch& s_;
   const double min_log_alpha_ = std::log(kLobeMinAlpha), max_log_alpha_ = std::log(kLobeMaxAlpha);
@@ -333,11 +333,8 @@ PixelFit FitDiffuseLobe(const PixelSamples& samples, const Eigen::Vector3d& view
   start.specular_status = start.status == PixelStatus::kSolved ? SpecularStatus::kUnsupported : SpecularStatus::kNotSolved;
   if (start.status != PixelStatus::kSolved || samples.count() < kLobeMinSamples) return start;
   thread_local LobeScratch scratch;
-  LobeFit lobe(samples, view, options, options.min_scale * start.luminance_albedo, &scratch);
-  if (!lobe.Start(start)) return start;
-  lobe.Refine();
-  if (!lobe.Selected(limits)) return start;
-  return lobe.Result(start, with_albedo, options.min_scale);
+  LobeFit lobe(samples, view, options, start.luminance_albedo, &scratch);
+  return FitDiffuseAndTerm(&lobe, start, limits, with_albedo);
 }
 
 }  // namespace scanbench

@@ -33,18 +33,6 @@ constexpr double kSheenNormalStep = 2e-4;  // rad (0.01 deg): a smaller step of 
 // quantisation of a 14-bit reading of a mid-grey the residual is not evidence.
 constexpr double kSheenResidualFloor = 1e-3;
 
-// Phase 3: Gauss-Newton with a light fixed damping (the width is poorly
-// constrained where the sheen is weak); a step is halved until it does not
-// raise the cost.
-LevenbergMarquardtOptions SheenRefinementOptions() {
-  LevenbergMarquardtOptions options;
-  options.damping = LevenbergMarquardtOptions::Damping::kFixedWithBacktracking;
-  options.max_iterations = 12;
-  options.max_step_attempts = 5;
-  options.accept_equal_cost = true;
-  return options;
-}
-
 // S (VelvetSheenShape) and, if asked, dS/dn and dS/d log a.
 struct SheenTerm {
   double s = 0;
@@ -128,9 +116,19 @@ class SheenFit {
     return std::isfinite(cost_) && p_.rho_s > 0;
   }
 
-  // Phase 3: over the normal (two tangent angles), both amplitudes and log a;
-  // a step is tried with the amplitudes re-solved (variable projection).
-  void Refine() { SolveLevenbergMarquardt(SheenRefinementOptions(), this); }
+  // Phase 3 (this class its functor): over the normal (two tangent angles),
+  // both amplitudes and log a, a step tried with the amplitudes re-solved
+  // (variable projection). Gauss-Newton with a light fixed damping (the
+  // width is poorly constrained where the sheen is weak); a step is halved
+  // until it does not raise the cost.
+  static LevenbergMarquardtOptions RefinementOptions() {
+    LevenbergMarquardtOptions options;
+    options.damping = LevenbergMarquardtOptions::Damping::kFixedWithBacktracking;
+    options.max_iterations = 12;
+    options.max_step_attempts = 5;
+    options.accept_equal_cost = true;
+    return options;
+  }
 
   // Phase 4: the Lambertian least squares on the same samples (those lit at
   // the sheen's normal) against the sheen, by BIC (amplitude and width;
@@ -312,10 +310,7 @@ PixelFit FitDiffuseSheen(const PixelSamples& samples, const Eigen::Vector3d& vie
   if (start.status != PixelStatus::kSolved || samples.count() < kSheenMinSamples) return start;
   thread_local SheenScratch scratch;
   SheenFit sheen(samples, view, &scratch);
-  if (!sheen.Start(start)) return start;
-  sheen.Refine();
-  if (!sheen.Selected(limits)) return start;
-  return sheen.Result(start, with_albedo);
+  return FitDiffuseAndTerm(&sheen, start, limits, with_albedo);
 }
 
 }  // namespace scanbench

@@ -11,6 +11,7 @@
 
 #include <Eigen/Dense>
 
+#include "solver/levenberg_marquardt.h"
 #include "solver/pixel_solvers.h"
 
 namespace scanbench::pixel_fit {
@@ -137,7 +138,23 @@ inline double TukeyWeight(double r, double width_scale) {
 // angles), both amplitudes and the shape (solver/levenberg_marquardt.h),
 // 4. the selection (the term kept only where BIC prefers it to the Lambertian
 // fit of the same samples), 5. the result (normal, amplitudes, shape, and the
-// colour albedo with the term fixed). What they share is below.
+// colour albedo with the term fixed). What they share is below, the phases'
+// order first.
+
+// Phases 2 to 5 of `fit` (phase 1 is its constructor); `start` wherever the
+// term is not kept. A TermFit provides
+//   bool Start(const PixelFit& start);   // false: no usable start
+//   static LevenbergMarquardtOptions RefinementOptions();
+//   Linearize, Trial and Take (the functor of solver/levenberg_marquardt.h)
+//   bool Selected(const PixelFitLimits& limits);
+//   PixelFit Result(const PixelFit& start, bool with_albedo) const;
+template <typename TermFit>
+PixelFit FitDiffuseAndTerm(TermFit* fit, const PixelFit& start, const PixelFitLimits& limits, bool with_albedo) {
+  if (!fit->Start(start)) return start;
+  SolveLevenbergMarquardt(TermFit::RefinementOptions(), fit);
+  if (!fit->Selected(limits)) return start;
+  return fit->Result(start, with_albedo);
+}
 
 // The view direction made unit; +z when it is not usable.
 inline Eigen::Vector3d UnitViewOrZ(const Eigen::Vector3d& view) {
