@@ -16,6 +16,7 @@
 #include "core/format.h"
 #include "solver/block_refiner.h"
 #include "solver/levenberg_marquardt.h"
+#include "solver/pixel_fit_internal.h"
 #include "solver/pixel_solvers.h"
 #include "solver/tile_lights.h"
 #include "solver/tiled_solve.h"
@@ -23,11 +24,17 @@
 namespace scanbench {
 namespace {
 
+using pixel_fit::AmplitudeSums;
+using pixel_fit::kMadToSigma;
+using pixel_fit::kMinViewCosine;
+using pixel_fit::kTukeyWidth;
+using pixel_fit::kUsedWeight;
+using pixel_fit::MedianAbs;
+using pixel_fit::TangentBasis;
+using pixel_fit::TukeyWeight;
+using pixel_fit::UnitViewOrZ;
+
 constexpr const char* kOptions = "CoherentLobeOptions";
-constexpr double kTukeyWidth = 4.685;      // 95 % efficiency under Gaussian noise
-constexpr double kMadToSigma = 1.4826;     // median absolute deviation -> standard deviation
-constexpr double kMinViewCosine = 0.1;     // n . v floor, as FitDiffuseLobe's
-constexpr double kUsedWeight = 0.01;       // a sample with a larger weight counts as used
 constexpr int kMinSamples = 6;             // per pixel: 3 or 4 parameters and spares
 // Levenberg-Marquardt steps of one pixel's re-solve: 4 would save 6 % of the
 // pass for satin +0.002 deg and bear at 10 lights +0.01 (docs/solver.md).
@@ -118,22 +125,11 @@ double ShapeTerm(const Eigen::Vector3d& n, const Eigen::Vector3d& t, const Eigen
   return s * g;
 }
 
-double TukeyWeight(double r, double width_scale) {
-  const double u = r / width_scale;
-  const double t = 1 - u * u;
-  return t > 0 ? t * t : 0.0;
-}
-
-double Median(std::vector<double>* values) {
-  if (values->empty()) return 0;
-  auto middle = values->begin() + values->size() / 2;
-  std::nth_element(values->begin(), middle, values->end());
-  return *middle;
-}
-
 // Weighted least squares b ~ d a + s c with s >= 0 (diffuse and lobe
-// amplitudes); sums of w a^2, w a c, w c^2, w a b, w c b. False when singular.
-bool NonNegativeLobeAmplitudes(double aa, double ac, double cc, double ab, double cb, double* d, double* s) {
+// amplitudes): s from both, clamped at 0, then d given s (not
+// SolveAmplitudes' re-solve of d alone at the bound). False when singular.
+bool NonNegativeLobeAmplitudes(const AmplitudeSums& sums, double* d, double* s) {
+  const double aa = sums.aa, ac = sums.ac, cc = sums.cc, ab = sums.ab, cb = sums.cb;
   if (!(aa > 0)) return false;
   const double det = aa * cc - ac * ac;
   *s = det > 1e-12 * aa * cc ? (aa * cb - ac * ab) / det : 0.0;
@@ -303,7 +299,7 @@ class BlockRefiner {
         float view[3];
         job_.field->ViewDirection(x, y, view);
         p.view = Eigen::Vector3d(view[0], view[1], view[2]);
-        p.view = p.view.allFinite() && p.view.norm() > 0 ? p.view.normalized() : Eigen::Vector3d::UnitZ();
+        p.view = UnitViewOrZ(p.view);
         p.own_normal = Eigen::Vector3d(s.normal_in_table(x, y, 0), s.normal_in_table(x, y, 1),
                                        s.normal_in_table(x, y, 2)).normalized();
         p.normal = p.own_normal;
@@ -545,9 +541,10 @@ class BlockRefiner {
         }
       }
       if (options_.per_pixel_amplitude) {
+        const AmplitudeSums sums{f.aa, ac, cc, f.a_b, c_b, f.bb};
         double d = 0, s = 0;
-        if (!NonNegativeLobeAmplitudes(f.aa, ac, cc, f.a_b, c_b, &d, &s)) continue;
-        own += std::max(0.0, f.bb - 2 * (d * f.a_b + s * c_b) + d * d * f.aa + 2 * d * s * ac + s * s * cc);
+        if (!NonNegativeLobeAmplitudes(sums, &d, &s)) continue;
+        own += sums.Cost(d, s);
       } else {
         big_a += cc - ac * ac / f.aa;
         big_b += c_b - ac * f.a_b / f.aa;
@@ -670,23 +667,23 @@ class BlockRefiner {
   // unsolvable.
   double ProjectAmplitudes(const Pixel& p, const Terms& terms, const std::vector<double>& weights, double* rho_d,
                            double* rho_s) const {
-    double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
+    AmplitudeSums sums;
     for (int i = 0; i < p.count; ++i) {
       const int k = p.first + i;
       const double w = weights[k];
       if (!(w > 0)) continue;
       const double value = values_[k][0], nl = terms.nl[i], s = terms.s[i];
-      bb += w * value * value;
-      aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
+      sums.bb += w * value * value;
+      sums.aa += w * nl * nl, sums.ac += w * nl * s, sums.cc += w * s * s;
+      sums.ab += w * nl * value, sums.cb += w * s * value;
     }
-    if (!(aa > 0)) return std::numeric_limits<double>::infinity();
+    if (!(sums.aa > 0)) return std::numeric_limits<double>::infinity();
     if (options_.per_pixel_amplitude) {
-      if (!NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, rho_d, rho_s)) return std::numeric_limits<double>::infinity();
+      if (!NonNegativeLobeAmplitudes(sums, rho_d, rho_s)) return std::numeric_limits<double>::infinity();
     } else {
-      *rho_d = (a_b - *rho_s * ac) / aa;
+      *rho_d = (sums.ab - *rho_s * sums.ac) / sums.aa;
     }
-    const double d = *rho_d, s = *rho_s;
-    return std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
+    return sums.Cost(*rho_d, *rho_s);
   }
 
   // Tukey weights of `p` at its current model (scale: 1.4826 MAD, floored at
@@ -704,7 +701,7 @@ class BlockRefiner {
       abs_residuals_.push_back(std::abs(p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0]));
     }
     const double scale =
-        std::max(kMadToSigma * Median(&abs_residuals_), solver_.robust_min_scale * std::max(p.rho_d, 1e-6));
+        std::max(kMadToSigma * MedianAbs(&abs_residuals_), solver_.robust_min_scale * std::max(p.rho_d, 1e-6));
     for (int i = 0; i < p.count; ++i) {
       const double r = p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0];
       const double w = terms.nl[i] > 0 ? TukeyWeight(r, width_ * scale) : 0.0;
@@ -824,8 +821,7 @@ class BlockRefiner {
       r_.Reweight(p_, r_.current_);
       *cost = r_.ProjectAmplitudes(p_, r_.current_, r_.normal_weights_, &p_.rho_d, &p_.rho_s);
       if (!std::isfinite(*cost)) return false;
-      const Eigen::Vector3d helper = std::abs(p_.normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-      u1_ = p_.normal.cross(helper).normalized(), u2_ = p_.normal.cross(u1_);
+      TangentBasis(p_.normal, &u1_, &u2_);
       // Jacobian columns: the two angles, rho_d, rho_s.
       if (!r_.NormalDerivatives(p_, shape_, at_, ab_, u1_, u2_)) ForwardDifferences();
       Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
@@ -1012,27 +1008,7 @@ class BlockRefiner {
     }
     // Its own result under the same weights.
     const bool own_lobe = p.own_alpha > 0;
-    double own_rss = std::numeric_limits<double>::infinity();
-    {
-      Eigen::Vector3d ot, ob;
-      TangentFrame(p.own_normal, Eigen::Vector3d::UnitX(), &ot, &ob);  // isotropic: any tangent
-      const double alpha = own_lobe ? p.own_alpha : 1.0;
-      double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
-      for (int k = p.first; k < p.first + p.count; ++k) {
-        const double w = weights_[k];
-        if (!(w > 0)) continue;
-        const double value = values_[k][0];
-        const double nl = std::max(0.0, p.own_normal.dot(lights_k_[k]));
-        const double s = own_lobe ? ShapeTerm(p.own_normal, ot, ob, halves_[k], lights_k_[k], p.view, alpha, alpha, false) : 0.0;
-        aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
-        bb += w * value * value;
-      }
-      double d = 0, s = 0;
-      if (own_lobe ? NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, &d, &s) : aa > 0) {
-        if (!own_lobe) d = a_b / aa, s = 0;
-        own_rss = std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
-      }
-    }
+    const double own_rss = OwnRss(p);
     const double noise = solver_.robust_min_scale * p.rho_d;
     const double noise_rss = weight_sum * noise * noise;
     // The shared lobe must lower the residual, both floored at the noise: BIC
@@ -1046,6 +1022,32 @@ class BlockRefiner {
     if (!(shared_floored < own_floored || (!own_lobe && shared_floored <= own_floored))) return false;
     Write(p, shape, at, ab, shared_rss, weight_sum);
     return true;
+  }
+
+  // The weighted residual sum of squares of p's own per-pixel result (its
+  // normal and alpha held, its amplitudes re-solved on the current weights:
+  // the Lambertian fit or the isotropic lobe); infinity when unsolvable.
+  double OwnRss(const Pixel& p) const {
+    const bool own_lobe = p.own_alpha > 0;
+    Eigen::Vector3d ot, ob;
+    TangentFrame(p.own_normal, Eigen::Vector3d::UnitX(), &ot, &ob);  // isotropic: any tangent
+    const double alpha = own_lobe ? p.own_alpha : 1.0;
+    AmplitudeSums sums;
+    for (int k = p.first; k < p.first + p.count; ++k) {
+      const double w = weights_[k];
+      if (!(w > 0)) continue;
+      const double value = values_[k][0];
+      const double nl = std::max(0.0, p.own_normal.dot(lights_k_[k]));
+      const double s =
+          own_lobe ? ShapeTerm(p.own_normal, ot, ob, halves_[k], lights_k_[k], p.view, alpha, alpha, false) : 0.0;
+      sums.aa += w * nl * nl, sums.ac += w * nl * s, sums.cc += w * s * s;
+      sums.ab += w * nl * value, sums.cb += w * s * value;
+      sums.bb += w * value * value;
+    }
+    double d = 0, s = 0;
+    if (!(own_lobe ? NonNegativeLobeAmplitudes(sums, &d, &s) : sums.aa > 0)) return std::numeric_limits<double>::infinity();
+    if (!own_lobe) d = sums.ab / sums.aa, s = 0;
+    return sums.Cost(d, s);
   }
 
   // The Bayer-domain normal of a pixel that took the group's lobe: its own

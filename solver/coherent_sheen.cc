@@ -13,6 +13,7 @@
 #include "core/field_error.h"
 #include "core/format.h"
 #include "solver/block_refiner.h"
+#include "solver/pixel_fit_internal.h"
 #include "solver/pixel_solvers.h"
 #include "solver/span_kernels.h"
 #include "solver/tile_lights.h"
@@ -390,7 +391,7 @@ class BlockRefiner {
     float view_f[3];
     job_.field->ViewDirection(x0_ + i, y, view_f);
     Eigen::Vector3d view(view_f[0], view_f[1], view_f[2]);
-    view = view.allFinite() && view.norm() > 0 ? view.normalized() : Eigen::Vector3d::UnitZ();
+    view = pixel_fit::UnitViewOrZ(view);
     const double nv = std::clamp(normal.dot(view), kVelvetSheenMinViewCosine, 1.0);
     double* lx = &gate_scratch_[0];
     double* ly = lx + num_lights;
@@ -508,7 +509,7 @@ class BlockRefiner {
       float view_f[3];
       job_.field->ViewDirection(cell.x, cell.y, view_f);
       Eigen::Vector3d view(view_f[0], view_f[1], view_f[2]);
-      view = view.allFinite() && view.norm() > 0 ? view.normalized() : Eigen::Vector3d::UnitZ();
+      view = pixel_fit::UnitViewOrZ(view);
       p.first = static_cast<int>(lights_k_.size());
       p.count = samples_.count();
       const double* l = samples_.light_data();

@@ -1,6 +1,7 @@
 // The pieces the per-pixel fits' files share (pixel_solvers.cc: least
-// squares; robust_fits.cc; diffuse_lobe_fit.cc; diffuse_sheen_fit.cc). Not
-// part of the solver's interface: include solver/pixel_solvers.h instead.
+// squares; robust_fits.cc; diffuse_lobe_fit.cc; diffuse_sheen_fit.cc; the
+// shared lobe's and sheen's per-pixel steps). Not part of the solver's
+// interface: include solver/pixel_solvers.h instead.
 // Inline: the per-pixel loops call them once or more per pixel.
 #pragma once
 
@@ -213,12 +214,15 @@ inline bool SolveAmplitudes(double aa, double ac, double cc, double ab, double c
 struct AmplitudeSums {
   double aa = 0, ac = 0, cc = 0, ab = 0, cb = 0, bb = 0;
 
-  // Solves both amplitudes (SolveAmplitudes) and returns the cost
-  // sum w (d a + s c - b)^2 from the sums; infinity when singular.
+  // The cost sum w (d a + s c - b)^2 from the sums (>= 0).
+  double Cost(double d, double s) const {
+    return std::max(0.0, bb - 2 * (d * ab + s * cb) + d * d * aa + 2 * d * s * ac + s * s * cc);
+  }
+  // Solves both amplitudes (SolveAmplitudes) and returns their cost;
+  // infinity when singular.
   double Project(double* d, double* s) const {
     if (!SolveAmplitudes(aa, ac, cc, ab, cb, d, s)) return std::numeric_limits<double>::infinity();
-    const double x = *d, y = *s;
-    return std::max(0.0, bb - 2 * (x * ab + y * cb) + x * x * aa + 2 * x * y * ac + y * y * cc);
+    return Cost(*d, *s);
   }
 };
 
