@@ -14,6 +14,9 @@
 
 #include "core/field_error.h"
 #include "core/format.h"
+#include "solver/block_refiner.h"
+#include "solver/levenberg_marquardt.h"
+#include "solver/pixel_fit_internal.h"
 #include "solver/pixel_solvers.h"
 #include "solver/tile_lights.h"
 #include "solver/tiled_solve.h"
@@ -21,11 +24,17 @@
 namespace scanbench {
 namespace {
 
+using pixel_fit::AmplitudeSums;
+using pixel_fit::kMadToSigma;
+using pixel_fit::kMinViewCosine;
+using pixel_fit::kTukeyWidth;
+using pixel_fit::kUsedWeight;
+using pixel_fit::MedianAbs;
+using pixel_fit::TangentBasis;
+using pixel_fit::TukeyWeight;
+using pixel_fit::UnitViewOrZ;
+
 constexpr const char* kOptions = "CoherentLobeOptions";
-constexpr double kTukeyWidth = 4.685;      // 95 % efficiency under Gaussian noise
-constexpr double kMadToSigma = 1.4826;     // median absolute deviation -> standard deviation
-constexpr double kMinViewCosine = 0.1;     // n . v floor, as FitDiffuseLobe's
-constexpr double kUsedWeight = 0.01;       // a sample with a larger weight counts as used
 constexpr int kMinSamples = 6;             // per pixel: 3 or 4 parameters and spares
 // Levenberg-Marquardt steps of one pixel's re-solve: 4 would save 6 % of the
 // pass for satin +0.002 deg and bear at 10 lights +0.01 (docs/solver.md).
@@ -116,22 +125,11 @@ double ShapeTerm(const Eigen::Vector3d& n, const Eigen::Vector3d& t, const Eigen
   return s * g;
 }
 
-double TukeyWeight(double r, double width_scale) {
-  const double u = r / width_scale;
-  const double t = 1 - u * u;
-  return t > 0 ? t * t : 0.0;
-}
-
-double Median(std::vector<double>* values) {
-  if (values->empty()) return 0;
-  auto middle = values->begin() + values->size() / 2;
-  std::nth_element(values->begin(), middle, values->end());
-  return *middle;
-}
-
 // Weighted least squares b ~ d a + s c with s >= 0 (diffuse and lobe
-// amplitudes); sums of w a^2, w a c, w c^2, w a b, w c b. False when singular.
-bool NonNegativeLobeAmplitudes(double aa, double ac, double cc, double ab, double cb, double* d, double* s) {
+// amplitudes): s from both, clamped at 0, then d given s (not
+// SolveAmplitudes' re-solve of d alone at the bound). False when singular.
+bool NonNegativeLobeAmplitudes(const AmplitudeSums& sums, double* d, double* s) {
+  const double aa = sums.aa, ac = sums.ac, cc = sums.cc, ab = sums.ab, cb = sums.cb;
   if (!(aa > 0)) return false;
   const double det = aa * cc - ac * ac;
   *s = det > 1e-12 * aa * cc ? (aa * cb - ac * ab) / det : 0.0;
@@ -185,26 +183,68 @@ class BlockRefiner {
     double anisotropy_sum = 0;
   };
 
-  void Refine(int x0, int y0, int x1, int y1, Counts* counts) {
+  // ---- the steps of RefineBlock (solver/block_refiner.h) ----------------
+
+  // The block's solved pixels and their samples, where it has min_pixels
+  // lobe pixels.
+  bool CollectBlock(int x0, int y0, int x1, int y1, Counts* counts) {
     int lobe_pixels = 0;
     for (int y = y0; y < y1; ++y) {
       for (int x = x0; x < x1; ++x) lobe_pixels += HasLobe(x, y);
     }
     counts->supported += lobe_pixels;
-    if (lobe_pixels < options_.min_pixels || !Collect(x0, y0, x1, y1)) return;
+    return lobe_pixels >= options_.min_pixels && Collect(x0, y0, x1, y1);
+  }
+
+  int GroupByAlbedo() {
     SplitByAlbedo();
-    for (int g = 0; g < num_clusters_; ++g) {
-      group_.clear();
-      int group_lobes = 0;
-      for (size_t i = 0; i < pixels_.size(); ++i) {
-        if (cluster_[i] != g) continue;
-        group_.push_back(static_cast<int>(i));
-        group_lobes += pixels_[i].own_alpha > 0;
+    return num_clusters_;
+  }
+
+  // The group's own pixels must show the lobe: a lobe pixel of one colour
+  // does not make one for a neighbour of another.
+  bool GatherGroup(int g) {
+    group_.clear();
+    int group_lobes = 0;
+    for (size_t i = 0; i < pixels_.size(); ++i) {
+      if (cluster_[i] != g) continue;
+      group_.push_back(static_cast<int>(i));
+      group_lobes += pixels_[i].own_alpha > 0;
+    }
+    return !(2 * group_lobes < options_.min_pixels || static_cast<int>(group_.size()) < options_.min_pixels);
+  }
+
+  // The group's lobe (shape, F0, diffuse term) and every pixel's normal and
+  // amplitudes under it; false when the group shows no lobe.
+  bool FitGroup(Counts* counts) {
+    ChooseFitPixels();
+    if (!ChooseDiffuseTerm(&group_shape_, &group_rho_s_)) return false;
+    if (options_.iterations == 1) {
+      for (int index : group_) SolvePixel(&pixels_[index], group_shape_, group_rho_s_);
+    }
+    for (int iteration = 1; iteration < options_.iterations; ++iteration) {
+      group_shape_ = FitShape(group_shape_, false, &group_rho_s_);
+      if (!options_.per_pixel_amplitude && !(group_rho_s_ > 0)) return false;  // no lobe for the group
+      // Only the pixels the shape is fitted on need their normals before the
+      // last alternation.
+      const bool last = iteration + 1 == options_.iterations;
+      for (int index : last ? group_ : fit_) SolvePixel(&pixels_[index], group_shape_, group_rho_s_);
+    }
+    ++counts->groups;
+    counts->fresnel_groups += fresnel_;
+    counts->anisotropy_sum += std::exp(std::abs(group_shape_.log_alpha_b - group_shape_.log_alpha_t));
+    return true;
+  }
+
+  // Each pixel takes the group's lobe where Select prefers it.
+  void WriteGroup(Counts* counts) {
+    for (int index : group_) {
+      if (Select(pixels_[index], group_shape_)) {
+        ++counts->refined;
+        if (bayer_job_ != nullptr) counts->bayer += ResolveBayer(pixels_[index], group_shape_, group_rho_s_);
+      } else {
+        ++counts->kept;
       }
-      // The group's own pixels must show the lobe: a lobe pixel of one
-      // colour does not make one for a neighbour of another.
-      if (2 * group_lobes < options_.min_pixels || static_cast<int>(group_.size()) < options_.min_pixels) continue;
-      RefineGroup(counts);
     }
   }
 
@@ -259,7 +299,7 @@ class BlockRefiner {
         float view[3];
         job_.field->ViewDirection(x, y, view);
         p.view = Eigen::Vector3d(view[0], view[1], view[2]);
-        p.view = p.view.allFinite() && p.view.norm() > 0 ? p.view.normalized() : Eigen::Vector3d::UnitZ();
+        p.view = UnitViewOrZ(p.view);
         p.own_normal = Eigen::Vector3d(s.normal_in_table(x, y, 0), s.normal_in_table(x, y, 1),
                                        s.normal_in_table(x, y, 2)).normalized();
         p.normal = p.own_normal;
@@ -501,9 +541,10 @@ class BlockRefiner {
         }
       }
       if (options_.per_pixel_amplitude) {
+        const AmplitudeSums sums{f.aa, ac, cc, f.a_b, c_b, f.bb};
         double d = 0, s = 0;
-        if (!NonNegativeLobeAmplitudes(f.aa, ac, cc, f.a_b, c_b, &d, &s)) continue;
-        own += std::max(0.0, f.bb - 2 * (d * f.a_b + s * c_b) + d * d * f.aa + 2 * d * s * ac + s * s * cc);
+        if (!NonNegativeLobeAmplitudes(sums, &d, &s)) continue;
+        own += sums.Cost(d, s);
       } else {
         big_a += cc - ac * ac / f.aa;
         big_b += c_b - ac * f.a_b / f.aa;
@@ -626,23 +667,23 @@ class BlockRefiner {
   // unsolvable.
   double ProjectAmplitudes(const Pixel& p, const Terms& terms, const std::vector<double>& weights, double* rho_d,
                            double* rho_s) const {
-    double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
+    AmplitudeSums sums;
     for (int i = 0; i < p.count; ++i) {
       const int k = p.first + i;
       const double w = weights[k];
       if (!(w > 0)) continue;
       const double value = values_[k][0], nl = terms.nl[i], s = terms.s[i];
-      bb += w * value * value;
-      aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
+      sums.bb += w * value * value;
+      sums.aa += w * nl * nl, sums.ac += w * nl * s, sums.cc += w * s * s;
+      sums.ab += w * nl * value, sums.cb += w * s * value;
     }
-    if (!(aa > 0)) return std::numeric_limits<double>::infinity();
+    if (!(sums.aa > 0)) return std::numeric_limits<double>::infinity();
     if (options_.per_pixel_amplitude) {
-      if (!NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, rho_d, rho_s)) return std::numeric_limits<double>::infinity();
+      if (!NonNegativeLobeAmplitudes(sums, rho_d, rho_s)) return std::numeric_limits<double>::infinity();
     } else {
-      *rho_d = (a_b - *rho_s * ac) / aa;
+      *rho_d = (sums.ab - *rho_s * sums.ac) / sums.aa;
     }
-    const double d = *rho_d, s = *rho_s;
-    return std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
+    return sums.Cost(*rho_d, *rho_s);
   }
 
   // Tukey weights of `p` at its current model (scale: 1.4826 MAD, floored at
@@ -660,7 +701,7 @@ class BlockRefiner {
       abs_residuals_.push_back(std::abs(p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0]));
     }
     const double scale =
-        std::max(kMadToSigma * Median(&abs_residuals_), solver_.robust_min_scale * std::max(p.rho_d, 1e-6));
+        std::max(kMadToSigma * MedianAbs(&abs_residuals_), solver_.robust_min_scale * std::max(p.rho_d, 1e-6));
     for (int i = 0; i < p.count; ++i) {
       const double r = p.rho_d * terms.nl[i] + p.rho_s * terms.s[i] - values_[p.first + i][0];
       const double w = terms.nl[i] > 0 ? TukeyWeight(r, width_ * scale) : 0.0;
@@ -740,83 +781,108 @@ class BlockRefiner {
   }
 
   // Levenberg-Marquardt on the normal (two tangent angles) with the
-  // amplitudes projected out; Tukey weights refreshed every step.
+  // amplitudes projected out (solver/levenberg_marquardt.h); Tukey weights
+  // refreshed every step.
   void SolvePixel(Pixel* p, const Shape& shape, double shared_rho_s) {
     const double at = std::exp(shape.log_alpha_t), ab = std::exp(shape.log_alpha_b);
     if (!options_.per_pixel_amplitude) p->rho_s = shared_rho_s;
-    double lambda = 1e-3;
     if (normal_weights_.size() < weights_.size()) normal_weights_.resize(weights_.size());
     Evaluate(*p, p->normal, shape, at, ab, &current_);
     ProjectAmplitudes(*p, current_, weights_, &p->rho_d, &p->rho_s);
-    for (int iteration = 0; iteration < kNormalIterations; ++iteration) {
-      Reweight(*p, current_);
-      const double cost = ProjectAmplitudes(*p, current_, normal_weights_, &p->rho_d, &p->rho_s);
-      if (!std::isfinite(cost)) return;
-      const Eigen::Vector3d helper =
-          std::abs(p->normal.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-      const Eigen::Vector3d u1 = p->normal.cross(helper).normalized(), u2 = p->normal.cross(u1);
-      // Jacobian columns: the two angles, rho_d, rho_s.
-      if (!NormalDerivatives(*p, shape, at, ab, u1, u2)) {  // no tangent frame of its own: forward differences
-        Evaluate(*p, (p->normal + kDerivativeStep * u1).normalized(), shape, at, ab, &plus_[0]);
-        Evaluate(*p, (p->normal + kDerivativeStep * u2).normalized(), shape, at, ab, &plus_[1]);
-        for (int d = 0; d < 2; ++d) {
-          for (int i = 0; i < p->count; ++i) {
-            plus_[d].nl[i] = (plus_[d].nl[i] - current_.nl[i]) / kDerivativeStep;
-            plus_[d].s[i] = (plus_[d].s[i] - current_.s[i]) / kDerivativeStep;
-          }
-        }
-      }
-      const int params = options_.per_pixel_amplitude ? 4 : 3;
-      Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
-      Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
-      for (int i = 0; i < p->count; ++i) {
-        const double w = normal_weights_[p->first + i];
-        if (!(w > 0)) continue;
-        Eigen::Vector4d j;
-        j[2] = current_.nl[i];
-        j[3] = current_.s[i];
-        const double model = p->rho_d * j[2] + p->rho_s * j[3];
-        for (int d = 0; d < 2; ++d) j[d] = p->rho_d * plus_[d].nl[i] + p->rho_s * plus_[d].s[i];
-        const double r = model - values_[p->first + i][0];
-        hessian.noalias() += w * j * j.transpose();
-        gradient.noalias() += (w * r) * j;
-      }
-      bool accepted = false;
-      double moved = 0;
-      for (int attempt = 0; attempt < 5 && !accepted; ++attempt) {
-        Eigen::Matrix4d damped = hessian;
-        for (int i = 0; i < params; ++i) damped(i, i) += lambda * std::max(hessian(i, i), 1e-12);
-        Eigen::Vector4d step = Eigen::Vector4d::Zero();
-        step.head(params) = damped.topLeftCorner(params, params).ldlt().solve(-gradient.head(params));
-        if (!step.allFinite()) {
-          lambda *= 10;
-          continue;
-        }
-        const Eigen::Vector3d trial = (p->normal + step[0] * u1 + step[1] * u2).normalized();
-        if (!trial.allFinite()) {
-          lambda *= 10;
-          continue;
-        }
-        Evaluate(*p, trial, shape, at, ab, &trial_);
-        double rho_d = p->rho_d, rho_s = p->rho_s;
-        const double trial_cost = ProjectAmplitudes(*p, trial_, normal_weights_, &rho_d, &rho_s);
-        if (trial_cost < cost && rho_d > 0) {
-          moved = (trial - p->normal).norm();
-          p->normal = trial, p->rho_d = rho_d, p->rho_s = rho_s;
-          std::swap(current_, trial_);
-          accepted = true;
-          lambda = std::max(lambda / 3, 1e-9);
-        } else {
-          lambda *= 4;
-        }
-      }
-      if (!accepted || moved < kNormalConverged) break;
-    }
+    NormalFit fit(this, p, shape, at, ab);
+    const LevenbergMarquardtSummary summary = SolveLevenbergMarquardt(NormalFitOptions(), &fit);
+    if (summary.termination == LevenbergMarquardtSummary::Termination::kLinearizationFailed) return;
     // The amplitudes under the Tukey weights alone: what the shape fit,
     // the model selection and the albedo see.
     Reweight(*p, current_);
     ProjectAmplitudes(*p, current_, weights_, &p->rho_d, &p->rho_s);
   }
+
+  static LevenbergMarquardtOptions NormalFitOptions() {
+    LevenbergMarquardtOptions options;
+    options.max_iterations = kNormalIterations;
+    options.max_step_attempts = 5;
+    return options;
+  }
+
+  // SolvePixel's functor: the parameters are the normal's two tangent
+  // angles, rho_d and (per_pixel_amplitude) rho_s, the pixel's amplitudes
+  // re-solved at every trial; the refiner's current_ holds the terms at the
+  // current normal.
+  class NormalFit {
+   public:
+    using Hessian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 4, 4>;
+    using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 4, 1>;
+
+    NormalFit(BlockRefiner* refiner, Pixel* p, const Shape& shape, double at, double ab)
+        : r_(*refiner), p_(*p), shape_(shape), at_(at), ab_(ab), params_(r_.options_.per_pixel_amplitude ? 4 : 3) {}
+
+    bool Linearize(Hessian* jtj, Vector* jtr, double* cost) {
+      r_.Reweight(p_, r_.current_);
+      *cost = r_.ProjectAmplitudes(p_, r_.current_, r_.normal_weights_, &p_.rho_d, &p_.rho_s);
+      if (!std::isfinite(*cost)) return false;
+      TangentBasis(p_.normal, &u1_, &u2_);
+      // Jacobian columns: the two angles, rho_d, rho_s.
+      if (!r_.NormalDerivatives(p_, shape_, at_, ab_, u1_, u2_)) ForwardDifferences();
+      Eigen::Matrix4d hessian = Eigen::Matrix4d::Zero();
+      Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
+      for (int i = 0; i < p_.count; ++i) {
+        const double w = r_.normal_weights_[p_.first + i];
+        if (!(w > 0)) continue;
+        Eigen::Vector4d j;
+        j[2] = r_.current_.nl[i];
+        j[3] = r_.current_.s[i];
+        const double model = p_.rho_d * j[2] + p_.rho_s * j[3];
+        for (int d = 0; d < 2; ++d) j[d] = p_.rho_d * r_.plus_[d].nl[i] + p_.rho_s * r_.plus_[d].s[i];
+        const double residual = model - r_.values_[p_.first + i][0];
+        hessian.noalias() += w * j * j.transpose();
+        gradient.noalias() += (w * residual) * j;
+      }
+      *jtj = hessian.topLeftCorner(params_, params_);
+      *jtr = gradient.head(params_);
+      return true;
+    }
+
+    bool Trial(const Vector& step, double* cost) {
+      trial_normal_ = (p_.normal + step[0] * u1_ + step[1] * u2_).normalized();
+      if (!trial_normal_.allFinite()) return false;
+      r_.Evaluate(p_, trial_normal_, shape_, at_, ab_, &r_.trial_);
+      trial_rho_d_ = p_.rho_d, trial_rho_s_ = p_.rho_s;
+      const double trial_cost = r_.ProjectAmplitudes(p_, r_.trial_, r_.normal_weights_, &trial_rho_d_, &trial_rho_s_);
+      *cost = trial_rho_d_ > 0 ? trial_cost : std::numeric_limits<double>::infinity();
+      return true;
+    }
+
+    StepVerdict Take(double /*cost*/, double /*trial_cost*/) {
+      const double moved = (trial_normal_ - p_.normal).norm();
+      p_.normal = trial_normal_, p_.rho_d = trial_rho_d_, p_.rho_s = trial_rho_s_;
+      std::swap(r_.current_, r_.trial_);
+      return moved < kNormalConverged ? StepVerdict::kTakenConverged : StepVerdict::kTaken;
+    }
+
+   private:
+    // No tangent frame of its own (the normal along the azimuth): the
+    // derivatives by forward differences.
+    void ForwardDifferences() {
+      r_.Evaluate(p_, (p_.normal + kDerivativeStep * u1_).normalized(), shape_, at_, ab_, &r_.plus_[0]);
+      r_.Evaluate(p_, (p_.normal + kDerivativeStep * u2_).normalized(), shape_, at_, ab_, &r_.plus_[1]);
+      for (int d = 0; d < 2; ++d) {
+        for (int i = 0; i < p_.count; ++i) {
+          r_.plus_[d].nl[i] = (r_.plus_[d].nl[i] - r_.current_.nl[i]) / kDerivativeStep;
+          r_.plus_[d].s[i] = (r_.plus_[d].s[i] - r_.current_.s[i]) / kDerivativeStep;
+        }
+      }
+    }
+
+    BlockRefiner& r_;
+    Pixel& p_;
+    const Shape& shape_;
+    const double at_, ab_;
+    const int params_;
+    Eigen::Vector3d u1_, u2_;  // the tangent basis of the last linearization
+    Eigen::Vector3d trial_normal_;
+    double trial_rho_d_ = 0, trial_rho_s_ = 0;
+  };
 
   // ---- one group ---------------------------------------------------------
 
@@ -852,8 +918,8 @@ class BlockRefiner {
     return sum;
   }
 
-  void RefineGroup(Counts* counts) {
-    // The shape is fitted on an even spread of the group's pixels.
+  // The pixels the shape is fitted on: an even spread of the group's.
+  void ChooseFitPixels() {
     fit_.clear();
     const int n = static_cast<int>(group_.size());
     const int fit_count = std::min(n, options_.max_fit_pixels);
@@ -862,10 +928,15 @@ class BlockRefiner {
       fit_positions_.push_back(static_cast<size_t>(i) * n / fit_count);
       fit_.push_back(group_[fit_positions_.back()]);
     }
-    // Which diffuse term (Lambert's or the Fresnel-transmitted one) the
-    // group's samples support: the first alternation (shape grid and the fit
-    // pixels' re-solve) under each; the lower residual on the samples both
-    // keep wins (the same parameters either way).
+  }
+
+  // Which diffuse term (Lambert's or the Fresnel-transmitted one) the
+  // group's samples support: the first alternation (shape grid and the fit
+  // pixels' re-solve) under each; the lower residual on the samples both
+  // keep wins (the same parameters either way). Its shape and F0 into
+  // *shape and *rho_s, fresnel_ set, the pixels and weights its; false when
+  // neither shows a lobe.
+  bool ChooseDiffuseTerm(Shape* shape, double* rho_s) {
     saved_pixels_.clear();
     for (int index : group_) saved_pixels_.push_back(pixels_[index]);
     saved_weights_ = weights_;
@@ -894,37 +965,16 @@ class BlockRefiner {
       cost[0] += FitResidual(chosen_pixels_[i], shapes[0], rho_ss[0], false);
       cost[1] += FitResidual(pixels_[fit_[f]], shapes[1], rho_ss[1], true);
     }
-    if (!has_lobe[0] && !has_lobe[1]) return;  // no lobe for the group
+    if (!has_lobe[0] && !has_lobe[1]) return false;  // no lobe for the group
     const int chosen = !has_lobe[0] ? 1 : !has_lobe[1] ? 0 : cost[1] < kFresnelMargin * cost[0] ? 1 : 0;
     fresnel_ = chosen == 1;
     if (chosen == 0 && variants == 2) {
       for (size_t i = 0; i < group_.size(); ++i) pixels_[group_[i]] = chosen_pixels_[i];
       weights_.swap(chosen_weights_);
     }
-    Shape shape = shapes[chosen];
-    double rho_s = rho_ss[chosen];
-    if (options_.iterations == 1) {
-      for (int index : group_) SolvePixel(&pixels_[index], shape, rho_s);
-    }
-    for (int iteration = 1; iteration < options_.iterations; ++iteration) {
-      shape = FitShape(shape, false, &rho_s);
-      if (!options_.per_pixel_amplitude && !(rho_s > 0)) return;  // no lobe for the group
-      // Only the pixels the shape is fitted on need their normals before the
-      // last alternation.
-      const bool last = iteration + 1 == options_.iterations;
-      for (int index : last ? group_ : fit_) SolvePixel(&pixels_[index], shape, rho_s);
-    }
-    ++counts->groups;
-    counts->fresnel_groups += fresnel_;
-    counts->anisotropy_sum += std::exp(std::abs(shape.log_alpha_b - shape.log_alpha_t));
-    for (int index : group_) {
-      if (Select(pixels_[index], shape)) {
-        ++counts->refined;
-        if (bayer_job_ != nullptr) counts->bayer += ResolveBayer(pixels_[index], shape, rho_s);
-      } else {
-        ++counts->kept;
-      }
-    }
+    *shape = shapes[chosen];
+    *rho_s = rho_ss[chosen];
+    return true;
   }
 
   // Model selection on the pixel's final weighted samples: the shared-lobe
@@ -958,27 +1008,7 @@ class BlockRefiner {
     }
     // Its own result under the same weights.
     const bool own_lobe = p.own_alpha > 0;
-    double own_rss = std::numeric_limits<double>::infinity();
-    {
-      Eigen::Vector3d ot, ob;
-      TangentFrame(p.own_normal, Eigen::Vector3d::UnitX(), &ot, &ob);  // isotropic: any tangent
-      const double alpha = own_lobe ? p.own_alpha : 1.0;
-      double aa = 0, ac = 0, cc = 0, a_b = 0, c_b = 0, bb = 0;
-      for (int k = p.first; k < p.first + p.count; ++k) {
-        const double w = weights_[k];
-        if (!(w > 0)) continue;
-        const double value = values_[k][0];
-        const double nl = std::max(0.0, p.own_normal.dot(lights_k_[k]));
-        const double s = own_lobe ? ShapeTerm(p.own_normal, ot, ob, halves_[k], lights_k_[k], p.view, alpha, alpha, false) : 0.0;
-        aa += w * nl * nl, ac += w * nl * s, cc += w * s * s, a_b += w * nl * value, c_b += w * s * value;
-        bb += w * value * value;
-      }
-      double d = 0, s = 0;
-      if (own_lobe ? NonNegativeLobeAmplitudes(aa, ac, cc, a_b, c_b, &d, &s) : aa > 0) {
-        if (!own_lobe) d = a_b / aa, s = 0;
-        own_rss = std::max(0.0, bb - 2 * (d * a_b + s * c_b) + d * d * aa + 2 * d * s * ac + s * s * cc);
-      }
-    }
+    const double own_rss = OwnRss(p);
     const double noise = solver_.robust_min_scale * p.rho_d;
     const double noise_rss = weight_sum * noise * noise;
     // The shared lobe must lower the residual, both floored at the noise: BIC
@@ -992,6 +1022,32 @@ class BlockRefiner {
     if (!(shared_floored < own_floored || (!own_lobe && shared_floored <= own_floored))) return false;
     Write(p, shape, at, ab, shared_rss, weight_sum);
     return true;
+  }
+
+  // The weighted residual sum of squares of p's own per-pixel result (its
+  // normal and alpha held, its amplitudes re-solved on the current weights:
+  // the Lambertian fit or the isotropic lobe); infinity when unsolvable.
+  double OwnRss(const Pixel& p) const {
+    const bool own_lobe = p.own_alpha > 0;
+    Eigen::Vector3d ot, ob;
+    TangentFrame(p.own_normal, Eigen::Vector3d::UnitX(), &ot, &ob);  // isotropic: any tangent
+    const double alpha = own_lobe ? p.own_alpha : 1.0;
+    AmplitudeSums sums;
+    for (int k = p.first; k < p.first + p.count; ++k) {
+      const double w = weights_[k];
+      if (!(w > 0)) continue;
+      const double value = values_[k][0];
+      const double nl = std::max(0.0, p.own_normal.dot(lights_k_[k]));
+      const double s =
+          own_lobe ? ShapeTerm(p.own_normal, ot, ob, halves_[k], lights_k_[k], p.view, alpha, alpha, false) : 0.0;
+      sums.aa += w * nl * nl, sums.ac += w * nl * s, sums.cc += w * s * s;
+      sums.ab += w * nl * value, sums.cb += w * s * value;
+      sums.bb += w * value * value;
+    }
+    double d = 0, s = 0;
+    if (!(own_lobe ? NonNegativeLobeAmplitudes(sums, &d, &s) : sums.aa > 0)) return std::numeric_limits<double>::infinity();
+    if (!own_lobe) d = sums.ab / sums.aa, s = 0;
+    return sums.Cost(d, s);
   }
 
   // The Bayer-domain normal of a pixel that took the group's lobe: its own
@@ -1083,6 +1139,8 @@ class BlockRefiner {
   int num_clusters_ = 1;  // of the current block (SplitByAlbedo)
   std::vector<size_t> fit_positions_;  // of fit_'s pixels in group_
   bool fresnel_ = false;               // the current group's diffuse term (DiffuseCosine)
+  Shape group_shape_;                  // the current group's lobe (FitGroup)
+  double group_rho_s_ = 0;             // and its F0 (unless per pixel)
   std::vector<Pixel> saved_pixels_, chosen_pixels_;
   std::vector<double> saved_weights_, chosen_weights_;
   std::vector<FitPixel> fit_pixels_;
@@ -1141,6 +1199,68 @@ std::string CoherentLobeSummary::BriefReport() const {
   return out.str();
 }
 
+namespace {
+
+// The lobe mosaics (input.lobe_mosaics, with input.lobe_bayer) fit the
+// images; *input.lobe_bayer emptied. Throws std::invalid_argument.
+void CheckLobeMosaics(const PhotometricSolverInput& input) {
+  if ((input.lobe_bayer == nullptr) != (input.lobe_mosaics == nullptr)) {
+    throw std::invalid_argument("coherent lobe: lobe_mosaics and lobe_bayer must be given together");
+  }
+  if (input.lobe_mosaics == nullptr) return;
+  const int width = input.light_field->width(), height = input.light_field->height();
+  const BayerSolverInput& bayer = *input.lobe_mosaics;
+  if (bayer.mosaics.size() != input.images.size()) {
+    throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.mosaics.size()) + " lobe mosaics for " +
+                                std::to_string(input.images.size()) + " images");
+  }
+  for (size_t k = 0; k < bayer.mosaics.size(); ++k) {
+    if (bayer.mosaics[k] == nullptr || bayer.mosaics[k]->channels() != 1 ||
+        !bayer.mosaics[k]->SameSize(width, height)) {
+      throw std::invalid_argument("coherent lobe: lobe mosaic " + std::to_string(k) + " must be a 1-channel image of " +
+                                  std::to_string(width) + " x " + std::to_string(height));
+    }
+  }
+  if (!bayer.sample_valid.empty() && bayer.sample_valid.size() != bayer.mosaics.size()) {
+    throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.sample_valid.size()) +
+                                " lobe mosaic sample masks for " + std::to_string(bayer.mosaics.size()) + " mosaics");
+  }
+  for (int p = 0; p < 4; ++p) {
+    if (bayer.cfa_channels[p] < 0 || bayer.cfa_channels[p] > 2) {
+      throw std::invalid_argument("coherent lobe: lobe mosaics' cfa_channels[" + std::to_string(p) + "] = " +
+                                  std::to_string(bayer.cfa_channels[p]) + " must be 0, 1 or 2");
+    }
+  }
+  *input.lobe_bayer = PhotometricSolution();
+}
+
+// The Bayer-domain re-solves' job into *job, its output *input.lobe_bayer
+// made: every pixel not solved until one is.
+void MakeBayerLobeJob(const PhotometricSolverOptions& solver_options, const PhotometricSolverInput& input,
+                      tiled::SolveJob* job) {
+  const int width = input.light_field->width(), height = input.light_field->height();
+  const BayerSolverInput& bayer = *input.lobe_mosaics;
+  PhotometricSolution& out = *input.lobe_bayer;
+  out.normal_in_table = ImageF(width, height, 3, 0.0f);
+  for (size_t i = 0; i < out.normal_in_table.num_pixels(); ++i) out.normal_in_table.data()[3 * i + 2] = 1;
+  out.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
+  out.lights_used = ImageU8(width, height, 1, uint8_t{0});
+  out.residual = ImageF(width, height, 1, 0.0f);
+  job->options = &solver_options;
+  job->field = input.light_field;
+  job->images = &bayer.mosaics;
+  job->sample_valid = &bayer.sample_valid;
+  job->region = input.region;
+  job->bayer = true;
+  job->cfa_channels = bayer.cfa_channels;
+  job->num_lights = input.light_field->num_lights();
+  job->with_albedo = false;
+  job->with_confidence = true;
+  job->solution = input.lobe_bayer;
+}
+
+}  // namespace
+
 CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
                                        const PhotometricSolverOptions& solver_options,
                                        const PhotometricSolverInput& input, PhotometricSolution* solution,
@@ -1150,66 +1270,17 @@ CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
   const auto start = std::chrono::steady_clock::now();
   CoherentLobeSummary summary;
   tiled::CheckRgbRefinementInput("coherent lobe", input, solution);
+  CheckLobeMosaics(input);
   const int width = input.light_field->width(), height = input.light_field->height();
-  // The Bayer-domain re-solves' output: every pixel not solved until one is.
-  tiled::SolveJob bayer_job;
-  const bool with_bayer = input.lobe_mosaics != nullptr;
-  if ((input.lobe_bayer == nullptr) != !with_bayer) {
-    throw std::invalid_argument("coherent lobe: lobe_mosaics and lobe_bayer must be given together");
-  }
-  if (with_bayer) {
-    const BayerSolverInput& bayer = *input.lobe_mosaics;
-    if (bayer.mosaics.size() != input.images.size()) {
-      throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.mosaics.size()) + " lobe mosaics for " +
-                                  std::to_string(input.images.size()) + " images");
-    }
-    for (size_t k = 0; k < bayer.mosaics.size(); ++k) {
-      if (bayer.mosaics[k] == nullptr || bayer.mosaics[k]->channels() != 1 ||
-          !bayer.mosaics[k]->SameSize(width, height)) {
-        throw std::invalid_argument("coherent lobe: lobe mosaic " + std::to_string(k) + " must be a 1-channel image of " +
-                                    std::to_string(width) + " x " + std::to_string(height));
-      }
-    }
-    if (!bayer.sample_valid.empty() && bayer.sample_valid.size() != bayer.mosaics.size()) {
-      throw std::invalid_argument("coherent lobe: " + std::to_string(bayer.sample_valid.size()) +
-                                  " lobe mosaic sample masks for " + std::to_string(bayer.mosaics.size()) + " mosaics");
-    }
-    for (int p = 0; p < 4; ++p) {
-      if (bayer.cfa_channels[p] < 0 || bayer.cfa_channels[p] > 2) {
-        throw std::invalid_argument("coherent lobe: lobe mosaics' cfa_channels[" + std::to_string(p) + "] = " +
-                                    std::to_string(bayer.cfa_channels[p]) + " must be 0, 1 or 2");
-      }
-    }
-    PhotometricSolution& out = *input.lobe_bayer;
-    out = PhotometricSolution();
-  }
-  // The output maps only where a block may fit a lobe: a Lambertian scene
-  // (no or a few lobe pixels) pays a scan of the status map, no allocation.
-  const bool may_fit = with_bayer && !solution->specular_status.empty() &&
+  // The Bayer output maps only where a block may fit a lobe: a Lambertian
+  // scene (no or a few lobe pixels) pays a scan of the status map, no allocation.
+  const bool may_fit = input.lobe_mosaics != nullptr && !solution->specular_status.empty() &&
                        input.light_field->num_lights() <= options.max_lights &&
                        std::count(solution->specular_status.data(),
                                   solution->specular_status.data() + solution->specular_status.size(),
                                   static_cast<uint8_t>(SpecularStatus::kEstimated)) >= options.min_pixels;
-  if (may_fit) {
-    const BayerSolverInput& bayer = *input.lobe_mosaics;
-    PhotometricSolution& out = *input.lobe_bayer;
-    out.normal_in_table = ImageF(width, height, 3, 0.0f);
-    for (size_t i = 0; i < out.normal_in_table.num_pixels(); ++i) out.normal_in_table.data()[3 * i + 2] = 1;
-    out.status = ImageU8(width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion));
-    out.lights_used = ImageU8(width, height, 1, uint8_t{0});
-    out.residual = ImageF(width, height, 1, 0.0f);
-    bayer_job.options = &solver_options;
-    bayer_job.field = input.light_field;
-    bayer_job.images = &bayer.mosaics;
-    bayer_job.sample_valid = &bayer.sample_valid;
-    bayer_job.region = input.region;
-    bayer_job.bayer = true;
-    bayer_job.cfa_channels = bayer.cfa_channels;
-    bayer_job.num_lights = input.light_field->num_lights();
-    bayer_job.with_albedo = false;
-    bayer_job.with_confidence = true;
-    bayer_job.solution = input.lobe_bayer;
-  }
+  tiled::SolveJob bayer_job;
+  if (may_fit) MakeBayerLobeJob(solver_options, input, &bayer_job);
   if (input.light_field->num_lights() > options.max_lights) {
     summary.termination = Termination::kSuccess;
     summary.skipped_lights = true;
@@ -1230,18 +1301,9 @@ CoherentLobeSummary RefineCoherentLobe(const CoherentLobeOptions& options,
 
   const tiled::SolveJob job =
       tiled::RgbSolveJob(solver_options, input, solution, /*with_albedo=*/true, !solution->residual.empty());
-
-  const int num_workers = tiled::BlockPassWorkers(options.num_threads, width, height, options.block_size);
-  std::vector<std::unique_ptr<BlockRefiner>> workers(num_workers);
-  std::vector<BlockRefiner::Counts> counts(num_workers);
-  tiled::RunBlockPass(
-      width, height, options.block_size, num_workers,
-      [&](int x0, int y0, int x1, int y1, int worker) {
-        if (!workers[worker]) {
-          workers[worker] = std::make_unique<BlockRefiner>(options, solver_options, job, may_fit ? &bayer_job : nullptr);
-        }
-        workers[worker]->Refine(x0, y0, x1, y1, &counts[worker]);
-      },
+  const std::vector<BlockRefiner::Counts> counts = tiled::RunBlockRefiners<BlockRefiner>(
+      width, height, options.block_size, options.num_threads,
+      [&] { return std::make_unique<BlockRefiner>(options, solver_options, job, may_fit ? &bayer_job : nullptr); },
       progress, &summary);
   double anisotropy_sum = 0;
   for (const auto& c : counts) {

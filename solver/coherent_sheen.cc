@@ -12,6 +12,8 @@
 
 #include "core/field_error.h"
 #include "core/format.h"
+#include "solver/block_refiner.h"
+#include "solver/pixel_fit_internal.h"
 #include "solver/pixel_solvers.h"
 #include "solver/span_kernels.h"
 #include "solver/tile_lights.h"
@@ -128,25 +130,76 @@ class BlockRefiner {
         samples_(job.num_lights),
         gate_scratch_(7 * static_cast<size_t>(job.num_lights)) {}
 
-  void Refine(int x0, int y0, int x1, int y1, Counts* counts) {
+  using Counts = scanbench::Counts;
+
+  // ---- the steps of RefineBlock (solver/block_refiner.h) ----------------
+
+  // The block's candidates, where the block passes the gate.
+  bool CollectBlock(int x0, int y0, int x1, int y1, Counts* counts) {
     x0_ = x0, y0_ = y0, x1_ = x1, y1_ = y1;
     classified_ = false;
-    if (!Scan()) return;
+    if (!Scan()) return false;
     counts->candidates += candidates_.size();
     ++counts->gated;
-    if (!Gate()) return;
+    if (!Gate()) return false;
     ++counts->passed;
-    SplitByAlbedo();
-    for (int g = 0; g < 2; ++g) {
-      group_.clear();
-      for (size_t i = 0; i < candidates_.size(); ++i) {
-        if (cluster_[i] == g) group_.push_back(candidates_[i]);
-      }
-      if (static_cast<int>(group_.size()) < options_.min_pixels) continue;
-      // The gate once more on the group's own pixels of the gate's rows
-      // (where they are too few to judge, the fit decides).
-      if (GateRatio(cluster_, g, true) < options_.gate_ratio) continue;
-      RefineGroup(counts);
+    return true;
+  }
+
+  // Two-means on the albedo chromaticity (RGB input); one cluster when the
+  // centres are within albedo_split.
+  int GroupByAlbedo() {
+    cluster_.assign(candidates_.size(), 0);
+    if (rgb_) {
+      chroma_.clear();
+      for (const Cell& cell : candidates_) chroma_.push_back(Chromaticity(cell.x, cell.y));
+      SplitInTwo(chroma_, options_.albedo_split, &cluster_);
+    }
+    return 2;
+  }
+
+  // The group's candidates, where they are enough and pass the gate once
+  // more on their own pixels of the gate's rows (where they are too few to
+  // judge, the fit decides).
+  bool GatherGroup(int g) {
+    group_.clear();
+    for (size_t i = 0; i < candidates_.size(); ++i) {
+      if (cluster_[i] == g) group_.push_back(candidates_[i]);
+    }
+    if (static_cast<int>(group_.size()) < options_.min_pixels) return false;
+    return !(GateRatio(cluster_, g, true) < options_.gate_ratio);
+  }
+
+  // The group's sheen (width, F0) on its fit pixels; true where it pays.
+  bool FitGroup(Counts* counts) {
+    ++counts->tried;
+    ChooseFitCells();
+    Gather(fit_cells_);
+    if (static_cast<int>(pixels_.size()) < std::min(options_.min_pixels, options_.max_fit_pixels) / 2) return false;
+    PrepareGeometry();
+    double rss_ls_fit = 0;
+    for (const Pixel& p : pixels_) rss_ls_fit += p.rss_ls;
+    if (!FitPixelsPassTheGate(rss_ls_fit)) return false;
+    group_width_ = 1, group_f0_ = 0;
+    for (int iteration = 0; iteration < options_.iterations; ++iteration) {
+      if (iteration > 0) PrepareGeometry();
+      const double gain = FitShared(&group_width_, &group_f0_);
+      if (!(group_f0_ > 0)) return false;
+      if (iteration == 0 && gain < options_.gate_ratio * rss_ls_fit) return false;
+      for (Pixel& p : pixels_) Resolve(&p, group_width_, group_f0_);
+    }
+    if (!SheenPays(group_width_)) return false;
+    ++counts->taken;
+    counts->f0_sum += group_f0_, counts->width_sum += group_width_;
+    return true;
+  }
+
+  // Every candidate of the group under the group's sheen.
+  void WriteGroup(Counts* counts) {
+    Gather(group_);
+    for (Pixel& p : pixels_) {
+      Resolve(&p, group_width_, group_f0_);
+      counts->refined += Write(p);
     }
   }
 
@@ -250,116 +303,20 @@ class BlockRefiner {
   // squares. O(samples), one exp per sample: what a block of a Lambertian
   // scene costs.
   bool Gate() {
-    const int w = x1_ - x0_;
     ChooseGateRows();
     if (gate_rows_.empty()) return false;
-    const double inv_max_width2 = 1 / (options_.max_width * options_.max_width);
-    int num_widths = 0;
-    for (double a = options_.max_width; a >= options_.min_width * (1 - 1e-9) && num_widths < kMaxGateWidths;
+    num_widths_ = 0;
+    for (double a = options_.max_width; a >= options_.min_width * (1 - 1e-9) && num_widths_ < kMaxGateWidths;
          a /= std::sqrt(3.0)) {
-      ++num_widths;
+      ++num_widths_;
     }
-    num_widths_ = num_widths;
     gate_pixels_.clear();
     gate_chroma_.clear();
     // The lights of the rows' extent only (a quarter to three quarters down
     // a full block): half the light field probes of the whole block's.
     ClassifyLights(*std::min_element(gate_rows_.begin(), gate_rows_.end()),
                    *std::max_element(gate_rows_.begin(), gate_rows_.end()) + 1);
-    const size_t n = static_cast<size_t>(buffers_.capacity);
-    const int num_lights = job_.num_lights;
-    for (const int y : gate_rows_) {
-      const int* mask = &mask_[static_cast<size_t>(y - y0_) * w];
-      AccumulateRow(y, true);
-      const bool uniform = kind_ == tiled::TileLights::kUniform;
-      const float* shared_dir = lights_.shared().dir.data();
-      const float* dir = buffers_.dir.data();
-      const double* acc = buffers_.acc.data();
-      for (int i = 0; i < w; ++i) {
-        if (mask[i] == 0 || buffers_.light_bad[i]) continue;
-        if (!(acc[tiled::kCount * n + i] >= kMinSamples)) continue;
-        // G^-1 by its adjugate (G symmetric).
-        const double g00 = acc[tiled::kG00 * n + i], g01 = acc[tiled::kG01 * n + i], g02 = acc[tiled::kG02 * n + i];
-        const double g11 = acc[tiled::kG11 * n + i], g12 = acc[tiled::kG12 * n + i], g22 = acc[tiled::kG22 * n + i];
-        const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
-        const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
-        const double det = g00 * c00 + g01 * c01 + g02 * c02;
-        const double trace = g00 + g11 + g22;
-        if (!(det > 1e-9 * trace * trace * trace)) continue;  // far past any max_condition_number
-        Eigen::Matrix3d inverse;
-        inverse << c00, c01, c02, c01, c11, c12, c02, c12, c22;
-        inverse /= det;
-        const Eigen::Vector3d m =
-            inverse * Eigen::Vector3d(acc[tiled::kB0 * n + i], acc[tiled::kB1 * n + i], acc[tiled::kB2 * n + i]);
-        const double length = m.norm();
-        if (!(length >= std::max(solver_.min_albedo, 1e-12))) continue;
-        const Eigen::Vector3d normal = m / length;
-        float view_f[3];
-        job_.field->ViewDirection(x0_ + i, y, view_f);
-        Eigen::Vector3d view(view_f[0], view_f[1], view_f[2]);
-        view = view.allFinite() && view.norm() > 0 ? view.normalized() : Eigen::Vector3d::UnitZ();
-        const double nv = std::clamp(normal.dot(view), kVelvetSheenMinViewCosine, 1.0);
-        // In stages over the pixel's used samples, each loop free of the one
-        // before's latency (the divisions, the exp): the lights and residuals,
-        // the sheen geometry, the exps, the sums per width.
-        double* lx = &gate_scratch_[0];
-        double* ly = lx + num_lights;
-        double* lz = ly + num_lights;
-        double* res = lz + num_lights;
-        double* q = res + num_lights;
-        double* u = q + num_lights;
-        double* e = u + num_lights;
-        int used = 0;
-        double rss_pixel = 0;
-        for (int k = 0; k < num_lights; ++k) {
-          const size_t at = k * n + i;
-          if (!(buffers_.ok[at] > 0)) continue;
-          if (uniform) {
-            lx[used] = shared_dir[3 * k], ly[used] = shared_dir[3 * k + 1], lz[used] = shared_dir[3 * k + 2];
-          } else {
-            lx[used] = dir[3 * k * n + i], ly[used] = dir[(3 * k + 1) * n + i], lz[used] = dir[(3 * k + 2) * n + i];
-          }
-          res[used] = buffers_.lum[at] - (lx[used] * m.x() + ly[used] * m.y() + lz[used] * m.z());
-          rss_pixel += res[used] * res[used];
-          ++used;
-        }
-        // S up to its per-width normalisation, which B^2 / A does not see:
-        // q (1 + K exp(-cot^2 / a^2) / sin^4), as VelvetSheenOf (0 where
-        // n . l <= 0); cos^2 th_h = (n . s)^2 / |s|^2 with s = l + v, no
-        // square root.
-        const double nvx = normal.dot(view);
-        for (int k = 0; k < used; ++k) {
-          const double nl = normal.x() * lx[k] + normal.y() * ly[k] + normal.z() * lz[k];
-          const double sx = lx[k] + view.x(), sy = ly[k] + view.y(), sz = lz[k] + view.z();
-          const double sum2 = sx * sx + sy * sy + sz * sz, ns = nl + nvx;
-          const double c2 = !(sum2 > 1e-12) ? nv * nv : ns > 0 ? std::min(ns * ns / sum2, 1.0) : 0.0;
-          const double s2 = 1 - c2;
-          const double inv_s2 = s2 > 1e-6 ? 1 / s2 : 0.0;
-          q[k] = nl > 0 ? nl / (4 * (nl + nv - nl * nv)) : 0.0;
-          u[k] = kVelvetSheenAmplitude * q[k] * inv_s2 * inv_s2;
-          e[k] = -c2 * inv_s2 * inv_max_width2;
-        }
-        for (int k = 0; k < used; ++k) e[k] = std::exp(e[k]);
-        GatePixel pixel;
-        pixel.candidate = mask[i] - 1;
-        for (int j = 0; j < num_widths; ++j) {
-          Eigen::Vector3d t = Eigen::Vector3d::Zero();
-          double ss = 0, sr = 0;
-          for (int k = 0; k < used; ++k) {
-            const double shape = q[k] + u[k] * e[k];
-            t += shape * Eigen::Vector3d(lx[k], ly[k], lz[k]);
-            ss += shape * shape;
-            sr += shape * res[k];
-            e[k] *= e[k] * e[k];
-          }
-          pixel.a[j] = ss - t.dot(inverse * t);
-          pixel.b[j] = sr;
-        }
-        pixel.rss = rss_pixel;
-        gate_pixels_.push_back(pixel);
-        if (rgb_) gate_chroma_.push_back(Chromaticity(x0_ + i, y));
-      }
-    }
+    for (const int y : gate_rows_) GateRow(y);
     // Fewer usable pixels than that on the block's fullest rows (too few
     // samples: the steep rim of an object): the fit would not find the
     // pixels it needs either.
@@ -380,6 +337,116 @@ class BlockRefiner {
     double best_ratio = 0;
     for (int g = 0; g < 2; ++g) best_ratio = std::max(best_ratio, GateRatio(gate_cluster_, g, false));
     return best_ratio >= options_.gate_ratio;
+  }
+
+  // The gate pixels of row y (one of the gate's rows) into gate_pixels_ and
+  // their chromaticities into gate_chroma_: each candidate's least-squares
+  // scaled normal m from the accumulated normal equations, then its sums.
+  void GateRow(int y) {
+    const int w = x1_ - x0_;
+    const int* mask = &mask_[static_cast<size_t>(y - y0_) * w];
+    AccumulateRow(y, true);
+    const size_t n = static_cast<size_t>(buffers_.capacity);
+    const double* acc = buffers_.acc.data();
+    for (int i = 0; i < w; ++i) {
+      if (mask[i] == 0 || buffers_.light_bad[i]) continue;
+      if (!(acc[tiled::kCount * n + i] >= kMinSamples)) continue;
+      // G^-1 by its adjugate (G symmetric).
+      const double g00 = acc[tiled::kG00 * n + i], g01 = acc[tiled::kG01 * n + i], g02 = acc[tiled::kG02 * n + i];
+      const double g11 = acc[tiled::kG11 * n + i], g12 = acc[tiled::kG12 * n + i], g22 = acc[tiled::kG22 * n + i];
+      const double c00 = g11 * g22 - g12 * g12, c01 = g02 * g12 - g01 * g22, c02 = g01 * g12 - g02 * g11;
+      const double c11 = g00 * g22 - g02 * g02, c12 = g01 * g02 - g00 * g12, c22 = g00 * g11 - g01 * g01;
+      const double det = g00 * c00 + g01 * c01 + g02 * c02;
+      const double trace = g00 + g11 + g22;
+      if (!(det > 1e-9 * trace * trace * trace)) continue;  // far past any max_condition_number
+      Eigen::Matrix3d inverse;
+      inverse << c00, c01, c02, c01, c11, c12, c02, c12, c22;
+      inverse /= det;
+      const Eigen::Vector3d m =
+          inverse * Eigen::Vector3d(acc[tiled::kB0 * n + i], acc[tiled::kB1 * n + i], acc[tiled::kB2 * n + i]);
+      const double length = m.norm();
+      if (!(length >= std::max(solver_.min_albedo, 1e-12))) continue;
+      GatePixel pixel = GateSums(i, y, inverse, m, length);
+      pixel.candidate = mask[i] - 1;
+      gate_pixels_.push_back(pixel);
+      if (rgb_) gate_chroma_.push_back(Chromaticity(x0_ + i, y));
+    }
+  }
+
+  // The gate sums of the pixel at span index i of row y (its samples in
+  // buffers_, G^-1 `inverse`, least-squares scaled normal m of that length):
+  // per gate width a the projected A and B of the header comment, and the
+  // residual sum of squares. In stages over the pixel's used samples, each
+  // loop free of the one before's latency (the divisions, the exp): the
+  // lights and residuals, the sheen geometry, the exps, the sums per width.
+  // One kernel whole: the staging is the point of its shape.
+  GatePixel GateSums(int i, int y, const Eigen::Matrix3d& inverse, const Eigen::Vector3d& m, double length) {
+    const size_t n = static_cast<size_t>(buffers_.capacity);
+    const int num_lights = job_.num_lights;
+    const bool uniform = kind_ == tiled::TileLights::kUniform;
+    const float* shared_dir = lights_.shared().dir.data();
+    const float* dir = buffers_.dir.data();
+    const double inv_max_width2 = 1 / (options_.max_width * options_.max_width);
+    const Eigen::Vector3d normal = m / length;
+    float view_f[3];
+    job_.field->ViewDirection(x0_ + i, y, view_f);
+    Eigen::Vector3d view(view_f[0], view_f[1], view_f[2]);
+    view = pixel_fit::UnitViewOrZ(view);
+    const double nv = std::clamp(normal.dot(view), kVelvetSheenMinViewCosine, 1.0);
+    double* lx = &gate_scratch_[0];
+    double* ly = lx + num_lights;
+    double* lz = ly + num_lights;
+    double* res = lz + num_lights;
+    double* q = res + num_lights;
+    double* u = q + num_lights;
+    double* e = u + num_lights;
+    int used = 0;
+    double rss_pixel = 0;
+    for (int k = 0; k < num_lights; ++k) {
+      const size_t at = k * n + i;
+      if (!(buffers_.ok[at] > 0)) continue;
+      if (uniform) {
+        lx[used] = shared_dir[3 * k], ly[used] = shared_dir[3 * k + 1], lz[used] = shared_dir[3 * k + 2];
+      } else {
+        lx[used] = dir[3 * k * n + i], ly[used] = dir[(3 * k + 1) * n + i], lz[used] = dir[(3 * k + 2) * n + i];
+      }
+      res[used] = buffers_.lum[at] - (lx[used] * m.x() + ly[used] * m.y() + lz[used] * m.z());
+      rss_pixel += res[used] * res[used];
+      ++used;
+    }
+    // S up to its per-width normalisation, which B^2 / A does not see:
+    // q (1 + K exp(-cot^2 / a^2) / sin^4), as VelvetSheenOf (0 where
+    // n . l <= 0); cos^2 th_h = (n . s)^2 / |s|^2 with s = l + v, no
+    // square root.
+    const double nvx = normal.dot(view);
+    for (int k = 0; k < used; ++k) {
+      const double nl = normal.x() * lx[k] + normal.y() * ly[k] + normal.z() * lz[k];
+      const double sx = lx[k] + view.x(), sy = ly[k] + view.y(), sz = lz[k] + view.z();
+      const double sum2 = sx * sx + sy * sy + sz * sz, ns = nl + nvx;
+      const double c2 = !(sum2 > 1e-12) ? nv * nv : ns > 0 ? std::min(ns * ns / sum2, 1.0) : 0.0;
+      const double s2 = 1 - c2;
+      const double inv_s2 = s2 > 1e-6 ? 1 / s2 : 0.0;
+      q[k] = nl > 0 ? nl / (4 * (nl + nv - nl * nv)) : 0.0;
+      u[k] = kVelvetSheenAmplitude * q[k] * inv_s2 * inv_s2;
+      e[k] = -c2 * inv_s2 * inv_max_width2;
+    }
+    for (int k = 0; k < used; ++k) e[k] = std::exp(e[k]);
+    GatePixel pixel;
+    for (int j = 0; j < num_widths_; ++j) {
+      Eigen::Vector3d t = Eigen::Vector3d::Zero();
+      double ss = 0, sr = 0;
+      for (int k = 0; k < used; ++k) {
+        const double shape = q[k] + u[k] * e[k];
+        t += shape * Eigen::Vector3d(lx[k], ly[k], lz[k]);
+        ss += shape * shape;
+        sr += shape * res[k];
+        e[k] *= e[k] * e[k];
+      }
+      pixel.a[j] = ss - t.dot(inverse * t);
+      pixel.b[j] = sr;
+    }
+    pixel.rss = rss_pixel;
+    return pixel;
   }
 
   // The gate's ratio of the gate pixels labelled `group` in `labels` (one
@@ -404,16 +471,6 @@ class BlockRefiner {
       if (big_a[j] > 0 && big_b[j] > 0) best = std::max(best, big_b[j] * big_b[j] / big_a[j]);
     }
     return rss > 0 ? best / rss : 0.0;
-  }
-
-  // Two-means on the albedo chromaticity (RGB input); one cluster when the
-  // centres are within albedo_split.
-  void SplitByAlbedo() {
-    cluster_.assign(candidates_.size(), 0);
-    if (!rgb_) return;
-    chroma_.clear();
-    for (const Cell& cell : candidates_) chroma_.push_back(Chromaticity(cell.x, cell.y));
-    SplitInTwo(chroma_, options_.albedo_split, &cluster_);
   }
 
   // r, g of rgb / sum of the pixel's solved albedo.
@@ -452,7 +509,7 @@ class BlockRefiner {
       float view_f[3];
       job_.field->ViewDirection(cell.x, cell.y, view_f);
       Eigen::Vector3d view(view_f[0], view_f[1], view_f[2]);
-      view = view.allFinite() && view.norm() > 0 ? view.normalized() : Eigen::Vector3d::UnitZ();
+      view = pixel_fit::UnitViewOrZ(view);
       p.first = static_cast<int>(lights_k_.size());
       p.count = samples_.count();
       const double* l = samples_.light_data();
@@ -647,38 +704,24 @@ class BlockRefiner {
     for (size_t i = 0; i < count; ++i) fit_cells_.push_back(row_cells_[i * n / count]);
   }
 
-  void RefineGroup(Counts* counts) {
-    ++counts->tried;
-    ChooseFitCells();
-    Gather(fit_cells_);
-    if (static_cast<int>(pixels_.size()) < std::min(options_.min_pixels, options_.max_fit_pixels) / 2) return;
-    PrepareGeometry();
-    // The gate once more, on the fit pixels at their least-squares normals,
-    // first on every other rung of the width ladder (a quarter of the width
-    // search's cost), then at the fitted width: below gate_ratio of their
-    // residual no search and no re-solve is spent (a Lambertian group past
-    // the gate by chance).
-    double rss_ls_fit = 0;
-    for (const Pixel& p : pixels_) rss_ls_fit += p.rss_ls;
-    {
-      const double lo = std::log(options_.min_width), hi = std::log(options_.max_width);
-      double best = 0, amplitude = 0;
-      for (int i = 1; i < kWidthLadder; i += 2) {
-        best = std::max(best, SheenGain(std::exp(lo + (hi - lo) * i / (kWidthLadder - 1)), &amplitude));
-      }
-      if (best < options_.gate_ratio * rss_ls_fit) return;
+  // The gate once more, on the fit pixels at their least-squares normals,
+  // on every other rung of the width ladder (a quarter of the width search's
+  // cost; FitGroup checks the fitted width too): below gate_ratio of their
+  // residual no search and no re-solve is spent (a Lambertian group past the
+  // gate by chance).
+  bool FitPixelsPassTheGate(double rss_ls_fit) const {
+    const double lo = std::log(options_.min_width), hi = std::log(options_.max_width);
+    double best = 0, amplitude = 0;
+    for (int i = 1; i < kWidthLadder; i += 2) {
+      best = std::max(best, SheenGain(std::exp(lo + (hi - lo) * i / (kWidthLadder - 1)), &amplitude));
     }
-    double width = 1, f0 = 0;
-    for (int iteration = 0; iteration < options_.iterations; ++iteration) {
-      if (iteration > 0) PrepareGeometry();
-      const double gain = FitShared(&width, &f0);
-      if (!(f0 > 0)) return;
-      if (iteration == 0 && gain < options_.gate_ratio * rss_ls_fit) return;
-      for (Pixel& p : pixels_) Resolve(&p, width, f0);
-    }
-    // Model selection on the fit pixels' samples together: the shared sheen
-    // (two parameters for the group, the pixels' own three each as before)
-    // against their least-squares fits.
+    return !(best < options_.gate_ratio * rss_ls_fit);
+  }
+
+  // Model selection on the fit pixels' samples together: the shared sheen
+  // (two parameters for the group, the pixels' own three each as before)
+  // against their least-squares fits; and the sheen's width and colour.
+  bool SheenPays(double width) {
     double samples = 0, rss_ls = 0, rss = 0, floor_rss = 0;
     for (const Pixel& p : pixels_) {
       samples += p.count;
@@ -700,15 +743,7 @@ class BlockRefiner {
     // (Not in the Bayer domain: one raw sample per light and pixel carries
     // too little colour to tell, cloth there 0.592 -> 0.61 deg with it.)
     const bool white = !options_.dichromatic || job_.bayer || white_gain >= options_.white_margin * diffuse_gain;
-    if (!pays || !drops || !white || !interior) return;
-    ++counts->taken;
-    counts->f0_sum += f0, counts->width_sum += width;
-    // Every candidate of the group under the group's sheen.
-    Gather(group_);
-    for (Pixel& p : pixels_) {
-      Resolve(&p, width, f0);
-      counts->refined += Write(p);
-    }
+    return pays && drops && white && interior;
   }
 
   // Writes pixel p (re-solved; sheen_ holds its samples' sheen); false where
@@ -766,6 +801,7 @@ class BlockRefiner {
   std::vector<Eigen::Vector4d> values_;  // luminance, R, G, B (intensity divided)
   std::vector<VelvetSheenGeometry> geometry_;
   std::vector<double> sheen_;
+  double group_width_ = 1, group_f0_ = 0;  // the current group's sheen (FitGroup)
 };
 
 }  // namespace
@@ -827,17 +863,9 @@ CoherentSheenSummary RefineCoherentSheenOfJob(const CoherentSheenOptions& option
                       std::to_string(options.max_lights) + ": the least-squares results are kept";
     return summary;
   }
-  const int width = job.field->width(), height = job.field->height();
-  const int num_workers = BlockPassWorkers(options.num_threads, width, height, options.block_size);
-  std::vector<std::unique_ptr<BlockRefiner>> workers(num_workers);
-  std::vector<Counts> counts(num_workers);
-  RunBlockPass(
-      width, height, options.block_size, num_workers,
-      [&](int x0, int y0, int x1, int y1, int worker) {
-        if (!workers[worker]) workers[worker] = std::make_unique<BlockRefiner>(options, job);
-        workers[worker]->Refine(x0, y0, x1, y1, &counts[worker]);
-      },
-      progress, &summary);
+  const std::vector<Counts> counts = RunBlockRefiners<BlockRefiner>(
+      job.field->width(), job.field->height(), options.block_size, options.num_threads,
+      [&] { return std::make_unique<BlockRefiner>(options, job); }, progress, &summary);
   double f0_sum = 0, width_sum = 0;
   for (const Counts& c : counts) {
     summary.pixels_candidate += c.candidates;
