@@ -16,13 +16,12 @@
 #include "solver/coherent_lobe.h"
 #include "solver/coherent_sheen.h"
 #include "solver/cpu_dispatch.h"
+#include "solver/photometric_methods.h"
 #include "solver/pixel_kernels.h"
 #include "solver/tile_lights.h"
 
 namespace scanbench {
 namespace {
-
-using Method = PhotometricSolverOptions::Method;
 
 constexpr const char* kOptions = "PhotometricSolverOptions";
 
@@ -91,10 +90,10 @@ class TileWorker {
  public:
   explicit TileWorker(const tiled::SolveJob& job)
       : job_(job),
-        sharing_(tiled::LightSharingOf(job.options->method)),
+        sharing_(PhotometricMethodRowOf(job.options->method).light_sharing),
         buffers_(job.num_lights, job.options->tile_size),
         lights_(job),
-        kernel_(tiled::MakePixelKernel(job, job.options->tile_size)),
+        kernel_(PhotometricMethodRowOf(job.options->method).make_kernel(job, job.options->tile_size)),
         writer_(job),
         accumulate_exact_(tiled::ChooseAccumulator(job.bayer, job.with_albedo, false)),
         accumulate_uniform_(tiled::ChooseAccumulator(job.bayer, job.with_albedo, true)) {}
@@ -125,7 +124,7 @@ class TileWorker {
 
  private:
   const tiled::SolveJob& job_;
-  const tiled::LightSharing sharing_;
+  const LightSharing sharing_;
   tiled::SpanBuffers buffers_;
   tiled::TileLightSampler lights_;
   std::unique_ptr<tiled::PixelKernel> kernel_;
@@ -185,18 +184,15 @@ double LightFieldSpread(const LightField& field) {
 // uniform_pinv shares one light matrix over the image: refuse a light field
 // that varies by more than light_tolerance.
 void CheckUniformPinvField(const PhotometricSolverOptions& options, const LightField& field) {
-  if (options.method != Method::kUniformPseudoInverse || field.IsUniform()) return;
+  const PhotometricMethodRow& method = PhotometricMethodRowOf(options.method);
+  if (!NeedsUniformLightField(method) || field.IsUniform()) return;
   const double spread = LightFieldSpread(field);
   if (!(spread <= options.light_tolerance)) {
-    throw InputError("method uniform_pinv needs a uniform light field (distant lights); this one varies by " +
+    throw InputError("method " + std::string(method.name) +
+                     " needs a uniform light field (distant lights); this one varies by " +
                      NumberText(spread) + " over the image, more than light_tolerance = " +
                      NumberText(options.light_tolerance) + ": use adaptive or normal_equations");
   }
-}
-
-// Whether the method fits a specular lobe (and so fills the specular maps).
-bool MethodEstimatesLobe(const PhotometricSolverOptions& options) {
-  return options.method == Method::kDiffuseLobe || (options.method == Method::kAdaptive && options.adaptive_lobe);
 }
 
 // `image` as a width x height x channels image with every value `value`:
@@ -221,7 +217,7 @@ void Reset(bool wanted, int width, int height, int channels, T value, Image<T>* 
 tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosaic) {
   const int width = job.field->width(), height = job.field->height();
   PhotometricSolution* solution = job.solution;
-  const bool lobe = job.options->compute_specular && MethodEstimatesLobe(*job.options);
+  const bool lobe = job.options->compute_specular && MethodRunsPass(*job.options, SolverPass::kPixelLobe);
   // The largest first, so that the threads finish together.
   const std::function<void()> fills[] = {
       [&] {
@@ -348,8 +344,8 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   const bool stopped_before = progress && !progress(0.0);
   // The one pass after the per-pixel ones: a lobe shared by neighbouring
   // pixels (RGB input only; it reads the solved specular maps).
-  const bool coherent = options.method == Method::kAdaptive && options.adaptive_lobe &&
-                        options.adaptive_coherent_lobe && !job.bayer && !job.solution->specular.empty();
+  const bool coherent =
+      MethodRunsPass(options, SolverPass::kCoherentLobe) && !job.bayer && !job.solution->specular.empty();
   // Then a velvet sheen shared by neighbouring least-squares pixels (RGB and
   // Bayer input; after the lobe, whose pixels it leaves alone).
   const CoherentSheenOptions sheen_options = [&] {
@@ -357,8 +353,8 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
     o.num_threads = summary.num_threads;
     return o;
   }();
-  const bool coherent_sheen = options.method == Method::kAdaptive && options.adaptive_coherent_sheen &&
-                              job.num_lights <= sheen_options.max_lights;
+  const bool coherent_sheen =
+      MethodRunsPass(options, SolverPass::kCoherentSheen) && job.num_lights <= sheen_options.max_lights;
   const double tiles_share = coherent && coherent_sheen ? 0.7 : coherent ? 0.8 : coherent_sheen ? 0.85 : 1.0;
   const double lobe_end = coherent ? (coherent_sheen ? 0.9 : 1.0) : tiles_share;
   const int tiles_done = stopped_before ? 0
@@ -447,35 +443,8 @@ const char* SolvePathName(SolvePath path) {
   return "unknown";
 }
 
-const char* PhotometricMethodName(Method method) {
-  switch (method) {
-    case Method::kAdaptive: return "adaptive";
-    case Method::kJacobiSvd: return "jacobi_svd";
-    case Method::kNormalEquations: return "normal_equations";
-    case Method::kQr: return "qr";
-    case Method::kUniformPseudoInverse: return "uniform_pinv";
-    case Method::kRobustIrls: return "robust_irls";
-    case Method::kSparseBayesian: return "sparse_bayesian";
-    case Method::kDiffuseLobe: return "diffuse_lobe";
-  }
-  return "unknown";
-}
-
-std::vector<Method> AllPhotometricMethods() {
-  return {Method::kAdaptive,      Method::kJacobiSvd,           Method::kNormalEquations, Method::kQr,
-          Method::kUniformPseudoInverse, Method::kRobustIrls, Method::kSparseBayesian, Method::kDiffuseLobe};
-}
-
-Method PhotometricMethodFromName(const std::string& name) {
-  std::string names;
-  for (Method method : AllPhotometricMethods()) {
-    if (name == PhotometricMethodName(method)) return method;
-    names += std::string(names.empty() ? "" : ", ") + PhotometricMethodName(method);
-  }
-  throw std::invalid_argument("photometric method '" + name + "' is not one of " + names);
-}
-
 void PhotometricSolverOptions::Check() const {
+  PhotometricMethodRowOf(method);  // throws for a method without a row
   double weight_sum = 0;
   for (int c = 0; c < 3; ++c) {
     if (!(luminance_weights[c] >= 0) || !std::isfinite(luminance_weights[c])) {

@@ -5,25 +5,9 @@
 // luminance gives the normal; one per colour channel gives the albedo as the
 // length of that channel's scaled normal.
 //
-// One options struct selects the method (docs/solver.md compares them):
-//   adaptive (default)  shared light matrix where the light field is uniform
-//                       over a tile, per-pixel 3x3 normal equations elsewhere
-//                       (lights interpolated over the tile within
-//                       light_tolerance), a robust re-solve only on pixels
-//                       whose residual calls for it, then (RGB input) one
-//                       anisotropic lobe shared per block where pixels have
-//                       lobe support (solver/coherent_lobe.h);
-//   jacobi_svd          reference: per-pixel two-sided Jacobi SVD;
-//   normal_equations    per-pixel 3x3 normal equations, closed form;
-//   qr                  per-pixel Householder QR;
-//   uniform_pinv        one shared pseudo-inverse (distant lights only);
-//   robust_irls         per-pixel iteratively reweighted least squares
-//                       (Tukey or Cauchy) after shadow / clip rejection;
-//   sparse_bayesian     per-pixel sparse Bayesian learning of the non-
-//                       Lambertian errors (shadows, highlights);
-//   diffuse_lobe        per-pixel diffuse + isotropic GGX lobe fit where BIC
-//                       prefers it to the robust Lambertian fit (FitDiffuseLobe
-//                       in pixel_solvers.h); fills the specular maps.
+// One options struct selects the method. The methods, one row each (name,
+// description, light sharing, passes, kernel), are the method table in
+// solver/photometric_methods.h; docs/solver.md compares them.
 // The work runs in tiles on a thread pool; the inner loops run over
 // structure-of-arrays spans that the compiler vectorises.
 #pragma once
@@ -76,15 +60,17 @@ inline constexpr int kNumSpecularStatuses = 3;
 const char* SpecularStatusName(SpecularStatus status);
 
 struct PhotometricSolverOptions {
+  // One row each in the method table (solver/photometric_methods.cc), in
+  // this order.
   enum class Method {
-    kAdaptive,              // default: see the file comment
-    kJacobiSvd,             // reference: per-pixel two-sided Jacobi SVD (Eigen::JacobiSVD)
-    kNormalEquations,       // per-pixel 3x3 normal equations, closed-form inverse
-    kQr,                    // per-pixel Householder QR (Eigen::HouseholderQR)
-    kUniformPseudoInverse,  // one pseudo-inverse shared by all pixels; needs a uniform light field
-    kRobustIrls,            // per-pixel iteratively reweighted least squares (robust_loss)
-    kSparseBayesian,        // per-pixel sparse Bayesian learning of outlier samples
-    kDiffuseLobe,           // per-pixel diffuse + specular lobe fit (FitDiffuseLobe), robust Lambertian start
+    kAdaptive,              // default
+    kJacobiSvd,             // the reference
+    kNormalEquations,
+    kQr,
+    kUniformPseudoInverse,  // needs a uniform light field
+    kRobustIrls,
+    kSparseBayesian,
+    kDiffuseLobe,
   };
   enum class RobustLoss {
     kTukey,   // biweight: samples beyond the width get weight 0 (hard rejection)
@@ -193,9 +179,11 @@ struct PhotometricSolverOptions {
   void Check() const;
 };
 
-// "adaptive", "jacobi_svd", ... (the names the CLI and reports use).
+// From the method table (solver/photometric_methods.h): "adaptive",
+// "jacobi_svd", ... (the names the CLI and reports use); the inverse, which
+// throws std::invalid_argument listing the valid names; every method in the
+// table's order.
 const char* PhotometricMethodName(PhotometricSolverOptions::Method method);
-// The inverse; throws std::invalid_argument listing the valid names.
 PhotometricSolverOptions::Method PhotometricMethodFromName(const std::string& name);
 std::vector<PhotometricSolverOptions::Method> AllPhotometricMethods();
 

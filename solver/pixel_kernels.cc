@@ -6,10 +6,10 @@
 
 #include <Eigen/Dense>
 
+#include "solver/photometric_methods.h"
+
 namespace scanbench::tiled {
 namespace {
-
-using Method = PhotometricSolverOptions::Method;
 
 // What every kernel takes from the options.
 struct KernelSettings {
@@ -20,7 +20,9 @@ struct KernelSettings {
         with_confidence(job.with_confidence),
         num_lights(job.num_lights),
         field(job.field),
-        kernels(&KernelsOf(job)) {
+        kernels(&KernelsOf(job)),
+        pixel_lobe(MethodRunsPass(options, SolverPass::kPixelLobe)),
+        pixel_sheen(MethodRunsPass(options, SolverPass::kPixelSheen)) {
     robust.loss = options.robust_loss;
     robust.width = options.robust_loss_width;
     robust.min_scale = options.robust_min_scale;
@@ -36,6 +38,8 @@ struct KernelSettings {
   int num_lights;
   const LightField* field;  // for the view direction of the lobe fits
   const SpanKernels* kernels;
+  bool pixel_lobe;   // adaptive: the robust re-solve is the lobe fit (else IRLS)
+  bool pixel_sheen;  // adaptive: the sheen fit where the residual has its pattern
 
   // Unit direction from pixel (x, y) towards the camera.
   Eigen::Vector3d View(int x, int y) const {
@@ -416,7 +420,7 @@ class AdaptiveKernel final : public PixelKernel {
     for (int i = 0; i < span.count; ++i) {
       refitted_[i] = 0;
       if (!span.Wanted(i)) continue;
-      const bool sheen = settings_.options.adaptive_sheen && fits.status[i] == solved;
+      const bool sheen = settings_.pixel_sheen && fits.status[i] == solved;
       if (!WantsRobust(span, i, fits) && !sheen) continue;
       refitted_[i] = 1;
       any_refitted = true;
@@ -425,7 +429,7 @@ class AdaptiveKernel final : public PixelKernel {
       if (WantsRobust(span, i, fits)) {
         GatherSamples(span, i, settings_.with_albedo, &samples_);
         const PixelFit refit =
-            settings_.options.adaptive_lobe
+            settings_.pixel_lobe
                 ? FitDiffuseLobe(samples_, settings_.View(x, span.y), settings_.with_albedo, settings_.limits,
                                  settings_.robust)
                 : FitRobustIrls(samples_, settings_.with_albedo, settings_.limits, settings_.robust);
@@ -434,7 +438,7 @@ class AdaptiveKernel final : public PixelKernel {
           continue;
         }
       }
-      if (settings_.options.adaptive_sheen && fit.status == PixelStatus::kSolved) {
+      if (settings_.pixel_sheen && fit.status == PixelStatus::kSolved) {
         // The smooth, low-residual bias of a velvet sheen stays under the
         // residual trigger: a cheap test of the residual's pattern picks the
         // pixels worth the sheen fit.
@@ -469,52 +473,58 @@ class AdaptiveKernel final : public PixelKernel {
 
 }  // namespace
 
-LightSharing LightSharingOf(Method method) {
-  switch (method) {
-    case Method::kAdaptive: return LightSharing::kWithinTolerance;
-    case Method::kUniformPseudoInverse: return LightSharing::kAlways;
-    default: return LightSharing::kNever;
-  }
+std::unique_ptr<PixelKernel> MakeAdaptiveKernel(const SolveJob& job, int capacity) {
+  return std::make_unique<AdaptiveKernel>(KernelSettings(job), capacity);
 }
 
-std::unique_ptr<PixelKernel> MakePixelKernel(const SolveJob& job, int capacity) {
+// normal_equations and uniform_pinv: they differ only in how tiles share lights.
+std::unique_ptr<PixelKernel> MakeNormalEquationsKernel(const SolveJob& job, int capacity) {
+  return std::make_unique<NormalEquationsKernel>(KernelSettings(job), capacity);
+}
+
+std::unique_ptr<PixelKernel> MakeJacobiSvdKernel(const SolveJob& job, int) {
   const KernelSettings s(job);
-  switch (job.options->method) {
-    case Method::kAdaptive: return std::make_unique<AdaptiveKernel>(s, capacity);
-    case Method::kNormalEquations:
-    case Method::kUniformPseudoInverse: return std::make_unique<NormalEquationsKernel>(s, capacity);
-    case Method::kJacobiSvd:
-      return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples, int, int) {
-            return FitLeastSquares(DenseMethod::kJacobiSvd, samples, albedo, limits);
-          },
-          false);
-    case Method::kQr:
-      return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples, int, int) {
-            return FitLeastSquares(DenseMethod::kQr, samples, albedo, limits);
-          },
-          false);
-    case Method::kRobustIrls:
-      return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples, int, int) {
-            return FitRobustIrls(samples, albedo, limits, robust);
-          },
-          true);
-    case Method::kSparseBayesian:
-      return MakePerPixelKernel(
-          s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples, int, int) {
-            return FitSparseBayesian(samples, albedo, limits, robust);
-          },
-          true);
-    case Method::kDiffuseLobe:
-      return MakePerPixelKernel(
-          s, [s](const PixelSamples& samples, int x, int y) {
-            return FitDiffuseLobe(samples, s.View(x, y), s.with_albedo, s.limits, s.robust);
-          },
-          true);
-  }
-  return nullptr;
+  return MakePerPixelKernel(
+      s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples, int, int) {
+        return FitLeastSquares(DenseMethod::kJacobiSvd, samples, albedo, limits);
+      },
+      false);
+}
+
+std::unique_ptr<PixelKernel> MakeQrKernel(const SolveJob& job, int) {
+  const KernelSettings s(job);
+  return MakePerPixelKernel(
+      s, [limits = s.limits, albedo = s.with_albedo](const PixelSamples& samples, int, int) {
+        return FitLeastSquares(DenseMethod::kQr, samples, albedo, limits);
+      },
+      false);
+}
+
+std::unique_ptr<PixelKernel> MakeRobustIrlsKernel(const SolveJob& job, int) {
+  const KernelSettings s(job);
+  return MakePerPixelKernel(
+      s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples, int, int) {
+        return FitRobustIrls(samples, albedo, limits, robust);
+      },
+      true);
+}
+
+std::unique_ptr<PixelKernel> MakeSparseBayesianKernel(const SolveJob& job, int) {
+  const KernelSettings s(job);
+  return MakePerPixelKernel(
+      s, [limits = s.limits, albedo = s.with_albedo, robust = s.robust](const PixelSamples& samples, int, int) {
+        return FitSparseBayesian(samples, albedo, limits, robust);
+      },
+      true);
+}
+
+std::unique_ptr<PixelKernel> MakeDiffuseLobeKernel(const SolveJob& job, int) {
+  const KernelSettings s(job);
+  return MakePerPixelKernel(
+      s, [s](const PixelSamples& samples, int x, int y) {
+        return FitDiffuseLobe(samples, s.View(x, y), s.with_albedo, s.limits, s.robust);
+      },
+      true);
 }
 
 }  // namespace scanbench::tiled

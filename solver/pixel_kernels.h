@@ -1,18 +1,16 @@
-// Internal to the solver library: one kernel per method, chosen once per
-// solve. A kernel turns the accumulated samples of one span into fits and
-// writes them; the tile loop, the light classification and the bookkeeping
-// around it are shared (tiled_solve.h, tile_lights.h).
+// Internal to the solver library: the pixel kernels, one per method, chosen
+// once per solve through the method table's factories
+// (solver/photometric_methods.cc). A kernel turns the accumulated samples of
+// one span into fits and writes them; the tile loop, the light classification
+// and the bookkeeping around it are shared (tiled_solve.h, tile_lights.h).
 //
-//   adaptive                 NormalEquationsKernel's solve, then a robust
-//                            re-solve where the residual or a clipped sample
-//                            calls for it (AdaptiveKernel)
-//   normal_equations,        closed-form 3x3 solve of the accumulated normal
-//   uniform_pinv             equations (NormalEquationsKernel); they differ
-//                            only in how tiles share lights
-//   jacobi_svd, qr,          every pixel's samples gathered and fitted on
-//   robust_irls,             their own (PerPixelKernel with the method's
-//   sparse_bayesian,         fit from pixel_solvers.h)
-//   diffuse_lobe
+//   AdaptiveKernel         NormalEquationsKernel's solve, then a robust
+//                          re-solve where the residual or a clipped sample
+//                          calls for it
+//   NormalEquationsKernel  closed-form 3x3 solve of the accumulated normal
+//                          equations
+//   PerPixelKernel         every pixel's samples gathered and handed to one
+//                          fit from pixel_solvers.h
 #pragma once
 
 #include <memory>
@@ -28,11 +26,15 @@ class PixelKernel {
   virtual void SolveSpan(const Span& span, PixelWriter* out) = 0;
 };
 
-// How far the method lets tiles share lights.
-LightSharing LightSharingOf(PhotometricSolverOptions::Method method);
-
-// The kernel of the job's method, with its own scratch for spans of up to
-// `capacity` pixels: one per thread.
-std::unique_ptr<PixelKernel> MakePixelKernel(const SolveJob& job, int capacity);
+// The method table's kernel factories (PixelKernelFactory): each builds one
+// kernel with its own scratch for spans of up to `capacity` pixels, one per
+// thread.
+std::unique_ptr<PixelKernel> MakeAdaptiveKernel(const SolveJob& job, int capacity);
+std::unique_ptr<PixelKernel> MakeNormalEquationsKernel(const SolveJob& job, int capacity);
+std::unique_ptr<PixelKernel> MakeJacobiSvdKernel(const SolveJob& job, int capacity);
+std::unique_ptr<PixelKernel> MakeQrKernel(const SolveJob& job, int capacity);
+std::unique_ptr<PixelKernel> MakeRobustIrlsKernel(const SolveJob& job, int capacity);
+std::unique_ptr<PixelKernel> MakeSparseBayesianKernel(const SolveJob& job, int capacity);
+std::unique_ptr<PixelKernel> MakeDiffuseLobeKernel(const SolveJob& job, int capacity);
 
 }  // namespace scanbench::tiled

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "solver/photometric_methods.h"
 #include "solver/photometric_solver.h"
 #include "solver/pixel_solvers.h"
 #include "solver/span_kernels.h"
@@ -76,12 +77,8 @@ enum class TileLights {
   kExact,         // evaluated at every pixel
 };
 
-// What a method allows the light sampler to do with a tile.
-enum class LightSharing {
-  kNever,          // exact lights at every pixel
-  kAlways,         // the tile centre's lights for the whole tile (uniform_pinv)
-  kWithinTolerance,  // shared or interpolated where within light_tolerance (adaptive)
-};
+// What a method allows the light sampler to do with a tile (the method table's).
+using scanbench::LightSharing;
 
 // Per-thread buffers of one span (up to `capacity` pixels of a row), planar:
 // per light and pixel at [(3k + c) * capacity + i] or [k * capacity + i].

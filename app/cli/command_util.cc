@@ -1,18 +1,35 @@
 #include "app/cli/command_util.h"
 
+#include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <string>
 
 #include "app/sim/sensor_color.h"
+#include "solver/photometric_methods.h"
 
 namespace scanbench {
+
+namespace {
+
+// --method's help: one line per row of the method table, the default named.
+std::string MethodHelp(PhotometricSolverOptions::Method default_method) {
+  size_t name_width = 0;
+  for (const PhotometricMethodRow& row : PhotometricMethods()) name_width = std::max(name_width, std::strlen(row.name));
+  std::string help = std::string("Solver method (default ") + PhotometricMethodName(default_method) + "):";
+  for (const PhotometricMethodRow& row : PhotometricMethods()) {
+    help += "\n" + std::string(row.name) + std::string(name_width - std::strlen(row.name) + 2, ' ') + row.description;
+  }
+  return help;
+}
+
+}  // namespace
 
 void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& options) {
   command
       .add_option_function<std::string>(
           "--method", [&options](const std::string& name) { options.method = PhotometricMethodFromName(name); },
-          "Solver: adaptive (default), jacobi_svd, normal_equations, qr, uniform_pinv, robust_irls, sparse_bayesian, "
-          "diffuse_lobe")
+          MethodHelp(options.method))
       ->check([](const std::string& name) {
         try {
           PhotometricMethodFromName(name);

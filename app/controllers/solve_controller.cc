@@ -31,6 +31,7 @@
 #include "core/summary.h"
 #include "pipeline/banded_solve.h"
 #include "pipeline/error_statistics.h"
+#include "solver/photometric_methods.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -113,7 +114,7 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"adaptive_lobe", solver.adaptive_lobe},
           {"adaptive_coherent_lobe", solver.adaptive_coherent_lobe},
           {"adaptive_sheen", solver.adaptive_sheen}};
-  if (solver.method == PhotometricSolverOptions::Method::kAdaptive && solver.adaptive_coherent_sheen) {
+  if (MethodRunsPass(solver, SolverPass::kCoherentSheen)) {
     json["adaptive_coherent_sheen"] = 2;
   }
   return json;
@@ -243,8 +244,8 @@ BandedSolveOptions BandedOptions(const SolveOptions& options) {
   banded.solver = options.solver;
   banded.develop = options.develop;
   banded.bayer_domain = options.bayer_domain;
-  banded.bayer_blend = options.bayer_blend && !options.bayer_domain &&
-                       options.solver.method == PhotometricSolverOptions::Method::kAdaptive;
+  banded.bayer_blend =
+      options.bayer_blend && !options.bayer_domain && MethodRunsPass(options.solver, SolverPass::kBayerBlend);
   return banded;
 }
 

@@ -19,6 +19,7 @@
 #include "calibration/rig_light_field.h"
 #include "solver/angular_error.h"
 #include "solver/light_subset.h"
+#include "solver/photometric_methods.h"
 #include "solver/photometric_solver.h"
 #include "solver/synthetic_scene.h"
 
@@ -156,11 +157,11 @@ struct ReportRun {
 
 std::vector<ReportRun> RunsFor(const ReportScene& scene, bool diligent, int num_threads) {
   std::vector<ReportRun> runs;
-  for (Method method : AllPhotometricMethods()) {
-    if (method == Method::kUniformPseudoInverse && !scene.field->IsUniform()) continue;
+  for (const PhotometricMethodRow& method : PhotometricMethods()) {
+    if (NeedsUniformLightField(method) && !scene.field->IsUniform()) continue;
     PhotometricSolverOptions options;
-    options.method = method;
-    runs.push_back({PhotometricMethodName(method), options});
+    options.method = method.method;
+    runs.push_back({method.name, options});
   }
   if (diligent) {
     // The benchmark's least-squares baseline: every sample kept.

@@ -26,6 +26,7 @@
 #include "app/gui/page_widgets.h"
 #include "app/session/rig_json.h"
 #include "app/session/session.h"
+#include "solver/photometric_methods.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -44,31 +45,6 @@ std::vector<fs::path> ResultFolders(const fs::path& session_dir) {
   return folders;
 }
 
-// One line per method for the operator (docs/solver.md has the figures).
-QString MethodDescription(PhotometricSolverOptions::Method method) {
-  using Method = PhotometricSolverOptions::Method;
-  switch (method) {
-    case Method::kAdaptive:
-      return QObject::tr(
-          "fast and accurate: shared light matrix where the light is uniform, robust re-solve only "
-          "where the residual calls for it (default)");
-    case Method::kJacobiSvd:
-      return QObject::tr("reference least squares, per-pixel SVD: slowest, most stable");
-    case Method::kNormalEquations:
-      return QObject::tr("per-pixel 3x3 normal equations, closed form: fast");
-    case Method::kQr:
-      return QObject::tr("per-pixel Householder QR least squares");
-    case Method::kUniformPseudoInverse:
-      return QObject::tr("one pseudo-inverse for all pixels: distant lights only, refused otherwise");
-    case Method::kRobustIrls:
-      return QObject::tr("robust per-pixel reweighting (Tukey): rejects shadows and highlights; slower");
-    case Method::kSparseBayesian:
-      return QObject::tr("sparse Bayesian outlier model: most robust to shadows and highlights; slowest");
-    case Method::kDiffuseLobe:
-      return QObject::tr("diffuse plus specular lobe per pixel: uses highlights and sheen, writes a specular map");
-  }
-  return {};
-}
 }  // namespace
 
 SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
@@ -149,10 +125,12 @@ QLayout* SessionsPage::MakeSolveForm() {
 QLayout* SessionsPage::MakeMethodRow(const SolveOptions& defaults) {
   method_ = new QComboBox(this);
   method_->setObjectName("solverMethod");
-  for (PhotometricSolverOptions::Method method : AllPhotometricMethods()) {
-    method_->addItem(QString::fromLatin1(PhotometricMethodName(method)),
-                     QString::fromLatin1(PhotometricMethodName(method)));
-    method_->setItemData(method_->count() - 1, MethodDescription(method), Qt::ToolTipRole);
+  for (const PhotometricMethodRow& method : PhotometricMethods()) {
+    // The method table's one line (docs/solver.md has the figures).
+    QString description = QString::fromUtf8(method.description);
+    if (method.method == defaults.solver.method) description += tr(" (default)");
+    method_->addItem(QString::fromLatin1(method.name), QString::fromLatin1(method.name));
+    method_->setItemData(method_->count() - 1, description, Qt::ToolTipRole);
   }
   method_->setCurrentIndex(method_->findData(QString::fromLatin1(PhotometricMethodName(defaults.solver.method))));
   method_description_ = new QLabel(this);

@@ -97,15 +97,6 @@ TEST_P(EveryMethodTest, NoisySphereMatchesTheReference) {
 
 INSTANTIATE_TEST_SUITE_P(Methods, EveryMethodTest, ::testing::ValuesIn(AllCases()), CaseName);
 
-TEST(SolverMethodsTest, NamesRoundTripAndUnknownNamesAreListed) {
-  for (Method method : AllPhotometricMethods()) {
-    EXPECT_EQ(PhotometricMethodFromName(PhotometricMethodName(method)), method);
-  }
-  EXPECT_THAT([] { PhotometricMethodFromName("svd"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("'svd' is not one of adaptive, jacobi_svd")));
-  EXPECT_EQ(PhotometricSolverOptions().method, Method::kAdaptive) << "the default is adaptive";
-}
-
 TEST(SolverMethodsTest, UniformPinvRejectsAPerPixelLightField) {
   SyntheticSceneOptions scene_options;
   scene_options.lights = SyntheticSceneOptions::Lights::kNearField;

@@ -9,6 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "solver/photometric_methods.h"
 #include "solver/photometric_solver.h"
 #include "solver/pixel_kernels.h"
 #include "solver/synthetic_scene.h"
@@ -103,10 +104,10 @@ TEST(TileLightSamplerTest, WhatTheMethodAllowsDecidesAndExactRowsAreTheField) {
   EXPECT_EQ(distant_default.Classify(LightSharing::kNever, 0, 0, 64, 64), TileLights::kExact);
 
   // The methods' sharing: only adaptive and uniform_pinv share lights.
-  for (Method method : AllPhotometricMethods()) {
-    const LightSharing sharing = tiled::LightSharingOf(method);
-    EXPECT_EQ(sharing != LightSharing::kNever, method == Method::kAdaptive || method == Method::kUniformPseudoInverse)
-        << PhotometricMethodName(method);
+  for (const PhotometricMethodRow& method : PhotometricMethods()) {
+    EXPECT_EQ(method.light_sharing != LightSharing::kNever,
+              method.method == Method::kAdaptive || method.method == Method::kUniformPseudoInverse)
+        << method.name;
   }
 
   const tiled::SolveJob job = JobFor(near, &defaults);

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "app/session/session.h"
+#include "solver/photometric_methods.h"
 #include "tests/util/command_runner.h"
 #include "tests/util/temporary_folder.h"
 
@@ -40,6 +41,29 @@ TEST(ScanbenchCliTest, HelpListsTheCommands) {
   for (const char* command : {"demo", "simulate", "solve"}) EXPECT_THAT(result.output, HasSubstr(command));
   EXPECT_EQ(RunScanbench("solve --help").exit_code, 0);
   EXPECT_NE(RunScanbench("").exit_code, 0) << "a command is required";
+}
+
+// --method's help is the method table: every method on a line of its own with
+// its description, in every command that takes the solver's options; an
+// unknown name is refused with the table's names.
+TEST(ScanbenchCliTest, MethodHelpListsEveryMethodWithItsDescription) {
+  for (const std::string command : {"solve", "solve-dataset", "batch", "capture"}) {
+    const CommandResult help = RunScanbench(command + " --help");
+    ASSERT_EQ(help.exit_code, 0) << command;
+    EXPECT_THAT(help.output, HasSubstr("Solver method (default adaptive):")) << command;
+    for (const PhotometricMethodRow& method : PhotometricMethods()) {
+      const size_t at = help.output.find(method.description);
+      ASSERT_NE(at, std::string::npos) << command << " --help lacks " << method.name << "'s description";
+      const size_t line_start = help.output.rfind('\n', at) + 1;
+      EXPECT_THAT(help.output.substr(line_start, at - line_start),
+                  ::testing::MatchesRegex(" *" + std::string(method.name) + "  +"))
+          << command << " --help: " << method.name << " is not on its description's line";
+    }
+  }
+  testing::TemporaryFolder folder;
+  const CommandResult unknown = RunScanbench("solve " + Quoted(folder.path()) + " --method svd");
+  EXPECT_NE(unknown.exit_code, 0);
+  EXPECT_THAT(unknown.output, HasSubstr("'svd' is not one of adaptive, jacobi_svd"));
 }
 
 TEST(ScanbenchCliTest, DemoScansThenResolvesBesideTheFirstResult) {

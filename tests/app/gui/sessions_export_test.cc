@@ -26,6 +26,7 @@
 #include "app/gui/main_window.h"
 #include "app/gui/results_page.h"
 #include "app/gui/sessions_page.h"
+#include "solver/photometric_methods.h"
 #include "tests/util/temporary_folder.h"
 
 namespace scanbench {
@@ -98,8 +99,17 @@ class SessionsExportTest : public QObject {
     sessions->SetRoot(QString::fromStdString(folder_.path().string()));
     QVERIFY(sessions->SelectSession(QString::fromStdString(session_.string())));
     auto* method = Find<QComboBox>(sessions, "solverMethod");
-    // Every method is offered, each with its one-line description; adaptive first chosen.
-    QCOMPARE(method->count(), int(AllPhotometricMethods().size()));
+    // Every method of the method table is offered in its order, each with its
+    // one-line description (the default's marked); adaptive first chosen.
+    QCOMPARE(method->count(), int(PhotometricMethods().size()));
+    for (const PhotometricMethodRow& row : PhotometricMethods()) {
+      const int index = int(row.method);
+      QCOMPARE(method->itemText(index), QString::fromLatin1(row.name));
+      QCOMPARE(method->itemData(index).toString(), QString::fromLatin1(row.name));
+      const QString tip = method->itemData(index, Qt::ToolTipRole).toString();
+      QVERIFY2(tip.startsWith(QString::fromUtf8(row.description)), row.name);
+      QCOMPARE(tip.endsWith(" (default)"), row.method == PhotometricSolverOptions().method);
+    }
     QCOMPARE(method->currentText(), QStringLiteral("adaptive"));
     QVERIFY(!Find<QLabel>(sessions, "solverMethodDescription")->text().isEmpty());
     method->setCurrentIndex(method->findText("normal_equations"));
