@@ -1,7 +1,7 @@
 // Size and encoding CPU time of an export's full-size maps in each lossless
 // encoding: the measurement behind the export's file encodings
-// (docs/export.md, "File encodings"; ExportFileEncoding in
-// app/controllers/export_controller.cc).
+// (docs/export.md, "File encodings"; ExportPngEncoding and ExportExrEncoding
+// in app/io/export_files.cc).
 //
 //   scanbench export s16/results/<run>                     # png16: the PNG maps
 //   scanbench export s16/results/<run> --preset exr        # every map as float EXR

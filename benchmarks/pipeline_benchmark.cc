@@ -573,13 +573,18 @@ bool ReportLatencies(const LatencyOutcomes& latencies, std::optional<double> flo
   return all_ran;
 }
 
+// The 1, 5 and 15 minute load averages; zeros when the system gives none.
+std::array<double, 3> LoadAverage() {
+  std::array<double, 3> load{};
+  if (getloadavg(load.data(), 3) != 3) load = {};
+  return load;
+}
+
 // --latency-only: the two capture-to-result stages alone.
 int RunLatencyOnly(const Args& args, const fs::path& work) {
-  std::array<double, 3> load_start{};
-  if (getloadavg(load_start.data(), 3) != 3) load_start = {};
+  const std::array<double, 3> load_start = LoadAverage();
   const LatencyOutcomes latencies = RunLatencies(args, work);
-  std::array<double, 3> load_end{};
-  if (getloadavg(load_end.data(), 3) != 3) load_end = {};
+  const std::array<double, 3> load_end = LoadAverage();
   std::printf("Capture-to-result at %dx%d, %d threads (no floor, solve or export: --latency-only)\n", args.width,
               args.height, args.threads);
   std::printf("Load average at the start %s, at the end %s (1 min), on %ld CPUs\n", Fixed(load_start[0], 2).c_str(),
@@ -599,16 +604,132 @@ int RunLatencyOnly(const Args& args, const fs::path& work) {
   return all_ran ? 0 : 1;
 }
 
-int RunParent(Args args) {
+void CheckArgs(const Args& args) {
   if (args.width < 16 || args.height < 16) {
     throw std::invalid_argument("--width/--height: " + std::to_string(args.width) + "x" + std::to_string(args.height) +
                                 " must be at least 16 pixels each");
   }
   if (args.threads < 1) throw std::invalid_argument("--threads: " + std::to_string(args.threads) + " must be >= 1");
+}
+
+// A new folder for the run's files under --work-dir (or the system's temporary folder).
+fs::path MakeWorkFolder(const Args& args) {
   const fs::path temp_root = args.work_dir.empty() ? fs::temp_directory_path() : args.work_dir;
   std::string pattern = (temp_root / "pipeline_benchmark.XXXXXX").string();
   if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error(temp_root.string() + ": cannot create a temporary folder");
-  const fs::path work = pattern;
+  return pattern;
+}
+
+// The run's session: --session (complete; the run takes its size and lists
+// in *made_in_session the folders the solve and the export add to it), or
+// one simulated into `work`. Returns the simulation's seconds, 0 when reused.
+double PrepareSession(Args* args, const fs::path& work, std::vector<fs::path>* made_in_session) {
+  if (args->session.empty()) {
+    args->session = work / "session";
+    return RunStage(*args, work, "simulate", {"--session", args->session.string()}).figures.at("seconds").get<double>();
+  }
+  SessionLoadOptions load;
+  load.verify_checksums = false;
+  const Session session = LoadSession(args->session, load);
+  if (!session.capture_complete) {
+    throw std::invalid_argument("--session " + args->session.string() + ": the capture is not complete");
+  }
+  args->width = session.camera.width;
+  args->height = session.camera.height;
+  // Folders the solve and the export create go again with what is in them.
+  for (const char* folder : {"results", "exports"}) {
+    if (!fs::exists(args->session / folder)) made_in_session->push_back(args->session / folder);
+  }
+  return 0;
+}
+
+// The stages of a full run, each in a child process of its own.
+struct PipelineRuns {
+  StageRun decode, solve, write, exported;
+  LatencyOutcomes latencies;
+};
+
+PipelineRuns RunPipeline(const Args& args, const fs::path& work, bool reused,
+                         std::vector<fs::path>* made_in_session) {
+  const std::vector<std::string> on_session = {"--session", args.session.string()};
+  PipelineRuns runs;
+  runs.decode = RunStage(args, work, "floor-decode", on_session);
+  runs.solve = RunStage(args, work, "solve", on_session);
+  const fs::path result_dir = runs.solve.figures.at("result_dir").get<std::string>();
+  if (reused) made_in_session->push_back(result_dir);
+  runs.write = RunStage(args, work, "floor-write", {"--result", result_dir.string()});
+  runs.exported = RunStage(args, work, "export", {"--result", result_dir.string()});
+  const fs::path export_dir = runs.exported.figures.at("export_dir").get<std::string>();
+  if (reused) made_in_session->push_back(export_dir);
+  runs.latencies = RunLatencies(args, work);
+  return runs;
+}
+
+// The figures of a full run, printed as rows and returned as the report's
+// JSON; *all_ran is false when a latency stage failed.
+json ReportPipeline(const Args& args, const Session& session, bool reused, double simulate_seconds,
+                    const std::array<double, 3>& load_start, const PipelineRuns& runs, bool* all_ran) {
+  const double floor_s = runs.decode.figures.at("seconds").get<double>() + runs.write.figures.at("seconds").get<double>();
+  const double result_bytes = runs.solve.figures.at("bytes_written").get<double>();
+  const double frame_bytes = runs.decode.figures.at("file_bytes").get<double>();
+  const int frames = runs.decode.figures.at("frames").get<int>();
+
+  // Other work on the machine slows every figure: its load is part of the record.
+  const std::array<double, 3> load_end = LoadAverage();
+  std::printf("Pipeline at %dx%d, %d LEDs, %d frames (%s), %d threads; session %s\n", args.width, args.height,
+              int(session.rig.leds.size()), frames, Mb(frame_bytes).c_str(), args.threads,
+              reused ? ("reused: " + args.session.string()).c_str()
+                     : ("simulated in this run in " + Fixed(simulate_seconds, 1) + " s").c_str());
+  std::printf("Load average at the start %s, at the end %s (1 min), on %ld CPUs\n", Fixed(load_start[0], 2).c_str(),
+              Fixed(load_end[0], 2).c_str(), sysconf(_SC_NPROCESSORS_ONLN));
+  PrintRow("figure", "seconds", "x floor", "peak RSS", "target", "met");
+  json report = {{"schema", "scanbench.pipeline_benchmark"},
+                 {"schema_version", 1},
+                 {"width", args.width},
+                 {"height", args.height},
+                 {"leds", session.rig.leds.size()},
+                 {"frames", frames},
+                 {"frame_bytes", frame_bytes},
+                 {"threads", args.threads},
+                 {"cpus", sysconf(_SC_NPROCESSORS_ONLN)},
+                 {"load_average_1min", {{"start", load_start[0]}, {"end", load_end[0]}}},
+                 {"session", {{"path", args.session.string()}, {"reused", reused}, {"simulate_seconds", simulate_seconds}}}};
+  PrintRow("floor: LibRaw unpack of " + std::to_string(frames) + " frames",
+           Cell(runs.decode.figures.at("seconds").get<double>(), 2, 10), "", Gb(runs.decode.peak_rss_bytes), "", "");
+  PrintRow("floor: write " + Mb(result_bytes) + " (fsynced)", Cell(runs.write.figures.at("seconds").get<double>(), 2, 10),
+           "", Gb(runs.write.peak_rss_bytes), "", "");
+  PrintRow("floor", Cell(floor_s, 2, 10), Cell(1, 2, 8), "", "", "");
+  report["floor"] = {{"seconds", floor_s},
+                     {"decode", runs.decode.figures},
+                     {"write", runs.write.figures}};
+  report["floor"]["decode"]["peak_rss_bytes"] = runs.decode.peak_rss_bytes;
+  report["floor"]["write"]["peak_rss_bytes"] = runs.write.peak_rss_bytes;
+
+  report["solve"] = Figure("solve (" + runs.solve.figures.at("method").get<std::string>() + ")", runs.solve, floor_s,
+                           kSolveTargetRatio, std::nullopt, kSolveTargetPeakBytes);
+  PrintStages(runs.solve.figures.at("stages"));
+  const bool folder_met = result_bytes <= kResultFolderTargetBytes;
+  PrintRow("  result folder " + Mb(result_bytes), "", "", "", "<= " + Mb(kResultFolderTargetBytes),
+           folder_met ? "yes" : "no");
+  report["solve"]["target"]["bytes_written"] = kResultFolderTargetBytes;
+  report["solve"]["bytes_written_met"] = folder_met;
+  if (runs.solve.figures.contains("normal_mean_error_deg")) {
+    PrintRow("  normal error, mean " + Fixed(runs.solve.figures.at("normal_mean_error_deg").get<double>(), 3) + " deg",
+             "", "", "", "", "");
+  }
+
+  report["export"] = Figure("export (" + runs.exported.figures.at("preset").get<std::string>() + ")", runs.exported, floor_s,
+                            kExportTargetRatio, std::nullopt, kExportTargetPeakBytes);
+  PrintStages(runs.exported.figures.at("stages"));
+  PrintRow("  export folder " + Mb(runs.exported.figures.at("bytes_written").get<double>()), "", "", "", "", "");
+
+  *all_ran = ReportLatencies(runs.latencies, floor_s, &report);
+  return report;
+}
+
+int RunParent(Args args) {
+  CheckArgs(args);
+  const fs::path work = MakeWorkFolder(args);
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
 
@@ -634,100 +755,15 @@ int RunParent(Args args) {
       clean_up();
       return code;
     }
-    std::array<double, 3> load_start{};
-    if (getloadavg(load_start.data(), 3) != 3) load_start = {};
+    const std::array<double, 3> load_start = LoadAverage();
     const bool reused = !args.session.empty();
-    double simulate_seconds = 0;
-    if (reused) {
-      SessionLoadOptions load;
-      load.verify_checksums = false;
-      const Session session = LoadSession(args.session, load);
-      if (!session.capture_complete) {
-        throw std::invalid_argument("--session " + args.session.string() + ": the capture is not complete");
-      }
-      args.width = session.camera.width;
-      args.height = session.camera.height;
-      // Folders the solve and the export create go again with what is in them.
-      for (const char* folder : {"results", "exports"}) {
-        if (!fs::exists(args.session / folder)) made_in_session.push_back(args.session / folder);
-      }
-    } else {
-      args.session = work / "session";
-      simulate_seconds = RunStage(args, work, "simulate", {"--session", args.session.string()})
-                             .figures.at("seconds")
-                             .get<double>();
-    }
+    const double simulate_seconds = PrepareSession(&args, work, &made_in_session);
     SessionLoadOptions load;
     load.verify_checksums = false;
     const Session session = LoadSession(args.session, load);
-    const std::vector<std::string> on_session = {"--session", args.session.string()};
-
-    const StageRun decode = RunStage(args, work, "floor-decode", on_session);
-    const StageRun solve = RunStage(args, work, "solve", on_session);
-    const fs::path result_dir = solve.figures.at("result_dir").get<std::string>();
-    if (reused) made_in_session.push_back(result_dir);
-    const StageRun write = RunStage(args, work, "floor-write", {"--result", result_dir.string()});
-    const StageRun exported = RunStage(args, work, "export", {"--result", result_dir.string()});
-    const fs::path export_dir = exported.figures.at("export_dir").get<std::string>();
-    if (reused) made_in_session.push_back(export_dir);
-    const LatencyOutcomes latencies = RunLatencies(args, work);
-
-    const double floor_s = decode.figures.at("seconds").get<double>() + write.figures.at("seconds").get<double>();
-    const double result_bytes = solve.figures.at("bytes_written").get<double>();
-    const double frame_bytes = decode.figures.at("file_bytes").get<double>();
-    const int frames = decode.figures.at("frames").get<int>();
-
-    // Other work on the machine slows every figure: its load is part of the record.
-    std::array<double, 3> load_end{};
-    if (getloadavg(load_end.data(), 3) != 3) load_end = {};
-    std::printf("Pipeline at %dx%d, %d LEDs, %d frames (%s), %d threads; session %s\n", args.width, args.height,
-                int(session.rig.leds.size()), frames, Mb(frame_bytes).c_str(), args.threads,
-                reused ? ("reused: " + args.session.string()).c_str()
-                       : ("simulated in this run in " + Fixed(simulate_seconds, 1) + " s").c_str());
-    std::printf("Load average at the start %s, at the end %s (1 min), on %ld CPUs\n", Fixed(load_start[0], 2).c_str(),
-                Fixed(load_end[0], 2).c_str(), sysconf(_SC_NPROCESSORS_ONLN));
-    PrintRow("figure", "seconds", "x floor", "peak RSS", "target", "met");
-    json report = {{"schema", "scanbench.pipeline_benchmark"},
-                   {"schema_version", 1},
-                   {"width", args.width},
-                   {"height", args.height},
-                   {"leds", session.rig.leds.size()},
-                   {"frames", frames},
-                   {"frame_bytes", frame_bytes},
-                   {"threads", args.threads},
-                   {"cpus", sysconf(_SC_NPROCESSORS_ONLN)},
-                   {"load_average_1min", {{"start", load_start[0]}, {"end", load_end[0]}}},
-                   {"session", {{"path", args.session.string()}, {"reused", reused}, {"simulate_seconds", simulate_seconds}}}};
-    PrintRow("floor: LibRaw unpack of " + std::to_string(frames) + " frames",
-             Cell(decode.figures.at("seconds").get<double>(), 2, 10), "", Gb(decode.peak_rss_bytes), "", "");
-    PrintRow("floor: write " + Mb(result_bytes) + " (fsynced)", Cell(write.figures.at("seconds").get<double>(), 2, 10),
-             "", Gb(write.peak_rss_bytes), "", "");
-    PrintRow("floor", Cell(floor_s, 2, 10), Cell(1, 2, 8), "", "", "");
-    report["floor"] = {{"seconds", floor_s},
-                       {"decode", decode.figures},
-                       {"write", write.figures}};
-    report["floor"]["decode"]["peak_rss_bytes"] = decode.peak_rss_bytes;
-    report["floor"]["write"]["peak_rss_bytes"] = write.peak_rss_bytes;
-
-    report["solve"] = Figure("solve (" + solve.figures.at("method").get<std::string>() + ")", solve, floor_s,
-                             kSolveTargetRatio, std::nullopt, kSolveTargetPeakBytes);
-    PrintStages(solve.figures.at("stages"));
-    const bool folder_met = result_bytes <= kResultFolderTargetBytes;
-    PrintRow("  result folder " + Mb(result_bytes), "", "", "", "<= " + Mb(kResultFolderTargetBytes),
-             folder_met ? "yes" : "no");
-    report["solve"]["target"]["bytes_written"] = kResultFolderTargetBytes;
-    report["solve"]["bytes_written_met"] = folder_met;
-    if (solve.figures.contains("normal_mean_error_deg")) {
-      PrintRow("  normal error, mean " + Fixed(solve.figures.at("normal_mean_error_deg").get<double>(), 3) + " deg",
-               "", "", "", "", "");
-    }
-
-    report["export"] = Figure("export (" + exported.figures.at("preset").get<std::string>() + ")", exported, floor_s,
-                              kExportTargetRatio, std::nullopt, kExportTargetPeakBytes);
-    PrintStages(exported.figures.at("stages"));
-    PrintRow("  export folder " + Mb(exported.figures.at("bytes_written").get<double>()), "", "", "", "", "");
-
-    const bool all_ran = ReportLatencies(latencies, floor_s, &report);
+    const PipelineRuns runs = RunPipeline(args, work, reused, &made_in_session);
+    bool all_ran = false;
+    const json report = ReportPipeline(args, session, reused, simulate_seconds, load_start, runs, &all_ran);
     std::fflush(stdout);
     if (!args.json_file.empty()) WriteFileAtomic(args.json_file, report.dump(2) + "\n", OverwritePolicy::kReplace);
     clean_up();

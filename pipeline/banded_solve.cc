@@ -401,6 +401,120 @@ void CheckFrames(const RawFrameStack& frames, const LightField& light_field) {
   }
 }
 
+// How the frame is cut: bands of whole tiles, lobe blocks and blend cells
+// (options.band_rows rounded up to BandRowsUnit), each developed with
+// `margin` rows either side when a step reads beyond the band.
+struct BandLayout {
+  int width = 0, height = 0;
+  int band_rows = 0, num_bands = 0;
+  int margin = 0;                          // the Bayer-domain demosaic's or sample_masks', rows
+  int cell = 0, cell_cols = 0, cell_rows = 0;  // the Bayer blend's cell grid
+};
+
+BandLayout LayoutOf(const BandedSolveOptions& options, const LightField& light_field) {
+  BandLayout layout;
+  layout.width = light_field.width();
+  layout.height = light_field.height();
+  const int unit = BandRowsUnit(options.solver);
+  layout.band_rows = (options.band_rows + unit - 1) / unit * unit;
+  layout.num_bands = (layout.height + layout.band_rows - 1) / layout.band_rows;
+  // With a mask hook the band is developed with its margin and cropped after the masks.
+  // (The blend's Bayer solve has no albedo to demosaic: it needs no margin.)
+  layout.margin = std::max(options.bayer_domain ? kBayerMarginRows : 0,
+                           options.sample_masks ? options.sample_mask_margin_rows : 0);
+  layout.cell = BayerNormalBlendOptions().cell_size;
+  layout.cell_cols = (layout.width + layout.cell - 1) / layout.cell;
+  layout.cell_rows = (layout.height + layout.cell - 1) / layout.cell;
+  return layout;
+}
+
+// What the options and the frames developed ahead must hold for this layout.
+void CheckBandInputs(const BandedSolveOptions& options, const RawFrameStack& frames, const BandLayout& layout,
+                     bool with_mosaic) {
+  if (options.bayer_blend_weights != nullptr &&
+      !options.bayer_blend_weights->SameSize(layout.cell_cols, layout.cell_rows)) {
+    throw std::invalid_argument("SolveBanded: bayer_blend_weights is " +
+                                SizeText(options.bayer_blend_weights->width(), options.bayer_blend_weights->height()) +
+                                "; it must be the blend's cell grid of " + SizeText(layout.cell_cols, layout.cell_rows));
+  }
+  for (const DevelopedFrame* ahead : frames.developed) {
+    if (ahead != nullptr && with_mosaic && !ahead->mosaic.SameSize(ahead->rgb)) {
+      throw std::invalid_argument("SolveBanded: a frame developed ahead without its mosaic (mosaic " +
+                                  ShapeText(ahead->mosaic) + "); the Bayer-domain solve needs it");
+    }
+  }
+}
+
+// Rows [dev0, dev1) of every frame, developed (or cut from the frame developed
+// ahead) and scaled to the common exposure, into *developed, the frames on up
+// to `num_threads` threads; the raw samples at the clip level they count in
+// *clipped. `progress` from `begin` to `end` over the frames; false when it
+// asked to stop.
+bool DevelopBand(int num_threads, const RawFrameStack& frames, const RawDevelopOptions& develop, int dev0, int dev1,
+                 const ProgressCallback& progress, double begin, double end, std::vector<DevelopedFrame>* developed,
+                 size_t* clipped) {
+  const int num_frames = static_cast<int>(frames.frames.size());
+  developed->assign(num_frames, DevelopedFrame());
+  std::atomic<size_t> clipped_samples{0};
+  const bool developed_all = ParallelFor(
+      num_frames, ResolveThreadCount(num_threads), 1,
+      [&](int first, int last, int) {
+        for (int k = first; k < last; ++k) {
+          const DevelopedFrame* ahead = frames.developed.empty() ? nullptr : frames.developed[k];
+          DevelopedFrame& frame = (*developed)[k];
+          frame = ahead ? DevelopedRows(*ahead, *frames.frames[k], develop, dev0, dev1)
+                        : DevelopRawRows(*frames.frames[k], frames.dark, develop, dev0, dev1);
+          clipped_samples += frame.num_clipped_samples;
+          const double scale = frames.exposure_scales.empty() ? 1.0 : frames.exposure_scales[k];
+          if (scale != 1) {
+            for (ImageF* image : {&frame.rgb, &frame.mosaic}) {
+              float* values = image->data();
+              for (size_t i = 0; i < image->size(); ++i) values[i] = static_cast<float>(values[i] * scale);
+            }
+          }
+        }
+      },
+      progress ? std::function<bool(int)>([&](int done) { return progress(begin + (end - begin) * done / num_frames); })
+               : std::function<bool(int)>());
+  *clipped = clipped_samples.load();
+  return developed_all;
+}
+
+// The band's own raw samples at the clip level: as the development counted
+// them without a margin; with one, from the kept mosaic's per-sample flags
+// (0 = at the clip level) of the band's rows [first, first + rows); without a
+// mosaic to count them in, none.
+size_t ClippedSamplesOfBand(const BandLayout& layout, const RawDevelopOptions& develop,
+                            const std::vector<DevelopedFrame>& developed, size_t clipped_in_development, int first,
+                            int rows) {
+  if (layout.margin == 0) return clipped_in_development;
+  if (!develop.keep_mosaic) return 0;
+  size_t clipped = 0;
+  for (const DevelopedFrame& frame : developed) {
+    const uint8_t* flags = frame.mosaic_valid.row(first);
+    clipped += std::count(flags, flags + size_t(rows) * layout.width, uint8_t{0});
+  }
+  return clipped;
+}
+
+// The Bayer blend's figures over the bands: each band's cell weights into the
+// summary's grid, and the mean weight over every pixel weighed so far.
+struct BlendTally {
+  double weight_sum = 0;
+  size_t pixels_weighed = 0;
+
+  void Add(const BandedSolveOptions& options, const BayerNormalBlendSummary& blended,
+           const BayerBlendCellsSummary& cells, int first_cell_row, BandedSolveSummary* summary) {
+    if (options.bayer_blend && !blended.cell_weights.empty()) {
+      CopyRowsInto(blended.cell_weights, first_cell_row, &summary->bayer_blend_weights);
+    }
+    weight_sum += blended.mean_weight * double(blended.pixels_weighed);
+    // The pixels the gate left out are weighed at 0.
+    pixels_weighed += blended.pixels_weighed + (blended.IsUsable() ? cells.pixels_left_out : 0);
+    if (pixels_weighed > 0) summary->solver.bayer_blend_mean_weight = weight_sum / pixels_weighed;
+  }
+};
+
 }  // namespace
 
 void BandedSolveOptions::Check() const {
@@ -491,88 +605,36 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
   options.Check();
   if (!sink) throw std::invalid_argument("SolveBanded: the band sink must not be empty");
   CheckFrames(frames, light_field);
-  const int width = light_field.width(), height = light_field.height();
-  const int unit = BandRowsUnit(options.solver);
-  const int band_rows = (options.band_rows + unit - 1) / unit * unit;
-  const int num_bands = (height + band_rows - 1) / band_rows;
-  const int num_frames = static_cast<int>(frames.frames.size());
-  const int threads = ResolveThreadCount(options.solver.num_threads);
-  const int cell = BayerNormalBlendOptions().cell_size;
-  const int cell_cols = (width + cell - 1) / cell, cell_rows = (height + cell - 1) / cell;
-  if (options.bayer_blend_weights != nullptr && !options.bayer_blend_weights->SameSize(cell_cols, cell_rows)) {
-    throw std::invalid_argument("SolveBanded: bayer_blend_weights is " +
-                                SizeText(options.bayer_blend_weights->width(), options.bayer_blend_weights->height()) +
-                                "; it must be the blend's cell grid of " + SizeText(cell_cols, cell_rows));
-  }
-
+  const BandLayout layout = LayoutOf(options, light_field);
   const RawDevelopOptions develop = DevelopOptionsFor(options);
-  const bool with_mosaic = develop.keep_mosaic;
-  for (const DevelopedFrame* ahead : frames.developed) {
-    if (ahead != nullptr && with_mosaic && !ahead->mosaic.SameSize(ahead->rgb)) {
-      throw std::invalid_argument("SolveBanded: a frame developed ahead without its mosaic (mosaic " +
-                                  ShapeText(ahead->mosaic) + "); the Bayer-domain solve needs it");
-    }
-  }
-  double blend_weight_sum = 0;
-  size_t blend_pixels_weighed = 0;
-  double bayer_cost = 1;  // the Bayer solve's time per band against the demosaiced one's, as last measured
+  CheckBandInputs(options, frames, layout, develop.keep_mosaic);
 
   BandedSolveSummary summary;
-  summary.band_rows = band_rows;
-  if (options.bayer_blend) summary.bayer_blend_weights = ImageF(cell_cols, cell_rows, 1);
-  summary.solver.num_lights = num_frames;
+  summary.band_rows = layout.band_rows;
+  if (options.bayer_blend) summary.bayer_blend_weights = ImageF(layout.cell_cols, layout.cell_rows, 1);
+  summary.solver.num_lights = static_cast<int>(frames.frames.size());
+  BlendTally blend_tally;
+  double bayer_cost = 1;  // the Bayer solve's time per band against the demosaiced one's, as last measured
   // Development is cheap beside the solve: a fifth of each band's progress.
   constexpr double kDevelopShare = 0.2;
-  for (int band = 0; band < num_bands; ++band) {
-    const int row0 = band * band_rows, row1 = std::min(height, row0 + band_rows);
-    const double band_begin = double(band) / num_bands, band_end = double(band + 1) / num_bands;
+  for (int band = 0; band < layout.num_bands; ++band) {
+    const int row0 = band * layout.band_rows, row1 = std::min(layout.height, row0 + layout.band_rows);
+    const double band_begin = double(band) / layout.num_bands, band_end = double(band + 1) / layout.num_bands;
     const double develop_end = band_begin + kDevelopShare * (band_end - band_begin);
-    // With a mask hook the band is developed with its margin and cropped after the masks.
-    // (The blend's Bayer solve has no albedo to demosaic: it needs no margin.)
-    const int margin = std::max(options.bayer_domain ? kBayerMarginRows : 0,
-                                options.sample_masks ? options.sample_mask_margin_rows : 0);
-    const int dev0 = std::max(0, row0 - margin), dev1 = std::min(height, row1 + margin);
+    const int dev0 = std::max(0, row0 - layout.margin), dev1 = std::min(layout.height, row1 + layout.margin);
 
-    auto develop_start = std::chrono::steady_clock::now();
-    std::vector<DevelopedFrame> developed(num_frames);
-    std::atomic<size_t> clipped{0};
-    const bool developed_all = ParallelFor(
-        num_frames, threads, 1,
-        [&](int first, int last, int) {
-          for (int k = first; k < last; ++k) {
-            const DevelopedFrame* ahead = frames.developed.empty() ? nullptr : frames.developed[k];
-            developed[k] = ahead ? DevelopedRows(*ahead, *frames.frames[k], develop, dev0, dev1)
-                                 : DevelopRawRows(*frames.frames[k], frames.dark, develop, dev0, dev1);
-            clipped += developed[k].num_clipped_samples;
-            const double scale = frames.exposure_scales.empty() ? 1.0 : frames.exposure_scales[k];
-            if (scale != 1) {
-              for (ImageF* image : {&developed[k].rgb, &developed[k].mosaic}) {
-                float* values = image->data();
-                for (size_t i = 0; i < image->size(); ++i) values[i] = static_cast<float>(values[i] * scale);
-              }
-            }
-          }
-        },
-        progress ? std::function<bool(int)>([&](int done) {
-          return progress(band_begin + (develop_end - band_begin) * done / num_frames);
-        })
-                 : std::function<bool(int)>());
+    const auto develop_start = std::chrono::steady_clock::now();
+    std::vector<DevelopedFrame> developed;
+    size_t clipped = 0;
+    const bool developed_all = DevelopBand(options.solver.num_threads, frames, develop, dev0, dev1, progress,
+                                           band_begin, develop_end, &developed, &clipped);
     summary.develop_seconds += SecondsSince(develop_start);
     if (!developed_all) {
       summary.SetCancelled("cancelled developing band " + std::to_string(band + 1) + " of " +
-                           std::to_string(num_bands));
+                           std::to_string(layout.num_bands));
       return summary;
     }
-    if (margin == 0) {
-      summary.clipped_samples += clipped.load();
-    } else if (with_mosaic) {
-      // The development counted the margin rows too: count the band's own
-      // from the kept mosaic's per-sample flags (0 = at the clip level).
-      for (const DevelopedFrame& frame : developed) {
-        const uint8_t* flags = frame.mosaic_valid.row(row0 - dev0);
-        summary.clipped_samples += std::count(flags, flags + size_t(row1 - row0) * width, uint8_t{0});
-      }
-    }
+    summary.clipped_samples += ClippedSamplesOfBand(layout, develop, developed, clipped, row0 - dev0, row1 - row0);
     if (options.sample_masks) MaskAndCropBand(options, row0 - dev0, row1 - row0, &developed, &summary.samples_masked_out);
 
     const auto solve_start = std::chrono::steady_clock::now();
@@ -590,13 +652,7 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
             : SolveRgbBand(options, developed, light_field, row0, row1, &band_solution,
                            SubRange(progress, develop_end, band_end));
     Accumulate(solved, &summary.solver);
-    if (options.bayer_blend && !blended.cell_weights.empty()) {
-      CopyRowsInto(blended.cell_weights, row0 / cell, &summary.bayer_blend_weights);
-    }
-    blend_weight_sum += blended.mean_weight * double(blended.pixels_weighed);
-    // The pixels the gate left out are weighed at 0.
-    blend_pixels_weighed += blended.pixels_weighed + (blended.IsUsable() ? cells.pixels_left_out : 0);
-    if (blend_pixels_weighed > 0) summary.solver.bayer_blend_mean_weight = blend_weight_sum / blend_pixels_weighed;
+    blend_tally.Add(options, blended, cells, row0 / layout.cell, &summary);
     summary.solve_seconds += SecondsSince(solve_start);
     sink(row0, band_solution);  // its time is the sink's, not the solve's
     ++summary.num_bands;
@@ -604,7 +660,8 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
       summary.solver.termination = solved.termination;
       summary.solver.message = solved.message;
       summary.termination = solved.termination;
-      summary.message = "band " + std::to_string(band + 1) + " of " + std::to_string(num_bands) + ": " + solved.message;
+      summary.message =
+          "band " + std::to_string(band + 1) + " of " + std::to_string(layout.num_bands) + ": " + solved.message;
       return summary;
     }
   }

@@ -2,7 +2,12 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Dense>
 
 namespace scanbench {
 
@@ -62,6 +67,82 @@ ErrorStatistics FloatErrorStatistics::Finish() {
   stats.percentile_95 = value_of_rank(rank_of(0.95));
   values_ = {};
   return stats;
+}
+
+std::optional<double> RmsAfterBestFitPlane(const ImageF& estimate, const ImageF& reference, const ImageU8& mask) {
+  if (estimate.channels() != 1 || reference.channels() != 1 || mask.channels() != 1 ||
+      !estimate.SameSize(reference) || !mask.SameSize(estimate)) {
+    throw std::invalid_argument("RmsAfterBestFitPlane: estimate " + ShapeText(estimate) + ", reference " +
+                                ShapeText(reference) + " and mask " + ShapeText(mask) +
+                                " must be 1 channel of one size");
+  }
+  const int width = estimate.width(), height = estimate.height();
+  const double cx = width / 2.0, cy = height / 2.0;
+  // Per pixel of the plane's design row (1, x - cx, y - cy): m(i, j) += r_i r_j, rhs(i) += r_i d.
+  double m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0, rhs0 = 0, rhs1 = 0, rhs2 = 0;
+  double m00 = 0;
+  size_t count = 0;
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* on = mask.row(y);
+    const float* e = estimate.row(y);
+    const float* r = reference.row(y);
+    const double r2 = y - cy;
+    for (int x = 0; x < width; ++x) {
+      if (!on[x]) continue;
+      const double r1 = x - cx;
+      const double difference = double(e[x]) - r[x];
+      m00 += 1.0;
+      m01 += r1;  // 1.0 * r1, exactly
+      m02 += r2;
+      m11 += r1 * r1;
+      m12 += r1 * r2;
+      m22 += r2 * r2;
+      rhs0 += difference;
+      rhs1 += r1 * difference;
+      rhs2 += r2 * difference;
+      ++count;
+    }
+  }
+  if (count < 3) return std::nullopt;
+  Eigen::Matrix3d normal_matrix;
+  normal_matrix << m00, m01, m02, m01, m11, m12, m02, m12, m22;
+  const Eigen::Vector3d plane = normal_matrix.ldlt().solve(Eigen::Vector3d(rhs0, rhs1, rhs2));
+  double sum_squares = 0;
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* on = mask.row(y);
+    const float* e = estimate.row(y);
+    const float* r = reference.row(y);
+    for (int x = 0; x < width; ++x) {
+      if (!on[x]) continue;
+      const double residual = double(e[x]) - r[x] - plane.dot(Eigen::Vector3d(1.0, x - cx, y - cy));
+      sum_squares += residual * residual;
+    }
+  }
+  return std::sqrt(sum_squares / count);
+}
+
+std::optional<double> MeanAngularErrorDegrees(const ImageF& estimate, const ImageF& truth, const ImageU8& mask) {
+  if (estimate.channels() != 3 || truth.channels() != 3 || !estimate.SameSize(truth) || !mask.SameSize(estimate)) {
+    throw std::invalid_argument("MeanAngularErrorDegrees: normals " + ShapeText(estimate) + " and " +
+                                ShapeText(truth) + ", mask " + ShapeText(mask) + " must be 3, 3 and 1 channels of one size");
+  }
+  constexpr int kBandRows = 64;
+  const int width = estimate.width(), height = estimate.height();
+  ImageF truth_rows;
+  std::vector<double> angles;
+  double sum = 0;
+  size_t count = 0;
+  for (int y0 = 0; y0 < height; y0 += kBandRows) {
+    const int rows = std::min(kBandRows, height - y0);
+    if (!truth_rows.SameSize(width, rows)) truth_rows = ImageF(width, rows, 3);
+    std::copy(truth.row(y0), truth.row(y0) + truth_rows.size(), truth_rows.data());
+    angles.clear();
+    AngularErrorsOfRows(estimate, truth_rows, y0, mask, 0, &angles);
+    for (const double angle : angles) sum += angle;
+    count += angles.size();
+  }
+  if (count == 0) return std::nullopt;
+  return sum / count;
 }
 
 }  // namespace scanbench

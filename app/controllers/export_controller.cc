@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/io/engine_presets.h"
+#include "app/io/export_files.h"
 #include "app/io/file_util.h"
 #include "app/io/gltf_document.h"
 #include "app/io/image_io.h"
@@ -33,21 +34,10 @@
 #include "core/format.h"
 #include "core/parallel_for.h"
 #include "core/summary.h"
-#include "solver/angular_error.h"
+#include "pipeline/error_statistics.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
-
-// Linear Rec.709 -> linear ACEScg, per pixel.
-ImageF ToAcescg(const ImageF& linear_rec709) {
-  const Eigen::Matrix3f m = AcescgFromLinearRec709().cast<float>();
-  ImageF out = linear_rec709;
-  for (size_t i = 0; i < out.num_pixels(); ++i) {
-    Eigen::Map<Eigen::Vector3f> rgb(out.data() + 3 * i);
-    rgb = m * Eigen::Vector3f(rgb);
-  }
-  return out;
-}
 
 struct ExportInputs {
   fs::path result_dir;            // absolute, <session>/results/<run-id>
@@ -86,125 +76,20 @@ struct ExportController::HeightReference {
 namespace {
 
 constexpr char kWhere[] = "ExportOptions";
-// confidence.exr's channels as the solve writes them (result_maps.cc), read by name.
-const std::vector<std::string> kConfidenceChannels = {"lights_used", "condition_number", "residual"};
+
+// Linear Rec.709 -> linear ACEScg, per pixel.
+ImageF ToAcescg(const ImageF& linear_rec709) {
+  const Eigen::Matrix3f m = AcescgFromLinearRec709().cast<float>();
+  ImageF out = linear_rec709;
+  for (size_t i = 0; i < out.num_pixels(); ++i) {
+    Eigen::Map<Eigen::Vector3f> rgb(out.data() + 3 * i);
+    rgb = m * Eigen::Vector3f(rgb);
+  }
+  return out;
+}
 
 std::runtime_error FileError(const fs::path& path, const std::string& problem) {
   return std::runtime_error(path.string() + ": " + problem);
-}
-
-// The position of channel `name` among a file's `names`; names the file and
-// its channels when missing (`holds` says what the file should hold).
-int ChannelOf(const fs::path& path, const std::vector<std::string>& names, const std::string& name,
-              const std::string& holds) {
-  const auto found = std::find(names.begin(), names.end(), name);
-  if (found == names.end()) {
-    std::string listed;
-    for (const std::string& n : names) listed += (listed.empty() ? "" : ", ") + n;
-    throw FileError(path, "has no channel '" + name + "' (channels: " + listed + "); " + holds);
-  }
-  return static_cast<int>(found - names.begin());
-}
-
-// A map as read: the expected channel count and size, every value finite
-// (bad input must never turn into NaN downstream).
-void CheckMap(const fs::path& path, const ImageF& image, int channels, int width, int height) {
-  if (image.channels() != channels) {
-    throw FileError(path, "has " + std::to_string(image.channels()) + " channels, " + std::to_string(channels) +
-                              " expected");
-  }
-  if (width > 0 && !image.SameSize(width, height)) {
-    throw FileError(path, "is " + ShapeText(image) + ", the session's images are " + std::to_string(width) + "x" +
-                              std::to_string(height));
-  }
-  for (size_t i = 0; i < image.size(); ++i) {
-    if (!std::isfinite(image.data()[i])) {
-      const size_t pixel = i / channels;
-      throw FileError(path, "pixel (" + std::to_string(pixel % image.width()) + ", " +
-                                std::to_string(pixel / image.width()) + ") holds a non-finite value");
-    }
-  }
-}
-
-// A map of the session's ground truth (the simulator's float EXRs), checked
-// as CheckMap does, through ImageRowReader: its OpenEXR core-library reader
-// copies a float file's rows straight into the image (about 4x less CPU than
-// ReadImageFloat's default reader on an uncompressed 16 MP map), the same
-// values. The channels are taken in the file's order, as ReadImageFloat's.
-ImageF ReadTruthMap(const fs::path& path, int channels, int width, int height) {
-  ImageRowReader reader(path);  // names the file when missing or unreadable
-  ImageF image;
-  reader.ReadRows(0, reader.height(), &image);
-  CheckMap(path, image, channels, width, height);
-  return image;
-}
-
-// A map of the result folder: readable, checked as CheckMap does.
-// `channel_names`, if given, are read by name in that order: OpenEXR stores
-// channels sorted by name, so their position in the file is not the writer's.
-ImageF ReadResultMap(const fs::path& path, int channels, int width, int height,
-                     const std::vector<std::string>& channel_names = {}) {
-  std::vector<std::string> names;
-  ImageF image = ReadImageFloat(path, &names);  // names the file when missing or unreadable
-  CheckMap(path, image, channels, width, height);
-  if (channel_names.empty()) return image;
-  std::string holds = path.filename().string() + " holds";
-  for (const std::string& name : channel_names) holds += " " + name;
-  std::vector<int> source(channel_names.size());
-  for (size_t c = 0; c < channel_names.size(); ++c) source[c] = ChannelOf(path, names, channel_names[c], holds);
-  bool in_order = true;
-  for (int c = 0; c < channels; ++c) in_order = in_order && source[c] == c;
-  if (in_order) return image;
-  // In place, a pixel at a time: a reordered copy would be another full-size
-  // map at the moment the export's memory is highest.
-  std::vector<float> pixel(channels);
-  for (size_t i = 0; i < image.num_pixels(); ++i) {
-    float* values = image.data() + i * channels;
-    std::copy_n(values, channels, pixel.data());
-    for (int c = 0; c < channels; ++c) values[c] = pixel[source[c]];
-  }
-  return image;
-}
-
-// specular.exr's roughness_alpha (issue #13): the channels by name (OpenEXR
-// stores them sorted), the session's size, every value finite and in [0, 1].
-ImageF ReadSpecularAlpha(const fs::path& path, int width, int height) {
-  std::vector<std::string> names;
-  const ImageF specular = ReadImageFloat(path, &names);  // names the file when unreadable
-  auto channel_of = [&](const std::string& name) {
-    return ChannelOf(path, names, name, "specular.exr holds specular_f0 and roughness_alpha");
-  };
-  const int f0_channel = channel_of("specular_f0"), alpha_channel = channel_of("roughness_alpha");
-  if (!specular.SameSize(width, height)) {
-    throw FileError(path, "is " + ShapeText(specular) + ", the session's images are " + SizeText(width, height));
-  }
-  ImageF alpha(width, height, 1);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      for (const auto& [channel, name] :
-           {std::pair{f0_channel, "specular_f0"}, std::pair{alpha_channel, "roughness_alpha"}}) {
-        const float value = specular(x, y, channel);
-        if (!std::isfinite(value) || value < 0.0f || value > 1.0f) {
-          throw FileError(path, std::string(name) + " at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
-                                    ") is " + std::to_string(value) + ", must be finite and in [0, 1]");
-        }
-      }
-      alpha(x, y) = specular(x, y, alpha_channel);
-    }
-  }
-  return alpha;
-}
-
-// 1 where the stored mask is above half, 0 elsewhere.
-ImageU8 ReadMask(const fs::path& path, int width, int height) {
-  const ImageU8 stored = ReadImageU8(path);
-  if (!stored.SameSize(width, height)) {
-    throw FileError(path, "is " + std::to_string(stored.width()) + "x" + std::to_string(stored.height()) +
-                              ", the session's images are " + std::to_string(width) + "x" + std::to_string(height));
-  }
-  ImageU8 mask(width, height, 1);
-  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = stored.data()[i * stored.channels()] > 127;
-  return mask;
 }
 
 std::string MaterialNameFromSample(const std::string& sample_name) {
@@ -262,86 +147,6 @@ ImageF DirectXNormals(const ImageF& normal_in_tangent) {
   return converted;
 }
 
-// RMS of (estimate - reference) on the mask after removing the best-fit plane
-// of that difference: height from normals is defined up to a constant, and a
-// tilt is the slope error of a few pixels' worth of calibration. The sums run
-// in pixel order (each normal-equation entry, the right-hand side and the
-// squares accumulated pixel after pixel), rows found in parallel first.
-std::optional<double> RmsAfterPlane(const ImageF& estimate, const ImageF& reference, const ImageU8& mask) {
-  const int width = estimate.width(), height = estimate.height();
-  const double cx = width / 2.0, cy = height / 2.0;
-  // Per pixel of the plane's design row (1, x - cx, y - cy): m(i, j) += r_i r_j, rhs(i) += r_i d.
-  double m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0, rhs0 = 0, rhs1 = 0, rhs2 = 0;
-  double m00 = 0;
-  size_t count = 0;
-  for (int y = 0; y < height; ++y) {
-    const uint8_t* on = mask.row(y);
-    const float* e = estimate.row(y);
-    const float* r = reference.row(y);
-    const double r2 = y - cy;
-    for (int x = 0; x < width; ++x) {
-      if (!on[x]) continue;
-      const double r1 = x - cx;
-      const double difference = double(e[x]) - r[x];
-      m00 += 1.0;
-      m01 += r1;  // 1.0 * r1, exactly
-      m02 += r2;
-      m11 += r1 * r1;
-      m12 += r1 * r2;
-      m22 += r2 * r2;
-      rhs0 += difference;
-      rhs1 += r1 * difference;
-      rhs2 += r2 * difference;
-      ++count;
-    }
-  }
-  if (count < 3) return std::nullopt;
-  Eigen::Matrix3d normal_matrix;
-  normal_matrix << m00, m01, m02, m01, m11, m12, m02, m12, m22;
-  const Eigen::Vector3d plane = normal_matrix.ldlt().solve(Eigen::Vector3d(rhs0, rhs1, rhs2));
-  double sum_squares = 0;
-  for (int y = 0; y < height; ++y) {
-    const uint8_t* on = mask.row(y);
-    const float* e = estimate.row(y);
-    const float* r = reference.row(y);
-    for (int x = 0; x < width; ++x) {
-      if (!on[x]) continue;
-      const double residual = double(e[x]) - r[x] - plane.dot(Eigen::Vector3d(1.0, x - cx, y - cy));
-      sum_squares += residual * residual;
-    }
-  }
-  return std::sqrt(sum_squares / count);
-}
-
-// The mean of AngleBetweenDegrees over the mask (AngularErrorDegrees' mean,
-// bit for bit: the same values summed in pixel order from 0), without its
-// list of every value nor its order statistics: AngularErrorsOfRows
-// (solver/angular_error.h) a band of rows at a time, then their sum in order.
-// Nothing when the mask is empty.
-std::optional<double> MeanAngularErrorDegrees(const ImageF& estimate, const ImageF& truth, const ImageU8& mask) {
-  if (estimate.channels() != 3 || truth.channels() != 3 || !estimate.SameSize(truth) || !mask.SameSize(estimate)) {
-    throw std::invalid_argument("MeanAngularErrorDegrees: normals " + ShapeText(estimate) + " and " +
-                                ShapeText(truth) + ", mask " + ShapeText(mask) + " must be 3, 3 and 1 channels of one size");
-  }
-  constexpr int kBandRows = 64;
-  const int width = estimate.width(), height = estimate.height();
-  ImageF truth_rows;
-  std::vector<double> angles;
-  double sum = 0;
-  size_t count = 0;
-  for (int y0 = 0; y0 < height; y0 += kBandRows) {
-    const int rows = std::min(kBandRows, height - y0);
-    if (!truth_rows.SameSize(width, rows)) truth_rows = ImageF(width, rows, 3);
-    std::copy(truth.row(y0), truth.row(y0) + truth_rows.size(), truth_rows.data());
-    angles.clear();
-    AngularErrorsOfRows(estimate, truth_rows, y0, mask, 0, &angles);
-    for (const double angle : angles) sum += angle;
-    count += angles.size();
-  }
-  if (count == 0) return std::nullopt;
-  return sum / count;
-}
-
 // The given result folder, absolute, without a trailing separator ("results/<run-id>/").
 fs::path NormalisedResultDir(const fs::path& given) {
   fs::path result_dir = fs::absolute(given).lexically_normal();
@@ -376,133 +181,6 @@ std::vector<TileableMapInput> TileInputs(const ExportInputs& inputs, const Expor
   return {{&inputs.albedo, TileMapKind::kLinear},   {&maps.normals, TileMapKind::kNormal},
           {&maps.height_mm, TileMapKind::kLinear},  {&maps.occlusion, TileMapKind::kLinear},
           {&maps.cavity, TileMapKind::kLinear},     {&maps.mips.front().roughness, TileMapKind::kLinear}};
-}
-
-// --- Files of an export --------------------------------------------------
-
-// How a float map becomes 16-bit integers: clamp(value * scale + offset, 0, 1) * 65535,
-// through the sRGB transfer curve when `srgb` (base colour).
-struct IntegerEncoding {
-  double scale = 1, offset = 0;
-  std::string text;  // for the manifest, e.g. "value * 65535"
-  bool srgb = false;
-};
-
-struct ExportFile {
-  std::string kind;                       // manifest key, e.g. "normal", "roughness_mip2"
-  std::string relative_path;              // inside the export folder
-  std::string format;                     // "exr", "png", "tiff"
-  int bits_per_sample = 0;
-  bool is_float = false;
-  int width = 0, height = 0, channels = 0;
-  std::string color_space;                // "Linear", "sRGB", "Raw"
-  std::string encoding;                   // how values map to what is stored
-  double mm_per_pixel = 0;
-  std::vector<std::string> channel_names; // EXR only
-  // The pixels: borrowed from the export's inputs or maps (an empty owner, so
-  // no copy of a 16 MP map per file), or owned when made for this file only.
-  std::shared_ptr<const ImageF> float_image;
-  std::shared_ptr<const ImageU8> u8_image;  // stored as it is (mask)
-  bool srgb8 = false;                       // float_image (linear RGB) as 8-bit sRGB (previews, engine base colour)
-  std::shared_ptr<const std::string> document;  // a text or binary document (.gltf, .bin, .mtlx), stored as it is
-  IntegerEncoding integer;
-  ImageMetadata metadata;
-  std::string sha256;
-  uintmax_t bytes = 0;
-};
-
-// Row y of a float map as 16-bit integers: lround(value * 65535) of the
-// encoded value. The sRGB curve goes through SrgbQuantizer (the same
-// integers without a pow per value) when the value is the sample itself.
-void QuantiseRow16(const ImageF& image, int y, const IntegerEncoding& encoding, uint16_t* out) {
-  const float* in = image.row(y);
-  const size_t count = static_cast<size_t>(image.width()) * image.channels();
-  if (encoding.srgb && encoding.scale == 1 && encoding.offset == 0) {
-    const SrgbQuantizer& srgb = SrgbQuantizer::Of(16);
-    for (size_t i = 0; i < count; ++i) out[i] = srgb(in[i]);
-    return;
-  }
-  for (size_t i = 0; i < count; ++i) {
-    double value = std::clamp(double(in[i]) * encoding.scale + encoding.offset, 0.0, 1.0);
-    if (encoding.srgb) value = SrgbEncode(value);
-    // lround for a value in [0, 65535]: the fraction is exact, halves round up.
-    const double scaled = value * 65535.0, whole = std::trunc(scaled);
-    out[i] = static_cast<uint16_t>(whole) + (scaled - whole >= 0.5 ? 1 : 0);
-  }
-}
-
-ImageU16 Quantise16(const ImageF& image, const IntegerEncoding& encoding) {
-  ImageU16 quantised(image.width(), image.height(), image.channels());
-  for (int y = 0; y < image.height(); ++y) QuantiseRow16(image, y, encoding, quantised.row(y));
-  return quantised;
-}
-
-// The export's PNGs through WritePngRows: the
-// rows are quantised a band at a time, so no 16-bit copy of a map is held.
-PngRowSource PngRowsOf(const ExportFile& file) {
-  PngRowSource rows;
-  if (file.u8_image) {
-    const ImageU8& image = *file.u8_image;
-    rows = {image.width(), image.height(), image.channels(), 8, [&image](int y, void* row) {
-              std::copy_n(image.row(y), static_cast<size_t>(image.width()) * image.channels(),
-                          static_cast<uint8_t*>(row));
-            }};
-  } else if (file.srgb8) {
-    const ImageF& image = *file.float_image;
-    rows = {image.width(), image.height(), image.channels(), 8, [&image](int y, void* row) {
-              const SrgbQuantizer& srgb = SrgbQuantizer::Of(8);
-              const float* in = image.row(y);
-              uint8_t* out = static_cast<uint8_t*>(row);
-              for (size_t i = 0; i < static_cast<size_t>(image.width()) * image.channels(); ++i) {
-                out[i] = static_cast<uint8_t>(srgb(in[i]));
-              }
-            }};
-  } else {
-    const ImageF& image = *file.float_image;
-    const IntegerEncoding& encoding = file.integer;
-    rows = {image.width(), image.height(), image.channels(), 16, [&image, &encoding](int y, void* row) {
-              QuantiseRow16(image, y, encoding, static_cast<uint16_t*>(row));
-            }};
-  }
-  return rows;
-}
-
-// The export's lossless encodings, chosen by measurement on a 16 MP export
-// (benchmarks/export_encoding_benchmark.cc; docs/export.md, "File
-// encodings"). Every PNG: zlib level 1, libpng's up filter and zlib's
-// run-length strategy, which leaves the match search out: the most CPU of
-// the PNG writes went to it.
-PngEncoding ExportPngEncoding() {
-  PngEncoding encoding;
-  encoding.zlib_level = 1;
-  encoding.filter = PngFilter::kUp;
-  encoding.strategy = PngStrategy::kRle;
-  return encoding;
-}
-
-// Float EXRs (the exr preset's maps, and every preset's height and
-// confidence): 32-bit float, values as in memory, compressed by what packs
-// each map for the least CPU: the float height's low mantissa bits are noise
-// (no compression gains enough to pay its time), the cavity is mostly exactly
-// 1 (zip packs the runs), the rest piz. Tiles like their map.
-ExrEncoding ExportExrEncoding(const std::string& kind) {
-  const std::string map = kind.rfind("tile_", 0) == 0 ? kind.substr(5) : kind;
-  if (map == "height") return {ExrSampleType::kFloat32, ExrCompression::kNone};
-  if (map == "cavity") return {ExrSampleType::kFloat32, ExrCompression::kZip};
-  return {ExrSampleType::kFloat32, ExrCompression::kPiz};
-}
-
-void WriteExportFile(const fs::path& path, const ExportFile& file) {
-  const auto policy = OverwritePolicy::kRefuse;
-  if (file.document) {
-    WriteFileAtomic(path, *file.document, policy);
-  } else if (file.format == "exr") {
-    WriteExr(path, *file.float_image, policy, file.channel_names, file.metadata, ExportExrEncoding(file.kind));
-  } else if (file.format == "png") {
-    WritePngRows(path, PngRowsOf(file), policy, file.metadata, ExportPngEncoding());
-  } else {
-    WriteTiff(path, Quantise16(*file.float_image, file.integer), policy, file.metadata);
-  }
 }
 
 // Reserves <root>/<base>[-N] (mkdir fails on any existing entry, so two
@@ -998,7 +676,7 @@ std::vector<ExportFile> PlanFiles(const ExportOptions& options, const ExportSumm
   ExportFile* confidence =
       plan.AddMap("confidence", std::move(inputs.confidence), "Raw", {},
                   "solver confidence: lights used, condition number, RMS residual / albedo", mm, true);
-  confidence->channel_names = kConfidenceChannels;
+  confidence->channel_names = ConfidenceChannelNames();
   ImageU8 mask(inputs.valid.width(), inputs.valid.height(), 1);
   for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = inputs.valid.data()[i] ? 255 : 0;
   plan.AddU8("mask", std::move(mask), "Raw", "uint8 255 = solved, 0 = not solved (normal (0, 0, 1), albedo 0)",
@@ -1409,98 +1087,50 @@ struct ExportController::RoughnessStep {
   std::future<void> done;
 };
 
+// The generic presets' normal file (EarlyNormalFile), written on a thread of
+// its own once the normals are final; declared after the maps it borrows, its
+// future waits for the write.
+struct ExportEarlyNormal {
+  std::optional<ExportFile> file;  // none: written with the rest
+  std::future<void> written;
+};
+
+// Each full-size image is loaded when first needed and released after its
+// last user: albedo and confidence only after the derived maps and the
+// evaluation (their own full-size temporaries), the solved normals once
+// flattened. The evaluation's full-size work (the true normals flattened and
+// integrated) runs right after the flattening, before the other maps exist,
+// and keeps only the reference height for after the export's own. The
+// threads beside the steps are waited for before what they use goes: each
+// future is declared after it.
 void ExportController::Run() {
-  options_.Check();
-  if (const auto engine = EngineTargetOf(options_.preset)) {  // the engine's convention, whatever was asked
-    options_.normal_convention = EngineNormalIsDirectX(*engine) ? ExportOptions::NormalConvention::kDirectX
-                                                                : ExportOptions::NormalConvention::kOpenGl;
-  }
-  summary_ = ExportSummary();
-  summary_.preset = ExportPresetName(options_.preset);
-  summary_.normal_convention = NormalConventionName(options_.normal_convention);
+  Prepare();
   const auto start = std::chrono::steady_clock::now();
   std::vector<StageTiming>& timings = summary_.stage_seconds;
-
-  // Each full-size image is loaded when first needed and released after its
-  // last user: albedo and confidence only after the derived maps and the
-  // evaluation (their own full-size temporaries), the solved normals once
-  // flattened. The evaluation's full-size work (the true normals flattened
-  // and integrated) runs right after the flattening, before the other maps
-  // exist, and keeps only the reference height for after the export's own.
   ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
   const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
   StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
   fs::create_directory(staged.staging() / summary_.material_name);
-  // The ground truth (simulated sessions) decodes on a thread of its own
-  // while the normals are flattened (a decoder is mostly single-threaded).
-  std::future<DecodedTruth> truth;
-  if (inputs.session.ground_truth) truth = std::async(std::launch::async, [&] { return DecodeTruth(inputs); });
+
+  std::future<DecodedTruth> truth = StartDecodingTruth(inputs);
   ExportMaps maps = Flatten(&inputs);
-  // The normal map is final now: its file (generic presets) is written on a
-  // thread of its own beside the evaluation and the height.
-  std::optional<ExportFile> early_normal = EarlyNormalFile(options_, summary_, inputs, maps);
-  std::future<void> early_normal_written;
-  if (early_normal) {
-    early_normal_written = std::async(std::launch::async, [&staged, &early_normal] {
-      WriteExportFile(staged.staging() / early_normal->relative_path, *early_normal);
-    });
-  }
+  ExportEarlyNormal early_normal;
+  StartWritingNormal(staged.staging(), inputs, maps, &early_normal);
   std::optional<HeightReference> reference;
   if (truth.valid()) {
     TimedStage(timings, "evaluate", "", [&] { reference = EvaluateNormals(inputs, maps, truth.get()); });
   }
-  // The roughness chain needs only the flattened normals (and the specular
-  // map): it runs beside the height, which leaves a core partly idle, instead
-  // of beside the occlusion, which does not. (Beside the evaluation too, the
-  // peak rose to 1.50 GB: the evaluation's full-size work and the chain's.)
   RoughnessStep roughness;
-  roughness.done = std::async(std::launch::async, [&] {
-    try {
-      DeriveRoughness(&inputs, &maps, &roughness.timings, [this](double) { return !IsStopRequested(); });
-    } catch (...) {
-      roughness.failure = std::current_exception();
-    }
-  });
+  StartRoughness(&inputs, &maps, &roughness);
   DeriveHeight(&inputs, &maps);
-  // Past the height the steps need only what exists by now, so they run
-  // side by side and fill the cores the mostly single-threaded ones leave
-  // idle: occlusion (on the pool) here, cavity, the roughness chain's end and
-  // then albedo and confidence's decode (its memory once the roughness chain's
-  // temporaries are gone), and the height's evaluation each on a thread.
   DeriveConcurrently(&inputs, &maps, reference ? &*reference : nullptr, &roughness);
   reference.reset();
   if (options_.tileable) TimedStage(timings, "tileable_crop", "tileable crop", [&] { DeriveTile(inputs, &maps); });
 
   std::vector<ExportFile> files;
-  // The preview's textures (a downsample and PNGs per map, mostly
-  // single-threaded) are made on a thread of their own while the files are
-  // written; the page follows once the files' sizes are known.
-  std::future<PreviewPageTextures> preview_textures;
+  std::future<PreviewPageTextures> preview_textures;  // made while the files are written
   TimedStage(timings, "write_files", "write files", [&] {
-    files = PlanFiles(options_, summary_, inputs, maps);
-    std::string written_kind;
-    if (early_normal_written.valid()) {
-      early_normal_written.get();  // rethrows its failure
-      written_kind = early_normal->kind;
-      const auto planned = std::find_if(files.begin(), files.end(), [&](const ExportFile& f) { return f.kind == written_kind; });
-      if (planned == files.end() || planned->relative_path != early_normal->relative_path) {
-        throw std::logic_error("export plan's normal file differs from the one written early");
-      }
-    }
-    if (options_.preview_page) {
-      const ProgressCallback stop_check = [this](double) { return !IsStopRequested(); };
-      preview_textures = std::async(std::launch::async, [&, stop_check] {
-        return PreviewTexturesOf(staged.staging(), inputs, maps, summary_, stop_check);
-      });
-    }
-    WriteFilesConcurrently(
-        staged.staging(), files, [this](double fraction) { ReportProgress("write files", fraction); }, written_kind);
-    ThrowIfStopRequested("write files");
-    RecordWrittenFiles(staged.staging(), &files, &summary_);
-    for (ExportFile& file : files) file.float_image.reset(), file.u8_image.reset();  // written
-    inputs.confidence = ImageF();
-    maps.cavity = ImageF();
-    maps.tiles.clear();
+    files = WriteFiles(staged.staging(), &inputs, &maps, &early_normal, &preview_textures);
   });
   if (options_.preview_page) {
     // What the page took after the files: the rest of the textures, then the page.
@@ -1511,15 +1141,101 @@ void ExportController::Run() {
   }
   summary_.export_dir = staged.final_dir();
   summary_.seconds = SecondsSince(start);
-
-  const nlohmann::json manifest = ManifestJson(options_, summary_, inputs, files);
-  summary_.files["manifest"] = "material.json";
-  summary_.files["summary"] = "summary.txt";
-  WriteFileAtomic(staged.staging() / "material.json", manifest.dump(2) + "\n", OverwritePolicy::kRefuse);
-  WriteFileAtomic(staged.staging() / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
+  WriteManifestAndSummary(staged.staging(), inputs, files);
   ThrowIfStopRequested("write files");
   staged.Commit();
   ReportProgress("write files", 1);
+}
+
+// The options checked, an engine preset's own normal convention (whatever was
+// asked), a fresh summary.
+void ExportController::Prepare() {
+  options_.Check();
+  if (const auto engine = EngineTargetOf(options_.preset)) {
+    options_.normal_convention = EngineNormalIsDirectX(*engine) ? ExportOptions::NormalConvention::kDirectX
+                                                                : ExportOptions::NormalConvention::kOpenGl;
+  }
+  summary_ = ExportSummary();
+  summary_.preset = ExportPresetName(options_.preset);
+  summary_.normal_convention = NormalConventionName(options_.normal_convention);
+}
+
+// The ground truth (simulated sessions; none otherwise) decoded on a thread of
+// its own while the normals are flattened (a decoder is mostly single-threaded).
+std::future<ExportController::DecodedTruth> ExportController::StartDecodingTruth(const ExportInputs& inputs) const {
+  if (!inputs.session.ground_truth) return {};
+  return std::async(std::launch::async, [this, &inputs] { return DecodeTruth(inputs); });
+}
+
+// The normal map is final once flattened: its file (generic presets) is
+// written beside the evaluation and the height, which leave a core mostly idle.
+void ExportController::StartWritingNormal(const fs::path& staging, const ExportInputs& inputs,
+                                          const ExportMaps& maps, ExportEarlyNormal* early) {
+  early->file = EarlyNormalFile(options_, summary_, inputs, maps);
+  if (!early->file) return;
+  early->written = std::async(std::launch::async, [staging, early] {
+    WriteExportFile(staging / early->file->relative_path, *early->file);
+  });
+}
+
+// The roughness chain needs only the flattened normals (and the specular
+// map): it runs beside the height, which leaves a core partly idle, instead
+// of beside the occlusion, which does not. (Beside the evaluation too, the
+// peak rose to 1.50 GB: the evaluation's full-size work and the chain's.)
+void ExportController::StartRoughness(ExportInputs* inputs, ExportMaps* maps, RoughnessStep* roughness) {
+  roughness->done = std::async(std::launch::async, [this, inputs, maps, roughness] {
+    try {
+      DeriveRoughness(inputs, maps, &roughness->timings, [this](double) { return !IsStopRequested(); });
+    } catch (...) {
+      roughness->failure = std::current_exception();
+    }
+  });
+}
+
+// Every file of the plan into `staging`, concurrently, but the normal file
+// written early (once its write ended; the plan must hold the same file); the
+// preview's textures (a downsample and PNGs per map, mostly single-threaded)
+// on a thread of their own meanwhile. Then the files' hashes and sizes; the
+// maps whose only users were files are freed.
+std::vector<ExportFile> ExportController::WriteFiles(const fs::path& staging, ExportInputs* inputs, ExportMaps* maps,
+                                                     ExportEarlyNormal* early_normal,
+                                                     std::future<PreviewPageTextures>* preview_textures) {
+  std::vector<ExportFile> files = PlanFiles(options_, summary_, *inputs, *maps);
+  std::string written_kind;
+  if (early_normal->written.valid()) {
+    early_normal->written.get();  // rethrows its failure
+    written_kind = early_normal->file->kind;
+    const auto planned =
+        std::find_if(files.begin(), files.end(), [&](const ExportFile& f) { return f.kind == written_kind; });
+    if (planned == files.end() || planned->relative_path != early_normal->file->relative_path) {
+      throw std::logic_error("export plan's normal file differs from the one written early");
+    }
+  }
+  if (options_.preview_page) {
+    const ProgressCallback stop_check = [this](double) { return !IsStopRequested(); };
+    *preview_textures = std::async(std::launch::async, [this, staging, inputs, maps, stop_check] {
+      return PreviewTexturesOf(staging, *inputs, *maps, summary_, stop_check);
+    });
+  }
+  WriteFilesConcurrently(
+      staging, files, [this](double fraction) { ReportProgress("write files", fraction); }, written_kind);
+  ThrowIfStopRequested("write files");
+  RecordWrittenFiles(staging, &files, &summary_);
+  for (ExportFile& file : files) file.float_image.reset(), file.u8_image.reset();  // written
+  inputs->confidence = ImageF();
+  maps->cavity = ImageF();
+  maps->tiles.clear();
+  return files;
+}
+
+// material.json (listing `files`) and summary.txt, the last files of the export.
+void ExportController::WriteManifestAndSummary(const fs::path& staging, const ExportInputs& inputs,
+                                               const std::vector<ExportFile>& files) {
+  const nlohmann::json manifest = ManifestJson(options_, summary_, inputs, files);
+  summary_.files["manifest"] = "material.json";
+  summary_.files["summary"] = "summary.txt";
+  WriteFileAtomic(staging / "material.json", manifest.dump(2) + "\n", OverwritePolicy::kRefuse);
+  WriteFileAtomic(staging / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
 }
 
 // The result folder, its session, report and maps; the scale and the material name.
@@ -1543,7 +1259,7 @@ ExportInputs ExportController::Load() {
   // The files decode concurrently (each decoder is mostly single-threaded).
   const fs::path& dir = inputs.result_dir;
   auto normals = std::async(std::launch::async, [&] { return ReadResultMap(dir / "normal.exr", 3, width, height); });
-  auto valid = std::async(std::launch::async, [&] { return ReadMask(dir / "solved_mask.png", width, height); });
+  auto valid = std::async(std::launch::async, [&] { return ReadBinaryMask(dir / "solved_mask.png", width, height); });
   if (fs::exists(dir / "specular.exr")) inputs.specular_alpha = ReadSpecularAlpha(dir / "specular.exr", width, height);
   inputs.valid = valid.get();
   inputs.solved_normals = normals.get();
@@ -1562,7 +1278,7 @@ void ExportController::LoadAlbedoAndConfidence(ExportInputs* inputs) {
   const int width = summary_.image_width, height = summary_.image_height;
   const fs::path& dir = inputs->result_dir;
   auto albedo = std::async(std::launch::async, [&] { return ReadResultMap(dir / "albedo.exr", 3, width, height); });
-  inputs->confidence = ReadResultMap(dir / "confidence.exr", 3, width, height, kConfidenceChannels);
+  inputs->confidence = ReadResultMap(dir / "confidence.exr", 3, width, height, ConfidenceChannelNames());
   inputs->albedo = albedo.get();
 }
 
@@ -1740,10 +1456,10 @@ ExportController::DecodedTruth ExportController::DecodeTruth(const ExportInputs&
   const GroundTruthFiles& truth = *inputs.session.ground_truth;
   const int width = summary_.image_width, height = summary_.image_height;
   DecodedTruth decoded;
-  decoded.normals = ReadTruthMap(inputs.session_dir / truth.normal_file, 3, width, height);
-  decoded.on_sample = ReadMask(inputs.session_dir / truth.mask_file, width, height);
+  decoded.normals = ReadGroundTruthMap(inputs.session_dir / truth.normal_file, 3, width, height);
+  decoded.on_sample = ReadBinaryMask(inputs.session_dir / truth.mask_file, width, height);
   if (!options_.flatten_normals) {
-    decoded.height_mm = ReadTruthMap(inputs.session_dir / truth.height_file, 1, width, height);
+    decoded.height_mm = ReadGroundTruthMap(inputs.session_dir / truth.height_file, 1, width, height);
   }
   return decoded;
 }
@@ -1780,7 +1496,7 @@ ExportController::HeightReference ExportController::EvaluateNormals(const Export
 // The exported height against the reference, once the export's height exists.
 void ExportController::EvaluateHeight(const HeightReference& reference, const ExportMaps& maps) {
   BeginStage("ground truth");
-  summary_.height_rms_error_mm = RmsAfterPlane(maps.height_mm, reference.height_mm, reference.evaluated);
+  summary_.height_rms_error_mm = RmsAfterBestFitPlane(maps.height_mm, reference.height_mm, reference.evaluated);
   ReportProgress("ground truth", 1);
 }
 

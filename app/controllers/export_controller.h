@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <optional>
 #include <string>
@@ -109,8 +110,10 @@ struct ExportSummary {
 };
 
 // What ExportController::Run's steps hand on (defined in export_controller.cc).
-struct ExportInputs;  // the result folder, its session and the solved maps
-struct ExportMaps;    // the derived maps
+struct ExportInputs;       // the result folder, its session and the solved maps
+struct ExportMaps;         // the derived maps
+struct ExportEarlyNormal;  // the normal file, written while the other maps are derived
+struct ExportFile;         // app/io/export_files.h
 
 class ExportController : public BaseController {
  public:
@@ -121,22 +124,36 @@ class ExportController : public BaseController {
   const ExportSummary& summary() const { return summary_; }
 
  private:
-  ExportInputs Load();
-  ExportMaps Flatten(ExportInputs* inputs);  // releases the solved normals once used
-  void DeriveHeight(ExportInputs* inputs, ExportMaps* maps);
+  struct DecodedTruth;     // the session's ground truth files, decoded
   struct HeightReference;  // what the ground-truth evaluation keeps for the height
   struct RoughnessStep;    // the roughness chain, begun beside the evaluation and the height
+
+  // Run's steps, in order.
+  void Prepare();
+  ExportInputs Load();
+  std::future<DecodedTruth> StartDecodingTruth(const ExportInputs& inputs) const;
+  ExportMaps Flatten(ExportInputs* inputs);  // releases the solved normals once used
+  void StartWritingNormal(const std::filesystem::path& staging, const ExportInputs& inputs, const ExportMaps& maps,
+                          ExportEarlyNormal* early);
+  HeightReference EvaluateNormals(const ExportInputs& inputs, const ExportMaps& maps, DecodedTruth truth);
+  void StartRoughness(ExportInputs* inputs, ExportMaps* maps, RoughnessStep* roughness);
+  void DeriveHeight(ExportInputs* inputs, ExportMaps* maps);
   // Occlusion, cavity, the rest of the roughness chain, albedo and
   // confidence's decode and the height's evaluation (with a reference), side by side.
   void DeriveConcurrently(ExportInputs* inputs, ExportMaps* maps, const HeightReference* reference,
                           RoughnessStep* roughness);
+  void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
+  std::vector<ExportFile> WriteFiles(const std::filesystem::path& staging, ExportInputs* inputs, ExportMaps* maps,
+                                     ExportEarlyNormal* early_normal,
+                                     std::future<PreviewPageTextures>* preview_textures);
+  void WriteManifestAndSummary(const std::filesystem::path& staging, const ExportInputs& inputs,
+                               const std::vector<ExportFile>& files);
+
+  // Inside the steps.
+  DecodedTruth DecodeTruth(const ExportInputs& inputs) const;
   void DeriveRoughness(ExportInputs* inputs, ExportMaps* maps, std::vector<StageTiming>* timings,
                        const ProgressCallback& progress);
   void LoadAlbedoAndConfidence(ExportInputs* inputs);
-  void DeriveTile(const ExportInputs& inputs, ExportMaps* maps);
-  struct DecodedTruth;     // the session's ground truth files, decoded
-  DecodedTruth DecodeTruth(const ExportInputs& inputs) const;
-  HeightReference EvaluateNormals(const ExportInputs& inputs, const ExportMaps& maps, DecodedTruth truth);
   void EvaluateHeight(const HeightReference& reference, const ExportMaps& maps);
 
   std::filesystem::path result_dir_;

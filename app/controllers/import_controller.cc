@@ -16,6 +16,15 @@
 namespace scanbench {
 namespace fs = std::filesystem;
 
+// What one RAW file says about itself; the mosaic is not kept.
+struct ImportFileFacts {
+  fs::path file;
+  std::string sha256;
+  CameraInfo camera;         // as session.json records it: make ... exposure, RAW size
+  int orientation = 0;       // DecodedRaw::orientation
+  std::string capture_time;  // "YYYY:MM:DD HH:MM:SS" or ""
+};
+
 namespace {
 
 constexpr char kLedPlaceholder[] = "{led}";
@@ -165,16 +174,7 @@ std::map<int, fs::path> ListFileFrames(const fs::path& folder, const fs::path& l
 
 // ---- the checks on the opened files -----------------------------------------
 
-// What one RAW file says about itself; the mosaic is not kept.
-struct FileFacts {
-  fs::path file;
-  std::string sha256;
-  CameraInfo camera;         // as session.json records it: make ... exposure, RAW size
-  int orientation = 0;       // DecodedRaw::orientation
-  std::string capture_time;  // "YYYY:MM:DD HH:MM:SS" or ""
-};
-
-FileFacts OpenRawFile(const fs::path& file) {
+ImportFileFacts OpenRawFile(const fs::path& file) {
   const std::vector<uint8_t> bytes = ReadFileBytes(file);
   if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
     throw std::runtime_error(JpegRefusal(file));
@@ -182,7 +182,7 @@ FileFacts OpenRawFile(const fs::path& file) {
   // The decoder refuses what cannot be solved (not a 2x2 Bayer mosaic,
   // truncated, no pixels) and names the file.
   const DecodedRaw decoded = DecodeRawWithInfo(bytes, file.string());
-  FileFacts facts;
+  ImportFileFacts facts;
   facts.file = file;
   facts.sha256 = Sha256Hex(bytes);
   facts.camera = {decoded.make,     decoded.model,         decoded.serial,
@@ -196,7 +196,7 @@ FileFacts OpenRawFile(const fs::path& file) {
   return facts;
 }
 
-std::string CameraText(const FileFacts& facts) {
+std::string CameraText(const ImportFileFacts& facts) {
   return facts.camera.make + " " + facts.camera.model +
          (facts.camera.serial.empty() ? "" : " (serial " + facts.camera.serial + ")");
 }
@@ -218,12 +218,12 @@ std::string OrientationText(int flip) {
 
 // Refuses frames that cannot belong to one photometric set; returns the
 // warnings (exposure times only).
-std::vector<std::string> CheckFramesAgree(const std::vector<FileFacts>& facts, const std::vector<std::string>& names) {
-  const FileFacts& ref = facts.front();
+std::vector<std::string> CheckFramesAgree(const std::vector<ImportFileFacts>& facts, const std::vector<std::string>& names) {
+  const ImportFileFacts& ref = facts.front();
   const std::string ref_name = ref.file.string() + " (" + names.front() + ")";
   std::vector<std::string> warnings;
   for (size_t i = 1; i < facts.size(); ++i) {
-    const FileFacts& f = facts[i];
+    const ImportFileFacts& f = facts[i];
     const std::string file = f.file.string();
     if (f.camera.make != ref.camera.make || f.camera.model != ref.camera.model ||
         f.camera.serial != ref.camera.serial) {
@@ -249,7 +249,7 @@ std::vector<std::string> CheckFramesAgree(const std::vector<FileFacts>& facts, c
     }
   }
   // Exposure: the LED frames against the first LED frame, and the dark frame.
-  const FileFacts& first_led = facts.size() > 1 ? facts[1] : ref;
+  const ImportFileFacts& first_led = facts.size() > 1 ? facts[1] : ref;
   for (size_t i = 0; i < facts.size(); ++i) {
     if (facts[i].camera.exposure_time_s != first_led.camera.exposure_time_s) {
       warnings.push_back(facts[i].file.string() + " (" + names[i] + "): exposure " +
@@ -263,7 +263,7 @@ std::vector<std::string> CheckFramesAgree(const std::vector<FileFacts>& facts, c
 
 // The session records UTC; a camera clock has no zone, so its reading is
 // recorded as is. A file without one gets its modification time.
-std::string CaptureTimeOf(const FileFacts& facts) {
+std::string CaptureTimeOf(const ImportFileFacts& facts) {
   const std::string& t = facts.capture_time;
   if (t.size() == 19) {
     return t.substr(0, 4) + "-" + t.substr(5, 2) + "-" + t.substr(8, 2) + "T" + t.substr(11, 8) + ".000Z";
@@ -305,7 +305,7 @@ std::optional<Session> LoadInterruptedImport(const fs::path& session_dir, const 
 
 // The session's camera and exposure are LED 0's frame's: the exposure the
 // solve scales every frame to (FrameExposureScale).
-Session NewImportSession(const ImportOptions& options, const RigDescription& rig, const FileFacts& first_led,
+Session NewImportSession(const ImportOptions& options, const RigDescription& rig, const ImportFileFacts& first_led,
                          const fs::path& folder, const std::string& match) {
   Session session = NewSessionManifest(options.sample_name, options.notes, rig, first_led.camera);
   session.import = ImportRecord{folder.string(), match};
@@ -404,107 +404,147 @@ ImportController::ImportController(fs::path raw_folder, fs::path session_dir, Ri
       rig_(std::move(rig)),
       options_(std::move(options)) {}
 
+// Refuses what it can before anything is written: the rig, the folders, the
+// plan, every file opened and checked against the others; then copies into
+// the session, locked, as a capture would journal it.
 void ImportController::Run() {
   options_.Check();
   const auto start = std::chrono::steady_clock::now();
   summary_ = ImportSummary();
   summary_.session_dir = session_dir_;
-  CheckRigDescription(rig_, "rig");
-  if (IsInside(session_dir_, raw_folder_) || IsInside(raw_folder_, session_dir_)) {
-    throw std::runtime_error(session_dir_.string() + ": the session folder must lie outside the RAW folder " +
-                             raw_folder_.string() + " (and not contain it): the source is never written to");
-  }
-  const int num_leds = static_cast<int>(rig_.leds.size());
-
-  // Match: capture order opens every file for its time; the facts are kept.
-  BeginStage("match");
-  std::map<fs::path, FileFacts> opened;
-  auto open = [&](const fs::path& file) -> const FileFacts& {
-    auto it = opened.find(file);
-    if (it == opened.end()) {
-      ThrowIfStopRequested("open");
-      it = opened.emplace(file, OpenRawFile(file)).first;
-    }
-    return it->second;
-  };
-  const ImportPlan plan =
-      PlanImport(raw_folder_, num_leds, options_, [&](const fs::path& file) { return open(file).capture_time; });
-  summary_.match = plan.match;
-  summary_.ignored = plan.ignored;
-  summary_.warnings = plan.warnings;
-
-  // Open: every frame through LibRaw before anything is written.
-  std::vector<FileFacts> facts;
+  CheckRigAndFolders();
+  std::map<fs::path, ImportFileFacts> opened;  // each file opened once
+  const ImportPlan plan = Match(&opened);
   std::vector<std::string> names;
-  for (size_t i = 0; i < plan.entries.size(); ++i) {
-    ReportProgress("open", double(i) / plan.entries.size(), plan.entries[i].file.filename().string());
-    facts.push_back(open(plan.entries[i].file));
-    names.push_back(FrameStem(plan.entries[i].led));
-  }
-  for (size_t i = 0; i < facts.size(); ++i) {
-    for (size_t j = 0; j < i; ++j) {
-      if (facts[i].sha256 == facts[j].sha256) {
-        throw std::runtime_error(facts[i].file.string() + ": duplicate: the same bytes as " + facts[j].file.string() +
-                                 " (" + names[j] + "), but it is " + names[i]);
-      }
-    }
-  }
-  for (std::string& warning : CheckFramesAgree(facts, names)) summary_.warnings.push_back(std::move(warning));
-  summary_.camera = CameraText(facts.front());
+  const std::vector<ImportFileFacts> facts = OpenFrames(plan, &opened, &names);
 
-  // Copy: the session journal as a capture writes it; resumes an interrupted import.
   BeginStage("copy");
   // Every refusal above wrote nothing; from here on the session is ours, and
   // refused while a capture, simulate or another import holds it
   // (app/io/file_util.h; the kernel drops the lock if we crash).
   const FolderLock session_lock(session_dir_);
+  Session session = ResumeOrCreateSession(plan, facts);
+  for (size_t i = 0; i < plan.entries.size(); ++i) {
+    ImportedFrame imported{names[i], plan.entries[i].file.string(), facts[i].camera.exposure_time_s, false};
+    imported.resumed = IsImportedAlready(session, plan.entries[i], facts[i], names[i]);
+    if (imported.resumed) {
+      ++summary_.frames_resumed;
+    } else {
+      ThrowIfStopRequested("copy");
+      ReportProgress("copy", double(i) / plan.entries.size(), plan.entries[i].file.filename().string());
+      CopyFrame(plan.entries[i], facts[i], &session);
+      ++summary_.frames_copied;
+    }
+    summary_.frames.push_back(imported);
+  }
+  session.capture_complete = true;
+  WriteSessionManifest(session_dir_, session);
+  ReportProgress("copy", 1);
+  summary_.seconds = SecondsSince(start);
+}
+
+// The rig, and the session outside the RAW folder (and not holding it): the
+// source is never written to.
+void ImportController::CheckRigAndFolders() const {
+  CheckRigDescription(rig_, "rig");
+  if (IsInside(session_dir_, raw_folder_) || IsInside(raw_folder_, session_dir_)) {
+    throw std::runtime_error(session_dir_.string() + ": the session folder must lie outside the RAW folder " +
+                             raw_folder_.string() + " (and not contain it): the source is never written to");
+  }
+}
+
+// `file` opened through LibRaw, once: later calls get what the first found.
+const ImportFileFacts& ImportController::Open(const fs::path& file, std::map<fs::path, ImportFileFacts>* opened) {
+  auto it = opened->find(file);
+  if (it == opened->end()) {
+    ThrowIfStopRequested("open");
+    it = opened->emplace(file, OpenRawFile(file)).first;
+  }
+  return it->second;
+}
+
+// The plan (PlanImport); capture order opens every file for its time, and
+// what it found is kept in `opened`.
+ImportPlan ImportController::Match(std::map<fs::path, ImportFileFacts>* opened) {
+  BeginStage("match");
+  ImportPlan plan = PlanImport(raw_folder_, static_cast<int>(rig_.leds.size()), options_,
+                               [&](const fs::path& file) { return Open(file, opened).capture_time; });
+  summary_.match = plan.match;
+  summary_.ignored = plan.ignored;
+  summary_.warnings = plan.warnings;
+  return plan;
+}
+
+// Every frame of the plan opened, in its order, with its name ("dark",
+// "led_03") in `names`; refuses two frames of the same bytes and frames that
+// cannot belong to one photometric set (CheckFramesAgree).
+std::vector<ImportFileFacts> ImportController::OpenFrames(const ImportPlan& plan,
+                                                          std::map<fs::path, ImportFileFacts>* opened,
+                                                          std::vector<std::string>* names) {
+  std::vector<ImportFileFacts> facts;
+  for (size_t i = 0; i < plan.entries.size(); ++i) {
+    ReportProgress("open", double(i) / plan.entries.size(), plan.entries[i].file.filename().string());
+    facts.push_back(Open(plan.entries[i].file, opened));
+    names->push_back(FrameStem(plan.entries[i].led));
+  }
+  for (size_t i = 0; i < facts.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (facts[i].sha256 == facts[j].sha256) {
+        throw std::runtime_error(facts[i].file.string() + ": duplicate: the same bytes as " + facts[j].file.string() +
+                                 " (" + (*names)[j] + "), but it is " + (*names)[i]);
+      }
+    }
+  }
+  for (std::string& warning : CheckFramesAgree(facts, *names)) summary_.warnings.push_back(std::move(warning));
+  summary_.camera = CameraText(facts.front());
+  return facts;
+}
+
+// An interrupted import of the same folder, or a new session (its manifest
+// written) with LED 0's frame's camera and exposure.
+Session ImportController::ResumeOrCreateSession(const ImportPlan& plan, const std::vector<ImportFileFacts>& facts) {
   std::optional<Session> session = LoadInterruptedImport(session_dir_, raw_folder_, rig_);
   if (!session) {
     session = NewImportSession(options_, rig_, facts[1 % facts.size()], raw_folder_, plan.match);
     CreateSessionFolder(session_dir_);
     WriteSessionManifest(session_dir_, *session);
   }
-  for (size_t i = 0; i < plan.entries.size(); ++i) {
-    const ImportPlanEntry& entry = plan.entries[i];
-    const FileFacts& f = facts[i];
-    ImportedFrame imported{names[i], entry.file.string(), f.camera.exposure_time_s, false};
-    const FrameRecord* done = entry.led ? FindLedFrame(*session, *entry.led) : FindDarkFrame(*session);
-    if (done != nullptr) {
-      if (done->source != entry.file.string() || done->sha256 != f.sha256) {
-        throw SessionError((session_dir_ / "session.json").string() + ": " + names[i] + " was imported from " +
-                           done->source + " (sha256 " + done->sha256.substr(0, 12) + "...) but is now " +
-                           entry.file.string() + " (sha256 " + f.sha256.substr(0, 12) +
-                           "...); import into a new folder");
-      }
-      imported.resumed = true;
-      ++summary_.frames_resumed;
-      summary_.frames.push_back(imported);
-      continue;
-    }
-    ThrowIfStopRequested("copy");
-    ReportProgress("copy", double(i) / plan.entries.size(), entry.file.filename().string());
-    const std::vector<uint8_t> bytes = ReadFileBytes(entry.file);
-    if (Sha256Hex(bytes) != f.sha256) {
-      throw std::runtime_error(entry.file.string() + ": changed while it was being imported; import again");
-    }
-    FrameRecord record;
-    record.kind = entry.led ? FrameKind::kLed : FrameKind::kDark;
-    record.led_index = entry.led.value_or(-1);
-    const std::string extension = Lower(entry.file.extension().string());
-    record.file = FrameFileName(entry.led, extension.empty() ? ".raw" : extension);
-    record.capture_time = CaptureTimeOf(f);
-    record.exposure_time_s = f.camera.exposure_time_s;
-    record.width = f.camera.width;
-    record.height = f.camera.height;
-    record.source = entry.file.string();
-    AddFrame(session_dir_, *session, record, bytes);
-    ++summary_.frames_copied;
-    summary_.frames.push_back(imported);
+  return std::move(*session);
+}
+
+// True when an interrupted import copied this frame already (from the same
+// file, the same bytes); refuses a frame imported from another file or bytes.
+bool ImportController::IsImportedAlready(const Session& session, const ImportPlanEntry& entry,
+                                         const ImportFileFacts& facts, const std::string& name) const {
+  const FrameRecord* done = entry.led ? FindLedFrame(session, *entry.led) : FindDarkFrame(session);
+  if (done == nullptr) return false;
+  if (done->source != entry.file.string() || done->sha256 != facts.sha256) {
+    throw SessionError((session_dir_ / "session.json").string() + ": " + name + " was imported from " +
+                       done->source + " (sha256 " + done->sha256.substr(0, 12) + "...) but is now " +
+                       entry.file.string() + " (sha256 " + facts.sha256.substr(0, 12) +
+                       "...); import into a new folder");
   }
-  session->capture_complete = true;
-  WriteSessionManifest(session_dir_, *session);
-  ReportProgress("copy", 1);
-  summary_.seconds = SecondsSince(start);
+  return true;
+}
+
+// One frame copied into the session's frames/ and journalled, its bytes
+// checked against what was opened.
+void ImportController::CopyFrame(const ImportPlanEntry& entry, const ImportFileFacts& facts, Session* session) {
+  const std::vector<uint8_t> bytes = ReadFileBytes(entry.file);
+  if (Sha256Hex(bytes) != facts.sha256) {
+    throw std::runtime_error(entry.file.string() + ": changed while it was being imported; import again");
+  }
+  FrameRecord record;
+  record.kind = entry.led ? FrameKind::kLed : FrameKind::kDark;
+  record.led_index = entry.led.value_or(-1);
+  const std::string extension = Lower(entry.file.extension().string());
+  record.file = FrameFileName(entry.led, extension.empty() ? ".raw" : extension);
+  record.capture_time = CaptureTimeOf(facts);
+  record.exposure_time_s = facts.camera.exposure_time_s;
+  record.width = facts.camera.width;
+  record.height = facts.camera.height;
+  record.source = entry.file.string();
+  AddFrame(session_dir_, *session, record, bytes);
 }
 
 }  // namespace scanbench

@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -77,6 +78,8 @@ struct ImportPlan {
 ImportPlan PlanImport(const std::filesystem::path& folder, int num_leds, const ImportOptions& options,
                       const std::function<std::string(const std::filesystem::path&)>& capture_time_of);
 
+struct ImportFileFacts;  // what one RAW file says about itself (import_controller.cc)
+
 class ImportController : public BaseController {
  public:
   ImportController(std::filesystem::path raw_folder, std::filesystem::path session_dir, RigDescription rig,
@@ -85,6 +88,19 @@ class ImportController : public BaseController {
   const ImportSummary& summary() const { return summary_; }
 
  private:
+  // Run's steps.
+  void CheckRigAndFolders() const;
+  ImportPlan Match(std::map<std::filesystem::path, ImportFileFacts>* opened);
+  std::vector<ImportFileFacts> OpenFrames(const ImportPlan& plan,
+                                          std::map<std::filesystem::path, ImportFileFacts>* opened,
+                                          std::vector<std::string>* names);
+  Session ResumeOrCreateSession(const ImportPlan& plan, const std::vector<ImportFileFacts>& facts);
+  bool IsImportedAlready(const Session& session, const ImportPlanEntry& entry, const ImportFileFacts& facts,
+                         const std::string& name) const;
+  void CopyFrame(const ImportPlanEntry& entry, const ImportFileFacts& facts, Session* session);
+  const ImportFileFacts& Open(const std::filesystem::path& file,
+                              std::map<std::filesystem::path, ImportFileFacts>* opened);
+
   std::filesystem::path raw_folder_;
   std::filesystem::path session_dir_;
   RigDescription rig_;

@@ -24,12 +24,30 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
     : QDialog(parent), runner_(runner), result_dir_(std::move(result_dir)) {
   setObjectName("exportDialog");
   setWindowTitle(tr("Export maps"));
-  const ExportOptions defaults;
-
   auto* source = new QLabel(tr("Result: %1").arg(QString::fromStdString(result_dir_.string())), this);
   source->setWordWrap(true);
   source->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  QFormLayout* form = MakeOptionsForm();
+  QPushButton* close = nullptr;
+  QHBoxLayout* buttons = MakeButtons(&close);
+  MakeProgressWidgets();
 
+  auto* layout = new QVBoxLayout(this);
+  layout->addWidget(source);
+  layout->addLayout(form);
+  layout->addLayout(buttons);
+  layout->addWidget(progress_);
+  layout->addWidget(stage_);
+  layout->addWidget(status_);
+  layout->addWidget(summary_, 1);
+  resize(640, 520);
+  RestoreSettings();
+  Connect(close);
+}
+
+// The options an operator picks, at ExportOptions' defaults.
+QFormLayout* ExportDialog::MakeOptionsForm() {
+  const ExportOptions defaults;
   auto* form = new QFormLayout;
   preset_ = new QComboBox(this);
   preset_->setObjectName("exportPreset");
@@ -65,7 +83,11 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   material_name_->setObjectName("materialName");
   material_name_->setPlaceholderText(tr("from the sample name"));
   form->addRow(tr("Material name"), material_name_);
+  return form;
+}
 
+// Export, Cancel, the two that open what an export wrote, and *close at the end.
+QHBoxLayout* ExportDialog::MakeButtons(QPushButton** close) {
   start_ = new QPushButton(tr("Export"), this);
   start_->setObjectName("startExport");
   start_->setDefault(true);
@@ -79,12 +101,16 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   open_preview_->setObjectName("openPreview");
   open_preview_->setToolTip(tr("Opens the export's preview.html in the system's browser"));
   open_preview_->setEnabled(false);
-  auto* close = new QPushButton(tr("Close"), this);
+  *close = new QPushButton(tr("Close"), this);
   auto* buttons = new QHBoxLayout;
   for (QPushButton* button : {start_, cancel_, open_folder_, open_preview_}) buttons->addWidget(button);
   buttons->addStretch();
-  buttons->addWidget(close);
+  buttons->addWidget(*close);
+  return buttons;
+}
 
+// The progress bar, the stage and status lines and the summary's text.
+void ExportDialog::MakeProgressWidgets() {
   progress_ = new QProgressBar(this);
   progress_->setRange(0, 1000);
   progress_->setTextVisible(false);
@@ -100,17 +126,10 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   mono.setStyleHint(QFont::Monospace);
   mono.setPointSize(8);
   summary_->setFont(mono);
+}
 
-  auto* layout = new QVBoxLayout(this);
-  layout->addWidget(source);
-  layout->addLayout(form);
-  layout->addLayout(buttons);
-  layout->addWidget(progress_);
-  layout->addWidget(stage_);
-  layout->addWidget(status_);
-  layout->addWidget(summary_, 1);
-  resize(640, 520);
-
+// The choices of the last export started (StartExport saves them).
+void ExportDialog::RestoreSettings() {
   QSettings settings;
   settings.beginGroup("export");
   for (auto [combo, key] : {std::pair{preset_, "preset"}, std::pair{convention_, "convention"}}) {
@@ -120,7 +139,9 @@ ExportDialog::ExportDialog(ControllerRunner* runner, std::filesystem::path resul
   tileable_->setChecked(settings.value("tileable", tileable_->isChecked()).toBool());
   flatten_->setChecked(settings.value("flatten", flatten_->isChecked()).toBool());
   preview_page_->setChecked(settings.value("preview_page", preview_page_->isChecked()).toBool());
+}
 
+void ExportDialog::Connect(QPushButton* close) {
   // An engine preset writes its engine's normal convention whatever is chosen here.
   const auto follow_preset = [this] {
     convention_->setEnabled(!IsEnginePreset(ExportOptions::Preset(preset_->currentData().toInt())));

@@ -15,6 +15,8 @@
 
 class QCheckBox;
 class QComboBox;
+class QFormLayout;
+class QHBoxLayout;
 class QLabel;
 class QLineEdit;
 class QPlainTextEdit;
@@ -46,6 +48,12 @@ class ExportDialog : public QDialog {
   void StartExport();
 
  private:
+  // The constructor's steps.
+  QFormLayout* MakeOptionsForm();
+  QHBoxLayout* MakeButtons(QPushButton** close);
+  void MakeProgressWidgets();
+  void RestoreSettings();
+  void Connect(QPushButton* close);
   void SetStatus(const QString& text, bool error = false);
 
   ControllerRunner* runner_;

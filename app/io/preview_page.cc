@@ -7,6 +7,7 @@
 #include <future>
 #include <span>
 #include <string_view>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -172,6 +173,152 @@ std::string_view RequiredAsset(const char* name, const char* source_path) {
   return text;
 }
 
+// The maps by reference, a null view as an empty map.
+struct PreviewMaps {
+  const ImageF& basecolor_linear_rec709;
+  const ImageF& normal_in_tangent;
+  const ImageF& roughness_alpha;
+  const ImageF& occlusion;
+  const ImageF& height_mm;
+  const ImageU8& valid;
+};
+
+PreviewMaps MapsOf(const PreviewPageMapViews& views) {
+  static const ImageF kNoMap;
+  static const ImageU8 kNoMask;
+  auto map_of = [](const ImageF* map) -> const ImageF& { return map ? *map : kNoMap; };
+  return {map_of(views.basecolor_linear_rec709), map_of(views.normal_in_tangent), map_of(views.roughness_alpha),
+          map_of(views.occlusion),               map_of(views.height_mm),         views.valid ? *views.valid : kNoMask};
+}
+
+// Maps that do not fit together are the caller's mistake: thrown (naming the
+// page) before any work.
+void CheckMaps(const PreviewMaps& maps, double mm_per_pixel, const fs::path& html_path) {
+  const ImageF& base = maps.basecolor_linear_rec709;
+  const int width = base.width(), height = base.height();
+  auto fail = [&](const std::string& why) { return std::invalid_argument(html_path.string() + ": " + why); };
+  if (base.empty() || base.channels() != 3) throw fail("basecolor_linear_rec709 must have 3 channels and pixels");
+  if (!maps.normal_in_tangent.SameSize(base) || maps.normal_in_tangent.channels() != 3) {
+    throw fail("normal_in_tangent is " + ShapeText(maps.normal_in_tangent) + ", " + SizeText(width, height) +
+                "x3 expected");
+  }
+  for (const auto& [name, map] : {std::pair{"roughness_alpha", &maps.roughness_alpha},
+                                  std::pair{"occlusion", &maps.occlusion}, std::pair{"height_mm", &maps.height_mm}}) {
+    if (!map->empty() && (!map->SameSize(base) || map->channels() != 1)) {
+      throw fail(std::string(name) + " is " + ShapeText(*map) + ", " + SizeText(width, height) + "x1 expected");
+    }
+  }
+  if (!maps.valid.empty() && (!maps.valid.SameSize(base) || maps.valid.channels() != 1)) {
+    throw fail("valid is " + ShapeText(maps.valid) + ", " + SizeText(width, height) + "x1 expected");
+  }
+  if (!std::isfinite(mm_per_pixel) || !(mm_per_pixel > 0)) {
+    throw fail("mm_per_pixel = " + std::to_string(mm_per_pixel) + " must be finite and > 0");
+  }
+}
+
+// The tile's textures cover the whole map; the sphere's a centred crop,
+// sphere_crop of each side, in its own smaller textures.
+struct TextureLayout {
+  int width = 0, height = 0;             // of the maps
+  int tile_width = 0, tile_height = 0;   // of the tile's textures
+  int crop_x = 0, crop_y = 0, crop_width = 0, crop_height = 0;
+  int sphere_width = 0, sphere_height = 0;  // of the sphere's textures
+};
+
+TextureLayout LayoutOf(const PreviewPageOptions& options, int width, int height) {
+  TextureLayout layout;
+  layout.width = width;
+  layout.height = height;
+  std::tie(layout.tile_width, layout.tile_height) = TextureSize(width, height, options.max_texture_px);
+  layout.crop_width = std::max(1, int(std::lround(width * options.sphere_crop)));
+  layout.crop_height = std::max(1, int(std::lround(height * options.sphere_crop)));
+  layout.crop_x = (width - layout.crop_width) / 2;
+  layout.crop_y = (height - layout.crop_height) / 2;
+  std::tie(layout.sphere_width, layout.sphere_height) =
+      TextureSize(layout.crop_width, layout.crop_height, options.max_sphere_texture_px);
+  return layout;
+}
+
+using Encoder = std::function<ImageU8(const ImageF&)>;
+
+Encoder PerValue(std::function<double(float)> encode) {
+  return [encode](const ImageF& image) { return Encode8(image, encode); };
+}
+
+struct Texture {
+  const char* use;         // the three.js material slot; "" = listed only
+  std::string label, note;
+  const ImageF* image;
+  bool solved_only;        // average the solved pixels only (the mask itself: all)
+  bool on_sphere;
+  Encoder encode;
+};
+
+// The page's textures in order: the base colour and the normals always, then
+// those of the maps given; `solved` is the mask as floats (empty: none).
+std::vector<Texture> TexturesOf(const PreviewPageOptions& options, const PreviewMaps& maps, const ImageF& solved,
+                                double height_min, double height_max) {
+  const double height_range = height_max - height_min;
+  std::vector<Texture> textures;
+  textures.push_back({"map", "base colour",
+                      (options.basecolor_note.empty() ? "linear RGB" : options.basecolor_note) +
+                          ", shown through the sRGB curve",
+                      &maps.basecolor_linear_rec709, true, true, PerValue([](float v) { return SrgbEncode(v); })});
+  textures.push_back({"normalMap", "normal", "tangent frame, OpenGL (+Y up), (n + 1) / 2", &maps.normal_in_tangent,
+                      true, true, EncodeNormals8});
+  if (!maps.roughness_alpha.empty()) {
+    // Averaged as GGX alpha, then stored as three.js's perceptual roughness.
+    textures.push_back({"roughnessMap", "roughness", "perceptual roughness sqrt(GGX alpha)", &maps.roughness_alpha,
+                        true, true, PerValue([](float alpha) { return std::sqrt(std::max(0.0f, alpha)); })});
+  }
+  if (!maps.occlusion.empty()) {
+    textures.push_back({"aoMap", "ambient occlusion", "1 = open; darkens the ambient light", &maps.occlusion, true,
+                        true, PerValue([](float v) { return v; })});
+  }
+  if (!maps.height_mm.empty()) {
+    textures.push_back({"", "height", "mm, " + Fixed(height_min, 3) + " .. " + Fixed(height_max, 3) +
+                                          " (listed, not displaced)",
+                        &maps.height_mm, true, false, PerValue([height_min, height_range](float h) {
+                          return height_range > 0 ? (h - height_min) / height_range : 0.5;
+                        })});
+  }
+  if (!solved.empty()) {
+    // Unweighted, so that a texel is kept when at least half its pixels were solved.
+    textures.push_back({"alphaMap", "solved mask", "texels with under half their pixels solved are not drawn", &solved,
+                        false, false, PerValue([](float v) { return v >= 0.5f ? 1.0 : 0.0; })});
+  }
+  return textures;
+}
+
+// Each texture's PNGs (the tile's, and the sphere's when on it) made
+// concurrently (deflate dominates) into `out`; progress up to 0.9 as they
+// finish. False when `progress` asked to stop (every one has ended by then).
+bool EncodeTextures(const std::vector<Texture>& textures, const ImageU8& valid, const TextureLayout& layout,
+                    const ProgressCallback& progress, std::vector<PreviewPageTexture>* out) {
+  const TextureLayout& l = layout;
+  std::vector<std::future<std::pair<std::string, std::string>>> encoded;
+  for (const Texture& texture : textures) {
+    encoded.push_back(std::async(std::launch::async, [&, texture] {
+      const ImageU8 no_mask;
+      const ImageU8& mask = texture.solved_only ? valid : no_mask;
+      const ImageF small = Downsample(*texture.image, mask, 0, 0, l.width, l.height, l.tile_width, l.tile_height);
+      std::string sphere_uri;
+      if (texture.on_sphere) {
+        sphere_uri = PngDataUri(texture.encode(Downsample(*texture.image, mask, l.crop_x, l.crop_y, l.crop_width,
+                                                          l.crop_height, l.sphere_width, l.sphere_height)));
+      }
+      return std::pair{PngDataUri(texture.encode(small)), sphere_uri};
+    }));
+  }
+  bool stop = false;
+  for (size_t i = 0; i < encoded.size(); ++i) {
+    auto [uri, sphere_uri] = encoded[i].get();  // waits for every one, also after a stop
+    out->push_back({textures[i].use, textures[i].label, textures[i].note, std::move(uri), std::move(sphere_uri)});
+    if (progress && !progress(0.9 * (i + 1) / encoded.size())) stop = true;
+  }
+  return !stop;
+}
+
 }  // namespace
 
 void PreviewPageOptions::Check() const {
@@ -215,144 +362,42 @@ PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const
                                         double mm_per_pixel, const fs::path& html_path,
                                         const ProgressCallback& progress) {
   options.Check();
-  // The maps by reference, a null view as an empty map.
-  static const ImageF kNoMap;
-  static const ImageU8 kNoMask;
-  auto map_of = [](const ImageF* map) -> const ImageF& { return map ? *map : kNoMap; };
-  const struct {
-    const ImageF& basecolor_linear_rec709;
-    const ImageF& normal_in_tangent;
-    const ImageF& roughness_alpha;
-    const ImageF& occlusion;
-    const ImageF& height_mm;
-    const ImageU8& valid;
-  } maps{map_of(views.basecolor_linear_rec709), map_of(views.normal_in_tangent), map_of(views.roughness_alpha),
-         map_of(views.occlusion),               map_of(views.height_mm),         views.valid ? *views.valid : kNoMask};
-  const auto start = std::chrono::steady_clock::now();
-  PreviewPageTextures made;
-  PreviewPageSummary& summary = made.summary;
-  const ImageF& base = maps.basecolor_linear_rec709;
-  const int width = base.width(), height = base.height();
-  // Maps that do not fit together are the caller's mistake: thrown before any work.
-  auto fail = [&](const std::string& why) { return std::invalid_argument(html_path.string() + ": " + why); };
-  if (base.empty() || base.channels() != 3) throw fail("basecolor_linear_rec709 must have 3 channels and pixels");
-  if (!maps.normal_in_tangent.SameSize(base) || maps.normal_in_tangent.channels() != 3) {
-    throw fail("normal_in_tangent is " + ShapeText(maps.normal_in_tangent) + ", " + SizeText(width, height) +
-                "x3 expected");
-  }
-  for (const auto& [name, map] : {std::pair{"roughness_alpha", &maps.roughness_alpha},
-                                  std::pair{"occlusion", &maps.occlusion}, std::pair{"height_mm", &maps.height_mm}}) {
-    if (!map->empty() && (!map->SameSize(base) || map->channels() != 1)) {
-      throw fail(std::string(name) + " is " + ShapeText(*map) + ", " + SizeText(width, height) + "x1 expected");
-    }
-  }
-  if (!maps.valid.empty() && (!maps.valid.SameSize(base) || maps.valid.channels() != 1)) {
-    throw fail("valid is " + ShapeText(maps.valid) + ", " + SizeText(width, height) + "x1 expected");
-  }
-  if (!std::isfinite(mm_per_pixel) || !(mm_per_pixel > 0)) {
-    throw fail("mm_per_pixel = " + std::to_string(mm_per_pixel) + " must be finite and > 0");
-  }
+  const PreviewMaps maps = MapsOf(views);
+  CheckMaps(maps, mm_per_pixel, html_path);
   RequiredAsset(kTemplateName, "app/io/preview_page.html");  // missing assets fail before any work
   RequiredAsset(kThreeName, "third_party/three/three.module.min.js");
-
-  const auto [tw, th] = TextureSize(width, height, options.max_texture_px);
-  summary.texture_width = tw;
-  summary.texture_height = th;
-  // The sphere's crop: centred, sphere_crop of each side, its own smaller texture.
-  const int crop_w = std::max(1, int(std::lround(width * options.sphere_crop)));
-  const int crop_h = std::max(1, int(std::lround(height * options.sphere_crop)));
-  const int crop_x = (width - crop_w) / 2, crop_y = (height - crop_h) / 2;
-  const auto [sw, sh] = TextureSize(crop_w, crop_h, options.max_sphere_texture_px);
-
+  const auto start = std::chrono::steady_clock::now();
+  PreviewPageTextures made;
+  const ImageF& base = maps.basecolor_linear_rec709;
+  const TextureLayout layout = LayoutOf(options, base.width(), base.height());
+  made.summary.texture_width = layout.tile_width;
+  made.summary.texture_height = layout.tile_height;
   double height_min = 0, height_max = 0;
   if (!maps.height_mm.empty()) {
     const auto [low, high] = std::minmax_element(maps.height_mm.data(), maps.height_mm.data() + maps.height_mm.size());
     height_min = *low;
     height_max = *high;
   }
-  const double height_range = height_max - height_min;
-  ImageF solved;
+  ImageF solved;  // the mask as a map of its own (a texture's pixels must be floats)
   if (!maps.valid.empty()) {
-    solved = ImageF(width, height, 1);
+    solved = ImageF(base.width(), base.height(), 1);
     for (size_t i = 0; i < solved.num_pixels(); ++i) solved.data()[i] = maps.valid.data()[i] ? 1.0f : 0.0f;
   }
-  using Encoder = std::function<ImageU8(const ImageF&)>;
-  auto per_value = [](std::function<double(float)> encode) -> Encoder {
-    return [encode](const ImageF& image) { return Encode8(image, encode); };
-  };
-  struct Texture {
-    const char* use;         // the three.js material slot; "" = listed only
-    std::string label, note;
-    const ImageF* image;
-    bool solved_only;        // average the solved pixels only (the mask itself: all)
-    bool on_sphere;
-    Encoder encode;
-  };
-  std::vector<Texture> textures;
-  textures.push_back({"map", "base colour",
-                      (options.basecolor_note.empty() ? "linear RGB" : options.basecolor_note) +
-                          ", shown through the sRGB curve",
-                      &base, true, true, per_value([](float v) { return SrgbEncode(v); })});
-  textures.push_back({"normalMap", "normal", "tangent frame, OpenGL (+Y up), (n + 1) / 2", &maps.normal_in_tangent,
-                      true, true, EncodeNormals8});
-  if (!maps.roughness_alpha.empty()) {
-    // Averaged as GGX alpha, then stored as three.js's perceptual roughness.
-    textures.push_back({"roughnessMap", "roughness", "perceptual roughness sqrt(GGX alpha)", &maps.roughness_alpha,
-                        true, true, per_value([](float alpha) { return std::sqrt(std::max(0.0f, alpha)); })});
-  }
-  if (!maps.occlusion.empty()) {
-    textures.push_back({"aoMap", "ambient occlusion", "1 = open; darkens the ambient light", &maps.occlusion, true,
-                        true, per_value([](float v) { return v; })});
-  }
-  if (!maps.height_mm.empty()) {
-    textures.push_back({"", "height", "mm, " + Fixed(height_min, 3) + " .. " + Fixed(height_max, 3) +
-                                          " (listed, not displaced)",
-                        &maps.height_mm, true, false, per_value([&](float h) {
-                          return height_range > 0 ? (h - height_min) / height_range : 0.5;
-                        })});
-  }
-  if (!solved.empty()) {
-    // Unweighted, so that a texel is kept when at least half its pixels were solved.
-    textures.push_back({"alphaMap", "solved mask", "texels with under half their pixels solved are not drawn", &solved,
-                        false, false, per_value([](float v) { return v >= 0.5f ? 1.0 : 0.0; })});
-  }
-
-  // Each texture's PNGs concurrently (deflate dominates); progress as they finish.
-  std::vector<std::future<std::pair<std::string, std::string>>> encoded;
-  for (const Texture& texture : textures) {
-    encoded.push_back(std::async(std::launch::async, [&, texture] {
-      const ImageU8 no_mask;
-      const ImageU8& mask = texture.solved_only ? maps.valid : no_mask;
-      const ImageF small = Downsample(*texture.image, mask, 0, 0, width, height, tw, th);
-      std::string sphere_uri;
-      if (texture.on_sphere) {
-        sphere_uri =
-            PngDataUri(texture.encode(Downsample(*texture.image, mask, crop_x, crop_y, crop_w, crop_h, sw, sh)));
-      }
-      return std::pair{PngDataUri(texture.encode(small)), sphere_uri};
-    }));
-  }
-  bool stop = false;
-  for (size_t i = 0; i < encoded.size(); ++i) {
-    auto [uri, sphere_uri] = encoded[i].get();  // waits for every one, also after a stop
-    made.textures.push_back({textures[i].use, textures[i].label, textures[i].note, std::move(uri),
-                             std::move(sphere_uri)});
-    if (progress && !progress(0.9 * (i + 1) / encoded.size())) stop = true;
-  }
-  if (stop) {
+  const std::vector<Texture> textures = TexturesOf(options, maps, solved, height_min, height_max);
+  if (!EncodeTextures(textures, maps.valid, layout, progress, &made.textures)) {
     made.textures.clear();
-    summary.SetCancelled("preview page cancelled; nothing written");
+    made.summary.SetCancelled("preview page cancelled; nothing written");
     return made;
   }
   made.mm_per_pixel = mm_per_pixel;
-  made.image_width = width;
-  made.image_height = height;
-  made.crop_width = crop_w;
-  made.crop_height = crop_h;
+  made.image_width = base.width();
+  made.image_height = base.height();
+  made.crop_width = layout.crop_width;
+  made.crop_height = layout.crop_height;
   made.height_min_mm = height_min;
   made.height_max_mm = height_max;
-  summary.termination = Termination::kSuccess;
-  summary.seconds = SecondsSince(start);
+  made.summary.termination = Termination::kSuccess;
+  made.summary.seconds = SecondsSince(start);
   return made;
 }
 

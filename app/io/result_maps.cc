@@ -20,6 +20,7 @@
 #include "core/parallel_for.h"
 
 namespace scanbench {
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -407,7 +408,7 @@ SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int wi
                    [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows&) { writer.WriteRows(band.albedo); }});
   maps_.push_back({"confidence", "confidence.exr",
                    ImageRowWriter::Exr(path("confidence.exr"), width, height, 3, policy,
-                                       {"lights_used", "condition_number", "residual"}, {}, exr),
+                                       ConfidenceChannelNames(), {}, exr),
                    [half](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
                      ConfidenceForFile(band, half, &rows.f);
                      writer.WriteRows(rows.f);
@@ -559,6 +560,122 @@ ResultAlbedoColor AlbedoColorOfReport(const std::string& report_json) {
   color.description = c.value("description", color.description);
   color.scale_source = c.value("scale_source", color.scale_source);
   return color;
+}
+
+namespace {
+
+std::runtime_error FileError(const fs::path& path, const std::string& problem) {
+  return std::runtime_error(path.string() + ": " + problem);
+}
+
+// The position of channel `name` among a file's `names`; names the file and
+// its channels when missing (`holds` says what the file should hold).
+int ChannelOf(const fs::path& path, const std::vector<std::string>& names, const std::string& name,
+              const std::string& holds) {
+  const auto found = std::find(names.begin(), names.end(), name);
+  if (found == names.end()) {
+    std::string listed;
+    for (const std::string& n : names) listed += (listed.empty() ? "" : ", ") + n;
+    throw FileError(path, "has no channel '" + name + "' (channels: " + listed + "); " + holds);
+  }
+  return static_cast<int>(found - names.begin());
+}
+
+// A map as read: the expected channel count and size, every value finite
+// (bad input must never turn into NaN downstream).
+void CheckMap(const fs::path& path, const ImageF& image, int channels, int width, int height) {
+  if (image.channels() != channels) {
+    throw FileError(path, "has " + std::to_string(image.channels()) + " channels, " + std::to_string(channels) +
+                              " expected");
+  }
+  if (width > 0 && !image.SameSize(width, height)) {
+    throw FileError(path, "is " + ShapeText(image) + ", the session's images are " + std::to_string(width) + "x" +
+                              std::to_string(height));
+  }
+  for (size_t i = 0; i < image.size(); ++i) {
+    if (!std::isfinite(image.data()[i])) {
+      const size_t pixel = i / channels;
+      throw FileError(path, "pixel (" + std::to_string(pixel % image.width()) + ", " +
+                                std::to_string(pixel / image.width()) + ") holds a non-finite value");
+    }
+  }
+}
+
+}  // namespace
+
+const std::vector<std::string>& ConfidenceChannelNames() {
+  static const std::vector<std::string> kNames = {"lights_used", "condition_number", "residual"};
+  return kNames;
+}
+
+ImageF ReadGroundTruthMap(const fs::path& path, int channels, int width, int height) {
+  ImageRowReader reader(path);  // names the file when missing or unreadable
+  ImageF image;
+  reader.ReadRows(0, reader.height(), &image);
+  CheckMap(path, image, channels, width, height);
+  return image;
+}
+
+ImageF ReadResultMap(const fs::path& path, int channels, int width, int height,
+                     const std::vector<std::string>& channel_names) {
+  std::vector<std::string> names;
+  ImageF image = ReadImageFloat(path, &names);  // names the file when missing or unreadable
+  CheckMap(path, image, channels, width, height);
+  if (channel_names.empty()) return image;
+  std::string holds = path.filename().string() + " holds";
+  for (const std::string& name : channel_names) holds += " " + name;
+  std::vector<int> source(channel_names.size());
+  for (size_t c = 0; c < channel_names.size(); ++c) source[c] = ChannelOf(path, names, channel_names[c], holds);
+  bool in_order = true;
+  for (int c = 0; c < channels; ++c) in_order = in_order && source[c] == c;
+  if (in_order) return image;
+  // In place, a pixel at a time: a reordered copy would be another full-size
+  // map at the moment the export's memory is highest.
+  std::vector<float> pixel(channels);
+  for (size_t i = 0; i < image.num_pixels(); ++i) {
+    float* values = image.data() + i * channels;
+    std::copy_n(values, channels, pixel.data());
+    for (int c = 0; c < channels; ++c) values[c] = pixel[source[c]];
+  }
+  return image;
+}
+
+ImageF ReadSpecularAlpha(const fs::path& path, int width, int height) {
+  std::vector<std::string> names;
+  const ImageF specular = ReadImageFloat(path, &names);  // names the file when unreadable
+  auto channel_of = [&](const std::string& name) {
+    return ChannelOf(path, names, name, "specular.exr holds specular_f0 and roughness_alpha");
+  };
+  const int f0_channel = channel_of("specular_f0"), alpha_channel = channel_of("roughness_alpha");
+  if (!specular.SameSize(width, height)) {
+    throw FileError(path, "is " + ShapeText(specular) + ", the session's images are " + SizeText(width, height));
+  }
+  ImageF alpha(width, height, 1);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      for (const auto& [channel, name] :
+           {std::pair{f0_channel, "specular_f0"}, std::pair{alpha_channel, "roughness_alpha"}}) {
+        const float value = specular(x, y, channel);
+        if (!std::isfinite(value) || value < 0.0f || value > 1.0f) {
+          throw FileError(path, std::string(name) + " at pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                    ") is " + std::to_string(value) + ", must be finite and in [0, 1]");
+        }
+      }
+      alpha(x, y) = specular(x, y, alpha_channel);
+    }
+  }
+  return alpha;
+}
+
+ImageU8 ReadBinaryMask(const fs::path& path, int width, int height) {
+  const ImageU8 stored = ReadImageU8(path);
+  if (!stored.SameSize(width, height)) {
+    throw FileError(path, "is " + std::to_string(stored.width()) + "x" + std::to_string(stored.height()) +
+                              ", the session's images are " + std::to_string(width) + "x" + std::to_string(height));
+  }
+  ImageU8 mask(width, height, 1);
+  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = stored.data()[i * stored.channels()] > 127;
+  return mask;
 }
 
 }  // namespace scanbench

@@ -161,4 +161,28 @@ std::map<std::string, uintmax_t> FileSizesIn(const std::filesystem::path& folder
 // ImageMetadata::color_space ("Linear" or "sRGB").
 ImageMetadata AlbedoMetadata(const AlbedoColor& albedo_color, const std::string& color_space);
 
+// --- A result folder's maps read back (the export) --------------------------
+// Each reader checks what it reads -- the channel count, the session's size
+// width x height, every value finite (bad input must never turn into NaN
+// downstream) -- and throws std::runtime_error naming the file otherwise.
+
+// confidence.exr's channels, in the order the solve writes them.
+const std::vector<std::string>& ConfidenceChannelNames();
+// A map of the result folder. `channel_names`, if given, are read by name in
+// that order: OpenEXR stores channels sorted by name, so their position in
+// the file is not the writer's.
+ImageF ReadResultMap(const std::filesystem::path& path, int channels, int width, int height,
+                     const std::vector<std::string>& channel_names = {});
+// A map of a simulated session's ground truth (float EXRs), its channels in
+// the file's order, through ImageRowReader: its OpenEXR core-library reader
+// copies a float file's rows straight into the image (about 4x less CPU than
+// ReadImageFloat's default reader on an uncompressed 16 MP map), the same values.
+ImageF ReadGroundTruthMap(const std::filesystem::path& path, int channels, int width, int height);
+// specular.exr's roughness_alpha (issue #13): both channels by name, every
+// value of both finite and in [0, 1].
+ImageF ReadSpecularAlpha(const std::filesystem::path& path, int width, int height);
+// An 8-bit mask (solved_mask.png, a ground truth's sample mask): 1 where the
+// stored value is above half, 0 elsewhere.
+ImageU8 ReadBinaryMask(const std::filesystem::path& path, int width, int height);
+
 }  // namespace scanbench

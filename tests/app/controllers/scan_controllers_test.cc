@@ -70,7 +70,7 @@ TEST(ScanControllersTest, DefaultSceneSolvesWithinOneDegree) {
   // calibration the solve takes the DNG's camera matrix to linear Rec.709 (0.016
   // measured against the Rec.709 ground truth; 0.048 as white-balanced camera
   // RGB; 0.005 with the old sRGB-primaries camera, whose frames
-  // srgb_primaries_fingerprint_test pins).
+  // srgb_primaries_camera_test checks).
   EXPECT_EQ(summary.albedo_color.source, AlbedoColorOptions::Source::kCameraMatrix);
   EXPECT_LE(summary.albedo_error->mean, 0.025);
   EXPECT_GT(summary.normal_error_deg->num_pixels, 500000u) << "most of the sample must be evaluated";

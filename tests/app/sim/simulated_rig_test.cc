@@ -17,6 +17,7 @@
 #include "calibration/camera_model.h"
 #include "calibration/color_checker.h"
 #include "calibration/color_science.h"
+#include "tests/app/sim/light_model.h"
 
 namespace scanbench {
 namespace {
@@ -40,16 +41,7 @@ SimulatedRig MakeRig(const SimulatedRigOptions& options, const TextileSceneOptio
 
 double Range(const SimulatedRigOptions& o) { return o.white_level - o.black_level; }
 
-// The light model of calibration/rig.h, written out independently.
-double ExpectedDirect(const LedDescription& led, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
-                      int channel) {
-  const Eigen::Vector3d to_led = led.position_in_table_mm - point;
-  const double d = to_led.norm();
-  const Eigen::Vector3d l = to_led / d;
-  const double cos_off_axis = led.axis_in_table.dot(-l);
-  return std::max(0.0, normal.dot(l)) * led.rgb_intensity[channel] * std::pow(cos_off_axis, led.mu) *
-         std::pow(1000.0 / d, 2);
-}
+using testing::ExpectedDirect;
 
 // ----------------------------------------------------------------------------
 // Rig truth.

@@ -8,6 +8,7 @@
 #include "app/sim/sensor_color.h"
 #include "calibration/camera_model.h"
 #include "calibration/color_checker.h"
+#include "tests/app/sim/light_model.h"
 
 namespace scanbench {
 namespace {
@@ -22,15 +23,7 @@ SimulatedRigOptions Sensor() {
   return options;
 }
 
-// The light model of calibration/rig.h, written out again: what a Lambertian
-// surface with normal n at p reads per unit reflectance from the LED.
-double Direct(const LedDescription& led, const Eigen::Vector3d& p, const Eigen::Vector3d& n, int c) {
-  const Eigen::Vector3d to_led = led.position_in_table_mm - p;
-  const double d = to_led.norm();
-  const Eigen::Vector3d l = to_led / d;
-  return std::max(0.0, n.dot(l)) * std::pow(-l.dot(led.axis_in_table), led.mu) * 1e6 / (d * d) *
-         led.rgb_intensity[c];
-}
+using testing::ExpectedDirect;
 
 Eigen::Vector3d TablePointOfPixel(const CameraGeometry& camera, int x, int y, double height) {
   return ComputePlanePointsInTable(camera, {Eigen::Vector2d(x, y)}, height)[0];
@@ -48,7 +41,7 @@ TEST(TargetRendererTest, WhiteSheetFollowsTheTrueLightModelAtItsHeight) {
   for (const auto& [x, y] : {std::pair{10, 10}, std::pair{300, 200}, std::pair{600, 400}}) {
     const Eigen::Vector3d p = TablePointOfPixel(truth.camera, x, y, 40);
     for (int c = 0; c < 3; ++c) {
-      const double expected = 0.99 * Direct(truth.leds[3], p, Eigen::Vector3d::UnitZ(), c);
+      const double expected = 0.99 * ExpectedDirect(truth.leds[3], p, Eigen::Vector3d::UnitZ(), c);
       EXPECT_NEAR(image(x, y, c) - dark(x, y, c), expected, 1e-5 * expected + 1e-7) << x << "," << y;
       EXPECT_NEAR(dark(x, y, c), 0.99 * Sensor().ambient, 1e-7);
     }
@@ -107,7 +100,7 @@ TEST(TargetRendererTest, ColorChartPatchesReadTheirSpectralCameraRgbAndShowALitt
   const int x = int(std::lround(pixel.x())), y = int(std::lround(pixel.y()));
   const Eigen::Vector3d dark_skin = WhiteBalancedCameraRgbOf(Sensor().color, ColorCheckerClassic()[0].reflectance);
   for (int c = 0; c < 3; ++c) {
-    const double white = Direct(truth.leds[6], p, Eigen::Vector3d::UnitZ(), c);
+    const double white = ExpectedDirect(truth.leds[6], p, Eigen::Vector3d::UnitZ(), c);
     const double lambert = dark_skin[c] * (white + Sensor().ambient);
     EXPECT_GE(lit(x, y, c), lambert * (1 - 1e-3) - 1e-6) << c;
     EXPECT_LE(lit(x, y, c), lambert + target.chart_gloss * white + 1e-6) << c;
