@@ -26,7 +26,6 @@
 #include "core/parallel_for.h"
 #include "core/summary.h"
 #include "pipeline/banded_solve.h"
-#include "pipeline/error_statistics.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;

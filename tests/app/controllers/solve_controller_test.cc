@@ -36,7 +36,7 @@ using ::testing::IsEmpty;
 using testing::ReadJsonFile;
 using testing::TemporaryFolder;
 
-constexpr int kWidth = 256, kHeight = 170;
+constexpr int kWidth = 192, kHeight = 160;  // two bands of the solve (128 rows, then 32)
 
 // Two sessions, each simulated once per process when first asked for: the
 // default twill (folds of 2.5 mm: the table plane kept) and one draped in
@@ -155,7 +155,7 @@ TEST_F(SolveControllerTest, ResultFolderHoldsTheMapsAndAReportThatDescribesThem)
   // The 16-bit PNG encodes the same normals: (n + 1) / 2, from the float
   // normals; the EXR's half holds them within 2^-12 (at 0.5 .. 1).
   const ImageU16 encoded = ReadImageU16(result / "normal.png");
-  EXPECT_NEAR(encoded(128, 85, 2) / 65535.0 * 2 - 1, normals(128, 85, 2), 1.0 / 4096 + 1e-5);
+  EXPECT_NEAR(encoded(96, 80, 2) / 65535.0 * 2 - 1, normals(96, 80, 2), 1.0 / 4096 + 1e-5);
 
   const nlohmann::json report = ReadJsonFile(result / "report.json");
   EXPECT_EQ(report.at("schema"), "scanbench.solve_report/1");
@@ -213,7 +213,7 @@ TEST_F(SolveControllerTest, Float32MapsAreTheFullPrecisionFiles) {
   EXPECT_EQ(ReadImageFileInfo(full.result_dir / "confidence.exr").bits_per_sample, 32);
   const ImageF normals = ReadImageFloat(full.result_dir / "normal.exr");
   const ImageU16 encoded = ReadImageU16(full.result_dir / "normal.png");
-  EXPECT_NEAR(encoded(128, 85, 2) / 65535.0 * 2 - 1, normals(128, 85, 2), 1e-4);
+  EXPECT_NEAR(encoded(96, 80, 2) / 65535.0 * 2 - 1, normals(96, 80, 2), 1e-4);
   EXPECT_EQ(FileBytes(full.result_dir / "normal.png"), FileBytes(half.result_dir / "normal.png"));
   EXPECT_GT(full.TotalBytesWritten(), half.TotalBytesWritten());
   EXPECT_EQ(ReadJsonFile(full.result_dir / "report.json").at("bytes_written").at("exr_encoding"), "float32, zip");
@@ -452,7 +452,7 @@ TEST_F(SolveControllerTest, SessionGroundTruthIsReadBandByBand) {
   WritePng(session_dir / truth.mask_file, ImageU8(kWidth / 2, kHeight, 1, 255), OverwritePolicy::kReplace);
   EXPECT_THAT([&] { SessionGroundTruthEvaluation(session_dir, truth, kWidth, kHeight); },
               ::testing::ThrowsMessage<std::runtime_error>(
-                  AllOf(HasSubstr(truth.mask_file), HasSubstr("128x170, the solution is 256x170"))));
+                  AllOf(HasSubstr(truth.mask_file), HasSubstr("96x160, the solution is 192x160"))));
 }
 
 }  // namespace
