@@ -1,8 +1,9 @@
-// The solve's ground-truth evaluation (GroundTruthEvaluation, issue #14) on
-// its own: a result's normal and albedo maps against the session's ground
-// truth, band by band as `scanbench solve` hands them over, with the wall and
-// CPU time of the bands and of Finish and every figure printed to the last
-// digit (so two builds' figures can be diffed: they must be equal).
+// The solve's ground-truth evaluation (GroundTruthEvaluation, issue #14, on
+// the session's files: SessionGroundTruthEvaluation) on its own: a result's
+// normal and albedo maps against the session's ground truth, band by band as
+// `scanbench solve` hands them over, with the wall and CPU time of the bands
+// and of Finish and every figure printed to the last digit (so two builds'
+// figures can be diffed: they must be equal).
 //
 //   scanbench simulate s16 --width 4928 --height 3264 && scanbench solve s16
 //   build/benchmarks/ground_truth_evaluation_benchmark s16 s16/results/<run> [threads] [band rows]
@@ -58,7 +59,8 @@ int Run(int argc, char** argv) {
 
   const auto start = std::chrono::steady_clock::now();
   const double cpu_start = ProcessCpuSeconds();
-  GroundTruthEvaluation evaluation(session_dir, *session.ground_truth, width, height, result_dir);
+  GroundTruthEvaluation evaluation =
+      SessionGroundTruthEvaluation(session_dir, *session.ground_truth, width, height, result_dir);
   for (int y = 0; y < height; y += band_rows) {
     evaluation.AddBand(SolutionRows(solution, y, std::min(band_rows, height - y)), threads);
   }

@@ -632,6 +632,7 @@ BandedSolveSummary SolveBanded(const BandedSolveOptions& options, const RawFrame
     if (!developed_all) {
       summary.SetCancelled("cancelled developing band " + std::to_string(band + 1) + " of " +
                            std::to_string(layout.num_bands));
+      summary.solver.SetCancelled(summary.message);  // as a cancel in a band's solve (the depth re-solves read it)
       return summary;
     }
     summary.clipped_samples += ClippedSamplesOfBand(layout, develop, developed, clipped, row0 - dev0, row1 - row0);

@@ -10,6 +10,7 @@
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/io/result_maps.h"
+#include "app/io/staged_folder.h"
 #include "app/session/session.h"
 #include "core/field_error.h"
 #include "core/format.h"
@@ -79,16 +80,6 @@ nlohmann::json DatasetReportJson(const fs::path& dataset_dir, const PhotometricD
   report["outputs"] = outputs;
   return report;
 }
-
-// Removes a staging folder unless it was committed (renamed into place).
-struct StagingGuard {
-  fs::path path;
-  bool committed = false;
-  ~StagingGuard() {
-    std::error_code ignored;
-    if (!committed) fs::remove_all(path, ignored);
-  }
-};
 
 }  // namespace
 
@@ -227,22 +218,18 @@ void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const Da
   BeginStage("write maps");
   const fs::path out = options_.output_dir;
   if (fs::exists(out)) fs::remove_all(out);  // Check() allowed it: overwrite
-  const fs::path staging = out.parent_path() / ("." + out.filename().string() + ".partial");
-  fs::remove_all(staging);
-  fs::create_directories(staging);
-  StagingGuard guard{staging};
+  StagedFolder staged = StagedFolder::OntoAbsent(out);
   std::map<std::string, std::string> outputs =
-      WriteSolutionMaps(staging, result.solution, {}, ResultMapExrEncoding(), result.error_map_deg);
+      WriteSolutionMaps(staged.staging(), result.solution, {}, ResultMapExrEncoding(), result.error_map_deg);
   summary_.output_dir = out;
   summary_.write_seconds = SecondsSince(start);
   outputs["report"] = "report.json";
   outputs["summary"] = "summary.txt";
   const nlohmann::json report = DatasetReportJson(dataset_dir_, dataset, options_.solver, result, summary_, outputs);
-  WriteFileAtomic(staging / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
-  WriteFileAtomic(staging / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
+  WriteFileAtomic(staged.staging() / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
+  WriteFileAtomic(staged.staging() / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
   ThrowIfStopRequested("write maps");
-  RenameDurably(staging, out);
-  guard.committed = true;
+  staged.Commit();
   ReportProgress("write maps", 1);
 }
 

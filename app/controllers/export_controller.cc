@@ -1,10 +1,7 @@
 #include "app/controllers/export_controller.h"
 
-#include <sys/stat.h>
-
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -27,6 +24,7 @@
 #include "app/io/image_io.h"
 #include "app/io/materialx_document.h"
 #include "app/io/result_maps.h"
+#include "app/io/staged_folder.h"
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
 #include "calibration/color_science.h"
@@ -182,58 +180,6 @@ std::vector<TileableMapInput> TileInputs(const ExportInputs& inputs, const Expor
           {&maps.height_mm, TileMapKind::kLinear},  {&maps.occlusion, TileMapKind::kLinear},
           {&maps.cavity, TileMapKind::kLinear},     {&maps.mips.front().roughness, TileMapKind::kLinear}};
 }
-
-// Reserves <root>/<base>[-N] (mkdir fails on any existing entry, so two
-// exports never share a folder) and stages everything in a hidden sibling
-// that replaces the empty reservation at the very end: an export folder is
-// complete or absent. A root made here and left empty is removed again.
-class StagedExportFolder {
- public:
-  StagedExportFolder(const fs::path& root, const std::string& base_name) : root_(root) {
-    std::error_code error;
-    if (!fs::is_directory(root_, error)) {
-      fs::create_directories(root_, error);
-      if (error) throw FileError(root_, "cannot be created: " + error.message());
-      created_root_ = true;
-    }
-    constexpr int kMaxAttempts = 10000;
-    for (int attempt = 1; attempt <= kMaxAttempts && final_dir_.empty(); ++attempt) {
-      const fs::path folder = root_ / (attempt == 1 ? base_name : base_name + "-" + std::to_string(attempt));
-      if (::mkdir(folder.c_str(), 0777) == 0) {
-        final_dir_ = folder;
-      } else if (errno != EEXIST) {
-        throw FileError(folder, std::string("cannot be created: ") + std::strerror(errno));
-      }
-    }
-    if (final_dir_.empty()) throw FileError(root_, "too many exports named " + base_name + "* exist already");
-    staging_dir_ = root_ / ("." + final_dir_.filename().string() + ".partial");
-    fs::create_directory(staging_dir_, error);
-    if (error) {
-      Discard();
-      throw FileError(staging_dir_, "cannot be created: " + error.message());
-    }
-  }
-  ~StagedExportFolder() {
-    if (!committed_) Discard();
-  }
-  const fs::path& final_dir() const { return final_dir_; }
-  const fs::path& staging() const { return staging_dir_; }
-  void Commit() {
-    RenameDurably(staging_dir_, final_dir_);  // replaces the empty reservation
-    committed_ = true;
-  }
-
- private:
-  void Discard() {
-    std::error_code ignored;
-    fs::remove_all(staging_dir_, ignored);
-    fs::remove(final_dir_, ignored);
-    if (created_root_) fs::remove(root_, ignored);  // only if empty
-  }
-  fs::path root_, final_dir_, staging_dir_;
-  bool created_root_ = false;
-  bool committed_ = false;
-};
 
 nlohmann::json OptionsJson(const ExportOptions& options) {
   const auto& h = options.height;
@@ -1109,7 +1055,9 @@ void ExportController::Run() {
   std::vector<StageTiming>& timings = summary_.stage_seconds;
   ExportInputs inputs = TimedStage(timings, "load", "", [&] { return Load(); });
   const fs::path root = options_.output_root.empty() ? inputs.session_dir / "exports" : options_.output_root;
-  StagedExportFolder staged(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
+  // <root>/<result>-<preset>[-N], complete or absent; a root made here and left empty goes again.
+  StagedFolder staged =
+      StagedFolder::ReserveNumbered(root, inputs.result_dir.filename().string() + "-" + summary_.preset);
   fs::create_directory(staged.staging() / summary_.material_name);
 
   std::future<DecodedTruth> truth = StartDecodingTruth(inputs);

@@ -1,36 +1,31 @@
 #include "app/controllers/solve_controller.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
-#include <cstring>
-#include <exception>
 #include <functional>
-#include <future>
 #include <iomanip>
 #include <regex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "app/controllers/solve_routing.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
 #include "app/io/result_maps.h"
+#include "app/io/staged_folder.h"
 #include "app/session/albedo_color_choice.h"
 #include "app/session/calibrated_lighting.h"  // issue #4
 #include "app/session/calibration_set.h"
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
 #include "calibration/rig_light_field.h"
-#include "core/bounded_worker.h"
 #include "core/field_error.h"
 #include "core/format.h"
 #include "core/parallel_for.h"
-#include "core/spill_file.h"
 #include "core/summary.h"
 #include "pipeline/banded_solve.h"
-#include "pipeline/error_statistics.h"
 #include "solver/photometric_methods.h"
 
 namespace scanbench {
@@ -45,41 +40,6 @@ const char* DemosaicName(RawDevelopOptions::Demosaic demosaic) {
 nlohmann::json StatisticsJson(const ErrorStatistics& stats) {
   return {{"pixels", stats.num_pixels}, {"mean", stats.mean}, {"median", stats.median},
           {"p95", stats.percentile_95}, {"max", stats.max}};
-}
-
-// Everything is written into a hidden staging folder that replaces the
-// reserved, empty result folder at the very end: a result folder is either
-// complete or absent.
-class StagedResultFolder {
- public:
-  explicit StagedResultFolder(fs::path final_dir)
-      : final_dir_(std::move(final_dir)),
-        staging_dir_(final_dir_.parent_path() / ("." + final_dir_.filename().string() + ".partial")) {
-    fs::create_directory(staging_dir_);
-  }
-  ~StagedResultFolder() {
-    if (committed_) return;
-    std::error_code ignored;
-    fs::remove_all(staging_dir_, ignored);
-    fs::remove(final_dir_, ignored);  // still the empty reservation
-  }
-  const fs::path& staging() const { return staging_dir_; }
-  void Commit() {
-    RenameDurably(staging_dir_, final_dir_);  // replaces the empty reserved folder
-    committed_ = true;
-  }
-
- private:
-  fs::path final_dir_;
-  fs::path staging_dir_;
-  bool committed_ = false;
-};
-
-ImageU8 SampleMaskFromGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth) {
-  const ImageU8 stored = ReadImageU8(session_dir / truth.mask_file);
-  ImageU8 mask(stored.width(), stored.height(), 1);
-  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = stored.data()[i * stored.channels()] > 127;
-  return mask;
 }
 
 const char* RobustLossName(PhotometricSolverOptions::RobustLoss loss) {
@@ -407,137 +367,48 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
 
 }  // namespace
 
-struct GroundTruthEvaluation::State {
-  std::optional<ImageRowReader> normal_reader, albedo_reader;  // the truth maps, opened once
-  ImageF truth_normal_rows, truth_albedo_rows;                  // AddBand's, reused from band to band
-  ImageU8 solved_on_sample;                                     // AddBand's, reused
-  ImageU8 on_sample;  // whole size
-  int rows_added = 0;
-  size_t unsolved_on_sample = 0;
-  AlbedoColorComparison color;  // spills the pixels whose truth may be a region's
-  FloatErrorStatistics angles;  // the angles, as floats
-  FloatErrorStatistics albedo_errors;  // the albedo's absolute errors (pixel, channel), as floats
-  std::vector<double> band_values;  // AddBand's, reused from band to band
-  explicit State(const fs::path& spill_folder) : color(0.002, spill_folder) {}
+namespace {
+
+ImageU8 SampleMaskFromGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth) {
+  const ImageU8 stored = ReadImageU8(session_dir / truth.mask_file);
+  ImageU8 mask(stored.width(), stored.height(), 1);
+  for (size_t i = 0; i < mask.num_pixels(); ++i) mask.data()[i] = stored.data()[i * stored.channels()] > 127;
+  return mask;
+}
+
+// The session's true normals and albedo a band of rows at a time, each band
+// checked against the solution's width, naming the file.
+class SessionGroundTruthRows final : public GroundTruthRows {
+ public:
+  SessionGroundTruthRows(const fs::path& session_dir, const GroundTruthFiles& truth, int width)
+      : normals_(session_dir / truth.normal_file), albedo_(session_dir / truth.albedo_file), width_(width) {}
+  void ReadNormalRows(int y_begin, int y_end, ImageF* rows) override { Read(normals_, y_begin, y_end, rows); }
+  void ReadAlbedoRows(int y_begin, int y_end, ImageF* rows) override { Read(albedo_, y_begin, y_end, rows); }
+
+ private:
+  void Read(ImageRowReader& reader, int y_begin, int y_end, ImageF* rows) const {
+    reader.ReadRows(y_begin, y_end, rows);
+    if (rows->width() != width_ || rows->channels() != 3) {
+      throw std::runtime_error(reader.path().string() + ": " + ShapeText(*rows) + " rows, the solution's are " +
+                               SizeText(width_, y_end - y_begin) + "x3");
+    }
+  }
+  ImageRowReader normals_, albedo_;  // opened once
+  int width_;
 };
 
-GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const GroundTruthFiles& truth, int width,
-                                             int height, const fs::path& spill_folder)
-    : state_(std::make_unique<State>(spill_folder)) {
-  state_->normal_reader.emplace(session_dir / truth.normal_file);
-  state_->albedo_reader.emplace(session_dir / truth.albedo_file);
-  state_->on_sample = SampleMaskFromGroundTruth(session_dir, truth);
-  if (!state_->on_sample.SameSize(width, height)) {
+}  // namespace
+
+GroundTruthEvaluation SessionGroundTruthEvaluation(const fs::path& session_dir, const GroundTruthFiles& truth,
+                                                   int width, int height, const fs::path& spill_folder) {
+  auto rows = std::make_unique<SessionGroundTruthRows>(session_dir, truth, width);
+  ImageU8 on_sample = SampleMaskFromGroundTruth(session_dir, truth);
+  if (!on_sample.SameSize(width, height)) {
     throw std::runtime_error((session_dir / truth.mask_file).string() + ": " +
-                             SizeText(state_->on_sample.width(), state_->on_sample.height()) +
-                             ", the solution is " + SizeText(width, height));
+                             SizeText(on_sample.width(), on_sample.height()) + ", the solution is " +
+                             SizeText(width, height));
   }
-  // The values held in memory: room for every sample pixel at once, never a
-  // second copy while growing.
-  const size_t sample_pixels =
-      std::count_if(state_->on_sample.data(), state_->on_sample.data() + state_->on_sample.size(),
-                    [](uint8_t on) { return on != 0; });
-  state_->angles.Reserve(sample_pixels);
-  state_->color.Reserve(sample_pixels);
-  state_->albedo_errors.Reserve(3 * sample_pixels);
-  // The truth's colours over the sample, read once before the bands: the
-  // colour comparison then spills only the pixels that may be a uniform
-  // region's (a chart's patches), not a textile's every pixel.
-  ImageF truth_rows;
-  ImageU8 mask_rows;
-  for (int y = 0; y < height; y += kEvaluationBandRows) {
-    const int rows = std::min(kEvaluationBandRows, height - y);
-    state_->albedo_reader->ReadRows(y, y + rows, &truth_rows);
-    if (truth_rows.width() != width || truth_rows.channels() != 3) {
-      throw std::runtime_error(state_->albedo_reader->path().string() + ": " + ShapeText(truth_rows) +
-                               " rows, the solution's are " + SizeText(width, rows) + "x3");
-    }
-    if (!mask_rows.SameSize(width, rows)) mask_rows = ImageU8(width, rows, 1);
-    std::copy(state_->on_sample.row(y), state_->on_sample.row(y) + mask_rows.size(), mask_rows.data());
-    state_->color.CountPossibleRegions(truth_rows, mask_rows);
-  }
-}
-
-GroundTruthEvaluation::~GroundTruthEvaluation() = default;
-
-ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_threads) {
-  State& s = *state_;
-  const int width = s.on_sample.width(), rows = band.status.height(), y0 = s.rows_added;
-  if (band.status.width() != width || rows < 1 || y0 + rows > s.on_sample.height() ||
-      !band.normal_in_table.SameSize(band.status) || band.normal_in_table.channels() != 3 ||
-      !band.albedo.SameSize(band.status) || band.albedo.channels() != 3) {
-    throw std::invalid_argument("GroundTruthEvaluation::AddBand: a band of " + ShapeText(band.status) + " (normals " +
-                                ShapeText(band.normal_in_table) + ", albedo " + ShapeText(band.albedo) + ") after " +
-                                std::to_string(y0) + " rows of " + ShapeText(s.on_sample));
-  }
-  s.rows_added += rows;
-  ImageU8& solved_on_sample = s.solved_on_sample;
-  if (!solved_on_sample.SameSize(width, rows)) solved_on_sample = ImageU8(width, rows, 1);
-  for (size_t i = 0; i < solved_on_sample.size(); ++i) {
-    const bool on_sample = s.on_sample.row(y0)[i] != 0;
-    const bool solved = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
-    solved_on_sample.data()[i] = on_sample && solved;
-    s.unsolved_on_sample += on_sample && !solved;
-  }
-  const auto read_truth = [&](ImageRowReader& reader, ImageF* truth_rows) -> const ImageF& {
-    reader.ReadRows(y0, y0 + rows, truth_rows);
-    if (truth_rows->width() != width || truth_rows->channels() != 3) {
-      throw std::runtime_error(reader.path().string() + ": " + ShapeText(*truth_rows) + " rows, the solution's are " +
-                               SizeText(width, rows) + "x3");
-    }
-    return *truth_rows;
-  };
-  ImageF error_rows(width, rows, 1, 0.0f);
-  s.band_values.clear();
-  AngularErrorsOfRows(band.normal_in_table, read_truth(*s.normal_reader, &s.truth_normal_rows), 0, solved_on_sample,
-                      num_threads, &s.band_values, &error_rows);
-  s.angles.Add(s.band_values);
-  const ImageF& truth_albedo = read_truth(*s.albedo_reader, &s.truth_albedo_rows);
-  s.color.AddRows(band.albedo, solved_on_sample, truth_albedo, num_threads);
-  // The albedo's absolute error of every channel, pooled in pixel order.
-  s.band_values.clear();
-  AbsoluteErrorsOfRows(band.albedo, truth_albedo, 0, solved_on_sample, num_threads, &s.band_values);
-  s.albedo_errors.Add(s.band_values);
-  return error_rows;
-}
-
-GroundTruthComparison GroundTruthEvaluation::Finish(int num_threads) {
-  State& s = *state_;
-  if (s.rows_added != s.on_sample.height()) {
-    throw std::logic_error("GroundTruthEvaluation::Finish: " + std::to_string(s.rows_added) + " of " +
-                           std::to_string(s.on_sample.height()) + " rows added");
-  }
-  GroundTruthComparison comparison;
-  comparison.unsolved_on_sample = s.unsolved_on_sample;
-  // Side by side: the albedo's errors (the most values) and the rest.
-  ParallelFor(2, std::min(2, ResolveThreadCount(num_threads)), 1, [&](int begin, int end, int) {
-    for (int item = begin; item < end; ++item) {
-      if (item == 0) {
-        comparison.albedo_error = s.albedo_errors.Finish();
-      } else {
-        comparison.normal_error_deg = s.angles.Finish();
-        comparison.albedo_color_error = s.color.Finish();
-      }
-    }
-  });
-  return comparison;
-}
-
-GroundTruthComparison CompareWithGroundTruth(const fs::path& session_dir, const GroundTruthFiles& truth,
-                                             const PhotometricSolution& solution, int num_threads, int band_rows) {
-  if (band_rows < 1) {
-    throw std::invalid_argument("CompareWithGroundTruth: band_rows " + std::to_string(band_rows) + " must be >= 1");
-  }
-  const int width = solution.status.width(), height = solution.status.height();
-  GroundTruthEvaluation evaluation(session_dir, truth, width, height);
-  ImageF error_map(width, height, 1);
-  for (int y = 0; y < height; y += band_rows) {
-    const ImageF rows = evaluation.AddBand(SolutionRows(solution, y, std::min(band_rows, height - y)), num_threads);
-    std::copy(rows.data(), rows.data() + rows.size(), error_map.row(y));
-  }
-  GroundTruthComparison comparison = evaluation.Finish(num_threads);
-  comparison.angular_error_deg = std::move(error_map);
-  return comparison;
+  return GroundTruthEvaluation(std::move(on_sample), std::move(rows), spill_folder);
 }
 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
@@ -780,200 +651,166 @@ void SolveController::UsePreparation(SolvePreparation preparation) {
   preparation_ = std::move(preparation.state_);
 }
 
+
 namespace {
 
-// Every map of a solution, in one order, for `f(image)`.
-template <typename Solution, typename F>
-void ForEachMap(Solution& s, const F& f) {
-  f(s.normal_in_table);
-  f(s.albedo);
-  f(s.status);
-  f(s.lights_used);
-  f(s.condition_number);
-  f(s.residual);
-  f(s.solve_path);
-  f(s.specular);
-  f(s.specular_status);
+// The session's frames through the solve: decoded (or taken from a
+// preparation) for the first pass, released after it (32 MB a raw frame at
+// 16 MP, 290 MB a frame developed ahead), and decoded again only when the
+// depth refinement re-solves (a flat sample never does).
+class SolveFrames {
+ public:
+  SolveFrames(RawFrames frames, std::function<RawFrames()> decode_again)
+      : frames_(std::move(frames)), decode_again_(std::move(decode_again)) {}
+
+  // The frames `prepared` developed ahead of the solve for exactly these
+  // frames and `develop` (DevelopedAheadFor), held until Release.
+  void UsePreparation(std::unique_ptr<SolvePreparation::State> prepared, const Session& session,
+                      const RawDevelopOptions& develop) {
+    prepared_ = std::move(prepared);
+    if (prepared_ && !prepared_->developed.empty()) {
+      frames_.developed_ahead = DevelopedAheadFor(*prepared_, session, develop);
+    }
+  }
+  const RawFrames& Get() {
+    if (released_) {
+      frames_ = decode_again_();
+      released_ = false;
+    }
+    return frames_;
+  }
+  void Release() {
+    frames_.leds.clear();
+    frames_.dark = RawImage();
+    frames_.developed_ahead.clear();
+    prepared_.reset();
+    released_ = true;
+  }
+  const std::string& dark_file() const { return frames_.dark_file; }
+
+ private:
+  RawFrames frames_;
+  std::function<RawFrames()> decode_again_;
+  std::unique_ptr<SolvePreparation::State> prepared_;  // what frames_.developed_ahead points into
+  bool released_ = false;
+};
+
+// The steps of SolveController::Run that follow the decode, in order.
+
+// The light field (made earlier when there is a preparation), and what the
+// solve takes from it and from the frames before it starts.
+Lighting PrepareLighting(const SolveOptions& options, const fs::path& session_dir, const Session& session,
+                         const RawFrames& frames, SolvePreparation::State* prepared, SolveSummary* summary) {
+  Lighting lighting = prepared ? std::move(prepared->lighting) : MakeLighting(options, session_dir, session);
+  // After the calibration set was checked, so that its errors come from its loader.
+  summary->inputs_fingerprint = SolveInputsFingerprint(session, options);
+  // Before the solve, so that a colour source that is not there fails early.
+  summary->albedo_color = ChooseAlbedoColor(options.albedo_color, lighting.set.get(), lighting.set_name,
+                                            frames.camera_from_xyz, frames.first_led_file);
+  summary->light_model = lighting.light_model;
+  summary->warnings = lighting.warnings;
+  summary->warnings.insert(summary->warnings.end(), frames.exposure_notes.begin(), frames.exposure_notes.end());
+  return lighting;
 }
-constexpr int kNormalMap = 0, kStatusMap = 2, kSolvePathMap = 6;  // their places in ForEachMap's order
 
-// The first pass of a solve whose depth refinement may re-solve (point LEDs,
-// refinement on): each solved band goes into the decision blocks and, every
-// map of it that is written or evaluated (not solve_path), into an unlinked
-// spill file (43 bytes a pixel: 0.7 GB of the file system's cache at 16 MP,
-// not the process's memory). Once the decision is
-// taken the bands are handed on to be written (the table plane kept) or only
-// the normals and status read back (the re-solves start from them), so a
-// draped sample's first pass is never encoded nor evaluated. A solve that
-// streams the first pass's maps meanwhile (SolveOptions::stream_first_pass)
-// spills only the normals and status (13 bytes a pixel; no Replay).
-class FirstPassSpill {
- public:
-  FirstPassSpill(const fs::path& folder, int width, int height, int num_threads, bool all_maps = true)
-      : width_(width), all_maps_(all_maps), blocks_(width, height), spill_(folder), num_threads_(num_threads) {}
+// Only point LEDs can be moved off the table plane (RefineOnDepth): then the
+// first pass waits for the depth refinement's decision (or, with
+// stream_first_pass, is written meanwhile); otherwise its bands are the result.
+SolveRouting::Route RouteOf(const SolveOptions& options, const LightField& light_field) {
+  const bool may_refine = options.depth.enabled && dynamic_cast<const PointLightField*>(&light_field) != nullptr;
+  if (!may_refine) return SolveRouting::Route::kStream;
+  return options.stream_first_pass ? SolveRouting::Route::kStreamAndSpill : SolveRouting::Route::kSpill;
+}
 
-  void Add(const PhotometricSolution& band) {
-    blocks_.AddRows(band, num_threads_);
-    int map = 0;
-    ForEachMap(band, [&](const auto& image) {
-      if (band_rows_.empty()) channels_[map] = image.empty() ? 0 : image.channels();
-      if (image.empty() != (channels_[map] == 0) || (!image.empty() && image.channels() != channels_[map])) {
-        throw std::logic_error("FirstPassSpill: the bands' maps differ");
-      }
-      if (Spilled(map)) spill_.Append(image.data(), image.size() * sizeof(*image.data()));
-      ++map;
-    });
-    band_rows_.push_back(band.status.height());
+// The result files in `folder` (the staging folder), with the session's
+// ground-truth evaluation when it has one.
+std::unique_ptr<ResultStream> OpenResults(const SolveOptions& options, const fs::path& session_dir,
+                                          const Session& session, const SolveSummary& summary,
+                                          const fs::path& folder, StageTimes* times) {
+  std::optional<GroundTruthEvaluation> evaluation;
+  if (session.ground_truth) {
+    evaluation = SessionGroundTruthEvaluation(session_dir, *session.ground_truth, summary.width, summary.height,
+                                              folder);
   }
+  return std::make_unique<ResultStream>(folder, summary.width, summary.height, summary.albedo_color,
+                                        ResultMapExrEncoding(options.float32_maps), std::move(evaluation),
+                                        options.solver.num_threads, times);
+}
 
-  const DepthDecisionBlocks& decision_blocks() const { return blocks_; }
+// Solve: the first pass, band by band from the raw frames, each band to `routing`.
+void SolveFirstPass(const SolveOptions& options, const RawFrames& frames, const LightField& light_field,
+                    const ProgressCallback& progress, SolveRouting* routing, SolveSummary* summary) {
+  const BandedSolveSummary banded = SolveBanded(
+      BandedOptions(options), frames.Stack(), light_field,
+      [&](int, PhotometricSolution& band) { routing->AddFirstPassBand(band); }, progress);
+  summary->solver = banded.solver;
+  summary->clipped_samples = banded.clipped_samples;
+  RequireSuccess(banded, "solve");
+  routing->FinishFirstPass();
+}
 
-  // The bands as they were added, in order. The next band is read from the
-  // spill on a thread of its own while the sink takes this one (the read is
-  // a serial 28 MB copy a band at 16 MP, which left the pool idle), into the
-  // other of two bands whose maps are reused (the sink holds none of them
-  // after it returns): no fresh pages to fault in and fill per band.
-  void Replay(const std::function<void(PhotometricSolution& band)>& sink) {
-    if (!all_maps_) throw std::logic_error("FirstPassSpill::Replay: only the normals and status were spilled");
-    std::array<PhotometricSolution, 2> bands;
-    const auto read = [this](int rows, size_t offset, PhotometricSolution* band) {
-      int map = 0;
-      ForEachMap(*band, [&](auto& image) {
-        using Img = std::decay_t<decltype(image)>;
-        if (channels_[map] > 0 && Spilled(map)) {
-          if (!image.SameSize(width_, rows) || image.channels() != channels_[map]) {
-            image = Img(width_, rows, channels_[map]);
-          }
-          const size_t bytes = image.size() * sizeof(*image.data());
-          spill_.ReadAt(offset, image.data(), bytes);  // pread only: the spill was flushed before
-          offset += bytes;
-        }
-        ++map;
-      });
-      return offset;
-    };
-    if (band_rows_.empty()) return;
-    spill_.Flush();  // so that ReadAt only reads, from either thread
-    size_t next_offset = read(band_rows_[0], 0, &bands[0]);
-    for (size_t b = 0; b < band_rows_.size(); ++b) {
-      std::future<size_t> next;
-      if (b + 1 < band_rows_.size()) {
-        next = std::async(std::launch::async, read, band_rows_[b + 1], next_offset, &bands[(b + 1) % 2]);
-      }
-      try {
-        sink(bands[b % 2]);
-      } catch (...) {
-        if (next.valid()) next.wait();  // its band is this function's
-        throw;
-      }
-      if (next.valid()) next_offset = next.get();
-    }
+// Depth refine (issue #15): the decision on the first pass's blocks and, on
+// a draped sample, the re-solves, whose result goes to the result files.
+DepthRefinementSummary RefineDepthOfFirstPass(const SolveOptions& options, const ProgressCallback& progress,
+                                              SolveFrames* frames, Lighting* lighting, SolveRouting* routing) {
+  const auto raw_frames = [&]() -> const RawFrames& { return frames->Get(); };
+  const DepthDecisionBlocks* blocks = routing->decision_blocks();
+  if (blocks == nullptr) {  // disabled, or a measured light field: the solution is not read
+    PhotometricSolution unused;
+    DepthRefinementSummary depth = RefineOnDepth(options, raw_frames, *lighting, &unused, progress);
+    RequireSuccess(depth, "depth refine");
+    return depth;
   }
-
-  // The first pass's normals and status at full size (all RefineDepth reads of it).
-  PhotometricSolution NormalsAndStatus() {
-    PhotometricSolution first;
-    int height = 0;
-    for (const int rows : band_rows_) height += rows;
-    first.normal_in_table = ImageF(width_, height, 3);
-    first.status = ImageU8(width_, height, 1);
-    size_t offset = 0;
-    int y = 0;
-    for (const int rows : band_rows_) {
-      int map = 0;
-      PhotometricSolution shapes;  // only for the maps' sample types
-      ForEachMap(shapes, [&](auto& image) {
-        const size_t bytes = size_t(width_) * rows * channels_[map] * sizeof(*image.data());
-        if (map == kNormalMap) spill_.ReadAt(offset, first.normal_in_table.row(y), bytes);
-        if (map == kStatusMap) spill_.ReadAt(offset, first.status.row(y), bytes);
-        if (Spilled(map)) offset += bytes;
-        ++map;
-      });
-      y += rows;
-    }
-    return first;
+  if (std::optional<DepthRefinementSummary> kept = TablePlaneKept(options.depth, *blocks, lighting->camera)) {
+    return *kept;  // the first pass is the result
   }
+  // Draped: the re-solves start from the first pass (held from here on), and
+  // the maps are those of the last re-solve.
+  PhotometricSolution solution = routing->TakeFirstPassForResolve();
+  DepthRefinementSummary depth = RefineOnDepth(options, raw_frames, *lighting, &solution, progress);
+  RequireSuccess(depth, "depth refine");
+  frames->Release();
+  lighting->light_field.reset();
+  routing->StreamResolved(solution);
+  return depth;
+}
 
-  bool all_maps() const { return all_maps_; }
+void RecordEvaluation(const GroundTruthComparison& comparison, SolveSummary* summary) {
+  summary->normal_error_deg = comparison.normal_error_deg;
+  summary->albedo_error = comparison.albedo_error;
+  summary->albedo_color_error = comparison.albedo_color_error;
+  summary->unsolved_on_sample = comparison.unsolved_on_sample;
+}
 
- private:
-  // Map `map` (ForEachMap's order) goes to the spill: all but solve_path
-  // (neither written nor evaluated: a replayed band has none), or the
-  // normals and status.
-  bool Spilled(int map) const { return all_maps_ ? map != kSolvePathMap : map == kNormalMap || map == kStatusMap; }
-
-  int width_;
-  bool all_maps_;
-  std::array<int, 9> channels_{};  // per map (ForEachMap's order), 0 = empty
-  std::vector<int> band_rows_;
-  DepthDecisionBlocks blocks_;
-  SpillFile spill_;
-  int num_threads_;
-};
-
-// What the solve does with each solved band (issue #14): the albedo's colour
-// (ApplyAlbedoColor on its solved pixels), the specular tally, the ground-truth
-// evaluation and the maps, streamed into the staging folder, so that no
-// full-size solution is held.
-class ResultStream {
- public:
-  ResultStream(const fs::path& folder, int width, int height, const AlbedoColor& color, const ExrEncoding& exr,
-               const fs::path& session_dir, const GroundTruthFiles* truth, int num_threads)
-      : folder_(folder), width_(width), height_(height), color_(color), exr_(exr), num_threads_(num_threads) {
-    if (truth != nullptr) evaluation_.emplace(session_dir, *truth, width, height, folder);
-  }
-
-  void Add(PhotometricSolution& band) {
-    const auto start = std::chrono::steady_clock::now();
-    if (!solved_.SameSize(band.status)) solved_ = ImageU8(band.status.width(), band.status.height(), 1);
-    for (size_t i = 0; i < solved_.size(); ++i) {
-      solved_.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
-    }
-    ApplyAlbedoColor(color_, solved_, &band.albedo);
-    color_seconds_ += SecondsSince(start);
-    specular_.Add(band);
-    // The maps open at the first band: whether there is a specular map is the solve's.
-    if (!maps_) maps_.emplace(folder_, width_, height_, !band.specular.empty(), evaluation_.has_value(), color_, exr_);
-    const double evaluated_before = maps_->alongside_seconds();
-    maps_->AddBand(band,
-                   evaluation_ ? std::function<ImageF()>([&] { return evaluation_->AddBand(band, num_threads_); })
-                               : std::function<ImageF()>(),
-                   num_threads_);
-    evaluate_seconds_ += maps_->alongside_seconds() - evaluated_before;
-    sink_seconds_ += SecondsSince(start);
-  }
-
-  std::optional<SpecularMapStatistics> specular() const { return specular_.Finish(); }
-  GroundTruthComparison FinishEvaluation() { return evaluation_->Finish(num_threads_); }
-  std::map<std::string, std::string> Commit() { return maps_->Commit(); }
-
-  double sink_seconds() const { return sink_seconds_; }  // in Add, all parts
-  double color_seconds() const { return color_seconds_; }
-  double evaluate_seconds() const { return evaluate_seconds_; }
-  double write_seconds() const { return sink_seconds_ - color_seconds_ - evaluate_seconds_; }
-
- private:
-  fs::path folder_;
-  int width_, height_;
-  AlbedoColor color_;
-  ExrEncoding exr_;
-  int num_threads_;
-  SpecularMapTally specular_;
-  std::optional<GroundTruthEvaluation> evaluation_;
-  std::optional<SolutionMapStream> maps_;
-  ImageU8 solved_;  // the band's solved pixels, kept from band to band
-  double sink_seconds_ = 0, color_seconds_ = 0, evaluate_seconds_ = 0;
-};
+// report.json and summary.txt beside the maps in the staging folder, which
+// is to become `result_dir`.
+void WriteReports(const SolveOptions& options, const fs::path& session_dir, const fs::path& staging,
+                  const fs::path& result_dir, const std::string& dark_file, const nlohmann::json& calibration_report,
+                  std::map<std::string, std::string> outputs, SolveSummary* summary) {
+  const ExrEncoding exr = ResultMapExrEncoding(options.float32_maps);
+  summary->bytes_written = FileSizesIn(staging);
+  summary->exr_encoding = std::string(exr.sample_type == ExrSampleType::kHalf ? "half" : "float32") + ", " +
+                          ExrCompressionName(exr.compression);
+  summary->result_dir = result_dir;
+  outputs["report"] = "report.json";
+  outputs["summary"] = "summary.txt";
+  const nlohmann::json report =
+      SolveReportJson(*summary, options, session_dir, dark_file, calibration_report, outputs);
+  WriteFileAtomic(staging / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
+  WriteFileAtomic(staging / "summary.txt", summary->FullReport(), OverwritePolicy::kRefuse);
+}
 
 }  // namespace
 
 void SolveController::Run() {
   options_.Check();
   summary_ = SolveSummary();
-  std::vector<StageTiming>& timings = summary_.timings;
+  const int threads = options_.solver.num_threads;
+  // The stages of report.json's "timings_s" and summary.txt's "time per stage", in order.
+  StageTimes times({"load", "decode", "light_field", "solve", "depth_refine", "color", "evaluate", "write_maps"});
 
-  const Session session = TimedStage(timings, "load", "load session", [&] {
-    return LoadCompleteSession(session_dir_, options_.verify_checksums, options_.solver.num_threads);
+  const Session session = TimedStage(times, "load", "load session", [&] {
+    return LoadCompleteSession(session_dir_, options_.verify_checksums, threads);
   });
   summary_.sample_name = session.sample_name;
   summary_.width = session.camera.width;
@@ -983,163 +820,42 @@ void SolveController::Run() {
   // From a preparation (the live solve) when there is one: the same frames
   // and light field, made earlier.
   std::unique_ptr<SolvePreparation::State> prepared = std::move(preparation_);
-  RawFrames frames = TimedStage(timings, "decode", "decode RAW", [&] {
-    return DecodeFrames(session_dir_, session, options_.solver.num_threads, StageCallback("decode RAW"),
-                        prepared ? &prepared->frames : nullptr);
+  SolveFrames frames = TimedStage(times, "decode", "decode RAW", [&] {
+    return SolveFrames(DecodeFrames(session_dir_, session, threads, StageCallback("decode RAW"),
+                                    prepared ? &prepared->frames : nullptr),
+                       [&] { return DecodeFrames(session_dir_, session, threads, {}); });
   });
-  Lighting lighting = TimedStage(timings, "light_field", "", [&] {
-    Lighting made = prepared ? std::move(prepared->lighting) : MakeLighting(options_, session_dir_, session);
-    // After the calibration set was checked, so that its errors come from its loader.
-    summary_.inputs_fingerprint = SolveInputsFingerprint(session, options_);
-    // Before the solve, so that a colour source that is not there fails early.
-    summary_.albedo_color = ChooseAlbedoColor(options_.albedo_color, made.set.get(), made.set_name,
-                                              frames.camera_from_xyz, frames.first_led_file);
-    return made;
+  Lighting lighting = TimedStage(times, "light_field", "", [&] {
+    return PrepareLighting(options_, session_dir_, session, frames.Get(), prepared.get(), &summary_);
   });
-  if (prepared && !prepared->developed.empty()) {
-    frames.developed_ahead = DevelopedAheadFor(*prepared, session, DevelopOptionsFor(BandedOptions(options_)));
-  }
-  summary_.light_model = lighting.light_model;
-  summary_.warnings = lighting.warnings;
-  summary_.warnings.insert(summary_.warnings.end(), frames.exposure_notes.begin(), frames.exposure_notes.end());
+  frames.UsePreparation(std::move(prepared), session, DevelopOptionsFor(BandedOptions(options_)));
 
   // The folder appears complete or not at all. Reserved before the solve:
   // the maps stream into its staging folder band by band as they are solved.
-  const fs::path result_dir = CreateResultFolder(
-      session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label);
-  StagedResultFolder staged(result_dir);
-  const ExrEncoding exr = ResultMapExrEncoding(options_.float32_maps);
-  const GroundTruthFiles* truth = session.ground_truth ? &*session.ground_truth : nullptr;
-  // Only point LEDs can be moved off the table plane (RefineOnDepth): then
-  // the first pass is spilled until the decision whether to re-solve is
-  // taken (or, with stream_first_pass, written as it is solved, and only its
-  // normals and status spilled for the re-solves); otherwise its bands are
-  // written as they are solved.
-  const bool may_refine = options_.depth.enabled &&
-                          dynamic_cast<const PointLightField*>(lighting.light_field.get()) != nullptr;
-  const bool stream_first_pass = may_refine && options_.stream_first_pass;
-  const auto result_stream = [&] {
-    return std::make_unique<ResultStream>(staged.staging(), summary_.width, summary_.height, summary_.albedo_color,
-                                          exr, session_dir_, truth, options_.solver.num_threads);
-  };
-  std::unique_ptr<FirstPassSpill> first_pass;
-  std::unique_ptr<ResultStream> stream;
-  if (may_refine) {
-    first_pass = std::make_unique<FirstPassSpill>(staged.staging(), summary_.width, summary_.height,
-                                                  options_.solver.num_threads, !stream_first_pass);
-  }
-  if (!may_refine || stream_first_pass) stream = result_stream();
-  TimedStage(timings, "solve", "solve", [&] {
-    // With stream_first_pass the bands are written on a thread of their own
-    // beside the solve (its time then includes the writing it waited for).
-    const auto take_band = [&](PhotometricSolution& band) {
-      if (first_pass) first_pass->Add(band);  // before the stream: it colours the albedo in place
-      if (stream) stream->Add(band);
-    };
-    // With stream_first_pass solved bands go to `take_band` (the first
-    // pass's decision blocks and spill, then the ResultStream) on a thread of
-    // their own, so that one band's files are encoded while the next band is
-    // solved: the solve's threads and this one share the cores, and what one
-    // leaves idle (a band's last file, the solve's serial steps) the other
-    // takes. The bands come in order, as on the solve's thread, so the files
-    // are the same. Two bands wait at most (about 28 MB each at 16 MP).
-    std::optional<BoundedWorker<PhotometricSolution>> writer;
-    if (stream_first_pass) writer.emplace(take_band, 2);
-    const BandedSolveSummary banded = SolveBanded(
-        BandedOptions(options_), frames.Stack(), *lighting.light_field,
-        [&](int, PhotometricSolution& band) { writer ? writer->Push(std::move(band)) : take_band(band); },
-        StageCallback("solve"));
-    summary_.solver = banded.solver;
-    summary_.clipped_samples = banded.clipped_samples;
-    RequireSuccess(banded, "solve");
-    if (writer) writer->Finish();
+  StagedFolder staged = StagedFolder::OntoReserved(CreateResultFolder(
+      session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label));
+  SolveRouting routing(RouteOf(options_, *lighting.light_field), summary_.width, summary_.height, staged.staging(),
+                       threads, [&] {
+                         return OpenResults(options_, session_dir_, session, summary_, staged.staging(), &times);
+                       });
+  TimedStage(times, "solve", "solve", [&] {
+    SolveFirstPass(options_, frames.Get(), *lighting.light_field, StageCallback("solve"), &routing, &summary_);
   });
-  // The streaming's own stages below (beside the solve with stream_first_pass).
-  if (stream && !stream_first_pass) timings.back().seconds -= stream->sink_seconds();
-  // The raw frames (32 MB each at 16 MP) are not held through the later
-  // stages, nor the frames developed ahead.
-  frames.leds.clear();
-  frames.dark = RawImage();
-  frames.developed_ahead.clear();
-  prepared.reset();
-  const auto raw_frames = [&]() -> const RawFrames& {
-    if (frames.leds.empty()) frames = DecodeFrames(session_dir_, session, options_.solver.num_threads, {});
-    return frames;
-  };
-  bool restreamed = false;  // the maps streamed in the depth stage, from the last re-solve
-  summary_.depth = TimedStage(timings, "depth_refine", "depth refine", [&] {
-    if (first_pass) {
-      if (std::optional<DepthRefinementSummary> kept =
-              TablePlaneKept(options_.depth, first_pass->decision_blocks(), lighting.camera)) {
-        return *kept;  // the spilled first pass is written below (or was streamed)
-      }
-      // Draped: the re-solves start from the first pass (held from here on),
-      // and the maps are those of the last re-solve, streamed from it. A
-      // first pass streamed meanwhile is not the result: its files go.
-      stream.reset();
-      PhotometricSolution solution = first_pass->NormalsAndStatus();
-      first_pass.reset();
-      DepthRefinementSummary depth =
-          RefineOnDepth(options_, raw_frames, lighting, &solution, StageCallback("depth refine"));
-      RequireSuccess(depth, "depth refine");
-      frames.leds.clear();
-      frames.dark = RawImage();
-      lighting.light_field.reset();
-      stream = result_stream();
-      restreamed = true;
-      const int height = solution.status.height();
-      for (int y = 0; y < height; y += kEvaluationBandRows) {
-        PhotometricSolution band = SolutionRows(solution, y, std::min(kEvaluationBandRows, height - y));
-        stream->Add(band);
-      }
-      return depth;
-    }
-    PhotometricSolution unused;  // disabled, or a measured light field: the solution is not read
-    DepthRefinementSummary depth = RefineOnDepth(options_, raw_frames, lighting, &unused, StageCallback("depth refine"));
-    RequireSuccess(depth, "depth refine");
-    return depth;
+  frames.Release();  // decoded again only for a re-solve
+  summary_.depth = TimedStage(times, "depth_refine", "depth refine", [&] {
+    return RefineDepthOfFirstPass(options_, StageCallback("depth refine"), &frames, &lighting, &routing);
   });
-  if (restreamed) timings.back().seconds -= stream->sink_seconds();
-  frames.leds.clear();
-  frames.dark = RawImage();
   lighting.light_field.reset();  // its per-pixel surface points: 193 MB at 16 MP
-  if (first_pass && first_pass->all_maps()) {
-    // The table plane kept: the first pass's bands, written and evaluated now
-    // (its time the stages' below).
-    stream = result_stream();
-    first_pass->Replay([&](PhotometricSolution& band) { stream->Add(band); });
-  }
-  first_pass.reset();  // a streamed first pass's spilled normals and status
-  summary_.specular = stream->specular();
-  timings.push_back({"color", stream->color_seconds()});
 
+  ResultStream& results = routing.Results();  // a spilled first pass that is the result: written and evaluated now
+  summary_.specular = results.specular();
   ThrowIfStopRequested("evaluate");
-  if (truth != nullptr) {
-    const auto start = std::chrono::steady_clock::now();
-    const GroundTruthComparison comparison = stream->FinishEvaluation();
-    timings.push_back({"evaluate", stream->evaluate_seconds() + SecondsSince(start)});
-    summary_.normal_error_deg = comparison.normal_error_deg;
-    summary_.albedo_error = comparison.albedo_error;
-    summary_.albedo_color_error = comparison.albedo_color_error;
-    summary_.unsolved_on_sample = comparison.unsolved_on_sample;
-  }
-  std::map<std::string, std::string> outputs;
-  {
-    BeginStage("write maps");
-    const auto start = std::chrono::steady_clock::now();
-    outputs = stream->Commit();
-    timings.push_back({"write_maps", stream->write_seconds() + SecondsSince(start)});
-  }
-  summary_.bytes_written = FileSizesIn(staged.staging());
-  summary_.exr_encoding = std::string(exr.sample_type == ExrSampleType::kHalf ? "half" : "float32") + ", " +
-                          ExrCompressionName(exr.compression);
-  summary_.result_dir = result_dir;
-  outputs["report"] = "report.json";
-  outputs["summary"] = "summary.txt";
-  const nlohmann::json report =
-      SolveReportJson(summary_, options_, session_dir_, frames.dark_file, lighting.calibration_report, outputs);
-  WriteFileAtomic(staged.staging() / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
-  WriteFileAtomic(staged.staging() / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
+  if (results.evaluates()) times.Time("evaluate", [&] { RecordEvaluation(results.FinishEvaluation(), &summary_); });
+  const std::map<std::string, std::string> outputs =
+      TimedStage(times, "write_maps", "write maps", [&] { return results.Commit(); });
+  summary_.timings = times.List();
+  WriteReports(options_, session_dir_, staged.staging(), staged.final_dir(), frames.dark_file(),
+               lighting.calibration_report, outputs, &summary_);
   ThrowIfStopRequested("write maps");
   staged.Commit();
   ReportProgress("write maps", 1);

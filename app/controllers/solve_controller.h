@@ -16,6 +16,7 @@
 #include "calibration/raw_develop.h"
 #include "pipeline/albedo_color.h"
 #include "pipeline/depth_refinement.h"
+#include "pipeline/ground_truth_evaluation.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
 
@@ -165,60 +166,17 @@ class SolvePreparation {
   std::unique_ptr<State> state_;
 };
 
-// The solve's evaluate stage: the solution against a session's ground truth
-// (simulated rig), on the solved pixels of the sample.
-struct GroundTruthComparison {
-  ErrorStatistics normal_error_deg;
-  ErrorStatistics albedo_error;
-  AlbedoColorErrors albedo_color_error;
-  size_t unsolved_on_sample = 0;
-  ImageF angular_error_deg;  // per pixel, 0 off the evaluated pixels
-};
-
-// Rows of the truth read at a time by CompareWithGroundTruth: 16 MB of float
-// RGB at 16 MP, a multiple of OpenEXR's largest scanline chunk (32 rows, piz),
-// so no chunk is decoded twice.
-inline constexpr int kEvaluationBandRows = 256;
-
 struct GroundTruthFiles;
 
-// The evaluation band by band, as the solve streams its bands (issue #14): the
-// truth's rows are read for each band, so neither a full-size solution nor
-// truth is held; the angles, the albedo's errors and the CIEDE2000 values are
-// held as floats (FloatErrorStatistics: 20 bytes a sample pixel, 228 MB at 16
-// MP); the truth's colours are read once first, so that only the pixels that
-// may be a uniform region's go to a spill file (AlbedoColorComparison's
-// CountPossibleRegions: almost none of a textile). Finish gives what the
-// whole-frame figures (AngularErrorDegrees, AbsoluteError,
-// CompareAlbedoColor) give, except that the medians and p95s are those of
-// the values rounded to float. Holds the sample mask (1 byte a pixel).
-class GroundTruthEvaluation {
- public:
-  // For a solution of width x height; spill files in `spill_folder` (empty = the temporary folder).
-  GroundTruthEvaluation(const std::filesystem::path& session_dir, const GroundTruthFiles& truth, int width, int height,
-                        const std::filesystem::path& spill_folder = {});
-  GroundTruthEvaluation(const GroundTruthEvaluation&) = delete;
-  GroundTruthEvaluation& operator=(const GroundTruthEvaluation&) = delete;
-  ~GroundTruthEvaluation();
-  // The next band of the solution (its normal_in_table, albedo and status,
-  // rows following the last band's); returns its rows of the angular error
-  // map (degrees, 1 channel, 0 off the evaluated pixels). num_threads 0 = all.
-  ImageF AddBand(const PhotometricSolution& band, int num_threads = 0);
-  // Every row added; angular_error_deg is left empty (the rows went to AddBand's caller).
-  // Its statistics' reads run side by side on up to `num_threads` threads (0 = all);
-  // the figures do not depend on it.
-  GroundTruthComparison Finish(int num_threads = 0);
-
- private:
-  struct State;
-  std::unique_ptr<State> state_;
-};
-
-// The same over a whole solution, band_rows (>= 1) at a time, with the whole
-// error map. num_threads 0 = all.
-GroundTruthComparison CompareWithGroundTruth(const std::filesystem::path& session_dir, const GroundTruthFiles& truth,
-                                             const PhotometricSolution& solution, int num_threads = 0,
-                                             int band_rows = kEvaluationBandRows);
+// The evaluation (pipeline/ground_truth_evaluation.h) of a width x height
+// solution against a session's ground-truth files (a simulated rig's): the
+// sample mask read whole (its first channel > 127 = on the sample), the true
+// normals and albedo a band of rows at a time from their files; a file of
+// another size is refused, naming it. Spill files in `spill_folder` (empty =
+// the temporary folder).
+GroundTruthEvaluation SessionGroundTruthEvaluation(const std::filesystem::path& session_dir,
+                                                   const GroundTruthFiles& truth, int width, int height,
+                                                   const std::filesystem::path& spill_folder = {});
 
 class SolveController : public BaseController {
  public:

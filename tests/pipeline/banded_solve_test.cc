@@ -464,6 +464,7 @@ TEST(BandedSolveTest, StopsWhenCancelledAndRejectsBadInput) {
   const BandedSolveSummary cancelled =
       SolveBanded(options, raw.Stack(), *raw.scene.light_field, &solution, [&](double) { return ++calls < 4; });
   EXPECT_TRUE(cancelled.IsCancelled());
+  EXPECT_TRUE(cancelled.solver.IsCancelled()) << "the solver's summary too: the depth refinement's re-solves read it";
   EXPECT_LT(cancelled.num_bands, 6);
 
   RawFrameStack short_stack = raw.Stack();

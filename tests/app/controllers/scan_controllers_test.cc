@@ -1,12 +1,11 @@
 // The simulated scan end to end through the controllers the CLI and GUI use:
 // simulate -> DNG on disk -> decode -> develop -> solve -> maps and report.
+// The solve job's own tests (result folders, cancels, routes) are in
+// solve_controller_test.cc.
 #include <cstring>
-#include <fstream>
-#include <random>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include "app/controllers/simulate_controller.h"
 #include "app/controllers/solve_controller.h"
@@ -31,25 +30,6 @@ SimulateOptions SmallSimulation() {
   options.rig.width = 400;
   options.rig.height = 264;
   return options;
-}
-
-// A small simulated session in folder/session.
-fs::path SimulateSmallSession(const TemporaryFolder& folder) {
-  const fs::path session_dir = folder / "session";
-  SimulateController(session_dir, SmallSimulation()).Run();
-  return session_dir;
-}
-
-std::vector<fs::path> ResultFolders(const fs::path& session_dir) {
-  std::vector<fs::path> folders;
-  for (const auto& entry : fs::directory_iterator(session_dir / "results")) folders.push_back(entry.path());
-  std::sort(folders.begin(), folders.end());
-  return folders;
-}
-
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
 }
 
 // The issue's accuracy target, at the default size and scene of the main job.
@@ -138,79 +118,6 @@ TEST(ScanControllersTest, ColorCheckerSessionHasPatchTruthAndTheCamerasColorMatr
       << frame.as_shot_neutral.transpose();
 }
 
-// rounded_quantiles: the banded median and p95 are those of values held as
-// floats (FloatErrorStatistics), the whole-frame ones rounded to float.
-void ExpectSameStatistics(const ErrorStatistics& banded, const ErrorStatistics& whole, const std::string& what,
-                          bool rounded_quantiles = false) {
-  EXPECT_EQ(banded.num_pixels, whole.num_pixels) << what;
-  EXPECT_EQ(banded.mean, whole.mean) << what;
-  const auto rounded = [&](double value) { return rounded_quantiles ? double(static_cast<float>(value)) : value; };
-  EXPECT_EQ(banded.median, rounded(whole.median)) << what;
-  EXPECT_EQ(banded.percentile_95, rounded(whole.percentile_95)) << what;
-  EXPECT_EQ(banded.max, whole.max) << what;
-}
-
-// The evaluate stage reads the truth in bands; every figure equals the
-// whole-frame computation's exactly (the angles' and albedo errors' median and p95 rounded to float), on a ColorChecker session (whose patches
-// are regions of the colour comparison) and a textile one, with bands that
-// do not divide the height.
-TEST(ScanControllersTest, BandedGroundTruthComparisonEqualsTheWholeFrameOne) {
-  TemporaryFolder folder;
-  for (const SampleKind sample : {SampleKind::kColorChecker, SampleKind::kTextile}) {
-    const fs::path session_dir = folder / (sample == SampleKind::kTextile ? "textile" : "chart");
-    SimulateOptions options = SmallSimulation();
-    options.scene.sample = sample;
-    SimulateController(session_dir, options).Run();
-    const Session session = LoadSession(session_dir);
-    const GroundTruthFiles& truth = *session.ground_truth;
-    const ImageF truth_normals = ReadImageFloat(session_dir / truth.normal_file);
-    const ImageF truth_albedo = ReadImageFloat(session_dir / truth.albedo_file);
-    // A solution a little off the truth, some pixels unsolved.
-    PhotometricSolution solution;
-    solution.normal_in_table = truth_normals;
-    solution.albedo = truth_albedo;
-    solution.status = ImageU8(truth_normals.width(), truth_normals.height(), 1);
-    std::mt19937 random(11);
-    std::normal_distribution<float> noise(0.0f, 0.02f);
-    for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
-      for (int c = 0; c < 3; ++c) {
-        solution.normal_in_table.data()[3 * i + c] += noise(random);
-        solution.albedo.data()[3 * i + c] *= 1.0f + noise(random);
-      }
-      if (i % 97 == 0) solution.status.data()[i] = static_cast<uint8_t>(PixelStatus::kNoSignal);
-    }
-    const ImageU8 stored_mask = ReadImageU8(session_dir / truth.mask_file);
-    ImageU8 evaluated(solution.status.width(), solution.status.height(), 1);
-    size_t unsolved = 0;
-    for (size_t i = 0; i < evaluated.num_pixels(); ++i) {
-      const bool on_sample = stored_mask.data()[i * stored_mask.channels()] > 127;
-      evaluated.data()[i] = on_sample && solution.status.data()[i] == 0;
-      unsolved += on_sample && solution.status.data()[i] != 0;
-    }
-    const AlbedoColorErrors whole_color = CompareAlbedoColor(solution.albedo, truth_albedo, evaluated);
-    const ImageF whole_map = AngularErrorMapDegrees(solution.normal_in_table, truth_normals, evaluated);
-    if (sample == SampleKind::kColorChecker) {
-      EXPECT_GE(whole_color.chart_patches, 20) << "the patches must be regions";
-    } else {
-      EXPECT_TRUE(whole_color.regions.empty());
-    }
-    for (const int band_rows : {7, kEvaluationBandRows}) {
-      SCOPED_TRACE(band_rows);
-      const GroundTruthComparison banded = CompareWithGroundTruth(session_dir, truth, solution, 2, band_rows);
-      ExpectSameStatistics(banded.normal_error_deg,
-                           AngularErrorDegrees(solution.normal_in_table, truth_normals, evaluated), "normals",
-                           /*rounded_quantiles=*/true);
-      ExpectSameStatistics(banded.albedo_error, AbsoluteError(solution.albedo, truth_albedo, evaluated), "albedo",
-                           /*rounded_quantiles=*/true);
-      ExpectSameStatistics(banded.albedo_color_error.delta_e, whole_color.delta_e, "CIEDE2000");
-      EXPECT_EQ(banded.albedo_color_error.ReportJson(), whole_color.ReportJson());
-      EXPECT_EQ(banded.unsolved_on_sample, unsolved);
-      ASSERT_TRUE(banded.angular_error_deg.SameSize(whole_map));
-      EXPECT_TRUE(std::equal(whole_map.data(), whole_map.data() + whole_map.size(), banded.angular_error_deg.data()));
-    }
-  }
-}
-
 // Starts simulating into session_dir and stops it a third of the way: an
 // interrupted session with a few frames on disk.
 void InterruptSimulation(const fs::path& session_dir, const SimulateOptions& options) {
@@ -275,121 +182,6 @@ TEST(ScanControllersTest, ResumingWithAnotherMaterialIsRefused) {
   EXPECT_EQ(LoadSession(session_dir).simulation->material, "satin");
 }
 
-TEST(ScanControllersTest, ResultFolderHoldsMapsAndReport) {
-  TemporaryFolder folder;
-  const fs::path session_dir = SimulateSmallSession(folder);
-  SolveController solve(session_dir, SolveOptions());
-  solve.Run();
-
-  const fs::path result = solve.summary().result_dir;
-  ASSERT_EQ(ResultFolders(session_dir), std::vector<fs::path>{result});
-  for (const char* name : {"normal.exr", "normal.png", "albedo.exr", "albedo_srgb.png", "status.png",
-                           "solved_mask.png", "confidence.exr", "angular_error_deg.exr", "report.json",
-                           "summary.txt"}) {
-    EXPECT_TRUE(fs::is_regular_file(result / name)) << name;
-  }
-  const ImageF normals = ReadImageFloat(result / "normal.exr");
-  EXPECT_EQ(normals.width(), 400);
-  EXPECT_EQ(normals.channels(), 3);
-  EXPECT_EQ(ReadImageFileInfo(result / "normal.exr").bits_per_sample, 16);  // half by default
-  // The 16-bit PNG encodes the same normals: (n + 1) / 2, from the float
-  // normals; the EXR's half holds them within 2^-12 (at 0.5 .. 1).
-  const ImageU16 encoded = ReadImageU16(result / "normal.png");
-  EXPECT_NEAR(encoded(200, 132, 2) / 65535.0 * 2 - 1, normals(200, 132, 2), 1.0 / 4096 + 1e-5);
-
-  // The bytes of every file but the two reports, each and in total.
-  const nlohmann::json bytes = ReadJson(result / "report.json")["bytes_written"];
-  EXPECT_EQ(bytes["exr_encoding"], "half, piz");
-  uintmax_t total = 0;
-  for (const auto& entry : fs::directory_iterator(result)) {
-    const std::string name = entry.path().filename().string();
-    if (name == "report.json" || name == "summary.txt") continue;
-    EXPECT_EQ(bytes["files"][name].get<uintmax_t>(), entry.file_size()) << name;
-    total += entry.file_size();
-  }
-  EXPECT_EQ(bytes["files"].size(), 9u);  // 7 maps, specular.exr, angular_error_deg.exr
-  EXPECT_EQ(bytes["total"].get<uintmax_t>(), total);
-  EXPECT_EQ(solve.summary().TotalBytesWritten(), total);
-  std::ifstream summary_file(result / "summary.txt");
-  const std::string summary_text((std::istreambuf_iterator<char>(summary_file)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(summary_text, HasSubstr("bytes written (half, piz EXR): albedo.exr "));
-  EXPECT_THAT(summary_text, HasSubstr(" total " + std::to_string(total) + " ("));
-
-  // solve --float32-maps: the full-precision files, larger, the PNGs identical.
-  SolveOptions float32;
-  float32.float32_maps = true;
-  SolveController full(session_dir, float32);
-  full.Run();
-  const fs::path full_result = full.summary().result_dir;
-  EXPECT_EQ(ReadImageFileInfo(full_result / "normal.exr").bits_per_sample, 32);
-  EXPECT_EQ(ReadImageFileInfo(full_result / "confidence.exr").bits_per_sample, 32);
-  const ImageF full_normals = ReadImageFloat(full_result / "normal.exr");
-  EXPECT_NEAR(encoded(200, 132, 2) / 65535.0 * 2 - 1, full_normals(200, 132, 2), 1e-4);
-  EXPECT_EQ(Sha256HexOfFile(full_result / "normal.png"), Sha256HexOfFile(result / "normal.png"));
-  EXPECT_GT(full.summary().TotalBytesWritten(), total);
-  EXPECT_EQ(ReadJson(full_result / "report.json")["bytes_written"]["exr_encoding"], "float32, zip");
-  EXPECT_NE(full.summary().inputs_fingerprint, solve.summary().inputs_fingerprint);
-
-  const nlohmann::json report = ReadJson(result / "report.json");
-  EXPECT_EQ(report["solver"]["method"], "adaptive");
-  EXPECT_EQ(report["session"]["leds"], 10);
-  EXPECT_GT(report["timings_s"]["solve"].get<double>(), 0.0);
-  for (const char* stage : {"load", "decode", "light_field", "solve", "evaluate", "write_maps"}) {
-    EXPECT_TRUE(report["timings_s"].contains(stage)) << stage;
-  }
-  const double mean = report["ground_truth"]["normal_angular_error_deg"]["mean"];
-  EXPECT_DOUBLE_EQ(mean, solve.summary().normal_error_deg->mean);
-  // A small capture has fewer pixels per thread: looser than the main job, still close.
-  EXPECT_LT(mean, 3.0);
-  EXPECT_THAT(report["result"]["message"].get<std::string>(), HasSubstr("success"));
-}
-
-TEST(ScanControllersTest, ResolveWritesANewResultBesideTheOld) {
-  TemporaryFolder folder;
-  const fs::path session_dir = SimulateSmallSession(folder);
-  SolveController first(session_dir, SolveOptions());
-  first.Run();
-  const std::string first_report = Sha256HexOfFile(first.summary().result_dir / "report.json");
-  SolveOptions bilinear;
-  bilinear.develop.demosaic = RawDevelopOptions::Demosaic::kBilinear;
-  bilinear.run_label = "bilinear";
-  SolveController second(session_dir, bilinear);
-  second.Run();
-  EXPECT_NE(first.summary().result_dir, second.summary().result_dir);
-  EXPECT_EQ(ResultFolders(session_dir).size(), 2u);
-  EXPECT_EQ(Sha256HexOfFile(first.summary().result_dir / "report.json"), first_report) << "old result untouched";
-  EXPECT_THAT(second.summary().result_dir.filename().string(), HasSubstr("bilinear"));
-}
-
-// Issue #13: the Bayer-domain option solves per raw pixel and says so in the
-// summary, report.json and the inputs fingerprint (batch must not skip it);
-// the default blends the demosaiced and Bayer-domain normals, which the
-// Bayer-domain option does not.
-TEST(ScanControllersTest, BayerDomainSolveIsItsOwnResult) {
-  TemporaryFolder folder;
-  const fs::path session_dir = SimulateSmallSession(folder);
-  SolveController demosaiced(session_dir, SolveOptions());
-  demosaiced.Run();
-  SolveOptions options;
-  options.bayer_domain = true;
-  options.run_label = "bayer";
-  SolveController bayer(session_dir, options);
-  bayer.Run();
-  const SolveSummary& summary = bayer.summary();
-  EXPECT_TRUE(summary.solver.bayer_domain);
-  EXPECT_FALSE(demosaiced.summary().solver.bayer_domain);
-  ASSERT_TRUE(summary.normal_error_deg.has_value());
-  EXPECT_LE(summary.normal_error_deg->mean, 1.0);
-  EXPECT_EQ(summary.unsolved_on_sample, 0u);
-  EXPECT_NE(summary.inputs_fingerprint, demosaiced.summary().inputs_fingerprint);
-  const nlohmann::json report = ReadJson(summary.result_dir / "report.json");
-  EXPECT_EQ(report.at("develop").at("bayer_domain"), true);
-  EXPECT_EQ(report.at("develop").at("bayer_blend"), false);
-  EXPECT_EQ(summary.solver.pixels_bayer_blended, 0u);
-  EXPECT_GT(demosaiced.summary().solver.pixels_bayer_blended, 0u);
-  EXPECT_EQ(ReadJson(demosaiced.summary().result_dir / "report.json").at("develop").at("bayer_blend"), true);
-}
-
 TEST(ScanControllersTest, InterruptedSimulationResumesWhereItStopped) {
   TemporaryFolder folder;
   const fs::path session_dir = folder / "session";
@@ -418,56 +210,8 @@ TEST(ScanControllersTest, InterruptedSimulationResumesWhereItStopped) {
   EXPECT_THAT([&] { again.Run(); }, ::testing::ThrowsMessage<SessionError>(HasSubstr("complete")));
 }
 
-TEST(ScanControllersTest, CancelledSolveLeavesNoResultFolder) {
+TEST(ScanControllersTest, BadSimulateOptionsAreRejectedBeforeWork) {
   TemporaryFolder folder;
-  const fs::path session_dir = SimulateSmallSession(folder);
-  SolveController solve(session_dir, SolveOptions());
-  solve.SetProgressCallback([&](const ProgressReport& report) {
-    if (report.stage == "solve") solve.RequestStop();
-  });
-  EXPECT_THROW(solve.Run(), Cancelled);
-  EXPECT_TRUE(ResultFolders(session_dir).empty());
-}
-
-TEST(ScanControllersTest, CorruptFrameIsReportedByName) {
-  TemporaryFolder folder;
-  const fs::path session_dir = SimulateSmallSession(folder);
-  // Cut the fourth LED frame short, as a failed copy would.
-  const fs::path frame = session_dir / "frames" / "led_03.dng";
-  std::vector<uint8_t> bytes = ReadFileBytes(frame);
-  bytes.resize(bytes.size() / 2);
-  fs::remove(frame);
-  WriteFileAtomic(frame, bytes, OverwritePolicy::kRefuse);
-
-  // The checksum catches it first ...
-  EXPECT_THAT([&] { SolveController(session_dir, SolveOptions()).Run(); },
-              ::testing::ThrowsMessage<SessionError>(HasSubstr("led_03.dng")));
-  // ... and the RAW validation when checksums are skipped.
-  SolveOptions unverified;
-  unverified.verify_checksums = false;
-  EXPECT_THAT([&] { SolveController(session_dir, unverified).Run(); },
-              ::testing::ThrowsMessage<std::runtime_error>(AllOf(HasSubstr("led_03.dng"), HasSubstr("truncated"))));
-  EXPECT_TRUE(ResultFolders(session_dir).empty());
-}
-
-TEST(ScanControllersTest, IncompleteSessionIsNotSolved) {
-  TemporaryFolder folder;
-  const fs::path session_dir = folder / "session";
-  SimulateController interrupted(session_dir, SmallSimulation());
-  interrupted.SetProgressCallback([&](const ProgressReport& report) {
-    if (report.stage == "simulate") interrupted.RequestStop();
-  });
-  EXPECT_THROW(interrupted.Run(), Cancelled);
-  EXPECT_THAT([&] { SolveController(session_dir, SolveOptions()).Run(); },
-              ::testing::ThrowsMessage<SessionError>(HasSubstr("capture_complete")));
-}
-
-TEST(ScanControllersTest, BadOptionsAreRejectedBeforeWork) {
-  TemporaryFolder folder;
-  SolveOptions options;
-  options.run_label = "../escape";
-  EXPECT_THAT([&] { SolveController(folder.path(), options).Run(); },
-              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("run_label")));
   SimulateOptions simulate = SmallSimulation();
   simulate.rig.width = -5;
   EXPECT_THROW(SimulateController(folder / "s", simulate).Run(), std::invalid_argument);

@@ -1,11 +1,9 @@
 // What the live solve (issue #14 item 2) changes in how `scanbench solve`
-// runs, never in what it writes: the first pass streamed to the result files
-// while it is solved (SolveOptions::stream_first_pass), on a flat sample
-// (the table plane kept) and a draped one (the streamed files dropped, the
-// re-solve written), and a preparation whose light field holds its table
-// points (SolvePreparation::HoldSurfacePoints) and its LED frames developed
-// ahead (SolvePreparation::DevelopFrame). Each result folder must equal
-// the default solve's file for file.
+// runs, never in what it writes: a preparation whose light field holds its
+// table points (SolvePreparation::HoldSurfacePoints) and its LED frames
+// developed ahead (SolvePreparation::DevelopFrame). The result folder must
+// equal the default solve's file for file. (The first pass streamed while it
+// is solved, SolveOptions::stream_first_pass: solve_controller_test.cc.)
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -70,7 +68,7 @@ void ExpectSameMaps(const fs::path& a, const fs::path& b) {
 }
 
 void ExpectSameFigures(const SolveSummary& a, const SolveSummary& b) {
-  EXPECT_EQ(a.inputs_fingerprint, b.inputs_fingerprint) << "stream_first_pass is not an input of the result";
+  EXPECT_EQ(a.inputs_fingerprint, b.inputs_fingerprint) << "a preparation is not an input of the result";
   EXPECT_EQ(a.solver.pixels_by_status, b.solver.pixels_by_status);
   EXPECT_EQ(a.depth.refined, b.depth.refined);
   EXPECT_EQ(a.depth.iterations.size(), b.depth.iterations.size());
@@ -80,29 +78,6 @@ void ExpectSameFigures(const SolveSummary& a, const SolveSummary& b) {
   EXPECT_EQ(a.normal_error_deg->median, b.normal_error_deg->median);
   EXPECT_EQ(a.albedo_color_error->delta_e.mean, b.albedo_color_error->delta_e.mean);
   EXPECT_EQ(a.bytes_written, b.bytes_written);
-}
-
-TEST(SolveLatencyTest, StreamedFirstPassWritesTheSameResult) {
-  TemporaryFolder folder;
-  for (const double fold_mm : {2.5, 25.0}) {  // the table plane kept; re-solved on depth
-    SCOPED_TRACE("fold amplitude " + std::to_string(fold_mm) + " mm");
-    const fs::path session_dir = Simulate(folder, "folds" + std::to_string(int(fold_mm)), fold_mm);
-    SolveOptions options;
-    options.run_label = "spilled";
-    const SolveSummary spilled = Solve(session_dir, options);
-    options.run_label = "streamed";
-    options.stream_first_pass = true;
-    const SolveSummary streamed = Solve(session_dir, options);
-    EXPECT_EQ(streamed.depth.refined, fold_mm > 10) << streamed.depth.BriefReport();
-    ExpectSameFigures(spilled, streamed);
-    ExpectSameMaps(spilled.result_dir, streamed.result_dir);
-    // Nothing of the dropped first pass is left beside the results.
-    std::set<std::string> entries;
-    for (const auto& entry : fs::directory_iterator(session_dir / "results")) {
-      entries.insert(entry.path().filename().string());
-    }
-    EXPECT_EQ(entries.size(), 2u);
-  }
 }
 
 TEST(SolveLatencyTest, PreparationWithHeldPointsAndFramesDevelopedAheadSolvesTheSame) {
