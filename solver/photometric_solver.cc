@@ -205,12 +205,10 @@ bool MethodEstimatesLobe(const PhotometricSolverOptions& options) {
 // than the fill), else made anew; empty when `wanted` is false.
 template <typename T>
 void Reset(bool wanted, int width, int height, int channels, T value, Image<T>* image) {
-  if (!wanted) {
-    *image = Image<T>();
-  } else if (image->SameSize(width, height) && image->channels() == channels) {
-    std::fill(image->data(), image->data() + image->size(), value);
+  if (wanted) {
+    image->Reshape(width, height, channels, value);
   } else {
-    *image = Image<T>(width, height, channels, value);
+    *image = Image<T>();
   }
 }
 

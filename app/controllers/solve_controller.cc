@@ -451,7 +451,7 @@ GroundTruthEvaluation::GroundTruthEvaluation(const fs::path& session_dir, const 
       throw std::runtime_error(state_->albedo_reader->path().string() + ": " + ShapeText(truth_rows) +
                                " rows, the solution's are " + SizeText(width, rows) + "x3");
     }
-    if (!mask_rows.SameSize(width, rows)) mask_rows = ImageU8(width, rows, 1);
+    mask_rows.Reshape(width, rows, 1);
     std::copy(state_->on_sample.row(y), state_->on_sample.row(y) + mask_rows.size(), mask_rows.data());
     state_->color.CountPossibleRegions(truth_rows, mask_rows);
   }
@@ -471,7 +471,7 @@ ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_t
   }
   s.rows_added += rows;
   ImageU8& solved_on_sample = s.solved_on_sample;
-  if (!solved_on_sample.SameSize(width, rows)) solved_on_sample = ImageU8(width, rows, 1);
+  solved_on_sample.Reshape(width, rows, 1);
   for (size_t i = 0; i < solved_on_sample.size(); ++i) {
     const bool on_sample = s.on_sample.row(y0)[i] != 0;
     const bool solved = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
@@ -836,11 +836,8 @@ class FirstPassSpill {
     const auto read = [this](int rows, size_t offset, PhotometricSolution* band) {
       int map = 0;
       ForEachMap(*band, [&](auto& image) {
-        using Img = std::decay_t<decltype(image)>;
         if (channels_[map] > 0 && Spilled(map)) {
-          if (!image.SameSize(width_, rows) || image.channels() != channels_[map]) {
-            image = Img(width_, rows, channels_[map]);
-          }
+          image.Reshape(width_, rows, channels_[map]);
           const size_t bytes = image.size() * sizeof(*image.data());
           spill_.ReadAt(offset, image.data(), bytes);  // pread only: the spill was flushed before
           offset += bytes;
@@ -922,7 +919,7 @@ class ResultStream {
 
   void Add(PhotometricSolution& band) {
     const auto start = std::chrono::steady_clock::now();
-    if (!solved_.SameSize(band.status)) solved_ = ImageU8(band.status.width(), band.status.height(), 1);
+    solved_.Reshape(band.status.width(), band.status.height(), 1);
     for (size_t i = 0; i < solved_.size(); ++i) {
       solved_.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
     }
