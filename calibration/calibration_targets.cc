@@ -10,20 +10,16 @@ namespace scanbench {
 namespace {
 
 void CheckHeight(const std::string& where, double height_mm) {
-  if (!(height_mm >= 0 && height_mm <= 200)) throw FieldError(where, "height_mm", height_mm, "must lie in [0, 200]");
+  SCANBENCH_REQUIRE_GE_LE(where, "height_mm", height_mm, 0, 200);
 }
 
 }  // namespace
 
 void CheckerboardTarget::Check() const {
   const std::string where = "CheckerboardTarget";
-  if (inner_corners_x < 3 || inner_corners_x > 100) {
-    throw FieldError(where, "inner_corners_x", inner_corners_x, "must lie in [3, 100]");
-  }
-  if (inner_corners_y < 3 || inner_corners_y > 100) {
-    throw FieldError(where, "inner_corners_y", inner_corners_y, "must lie in [3, 100]");
-  }
-  if (!(square_mm > 0 && square_mm <= 1000)) throw FieldError(where, "square_mm", square_mm, "must lie in (0, 1000]");
+  SCANBENCH_REQUIRE_GE_LE(where, "inner_corners_x", inner_corners_x, 3, 100);
+  SCANBENCH_REQUIRE_GE_LE(where, "inner_corners_y", inner_corners_y, 3, 100);
+  SCANBENCH_REQUIRE_GT_LE(where, "square_mm", square_mm, 0, 1000);
 }
 
 Eigen::Vector3d CheckerboardTarget::CornerInTarget(int i, int j) const {
@@ -41,18 +37,16 @@ std::vector<Eigen::Vector3d> CheckerboardTarget::CornersInTarget() const {
 
 void GrayChartTarget::Check() const {
   const std::string where = "GrayChartTarget";
-  if (patches.size() < 3) throw FieldError(where, "patches.size()", patches.size(), "must be >= 3");
+  SCANBENCH_REQUIRE_GE(where, "patches.size()", patches.size(), 3);
   std::set<double> reflectances;
   for (size_t i = 0; i < patches.size(); ++i) {
     const GrayPatch& patch = patches[i];
     const std::string name = where + ".patches[" + std::to_string(i) + "] (" + patch.name + ")";
-    if (!(patch.reflectance > 0 && patch.reflectance <= 1)) {
-      throw FieldError(name, "reflectance", patch.reflectance, "must lie in (0, 1]");
-    }
+    SCANBENCH_REQUIRE_GT_LE(name, "reflectance", patch.reflectance, 0, 1);
     if (!patch.centre_in_table_mm.allFinite()) {
       throw FieldError(name, "centre_in_table_mm.x", patch.centre_in_table_mm.x(), "(and y) must be finite");
     }
-    if (!(patch.size_mm > 0 && patch.size_mm <= 500)) throw FieldError(name, "size_mm", patch.size_mm, "must lie in (0, 500]");
+    SCANBENCH_REQUIRE_GT_LE(name, "size_mm", patch.size_mm, 0, 500);
     reflectances.insert(patch.reflectance);
   }
   if (reflectances.size() < 2) {
@@ -62,9 +56,7 @@ void GrayChartTarget::Check() const {
 }
 
 double MunsellValueToReflectance(double value) {
-  if (!(value >= 0 && value <= 10)) {
-    throw FieldError("MunsellValueToReflectance", "value", value, "must lie in [0, 10]");
-  }
+  SCANBENCH_REQUIRE_GE_LE("MunsellValueToReflectance", "value", value, 0, 10);
   const double v = value;
   const double percent = v * (1.1914 + v * (-0.22533 + v * (0.23352 + v * (-0.020484 + v * 0.00081939))));
   return percent / 100.0;
@@ -92,7 +84,7 @@ GrayChartTarget GrayChartTarget::MunsellNeutralScale() {
 
 void WhiteSheetTarget::Check() const {
   const std::string where = "WhiteSheetTarget";
-  if (!(reflectance > 0 && reflectance <= 1)) throw FieldError(where, "reflectance", reflectance, "must lie in (0, 1]");
+  SCANBENCH_REQUIRE_GT_LE(where, "reflectance", reflectance, 0, 1);
   CheckHeight(where, height_mm);
 }
 

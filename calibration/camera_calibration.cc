@@ -78,10 +78,8 @@ void CheckViews(const std::vector<CalibrationView>& views) {
                                   " but view " + views[0].name + " is " + std::to_string(width) + "x" +
                                   std::to_string(height) + "; all views must have one size");
     }
-    if (!(views[v].board_height_mm >= 0 && views[v].board_height_mm <= 200)) {
-      throw FieldError("CalibrationView[" + std::to_string(v) + "] (" + views[v].name + ")", "board_height_mm",
-                       views[v].board_height_mm, "must lie in [0, 200]");
-    }
+    SCANBENCH_REQUIRE_GE_LE("CalibrationView[" + std::to_string(v) + "] (" + views[v].name + ")", "board_height_mm",
+                            views[v].board_height_mm, 0, 200);
   }
 }
 
@@ -238,23 +236,17 @@ void SolveTablePose(const OpenCvCalibration& calibration, const CheckerboardTarg
 
 void CheckerboardDetectionOptions::Check() const {
   const std::string where = "CheckerboardDetectionOptions";
-  if (!(max_edge_width_px > 0 && max_edge_width_px <= 100)) {
-    throw FieldError(where, "max_edge_width_px", max_edge_width_px, "must lie in (0, 100]");
-  }
-  if (!(min_contrast > 0 && min_contrast < 1)) throw FieldError(where, "min_contrast", min_contrast, "must lie in (0, 1)");
-  if (subpixel_window_px < 2 || subpixel_window_px > 50) {
-    throw FieldError(where, "subpixel_window_px", subpixel_window_px, "must lie in [2, 50]");
-  }
+  SCANBENCH_REQUIRE_GT_LE(where, "max_edge_width_px", max_edge_width_px, 0, 100);
+  SCANBENCH_REQUIRE_GT_LT(where, "min_contrast", min_contrast, 0, 1);
+  SCANBENCH_REQUIRE_GE_LE(where, "subpixel_window_px", subpixel_window_px, 2, 50);
 }
 
 void CameraCalibrationOptions::Check() const {
   detection.Check();
   const std::string where = "CameraCalibrationOptions";
-  if (min_views < 3 || min_views > 1000) throw FieldError(where, "min_views", min_views, "must lie in [3, 1000]");
-  if (radial_terms < 1 || radial_terms > 3) throw FieldError(where, "radial_terms", radial_terms, "must lie in [1, 3]");
-  if (!(max_view_rms_px > 0) || !std::isfinite(max_view_rms_px)) {
-    throw FieldError(where, "max_view_rms_px", max_view_rms_px, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_GE_LE(where, "min_views", min_views, 3, 1000);
+  SCANBENCH_REQUIRE_GE_LE(where, "radial_terms", radial_terms, 1, 3);
+  SCANBENCH_REQUIRE_FINITE_GT(where, "max_view_rms_px", max_view_rms_px, 0);
 }
 
 ImageF BalancedGray(const ImageF& rgb) {

@@ -61,14 +61,14 @@ void RaysInCamOfRow(const CameraIntrinsics& intrinsics, int x0, int step, int y,
 
 void CheckCameraIntrinsics(const CameraIntrinsics& k) {
   const std::string where = "CameraIntrinsics";
-  if (k.width <= 0) throw FieldError(where, "width", k.width, "must be > 0");
-  if (k.height <= 0) throw FieldError(where, "height", k.height, "must be > 0");
-  if (!(k.fx > 0) || !std::isfinite(k.fx)) throw FieldError(where, "fx", k.fx, "must be finite and > 0");
-  if (!(k.fy > 0) || !std::isfinite(k.fy)) throw FieldError(where, "fy", k.fy, "must be finite and > 0");
+  SCANBENCH_REQUIRE_GT(where, "width", k.width, 0);
+  SCANBENCH_REQUIRE_GT(where, "height", k.height, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(where, "fx", k.fx, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(where, "fy", k.fy, 0);
   if (!(k.cx >= 0 && k.cx <= k.width - 1)) throw FieldError(where, "cx", k.cx, "must lie in [0, width - 1]");
   if (!(k.cy >= 0 && k.cy <= k.height - 1)) throw FieldError(where, "cy", k.cy, "must lie in [0, height - 1]");
   for (const auto& [name, value] : {std::pair{"k1", k.k1}, {"k2", k.k2}, {"k3", k.k3}, {"p1", k.p1}, {"p2", k.p2}}) {
-    if (!std::isfinite(value)) throw FieldError(where, name, value, "must be finite");
+    SCANBENCH_REQUIRE_FINITE(where, name, value);
   }
 }
 

@@ -500,19 +500,11 @@ std::array<Eigen::Vector2d, 4> ColorPatchCornersPx(const ColorChartQuad& quad, i
 
 void ColorChartDetectionOptions::Check() const {
   const std::string where = "ColorChartDetectionOptions";
-  if (max_preview_side < 500 || max_preview_side > 8000) {
-    throw FieldError(where, "max_preview_side", max_preview_side, "must lie in [500, 8000]");
-  }
-  if (max_candidates < 1) throw FieldError(where, "max_candidates", max_candidates, "must be >= 1");
-  if (!(patch_inset >= 0 && patch_inset <= 0.45)) {
-    throw FieldError(where, "patch_inset", patch_inset, "must lie in [0, 0.45]");
-  }
-  if (!(max_fit_residual > 0 && max_fit_residual <= 1)) {
-    throw FieldError(where, "max_fit_residual", max_fit_residual, "must lie in (0, 1]");
-  }
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(where, "max_preview_side", max_preview_side, 500, 8000);
+  SCANBENCH_REQUIRE_GE(where, "max_candidates", max_candidates, 1);
+  SCANBENCH_REQUIRE_GE_LE(where, "patch_inset", patch_inset, 0, 0.45);
+  SCANBENCH_REQUIRE_GT_LE(where, "max_fit_residual", max_fit_residual, 0, 1);
+  SCANBENCH_REQUIRE_GT_LE(where, "clip_fraction", clip_fraction, 0, 1);
   if (corners) {
     for (int i = 0; i < 4; ++i) {
       if (!Finite(corners->corners_px[i])) {
@@ -615,14 +607,10 @@ ColorChartDetectionSummary DetectColorChart(const ColorChartDetectionOptions& op
 
 void ColorPatchSamplingOptions::Check() const {
   const std::string where = "ColorPatchSamplingOptions";
-  if (!(patch_inset >= 0 && patch_inset <= 0.45)) {
-    throw FieldError(where, "patch_inset", patch_inset, "must lie in [0, 0.45]");
-  }
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
-  }
-  if (!(min_level >= 0 && min_level < 1)) throw FieldError(where, "min_level", min_level, "must lie in [0, 1)");
-  if (min_samples < 1) throw FieldError(where, "min_samples", min_samples, "must be >= 1");
+  SCANBENCH_REQUIRE_GE_LE(where, "patch_inset", patch_inset, 0, 0.45);
+  SCANBENCH_REQUIRE_GT_LE(where, "clip_fraction", clip_fraction, 0, 1);
+  SCANBENCH_REQUIRE_GE_LT(where, "min_level", min_level, 0, 1);
+  SCANBENCH_REQUIRE_GE(where, "min_samples", min_samples, 1);
 }
 
 std::vector<PatchSample> SampleColorChartPatches(const ColorPatchSamplingOptions& options, const RawImage& frame,
@@ -697,12 +685,8 @@ std::vector<PatchSample> SampleColorChartPatches(const ColorPatchSamplingOptions
 
 void ColorCorrectionOptions::Check() const {
   const std::string where = "ColorCorrectionOptions";
-  if (!(neutral_weight >= 0 && neutral_weight <= 100)) {
-    throw FieldError(where, "neutral_weight", neutral_weight, "must lie in [0, 100]");
-  }
-  if (max_iterations < 1 || max_iterations > 10000) {
-    throw FieldError(where, "max_iterations", max_iterations, "must lie in [1, 10000]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(where, "neutral_weight", neutral_weight, 0, 100);
+  SCANBENCH_REQUIRE_GE_LE(where, "max_iterations", max_iterations, 1, 10000);
   if (min_patches < 6 || min_patches > kNumPatches) {
     throw FieldError(where, "min_patches", min_patches, "must lie in [6, 24]");
   }

@@ -757,24 +757,14 @@ void LightCalibrationOptions::Check() const {
   if (cell_px != 0 && (cell_px < 2 || cell_px > 512 || cell_px % 2 != 0)) {
     throw FieldError(where, "cell_px", cell_px, "must be 0 (automatic) or an even number in [2, 512]");
   }
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
-  }
-  if (!(min_level >= 0 && min_level < 1)) throw FieldError(where, "min_level", min_level, "must lie in [0, 1)");
-  if (!(outlier_sigma > 0)) throw FieldError(where, "outlier_sigma", outlier_sigma, "must be > 0");
-  if (max_iterations < 1 || max_iterations > 1000) {
-    throw FieldError(where, "max_iterations", max_iterations, "must lie in [1, 1000]");
-  }
-  if (!(direction_tolerance_deg > 0)) {
-    throw FieldError(where, "direction_tolerance_deg", direction_tolerance_deg, "must be > 0");
-  }
-  if (!(intensity_tolerance > 0)) throw FieldError(where, "intensity_tolerance", intensity_tolerance, "must be > 0");
-  if (max_fit_evaluations < 10 || max_fit_evaluations > 1000000) {
-    throw FieldError(where, "max_fit_evaluations", max_fit_evaluations, "must lie in [10, 1000000]");
-  }
-  if (!(model_noise_factor >= 1) || !std::isfinite(model_noise_factor)) {
-    throw FieldError(where, "model_noise_factor", model_noise_factor, "must be finite and >= 1");
-  }
+  SCANBENCH_REQUIRE_GT_LE(where, "clip_fraction", clip_fraction, 0, 1);
+  SCANBENCH_REQUIRE_GE_LT(where, "min_level", min_level, 0, 1);
+  SCANBENCH_REQUIRE_GT(where, "outlier_sigma", outlier_sigma, 0);
+  SCANBENCH_REQUIRE_GE_LE(where, "max_iterations", max_iterations, 1, 1000);
+  SCANBENCH_REQUIRE_GT(where, "direction_tolerance_deg", direction_tolerance_deg, 0);
+  SCANBENCH_REQUIRE_GT(where, "intensity_tolerance", intensity_tolerance, 0);
+  SCANBENCH_REQUIRE_GE_LE(where, "max_fit_evaluations", max_fit_evaluations, 10, 1000000);
+  SCANBENCH_REQUIRE_FINITE_GE(where, "model_noise_factor", model_noise_factor, 1);
 }
 
 std::vector<LedDescription> LightCalibrationSummary::ModelLeds() const {

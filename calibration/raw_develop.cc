@@ -35,9 +35,7 @@ int DemosaicOffset(uint16_t white_level) { return std::min(16384, 65535 - int(wh
 }  // namespace
 
 void RawDevelopOptions::Check() const {
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw FieldError("RawDevelopOptions", "clip_fraction", clip_fraction, "must lie in (0, 1]");
-  }
+  SCANBENCH_REQUIRE_GT_LE("RawDevelopOptions", "clip_fraction", clip_fraction, 0, 1);
 }
 
 DevelopedFrame DevelopRaw(const RawImage& frame, const RawImage* dark, const RawDevelopOptions& options) {

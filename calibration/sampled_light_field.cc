@@ -22,7 +22,7 @@ void Locate(double position, double origin, double step, int nodes, int* cell, d
 }  // namespace
 
 LightFieldGrid LightFieldGrid::Covering(int width, int height, int step) {
-  if (step < 1) throw FieldError("LightFieldGrid", "step", step, "must be >= 1");
+  SCANBENCH_REQUIRE_GE("LightFieldGrid", "step", step, 1);
   LightFieldGrid grid;
   grid.width = width;
   grid.height = height;
@@ -34,13 +34,13 @@ LightFieldGrid LightFieldGrid::Covering(int width, int height, int step) {
 }
 
 void LightFieldGrid::Check() const {
-  if (width <= 0) throw FieldError("LightFieldGrid", "width", width, "must be > 0");
-  if (height <= 0) throw FieldError("LightFieldGrid", "height", height, "must be > 0");
-  if (!(step > 0) || !std::isfinite(step)) throw FieldError("LightFieldGrid", "step", step, "must be finite and > 0");
-  if (!std::isfinite(origin_x)) throw FieldError("LightFieldGrid", "origin_x", origin_x, "must be finite");
-  if (!std::isfinite(origin_y)) throw FieldError("LightFieldGrid", "origin_y", origin_y, "must be finite");
-  if (nodes_x < 2) throw FieldError("LightFieldGrid", "nodes_x", nodes_x, "must be >= 2");
-  if (nodes_y < 2) throw FieldError("LightFieldGrid", "nodes_y", nodes_y, "must be >= 2");
+  SCANBENCH_REQUIRE_GT("LightFieldGrid", "width", width, 0);
+  SCANBENCH_REQUIRE_GT("LightFieldGrid", "height", height, 0);
+  SCANBENCH_REQUIRE_FINITE_GT("LightFieldGrid", "step", step, 0);
+  SCANBENCH_REQUIRE_FINITE("LightFieldGrid", "origin_x", origin_x);
+  SCANBENCH_REQUIRE_FINITE("LightFieldGrid", "origin_y", origin_y);
+  SCANBENCH_REQUIRE_GE("LightFieldGrid", "nodes_x", nodes_x, 2);
+  SCANBENCH_REQUIRE_GE("LightFieldGrid", "nodes_y", nodes_y, 2);
 }
 
 SampledLightField::SampledLightField(LightFieldGrid grid, int num_lights, std::vector<float> light_dirs_in_table,

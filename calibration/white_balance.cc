@@ -276,17 +276,11 @@ void DescribeLed(const GrayChartTarget& chart, const std::vector<double>& log_ir
 
 void WhiteBalanceOptions::Check() const {
   const std::string where = "WhiteBalanceOptions";
-  if (!(patch_inset >= 0 && patch_inset <= 0.45)) {
-    throw FieldError(where, "patch_inset", patch_inset, "must lie in [0, 0.45]");
-  }
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
-  }
-  if (!(min_level >= 0 && min_level < 1)) throw FieldError(where, "min_level", min_level, "must lie in [0, 1)");
-  if (!(linearity_tolerance > 0 && linearity_tolerance < 1)) {
-    throw FieldError(where, "linearity_tolerance", linearity_tolerance, "must lie in (0, 1)");
-  }
-  if (min_samples < 1) throw FieldError(where, "min_samples", min_samples, "must be >= 1");
+  SCANBENCH_REQUIRE_GE_LE(where, "patch_inset", patch_inset, 0, 0.45);
+  SCANBENCH_REQUIRE_GT_LE(where, "clip_fraction", clip_fraction, 0, 1);
+  SCANBENCH_REQUIRE_GE_LT(where, "min_level", min_level, 0, 1);
+  SCANBENCH_REQUIRE_GT_LT(where, "linearity_tolerance", linearity_tolerance, 0, 1);
+  SCANBENCH_REQUIRE_GE(where, "min_samples", min_samples, 1);
 }
 
 std::string WhiteBalanceSummary::BriefReport() const {

@@ -1,6 +1,7 @@
 // An image in memory: interleaved channels, row-major, no file I/O.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
@@ -38,6 +39,21 @@ class Image {
   T* row(int y) { return data_.data() + static_cast<size_t>(y) * width_ * channels_; }
   const T* row(int y) const { return data_.data() + static_cast<size_t>(y) * width_ * channels_; }
 
+  // Gives the image the shape width x height x channels: its buffer is kept when it has that shape already
+  // (an image filled again band after band: no fresh memory, whose first touch costs more than a fill), else
+  // the image is made anew. The first form leaves the values undefined for the caller to overwrite (those of
+  // before when the buffer was kept, T{} when made anew); the second sets every value to `fill` either way.
+  void Reshape(int width, int height, int channels) {
+    if (!SameShape(width, height, channels)) *this = Image(width, height, channels);
+  }
+  void Reshape(int width, int height, int channels, T fill) {
+    if (SameShape(width, height, channels)) {
+      std::fill(data_.begin(), data_.end(), fill);
+    } else {
+      *this = Image(width, height, channels, fill);
+    }
+  }
+
   bool SameSize(int width, int height) const { return width_ == width && height_ == height; }
   template <typename U>
   bool SameSize(const Image<U>& other) const {
@@ -45,6 +61,9 @@ class Image {
   }
 
  private:
+  bool SameShape(int width, int height, int channels) const {
+    return width_ == width && height_ == height && channels_ == channels;
+  }
   size_t Index(int x, int y, int c) const {
     return (static_cast<size_t>(y) * width_ + x) * channels_ + c;
   }

@@ -244,7 +244,7 @@ void GlossMipOptions::Check() const {
     throw FieldError("GlossMipOptions", "base_roughness", base_roughness,
                      "must lie in [" + std::to_string(kMinGgxAlpha) + ", 1] (GGX alpha)");
   }
-  if (max_levels < 0) throw FieldError("GlossMipOptions", "max_levels", max_levels, "must be >= 0 (0 = down to 1x1)");
+  SCANBENCH_REQUIRE_GE("GlossMipOptions", "max_levels", max_levels, 0, "(0 = down to 1x1)");
 }
 
 const char* GlossModelName(GlossMipOptions::Model model) {

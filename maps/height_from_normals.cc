@@ -724,27 +724,13 @@ std::string Describe(const HeightFromNormalsSummary& summary, bool relaxation, b
 }  // namespace
 
 void HeightFromNormalsOptions::Check() const {
-  if (!(mm_per_pixel > 0) || !std::isfinite(mm_per_pixel)) {
-    throw FieldError(kWhere, "mm_per_pixel", mm_per_pixel, "must be finite and > 0");
-  }
-  if (max_sweeps_per_level < 1) {
-    throw FieldError(kWhere, "max_sweeps_per_level", max_sweeps_per_level, "must be >= 1");
-  }
-  if (!(tolerance >= 0) || !std::isfinite(tolerance)) {
-    throw FieldError(kWhere, "tolerance", tolerance, "must be finite and >= 0");
-  }
-  if (coarsest_level_size < 2) {
-    throw FieldError(kWhere, "coarsest_level_size", coarsest_level_size, "must be >= 2");
-  }
-  if (!(max_slope > 0) || !std::isfinite(max_slope)) {
-    throw FieldError(kWhere, "max_slope", max_slope, "must be finite and > 0");
-  }
-  if (!(over_relaxation > 0 && over_relaxation < 2)) {
-    throw FieldError(kWhere, "over_relaxation", over_relaxation, "must lie in (0, 2)");
-  }
-  if (dct_hole_iterations < 0) {
-    throw FieldError(kWhere, "dct_hole_iterations", dct_hole_iterations, "must be >= 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "mm_per_pixel", mm_per_pixel, 0);
+  SCANBENCH_REQUIRE_GE(kWhere, "max_sweeps_per_level", max_sweeps_per_level, 1);
+  SCANBENCH_REQUIRE_FINITE_GE(kWhere, "tolerance", tolerance, 0);
+  SCANBENCH_REQUIRE_GE(kWhere, "coarsest_level_size", coarsest_level_size, 2);
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "max_slope", max_slope, 0);
+  SCANBENCH_REQUIRE_GT_LT(kWhere, "over_relaxation", over_relaxation, 0, 2);
+  SCANBENCH_REQUIRE_GE(kWhere, "dct_hole_iterations", dct_hole_iterations, 0);
   if (method != Method::kMultiresolutionRelaxation && method != Method::kDctPoisson) {
     throw FieldError(kWhere, "method", static_cast<int>(method), "must be relaxation or dct");
   }

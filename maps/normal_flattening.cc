@@ -176,12 +176,8 @@ void Finish(Termination termination, const std::string& why, const NormalFlatten
 }  // namespace
 
 void NormalFlatteningOptions::Check() const {
-  if (!(low_pass_sigma_px > 0) || !std::isfinite(low_pass_sigma_px)) {
-    throw FieldError(kWhere, "low_pass_sigma_px", low_pass_sigma_px, "must be finite and > 0");
-  }
-  if (!(max_slope > 0) || !std::isfinite(max_slope)) {
-    throw FieldError(kWhere, "max_slope", max_slope, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "low_pass_sigma_px", low_pass_sigma_px, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "max_slope", max_slope, 0);
   if (num_threads < 0 || num_threads > 256) throw FieldError(kWhere, "num_threads", num_threads, "must be in [0, 256]");
 }
 

@@ -31,10 +31,8 @@ double Smoothstep(double t) {
 }  // namespace
 
 void SpecularRoughnessOptions::Check() const {
-  if (blend_width_px < 0 || blend_width_px > 256) {
-    throw FieldError("SpecularRoughnessOptions", "blend_width_px", blend_width_px,
-                     "must lie in [0, 256] (pixels; 0 = a hard edge)");
-  }
+  SCANBENCH_REQUIRE_GE_LE("SpecularRoughnessOptions", "blend_width_px", blend_width_px, 0, 256,
+                          "(pixels; 0 = a hard edge)");
 }
 
 std::string SpecularRoughnessSummary::BriefReport() const {

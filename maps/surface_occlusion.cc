@@ -503,12 +503,8 @@ class NeighbourhoodMean {
 
 void AmbientOcclusionOptions::Check() const {
   const char* where = "AmbientOcclusionOptions";
-  if (!(mm_per_pixel > 0) || !std::isfinite(mm_per_pixel)) {
-    throw FieldError(where, "mm_per_pixel", mm_per_pixel, "must be finite and > 0");
-  }
-  if (!(radius_mm > 0) || !std::isfinite(radius_mm)) {
-    throw FieldError(where, "radius_mm", radius_mm, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(where, "mm_per_pixel", mm_per_pixel, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(where, "radius_mm", radius_mm, 0);
   if (radius_mm / mm_per_pixel > 100000) {
     throw FieldError(where, "radius_mm", radius_mm,
                      "must be at most 100000 pixels (mm_per_pixel = " + std::to_string(mm_per_pixel) + ")");
@@ -524,19 +520,13 @@ void AmbientOcclusionOptions::Check() const {
 
 void CavityOptions::Check() const {
   const char* where = "CavityOptions";
-  if (!(mm_per_pixel > 0) || !std::isfinite(mm_per_pixel)) {
-    throw FieldError(where, "mm_per_pixel", mm_per_pixel, "must be finite and > 0");
-  }
-  if (!(radius_mm > 0) || !std::isfinite(radius_mm)) {
-    throw FieldError(where, "radius_mm", radius_mm, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(where, "mm_per_pixel", mm_per_pixel, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(where, "radius_mm", radius_mm, 0);
   if (radius_mm / mm_per_pixel > 1000) {
     throw FieldError(where, "radius_mm", radius_mm,
                      "must be at most 1000 pixels (mm_per_pixel = " + std::to_string(mm_per_pixel) + ")");
   }
-  if (!(depth_scale_mm > 0) || !std::isfinite(depth_scale_mm)) {
-    throw FieldError(where, "depth_scale_mm", depth_scale_mm, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(where, "depth_scale_mm", depth_scale_mm, 0);
   if (!(min_coarse_sigma_px == 0 || min_coarse_sigma_px >= 2) || !std::isfinite(min_coarse_sigma_px)) {
     throw FieldError(where, "min_coarse_sigma_px", min_coarse_sigma_px, "must be 0 or finite and >= 2");
   }

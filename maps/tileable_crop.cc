@@ -331,11 +331,9 @@ void MeasureWrap(const ImageF& first, const ImageF& first_tile, const TilePositi
 }  // namespace
 
 void TileableCropOptions::Check() const {
-  if (tile_width < 0) throw FieldError("TileableCropOptions", "tile_width", tile_width, "must be >= 0 (0 = automatic)");
-  if (tile_height < 0) {
-    throw FieldError("TileableCropOptions", "tile_height", tile_height, "must be >= 0 (0 = automatic)");
-  }
-  if (blend_width_px < 1) throw FieldError("TileableCropOptions", "blend_width_px", blend_width_px, "must be >= 1");
+  SCANBENCH_REQUIRE_GE("TileableCropOptions", "tile_width", tile_width, 0, "(0 = automatic)");
+  SCANBENCH_REQUIRE_GE("TileableCropOptions", "tile_height", tile_height, 0, "(0 = automatic)");
+  SCANBENCH_REQUIRE_GE("TileableCropOptions", "blend_width_px", blend_width_px, 1);
   if (tile_width > 0 && blend_width_px > tile_width) {
     throw FieldError("TileableCropOptions", "blend_width_px", blend_width_px,
                      "must be <= tile_width (" + std::to_string(tile_width) + ")");

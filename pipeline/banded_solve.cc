@@ -520,18 +520,14 @@ struct BlendTally {
 void BandedSolveOptions::Check() const {
   solver.Check();
   develop.Check();
-  if (!(band_rows >= 1 && band_rows <= 65536)) {
-    throw FieldError("BandedSolveOptions", "band_rows", band_rows, "must lie in [1, 65536]");
-  }
+  SCANBENCH_REQUIRE_GE_LE("BandedSolveOptions", "band_rows", band_rows, 1, 65536);
   if (bayer_domain && sample_masks) {
     throw std::invalid_argument("BandedSolveOptions: bayer_domain and sample_masks cannot be combined");
   }
   if (bayer_blend && bayer_domain) {
     throw std::invalid_argument("BandedSolveOptions: bayer_blend and bayer_domain cannot be combined");
   }
-  if (!(sample_mask_margin_rows >= 0 && sample_mask_margin_rows <= 64)) {
-    throw FieldError("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows, "must lie in [0, 64]");
-  }
+  SCANBENCH_REQUIRE_GE_LE("BandedSolveOptions", "sample_mask_margin_rows", sample_mask_margin_rows, 0, 64);
   if (bayer_blend_weights != nullptr) {
     if (!bayer_blend) {
       throw std::invalid_argument("BandedSolveOptions: bayer_blend_weights given without bayer_blend");
@@ -540,10 +536,7 @@ void BandedSolveOptions::Check() const {
     blend.cell_weights = bayer_blend_weights;
     blend.Check();
   }
-  if (!(bayer_blend_gate_ratio >= 0) || !std::isfinite(bayer_blend_gate_ratio)) {
-    throw FieldError("BandedSolveOptions", "bayer_blend_gate_ratio", bayer_blend_gate_ratio,
-                     "must be finite and >= 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GE("BandedSolveOptions", "bayer_blend_gate_ratio", bayer_blend_gate_ratio, 0);
 }
 
 PhotometricSolution SolutionRows(const PhotometricSolution& solution, int first, int rows) {

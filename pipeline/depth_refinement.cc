@@ -103,24 +103,12 @@ Movement SurfaceMovement(const PhotometricSolution& solution, const ImageF& befo
 
 void DepthRefinementOptions::Check() const {
   constexpr const char* kWhere = "DepthRefinementOptions";
-  if (max_iterations < 1 || max_iterations > 20) {
-    throw FieldError(kWhere, "max_iterations", max_iterations, "must lie in [1, 20]");
-  }
-  if (!(tolerance_mm > 0) || !std::isfinite(tolerance_mm)) {
-    throw FieldError(kWhere, "tolerance_mm", tolerance_mm, "must be finite and > 0");
-  }
-  if (!(min_height_range_mm >= 0) || !std::isfinite(min_height_range_mm)) {
-    throw FieldError(kWhere, "min_height_range_mm", min_height_range_mm, "must be finite and >= 0");
-  }
-  if (!(anchor_percentile >= 0 && anchor_percentile <= 50)) {
-    throw FieldError(kWhere, "anchor_percentile", anchor_percentile, "must lie in [0, 50]");
-  }
-  if (shadow_edge_radius_px < 0 || shadow_edge_radius_px > 10) {
-    throw FieldError(kWhere, "shadow_edge_radius_px", shadow_edge_radius_px, "must lie in [0, 10]");
-  }
-  if (!(shadow_edge_level >= 0 && shadow_edge_level <= 1)) {
-    throw FieldError(kWhere, "shadow_edge_level", shadow_edge_level, "must lie in [0, 1]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(kWhere, "max_iterations", max_iterations, 1, 20);
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "tolerance_mm", tolerance_mm, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kWhere, "min_height_range_mm", min_height_range_mm, 0);
+  SCANBENCH_REQUIRE_GE_LE(kWhere, "anchor_percentile", anchor_percentile, 0, 50);
+  SCANBENCH_REQUIRE_GE_LE(kWhere, "shadow_edge_radius_px", shadow_edge_radius_px, 0, 10);
+  SCANBENCH_REQUIRE_GE_LE(kWhere, "shadow_edge_level", shadow_edge_level, 0, 1);
 }
 
 std::string DepthRefinementSummary::BriefReport() const {

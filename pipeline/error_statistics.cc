@@ -134,7 +134,7 @@ std::optional<double> MeanAngularErrorDegrees(const ImageF& estimate, const Imag
   size_t count = 0;
   for (int y0 = 0; y0 < height; y0 += kBandRows) {
     const int rows = std::min(kBandRows, height - y0);
-    if (!truth_rows.SameSize(width, rows)) truth_rows = ImageF(width, rows, 3);
+    truth_rows.Reshape(width, rows, 3);
     std::copy(truth.row(y0), truth.row(y0) + truth_rows.size(), truth_rows.data());
     angles.clear();
     AngularErrorsOfRows(estimate, truth_rows, y0, mask, 0, &angles);

@@ -67,7 +67,7 @@ GroundTruthEvaluation::GroundTruthEvaluation(ImageU8 on_sample, std::unique_ptr<
     const int rows = std::min(kEvaluationBandRows, height - y);
     s.truth->ReadAlbedoRows(y, y + rows, &truth_rows);
     CheckedTruthRows(truth_rows, width, rows, "albedo");
-    if (!mask_rows.SameSize(width, rows)) mask_rows = ImageU8(width, rows, 1);
+    mask_rows.Reshape(width, rows, 1);
     std::copy(s.on_sample.row(y), s.on_sample.row(y) + mask_rows.size(), mask_rows.data());
     s.color.CountPossibleRegions(truth_rows, mask_rows);
   }
@@ -89,7 +89,7 @@ ImageF GroundTruthEvaluation::AddBand(const PhotometricSolution& band, int num_t
   }
   s.rows_added += rows;
   ImageU8& solved_on_sample = s.solved_on_sample;
-  if (!solved_on_sample.SameSize(width, rows)) solved_on_sample = ImageU8(width, rows, 1);
+  solved_on_sample.Reshape(width, rows, 1);
   for (size_t i = 0; i < solved_on_sample.size(); ++i) {
     const bool on_sample = s.on_sample.row(y0)[i] != 0;
     const bool solved = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);

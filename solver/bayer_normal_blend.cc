@@ -164,31 +164,18 @@ void CheckMaps(const PhotometricSolution& bayer, const LightField& field, const 
 }  // namespace
 
 void BayerNormalBlendOptions::Check() const {
-  if (!(cell_size >= 2 && cell_size <= 64)) {
-    throw FieldError("BayerNormalBlendOptions", "cell_size", cell_size, "must lie in [2, 64]");
-  }
-  if (!(num_threads >= 0 && num_threads <= 256)) {
-    throw FieldError("BayerNormalBlendOptions", "num_threads", num_threads, "must lie in [0, 256]");
-  }
-  if (!(gate_block_cells >= 1 && gate_block_cells <= 4096)) {
-    throw FieldError("BayerNormalBlendOptions", "gate_block_cells", gate_block_cells, "must lie in [1, 4096]");
-  }
-  if (!(gate_ratio >= 0) || !std::isfinite(gate_ratio)) {
-    throw FieldError("BayerNormalBlendOptions", "gate_ratio", gate_ratio, "must be finite and >= 0");
-  }
-  if (!(gate_cell_ratio >= 0) || !std::isfinite(gate_cell_ratio)) {
-    throw FieldError("BayerNormalBlendOptions", "gate_cell_ratio", gate_cell_ratio, "must be finite and >= 0");
-  }
+  SCANBENCH_REQUIRE_GE_LE("BayerNormalBlendOptions", "cell_size", cell_size, 2, 64);
+  SCANBENCH_REQUIRE_GE_LE("BayerNormalBlendOptions", "num_threads", num_threads, 0, 256);
+  SCANBENCH_REQUIRE_GE_LE("BayerNormalBlendOptions", "gate_block_cells", gate_block_cells, 1, 4096);
+  SCANBENCH_REQUIRE_FINITE_GE("BayerNormalBlendOptions", "gate_ratio", gate_ratio, 0);
+  SCANBENCH_REQUIRE_FINITE_GE("BayerNormalBlendOptions", "gate_cell_ratio", gate_cell_ratio, 0);
   if (cell_weights != nullptr) {
     if (cell_weights->channels() != 1) {
       throw FieldError("BayerNormalBlendOptions", "cell_weights channels", cell_weights->channels(), "must be 1");
     }
     for (size_t i = 0; i < cell_weights->size(); ++i) {
       const float w = cell_weights->data()[i];
-      if (!(w >= 0 && w <= 1)) {
-        throw FieldError("BayerNormalBlendOptions", "cell_weights[" + std::to_string(i) + "]", w,
-                         "must lie in [0, 1]");
-      }
+      SCANBENCH_REQUIRE_GE_LE("BayerNormalBlendOptions", "cell_weights[" + std::to_string(i) + "]", w, 0, 1);
     }
   }
 }

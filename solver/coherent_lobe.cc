@@ -1161,31 +1161,19 @@ double AnisotropicLobeShape(const Eigen::Vector3d& n, const Eigen::Vector3d& lig
 }
 
 void CoherentLobeOptions::Check() const {
-  if (block_size < 4 || block_size > 256) throw FieldError(kOptions, "block_size", block_size, "must lie in [4, 256]");
-  if (min_pixels < 4 || min_pixels > 65536) {
-    throw FieldError(kOptions, "min_pixels", min_pixels, "must lie in [4, 65536]");
-  }
-  if (max_fit_pixels < 4 || max_fit_pixels > 65536) {
-    throw FieldError(kOptions, "max_fit_pixels", max_fit_pixels, "must lie in [4, 65536]");
-  }
-  if (max_lights < 3 || max_lights > 1000) throw FieldError(kOptions, "max_lights", max_lights, "must lie in [3, 1000]");
-  if (iterations < 1 || iterations > 20) throw FieldError(kOptions, "iterations", iterations, "must lie in [1, 20]");
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "block_size", block_size, 4, 256);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "min_pixels", min_pixels, 4, 65536);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "max_fit_pixels", max_fit_pixels, 4, 65536);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "max_lights", max_lights, 3, 1000);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "iterations", iterations, 1, 20);
   if (!(min_alpha > 0) || !(min_alpha < max_alpha)) {
     throw FieldError(kOptions, "min_alpha", min_alpha, "must be > 0 and below max_alpha");
   }
-  if (!(max_alpha <= 1)) throw FieldError(kOptions, "max_alpha", max_alpha, "must be <= 1");
-  if (!(albedo_split >= 0) || std::isnan(albedo_split)) {
-    throw FieldError(kOptions, "albedo_split", albedo_split, "must be >= 0");
-  }
-  if (!(highlight_weight >= 0) || !std::isfinite(highlight_weight)) {
-    throw FieldError(kOptions, "highlight_weight", highlight_weight, "must be finite and >= 0");
-  }
-  if (max_albedo_groups < 1 || max_albedo_groups > 8) {
-    throw FieldError(kOptions, "max_albedo_groups", max_albedo_groups, "must lie in [1, 8]");
-  }
-  if (num_threads < 0 || num_threads > 256) {
-    throw FieldError(kOptions, "num_threads", num_threads, "must lie in [0, 256]");
-  }
+  SCANBENCH_REQUIRE_LE(kOptions, "max_alpha", max_alpha, 1);
+  SCANBENCH_REQUIRE_GE(kOptions, "albedo_split", albedo_split, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "highlight_weight", highlight_weight, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "max_albedo_groups", max_albedo_groups, 1, 8);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "num_threads", num_threads, 0, 256);
 }
 
 std::string CoherentLobeSummary::BriefReport() const {

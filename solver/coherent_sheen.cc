@@ -807,36 +807,22 @@ class BlockRefiner {
 }  // namespace
 
 void CoherentSheenOptions::Check() const {
-  if (block_size < 4 || block_size > 256) throw FieldError(kOptions, "block_size", block_size, "must lie in [4, 256]");
-  if (min_pixels < 8 || min_pixels > 65536) throw FieldError(kOptions, "min_pixels", min_pixels, "must lie in [8, 65536]");
-  if (max_fit_pixels < 8 || max_fit_pixels > 65536) {
-    throw FieldError(kOptions, "max_fit_pixels", max_fit_pixels, "must lie in [8, 65536]");
-  }
-  if (iterations < 1 || iterations > 10) throw FieldError(kOptions, "iterations", iterations, "must lie in [1, 10]");
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "block_size", block_size, 4, 256);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "min_pixels", min_pixels, 8, 65536);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "max_fit_pixels", max_fit_pixels, 8, 65536);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "iterations", iterations, 1, 10);
   if (!(min_width > 0) || !(min_width < max_width)) {
     throw FieldError(kOptions, "min_width", min_width, "must be > 0 and below max_width");
   }
-  if (!(max_width <= 10)) throw FieldError(kOptions, "max_width", max_width, "must be <= 10");
-  if (!(albedo_split >= 0) || std::isnan(albedo_split)) {
-    throw FieldError(kOptions, "albedo_split", albedo_split, "must be >= 0");
-  }
-  if (max_lights < 3 || max_lights > 1000) throw FieldError(kOptions, "max_lights", max_lights, "must lie in [3, 1000]");
-  if (!(bic_penalty >= 0) || !std::isfinite(bic_penalty)) {
-    throw FieldError(kOptions, "bic_penalty", bic_penalty, "must be finite and >= 0");
-  }
-  if (!(min_residual_drop >= 0 && min_residual_drop < 1)) {
-    throw FieldError(kOptions, "min_residual_drop", min_residual_drop, "must lie in [0, 1)");
-  }
-  if (!(gate_ratio >= 0 && gate_ratio < 1)) {
-    throw FieldError(kOptions, "gate_ratio", gate_ratio, "must lie in [0, 1)");
-  }
-  if (!(white_margin > 0) || !std::isfinite(white_margin)) {
-    throw FieldError(kOptions, "white_margin", white_margin, "must be finite and > 0");
-  }
-  if (!(max_lobe_fraction >= 0) || std::isnan(max_lobe_fraction)) {
-    throw FieldError(kOptions, "max_lobe_fraction", max_lobe_fraction, "must be >= 0");
-  }
-  if (num_threads < 0 || num_threads > 256) throw FieldError(kOptions, "num_threads", num_threads, "must lie in [0, 256]");
+  SCANBENCH_REQUIRE_LE(kOptions, "max_width", max_width, 10);
+  SCANBENCH_REQUIRE_GE(kOptions, "albedo_split", albedo_split, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "max_lights", max_lights, 3, 1000);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "bic_penalty", bic_penalty, 0);
+  SCANBENCH_REQUIRE_GE_LT(kOptions, "min_residual_drop", min_residual_drop, 0, 1);
+  SCANBENCH_REQUIRE_GE_LT(kOptions, "gate_ratio", gate_ratio, 0, 1);
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "white_margin", white_margin, 0);
+  SCANBENCH_REQUIRE_GE(kOptions, "max_lobe_fraction", max_lobe_fraction, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "num_threads", num_threads, 0, 256);
 }
 
 std::string CoherentSheenSummary::BriefReport() const {

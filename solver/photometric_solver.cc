@@ -201,12 +201,10 @@ void CheckUniformPinvField(const PhotometricSolverOptions& options, const LightF
 // than the fill), else made anew; empty when `wanted` is false.
 template <typename T>
 void Reset(bool wanted, int width, int height, int channels, T value, Image<T>* image) {
-  if (!wanted) {
-    *image = Image<T>();
-  } else if (image->SameSize(width, height) && image->channels() == channels) {
-    std::fill(image->data(), image->data() + image->size(), value);
+  if (wanted) {
+    image->Reshape(width, height, channels, value);
   } else {
-    *image = Image<T>(width, height, channels, value);
+    *image = Image<T>();
   }
 }
 
@@ -447,51 +445,23 @@ void PhotometricSolverOptions::Check() const {
   PhotometricMethodRowOf(method);  // throws for a method without a row
   double weight_sum = 0;
   for (int c = 0; c < 3; ++c) {
-    if (!(luminance_weights[c] >= 0) || !std::isfinite(luminance_weights[c])) {
-      throw FieldError(kOptions, "luminance_weights[" + std::to_string(c) + "]", luminance_weights[c], "must be finite and >= 0");
-    }
+    SCANBENCH_REQUIRE_FINITE_GE(kOptions, "luminance_weights[" + std::to_string(c) + "]", luminance_weights[c], 0);
     weight_sum += luminance_weights[c];
   }
   if (!(weight_sum > 0)) throw FieldError(kOptions, "luminance_weights", "all zero", "must sum to > 0");
-  if (min_lights < 3 || min_lights > 1000) {
-    throw FieldError(kOptions, "min_lights", min_lights, "must lie in [3, 1000]");
-  }
-  if (!(max_condition_number > 1)) {
-    throw FieldError(kOptions, "max_condition_number", max_condition_number, "must be > 1");
-  }
-  if (!(min_sample_value >= 0) || !std::isfinite(min_sample_value)) {
-    throw FieldError(kOptions, "min_sample_value", min_sample_value, "must be finite and >= 0");
-  }
-  if (!(min_light_intensity >= 0) || !std::isfinite(min_light_intensity)) {
-    throw FieldError(kOptions, "min_light_intensity", min_light_intensity, "must be finite and >= 0");
-  }
-  if (!(min_albedo >= 0) || !std::isfinite(min_albedo)) {
-    throw FieldError(kOptions, "min_albedo", min_albedo, "must be finite and >= 0");
-  }
-  if (num_threads < 0 || num_threads > 256) {
-    throw FieldError(kOptions, "num_threads", num_threads, "must lie in [0, 256]");
-  }
-  if (tile_size < 8 || tile_size > 4096) {
-    throw FieldError(kOptions, "tile_size", tile_size, "must lie in [8, 4096]");
-  }
-  if (!(light_tolerance >= 0 && light_tolerance <= 0.1)) {
-    throw FieldError(kOptions, "light_tolerance", light_tolerance, "must lie in [0, 0.1]");
-  }
-  if (!(robust_loss_width >= 0) || !std::isfinite(robust_loss_width)) {
-    throw FieldError(kOptions, "robust_loss_width", robust_loss_width, "must be finite and >= 0");
-  }
-  if (!(robust_min_scale > 0) || !std::isfinite(robust_min_scale)) {
-    throw FieldError(kOptions, "robust_min_scale", robust_min_scale, "must be finite and > 0");
-  }
-  if (robust_max_iterations < 1 || robust_max_iterations > 10000) {
-    throw FieldError(kOptions, "robust_max_iterations", robust_max_iterations, "must lie in [1, 10000]");
-  }
-  if (!(robust_dark_fraction >= 0 && robust_dark_fraction < 1)) {
-    throw FieldError(kOptions, "robust_dark_fraction", robust_dark_fraction, "must lie in [0, 1)");
-  }
-  if (!(adaptive_robust_residual >= 0) || std::isnan(adaptive_robust_residual)) {
-    throw FieldError(kOptions, "adaptive_robust_residual", adaptive_robust_residual, "must be >= 0");
-  }
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "min_lights", min_lights, 3, 1000);
+  SCANBENCH_REQUIRE_GT(kOptions, "max_condition_number", max_condition_number, 1);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "min_sample_value", min_sample_value, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "min_light_intensity", min_light_intensity, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "min_albedo", min_albedo, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "num_threads", num_threads, 0, 256);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "tile_size", tile_size, 8, 4096);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "light_tolerance", light_tolerance, 0, 0.1);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "robust_loss_width", robust_loss_width, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "robust_min_scale", robust_min_scale, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "robust_max_iterations", robust_max_iterations, 1, 10000);
+  SCANBENCH_REQUIRE_GE_LT(kOptions, "robust_dark_fraction", robust_dark_fraction, 0, 1);
+  SCANBENCH_REQUIRE_GE(kOptions, "adaptive_robust_residual", adaptive_robust_residual, 0);
 }
 
 std::string PhotometricSolverSummary::BriefReport() const {

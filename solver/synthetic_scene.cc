@@ -20,24 +20,22 @@ Eigen::Vector3d LightIntensity(int k) {
 }  // namespace
 
 void SyntheticSceneOptions::Check() const {
-  if (width < 8) throw FieldError(kOptions, "width", width, "must be >= 8");
-  if (height < 8) throw FieldError(kOptions, "height", height, "must be >= 8");
-  if (num_lights < 3) throw FieldError(kOptions, "num_lights", num_lights, "must be >= 3");
-  if (!(min_elevation_deg > 0 && min_elevation_deg < 90)) {
-    throw FieldError(kOptions, "min_elevation_deg", min_elevation_deg, "must lie in (0, 90)");
-  }
+  SCANBENCH_REQUIRE_GE(kOptions, "width", width, 8);
+  SCANBENCH_REQUIRE_GE(kOptions, "height", height, 8);
+  SCANBENCH_REQUIRE_GE(kOptions, "num_lights", num_lights, 3);
+  SCANBENCH_REQUIRE_GT_LT(kOptions, "min_elevation_deg", min_elevation_deg, 0, 90);
   if (!(max_elevation_deg >= min_elevation_deg && max_elevation_deg < 90)) {
     throw FieldError(kOptions, "max_elevation_deg", max_elevation_deg, "must lie in [min_elevation_deg, 90)");
   }
-  if (!(tilt_degrees >= 0 && tilt_degrees < 80)) throw FieldError(kOptions, "tilt_degrees", tilt_degrees, "must lie in [0, 80)");
+  SCANBENCH_REQUIRE_GE_LT(kOptions, "tilt_degrees", tilt_degrees, 0, 80);
   for (int c = 0; c < 3; ++c) {
-    if (!(albedo[c] >= 0 && albedo[c] <= 1)) throw FieldError(kOptions, "albedo", albedo[c], "must lie in [0, 1]");
+    SCANBENCH_REQUIRE_GE_LE(kOptions, "albedo", albedo[c], 0, 1);
   }
-  if (!(light_distance > 0)) throw FieldError(kOptions, "light_distance", light_distance, "must be > 0");
-  if (!(pixel_pitch > 0)) throw FieldError(kOptions, "pixel_pitch", pixel_pitch, "must be > 0");
-  if (!(noise_stddev >= 0)) throw FieldError(kOptions, "noise_stddev", noise_stddev, "must be >= 0");
-  if (!(specular >= 0 && specular <= 10)) throw FieldError(kOptions, "specular", specular, "must lie in [0, 10]");
-  if (!(shininess >= 1 && shininess <= 10000)) throw FieldError(kOptions, "shininess", shininess, "must lie in [1, 10000]");
+  SCANBENCH_REQUIRE_GT(kOptions, "light_distance", light_distance, 0);
+  SCANBENCH_REQUIRE_GT(kOptions, "pixel_pitch", pixel_pitch, 0);
+  SCANBENCH_REQUIRE_GE(kOptions, "noise_stddev", noise_stddev, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "specular", specular, 0, 10);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "shininess", shininess, 1, 10000);
 }
 
 std::vector<Eigen::Vector3d> RingLightDirections(int num_lights, double low_elevation_deg,

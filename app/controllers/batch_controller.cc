@@ -269,7 +269,7 @@ std::vector<fs::path> ResolveBatchSessions(const std::vector<std::string>& input
 }
 
 std::vector<fs::path> SelectShard(const std::vector<fs::path>& sessions, int shard_index, int shard_count) {
-  if (shard_count < 1) throw FieldError("shard", "count", shard_count, "must be >= 1");
+  SCANBENCH_REQUIRE_GE("shard", "count", shard_count, 1);
   if (shard_index < 1 || shard_index > shard_count) {
     throw FieldError("shard", "index", shard_index, "must be in [1, " + std::to_string(shard_count) + "] (1-based)");
   }

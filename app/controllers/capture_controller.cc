@@ -281,21 +281,13 @@ void JournalFrame(const fs::path& session_dir, Session& session, std::optional<i
 void CaptureOptions::Check() const {
   const char* where = "CaptureOptions";
   if (sample_name.empty()) throw FieldError(where, "sample_name", "''", "must not be empty");
-  if (exposure.iso < 0) throw FieldError(where, "exposure.iso", exposure.iso, "must be >= 0");
-  if (exposure.exposure_time_s < 0) {
-    throw FieldError(where, "exposure.exposure_time_s", exposure.exposure_time_s, "must be >= 0");
-  }
-  if (exposure.f_number < 0) throw FieldError(where, "exposure.f_number", exposure.f_number, "must be >= 0");
-  if (!(clip_fraction > 0 && clip_fraction <= 1)) {
-    throw FieldError(where, "clip_fraction", clip_fraction, "must lie in (0, 1]");
-  }
-  if (!(max_clipped_fraction >= 0 && max_clipped_fraction <= 1)) {
-    throw FieldError(where, "max_clipped_fraction", max_clipped_fraction, "must lie in [0, 1]");
-  }
-  if (!(min_signal >= 0 && min_signal < 1)) throw FieldError(where, "min_signal", min_signal, "must lie in [0, 1)");
-  if (max_attempts < 1 || max_attempts > 10) {
-    throw FieldError(where, "max_attempts", max_attempts, "must lie in [1, 10]");
-  }
+  SCANBENCH_REQUIRE_GE(where, "exposure.iso", exposure.iso, 0);
+  SCANBENCH_REQUIRE_GE(where, "exposure.exposure_time_s", exposure.exposure_time_s, 0);
+  SCANBENCH_REQUIRE_GE(where, "exposure.f_number", exposure.f_number, 0);
+  SCANBENCH_REQUIRE_GT_LE(where, "clip_fraction", clip_fraction, 0, 1);
+  SCANBENCH_REQUIRE_GE_LE(where, "max_clipped_fraction", max_clipped_fraction, 0, 1);
+  SCANBENCH_REQUIRE_GE_LT(where, "min_signal", min_signal, 0, 1);
+  SCANBENCH_REQUIRE_GE_LE(where, "max_attempts", max_attempts, 1, 10);
   if (led_settle.count() < 0 || led_settle.count() > 10000) {
     throw FieldError(where, "led_settle", std::to_string(led_settle.count()) + " ms", "must lie in [0, 10000] ms");
   }

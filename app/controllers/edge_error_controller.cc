@@ -183,14 +183,10 @@ void EdgeErrorOptions::Check() const {
   if (calibration_dir.empty()) throw std::invalid_argument("EdgeErrorOptions.calibration_dir must be given");
   if (output_dir.empty()) throw std::invalid_argument("EdgeErrorOptions.output_dir must be given");
   const std::string where = "EdgeErrorOptions";
-  if (block_px < 0 || block_px > 4096) throw FieldError(where, "block_px", block_px, "must lie in [0, 4096]");
-  if (!(border_fraction > 0 && border_fraction < 0.5)) {
-    throw FieldError(where, "border_fraction", border_fraction, "must lie in (0, 0.5)");
-  }
-  if (!(centre_fraction > 0 && centre_fraction < 1)) {
-    throw FieldError(where, "centre_fraction", centre_fraction, "must lie in (0, 1)");
-  }
-  if (!(colour_scale_deg > 0)) throw FieldError(where, "colour_scale_deg", colour_scale_deg, "must be > 0");
+  SCANBENCH_REQUIRE_GE_LE(where, "block_px", block_px, 0, 4096);
+  SCANBENCH_REQUIRE_GT_LT(where, "border_fraction", border_fraction, 0, 0.5);
+  SCANBENCH_REQUIRE_GT_LT(where, "centre_fraction", centre_fraction, 0, 1);
+  SCANBENCH_REQUIRE_GT(where, "colour_scale_deg", colour_scale_deg, 0);
 }
 
 const EdgeErrorCase* EdgeErrorSummary::Find(const std::string& name) const {

@@ -901,9 +901,7 @@ void ExportOptions::Check() const {
     throw FieldError(kWhere, "material_name", "'" + material_name + "'",
                      "must be letters, digits, '.', '_' or '-' only, not starting with '.'");
   }
-  if (!std::isfinite(mm_per_pixel) || mm_per_pixel < 0) {
-    throw FieldError(kWhere, "mm_per_pixel", mm_per_pixel, "must be finite and >= 0 (0 = from the session's rig)");
-  }
+  SCANBENCH_REQUIRE_FINITE_GE(kWhere, "mm_per_pixel", mm_per_pixel, 0, "(0 = from the session's rig)");
   if (gltf_displaced_mesh && preset != Preset::kGltf) {
     throw FieldError(kWhere, "gltf_displaced_mesh", "true",
                      std::string("needs preset gltf (the preset is ") + ExportPresetName(preset) + ")");

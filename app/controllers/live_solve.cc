@@ -105,9 +105,7 @@ class LiveDecoder {
 void LiveSolveOptions::Check() const {
   capture.Check();
   solve.Check();
-  if (queue_frames < 1 || queue_frames > 64) {
-    throw FieldError("LiveSolveOptions", "queue_frames", queue_frames, "must lie in [1, 64]");
-  }
+  SCANBENCH_REQUIRE_GE_LE("LiveSolveOptions", "queue_frames", queue_frames, 1, 64);
 }
 
 std::string LiveSolveSummary::BriefReport() const {

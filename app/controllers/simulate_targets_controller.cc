@@ -92,16 +92,10 @@ void SimulateTargetsOptions::Check() const {
   measured.Check();
   board.Check();
   const std::string where = "SimulateTargetsOptions";
-  if (num_board_poses < 4 || num_board_poses > 9) {
-    throw FieldError(where, "num_board_poses", num_board_poses, "must lie in [4, 9]");
-  }
-  if (!(board_exposure > 0 && board_exposure <= 100)) {
-    throw FieldError(where, "board_exposure", board_exposure, "must lie in (0, 100]");
-  }
-  if (!(spacer_mm > 0 && spacer_mm <= 200)) throw FieldError(where, "spacer_mm", spacer_mm, "must lie in (0, 200]");
-  if (!(chart_patch_mm > 0 && chart_patch_mm <= 100)) {
-    throw FieldError(where, "chart_patch_mm", chart_patch_mm, "must lie in (0, 100]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(where, "num_board_poses", num_board_poses, 4, 9);
+  SCANBENCH_REQUIRE_GT_LE(where, "board_exposure", board_exposure, 0, 100);
+  SCANBENCH_REQUIRE_GT_LE(where, "spacer_mm", spacer_mm, 0, 200);
+  SCANBENCH_REQUIRE_GT_LE(where, "chart_patch_mm", chart_patch_mm, 0, 100);
   if (!(chart_pitch_mm >= chart_patch_mm && chart_pitch_mm <= 200)) {
     throw FieldError(where, "chart_pitch_mm", chart_pitch_mm,
                      "must lie in [chart_patch_mm = " + std::to_string(chart_patch_mm) + ", 200]");

@@ -473,9 +473,7 @@ void SolveOptions::Check() const {
   if (!run_label.empty() && !std::regex_match(run_label, kLabel)) {
     throw FieldError("SolveOptions", "run_label", "'" + run_label + "'", "must be letters, digits, '.', '_' or '-' only");
   }
-  if (!(calibration_max_age_days > 0)) {  // issue #4
-    throw FieldError("SolveOptions", "calibration_max_age_days", calibration_max_age_days, "must be > 0");
-  }
+  SCANBENCH_REQUIRE_GT("SolveOptions", "calibration_max_age_days", calibration_max_age_days, 0);  // issue #4
 }
 
 uintmax_t SolveSummary::TotalBytesWritten() const {

@@ -76,11 +76,8 @@ class FirstPassSpill {
     const auto read = [this](int rows, size_t offset, PhotometricSolution* band) {
       int map = 0;
       ForEachMap(*band, [&](auto& image) {
-        using Img = std::decay_t<decltype(image)>;
         if (channels_[map] > 0 && Spilled(map)) {
-          if (!image.SameSize(width_, rows) || image.channels() != channels_[map]) {
-            image = Img(width_, rows, channels_[map]);
-          }
+          image.Reshape(width_, rows, channels_[map]);
           const size_t bytes = image.size() * sizeof(*image.data());
           spill_.ReadAt(offset, image.data(), bytes);  // pread only: the spill was flushed before
           offset += bytes;
@@ -165,7 +162,7 @@ ResultStream::~ResultStream() = default;
 
 void ResultStream::Add(PhotometricSolution& band) {
   times_->Time("color", [&] {
-    if (!solved_.SameSize(band.status)) solved_ = ImageU8(band.status.width(), band.status.height(), 1);
+    solved_.Reshape(band.status.width(), band.status.height(), 1);
     for (size_t i = 0; i < solved_.size(); ++i) {
       solved_.data()[i] = band.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
     }

@@ -36,8 +36,7 @@ RelightMaps Subsample(const RelightMaps& maps, int step) {
 }  // namespace
 
 void RelightRendererOptions::Check() const {
-  if (!(preview_max_pixels >= 0))
-    throw FieldError("RelightRendererOptions", "preview_max_pixels", preview_max_pixels, "must be >= 0");
+  SCANBENCH_REQUIRE_GE("RelightRendererOptions", "preview_max_pixels", preview_max_pixels, 0);
 }
 
 RelightRenderer::RelightRenderer(const RelightRendererOptions& options, QObject* parent)

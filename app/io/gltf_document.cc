@@ -148,10 +148,8 @@ nlohmann::json Primitive(nlohmann::json attributes, int indices, int material) {
 void GltfTileOptions::Check() const {
   constexpr char kWhere[] = "GltfTileOptions";
   if (name.empty()) throw FieldError(kWhere, "name", "''", "must not be empty");
-  if (!std::isfinite(width_m) || !(width_m > 0)) throw FieldError(kWhere, "width_m", width_m, "must be finite and > 0");
-  if (!std::isfinite(height_m) || !(height_m > 0)) {
-    throw FieldError(kWhere, "height_m", height_m, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "width_m", width_m, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "height_m", height_m, 0);
   for (const auto& [field, uri] : {std::pair{"basecolor_uri", &basecolor_uri}, std::pair{"normal_uri", &normal_uri},
                                    std::pair{"occlusion_roughness_metallic_uri", &occlusion_roughness_metallic_uri},
                                    std::pair{"buffer_uri", &buffer_uri}}) {
@@ -160,9 +158,7 @@ void GltfTileOptions::Check() const {
   if (displaced_max_vertices < 4 || displaced_max_vertices > 65536) {
     throw FieldError(kWhere, "displaced_max_vertices", displaced_max_vertices, "must be in [4, 65536]");
   }
-  if (!std::isfinite(height_unit_m) || !(height_unit_m > 0)) {
-    throw FieldError(kWhere, "height_unit_m", height_unit_m, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "height_unit_m", height_unit_m, 0);
 }
 
 GltfGridSize DisplacedGridSize(int width, int height, int max_vertices) {

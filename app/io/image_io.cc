@@ -641,9 +641,7 @@ void ImageRowReader::ReadRows(int y_begin, int y_end, ImageF* rows) {
     throw std::invalid_argument(path.string() + ": rows [" + std::to_string(y_begin) + ", " + std::to_string(y_end) +
                                 ") must lie within its " + std::to_string(spec.height) + " rows and not be empty");
   }
-  if (!rows->SameSize(spec.width, y_end - y_begin) || rows->channels() != spec.nchannels) {
-    *rows = ImageF(spec.width, y_end - y_begin, spec.nchannels);
-  }
+  rows->Reshape(spec.width, y_end - y_begin, spec.nchannels);
   OIIO::ImageInput& input = *state_->opened.input;
   const bool read =
       state_->native_float

@@ -74,9 +74,7 @@ void MaterialXMaterialOptions::Check() const {
   if (roughness_channel < 0 || roughness_channel >= roughness_channels) {
     throw FieldError(kWhere, "roughness_channel", roughness_channel, "must be in [0, roughness_channels - 1]");
   }
-  if (!std::isfinite(height_scale) || !(height_scale > 0)) {
-    throw FieldError(kWhere, "height_scale", height_scale, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kWhere, "height_scale", height_scale, 0);
 }
 
 std::string MaterialXDocument(const MaterialXMaterialOptions& options) {

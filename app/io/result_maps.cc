@@ -24,15 +24,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// *image shaped width x height x channels: its buffer kept when it already
-// has that shape (a band's buffer reused for the next: no fresh pages to
-// fault in and zero), else made anew. The caller writes every sample.
-template <typename T>
-Image<T>& Shaped(Image<T>* image, int width, int height, int channels) {
-  if (!image->SameSize(width, height) || image->channels() != channels) *image = Image<T>(width, height, channels);
-  return *image;
-}
-
 // lround((clamp((n + 1) / 2, 0, 1)) * 65535) in double, as
 // floor(x + 0.5) so that the loop vectorises (lround is a libm call per
 // sample): the same codes. x = fl(value * 65535) is at least 0; floor(x +
@@ -42,7 +33,8 @@ Image<T>& Shaped(Image<T>* image, int width, int height, int channels) {
 // it is below 0.5 (tested against lround over floats near -1, 0 and 1 and
 // random ones).
 void EncodeNormalsPng16(const ImageF& normal_in_tangent, ImageU16* out) {
-  ImageU16& encoded = Shaped(out, normal_in_tangent.width(), normal_in_tangent.height(), 3);
+  out->Reshape(normal_in_tangent.width(), normal_in_tangent.height(), 3);
+  ImageU16& encoded = *out;
   const float* in = normal_in_tangent.data();
   uint16_t* codes = encoded.data();
   for (size_t i = 0; i < encoded.size(); ++i) {
@@ -103,7 +95,8 @@ const SrgbPreviewTable& PreviewTable() {
 }
 
 void EncodeSrgbPreview(const ImageF& linear_rgb, ImageU8* out) {
-  ImageU8& encoded = Shaped(out, linear_rgb.width(), linear_rgb.height(), linear_rgb.channels());
+  out->Reshape(linear_rgb.width(), linear_rgb.height(), linear_rgb.channels());
+  ImageU8& encoded = *out;
   const SrgbPreviewTable& table = PreviewTable();
   const float* in = linear_rgb.data();
   uint8_t* codes = encoded.data();
@@ -227,7 +220,8 @@ bool IsSpecularUnsupported(const PhotometricSolution& solution, size_t i) {
 // and a non-finite value (never expected from the solver) as 0, so that no
 // NaN reaches the file and roughness_alpha > 0 alone marks an estimate.
 void SpecularForFile(const PhotometricSolution& solution, ImageF* file) {
-  ImageF& out = Shaped(file, solution.specular.width(), solution.specular.height(), 2);
+  file->Reshape(solution.specular.width(), solution.specular.height(), 2);
+  ImageF& out = *file;
   for (size_t i = 0; i < out.num_pixels(); ++i) {
     const bool estimated = solution.specular_status.data()[i] == static_cast<uint8_t>(SpecularStatus::kEstimated) &&
                            solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
@@ -244,7 +238,8 @@ namespace {
 
 void StatusPngCodes(const PhotometricSolution& solution, ImageU8* out) {
   const ImageU8& status = solution.status;
-  ImageU8& codes = Shaped(out, status.width(), status.height(), status.channels());
+  out->Reshape(status.width(), status.height(), status.channels());
+  ImageU8& codes = *out;
   std::copy(status.data(), status.data() + status.size(), codes.data());
   if (solution.specular.empty()) return;
   CheckSpecularShape(solution);
@@ -343,14 +338,16 @@ ExrEncoding ErrorMapExrEncoding(const ExrEncoding& exr) {
 }
 
 void SolvedMask(const PhotometricSolution& solution, ImageU8* out) {
-  ImageU8& solved = Shaped(out, solution.status.width(), solution.status.height(), 1);
+  out->Reshape(solution.status.width(), solution.status.height(), 1);
+  ImageU8& solved = *out;
   for (size_t i = 0; i < solved.size(); ++i) {
     solved.data()[i] = solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved) ? 255 : 0;
   }
 }
 
 void ConfidenceForFile(const PhotometricSolution& solution, bool half, ImageF* out) {
-  ImageF& confidence = Shaped(out, solution.status.width(), solution.status.height(), 3);
+  out->Reshape(solution.status.width(), solution.status.height(), 3);
+  ImageF& confidence = *out;
   for (size_t i = 0; i < solution.status.num_pixels(); ++i) {
     const float residual = solution.residual.data()[i];
     confidence.data()[3 * i + 0] = solution.lights_used.data()[i];

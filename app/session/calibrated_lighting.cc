@@ -37,9 +37,7 @@ std::vector<float> NodeViewDirections(const CameraGeometry& camera, const LightF
 }  // namespace
 
 void CalibrationUseOptions::Check() const {
-  if (!(max_age_days > 0) || !std::isfinite(max_age_days)) {
-    throw FieldError("CalibrationUseOptions", "max_age_days", max_age_days, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT("CalibrationUseOptions", "max_age_days", max_age_days, 0);
 }
 
 CalibratedLighting MakeCalibratedLighting(const fs::path& calibration_dir, const Session& session,

@@ -71,11 +71,11 @@ void ColorChartDescription::Check() const {
   if (chart != kColorCheckerClassicChart) {
     throw FieldError(where, "chart", "'" + chart + "'", std::string("must be \"") + kColorCheckerClassicChart + "\"");
   }
-  if (!(patch_mm > 0 && patch_mm <= 100)) throw FieldError(where, "patch_mm", patch_mm, "must lie in (0, 100] mm");
+  SCANBENCH_REQUIRE_GT_LE(where, "patch_mm", patch_mm, 0, 100, "mm");
   if (!(pitch_mm >= patch_mm && pitch_mm <= 200)) {
     throw FieldError(where, "pitch_mm", pitch_mm, "must lie in [patch_mm = " + std::to_string(patch_mm) + ", 200] mm");
   }
-  if (!(height_mm >= 0 && height_mm <= 200)) throw FieldError(where, "height_mm", height_mm, "must lie in [0, 200] mm");
+  SCANBENCH_REQUIRE_GE_LE(where, "height_mm", height_mm, 0, 200, "mm");
 }
 
 namespace {
@@ -261,9 +261,7 @@ bool IsTableView(const CalibrationTargetDescription& target) {
 }
 
 void DescribeTargetsOptions::Check() const {
-  if (!(spacer_mm > 0 && spacer_mm <= 200)) {
-    throw FieldError("DescribeTargetsOptions", "spacer_mm", spacer_mm, "must lie in (0, 200] mm");
-  }
+  SCANBENCH_REQUIRE_GT_LE("DescribeTargetsOptions", "spacer_mm", spacer_mm, 0, 200, "mm");
 }
 
 namespace {

@@ -27,7 +27,7 @@ CameraPreset PresetOf(const std::string& camera) {
 void BenchTemplateOptions::Check() const {
   const char* where = "BenchTemplateOptions";
   if (name.empty()) throw FieldError(where, "name", "''", "must not be empty");
-  if (num_leds < 1 || num_leds > 10) throw FieldError(where, "num_leds", num_leds, "must lie in [1, 10]");
+  SCANBENCH_REQUIRE_GE_LE(where, "num_leds", num_leds, 1, 10);
   if (ring_radii_mm.empty()) throw FieldError(where, "ring_radii_mm", "[]", "needs at least one ring");
   if (ring_heights_mm.size() != ring_radii_mm.size()) {
     throw FieldError(where, "ring_heights_mm", std::to_string(ring_heights_mm.size()) + " values",
@@ -38,23 +38,15 @@ void BenchTemplateOptions::Check() const {
                      "must not exceed num_leds (" + std::to_string(num_leds) + ")");
   }
   for (size_t r = 0; r < ring_radii_mm.size(); ++r) {
-    if (!(ring_radii_mm[r] > 0 && ring_radii_mm[r] < 10000)) {
-      throw FieldError(where, "ring_radii_mm[" + std::to_string(r) + "]", ring_radii_mm[r],
-                       "must lie in (0, 10000) mm");
-    }
-    if (!(ring_heights_mm[r] > 0 && ring_heights_mm[r] < 10000)) {
-      throw FieldError(where, "ring_heights_mm[" + std::to_string(r) + "]", ring_heights_mm[r],
-                       "must lie in (0, 10000) mm");
-    }
+    SCANBENCH_REQUIRE_GT_LT(where, "ring_radii_mm[" + std::to_string(r) + "]", ring_radii_mm[r], 0, 10000, "mm");
+    SCANBENCH_REQUIRE_GT_LT(where, "ring_heights_mm[" + std::to_string(r) + "]", ring_heights_mm[r], 0, 10000, "mm");
   }
   PresetOf(camera);
-  if (!(lens_focal_mm > 0 && lens_focal_mm <= 1000)) {
-    throw FieldError(where, "lens_focal_mm", lens_focal_mm, "must lie in (0, 1000] mm");
-  }
+  SCANBENCH_REQUIRE_GT_LE(where, "lens_focal_mm", lens_focal_mm, 0, 1000, "mm");
   if (!(camera_height_mm > lens_focal_mm && camera_height_mm < 10000)) {
     throw FieldError(where, "camera_height_mm", camera_height_mm, "must lie in (lens_focal_mm, 10000) mm");
   }
-  if (!(mu >= 0 && mu < 100)) throw FieldError(where, "mu", mu, "must lie in [0, 100)");
+  SCANBENCH_REQUIRE_GE_LT(where, "mu", mu, 0, 100);
 }
 
 RigDescription MakeBenchTemplate(const BenchTemplateOptions& options) {

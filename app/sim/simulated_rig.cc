@@ -119,47 +119,33 @@ Eigen::Vector3d TablePlanePoint(const Eigen::Vector3d& origin, const Eigen::Vect
 // ---------------------------------------------------------------------------
 void SimulatedRigOptions::Check() const {
   const std::string where = "SimulatedRigOptions";
-  if (width <= 0) throw FieldError(where, "width", width, "must be > 0");
-  if (height <= 0) throw FieldError(where, "height", height, "must be > 0");
+  SCANBENCH_REQUIRE_GT(where, "width", width, 0);
+  SCANBENCH_REQUIRE_GT(where, "height", height, 0);
   if (cfa != CfaPattern::kRGGB && cfa != CfaPattern::kBGGR && cfa != CfaPattern::kGRBG &&
       cfa != CfaPattern::kGBRG) {
     throw FieldError(where, "cfa", static_cast<int>(cfa), "must be one of RGGB, BGGR, GRBG, GBRG");
   }
-  if (white_level <= 0 || white_level > 65535) {
-    throw FieldError(where, "white_level", white_level, "must lie in (0, 65535]");
-  }
+  SCANBENCH_REQUIRE_GT_LE(where, "white_level", white_level, 0, 65535);
   if (black_level < 0 || black_level >= white_level) {
     throw FieldError(where, "black_level", black_level,
                      "must lie in [0, white_level = " + std::to_string(white_level) + ")");
   }
-  if (!(gain_e_per_dn > 0) || !std::isfinite(gain_e_per_dn)) {
-    throw FieldError(where, "gain_e_per_dn", gain_e_per_dn, "must be finite and > 0");
-  }
-  if (!(read_noise_dn >= 0) || !std::isfinite(read_noise_dn)) {
-    throw FieldError(where, "read_noise_dn", read_noise_dn, "must be finite and >= 0");
-  }
-  if (!(ambient >= 0 && ambient <= 1)) throw FieldError(where, "ambient", ambient, "must lie in [0, 1]");
-  if (!(shadow_grid_mm > 0 && shadow_grid_mm <= 1)) {
-    throw FieldError(where, "shadow_grid_mm", shadow_grid_mm, "must lie in (0, 1]");
-  }
-  if (!(shadow_bias_mm >= 0 && shadow_bias_mm <= 1)) {
-    throw FieldError(where, "shadow_bias_mm", shadow_bias_mm, "must lie in [0, 1]");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(where, "gain_e_per_dn", gain_e_per_dn, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(where, "read_noise_dn", read_noise_dn, 0);
+  SCANBENCH_REQUIRE_GE_LE(where, "ambient", ambient, 0, 1);
+  SCANBENCH_REQUIRE_GT_LE(where, "shadow_grid_mm", shadow_grid_mm, 0, 1);
+  SCANBENCH_REQUIRE_GE_LE(where, "shadow_bias_mm", shadow_bias_mm, 0, 1);
   if (color != SensorColorModel::kNikonD5100 && color != SensorColorModel::kSrgbPrimaries) {
     throw FieldError(where, "color", static_cast<int>(color), "must be kNikonD5100 or kSrgbPrimaries");
   }
-  if (num_threads < 0 || num_threads > 256) {
-    throw FieldError(where, "num_threads", num_threads, "must lie in [0, 256] (0 = hardware concurrency)");
-  }
-  if (footprint_samples < 1 || footprint_samples > 64) {
-    throw FieldError(where, "footprint_samples", footprint_samples, "must lie in [1, 64]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(where, "num_threads", num_threads, 0, 256, "(0 = hardware concurrency)");
+  SCANBENCH_REQUIRE_GE_LE(where, "footprint_samples", footprint_samples, 1, 64);
 }
 
 // ---------------------------------------------------------------------------
 RigDescription MakeDefaultSimulatedRig(int width, int height, SensorColorModel color) {
-  if (width <= 0) throw FieldError("MakeDefaultSimulatedRig", "width", width, "must be > 0");
-  if (height <= 0) throw FieldError("MakeDefaultSimulatedRig", "height", height, "must be > 0");
+  SCANBENCH_REQUIRE_GT("MakeDefaultSimulatedRig", "width", width, 0);
+  SCANBENCH_REQUIRE_GT("MakeDefaultSimulatedRig", "height", height, 0);
 
   RigDescription rig;
   rig.name = color == SensorColorModel::kSrgbPrimaries ? "simulated D5100 + 85 mm, 10 x D65 LED"
@@ -332,14 +318,10 @@ void SimulatedRig::CheckRig() const {
     if (!(std::abs(led.axis_in_table.norm() - 1.0) < 1e-6)) {
       throw FieldError("SimulatedRig", name + ".axis_in_table norm", led.axis_in_table.norm(), "must be 1");
     }
-    if (!(led.mu >= 0) || !std::isfinite(led.mu)) {
-      throw FieldError("SimulatedRig", name + ".mu", led.mu, "must be finite and >= 0");
-    }
+    SCANBENCH_REQUIRE_FINITE_GE("SimulatedRig", name + ".mu", led.mu, 0);
     for (int c = 0; c < 3; ++c) {
-      if (!(led.rgb_intensity[c] >= 0) || !std::isfinite(led.rgb_intensity[c])) {
-        throw FieldError("SimulatedRig", name + ".rgb_intensity[" + std::to_string(c) + "]", led.rgb_intensity[c],
-                         "must be finite and >= 0");
-      }
+      SCANBENCH_REQUIRE_FINITE_GE("SimulatedRig", name + ".rgb_intensity[" + std::to_string(c) + "]",
+                                  led.rgb_intensity[c], 0);
     }
   }
 }

@@ -210,7 +210,7 @@ SimulatedTarget SimulatedTarget::ColorChart(double patch_mm, double pitch_mm, do
 void SimulatedTarget::Check() const {
   const std::string where = "SimulatedTarget";
   auto check_reflectance = [&](const char* name, double value) {
-    if (!(value >= 0 && value <= 1)) throw FieldError(where, name, value, "must lie in [0, 1]");
+    SCANBENCH_REQUIRE_GE_LE(where, name, value, 0, 1);
   };
   check_reflectance("table_reflectance", table_reflectance);
   switch (kind) {
@@ -224,43 +224,33 @@ void SimulatedTarget::Check() const {
       if (!(table_from_target.linear()(2, 2) > 0)) {
         throw FieldError(where, "table_from_target", "(face turned down)", "must turn the board's face up (+z)");
       }
-      if (!(board_margin_mm >= 0)) throw FieldError(where, "board_margin_mm", board_margin_mm, "must be >= 0");
+      SCANBENCH_REQUIRE_GE(where, "board_margin_mm", board_margin_mm, 0);
       check_reflectance("board_dark_reflectance", board_dark_reflectance);
       check_reflectance("board_light_reflectance", board_light_reflectance);
       break;
     }
     case Kind::kGrayChart:
       gray_chart.Check();
-      if (!(card_size_mm > 0)) throw FieldError(where, "card_size_mm", card_size_mm, "must be > 0");
+      SCANBENCH_REQUIRE_GT(where, "card_size_mm", card_size_mm, 0);
       check_reflectance("card_reflectance", card_reflectance);
       break;
     case Kind::kWhiteSheet:
       white_sheet.Check();
-      if (!(sheet_size_mm.minCoeff() > 0)) throw FieldError(where, "sheet_size_mm", sheet_size_mm.minCoeff(), "must be > 0");
-      if (!(paper_texture >= 0 && paper_texture <= 0.2)) {
-        throw FieldError(where, "paper_texture", paper_texture, "must lie in [0, 0.2]");
-      }
-      if (!(paper_texture_mm > 0)) throw FieldError(where, "paper_texture_mm", paper_texture_mm, "must be > 0");
+      SCANBENCH_REQUIRE_GT(where, "sheet_size_mm", sheet_size_mm.minCoeff(), 0);
+      SCANBENCH_REQUIRE_GE_LE(where, "paper_texture", paper_texture, 0, 0.2);
+      SCANBENCH_REQUIRE_GT(where, "paper_texture_mm", paper_texture_mm, 0);
       break;
     case Kind::kColorChart:
-      if (!(chart_patch_mm > 0) || !std::isfinite(chart_patch_mm)) {
-        throw FieldError(where, "chart_patch_mm", chart_patch_mm, "must be finite and > 0");
-      }
+      SCANBENCH_REQUIRE_FINITE_GT(where, "chart_patch_mm", chart_patch_mm, 0);
       if (!(chart_pitch_mm >= chart_patch_mm) || !std::isfinite(chart_pitch_mm)) {
         throw FieldError(where, "chart_pitch_mm", chart_pitch_mm,
                          "must be finite and >= chart_patch_mm (" + std::to_string(chart_patch_mm) + ")");
       }
-      if (!(chart_height_mm >= 0 && chart_height_mm <= 200)) {
-        throw FieldError(where, "chart_height_mm", chart_height_mm, "must lie in [0, 200]");
-      }
-      if (!(chart_border_mm >= 0) || !std::isfinite(chart_border_mm)) {
-        throw FieldError(where, "chart_border_mm", chart_border_mm, "must be finite and >= 0");
-      }
+      SCANBENCH_REQUIRE_GE_LE(where, "chart_height_mm", chart_height_mm, 0, 200);
+      SCANBENCH_REQUIRE_FINITE_GE(where, "chart_border_mm", chart_border_mm, 0);
       check_reflectance("chart_surround_reflectance", chart_surround_reflectance);
-      if (!(chart_gloss >= 0 && chart_gloss <= 0.2)) throw FieldError(where, "chart_gloss", chart_gloss, "must lie in [0, 0.2]");
-      if (!(chart_gloss_width_deg > 0 && chart_gloss_width_deg <= 45)) {
-        throw FieldError(where, "chart_gloss_width_deg", chart_gloss_width_deg, "must lie in (0, 45]");
-      }
+      SCANBENCH_REQUIRE_GE_LE(where, "chart_gloss", chart_gloss, 0, 0.2);
+      SCANBENCH_REQUIRE_GT_LE(where, "chart_gloss_width_deg", chart_gloss_width_deg, 0, 45);
       break;
     default:
       throw FieldError(where, "kind", static_cast<int>(kind), "is not a SimulatedTarget::Kind");
@@ -269,15 +259,11 @@ void SimulatedTarget::Check() const {
 
 void TargetRenderOptions::Check() const {
   const std::string where = "TargetRenderOptions";
-  if (!(exposure > 0 && exposure <= 100)) throw FieldError(where, "exposure", exposure, "must lie in (0, 100]");
-  if (!(blur_px >= 0 && blur_px <= 50)) throw FieldError(where, "blur_px", blur_px, "must lie in [0, 50]");
-  if (supersampling < 0 || supersampling > 16) {
-    throw FieldError(where, "supersampling", supersampling, "must lie in [0, 16] (0 = per target)");
-  }
-  if (!(led_ripple >= 0 && led_ripple <= 0.5)) throw FieldError(where, "led_ripple", led_ripple, "must lie in [0, 0.5]");
-  if (!(led_ripple_period_deg > 0 && led_ripple_period_deg <= 90)) {
-    throw FieldError(where, "led_ripple_period_deg", led_ripple_period_deg, "must lie in (0, 90]");
-  }
+  SCANBENCH_REQUIRE_GT_LE(where, "exposure", exposure, 0, 100);
+  SCANBENCH_REQUIRE_GE_LE(where, "blur_px", blur_px, 0, 50);
+  SCANBENCH_REQUIRE_GE_LE(where, "supersampling", supersampling, 0, 16, "(0 = per target)");
+  SCANBENCH_REQUIRE_GE_LE(where, "led_ripple", led_ripple, 0, 0.5);
+  SCANBENCH_REQUIRE_GT_LE(where, "led_ripple_period_deg", led_ripple_period_deg, 0, 90);
 }
 
 // ---------------------------------------------------------------------------
@@ -505,12 +491,8 @@ std::vector<Eigen::Isometry3d> DefaultCheckerboardPoses() {
 
 void MeasuredRigOptions::Check() const {
   const std::string where = "MeasuredRigOptions";
-  if (!(led_position_error_mm >= 0 && led_position_error_mm <= 50)) {
-    throw FieldError(where, "led_position_error_mm", led_position_error_mm, "must lie in [0, 50]");
-  }
-  if (!(nominal_mu >= 0) || !std::isfinite(nominal_mu)) {
-    throw FieldError(where, "nominal_mu", nominal_mu, "must be finite and >= 0");
-  }
+  SCANBENCH_REQUIRE_GE_LE(where, "led_position_error_mm", led_position_error_mm, 0, 50);
+  SCANBENCH_REQUIRE_FINITE_GE(where, "nominal_mu", nominal_mu, 0);
 }
 
 RigDescription MakeMeasuredRigDescription(const RigDescription& truth, const MeasuredRigOptions& options) {

@@ -20,9 +20,7 @@ constexpr char kOptions[] = "TextileSceneOptions";
 
 void CheckRgb(const std::string& field, const Eigen::Vector3d& rgb) {
   for (int c = 0; c < 3; ++c) {
-    if (!(rgb[c] >= 0.0 && rgb[c] <= 1.0)) {
-      throw FieldError(kOptions, field + "[" + std::to_string(c) + "]", rgb[c], "must lie in [0, 1]");
-    }
+    SCANBENCH_REQUIRE_GE_LE(kOptions, field + "[" + std::to_string(c) + "]", rgb[c], 0, 1);
   }
 }
 
@@ -183,15 +181,9 @@ Eigen::Vector2d FibreTilt(const TextileSceneOptions& o, double warp_weight, doub
 }
 
 void CheckThreadBrdf(const std::string& field, const ThreadBrdf& b) {
-  if (!(b.specular_f0 >= 0 && b.specular_f0 <= 1)) {
-    throw FieldError(kOptions, field + ".specular_f0", b.specular_f0, "must lie in [0, 1]");
-  }
-  if (!(b.roughness > 0 && b.roughness <= 2)) {
-    throw FieldError(kOptions, field + ".roughness", b.roughness, "must lie in (0, 2]");
-  }
-  if (!(b.roughness_across > 0 && b.roughness_across <= 2)) {
-    throw FieldError(kOptions, field + ".roughness_across", b.roughness_across, "must lie in (0, 2]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(kOptions, field + ".specular_f0", b.specular_f0, 0, 1);
+  SCANBENCH_REQUIRE_GT_LE(kOptions, field + ".roughness", b.roughness, 0, 2);
+  SCANBENCH_REQUIRE_GT_LE(kOptions, field + ".roughness_across", b.roughness_across, 0, 2);
 }
 
 // The card's outline: the patch grid plus the border on every side.
@@ -202,31 +194,21 @@ Eigen::Vector2d ChartCardSizeMm(const TextileSceneOptions& o) {
 }
 
 void CheckChart(const TextileSceneOptions& o) {
-  if (!(o.chart_patch_mm > 0) || !std::isfinite(o.chart_patch_mm)) {
-    throw FieldError(kOptions, "chart_patch_mm", o.chart_patch_mm, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "chart_patch_mm", o.chart_patch_mm, 0);
   if (!(o.chart_pitch_mm >= o.chart_patch_mm) || !std::isfinite(o.chart_pitch_mm)) {
     throw FieldError(kOptions, "chart_pitch_mm", o.chart_pitch_mm,
                      "must be finite and >= chart_patch_mm (" + std::to_string(o.chart_patch_mm) + ")");
   }
-  if (!(o.chart_border_mm >= 0) || !std::isfinite(o.chart_border_mm)) {
-    throw FieldError(kOptions, "chart_border_mm", o.chart_border_mm, "must be finite and >= 0");
-  }
-  if (!(o.chart_thickness_mm >= 0 && o.chart_thickness_mm <= 5)) {
-    throw FieldError(kOptions, "chart_thickness_mm", o.chart_thickness_mm, "must lie in [0, 5]");
-  }
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "chart_border_mm", o.chart_border_mm, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "chart_thickness_mm", o.chart_thickness_mm, 0, 5);
   const double half_smaller = 0.5 * ChartCardSizeMm(o).minCoeff();
   if (!(o.chart_edge_blend_mm > 0 && o.chart_edge_blend_mm <= std::min(10.0, half_smaller))) {
     throw FieldError(kOptions, "chart_edge_blend_mm", o.chart_edge_blend_mm,
                      "must lie in (0, " + std::to_string(std::min(10.0, half_smaller)) + "]");
   }
   CheckRgb("chart_surround_rgb", o.chart_surround_rgb);
-  if (!(o.chart_gloss >= 0 && o.chart_gloss <= 0.2)) {
-    throw FieldError(kOptions, "chart_gloss", o.chart_gloss, "must lie in [0, 0.2]");
-  }
-  if (!(o.chart_gloss_width_deg > 0 && o.chart_gloss_width_deg <= 45)) {
-    throw FieldError(kOptions, "chart_gloss_width_deg", o.chart_gloss_width_deg, "must lie in (0, 45]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "chart_gloss", o.chart_gloss, 0, 0.2);
+  SCANBENCH_REQUIRE_GT_LE(kOptions, "chart_gloss_width_deg", o.chart_gloss_width_deg, 0, 45);
 }
 
 }  // namespace
@@ -247,12 +229,8 @@ void TextileSceneOptions::Check() const {
     throw FieldError(kOptions, "sample", static_cast<int>(sample), "must be kTextile or kColorChecker");
   }
   if (sample == SampleKind::kColorChecker) CheckChart(*this);
-  if (!(sample_width_mm > 0) || !std::isfinite(sample_width_mm)) {
-    throw FieldError(kOptions, "sample_width_mm", sample_width_mm, "must be finite and > 0");
-  }
-  if (!(sample_height_mm > 0) || !std::isfinite(sample_height_mm)) {
-    throw FieldError(kOptions, "sample_height_mm", sample_height_mm, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "sample_width_mm", sample_width_mm, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "sample_height_mm", sample_height_mm, 0);
   const double half_smaller = 0.5 * std::min(sample_width_mm, sample_height_mm);
   if (!(edge_blend_mm > 0 && edge_blend_mm <= half_smaller)) {
     throw FieldError(kOptions, "edge_blend_mm", edge_blend_mm,
@@ -261,36 +239,16 @@ void TextileSceneOptions::Check() const {
   if (weave != WeavePattern::kPlain && weave != WeavePattern::kTwill) {
     throw FieldError(kOptions, "weave", static_cast<int>(weave), "must be kPlain or kTwill");
   }
-  if (!(warp_pitch_mm > 0) || !std::isfinite(warp_pitch_mm)) {
-    throw FieldError(kOptions, "warp_pitch_mm", warp_pitch_mm, "must be finite and > 0");
-  }
-  if (!(weft_pitch_mm > 0) || !std::isfinite(weft_pitch_mm)) {
-    throw FieldError(kOptions, "weft_pitch_mm", weft_pitch_mm, "must be finite and > 0");
-  }
-  if (!(thread_height_mm >= 0) || !std::isfinite(thread_height_mm)) {
-    throw FieldError(kOptions, "thread_height_mm", thread_height_mm, "must be finite and >= 0");
-  }
-  if (!(crossing_amplitude_mm >= 0) || !std::isfinite(crossing_amplitude_mm)) {
-    throw FieldError(kOptions, "crossing_amplitude_mm", crossing_amplitude_mm, "must be finite and >= 0");
-  }
-  if (!(thread_height_variation >= 0 && thread_height_variation < 1)) {
-    throw FieldError(kOptions, "thread_height_variation", thread_height_variation, "must lie in [0, 1)");
-  }
-  if (!(smoothing_mm > 0) || !std::isfinite(smoothing_mm)) {
-    throw FieldError(kOptions, "smoothing_mm", smoothing_mm, "must be finite and > 0");
-  }
-  if (!(base_thickness_mm >= 0) || !std::isfinite(base_thickness_mm)) {
-    throw FieldError(kOptions, "base_thickness_mm", base_thickness_mm, "must be finite and >= 0");
-  }
-  if (!(fold_amplitude_mm >= 0) || !std::isfinite(fold_amplitude_mm)) {
-    throw FieldError(kOptions, "fold_amplitude_mm", fold_amplitude_mm, "must be finite and >= 0");
-  }
-  if (num_fold_waves < 0 || num_fold_waves > 64) {
-    throw FieldError(kOptions, "num_fold_waves", num_fold_waves, "must lie in [0, 64]");
-  }
-  if (!(fold_min_wavelength_mm > 0) || !std::isfinite(fold_min_wavelength_mm)) {
-    throw FieldError(kOptions, "fold_min_wavelength_mm", fold_min_wavelength_mm, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "warp_pitch_mm", warp_pitch_mm, 0);
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "weft_pitch_mm", weft_pitch_mm, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "thread_height_mm", thread_height_mm, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "crossing_amplitude_mm", crossing_amplitude_mm, 0);
+  SCANBENCH_REQUIRE_GE_LT(kOptions, "thread_height_variation", thread_height_variation, 0, 1);
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "smoothing_mm", smoothing_mm, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "base_thickness_mm", base_thickness_mm, 0);
+  SCANBENCH_REQUIRE_FINITE_GE(kOptions, "fold_amplitude_mm", fold_amplitude_mm, 0);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "num_fold_waves", num_fold_waves, 0, 64);
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "fold_min_wavelength_mm", fold_min_wavelength_mm, 0);
   if (!(fold_max_wavelength_mm >= fold_min_wavelength_mm) || !std::isfinite(fold_max_wavelength_mm)) {
     throw FieldError(kOptions, "fold_max_wavelength_mm", fold_max_wavelength_mm,
                      "must be finite and >= fold_min_wavelength_mm (" + std::to_string(fold_min_wavelength_mm) +
@@ -299,12 +257,8 @@ void TextileSceneOptions::Check() const {
   CheckRgb("warp_rgb", warp_rgb);
   CheckRgb("weft_rgb", weft_rgb);
   CheckRgb("table_rgb", table_rgb);
-  if (!(color_variation >= 0 && color_variation <= 0.5)) {
-    throw FieldError(kOptions, "color_variation", color_variation, "must lie in [0, 0.5]");
-  }
-  if (!(gap_darkening >= 0 && gap_darkening <= 1)) {
-    throw FieldError(kOptions, "gap_darkening", gap_darkening, "must lie in [0, 1]");
-  }
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "color_variation", color_variation, 0, 0.5);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "gap_darkening", gap_darkening, 0, 1);
   if (material != SurfaceMaterial::kLambert && material != SurfaceMaterial::kCloth &&
       material != SurfaceMaterial::kSatin) {
     throw FieldError(kOptions, "material", static_cast<int>(material), "must be kLambert, kCloth or kSatin");
@@ -313,18 +267,10 @@ void TextileSceneOptions::Check() const {
   CheckThreadBrdf("cloth_weft", cloth_weft);
   CheckThreadBrdf("satin_warp", satin_warp);
   CheckThreadBrdf("satin_weft", satin_weft);
-  if (!(material_variation >= 0 && material_variation <= 0.5)) {
-    throw FieldError(kOptions, "material_variation", material_variation, "must lie in [0, 0.5]");
-  }
-  if (!(fibre_tilt_deg >= 0 && fibre_tilt_deg <= 20)) {
-    throw FieldError(kOptions, "fibre_tilt_deg", fibre_tilt_deg, "must lie in [0, 20]");
-  }
-  if (!(fibre_diameter_mm > 0 && fibre_diameter_mm <= 0.1)) {
-    throw FieldError(kOptions, "fibre_diameter_mm", fibre_diameter_mm, "must lie in (0, 0.1] mm");
-  }
-  if (!(fibre_wavelength_mm > 0) || !std::isfinite(fibre_wavelength_mm)) {
-    throw FieldError(kOptions, "fibre_wavelength_mm", fibre_wavelength_mm, "must be finite and > 0");
-  }
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "material_variation", material_variation, 0, 0.5);
+  SCANBENCH_REQUIRE_GE_LE(kOptions, "fibre_tilt_deg", fibre_tilt_deg, 0, 20);
+  SCANBENCH_REQUIRE_GT_LE(kOptions, "fibre_diameter_mm", fibre_diameter_mm, 0, 0.1, "mm");
+  SCANBENCH_REQUIRE_FINITE_GT(kOptions, "fibre_wavelength_mm", fibre_wavelength_mm, 0);
 }
 
 ThreadBrdf TextileScene::ThreadBrdfOf(bool warp, int64_t index) const {
