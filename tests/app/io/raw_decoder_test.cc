@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <random>
 #include <tuple>
 
@@ -353,15 +354,21 @@ TEST(RawDecoderColorTest, CameraCalibrationMultipliesTheColorMatrix) {
 
 // ---- a real camera file -----------------------------------------------------
 
-// No redistributable camera RAW of a ColorChecker small enough to vendor was
-// found (tests/data/raw/README.md lists where we looked and the candidates);
-// point SCANBENCH_REAL_CHART_RAW at one (e.g. a CC0 file from raw.pixls.us) to
-// check the decoder's colour data on a real camera.
+// A real camera's RAW of a ColorChecker: ../shared/data/raw/colorchart.dng (a
+// Canon EOS 550D photo saved as DNG; its README gives source and licence), or
+// the file SCANBENCH_REAL_CHART_RAW names (e.g. a NEF of the bench's camera).
+// Nothing is vendored (tests/data/raw/README.md).
+std::filesystem::path RealChartRaw() {
+  const char* given = std::getenv("SCANBENCH_REAL_CHART_RAW");
+  if (given != nullptr && *given != '\0') return given;
+  return std::filesystem::path(SCANBENCH_SOURCE_DIR) / ".." / "shared" / "data" / "raw" / "colorchart.dng";
+}
+
 TEST(RawDecoderRealFileTest, RealCameraRawHasBayerDataAndAColorMatrix) {
-  const char* path = std::getenv("SCANBENCH_REAL_CHART_RAW");
-  if (path == nullptr || *path == '\0') {
-    GTEST_SKIP() << "SCANBENCH_REAL_CHART_RAW is not set: no real camera RAW is vendored "
-                    "(see tests/data/raw/README.md)";
+  const std::filesystem::path path = RealChartRaw();
+  if (!std::filesystem::exists(path)) {
+    GTEST_SKIP() << path << " is not there and SCANBENCH_REAL_CHART_RAW is not set: no real camera RAW is "
+                    "vendored (see tests/data/raw/README.md)";
   }
   const DecodedRaw decoded = DecodeRawFileWithInfo(path);
   EXPECT_FALSE(decoded.make.empty());
