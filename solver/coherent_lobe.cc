@@ -259,7 +259,7 @@ class BlockRefiner {
       for (int x = x0; x < x1 && !any; ++x) any = Supported(x, y);
     }
     if (!any) return false;
-    const tiled::TileLights kind = lights_.Classify(tiled::LightSharing::kWithinTolerance, x0, y0, x1, y1);
+    const tiled::TileLights kind = lights_.Classify(LightSharing::kWithinTolerance, x0, y0, x1, y1);
     const tiled::AccumulateSpanFn accumulate =
         kind == tiled::TileLights::kUniform ? accumulate_uniform_ : accumulate_exact_;
     tiled::Span span;
@@ -273,7 +273,7 @@ class BlockRefiner {
     tiled::Span bayer_span = span;
     tiled::AccumulateSpanFn bayer_accumulate = nullptr;
     if (bayer_job_ != nullptr) {
-      bayer_span.lights = bayer_lights_->Classify(tiled::LightSharing::kWithinTolerance, x0, y0, x1, y1);
+      bayer_span.lights = bayer_lights_->Classify(LightSharing::kWithinTolerance, x0, y0, x1, y1);
       bayer_span.buffers = bayer_buffers_.get();
       bayer_span.shared = &bayer_lights_->shared();
       bayer_accumulate = tiled::ChooseAccumulator(true, false, bayer_span.lights == tiled::TileLights::kUniform);

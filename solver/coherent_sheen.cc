@@ -246,7 +246,7 @@ class BlockRefiner {
   // block for the fit): classified once per extent.
   void ClassifyLights(int ya, int yb) {
     if (classified_ && ya >= classified_y0_ && yb <= classified_y1_) return;
-    kind_ = lights_.Classify(tiled::LightSharing::kWithinTolerance, x0_, ya, x1_, yb);
+    kind_ = lights_.Classify(LightSharing::kWithinTolerance, x0_, ya, x1_, yb);
     classified_ = true;
     classified_y0_ = ya, classified_y1_ = yb;
   }

@@ -77,9 +77,6 @@ enum class TileLights {
   kExact,         // evaluated at every pixel
 };
 
-// What a method allows the light sampler to do with a tile (the method table's).
-using scanbench::LightSharing;
-
 // Per-thread buffers of one span (up to `capacity` pixels of a row), planar:
 // per light and pixel at [(3k + c) * capacity + i] or [k * capacity + i].
 struct SpanBuffers {

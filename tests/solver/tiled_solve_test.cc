@@ -21,7 +21,6 @@ namespace {
 
 using Method = PhotometricSolverOptions::Method;
 using testing::InputFor;
-using tiled::LightSharing;
 using tiled::TileLights;
 
 SyntheticScene SceneWith(SyntheticSceneOptions::Lights lights) {
