@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "solver/network_kernels.h"
 #include "solver/span_kernels.h"
 
 namespace scanbench {
@@ -96,4 +97,16 @@ const SpanKernels& SpanKernelsFor(KernelIsa isa) {
 }
 
 }  // namespace tiled
+
+namespace network {
+
+const NetworkKernels& NetworkKernelsFor(KernelIsa isa) {
+#ifdef SCANBENCH_ISA_VARIANTS
+  return KernelsOfIsa(isa, isa_baseline::kKernels, &isa_avx2::kKernels, &isa_avx512::kKernels);
+#else
+  return KernelsOfIsa<NetworkKernels>(isa, isa_baseline::kKernels, nullptr, nullptr);
+#endif
+}
+
+}  // namespace network
 }  // namespace scanbench

@@ -19,9 +19,12 @@ constexpr MethodPass kAdaptivePasses[] = {
     {SolverPass::kCoherentLobe, &Options::adaptive_coherent_lobe, "adaptive_coherent_lobe"},
     {SolverPass::kCoherentSheen, &Options::adaptive_coherent_sheen, "adaptive_coherent_sheen"},
     {SolverPass::kBayerBlend},
+    {SolverPass::kLearnedNormals, nullptr, "adaptive_learned"},
 };
 // diffuse_lobe's per-pixel fit is the lobe fit.
 constexpr MethodPass kDiffuseLobePasses[] = {{SolverPass::kPixelLobe}};
+// learned's per-pixel fit is the network's.
+constexpr MethodPass kLearnedPasses[] = {{SolverPass::kLearnedNormals}};
 
 // One row per method, in the enum's order (checked below).
 constexpr PhotometricMethodRow kMethods[] = {
@@ -46,6 +49,10 @@ constexpr PhotometricMethodRow kMethods[] = {
     {Method::kDiffuseLobe, "diffuse_lobe",
      "diffuse plus specular lobe per pixel: uses highlights and sheen, writes a specular map", LightSharing::kNever,
      kDiffuseLobePasses, tiled::MakeDiffuseLobeKernel},
+    {Method::kLearned, "learned",
+     "a network trained on the project's own renders reads each pixel's lights as a set: any light count, "
+     "highlights, sheen and shadows; writes its expected error",
+     LightSharing::kNever, kLearnedPasses, tiled::MakeLearnedKernel},
 };
 
 // Row i is method i: the lookup is an index, and a row out of place does not
@@ -74,6 +81,10 @@ const PhotometricMethodRow& PhotometricMethodRowOf(Method method) {
 bool MethodRunsPass(const PhotometricSolverOptions& options, SolverPass pass) {
   // The shared lobe refines the per-pixel lobe's fits.
   if (pass == SolverPass::kCoherentLobe && !MethodRunsPass(options, SolverPass::kPixelLobe)) return false;
+  // adaptive's network is behind a three-way option, not a flag.
+  if (pass == SolverPass::kLearnedNormals && options.method == Method::kAdaptive) {
+    return options.adaptive_learned != Options::LearnedUse::kNever;
+  }
   for (const MethodPass& listed : PhotometricMethodRowOf(options.method).passes) {
     if (listed.pass == pass) return listed.option == nullptr || options.*listed.option;
   }

@@ -36,6 +36,7 @@ enum class SolverPass : uint8_t {
   kCoherentLobe,   // one anisotropic lobe shared per block (RefineCoherentLobe); RGB input, needs kPixelLobe
   kCoherentSheen,  // one velvet sheen shared per block and albedo group (RefineCoherentSheen); few lights
   kBayerBlend,     // RAW sessions: normals blended with a Bayer-domain solve's (BandedSolveOptions::bayer_blend)
+  kLearnedNormals, // the learned network's normals (solver/normal_network.h): the learned kernel, the default's flagged pixels
 };
 
 // A pass a method runs, and the option that turns it on.

@@ -16,6 +16,7 @@
 #include "solver/coherent_lobe.h"
 #include "solver/coherent_sheen.h"
 #include "solver/cpu_dispatch.h"
+#include "solver/normal_network.h"
 #include "solver/photometric_methods.h"
 #include "solver/pixel_kernels.h"
 #include "solver/tile_lights.h"
@@ -216,6 +217,7 @@ tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosai
   const int width = job.field->width(), height = job.field->height();
   PhotometricSolution* solution = job.solution;
   const bool lobe = job.options->compute_specular && MethodRunsPass(*job.options, SolverPass::kPixelLobe);
+  const bool learned = job.with_confidence && MethodRunsPass(*job.options, SolverPass::kLearnedNormals);
   // The largest first, so that the threads finish together.
   const std::function<void()> fills[] = {
       [&] {
@@ -227,6 +229,7 @@ tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosai
       [&] { Reset(lobe, width, height, 2, 0.0f, &solution->specular); },
       [&] { Reset(job.with_confidence, width, height, 1, 0.0f, &solution->condition_number); },
       [&] { Reset(job.with_confidence, width, height, 1, 0.0f, &solution->residual); },
+      [&] { Reset(learned, width, height, 1, 0.0f, &solution->learned_error_deg); },
       [&] { Reset(job.bayer, width, height, 1, 0.0f, albedo_mosaic); },
       [&] {
         Reset(true, width, height, 1, static_cast<uint8_t>(PixelStatus::kOutsideRegion), &solution->status);
@@ -395,6 +398,10 @@ PhotometricSolverSummary RunSolve(const PhotometricSolverOptions& options, const
   }
   summary.pixels_by_path[0] = summary.num_pixels;
   for (int p = 1; p < kNumSolvePaths; ++p) summary.pixels_by_path[0] -= summary.pixels_by_path[p];
+  if (summary.pixels_by_path[static_cast<int>(SolvePath::kLearned)] > 0) {
+    summary.learned_model = NormalNetwork::Embedded().source();
+    summary.learned_model_sha256 = NormalNetwork::Embedded().sha256();
+  }
   summary.seconds = SecondsSince(start);
   if (cancelled) {
     summary.SetCancelled(tiles_done < num_tiles ? "cancelled after " + std::to_string(tiles_done) + " of " +
@@ -437,6 +444,7 @@ const char* SolvePathName(SolvePath path) {
     case SolvePath::kInterpolatedLights: return "interpolated_lights";
     case SolvePath::kExactLights: return "exact_lights";
     case SolvePath::kRobust: return "robust";
+    case SolvePath::kLearned: return "learned";
   }
   return "unknown";
 }
@@ -462,6 +470,7 @@ void PhotometricSolverOptions::Check() const {
   SCANBENCH_REQUIRE_GE_LE(kOptions, "robust_max_iterations", robust_max_iterations, 1, 10000);
   SCANBENCH_REQUIRE_GE_LT(kOptions, "robust_dark_fraction", robust_dark_fraction, 0, 1);
   SCANBENCH_REQUIRE_GE(kOptions, "adaptive_robust_residual", adaptive_robust_residual, 0);
+  SCANBENCH_REQUIRE_GE(kOptions, "adaptive_learned_max_lights", adaptive_learned_max_lights, 0);
 }
 
 std::string PhotometricSolverSummary::BriefReport() const {
@@ -490,6 +499,7 @@ std::string PhotometricSolverSummary::BriefReport() const {
         << Fixed(bayer_blend_mean_weight, 2) << "; Bayer-domain solve on " << pixels_bayer_solved << " px)";
   }
   if (pixels_bayer_lobe > 0) out << "; " << pixels_bayer_lobe << " shared-lobe normals re-solved from the raw samples";
+  if (!learned_model.empty()) out << "; network " << learned_model << " (sha256 " << learned_model_sha256.substr(0, 12) << ")";
   if (tiles_skipped > 0) out << "; " << tiles_skipped << " of " << num_tiles << " tiles outside the region";
   if (!message.empty()) out << " (" << message << ")";
   return out.str();

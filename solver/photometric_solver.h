@@ -45,8 +45,9 @@ enum class SolvePath : uint8_t {
   kInterpolatedLights = 2,  // per-pixel solve, lights interpolated over the tile
   kExactLights = 3,         // per-pixel solve, lights evaluated at the pixel
   kRobust = 4,              // robust re-solve (IRLS or sparse Bayesian) gave the result
+  kLearned = 5,             // the learned network's normal (solver/normal_network.h) gave the result
 };
-inline constexpr int kNumSolvePaths = 5;
+inline constexpr int kNumSolvePaths = 6;
 const char* SolvePathName(SolvePath path);
 
 // Whether a pixel's specular lobe (PhotometricSolution::specular) was
@@ -71,6 +72,7 @@ struct PhotometricSolverOptions {
     kRobustIrls,
     kSparseBayesian,
     kDiffuseLobe,
+    kLearned,               // the network trained on the project's renders (issue #33)
   };
   enum class RobustLoss {
     kTukey,   // biweight: samples beyond the width get weight 0 (hard rejection)
@@ -127,6 +129,23 @@ struct PhotometricSolverOptions {
   // with a lobe are refined by one anisotropic lobe shared per block and albedo
   // group (RefineCoherentLobe, solver/coherent_lobe.h), where BIC prefers it.
   bool adaptive_coherent_lobe = true;
+  // adaptive: where its robust pass runs, the learned network's normal
+  // (solver/normal_network.h), refined on the samples that agree with it,
+  // instead of the robust fit's: kNever, kUnsupportedLobe (where the lobe fit
+  // keeps no lobe: the pixel would get the robust Lambertian fit) or kFlagged
+  // (every pixel of the robust pass).
+  // Only with at most adaptive_learned_max_lights lights: at DiLiGenT's 96 the
+  // network lost to the robust fit on four of five validation objects (a limit
+  // set after looking at them: docs/solver.md, "Learned normals").
+  enum class LearnedUse : uint8_t { kNever, kUnsupportedLobe, kFlagged };
+  LearnedUse adaptive_learned = LearnedUse::kUnsupportedLobe;
+  int adaptive_learned_max_lights = 24;
+  // learned, and adaptive's network pixels: the network's normal re-solved by
+  // least squares on the samples that agree with it, where that stays near it.
+  // Off: on the synthetic validation sets it helps only Lambertian pixels
+  // (1.93 -> 1.34 deg) and costs the specular and sheen ones more
+  // (scripts/train/evaluate_refit.py; docs/solver.md, "Learned normals").
+  bool learned_refine = false;
 
   // adaptive: pixels left to least squares whose residual carries a velvet
   // sheen's pattern (SheenPatternInResidual) are re-solved with the diffuse +
@@ -246,6 +265,10 @@ struct PhotometricSolution {
   // 1 where the pixel was re-solved under a velvet sheen shared by its block
   // (adaptive_coherent_sheen), else 0; empty unless that pass ran.
   ImageU8 coherent_sheen;
+  // The learned network's own estimate of its angular error (deg) where its
+  // normal was kept (SolvePath::kLearned), else 0; empty unless a solve with
+  // confidence ran the network.
+  ImageF learned_error_deg;
 };
 
 struct PhotometricSolverSummary : AlgorithmSummary {
@@ -273,6 +296,10 @@ struct PhotometricSolverSummary : AlgorithmSummary {
   // Of the shared lobe's pixels, those whose normal is its re-solve from
   // their own raw samples (PhotometricSolverInput::lobe_mosaics, the blend).
   size_t pixels_bayer_lobe = 0;
+  // The learned network, where the solve ran it (SolverPass::kLearnedNormals):
+  // the model file it was built from and that file's SHA-256; else empty.
+  std::string learned_model;
+  std::string learned_model_sha256;
   double seconds = 0;
 
   size_t num_solved() const { return pixels_by_status[0]; }

@@ -3,51 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <Eigen/Dense>
 
+#include "solver/kernel_settings.h"
+#include "solver/learned_kernel.h"
 #include "solver/photometric_methods.h"
 
 namespace scanbench::tiled {
 namespace {
-
-// What every kernel takes from the options.
-struct KernelSettings {
-  explicit KernelSettings(const SolveJob& job)
-      : options(*job.options),
-        limits{options.min_lights, options.max_condition_number, options.min_albedo},
-        with_albedo(job.with_albedo && !job.bayer),
-        with_confidence(job.with_confidence),
-        num_lights(job.num_lights),
-        field(job.field),
-        kernels(&KernelsOf(job)),
-        pixel_lobe(MethodRunsPass(options, SolverPass::kPixelLobe)),
-        pixel_sheen(MethodRunsPass(options, SolverPass::kPixelSheen)) {
-    robust.loss = options.robust_loss;
-    robust.width = options.robust_loss_width;
-    robust.min_scale = options.robust_min_scale;
-    robust.max_iterations = options.robust_max_iterations;
-    robust.dark_fraction = options.robust_dark_fraction;
-  }
-
-  const PhotometricSolverOptions& options;
-  PixelFitLimits limits;
-  RobustFitOptions robust;
-  bool with_albedo;  // RGB albedo solves
-  bool with_confidence;
-  int num_lights;
-  const LightField* field;  // for the view direction of the lobe fits
-  const SpanKernels* kernels;
-  bool pixel_lobe;   // adaptive: the robust re-solve is the lobe fit (else IRLS)
-  bool pixel_sheen;  // adaptive: the sheen fit where the residual has its pattern
-
-  // Unit direction from pixel (x, y) towards the camera.
-  Eigen::Vector3d View(int x, int y) const {
-    float view[3];
-    field->ViewDirection(x, y, view);
-    return Eigen::Vector3d(view[0], view[1], view[2]);
-  }
-};
 
 // ---------------------------------------------------------------------------
 // jacobi_svd, qr, robust_irls, sparse_bayesian, diffuse_lobe: each pixel's
@@ -407,7 +372,16 @@ class NormalEquationsKernel final : public PixelKernel {
 class AdaptiveKernel final : public PixelKernel {
  public:
   AdaptiveKernel(const KernelSettings& settings, int capacity)
-      : settings_(settings), solve_(settings, capacity), samples_(settings.num_lights), refitted_(capacity, 0) {}
+      : settings_(settings),
+        solve_(settings, capacity),
+        samples_(settings.num_lights),
+        refitted_(capacity, 0),
+        flagged_(capacity, 0) {
+    if (settings_.options.adaptive_learned != PhotometricSolverOptions::LearnedUse::kNever &&
+        settings_.num_lights <= settings_.options.adaptive_learned_max_lights) {
+      learned_.emplace(settings_, capacity);
+    }
+  }
 
   // The least-squares fits go out in one StoreFits after the loop, except
   // where a refit replaced them (refitted_).
@@ -417,6 +391,11 @@ class AdaptiveKernel final : public PixelKernel {
     const SpanFits& fits = solve_.fits();
     const uint8_t solved = static_cast<uint8_t>(PixelStatus::kSolved);
     bool any_refitted = false;
+    if (learned_) {
+      // The network's normals for the whole span's flagged pixels in one batch.
+      for (int i = 0; i < span.count; ++i) flagged_[i] = span.Wanted(i) && WantsRobust(span, i, fits) ? 1 : 0;
+      learned_->Predict(span, flagged_.data());
+    }
     for (int i = 0; i < span.count; ++i) {
       refitted_[i] = 0;
       if (!span.Wanted(i)) continue;
@@ -433,6 +412,14 @@ class AdaptiveKernel final : public PixelKernel {
                 ? FitDiffuseLobe(samples_, settings_.View(x, span.y), settings_.with_albedo, settings_.limits,
                                  settings_.robust)
                 : FitRobustIrls(samples_, settings_.with_albedo, settings_.limits, settings_.robust);
+        if (learned_ && learned_->Predicted(i) && TakesLearned(refit)) {
+          const PixelFit learned = learned_->FinishFit(samples_, i, settings_.options.learned_refine);
+          if (learned.status == PixelStatus::kSolved) {
+            out->Store(learned, x, span.y, SolvePath::kLearned);
+            out->StoreExpectedError(learned_->ExpectedErrorDeg(i), x, span.y);
+            continue;
+          }
+        }
         if (refit.status == PixelStatus::kSolved || fit.status != PixelStatus::kSolved) {
           out->Store(refit, x, span.y, SolvePath::kRobust);
           continue;
@@ -465,10 +452,18 @@ class AdaptiveKernel final : public PixelKernel {
                                             fits.residual[i] > settings_.options.adaptive_robust_residual);
   }
 
+  // Whether the network's normal replaces the robust pass's fit `refit`.
+  bool TakesLearned(const PixelFit& refit) const {
+    return settings_.options.adaptive_learned == PhotometricSolverOptions::LearnedUse::kFlagged ||
+           refit.specular_status != SpecularStatus::kEstimated;
+  }
+
   const KernelSettings settings_;
   NormalEquationsSolve solve_;
   PixelSamples samples_;
   std::vector<uint8_t> refitted_;  // 1 where the loop stored the pixel itself
+  std::vector<uint8_t> flagged_;   // 1 where the robust pass runs (the network's pixels)
+  std::optional<LearnedSpanNormals> learned_;  // with adaptive_learned
 };
 
 }  // namespace

@@ -36,5 +36,6 @@ std::unique_ptr<PixelKernel> MakeQrKernel(const SolveJob& job, int capacity);
 std::unique_ptr<PixelKernel> MakeRobustIrlsKernel(const SolveJob& job, int capacity);
 std::unique_ptr<PixelKernel> MakeSparseBayesianKernel(const SolveJob& job, int capacity);
 std::unique_ptr<PixelKernel> MakeDiffuseLobeKernel(const SolveJob& job, int capacity);
+std::unique_ptr<PixelKernel> MakeLearnedKernel(const SolveJob& job, int capacity);  // learned_kernel.cc
 
 }  // namespace scanbench::tiled

@@ -161,6 +161,10 @@ class PixelWriter {
   // wanted pixel i of the span with skip[i] == 0 (skip may be null), one
   // image at a time.
   void StoreFits(const SpanFits& fits, const Span& span, const uint8_t* skip);
+  // The learned network's expected error of pixel (x, y), where the solution has the map.
+  void StoreExpectedError(float degrees, int x, int y) {
+    if (!job_.solution->learned_error_deg.empty()) job_.solution->learned_error_deg(x, y) = degrees;
+  }
   const std::array<size_t, kNumSolvePaths>& pixels_by_path() const { return pixels_by_path_; }
 
  private:

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <string>
 
 #include "app/sim/sensor_color.h"
@@ -75,6 +76,22 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
   command.add_flag("--no-coherent-sheen", [&options](std::int64_t) { options.adaptive_coherent_sheen = false; },
                    "adaptive: no velvet sheen shared per block and albedo group after the per-pixel fits "
                    "(the least-squares pixels keep their Lambertian result)");
+  command.add_option("--learned", options.adaptive_learned,
+                     "adaptive, at most --learned-max-lights lights: where its robust pass runs, take the learned "
+                     "network's normal: never, unsupported (where the lobe fit keeps no lobe) or flagged (every "
+                     "pixel of the robust pass)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, PhotometricSolverOptions::LearnedUse>{
+              {"never", PhotometricSolverOptions::LearnedUse::kNever},
+              {"unsupported", PhotometricSolverOptions::LearnedUse::kUnsupportedLobe},
+              {"flagged", PhotometricSolverOptions::LearnedUse::kFlagged}},
+          CLI::ignore_case));
+  command.add_option("--learned-max-lights", options.adaptive_learned_max_lights,
+                     "adaptive: the network runs on solves of at most this many lights")
+      ->capture_default_str();
+  command.add_flag("--learned-refine", options.learned_refine,
+                   "learned and adaptive's network pixels: re-solve the network's normal by least squares on the "
+                   "samples that agree with it (off by default: it helps Lambertian pixels only)");
   command.add_flag("--sheen", options.adaptive_sheen,
                    "adaptive: re-solve pixels whose least-squares residual carries a velvet sheen's pattern with "
                    "the diffuse + velvet sheen model (off by default: it fits noise on Lambertian scenes)");

@@ -8,6 +8,7 @@
 #include "app/cli/run_controller.h"
 #include "app/controllers/dataset_controller.h"
 #include "app/controllers/solver_report_controller.h"
+#include "app/controllers/training_set_controller.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -47,6 +48,18 @@ int SolverReportCommand(const SolverReportOptions& options) {
   return code;
 }
 
+struct TrainingSetState {
+  fs::path output;
+  ObservationSetOptions options;
+};
+
+int TrainingSetCommand(const TrainingSetState& state) {
+  TrainingSetController controller(state.output, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) std::cout << controller.summary().BriefReport() << "\nWritten: " << state.output.string() << "\n";
+  return code;
+}
+
 }  // namespace
 
 void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
@@ -79,12 +92,37 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   report_command->add_option("--diligent", report->diligent_dir, "Folder holding ballPNG and bearPNG")
       ->capture_default_str();
+  report->diligent_crop8_dir = "../shared/data/diligent_crop8";
+  report_command->add_option("--diligent-crop8", report->diligent_crop8_dir,
+                             "Folder holding the 8-bit crops buddhaPNG, gobletPNG and pot1PNG")
+      ->capture_default_str();
   report_command->add_option("--threads", report->num_threads, "Solver threads (0 = all cores)")->capture_default_str();
   report_command->add_option("--analytic-size", report->analytic_size, "Side of the analytic sphere scenes, pixels")
       ->capture_default_str();
   report_command->add_flag("--no-16mp", [report](std::int64_t) { report->include_16mp = false; },
                            "Leave out the 16 MP scene (minutes, about 2 GB)");
   report_command->callback([report, exit_code] { Guarded(exit_code, [&] { return SolverReportCommand(*report); }); });
+
+  auto training = std::make_shared<TrainingSetState>();
+  CLI::App* training_command = app.add_subcommand(
+      "training-set",
+      "Render per-pixel observation sets (normal, material, lights, what the solver reads) from the simulator's "
+      "shading models: the learned method's training data (scripts/train/train_normal_net.py)");
+  training_command->add_option("output", training->output, "Observation file to write")->required();
+  training_command->add_option("--seed", training->options.seed, "Seed: every set is a function of it and its index")
+      ->capture_default_str();
+  training_command->add_option("--sets", training->options.num_sets, "Number of sets")->capture_default_str();
+  training_command->add_option("--min-lights", training->options.min_lights, "Fewest lights of a distant set")
+      ->capture_default_str();
+  training_command->add_option("--max-lights", training->options.max_lights, "Most lights of a distant set")
+      ->capture_default_str();
+  training_command->add_option("--near-field-share", training->options.near_field_share,
+                               "Share of sets lit by the scanner's near-field LEDs")
+      ->capture_default_str();
+  training_command->add_option("--threads", training->options.num_threads, "Threads (0 = all cores)")
+      ->capture_default_str();
+  training_command->callback(
+      [training, exit_code] { Guarded(exit_code, [&] { return TrainingSetCommand(*training); }); });
 }
 
 }  // namespace scanbench

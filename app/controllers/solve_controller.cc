@@ -26,6 +26,7 @@
 #include "core/parallel_for.h"
 #include "core/summary.h"
 #include "pipeline/banded_solve.h"
+#include "solver/normal_network.h"
 #include "solver/photometric_methods.h"
 
 namespace scanbench {
@@ -76,6 +77,14 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
           {"adaptive_sheen", solver.adaptive_sheen}};
   if (MethodRunsPass(solver, SolverPass::kCoherentSheen)) {
     json["adaptive_coherent_sheen"] = 2;
+  }
+  // Only where the network runs, so that earlier results keep their
+  // fingerprints; the result then depends on the model too.
+  if (MethodRunsPass(solver, SolverPass::kLearnedNormals)) {
+    json["adaptive_learned"] = static_cast<int>(solver.adaptive_learned);
+    json["adaptive_learned_max_lights"] = solver.adaptive_learned_max_lights;
+    json["learned_refine"] = solver.learned_refine;
+    json["learned_model_sha256"] = NormalNetwork::Embedded().sha256();
   }
   return json;
 }
@@ -414,7 +423,7 @@ GroundTruthEvaluation SessionGroundTruthEvaluation(const fs::path& session_dir, 
 // A tripwire (x86-64, libstdc++): a new option must be sorted into what changes the
 // result (then into the text below) or not (then only this number changes).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(PhotometricSolverOptions) == 144 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 312,
+static_assert(sizeof(PhotometricSolverOptions) == 152 && sizeof(RawDevelopOptions) == 16 && sizeof(SolveOptions) == 320,
               "an option was added or removed: update SolveInputsCanonicalText, then these sizes");
 #endif
 

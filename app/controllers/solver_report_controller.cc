@@ -155,13 +155,21 @@ struct ReportRun {
   bool bayer = false;
 };
 
-std::vector<ReportRun> RunsFor(const ReportScene& scene, bool diligent, int num_threads) {
+std::vector<ReportRun> RunsFor(const ReportScene& scene, bool diligent, bool huge, int num_threads) {
   std::vector<ReportRun> runs;
   for (const PhotometricMethodRow& method : PhotometricMethods()) {
     if (NeedsUniformLightField(method) && !scene.field->IsUniform()) continue;
+    // The network on every pixel of 16 MP takes minutes (docs/solver.md, "Learned normals"): left out there.
+    if (huge && method.method == Method::kLearned) continue;
     PhotometricSolverOptions options;
     options.method = method.method;
     runs.push_back({method.name, options});
+    if (method.method == Method::kAdaptive && scene.field->num_lights() <= options.adaptive_learned_max_lights) {
+      // The default without its network, where the network runs: what it adds.
+      PhotometricSolverOptions never = options;
+      never.adaptive_learned = PhotometricSolverOptions::LearnedUse::kNever;
+      runs.push_back({"adaptive, no network (--learned never)", never});
+    }
   }
   if (diligent) {
     // The benchmark's least-squares baseline: every sample kept.
@@ -268,10 +276,15 @@ std::vector<SceneBuilder> SceneBuilders(const SolverReportOptions& options, std:
   }
   // Every light (the benchmark's setting), then 10 chosen like the rig's LED
   // rings (the scanner's regime, issue #13).
+  // Each object of ../shared/data: the 16-bit ball and bear, the 8-bit crops.
+  const std::pair<const fs::path*, const char*> objects[] = {
+      {&options.diligent_dir, "ballPNG"},          {&options.diligent_dir, "bearPNG"},
+      {&options.diligent_crop8_dir, "buddhaPNG"}, {&options.diligent_crop8_dir, "gobletPNG"},
+      {&options.diligent_crop8_dir, "pot1PNG"}};
   for (int ring_lights : {0, kReportRingLights}) {
-    for (const char* object : {"ballPNG", "bearPNG"}) {
-      const fs::path folder = options.diligent_dir / object;
-      if (!options.diligent_dir.empty() && fs::is_directory(folder)) {
+    for (const auto& [dir, object] : objects) {
+      const fs::path folder = *dir / object;
+      if (!dir->empty() && fs::is_directory(folder)) {
         builders.push_back({"diligent",
                             DiligentSceneName(object, ring_lights > 0 ? ring_lights : kDiligentLights, ring_lights > 0),
                             [folder, ring_lights] { return DiligentScene(folder, ring_lights); }});
@@ -427,7 +440,8 @@ void SolverReportController::Run() {
   for (size_t b = 0; b < builders.size(); ++b) {
     BeginStage("build scene " + std::to_string(b + 1) + "/" + std::to_string(builders.size()));
     const ReportScene scene = builders[b].build();
-    for (const ReportRun& run : RunsFor(scene, builders[b].kind == "diligent", options_.num_threads)) {
+    for (const ReportRun& run :
+         RunsFor(scene, builders[b].kind == "diligent", builders[b].kind == "16mp", options_.num_threads)) {
       const std::string stage = scene.name.substr(0, 40) + ": " + run.label;
       PhotometricSolution solution;
       const PhotometricSolverSummary solver = SolveScene(scene, run, &solution, StageCallback(stage));

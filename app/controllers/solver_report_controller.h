@@ -20,6 +20,7 @@ namespace scanbench {
 struct SolverReportOptions {
   std::filesystem::path output_dir;      // created if missing; the three files are replaced
   std::filesystem::path diligent_dir;    // holds ballPNG, bearPNG; empty or missing = skipped
+  std::filesystem::path diligent_crop8_dir;  // holds buddhaPNG, gobletPNG, pot1PNG (8-bit crops); empty or missing = skipped
   bool include_16mp = true;              // the 4928 x 3264, 10-light scene (about 2 GB, minutes)
   int num_threads = 0;                   // solver threads; 0 = all cores, [0, 256]
   int analytic_size = 512;               // side of the analytic sphere scenes, pixels, [64, 4096]

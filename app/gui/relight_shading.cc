@@ -32,7 +32,7 @@ double SmithSchlickGeometry(double n_dot_l, double n_dot_v, double roughness) {
   return SchlickSmithG1(n_dot_l, roughness) * SchlickSmithG1(n_dot_v, roughness);
 }
 
-double SchlickFresnel(double f0, double v_dot_h) {
+double SphericalGaussianSchlickFresnel(double f0, double v_dot_h) {
   return f0 + (1 - f0) * std::exp2((-5.55473 * v_dot_h - 6.98316) * v_dot_h);
 }
 
@@ -42,7 +42,7 @@ double GgxSpecularBrdf(const Eigen::Vector3d& normal, const Eigen::Vector3d& lig
   if (n_dot_l <= 0 || n_dot_v <= 0) return 0;
   const Eigen::Vector3d half = (light + view).normalized();
   const double d = GgxDistribution(std::max(0.0, normal.dot(half)), roughness);
-  const double f = SchlickFresnel(f0, std::clamp(view.dot(half), 0.0, 1.0));
+  const double f = SphericalGaussianSchlickFresnel(f0, std::clamp(view.dot(half), 0.0, 1.0));
   const double g = SmithSchlickGeometry(n_dot_l, n_dot_v, roughness);
   return d * f * g / (4 * n_dot_l * n_dot_v);
 }

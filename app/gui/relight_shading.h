@@ -25,8 +25,9 @@ double GgxDistribution(double n_dot_h, double roughness);
 double SchlickSmithG1(double n_dot_x, double roughness);
 // G = G1(l) G1(v).
 double SmithSchlickGeometry(double n_dot_l, double n_dot_v, double roughness);
-// F = F0 + (1 - F0) 2^((-5.55473 (v·h) - 6.98316) (v·h)).
-double SchlickFresnel(double f0, double v_dot_h);
+// F = F0 + (1 - F0) 2^((-5.55473 (v·h) - 6.98316) (v·h)): UE4's spherical-Gaussian
+// approximation of Schlick's (1 - v·h)^5 (the exact one: app/sim/cloth_brdf.h).
+double SphericalGaussianSchlickFresnel(double f0, double v_dot_h);
 // The specular BRDF D F G / (4 (n·l)(n·v)), per steradian; 0 when the light
 // or the viewer is below the surface.
 double GgxSpecularBrdf(const Eigen::Vector3d& normal, const Eigen::Vector3d& light, const Eigen::Vector3d& view,

@@ -14,22 +14,19 @@ constexpr double kPi = std::numbers::pi;
 // Ashikhmin's amplitude of the inverted Gaussian, which the seed keeps.
 constexpr double kVelvetAmplitude = 4.0;
 
-// Smith's Lambda of anisotropic GGX for direction w in the (t, b, n) frame,
-// given the squared alphas.
+}  // namespace
+
 double GgxLambda(const Eigen::Vector3d& w, double alpha_t2, double alpha_b2) {
   const double wn2 = std::max(w.z() * w.z(), 1e-12);
   const double a2_tan2 = (alpha_t2 * w.x() * w.x() + alpha_b2 * w.y() * w.y()) / wn2;
   return 0.5 * (std::sqrt(1.0 + a2_tan2) - 1.0);
 }
 
-// Schlick's Fresnel: f0 + (1 - f0) (1 - cos)^5.
 double SchlickFresnel(double f0, double cos_theta) {
   const double m = 1.0 - std::clamp(cos_theta, 0.0, 1.0);
   const double m2 = m * m;
   return f0 + (1.0 - f0) * m2 * m2 * m;
 }
-
-}  // namespace
 
 const char* SurfaceMaterialName(SurfaceMaterial material) {
   switch (material) {

@@ -52,6 +52,12 @@ struct MaterialResponse {
   double specular = 0;
 };
 
+// Schlick's Fresnel: f0 + (1 - f0) (1 - cos)^5, cos clamped to [0, 1].
+double SchlickFresnel(double f0, double cos_theta);
+// Smith's Lambda of anisotropic GGX for direction w in the (t, b, n) frame,
+// given the squared alphas (Heitz 2014, eq. 86).
+double GgxLambda(const Eigen::Vector3d& w, double alpha_t2, double alpha_b2);
+
 // The velvet distribution D(h) above; cos_h = n.h.
 double VelvetDistribution(double cos_h, double alpha);
 
