@@ -22,8 +22,11 @@
 //                          lights or one a line (default 0, isotropic)
 //   K.txt                  3x3 camera matrix, pixels (rows on lines)
 //   mean_distance.txt      optional, mm from the camera to the surface plane
-//                          (z = const) the light field is evaluated on
-//                          (default: the LEDs' mean z)
+//                          (z = const) the first pass evaluates the light field
+//                          on: as in LUCES, the object's mean distance (default:
+//                          a guess from the LEDs); solve-dataset's depth
+//                          refinement then finds the distance from the images
+//                          (app/controllers/dataset_controller.h)
 //   Normal_gt.mat          optional, as above
 // Normals are solved and written in the solver frame of the DiLiGenT layout
 // (x right, y up, z towards the camera); positions convert as (x, -y, -z).
