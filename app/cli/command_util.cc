@@ -94,14 +94,16 @@ void AddDepthRefinementOptions(CLI::App& command, DepthRefinementOptions& depth)
       ->capture_default_str();
   command.add_option("--depth-anchor-percentile", depth.anchor_percentile,
                      "Depth refinement: this percentile of the integrated height is put on the table plane (solve-dataset: "
-                     "on the plane at mean_distance.txt, the object's mean distance)")
+                     "on the plane at mean_distance.txt, where the search for the distance starts unless "
+                     "--no-depth-anchor-fit)")
       ->capture_default_str();
   command.add_option("--depth-shadow-edge", depth.shadow_edge_radius_px,
                      "Depth refinement: the re-solves leave out lit samples within this many pixels of a cast "
                      "shadow of the same LED (demosaicing mixes lit and shadowed light there) [0, 10], 0 = keep them")
       ->capture_default_str();
   command.add_flag("--no-depth-refine", [&depth](std::int64_t) { depth.enabled = false; },
-                   "Keep every surface point on the table plane (the default before issue #15)");
+                   "Keep every surface point on the first pass's plane (solve: the table, the default before issue "
+                   "#15; solve-dataset: the plane at mean_distance.txt, the default before issue #33)");
 }
 
 void AddSolveOptions(CLI::App& command, SolveOptions& options) {
