@@ -5,8 +5,12 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <optional>
 #include <sstream>
+
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
 
 #include "calibration/camera_model.h"
 #include "core/field_error.h"
@@ -123,19 +127,69 @@ std::string DepthRefinementSummary::BriefReport() const {
     out << " mm, mean";
     for (size_t i = 0; i < iterations.size(); ++i) out << (i ? "/" : " ") << iterations[i].mean_move_mm;
     out << " mm";
+    if (iterations.front().scale_vs_percentile > 0) {
+      out << std::setprecision(4) << ", distance scale chosen by the residual (x the anchor percentile's)";
+      for (size_t i = 0; i < iterations.size(); ++i) out << (i ? "/" : " ") << iterations[i].scale_vs_percentile;
+      out << std::setprecision(2);
+    }
   }
   if (decision_block_px > 0) {
     out << "; first-pass height range " << first_height_range_mm << " mm (" << decision_block_px << " px blocks)";
   }
   if (shadow_edge_samples > 0) out << "; " << shadow_edge_samples << " shadow-edge samples left out";
+  if (shadow_edge_kept_pixels > 0) {
+    out << " (" << shadow_edge_kept_pixels << " px the masks left unsolvable solved with them)";
+  }
   out << "; stopped: " << stop_reason;
   if (!message.empty() && termination != Termination::kSuccess) out << " (" << message << ")";
   out << ", " << std::setprecision(2) << seconds << " s";
   return out.str();
 }
 
+std::string DepthRefinementOptions::ReportJson() const {
+  const nlohmann::json json = {{"enabled", enabled},
+                               {"max_iterations", max_iterations},
+                               {"tolerance_mm", tolerance_mm},
+                               {"min_height_range_mm", min_height_range_mm},
+                               {"anchor_percentile", anchor_percentile},
+                               {"shadow_edge_radius_px", shadow_edge_radius_px},
+                               {"shadow_edge_level", shadow_edge_level}};
+  // Only when set: `scanbench solve` never sets it, and its inputs'
+  // fingerprints (which hold these options) stay what they were.
+  if (anchor_by_residual) {
+    nlohmann::json with_fit = json;
+    with_fit["anchor_by_residual"] = true;
+    return with_fit.dump();
+  }
+  return json.dump();
+}
+
+std::string DepthRefinementSummary::ReportJson(const DepthRefinementOptions& options) const {
+  nlohmann::json list = nlohmann::json::array();
+  for (const DepthIteration& it : iterations) {
+    list.push_back({{"max_move_mm", it.max_move_mm},
+                    {"mean_move_mm", it.mean_move_mm},
+                    {"p99_move_mm", it.p99_move_mm},
+                    {"height_range_mm", it.height_range_mm},
+                    {"seconds", it.seconds}});
+    if (it.scale_vs_percentile > 0) list.back()["scale_vs_percentile"] = it.scale_vs_percentile;
+  }
+  const nlohmann::json json = {{"enabled", options.enabled},
+                               {"refined", refined},
+                               {"iterations", list},
+                               {"first_height_range_mm", first_height_range_mm},
+                               {"decision_block_px", decision_block_px},
+                               {"shadow_edge_samples", shadow_edge_samples},
+                               {"shadow_edge_kept_pixels", shadow_edge_kept_pixels},
+                               {"stop_reason", stop_reason},
+                               {"seconds", seconds},
+                               {"message", BriefReport()}};
+  return json.dump();
+}
+
 ImageF AnchoredHeightFromSolution(const DepthRefinementOptions& options, const PhotometricSolution& solution,
-                                  const CameraGeometry& camera) {
+                                  const CameraGeometry& camera, const DepthScaleChooser& choose_scale,
+                                  double* chosen_vs_percentile) {
   const ImageF rays = ComputeRayDirectionsInTable(camera);
   const Eigen::Vector3d centre = CameraCentreInTable(camera);
   HeightFromNormalsOptions height_options;
@@ -163,12 +217,17 @@ ImageF AnchoredHeightFromSolution(const DepthRefinementOptions& options, const P
     q.data()[i] = static_cast<float>(std::exp(double(log_t.data()[i])) / t_table);
   }
   const double q_anchor = Percentile(SolvedHeights(solution, q), 100.0 - options.anchor_percentile);
+  // The distance along a ray is t = t_table q f; the percentile's f = 1 / q_anchor.
+  const double percentile_factor = 1.0 / q_anchor;
+  const double factor = choose_scale ? choose_scale(solution, q, percentile_factor) : percentile_factor;
+  if (chosen_vs_percentile) *chosen_vs_percentile = factor / percentile_factor;
   ImageF height_mm(q.width(), q.height(), 1);
   for (size_t i = 0; i < q.num_pixels(); ++i) {
-    height_mm.data()[i] = static_cast<float>(centre.z() * (1.0 - q.data()[i] / q_anchor));
+    height_mm.data()[i] = static_cast<float>(centre.z() * (1.0 - q.data()[i] * factor));
   }
   return height_mm;
 }
+
 
 double SolvedHeightRangeMm(const PhotometricSolution& solution, const ImageF& height_mm) {
   const std::vector<double> heights = SolvedHeights(solution, height_mm);
@@ -432,13 +491,249 @@ std::vector<ImageU8> ShadowEdgeSampleMasks(const DepthRefinementOptions& options
   return masks;
 }
 
+DepthScaleChooser ResidualScaleChooser(const PhotometricSolverOptions& solver, const PhotometricSolverInput& input,
+                                       const std::vector<ImageU8>* masks, const std::vector<PointLight>& lights,
+                                       const CameraGeometry& camera) {
+  const size_t num_lights = input.images.size();
+  if (num_lights == 0 || num_lights != lights.size() || (masks && masks->size() != num_lights)) {
+    throw std::invalid_argument("ResidualScaleChooser: " + std::to_string(num_lights) + " images, " +
+                                std::to_string(lights.size()) + " lights" +
+                                (masks ? ", " + std::to_string(masks->size()) + " masks" : std::string()) +
+                                "; one of each per light required");
+  }
+  return [&solver, &input, masks, &lights, &camera, num_lights](const PhotometricSolution& solution, const ImageF& q,
+                                                                 double percentile_factor) {
+    const int width = q.width(), height = q.height();
+    size_t num_solved = 0;
+    for (size_t i = 0; i < q.num_pixels(); ++i) num_solved += Solved(solution, i);
+    // A regular grid of the solved pixels, at most kMaxPixels of them: the
+    // median below needs many pixels, not all.
+    constexpr size_t kMaxPixels = 16384;
+    constexpr double kQuantile = 0.5;  // the median
+    constexpr int kMinPixels = 64;
+    const int step = std::max(1, static_cast<int>(std::ceil(std::sqrt(double(num_solved) / kMaxPixels))));
+    const std::array<double, 3>& w = solver.luminance_weights;
+    struct Pixel {
+      Eigen::Vector3f table_point;
+      float q = 0;
+    };
+    std::vector<Pixel> pixels;
+    std::vector<float> samples;  // per pixel and light: RGB, or NaN when unusable
+    std::vector<float> row_points;
+    for (int y = 0; y < height; y += step) {
+      const int count = (width + step - 1) / step;
+      row_points.resize(3 * static_cast<size_t>(count));
+      ComputeTablePointsOfRow(camera, 0, step, y, count, row_points.data());
+      for (int j = 0; j < count; ++j) {
+        const size_t i = static_cast<size_t>(y) * width + static_cast<size_t>(j) * step;
+        if (!Solved(solution, i)) continue;
+        // Pixels the solve found a lobe or a sheen at: their residual is the
+        // material's, not the light field's.
+        if (!solution.specular_status.empty() &&
+            solution.specular_status.data()[i] == static_cast<uint8_t>(SpecularStatus::kEstimated)) {
+          continue;
+        }
+        if (!solution.coherent_sheen.empty() && solution.coherent_sheen.data()[i] != 0) continue;
+        int usable = 0;
+        const size_t first = samples.size();
+        for (size_t k = 0; k < num_lights; ++k) {
+          const float* rgb = &input.images[k]->data()[3 * i];
+          const double luminance = w[0] * rgb[0] + w[1] * rgb[1] + w[2] * rgb[2];
+          bool ok = luminance > solver.min_sample_value;  // as the solver: the shadow level, NaN out
+          if (k < input.sample_valid.size() && input.sample_valid[k] != nullptr) {
+            ok = ok && input.sample_valid[k]->data()[i] != 0;
+          }
+          if (masks) ok = ok && (*masks)[k].data()[i] != 0;
+          usable += ok;
+          for (int c = 0; c < 3; ++c) samples.push_back(ok ? rgb[c] : std::numeric_limits<float>::quiet_NaN());
+        }
+        // Three samples fit any normal exactly: a residual needs a fourth.
+        if (usable < 4) {
+          samples.resize(first);
+          continue;
+        }
+        pixels.push_back({Eigen::Vector3f(&row_points[3 * j]), q.data()[i]});
+      }
+    }
+    if (pixels.size() < static_cast<size_t>(kMinPixels)) return percentile_factor;
+    const Eigen::Vector3d centre = CameraCentreInTable(camera);
+    const int count = static_cast<int>(pixels.size());
+    // The median over the pixels of the relative RMS residual of the
+    // Lambertian least-squares fit, the surface points at factor f.
+    const auto median_residual = [&](double f) {
+      ImageF points(count, 1, 3);
+      for (int p = 0; p < count; ++p) {
+        const Eigen::Vector3d table = pixels[p].table_point.cast<double>();
+        const Eigen::Vector3d point = centre + f * double(pixels[p].q) * (table - centre);
+        for (int c = 0; c < 3; ++c) points.data()[3 * p + c] = static_cast<float>(point[c]);
+      }
+      const PointLightField field(lights, std::move(points), centre);
+      std::vector<float> dirs(3 * num_lights * static_cast<size_t>(count)), rgb(dirs.size());
+      field.EvaluateSpan(0, 0, count, count, dirs.data(), rgb.data());
+      std::vector<double> residuals(count, std::numeric_limits<double>::infinity());
+      // Sample k of pixel p divided as the solver divides it (each channel by
+      // the light's, then luminance); false when unusable.
+      const auto sample_of = [&](int p, size_t k, Eigen::Vector3d* dir, double* value) {
+        const float* sample = &samples[(static_cast<size_t>(p) * num_lights + k) * 3];
+        if (std::isnan(sample[0])) return false;
+        Eigen::Vector3d intensity;
+        for (int c = 0; c < 3; ++c) {
+          (*dir)[c] = dirs[(3 * k + c) * static_cast<size_t>(count) + p];
+          intensity[c] = rgb[(3 * k + c) * static_cast<size_t>(count) + p];
+        }
+        if (!(intensity.minCoeff() > 0)) return false;
+        *value = w[0] * sample[0] / intensity[0] + w[1] * sample[1] / intensity[1] + w[2] * sample[2] / intensity[2];
+        return true;
+      };
+      constexpr int kChunk = 256;
+      ParallelRows((count + kChunk - 1) / kChunk, solver.num_threads, {}, 0, 1, [&](int chunk) {
+        for (int p = chunk * kChunk; p < std::min(count, (chunk + 1) * kChunk); ++p) {
+          Eigen::Matrix3d gram = Eigen::Matrix3d::Zero();
+          Eigen::Vector3d rhs = Eigen::Vector3d::Zero(), dir;
+          double value = 0;
+          int n = 0;
+          for (size_t k = 0; k < num_lights; ++k) {
+            if (!sample_of(p, k, &dir, &value)) continue;
+            gram += dir * dir.transpose();
+            rhs += dir * value;
+            ++n;
+          }
+          if (n < 4) continue;
+          const Eigen::LDLT<Eigen::Matrix3d> ldlt(gram);
+          if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-9 * gram.trace())) continue;
+          const Eigen::Vector3d scaled_normal = ldlt.solve(rhs);
+          const double albedo = scaled_normal.norm();
+          if (!(albedo > 0)) continue;
+          double sum = 0;
+          for (size_t k = 0; k < num_lights; ++k) {
+            if (sample_of(p, k, &dir, &value)) sum += (dir.dot(scaled_normal) - value) * (dir.dot(scaled_normal) - value);
+          }
+          residuals[p] = std::sqrt(sum / n) / albedo;
+        }
+      });
+      const size_t rank = static_cast<size_t>(kQuantile * double(residuals.size() - 1));
+      std::nth_element(residuals.begin(), residuals.begin() + rank, residuals.end());
+      return residuals[rank];
+    };
+    // A grid over +-25 % of the percentile's factor (log spaced), then a
+    // golden-section search between the best point's neighbours.
+    constexpr double kRange = 0.25, kStep = 0.02, kTolerance = 5e-4;
+    const double log_f0 = std::log(percentile_factor);
+    double best_u = 0, best = std::numeric_limits<double>::infinity();
+    for (double u = -kRange; u <= kRange + 1e-12; u += kStep) {
+      const double value = median_residual(std::exp(log_f0 + u));
+      if (value < best) {
+        best = value;
+        best_u = u;
+      }
+    }
+    if (!std::isfinite(best)) return percentile_factor;
+    constexpr double kGolden = 0.6180339887498949;
+    double a = best_u - kStep, b = best_u + kStep;
+    double c = b - kGolden * (b - a), d = a + kGolden * (b - a);
+    double fc = median_residual(std::exp(log_f0 + c)), fd = median_residual(std::exp(log_f0 + d));
+    while (b - a > kTolerance) {
+      if (fc < fd) {
+        b = d, d = c, fd = fc;
+        c = b - kGolden * (b - a);
+        fc = median_residual(std::exp(log_f0 + c));
+      } else {
+        a = c, c = d, fc = fd;
+        d = a + kGolden * (b - a);
+        fd = median_residual(std::exp(log_f0 + d));
+      }
+    }
+    const double u = 0.5 * (a + b);
+    return median_residual(std::exp(log_f0 + u)) <= best ? std::exp(log_f0 + u) : std::exp(log_f0 + best_u);
+  };
+}
+
+namespace {
+
+// Pixel i of `from` into `to`, every map both hold at the same shape.
+void CopyPixel(const PhotometricSolution& from, size_t i, PhotometricSolution* to) {
+  const auto copy = [i](const auto& source, auto& target) {
+    if (source.empty() || target.empty() || source.channels() != target.channels() ||
+        source.num_pixels() != target.num_pixels()) {
+      return;
+    }
+    const int c = source.channels();
+    std::copy(source.data() + i * c, source.data() + (i + 1) * c, target.data() + i * c);
+  };
+  copy(from.normal_in_table, to->normal_in_table);
+  copy(from.albedo, to->albedo);
+  copy(from.status, to->status);
+  copy(from.lights_used, to->lights_used);
+  copy(from.condition_number, to->condition_number);
+  copy(from.residual, to->residual);
+  copy(from.solve_path, to->solve_path);
+  copy(from.specular, to->specular);
+  copy(from.specular_status, to->specular_status);
+  copy(from.coherent_sheen, to->coherent_sheen);
+}
+
+}  // namespace
+
+size_t SolveWithEdgeSamplesWhereMasksFail(const PhotometricSolverOptions& solver, const PhotometricSolverInput& input,
+                                          const std::vector<ImageU8>& masks, PhotometricSolution* solution,
+                                          PhotometricSolverSummary* summary) {
+  if (masks.size() != input.images.size()) {
+    throw std::invalid_argument("SolveWithEdgeSamplesWhereMasksFail: " + std::to_string(masks.size()) +
+                                " masks for " + std::to_string(input.images.size()) + " images");
+  }
+  const ImageU8& status = solution->status;
+  ImageU8 retry(status.width(), status.height(), 1, 0);
+  size_t num_retry = 0;
+  for (size_t i = 0; i < status.num_pixels(); ++i) {
+    const auto s = static_cast<PixelStatus>(status.data()[i]);
+    if (s == PixelStatus::kSolved || s == PixelStatus::kOutsideRegion) continue;
+    bool lost_samples = false;
+    for (size_t k = 0; k < masks.size() && !lost_samples; ++k) {
+      const bool usable = k >= input.sample_valid.size() || input.sample_valid[k] == nullptr ||
+                          input.sample_valid[k]->data()[i] != 0;
+      lost_samples = usable && masks[k].data()[i] == 0;
+    }
+    if (lost_samples) {
+      retry.data()[i] = 1;
+      ++num_retry;
+    }
+  }
+  if (num_retry == 0) return 0;
+  PhotometricSolverInput retry_input = input;
+  retry_input.region = &retry;
+  retry_input.lobe_mosaics = nullptr;
+  retry_input.lobe_bayer = nullptr;
+  PhotometricSolution fallback;
+  const PhotometricSolverSummary fallback_summary = SolvePhotometricStereo(solver, retry_input, &fallback);
+  RequireSuccess(fallback_summary, "depth refinement: re-solve with the shadow-edge samples");
+  size_t taken = 0;
+  const auto recount = [](auto& counts, int value, int delta) {
+    const int index = std::min<int>(value, static_cast<int>(counts.size()) - 1);
+    counts[index] = static_cast<size_t>(static_cast<long long>(counts[index]) + delta);
+  };
+  for (size_t i = 0; i < status.num_pixels(); ++i) {
+    if (!retry.data()[i] || fallback.status.data()[i] != static_cast<uint8_t>(PixelStatus::kSolved)) continue;
+    recount(summary->pixels_by_status, solution->status.data()[i], -1);
+    recount(summary->pixels_by_path, solution->solve_path.data()[i], -1);
+    if (!solution->specular_status.empty() && !fallback.specular_status.empty()) {
+      recount(summary->pixels_by_specular, solution->specular_status.data()[i], -1);
+      recount(summary->pixels_by_specular, fallback.specular_status.data()[i], +1);
+    }
+    CopyPixel(fallback, i, solution);
+    recount(summary->pixels_by_status, solution->status.data()[i], +1);
+    recount(summary->pixels_by_path, solution->solve_path.data()[i], +1);
+    ++taken;
+  }
+  return taken;
+}
+
 DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const PhotometricSolverOptions& solver,
                                    const PhotometricSolverInput& input, const std::vector<PointLight>& lights,
                                    const CameraGeometry& camera, PhotometricSolution* solution,
                                    ImageF* surface_points_in_table, const ProgressCallback& progress) {
   // The masks depend on the frames only: made at the first re-solve, kept for the others.
   std::vector<ImageU8> shadow_edge_masks;
-  size_t shadow_edge_samples = 0;
+  size_t shadow_edge_samples = 0, edge_kept_pixels = 0;
   bool masks_made = false;
   const DepthResolve resolve = [&](const LightField& moved_field, PhotometricSolution* resolved,
                                    const ProgressCallback& resolve_progress, size_t* edge_samples) {
@@ -453,15 +748,34 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
       for (const ImageU8& mask : shadow_edge_masks) moved_input.sample_valid.push_back(&mask);
     }
     *edge_samples = shadow_edge_samples;
-    return SolvePhotometricStereo(solver, moved_input, resolved, resolve_progress);
+    PhotometricSolverSummary solved = SolvePhotometricStereo(solver, moved_input, resolved, resolve_progress);
+    if (solved.IsUsable() && !shadow_edge_masks.empty()) {
+      PhotometricSolverInput unmasked = input;
+      unmasked.light_field = &moved_field;
+      edge_kept_pixels = SolveWithEdgeSamplesWhereMasksFail(solver, unmasked, shadow_edge_masks, resolved, &solved);
+    }
+    return solved;
   };
-  return RefineDepth(options, resolve, lights, camera, solution, surface_points_in_table, progress);
+  DepthScaleChooser choose_scale;
+  if (options.anchor_by_residual) {
+    // The shadow edges out of the fit too: made now, before the first re-solve.
+    if (options.shadow_edge_radius_px > 0) {
+      shadow_edge_masks = ShadowEdgeSampleMasks(options, solver, input, &shadow_edge_samples);
+    }
+    masks_made = true;
+    choose_scale = ResidualScaleChooser(solver, input, shadow_edge_masks.empty() ? nullptr : &shadow_edge_masks,
+                                        lights, camera);
+  }
+  DepthRefinementSummary summary =
+      RefineDepth(options, resolve, lights, camera, solution, surface_points_in_table, progress, choose_scale);
+  if (summary.refined) summary.shadow_edge_kept_pixels = edge_kept_pixels;
+  return summary;
 }
 
 DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const DepthResolve& resolve,
                                    const std::vector<PointLight>& lights, const CameraGeometry& camera,
                                    PhotometricSolution* solution, ImageF* surface_points_in_table,
-                                   const ProgressCallback& progress) {
+                                   const ProgressCallback& progress, const DepthScaleChooser& choose_scale) {
   options.Check();
   if (solution == nullptr) throw std::invalid_argument("RefineDepth: solution must not be null");
   const auto start = std::chrono::steady_clock::now();
@@ -487,7 +801,9 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
   const int cap = options.max_iterations;
   for (int iteration = 0; iteration < cap; ++iteration) {
     const auto iteration_start = std::chrono::steady_clock::now();
-    const ImageF height_mm = AnchoredHeightFromSolution(options, *solution, camera);
+    double scale_vs_percentile = 0;
+    const ImageF height_mm =
+        AnchoredHeightFromSolution(options, *solution, camera, choose_scale, choose_scale ? &scale_vs_percentile : nullptr);
     const double range = SolvedHeightRangeMm(*solution, height_mm);
     ImageF moved = SurfacePointsAtHeight(camera, height_mm);
     const Movement movement = SurfaceMovement(*solution, points, moved);
@@ -514,9 +830,10 @@ DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const 
     }
     RequireSuccess(solved, "depth refinement: re-solve " + std::to_string(iteration + 1));
     *solution = std::move(resolved);
+    summary.last_resolve = solved;
     summary.refined = true;
-    summary.iterations.push_back(
-        {movement.max_mm, movement.mean_mm, movement.p99_mm, range, SecondsSince(iteration_start)});
+    summary.iterations.push_back({movement.max_mm, movement.mean_mm, movement.p99_mm, range,
+                                  SecondsSince(iteration_start), choose_scale ? scale_vs_percentile : 0.0});
   }
   return finish("iteration cap (" + std::to_string(cap) + " re-solves)");
 }

@@ -53,6 +53,12 @@ inline constexpr int kDepthDecisionBlockPx = 8;
 
 struct DepthRefinementOptions {
   bool enabled = true;               // false = the table plane only (solve --no-depth-refine)
+  // The unknown factor of the integrated distances chosen by the images
+  // (ResidualScaleChooser) instead of by anchor_percentile alone, which then
+  // only centres the search: for a folder whose plane is not a table the
+  // object lies on (solve-dataset's default; `solve` keeps its table). Only
+  // RefineDepth on frames in memory can; the banded overload ignores it.
+  bool anchor_by_residual = false;
   int max_iterations = 4;            // re-solves at most, [1, 20] (solve --depth-iterations)
   double tolerance_mm = 0.5;         // converged when 99 % of the surface points would move less than this, mm, > 0
   double min_height_range_mm = 8.0;  // refine only when the first pass's height range (p99 - p1) exceeds this, mm, >= 0
@@ -60,6 +66,9 @@ struct DepthRefinementOptions {
   int shadow_edge_radius_px = 2;     // re-solves leave out lit samples this close (square, px) to a shadowed one of the same light, [0, 10], 0 = keep them
   double shadow_edge_level = 0.001;  // a sample whose luminance (the solver's weights, linear) is at or below this is shadowed, [0, 1]
   void Check() const;
+  // The options as JSON text: {"enabled": .., "max_iterations": .., ...}
+  // (report.json's solver.depth_refinement, and the solve's inputs text).
+  std::string ReportJson() const;
 };
 
 // One re-solve: how far the surface points moved to get there.
@@ -69,6 +78,9 @@ struct DepthIteration {
   double p99_move_mm = 0;       // 99th percentile over the solved pixels
   double height_range_mm = 0;   // p99 - p1 of the anchored height the points moved to
   double seconds = 0;           // integration, new light field and re-solve
+  // anchor_by_residual: the chosen factor of the distances over the one
+  // anchor_percentile gives (0 = not chosen so).
+  double scale_vs_percentile = 0;
 };
 
 struct DepthRefinementSummary : AlgorithmSummary {
@@ -81,11 +93,22 @@ struct DepthRefinementSummary : AlgorithmSummary {
   double final_move_max_mm = -1;         // converged: the largest move not made, mm; -1 otherwise
   double final_move_p99_mm = -1;         // converged: its 99th percentile (< tolerance), mm; -1 otherwise
   size_t shadow_edge_samples = 0;        // lit samples the re-solves left out at shadow edges (all lights)
+  // Pixels the last masked re-solve could not solve (too few or
+  // ill-conditioned lights left, facing away), solved with their edge
+  // samples instead (SolveWithEdgeSamplesWhereMasksFail; RefineDepth on
+  // frames in memory only, the banded solve keeps the min_lights rule).
+  size_t shadow_edge_kept_pixels = 0;
   std::string stop_reason;               // "converged (...)", "iteration cap", "height range ... below ...", ...
+  PhotometricSolverSummary last_resolve; // the last re-solve's summary (the solution's), when refined
   double seconds = 0;
   // "Depth refinement: success, 3 iteration(s), surface moved max 48.29/7.44/3.09 mm, p99 .../... mm,
   // mean .../... mm; first-pass height range ...; stopped: converged (...), 12.3 s".
   std::string BriefReport() const;
+  // report.json's "depth_refinement" (`scanbench solve`, `solve-dataset`), JSON
+  // text: enabled (from `options`), refined, iterations (max / mean / p99
+  // move, height range, seconds each), first_height_range_mm,
+  // decision_block_px, shadow_edge_samples, stop_reason, seconds, message.
+  std::string ReportJson(const DepthRefinementOptions& options) const;
 };
 
 // `input` is the first pass's input (its light_field is not used);
@@ -110,17 +133,48 @@ using DepthResolve = std::function<PhotometricSolverSummary(const LightField& mo
                                                             PhotometricSolution* solution,
                                                             const ProgressCallback& progress,
                                                             size_t* shadow_edge_samples)>;
+// Chooses the unknown factor f of the integrated distances: each solved
+// pixel's point lies at t = f q t_table along its ray (t_table the ray's
+// distance to the table plane, q = `q`, 1 channel); `percentile_factor` is
+// the f that puts anchor_percentile on the table. Returns f (> 0).
+using DepthScaleChooser =
+    std::function<double(const PhotometricSolution& solution, const ImageF& q, double percentile_factor)>;
+
 DepthRefinementSummary RefineDepth(const DepthRefinementOptions& options, const DepthResolve& resolve,
                                    const std::vector<PointLight>& lights, const CameraGeometry& camera,
                                    PhotometricSolution* solution, ImageF* surface_points_in_table = nullptr,
-                                   const ProgressCallback& progress = {});
+                                   const ProgressCallback& progress = {}, const DepthScaleChooser& choose_scale = {});
+
+// anchor_by_residual's chooser (issue #33): near-field lights make the
+// absolute distance observable, since moving every point by a common factor
+// changes each LED's direction and falloff differently. Among f within
+// +-25 % (log) of percentile_factor (a grid of 2 % steps, then a golden-
+// section search to 0.05 %) it takes the f whose points give the smallest
+// median, over a regular grid of at most 16384 solved pixels, of the
+// relative RMS residual of each pixel's Lambertian least-squares fit: the
+// solver's luminance of the samples each divided by the light's RGB, those
+// at or below min_sample_value, not in input.sample_valid or not in `masks`
+// (the shadow edges; may be null) left out, pixels with fewer than 4 samples
+// and those the solution gave a specular lobe or a shared sheen left out.
+// The median, not the mean: pixels the Lambertian model does not fit
+// (highlights, shadow edges) do not move it. With fewer than 64 pixels it
+// keeps percentile_factor. The arguments must outlive the chooser. On a
+// glossy material the residual's minimum is the light field's and the
+// gloss's: on the draped satin folder it sits 1.6 % nearer than the truth
+// (docs/solver.md, "Datasets").
+DepthScaleChooser ResidualScaleChooser(const PhotometricSolverOptions& solver, const PhotometricSolverInput& input,
+                                       const std::vector<ImageU8>* masks, const std::vector<PointLight>& lights,
+                                       const CameraGeometry& camera);
 
 // Steps of RefineDepth, exposed for tests.
 
 // Height (mm, table z) of every pixel's surface from the solved normals,
 // anchored as the options say; unsolved pixels are filled smoothly.
+// With choose_scale, the factor it chooses instead (and its ratio to the
+// percentile's in *chosen_vs_percentile when given).
 ImageF AnchoredHeightFromSolution(const DepthRefinementOptions& options, const PhotometricSolution& solution,
-                                  const CameraGeometry& camera);
+                                  const CameraGeometry& camera, const DepthScaleChooser& choose_scale = {},
+                                  double* chosen_vs_percentile = nullptr);
 
 // p99 - p1 of `height_mm` over the solved pixels of `solution`, mm.
 double SolvedHeightRangeMm(const PhotometricSolution& solution, const ImageF& height_mm);
@@ -174,6 +228,19 @@ std::optional<DepthRefinementSummary> TablePlaneKept(const DepthRefinementOption
 
 // Where each pixel's camera ray meets the height z = height_mm(x, y): 3 channels, table mm.
 ImageF SurfacePointsAtHeight(const CameraGeometry& camera, const ImageF& height_mm);
+
+// The pixels of a re-solve under ShadowEdgeSampleMasks' `masks` that came
+// out unsolved although the masks took samples from them (too few or
+// ill-conditioned lights left, facing away): solved again from `input` (the
+// same frames and light field, its own sample_valid, not the masks) on
+// those pixels only, and taken into *solution where that solve succeeds; a
+// solve from the edge samples beats none (as ShadowEdgeSampleMasks keeps
+// them where fewer than min_lights lit samples would remain). *summary (of
+// *solution) counts the pixels taken under their new status, path and
+// specular status. Returns how many were taken.
+size_t SolveWithEdgeSamplesWhereMasksFail(const PhotometricSolverOptions& solver, const PhotometricSolverInput& input,
+                                          const std::vector<ImageU8>& masks, PhotometricSolution* solution,
+                                          PhotometricSolverSummary* summary);
 
 // Per light of `input` (1 channel, as PhotometricSolverInput::sample_valid):
 // its sample_valid (all 1 when it has none) with the lit samples within

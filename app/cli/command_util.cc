@@ -97,6 +97,32 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
                    "the diffuse + velvet sheen model (off by default: it fits noise on Lambertian scenes)");
 }
 
+void AddDepthRefinementOptions(CLI::App& command, DepthRefinementOptions& depth) {
+  command
+      .add_option("--depth-iterations", depth.max_iterations,
+                  "Depth-aware re-solves at most: integrate the height, move the surface points along the camera "
+                  "rays, re-evaluate the LEDs there, re-solve [1, 20]")
+      ->capture_default_str();
+  command.add_option("--depth-tolerance", depth.tolerance_mm,
+                     "Depth refinement converged when 99 % of the surface points would move less than this, mm")
+      ->capture_default_str();
+  command.add_option("--depth-min-range", depth.min_height_range_mm,
+                     "Refine only when the first pass's integrated height range (p99 - p1) exceeds this, mm")
+      ->capture_default_str();
+  command.add_option("--depth-anchor-percentile", depth.anchor_percentile,
+                     "Depth refinement: this percentile of the integrated height is put on the table plane (solve-dataset: "
+                     "on the plane at mean_distance.txt, where the search for the distance starts unless "
+                     "--no-depth-anchor-fit)")
+      ->capture_default_str();
+  command.add_option("--depth-shadow-edge", depth.shadow_edge_radius_px,
+                     "Depth refinement: the re-solves leave out lit samples within this many pixels of a cast "
+                     "shadow of the same LED (demosaicing mixes lit and shadowed light there) [0, 10], 0 = keep them")
+      ->capture_default_str();
+  command.add_flag("--no-depth-refine", [&depth](std::int64_t) { depth.enabled = false; },
+                   "Keep every surface point on the first pass's plane (solve: the table, the default before issue "
+                   "#15; solve-dataset: the plane at mean_distance.txt, the default before issue #33)");
+}
+
 void AddSolveOptions(CLI::App& command, SolveOptions& options) {
   AddPhotometricSolverOptions(command, options.solver);
   command.add_option("--label", options.run_label, "Label in the result folder name")->capture_default_str();
@@ -124,26 +150,7 @@ void AddSolveOptions(CLI::App& command, SolveOptions& options) {
   command.add_option("--calibration", options.calibration_dir,
                      "Calibration set (scanbench calibrate ...) to take the lights and camera from")
       ->check(CLI::ExistingDirectory);
-  command  // issue #15: draped samples
-      .add_option("--depth-iterations", options.depth.max_iterations,
-                  "Depth-aware re-solves at most: integrate the height, move the surface points along the camera "
-                  "rays, re-evaluate the LEDs there, re-solve [1, 20]")
-      ->capture_default_str();
-  command.add_option("--depth-tolerance", options.depth.tolerance_mm,
-                     "Depth refinement converged when 99 % of the surface points would move less than this, mm")
-      ->capture_default_str();
-  command.add_option("--depth-min-range", options.depth.min_height_range_mm,
-                     "Refine only when the first pass's integrated height range (p99 - p1) exceeds this, mm")
-      ->capture_default_str();
-  command.add_option("--depth-anchor-percentile", options.depth.anchor_percentile,
-                     "Depth refinement: this percentile of the integrated height is put on the table plane")
-      ->capture_default_str();
-  command.add_option("--depth-shadow-edge", options.depth.shadow_edge_radius_px,
-                     "Depth refinement: the re-solves leave out lit samples within this many pixels of a cast "
-                     "shadow of the same LED (demosaicing mixes lit and shadowed light there) [0, 10], 0 = keep them")
-      ->capture_default_str();
-  command.add_flag("--no-depth-refine", [&options](std::int64_t) { options.depth.enabled = false; },
-                   "Keep every surface point on the table plane (the default before issue #15)");
+  AddDepthRefinementOptions(command, options.depth);  // issue #15: draped samples
   command.add_option("--calibration-max-age", options.calibration_max_age_days,
                      "Warn when the calibration set is older than this many days")
       ->capture_default_str();

@@ -29,6 +29,11 @@ void Guarded(int* exit_code, Function&& function) {
 // command that solves.
 void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& options);
 
+// --depth-iterations, --depth-tolerance, --depth-min-range,
+// --depth-anchor-percentile, --depth-shadow-edge and --no-depth-refine (issue
+// #15): `solve`, `batch` and `solve-dataset` take the same ones.
+void AddDepthRefinementOptions(CLI::App& command, DepthRefinementOptions& depth);
+
 // The solver options plus --label, --demosaic, --no-verify and the
 // calibration set: `solve` and `batch` take the same ones.
 void AddSolveOptions(CLI::App& command, SolveOptions& options);

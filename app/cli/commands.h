@@ -13,7 +13,7 @@ void RegisterDeviceCommands(CLI::App& app, int* exit_code);  // devices, led
 void RegisterCaptureCommands(CLI::App& app, int* exit_code);  // capture
 void RegisterImportCommands(CLI::App& app, int* exit_code);  // import, bench init (issue #15)
 void RegisterCameraCommands(CLI::App& app, int* exit_code);  // camera list|info|capture|preview
-void RegisterDatasetCommands(CLI::App& app, int* exit_code);  // solve-dataset, solver-report
+void RegisterDatasetCommands(CLI::App& app, int* exit_code);  // solve-dataset, simulate-dataset, solver-report
 void RegisterBatchCommands(CLI::App& app, int* exit_code);  // batch (issue #7)
 void RegisterExportCommands(CLI::App& app, int* exit_code);  // export (issue #7)
 

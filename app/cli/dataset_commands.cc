@@ -7,6 +7,7 @@
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/dataset_controller.h"
+#include "app/controllers/simulate_dataset_controller.h"
 #include "app/controllers/solver_report_controller.h"
 #include "app/controllers/training_set_controller.h"
 
@@ -35,6 +36,18 @@ int SolveDatasetCommand(SolveDatasetState state) {
   DatasetController controller(state.dataset_dir, state.options);
   const int code = RunController(controller);
   if (code == kExitSuccess) std::cout << controller.summary().FullReport();
+  return code;
+}
+
+struct SimulateDatasetState {
+  fs::path folder;
+  SimulateDatasetOptions options;
+};
+
+int SimulateDatasetCommand(const SimulateDatasetState& state) {
+  SimulateDatasetController controller(state.folder, state.options);
+  const int code = RunController(controller);
+  if (code == kExitSuccess) std::cout << controller.summary().BriefReport() << "\n";
   return code;
 }
 
@@ -78,7 +91,50 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
                       "Solve with only this many lights, chosen like the scanner's two LED rings (0 = all)")
       ->capture_default_str();
   AddPhotometricSolverOptions(*command, state->options.solver);
+  AddDepthRefinementOptions(*command, state->options.depth);  // near-field folders (issue #33)
+  command->add_flag(
+      "--no-depth-anchor-fit", [state](std::int64_t) { state->options.depth.anchor_by_residual = false; },
+      "Depth refinement: put the --depth-anchor-percentile of the integrated height on the plane at "
+      "mean_distance.txt instead of choosing the distance by the Lambertian fits' residual");
   command->callback([state, exit_code] { Guarded(exit_code, [&] { return SolveDatasetCommand(*state); }); });
+
+  auto simulate = std::make_shared<SimulateDatasetState>();
+  CLI::App* simulate_command = app.add_subcommand(
+      "simulate-dataset",
+      "Render a LUCES-style near-field folder on the simulated rig (no lens distortion): a textile on the table, "
+      "by default a Lambertian twill, lit by the rig's point LEDs with cast shadows; 16-bit PNGs developed from "
+      "RAW frames, the LEDs, K.txt, mean_distance.txt, mask.png and Normal_gt.mat, for solve-dataset");
+  simulate_command->add_option("folder", simulate->folder, "Folder to write (must not exist unless --overwrite)")
+      ->required();
+  SimulateDatasetOptions& options = simulate->options;
+  simulate_command->add_option("--width", options.rig.width, "Image width in pixels")->capture_default_str();
+  simulate_command->add_option("--height", options.rig.height, "Image height in pixels")->capture_default_str();
+  simulate_command->add_option("--seed", options.rig.seed, "Sensor noise seed")->capture_default_str();
+  simulate_command->add_option("--scene-seed", options.scene.seed, "Textile variation and folds seed")
+      ->capture_default_str();
+  simulate_command->add_option("--warp-pitch", options.scene.warp_pitch_mm, "Warp thread spacing, mm")
+      ->capture_default_str();
+  simulate_command->add_option("--weft-pitch", options.scene.weft_pitch_mm, "Weft thread spacing, mm")
+      ->capture_default_str();
+  simulate_command
+      ->add_option("--fold-amplitude", options.scene.fold_amplitude_mm,
+                   "Fold amplitude, mm: the folds lift the cloth by 0 .. 2x this (+-this about their mean)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  simulate_command->add_flag("--no-noise", [&options](std::int64_t) { options.rig.add_noise = false; },
+                             "Render without sensor noise");
+  simulate_command->add_flag("--no-shadows", [&options](std::int64_t) { options.rig.cast_shadows = false; },
+                             "Render without cast shadows");
+  simulate_command->add_flag("--linear", [&options](std::int64_t) { options.raw_path = false; },
+                             "Noise-free linear renders of every colour at every pixel instead of developed RAW "
+                             "frames (no noise, no demosaicing)");
+  simulate_command->add_option("--render-threads", options.rig.num_threads, "Render threads (0 = all cores)")
+      ->capture_default_str();
+  simulate_command->add_flag("--overwrite", options.overwrite, "Replace an existing folder");
+  AddCameraColorOption(*simulate_command, options.rig.color);
+  AddMaterialOption(*simulate_command, options.scene.material);
+  simulate_command->callback(
+      [simulate, exit_code] { Guarded(exit_code, [&] { return SimulateDatasetCommand(*simulate); }); });
 
   auto report = std::make_shared<SolverReportOptions>();
   report->output_dir = "docs/solver-report";

@@ -35,7 +35,8 @@ const char* KindName(PhotometricDataset::Kind kind) {
 // report.json: the dataset, the solver options and result, the error against
 // the ground truth, timings and the files written.
 nlohmann::json DatasetReportJson(const fs::path& dataset_dir, const PhotometricDataset& dataset,
-                                 const PhotometricSolverOptions& solver, const DatasetSolveResult& result,
+                                 const PhotometricSolverOptions& solver, const DepthRefinementOptions& depth,
+                                 const DatasetSolveResult& result,
                                  const DatasetSolveSummary& summary, const std::map<std::string, std::string>& outputs) {
   nlohmann::json report;
   report["schema"] = "scanbench.dataset_report/1";
@@ -58,33 +59,55 @@ nlohmann::json DatasetReportJson(const fs::path& dataset_dir, const PhotometricD
                       {"max_condition_number", solver.max_condition_number},
                       {"robust_loss", solver.robust_loss == PhotometricSolverOptions::RobustLoss::kTukey ? "tukey"
                                                                                                           : "cauchy"},
+                      {"adaptive_lobe", solver.adaptive_lobe},
+                      {"adaptive_coherent_lobe", solver.adaptive_coherent_lobe},
+                      {"adaptive_sheen", solver.adaptive_sheen},
+                      {"adaptive_coherent_sheen", solver.adaptive_coherent_sheen},
                       {"num_threads", result.solver.num_threads}};
-  nlohmann::json by_status, by_path;
+  report["solver"]["depth_refinement"] = nlohmann::json::parse(depth.ReportJson());
+  nlohmann::json by_status, by_path, by_specular;
   for (int s = 0; s < kNumPixelStatuses; ++s) {
     by_status[PixelStatusName(static_cast<PixelStatus>(s))] = result.solver.pixels_by_status[s];
   }
   for (int p = 0; p < kNumSolvePaths; ++p) {
     by_path[SolvePathName(static_cast<SolvePath>(p))] = result.solver.pixels_by_path[p];
   }
+  for (int s = 0; s < kNumSpecularStatuses; ++s) {
+    by_specular[SpecularStatusName(static_cast<SpecularStatus>(s))] = result.solver.pixels_by_specular[s];
+  }
+  // The solve whose maps are written: the last depth re-solve's when it ran.
   report["result"] = {{"message", result.solver.BriefReport()},
                       {"pixels_by_status", by_status},
                       {"pixels_by_path", by_path},
+                      {"pixels_by_specular", by_specular},
+                      {"pixels_coherent_lobe", result.solver.pixels_coherent_lobe},
+                      {"pixels_coherent_sheen", result.solver.pixels_coherent_sheen},
                       {"unsolved_in_mask", result.unsolved_in_mask}};
+  if (result.depth.refined) report["result"]["first_pass_message"] = result.first_pass.BriefReport();
   if (result.normal_error_deg) {
     report["ground_truth"] = {{"normal_angular_error_deg", StatisticsJson(*result.normal_error_deg)},
                               {"evaluated_on", "mask.png, every pixel (unsolved ones as (0, 0, 1))"}};
   }
   report["timings_s"] = {{"load", summary.load_seconds}, {"solve", summary.solve_seconds},
-                         {"write_maps", summary.write_seconds}};
+                         {"depth_refine", summary.depth_seconds}, {"write_maps", summary.write_seconds}};
   if (summary.specular) report["specular"] = nlohmann::json::parse(summary.specular->ReportJson());  // issue #13
+  report["depth_refinement"] = nlohmann::json::parse(result.depth.ReportJson(depth));  // as `solve` reports it
   report["outputs"] = outputs;
   return report;
 }
 
 }  // namespace
 
+DepthRefinementOptions DatasetDepthRefinementOptions() {
+  DepthRefinementOptions depth;
+  depth.anchor_percentile = 50;    // mean_distance.txt is the object's (LUCES), not a table's: see the header
+  depth.anchor_by_residual = true;  // and whatever a folder means by it, the images decide (ResidualScaleChooser)
+  return depth;
+}
+
 void DatasetSolveOptions::Check() const {
   solver.Check();
+  depth.Check();
   if (ring_lights != 0 && ring_lights < 3) {
     throw FieldError("DatasetSolveOptions", "ring_lights", ring_lights, "must be 0 (every light) or at least 3");
   }
@@ -110,18 +133,68 @@ fs::path DefaultDatasetOutputFolder(const fs::path& parent, const fs::path& data
                               "* exist already; pass --output");
 }
 
+namespace {
+
+DepthRefinementSummary NotRefined(std::string reason) {
+  DepthRefinementSummary summary;
+  summary.termination = Termination::kSuccess;
+  summary.stop_reason = std::move(reason);
+  return summary;
+}
+
+// The depth-aware re-solves of a near-field dataset's first pass (`input`,
+// *solution), in its table frame (PhotometricDataset::TableFrame).
+DepthRefinementSummary RefineDatasetDepth(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
+                                          const DepthRefinementOptions& depth, const PhotometricSolverInput& input,
+                                          PhotometricSolution* solution, const ProgressCallback& progress) {
+  if (dataset.kind != PhotometricDataset::Kind::kNearField) {
+    return NotRefined("not applicable: distant lights (no surface points to move)");
+  }
+  if (!depth.enabled) return NotRefined("disabled (the plane at mean_distance only)");
+  NearFieldTableFrame frame;
+  try {
+    frame = dataset.TableFrame();
+  } catch (const std::invalid_argument& error) {
+    return NotRefined(std::string("not applicable: ") + error.what());
+  }
+  return RefineDepth(depth, options, input, frame.lights, frame.camera, solution, nullptr, progress);
+}
+
+}  // namespace
+
 DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
                                 const ProgressCallback& progress) {
+  return SolveDataset(dataset, options, DatasetDepthRefinementOptions(), progress);
+}
+
+DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
+                                const DepthRefinementOptions& depth, const ProgressCallback& progress) {
+  return SolveDataset(dataset, options, depth, progress, progress);
+}
+
+DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
+                                const DepthRefinementOptions& depth, const ProgressCallback& progress,
+                                const ProgressCallback& depth_progress) {
   if (dataset.images.empty()) {
     throw std::invalid_argument("SolveDataset: dataset " + dataset.folder.string() + " was loaded without images");
   }
+  depth.Check();
   DatasetSolveResult result;
   const std::unique_ptr<LightField> field = dataset.MakeLightField();
   PhotometricSolverInput input;
   input.images = dataset.ImagePointers();
   input.light_field = field.get();
   input.region = &dataset.mask;
-  result.solver = SolvePhotometricStereo(options, input, &result.solution, progress);
+  result.first_pass = result.solver = SolvePhotometricStereo(options, input, &result.solution, progress);
+  if (result.first_pass.IsCancelled() || !result.first_pass.IsUsable()) return result;
+  const auto depth_start = std::chrono::steady_clock::now();
+  result.depth = RefineDatasetDepth(dataset, options, depth, input, &result.solution, depth_progress);
+  result.depth_seconds = SecondsSince(depth_start);
+  if (result.depth.IsCancelled()) {
+    result.solver.SetCancelled("cancelled during the depth refinement");
+    return result;
+  }
+  if (result.depth.refined) result.solver = result.depth.last_resolve;
   for (size_t i = 0; i < dataset.mask.num_pixels(); ++i) {
     result.unsolved_in_mask += dataset.mask.data()[i] != 0 &&
                                result.solution.status.data()[i] != static_cast<uint8_t>(PixelStatus::kSolved);
@@ -157,7 +230,9 @@ std::string DatasetSolveSummary::FullReport() const {
     out << "  no Normal_gt.mat: no error report\n";
   }
   if (specular) out << "  " << specular->BriefReport() << "\n";
-  out << "  time (s): load " << load_seconds << "; solve " << solve_seconds << "; write " << write_seconds << "\n";
+  if (kind == KindName(PhotometricDataset::Kind::kNearField)) out << "  " << depth.BriefReport() << "\n";
+  out << "  time (s): load " << load_seconds << "; solve " << solve_seconds << "; depth refine " << depth_seconds
+      << "; write " << write_seconds << "\n";
   if (!output_dir.empty()) out << "  written to:   " << output_dir.string() << "\n";
   return out.str();
 }
@@ -201,13 +276,18 @@ PhotometricDataset DatasetController::LoadDataset() {
 
 DatasetSolveResult DatasetController::Solve(const PhotometricDataset& dataset) {
   const auto start = Clock::now();
-  DatasetSolveResult result = SolveDataset(dataset, options_.solver, StageCallback("solve"));
+  DatasetSolveResult result =
+      SolveDataset(dataset, options_.solver, options_.depth, StageCallback("solve"), StageCallback("depth refine"));
+  RequireSuccess(result.first_pass, "solve");
+  RequireSuccess(result.depth, "depth refine");
   RequireSuccess(result.solver, "solve");
   summary_.solver = result.solver;
   summary_.specular = SpecularMapStatisticsOf(result.solution);
   summary_.normal_error_deg = result.normal_error_deg;
   summary_.unsolved_in_mask = result.unsolved_in_mask;
-  summary_.solve_seconds = SecondsSince(start);
+  summary_.depth = result.depth;
+  summary_.depth_seconds = result.depth_seconds;
+  summary_.solve_seconds = SecondsSince(start) - result.depth_seconds;
   return result;
 }
 
@@ -225,7 +305,8 @@ void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const Da
   summary_.write_seconds = SecondsSince(start);
   outputs["report"] = "report.json";
   outputs["summary"] = "summary.txt";
-  const nlohmann::json report = DatasetReportJson(dataset_dir_, dataset, options_.solver, result, summary_, outputs);
+  const nlohmann::json report =
+      DatasetReportJson(dataset_dir_, dataset, options_.solver, options_.depth, result, summary_, outputs);
   WriteFileAtomic(staged.staging() / "report.json", report.dump(2) + "\n", OverwritePolicy::kRefuse);
   WriteFileAtomic(staged.staging() / "summary.txt", summary_.FullReport(), OverwritePolicy::kRefuse);
   ThrowIfStopRequested("write maps");

@@ -11,13 +11,29 @@
 #include "app/controllers/base_controller.h"
 #include "app/io/dataset_io.h"
 #include "app/io/result_maps.h"
+#include "pipeline/depth_refinement.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
 
 namespace scanbench {
 
+// solve-dataset's depth refinement: `scanbench solve`'s defaults (the same
+// options, --depth-*), but the anchor. `solve` puts the lowest 0.5 % of the
+// integrated height on its calibrated table. A folder has no table: its
+// mean_distance.txt is, as in LUCES, the object's mean distance from the
+// camera (or a writer's guess of it, or missing), so the distances' factor
+// is chosen by the images (anchor_by_residual, ResidualScaleChooser), the
+// search centred where the median of the height lies on that plane
+// (anchor_percentile 50).
+DepthRefinementOptions DatasetDepthRefinementOptions();
+
 struct DatasetSolveOptions {
   PhotometricSolverOptions solver;
+  // Near-field folders (issue #33): integrate the first pass's normals to a
+  // depth, move each pixel's surface point along its ray to it, re-solve
+  // with the LEDs evaluated there (pipeline/depth_refinement.h, as `solve`).
+  // Distant-light folders have no light field to move: ignored there.
+  DepthRefinementOptions depth = DatasetDepthRefinementOptions();
   // Folder the maps and report go to; created, must not exist unless
   // `overwrite`. Empty = no files written (figures only).
   std::filesystem::path output_dir;
@@ -45,12 +61,28 @@ struct DatasetSolveResult {
   std::optional<ErrorStatistics> normal_error_deg;
   ImageF error_map_deg;  // 1 channel, 0 off the mask; empty without ground truth
   size_t unsolved_in_mask = 0;
+  // The depth-aware re-solves: solution and solver are the last re-solve's
+  // when it ran (depth.refined), else the first pass's. Distant lights:
+  // stop_reason "not applicable: ...".
+  DepthRefinementSummary depth;
+  PhotometricSolverSummary first_pass;  // the first pass's summary (= solver when not refined)
+  double depth_seconds = 0;             // the refinement's wall time (the decision included)
 };
 
-// Solves `dataset` (images loaded) on its mask. Throws std::invalid_argument
-// for bad options; a cancelled solve returns with solver.termination kCancelled.
+// Solves `dataset` (images loaded) on its mask, then on a near-field
+// dataset refines the depth as `depth` says (RefineDepth in the dataset's
+// TableFrame; a K that frame cannot hold skips it, the stop reason says
+// why). Throws std::invalid_argument for bad options; a cancelled solve
+// returns with solver.termination kCancelled.
+DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
+                                const DepthRefinementOptions& depth, const ProgressCallback& progress = {});
+// The same with DatasetDepthRefinementOptions().
 DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
                                 const ProgressCallback& progress = {});
+// The same with the refinement's progress (and cancel) apart from the first pass's.
+DatasetSolveResult SolveDataset(const PhotometricDataset& dataset, const PhotometricSolverOptions& options,
+                                const DepthRefinementOptions& depth, const ProgressCallback& progress,
+                                const ProgressCallback& depth_progress);
 
 struct DatasetSolveSummary {
   std::string dataset_name;
@@ -63,7 +95,8 @@ struct DatasetSolveSummary {
   std::optional<ErrorStatistics> normal_error_deg;
   size_t unsolved_in_mask = 0;
   std::optional<SpecularMapStatistics> specular;  // when the method made a specular map (specular.exr)
-  double load_seconds = 0, solve_seconds = 0, write_seconds = 0;
+  DepthRefinementSummary depth;                   // the depth-aware re-solves (near field)
+  double load_seconds = 0, solve_seconds = 0, depth_seconds = 0, write_seconds = 0;
   std::filesystem::path output_dir;
 
   std::string FullReport() const;

@@ -91,13 +91,7 @@ nlohmann::json SolverOptionsJson(const PhotometricSolverOptions& solver) {
 
 
 nlohmann::json DepthOptionsJson(const DepthRefinementOptions& depth) {
-  return {{"enabled", depth.enabled},
-          {"max_iterations", depth.max_iterations},
-          {"tolerance_mm", depth.tolerance_mm},
-          {"min_height_range_mm", depth.min_height_range_mm},
-          {"anchor_percentile", depth.anchor_percentile},
-          {"shadow_edge_radius_px", depth.shadow_edge_radius_px},
-          {"shadow_edge_level", depth.shadow_edge_level}};
+  return nlohmann::json::parse(depth.ReportJson());  // pipeline/depth_refinement.h: solve-dataset reports the same
 }
 
 // The steps of SolveController::Run, in order.
@@ -301,26 +295,6 @@ DepthRefinementSummary RefineOnDepth(const SolveOptions& options, const std::fun
                      solution, nullptr, progress);
 }
 
-nlohmann::json DepthRefinementJson(const DepthRefinementSummary& depth, const DepthRefinementOptions& options) {
-  nlohmann::json iterations = nlohmann::json::array();
-  for (const DepthIteration& it : depth.iterations) {
-    iterations.push_back({{"max_move_mm", it.max_move_mm},
-                          {"mean_move_mm", it.mean_move_mm},
-                          {"p99_move_mm", it.p99_move_mm},
-                          {"height_range_mm", it.height_range_mm},
-                          {"seconds", it.seconds}});
-  }
-  return {{"enabled", options.enabled},
-          {"refined", depth.refined},
-          {"iterations", iterations},
-          {"first_height_range_mm", depth.first_height_range_mm},
-          {"decision_block_px", depth.decision_block_px},
-          {"shadow_edge_samples", depth.shadow_edge_samples},
-          {"stop_reason", depth.stop_reason},
-          {"seconds", depth.seconds},
-          {"message", depth.BriefReport()}};
-}
-
 nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& options, const fs::path& session_dir,
                                const std::string& dark_file, const nlohmann::json& calibration_report,
                                const std::map<std::string, std::string>& outputs) {
@@ -364,7 +338,7 @@ nlohmann::json SolveReportJson(const SolveSummary& summary, const SolveOptions& 
   nlohmann::json timings;
   for (const StageTiming& timing : summary.timings) timings[timing.stage] = timing.seconds;
   if (summary.specular) report["specular"] = nlohmann::json::parse(summary.specular->ReportJson());  // issue #13
-  report["depth_refinement"] = DepthRefinementJson(summary.depth, options.depth);  // issue #15
+  report["depth_refinement"] = nlohmann::json::parse(summary.depth.ReportJson(options.depth));  // issue #15
   report["timings_s"] = timings;
   report["outputs"] = outputs;
   report["bytes_written"] = {{"files", summary.bytes_written},

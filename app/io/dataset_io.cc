@@ -280,6 +280,21 @@ struct MatVarFreer {
   void operator()(matvar_t* var) const { Mat_VarFree(var); }
 };
 
+// The LEDs as point lights, their positions moved by `offset` (solver frame: 0).
+std::vector<PointLight> PointLightsOf(const PhotometricDataset& dataset, const Eigen::Vector3d& offset) {
+  std::vector<PointLight> lights;
+  for (size_t k = 0; k < dataset.light_positions_mm.size(); ++k) {
+    PointLight light;
+    light.position = dataset.light_positions_mm[k] + offset;
+    light.axis = dataset.led_axes[k];
+    light.mu = dataset.led_mu[k];
+    light.rgb_intensity = dataset.light_intensities[k];
+    light.reference_distance = 1.0;
+    lights.push_back(light);
+  }
+  return lights;
+}
+
 }  // namespace
 
 ImageF ReadMatImage3(const fs::path& path, const std::string& variable) {
@@ -402,18 +417,36 @@ std::unique_ptr<LightField> PhotometricDataset::MakeLightField() const {
       points(x, y, 2) = static_cast<float>(-point_in_cam.z());
     }
   }
-  std::vector<PointLight> lights;
-  for (size_t k = 0; k < light_positions_mm.size(); ++k) {
-    PointLight light;
-    light.position = light_positions_mm[k];
-    light.axis = led_axes[k];
-    light.mu = led_mu[k];
-    light.rgb_intensity = light_intensities[k];
-    light.reference_distance = 1.0;
-    lights.push_back(light);
-  }
   // The camera is the frame's origin: the view direction of the lobe fits.
-  return std::make_unique<PointLightField>(std::move(lights), std::move(points), Eigen::Vector3d::Zero());
+  return std::make_unique<PointLightField>(PointLightsOf(*this, Eigen::Vector3d::Zero()), std::move(points),
+                                           Eigen::Vector3d::Zero());
+}
+
+NearFieldTableFrame PhotometricDataset::TableFrame() const {
+  if (kind != Kind::kNearField) {
+    throw std::invalid_argument("PhotometricDataset " + name + ": distant lights have no near-field table frame");
+  }
+  const Eigen::Matrix3d& k = camera_matrix;
+  if (k(0, 1) != 0 || k(1, 0) != 0 || k(2, 0) != 0 || k(2, 1) != 0 || k(2, 2) != 1) {
+    std::ostringstream text;
+    text << k.format(Eigen::IOFormat(Eigen::FullPrecision, Eigen::DontAlignCols, " ", "; "));
+    throw std::invalid_argument((folder / "K.txt").string() + ": [" + text.str() +
+                                "] has skew or a last row other than 0 0 1; the depth-aware light field needs a "
+                                "pinhole K = [fx 0 cx; 0 fy cy; 0 0 1]");
+  }
+  NearFieldTableFrame frame;
+  CameraIntrinsics& intrinsics = frame.camera.intrinsics;
+  intrinsics.width = width;
+  intrinsics.height = height;
+  intrinsics.fx = k(0, 0);
+  intrinsics.fy = k(1, 1);
+  intrinsics.cx = k(0, 2);
+  intrinsics.cy = k(1, 2);
+  // camera = flip * (table - (0, 0, d)): x right, y down, z forward from (0, 0, d).
+  frame.camera.cam_from_table.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  frame.camera.cam_from_table.translation() = Eigen::Vector3d(0, 0, surface_distance_mm);
+  frame.lights = PointLightsOf(*this, Eigen::Vector3d(0, 0, surface_distance_mm));
+  return frame;
 }
 
 void PhotometricDataset::KeepLights(std::vector<int> indices) {

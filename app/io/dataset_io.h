@@ -22,8 +22,11 @@
 //                          lights or one a line (default 0, isotropic)
 //   K.txt                  3x3 camera matrix, pixels (rows on lines)
 //   mean_distance.txt      optional, mm from the camera to the surface plane
-//                          (z = const) the light field is evaluated on
-//                          (default: the LEDs' mean z)
+//                          (z = const) the first pass evaluates the light field
+//                          on: as in LUCES, the object's mean distance (default:
+//                          a guess from the LEDs); solve-dataset's depth
+//                          refinement then finds the distance from the images
+//                          (app/controllers/dataset_controller.h)
 //   Normal_gt.mat          optional, as above
 // Normals are solved and written in the solver frame of the DiLiGenT layout
 // (x right, y up, z towards the camera); positions convert as (x, -y, -z).
@@ -37,10 +40,22 @@
 
 #include <Eigen/Core>
 
+#include "calibration/rig.h"
 #include "core/image.h"
 #include "solver/light_field.h"
 
 namespace scanbench {
+
+// A near-field dataset in the table frame of `scanbench solve` (calibration/
+// rig.h), which the depth refinement works in (pipeline/depth_refinement.h):
+// the solver frame moved by surface_distance_mm along z, so that the plane
+// the first pass evaluates the LEDs on is the table z = 0 and the camera, a
+// pinhole of camera_matrix without distortion, sits at (0, 0,
+// surface_distance_mm) looking down -z. Normals are the same in both frames.
+struct NearFieldTableFrame {
+  CameraGeometry camera;
+  std::vector<PointLight> lights;  // the LEDs in that frame, as MakeLightField's
+};
 
 struct PhotometricDataset {
   enum class Kind {
@@ -69,6 +84,10 @@ struct PhotometricDataset {
   // The light field the solver needs: DirectionalLightField or PointLightField.
   std::unique_ptr<LightField> MakeLightField() const;
   std::vector<const ImageF*> ImagePointers() const;
+  // Near field: the table frame above. Throws std::invalid_argument for a
+  // distant-light dataset, and for a camera matrix CameraGeometry cannot
+  // hold (a skew K(0,1) != 0, or a last row other than 0 0 1), naming K.txt.
+  NearFieldTableFrame TableFrame() const;
   // Keeps only the lights `indices` (into today's lights, each once, any
   // order; kept in ascending order): images, file names and every per-light
   // table. Throws std::invalid_argument naming an index out of range or repeated.

@@ -169,6 +169,37 @@ TEST(ScanbenchCliTest, SolveWritesASpecularMapUnlessTheLobeIsTurnedOff) {
   EXPECT_THAT(ReadText(plain / "report.json"), HasSubstr("\"adaptive_lobe\": false"));
 }
 
+// simulate-dataset writes a near-field folder; solve-dataset refines its
+// depth, with solve's --depth-* options, unless --no-depth-refine (issue #33).
+TEST(ScanbenchCliTest, SimulateDatasetThenSolveDatasetRefinesTheDepth) {
+  testing::TemporaryFolder folder;
+  const fs::path dataset = folder / "draped";
+  const CommandResult simulated = RunScanbench("simulate-dataset " + Quoted(dataset) +
+                                               " --width 160 --height 120 --fold-amplitude 24 --render-threads 1");
+  ASSERT_EQ(simulated.exit_code, 0) << simulated.output;
+  EXPECT_THAT(simulated.output, HasSubstr("160x120, 10 LEDs"));
+  EXPECT_TRUE(fs::is_regular_file(dataset / "light_positions.txt"));
+  const CommandResult refused = RunScanbench("simulate-dataset " + Quoted(dataset));
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_THAT(refused.output, HasSubstr("already exists"));
+
+  const CommandResult help = RunScanbench("solve-dataset --help");
+  for (const char* option : {"--depth-iterations", "--depth-tolerance", "--depth-min-range",
+                             "--depth-anchor-percentile", "--depth-shadow-edge", "--no-depth-refine",
+                             "--no-depth-anchor-fit"}) {
+    EXPECT_THAT(help.output, HasSubstr(option));
+  }
+  const CommandResult refined = RunScanbench("solve-dataset " + Quoted(dataset) + " --threads 1 --depth-iterations 2 --output " +
+                                             Quoted(folder / "refined"));
+  ASSERT_EQ(refined.exit_code, 0) << refined.output;
+  EXPECT_THAT(refined.output, HasSubstr("Depth refinement: success"));
+  EXPECT_THAT(ReadText(folder / "refined" / "report.json"), HasSubstr("\"max_iterations\": 2"));
+  const CommandResult plane = RunScanbench("solve-dataset " + Quoted(dataset) + " --threads 1 --no-depth-refine --output " +
+                                           Quoted(folder / "plane"));
+  ASSERT_EQ(plane.exit_code, 0) << plane.output;
+  EXPECT_THAT(plane.output, HasSubstr("stopped: disabled"));
+}
+
 // --sheen turns the velvet sheen pass on; the Bayer blend is on unless
 // --no-bayer-blend (issue #13).
 TEST(ScanbenchCliTest, SolveSheenAndBayerBlendFlags) {
