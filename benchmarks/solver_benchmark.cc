@@ -69,6 +69,7 @@ enum class AdaptivePasses {
   kAll,
   kIrls,           // the robust pass as before the lobe fit (Lambertian IRLS)
   kNoSheen,        // without the shared velvet sheen (its cost)
+  kWithNetwork,    // with the learned network on the robust pixels without a lobe (--learned unsupported: its cost)
   kLeastSquares,   // least squares alone: no robust re-solve, no shared lobe or sheen. In the near field
                    // that is the interpolated-lights path (tiled::TileLights::kInterpolated) by itself.
 };
@@ -90,6 +91,9 @@ void BM_Solve(benchmark::State& state, Method method, Lights lights, int width, 
   if (passes == AdaptivePasses::kLeastSquares) {
     options.adaptive_coherent_lobe = false;
     options.adaptive_robust_residual = std::numeric_limits<double>::infinity();  // no pixel re-solved
+  }
+  if (passes == AdaptivePasses::kWithNetwork) {
+    options.adaptive_learned = PhotometricSolverOptions::LearnedUse::kUnsupportedLobe;
   }
   options.num_threads = static_cast<int>(state.range(0));
   PhotometricSolution solution;
@@ -118,6 +122,7 @@ void BM_Solve(benchmark::State& state, Method method, Lights lights, int width, 
   state.counters["mean_err_deg"] =
       AngularErrorDegrees(solution.normal_in_table, scene.normal_in_table, scene.object).mean;
   state.counters["robust_px"] = static_cast<double>(summary.pixels_by_path[int(SolvePath::kRobust)]);
+  state.counters["learned_px"] = static_cast<double>(summary.pixels_by_path[int(SolvePath::kLearned)]);
   // Which light path the pixels took (shared, interpolated, exact), as a fraction of the image.
   const double pixels = double(width) * height;
   state.counters["shared"] = summary.pixels_by_path[int(SolvePath::kSharedLights)] / pixels;
@@ -194,6 +199,9 @@ BENCHMARK_CAPTURE(BM_Solve, 16MP_near_adaptive_irls, Method::kAdaptive, Lights::
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Arg(2);
 BENCHMARK_CAPTURE(BM_Solve, 16MP_near_adaptive_no_sheen, Method::kAdaptive, Lights::kNearField, 4928, 3264,
                   AdaptivePasses::kNoSheen)
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Arg(2);
+BENCHMARK_CAPTURE(BM_Solve, 16MP_near_adaptive_learned, Method::kAdaptive, Lights::kNearField, 4928, 3264,
+                  AdaptivePasses::kWithNetwork)
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Arg(2);
 // The interpolated-lights path alone: adaptive's least squares in the near field.
 BENCHMARK_CAPTURE(BM_Solve, 16MP_near_interpolated, Method::kAdaptive, Lights::kNearField, 4928, 3264,

@@ -60,6 +60,30 @@ inline double ExpNonPositive(double y) {
   return p * DoubleFromBits((BitsOf(shifted) + 1023) << 52);
 }
 
+// ExpNonPositive in float (the network kernels' softmax), to about 2e-7 relative: y = n ln 2 + r, |r| <= ln 2 / 2,
+// e^r by its Taylor series to r^7, 2^n built in the exponent bits; y below -87 gives 0.
+inline float ExpNonPositiveF(float y) {
+  const float x = y < -87.0f ? -87.0f : y;
+  const float shift = 12582912.0f;  // 1.5 * 2^23: rounds to an integer in the low mantissa bits
+  const float shifted = x * 1.44269504f + shift;
+  const float n = shifted - shift;
+  const float r = (x - n * 0.693145752f) - n * 1.42860677e-6f;
+  float p = 1.0f / 5040;
+  p = 1.0f / 720 + r * p;
+  p = 1.0f / 120 + r * p;
+  p = 1.0f / 24 + r * p;
+  p = 1.0f / 6 + r * p;
+  p = 0.5f + r * p;
+  p = 1.0f + r * p;
+  p = 1.0f + r * p;
+  int bits_n;
+  __builtin_memcpy(&bits_n, &shifted, sizeof bits_n);
+  const int exponent_bits = ((bits_n & 0x7FFFFF) - 0x400000 + 127) << 23;  // n + 127 in the exponent
+  float scale;
+  __builtin_memcpy(&scale, &exponent_bits, sizeof scale);
+  return y < -87.0f ? 0.0f : p * scale;
+}
+
 // The cube root of t > 0 (normal, finite), to about 5e-16 relative,
 // branch-free: t = m 2^e with m in [1, 2); e = 3 q + s with s in {0, 1, 2};
 // the root of x = m 2^s in [1, 8) from a quadratic (within 4.7 %) and three

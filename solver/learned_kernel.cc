@@ -48,7 +48,7 @@ void ForEachToken(const Span& span, int i, Emit&& emit) {
 LearnedSpanNormals::LearnedSpanNormals(const KernelSettings& settings, int capacity)
     : settings_(settings), network_(NormalNetwork::Embedded()), index_(capacity, -1), to_view_(capacity) {}
 
-void LearnedSpanNormals::Predict(const Span& span, const uint8_t* select) {
+void LearnedSpanNormals::Predict(const Span& span, const uint8_t* select, int min_tokens) {
   input_.Clear();
   std::vector<float>& kept_dir = kept_dir_;
   std::vector<float>& kept_value = kept_value_;
@@ -66,7 +66,7 @@ void LearnedSpanNormals::Predict(const Span& span, const uint8_t* select) {
       kept_value.push_back(value);
     });
     const int count = static_cast<int>(kept_value.size());
-    if (count < 3) continue;
+    if (count < std::max(3, min_tokens)) continue;
     // More lights than the network takes: every stride-th, spread over the set.
     const double stride = std::max(1.0, static_cast<double>(count) / NormalNetwork::kMaxTokens);
     for (double t = 0; t < count; t += stride) {

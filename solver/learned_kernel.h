@@ -27,8 +27,8 @@ class LearnedSpanNormals {
   LearnedSpanNormals(const KernelSettings& settings, int capacity);
 
   // Predicts the normal of every pixel i of the span with select[i] != 0 (null:
-  // every wanted pixel) that has at least 3 tokens.
-  void Predict(const Span& span, const uint8_t* select);
+  // every wanted pixel) that has at least `min_tokens` (>= 3) tokens.
+  void Predict(const Span& span, const uint8_t* select, int min_tokens = 3);
   // Whether pixel i got a prediction in the last Predict.
   bool Predicted(int i) const { return index_[i] >= 0; }
   Eigen::Vector3d NormalInTable(int i) const;

@@ -2,6 +2,7 @@
 // network_kernels_<isa>.cc defines SCANBENCH_ISA_NAMESPACE and
 // SCANBENCH_ISA_ENUM and includes this file. Plain loops only, as in
 // span_kernels_impl.h: no inline library function may be instantiated here.
+#include "solver/kernel_math_impl.h"
 #include "solver/network_kernels.h"
 
 #ifndef SCANBENCH_ISA_NAMESPACE
@@ -19,29 +20,7 @@ constexpr int kRows = 4;
 
 inline int MinInt(int a, int b) { return a < b ? a : b; }
 
-// e^y for y <= 0 in float, to about 2e-7 relative: y = n ln 2 + r, |r| <= ln 2 / 2,
-// e^r by its Taylor series to r^7, 2^n built in the exponent bits; y below -87 gives 0.
-inline float ExpNonPositiveF(float y) {
-  const float x = y < -87.0f ? -87.0f : y;
-  const float shift = 12582912.0f;  // 1.5 * 2^23: rounds to an integer in the low mantissa bits
-  const float shifted = x * 1.44269504f + shift;
-  const float n = shifted - shift;
-  const float r = (x - n * 0.693145752f) - n * 1.42860677e-6f;
-  float p = 1.0f / 5040;
-  p = 1.0f / 720 + r * p;
-  p = 1.0f / 120 + r * p;
-  p = 1.0f / 24 + r * p;
-  p = 1.0f / 6 + r * p;
-  p = 0.5f + r * p;
-  p = 1.0f + r * p;
-  p = 1.0f + r * p;
-  int bits_n;
-  __builtin_memcpy(&bits_n, &shifted, sizeof bits_n);
-  const int exponent_bits = ((bits_n & 0x7FFFFF) - 0x400000 + 127) << 23;  // n + 127 in the exponent
-  float scale;
-  __builtin_memcpy(&scale, &exponent_bits, sizeof scale);
-  return y < -87.0f ? 0.0f : p * scale;
-}
+using kernel_math::ExpNonPositiveF;
 
 // The ISA's native float vector, by GCC's vector extension (element-wise
 // arithmetic, no reassociation: every build computes each sum in the same

@@ -19,7 +19,7 @@ constexpr MethodPass kAdaptivePasses[] = {
     {SolverPass::kCoherentLobe, &Options::adaptive_coherent_lobe, "adaptive_coherent_lobe"},
     {SolverPass::kCoherentSheen, &Options::adaptive_coherent_sheen, "adaptive_coherent_sheen"},
     {SolverPass::kBayerBlend},
-    {SolverPass::kLearnedNormals, nullptr, "adaptive_learned"},
+    {SolverPass::kLearnedNormals},  // behind adaptive_learned, a three-way option (MethodRunsPass)
 };
 // diffuse_lobe's per-pixel fit is the lobe fit.
 constexpr MethodPass kDiffuseLobePasses[] = {{SolverPass::kPixelLobe}};

@@ -369,6 +369,10 @@ class NormalEquationsKernel final : public PixelKernel {
 // With adaptive_sheen, the solved pixels left to least squares whose residual
 // has a velvet sheen's pattern get the diffuse + sheen fit (kept where BIC
 // prefers it; reported as the robust path).
+// The default's network pixels need as many tokens as the fewest lights the
+// network was trained on (scripts/train: distant sets of 6 lights and more).
+constexpr int kMinNetworkTokens = 6;
+
 class AdaptiveKernel final : public PixelKernel {
  public:
   AdaptiveKernel(const KernelSettings& settings, int capacity)
@@ -394,7 +398,8 @@ class AdaptiveKernel final : public PixelKernel {
     if (learned_) {
       // The network's normals for the whole span's flagged pixels in one batch.
       for (int i = 0; i < span.count; ++i) flagged_[i] = span.Wanted(i) && WantsRobust(span, i, fits) ? 1 : 0;
-      learned_->Predict(span, flagged_.data());
+      // Not below the fewest lights the network was trained on: there the robust fit stays.
+      learned_->Predict(span, flagged_.data(), kMinNetworkTokens);
     }
     for (int i = 0; i < span.count; ++i) {
       refitted_[i] = 0;

@@ -78,8 +78,8 @@ void AddPhotometricSolverOptions(CLI::App& command, PhotometricSolverOptions& op
                    "(the least-squares pixels keep their Lambertian result)");
   command.add_option("--learned", options.adaptive_learned,
                      "adaptive, at most --learned-max-lights lights: where its robust pass runs, take the learned "
-                     "network's normal: never, unsupported (where the lobe fit keeps no lobe) or flagged (every "
-                     "pixel of the robust pass)")
+                     "network's normal: never (default), unsupported (where the lobe fit keeps no lobe) or flagged "
+                     "(every pixel of the robust pass)")
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, PhotometricSolverOptions::LearnedUse>{
               {"never", PhotometricSolverOptions::LearnedUse::kNever},

@@ -165,10 +165,10 @@ std::vector<ReportRun> RunsFor(const ReportScene& scene, bool diligent, bool hug
     options.method = method.method;
     runs.push_back({method.name, options});
     if (method.method == Method::kAdaptive && scene.field->num_lights() <= options.adaptive_learned_max_lights) {
-      // The default without its network, where the network runs: what it adds.
-      PhotometricSolverOptions never = options;
-      never.adaptive_learned = PhotometricSolverOptions::LearnedUse::kNever;
-      runs.push_back({"adaptive, no network (--learned never)", never});
+      // The default with the network on its robust pixels without a lobe: what it adds.
+      PhotometricSolverOptions with_network = options;
+      with_network.adaptive_learned = PhotometricSolverOptions::LearnedUse::kUnsupportedLobe;
+      runs.push_back({"adaptive --learned unsupported", with_network});
     }
   }
   if (diligent) {

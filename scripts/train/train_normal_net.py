@@ -3,6 +3,7 @@
 but the project's own renders, and writes what the C++ solver embeds.
 
   scripts/train/setup.sh                 # Debian's python3-torch, numpy, OpenBLAS (once)
+  ninja -C build scanbench               # the renderer (a Release build of the project)
   scripts/train/train_normal_net.py      # renders, trains both designs, keeps the better
 
 Steps:
@@ -47,6 +48,9 @@ BUCKETS = [(3, 8, "3-8"), (9, 12, "9-12"), (13, 24, "13-24"), (25, 48, "25-48"),
 
 
 def render(scanbench, path, seed, sets, threads):
+    if not os.path.exists(scanbench):
+        sys.exit(f"render: {scanbench} does not exist: build it first "
+                 "(cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release && ninja -C build scanbench)")
     if os.path.exists(path):
         print(f"render: {path} exists, kept")
         return

@@ -16,6 +16,9 @@ namespace scanbench {
 namespace {
 
 using Method = PhotometricSolverOptions::Method;
+using testing::CountStatus;
+using testing::ExpectAllFinite;
+using testing::InputFor;
 
 ImageU8 ObjectPixels(const SyntheticScene& scene) { return scene.object; }
 
@@ -111,21 +114,26 @@ TEST(LearnedTest, TooFewSamplesAreFlagged) {
   EXPECT_EQ(solution.normal_in_table(5, 5, 2), 1.0f);
 }
 
-// The default takes the network only where the lobe fit keeps no lobe and at
-// most adaptive_learned_max_lights lights: a Lambertian scene is unchanged.
-TEST(LearnedTest, DefaultKeepsLambertianScenesAndRespectsTheLightLimit) {
+// --learned unsupported takes the network only where the lobe fit keeps no
+// lobe, with at most adaptive_learned_max_lights lights and at least 6 tokens;
+// the default (never) runs no network at all. On a Lambertian sphere only the
+// few robust pixels change, within a tenth of a degree on the mean (measured
+// 0.17 -> 0.27: the network's floor on the noisy pixels the robust pass gets;
+// one reason it is not the default).
+TEST(LearnedTest, AdaptiveUseKeepsLambertianScenesAndRespectsItsLimits) {
+  PhotometricSolverOptions unsupported;
+  unsupported.adaptive_learned = PhotometricSolverOptions::LearnedUse::kUnsupportedLobe;
+  EXPECT_FALSE(MethodRunsPass(PhotometricSolverOptions(), SolverPass::kLearnedNormals)) << "off by default";
+  EXPECT_TRUE(MethodRunsPass(unsupported, SolverPass::kLearnedNormals));
   SyntheticSceneOptions o;
   o.num_lights = 10;
   o.noise_stddev = 0.002;
   const SyntheticScene scene = MakeSyntheticScene(o);
-  PhotometricSolverOptions never;
-  never.adaptive_learned = PhotometricSolverOptions::LearnedUse::kNever;
   PhotometricSolution with, without;
-  const PhotometricSolverSummary summary = Solve(scene, PhotometricSolverOptions(), &with);
-  Solve(scene, never, &without);
-  EXPECT_NEAR(MeanError(scene, with), MeanError(scene, without), 0.01);
-  EXPECT_TRUE(MethodRunsPass(PhotometricSolverOptions(), SolverPass::kLearnedNormals));
-  EXPECT_FALSE(MethodRunsPass(never, SolverPass::kLearnedNormals));
+  const PhotometricSolverSummary lambertian = Solve(scene, unsupported, &with);
+  Solve(scene, PhotometricSolverOptions(), &without);
+  EXPECT_LT(MeanError(scene, with), MeanError(scene, without) + 0.15);
+  EXPECT_LT(lambertian.pixels_by_path[int(SolvePath::kLearned)], lambertian.num_solved() / 5);
   // A shiny sphere has robust pixels without a lobe at 10 lights: some take the
   // network; with the limit below the light count, none do.
   SyntheticSceneOptions shiny = o;
@@ -133,14 +141,21 @@ TEST(LearnedTest, DefaultKeepsLambertianScenesAndRespectsTheLightLimit) {
   shiny.shininess = 60;
   const SyntheticScene shiny_scene = MakeSyntheticScene(shiny);
   PhotometricSolution s1, s2;
-  const PhotometricSolverSummary on = Solve(shiny_scene, PhotometricSolverOptions(), &s1);
-  PhotometricSolverOptions limited;
+  const PhotometricSolverSummary on = Solve(shiny_scene, unsupported, &s1);
+  PhotometricSolverOptions limited = unsupported;
   limited.adaptive_learned_max_lights = 9;
   const PhotometricSolverSummary off = Solve(shiny_scene, limited, &s2);
   EXPECT_GT(on.pixels_by_path[int(SolvePath::kLearned)], 0u) << on.BriefReport();
+  EXPECT_FALSE(on.learned_model.empty());
   EXPECT_EQ(off.pixels_by_path[int(SolvePath::kLearned)], 0u) << off.BriefReport();
   EXPECT_TRUE(off.learned_model.empty());
   ExpectAllFinite(s1);
+  // Five lights: below the fewest the network was trained on, the robust fit stays.
+  SyntheticSceneOptions few = shiny;
+  few.num_lights = 5;
+  const SyntheticScene few_scene = MakeSyntheticScene(few);
+  PhotometricSolution s3;
+  EXPECT_EQ(Solve(few_scene, unsupported, &s3).pixels_by_path[int(SolvePath::kLearned)], 0u);
 }
 
 }  // namespace

@@ -21,7 +21,7 @@ using testing::InputFor;
 
 TEST(PhotometricMethodsTest, EveryMethodIsInTheTableOnceInTheEnumsOrder) {
   const auto rows = PhotometricMethods();
-  ASSERT_EQ(rows.size(), 8u);
+  ASSERT_EQ(rows.size(), 9u);
   std::set<std::string> names;
   for (size_t i = 0; i < rows.size(); ++i) {
     const PhotometricMethodRow& row = rows[i];
@@ -54,7 +54,7 @@ TEST(PhotometricMethodsTest, NamesRoundTripAndTheNamesAreThoseOfBefore) {
   EXPECT_THAT([] { PhotometricMethodFromName("svd"); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("'svd' is not one of adaptive, jacobi_svd, normal_equations, qr, uniform_pinv, "
-                            "robust_irls, sparse_bayesian, diffuse_lobe")));
+                            "robust_irls, sparse_bayesian, diffuse_lobe, learned")));
   EXPECT_EQ(PhotometricSolverOptions().method, Method::kAdaptive) << "the default is adaptive";
 }
 
@@ -62,7 +62,7 @@ TEST(PhotometricMethodsTest, AValueWithoutARowIsRefusedByName) {
   PhotometricSolverOptions options;
   options.method = static_cast<Method>(PhotometricMethods().size());
   EXPECT_THAT([&] { options.Check(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr(
-                                            "PhotometricSolverOptions.method = 8 has no row in the method table")));
+                                            "PhotometricSolverOptions.method = 9 has no row in the method table")));
 }
 
 TEST(PhotometricMethodsTest, LightSharingAsBefore) {

@@ -126,6 +126,9 @@ TEST(StiffCasesTest, ExactlyThreeLights) {
     options.method = method;
     PhotometricSolution solution;
     SolvePhotometricStereo(options, InputFor(scene), &solution);
+    ExpectAllFinite(solution);
+    // The network is not exact (tests/solver/learned_kernel_test.cc holds it to its own figures).
+    if (method == Method::kLearned) continue;
     // Exact where all three samples are above the shadow level; where one
     // is at or below it (grazing), too few lights are left.
     ImageU8 exact = ExactPixels(scene);
@@ -424,6 +427,12 @@ TEST(StiffCasesTest, NonFiniteAndNegativeSamplesAndLights) {
     PhotometricSolution solution;
     SolvePhotometricStereo(options, InputFor(scene), &solution);
     EXPECT_EQ(solution.status(64, 64), uint8_t(PixelStatus::kSolved)) << PhotometricMethodName(method);
+    if (method == Method::kLearned) {
+      // Not exact: near the clean normal, and nothing non-finite from the bad samples.
+      EXPECT_LE(AngleDegrees(NormalAt(solution.normal_in_table, 64, 64), NormalAt(clean.normal_in_table, 64, 64)), 5.0);
+      ExpectAllFinite(solution);
+      continue;
+    }
     EXPECT_EQ(solution.lights_used(64, 64), 6);
     EXPECT_LE(AngleDegrees(NormalAt(solution.normal_in_table, 64, 64), NormalAt(clean.normal_in_table, 64, 64)), 0.01);
     ExpectAllFinite(solution);

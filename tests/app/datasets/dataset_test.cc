@@ -349,13 +349,14 @@ TEST(SolverReportTest, ScenesIncludeClothSatinAndRingSubsets) {
   options.output_dir = folder.path() / "out";
   options.include_16mp = false;
   options.diligent_dir = folder.path() / "diligent";
+  options.diligent_crop8_dir = folder.path() / "diligent_crop8";
   std::vector<std::string> skipped;
   const std::vector<std::string> without = SolverReportSceneNames(options, &skipped);
   EXPECT_EQ(without.size(), 7u);  // 3 analytic, 4 rig
-  EXPECT_EQ(skipped.size(), 5u);  // 16 MP, ball and bear at 96 and at 10 lights
+  EXPECT_EQ(skipped.size(), 11u);  // 16 MP, ball, bear, buddha, goblet, pot1 at 96 and at 10 lights
   EXPECT_THAT(without[5], HasSubstr("rig cloth twill 1232x816, RAW"));
   EXPECT_THAT(without[6], HasSubstr("rig satin 1232x816, RAW"));
-  EXPECT_THAT(skipped.back(), HasSubstr("bearPNG with 10 ring lights"));
+  EXPECT_THAT(skipped.back(), HasSubstr("pot1PNG with 10 ring lights"));
 
   fs::create_directories(options.diligent_dir / "ballPNG");
   fs::create_directories(options.diligent_dir / "bearPNG");
