@@ -217,7 +217,10 @@ tiled::SolveJob PrepareSolution(const tiled::SolveJob& job, ImageF* albedo_mosai
   const int width = job.field->width(), height = job.field->height();
   PhotometricSolution* solution = job.solution;
   const bool lobe = job.options->compute_specular && MethodRunsPass(*job.options, SolverPass::kPixelLobe);
-  const bool learned = job.with_confidence && MethodRunsPass(*job.options, SolverPass::kLearnedNormals);
+  // adaptive's network runs only up to its light limit (pixel_kernels.cc): no map it would leave empty.
+  const bool learned = job.with_confidence && MethodRunsPass(*job.options, SolverPass::kLearnedNormals) &&
+                       (job.options->method == PhotometricSolverOptions::Method::kLearned ||
+                        job.num_lights <= job.options->adaptive_learned_max_lights);
   // The largest first, so that the threads finish together.
   const std::function<void()> fills[] = {
       [&] {
