@@ -29,6 +29,7 @@ void ForEachMap(Solution& s, const F& f) {
   f(s.solve_path);
   f(s.specular);
   f(s.specular_status);
+  f(s.learned_error_deg);
 }
 constexpr int kNormalMap = 0, kStatusMap = 2, kSolvePathMap = 6;  // their places in ForEachMap's order
 
@@ -138,7 +139,7 @@ class FirstPassSpill {
 
   int width_;
   bool all_maps_;
-  std::array<int, 9> channels_{};  // per map (ForEachMap's order), 0 = empty
+  std::array<int, 10> channels_{};  // per map (ForEachMap's order), 0 = empty
   std::vector<int> band_rows_;
   DepthDecisionBlocks blocks_;
   SpillFile spill_;
@@ -171,7 +172,10 @@ void ResultStream::Add(PhotometricSolution& band) {
   times_->Time("write_maps", [&] {
     specular_.Add(band);
     // The maps open at the first band: whether there is a specular map is the solve's.
-    if (!maps_) maps_.emplace(folder_, width_, height_, !band.specular.empty(), evaluation_.has_value(), color_, exr_);
+    if (!maps_) {
+      maps_.emplace(folder_, width_, height_, !band.specular.empty(), evaluation_.has_value(),
+                    !band.learned_error_deg.empty(), color_, exr_);
+    }
     const double evaluated_before = maps_->alongside_seconds();
     maps_->AddBand(band,
                    evaluation_ ? std::function<ImageF()>([&] { return evaluation_->AddBand(band, num_threads_); })

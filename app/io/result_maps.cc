@@ -381,8 +381,9 @@ struct SolutionMapStream::Map {
 };
 
 SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int width, int height, bool with_specular,
-                                     bool with_error_map, const AlbedoColor& albedo_color, const ExrEncoding& exr)
-    : width_(width), height_(height), with_specular_(with_specular) {
+                                     bool with_error_map, bool with_learned_error, const AlbedoColor& albedo_color,
+                                     const ExrEncoding& exr)
+    : width_(width), height_(height), with_specular_(with_specular), with_learned_error_(with_learned_error) {
   const auto policy = OverwritePolicy::kRefuse;
   const auto path = [&](const char* name) { return folder / name; };
   const bool half = exr.sample_type == ExrSampleType::kHalf;
@@ -434,6 +435,18 @@ SolutionMapStream::SolutionMapStream(const std::filesystem::path& folder, int wi
                        writer.WriteRows(rows.f);
                      }});
   }
+  if (with_learned_error) {
+    ImageMetadata metadata;
+    metadata.description =
+        "the learned normal network's own expected angular error (deg, from its von Mises-Fisher "
+        "concentration) where the pixel's normal is the network's (solve path learned); 0 elsewhere";
+    maps_.push_back({"learned_error_deg", "learned_error_deg.exr",
+                     ImageRowWriter::Exr(path("learned_error_deg.exr"), width, height, 1, policy, {"Y"}, metadata,
+                                         ErrorMapExrEncoding(exr)),
+                     [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows&) {
+                       writer.WriteRows(band.learned_error_deg);
+                     }});
+  }
   maps_.push_back({"status", "status.png", ImageRowWriter::Png(path("status.png"), width, height, 1, 8, policy),
                    [](const PhotometricSolution& band, ImageRowWriter& writer, BandRows& rows) {
                      StatusPngCodes(band, &rows.u8);
@@ -456,13 +469,17 @@ void SolutionMapStream::CheckBand(const PhotometricSolution& band) const {
                     band.normal_in_table.SameSize(status) && band.normal_in_table.channels() == 3 &&
                     band.albedo.SameSize(status) && band.albedo.channels() == 3 && band.residual.SameSize(status) &&
                     band.lights_used.SameSize(status) && band.condition_number.SameSize(status) &&
-                    band.specular.empty() != with_specular_;
+                    band.specular.empty() != with_specular_ &&
+                    (with_learned_error_ ? band.learned_error_deg.SameSize(status) && band.learned_error_deg.channels() == 1
+                                         : band.learned_error_deg.empty());
   if (!fits) {
     throw std::invalid_argument("SolutionMapStream: a band of " + ShapeText(status) + " (normal " +
                                 ShapeText(band.normal_in_table) + ", albedo " + ShapeText(band.albedo) +
-                                (band.specular.empty() ? ", no specular" : ", specular") + ") for maps of " +
-                                SizeText(width_, height_) + (with_specular_ ? " with" : " without") +
-                                " specular.exr, " + std::to_string(rows_added_) + " rows added");
+                                (band.specular.empty() ? ", no specular" : ", specular") + ", learned error " +
+                                ShapeText(band.learned_error_deg) + ") for maps of " + SizeText(width_, height_) +
+                                (with_specular_ ? " with" : " without") + " specular.exr," +
+                                (with_learned_error_ ? " with" : " without") + " learned_error_deg.exr, " +
+                                std::to_string(rows_added_) + " rows added");
   }
   if (with_specular_) CheckSpecularShape(band);
 }
@@ -540,7 +557,7 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
   // The whole solution as one band: the files are independent and written
   // concurrently on the one thread pool (compression dominates at 16 MP).
   SolutionMapStream stream(folder, solution.status.width(), solution.status.height(), !solution.specular.empty(),
-                           !angular_error_deg.empty(), albedo_color, exr);
+                           !angular_error_deg.empty(), !solution.learned_error_deg.empty(), albedo_color, exr);
   stream.AddBand(solution, angular_error_deg.empty() ? std::function<ImageF()>() : [&] { return angular_error_deg; },
                  threads);
   return stream.Commit();

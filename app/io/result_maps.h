@@ -94,7 +94,9 @@ ExrEncoding ResultMapExrEncoding(bool float32_maps = false);
 // solved_mask.png and confidence.exr into `folder` (never overwriting), and
 // specular.exr (channels specular_f0, roughness_alpha; both 0 where the lobe
 // is not estimated) when the solution has a specular map, and
-// angular_error_deg.exr (channel Y) when `angular_error_deg` is non-empty.
+// angular_error_deg.exr (channel Y) when `angular_error_deg` is non-empty,
+// and learned_error_deg.exr (channel Y: the network's own expected error,
+// deg, where its normal was kept, else 0) when the solution has that map.
 // The EXRs are stored as `exr` says; the PNGs are always 16-bit (normal) and 8-bit.
 // albedo.exr and albedo_srgb.png name their colour space (`albedo_color`):
 // linear Rec.709 carries the OpenEXR chromaticities of Rec.709 / D65.
@@ -117,9 +119,11 @@ std::map<std::string, std::string> WriteSolutionMaps(const std::filesystem::path
 class SolutionMapStream {
  public:
   // Opens the files for a width x height solution in `folder`: specular.exr
-  // when `with_specular`, angular_error_deg.exr when `with_error_map`.
+  // when `with_specular`, angular_error_deg.exr when `with_error_map`,
+  // learned_error_deg.exr when `with_learned_error` (the bands then carry
+  // PhotometricSolution::learned_error_deg).
   SolutionMapStream(const std::filesystem::path& folder, int width, int height, bool with_specular,
-                    bool with_error_map, const AlbedoColor& albedo_color = {},
+                    bool with_error_map, bool with_learned_error = false, const AlbedoColor& albedo_color = {},
                     const ExrEncoding& exr = ResultMapExrEncoding());
   SolutionMapStream(const SolutionMapStream&) = delete;
   SolutionMapStream& operator=(const SolutionMapStream&) = delete;
@@ -146,6 +150,7 @@ class SolutionMapStream {
   void CheckBand(const PhotometricSolution& band) const;
   int width_ = 0, height_ = 0;
   bool with_specular_ = false;
+  bool with_learned_error_ = false;
   std::vector<Map> maps_;
   std::unique_ptr<ImageRowWriter> error_map_;
   int rows_added_ = 0;

@@ -7,6 +7,7 @@
 #include "app/controllers/solve_controller.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -335,6 +336,46 @@ TEST_F(SolveControllerTest, EveryRouteWritesTheSameBytes) {
     EXPECT_TRUE(FileBytes(spilled.result_dir / name) == FileBytes(streamed.result_dir / name)) << name;
   }
   EXPECT_EQ(ReadJsonFile(streamed.result_dir / "report.json").at("depth_refinement").at("refined"), false);
+}
+
+// The learned method's own expected error (issue #33) is a file of the
+// result, the same through the streamed and the spilled route; a solve
+// that does not run the network has no such file.
+TEST_F(SolveControllerTest, TheLearnedMethodWritesItsExpectedErrorOnEveryRoute) {
+  const fs::path session_dir = CopyOf("flat");
+  SolveOptions options = OptionsOf(kRoutes[0]);
+  options.solver.method = PhotometricSolverOptions::Method::kLearned;
+  const SolveSummary streamed = Solve(session_dir, options);
+  options = OptionsOf(kRoutes[1]);
+  options.solver.method = PhotometricSolverOptions::Method::kLearned;
+  const SolveSummary spilled = Solve(session_dir, options);
+  for (const SolveSummary* summary : {&streamed, &spilled}) {
+    const fs::path map = summary->result_dir / "learned_error_deg.exr";
+    ASSERT_TRUE(fs::exists(map)) << summary->result_dir;
+    EXPECT_EQ(ReadJsonFile(summary->result_dir / "report.json").at("outputs").at("learned_error_deg"),
+              "learned_error_deg.exr");
+    const ImageF error = ReadImageFloat(map);
+    const ImageU8 solved = ReadImageU8(summary->result_dir / "solved_mask.png");
+    size_t solved_pixels = 0;
+    double sum = 0;
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        ASSERT_TRUE(std::isfinite(error(x, y)));
+        if (solved(x, y) == 0) continue;
+        ++solved_pixels;
+        sum += error(x, y);
+        EXPECT_GT(error(x, y), 0.0f) << "pixel " << x << ", " << y << ": every solved normal is the network's";
+      }
+    }
+    ASSERT_GT(solved_pixels, 0u);
+    // The network's floor on well-lit pixels is about a degree; its claim must be of that order.
+    EXPECT_GT(sum / solved_pixels, 0.2);
+    EXPECT_LT(sum / solved_pixels, 10.0);
+  }
+  EXPECT_TRUE(ExrBytesWithoutDate(streamed.result_dir / "learned_error_deg.exr") ==
+              ExrBytesWithoutDate(spilled.result_dir / "learned_error_deg.exr"));
+  const SolveSummary adaptive = Solve(session_dir, OptionsOf(kRoutes[0]));
+  EXPECT_FALSE(fs::exists(adaptive.result_dir / "learned_error_deg.exr"));
 }
 
 // A frame that changed, went missing or is cut short is refused, naming the

@@ -133,6 +133,37 @@ TEST(MapWriterTest, WithoutSpecularNothingChanges) {
             std::vector<uint8_t>(solution.status.data(), solution.status.data() + solution.status.size()));
 }
 
+// The learned network's expected error (issue #33) gets a file of its own
+// only when the solution carries the map, on the error map's grid.
+TEST(MapWriterTest, LearnedErrorMapIsWrittenOnlyWhereTheNetworkRan) {
+  TemporaryFolder with, without, streamed;
+  PhotometricSolution solution = PlainSolution();
+  EXPECT_EQ(WriteSolutionMaps(without.path(), solution).count("learned_error_deg"), 0u);
+  EXPECT_FALSE(fs::exists(without / "learned_error_deg.exr"));
+
+  solution.learned_error_deg = ImageF(kWidth, kHeight, 1, 0.0f);
+  for (int x = 0; x < kWidth / 2; ++x) solution.learned_error_deg(x, 3) = 1.5f + x / 8.0f;
+  const auto written = WriteSolutionMaps(with.path(), solution);
+  ASSERT_EQ(written.count("learned_error_deg"), 1u);
+  EXPECT_EQ(written.at("learned_error_deg"), "learned_error_deg.exr");
+  std::vector<std::string> names;
+  const ImageF read = ReadImageFloat(with / "learned_error_deg.exr", &names);
+  ASSERT_EQ(read.channels(), 1);
+  EXPECT_EQ(names, std::vector<std::string>{"Y"});
+  EXPECT_NEAR(read(0, 3), 1.5f, 1.0f / 1024);  // 2^-9 deg grid below 2 deg
+  EXPECT_NEAR(read(11, 3), 1.5f + 11 / 8.0f, 2.875f / 2048);
+  EXPECT_EQ(read(20, 3), 0.0f);  // not the network's normal
+  // A band without the map for a stream opened with it is refused, naming both.
+  SolutionMapStream stream(streamed.path(), kWidth, kHeight, false, false, true);
+  PhotometricSolution band = PlainSolution();
+  try {
+    stream.AddBand(band);
+    FAIL() << "a band without learned_error_deg was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("with learned_error_deg.exr"));
+  }
+}
+
 // Unit normals in every direction of the upper hemisphere (and a few on the
 // horizon), stored by default as half float with components below 0.25 on
 // the 2^-12 grid: the largest change of direction that the quantisation
