@@ -299,19 +299,14 @@ std::pair<int, int> ParseShard(const std::string& text) {
 
 std::optional<fs::path> FindResultWithFingerprint(const fs::path& session_dir, const std::string& fingerprint) {
   std::optional<fs::path> newest;
-  std::error_code error;
-  const fs::path results = session_dir / "results";
-  if (!fs::is_directory(results, error)) return newest;
-  for (const fs::directory_entry& entry : fs::directory_iterator(results)) {
-    // Hidden names are staging folders of a solve that has not committed: not complete.
-    if (!entry.is_directory() || entry.path().filename().string().starts_with(".")) continue;
-    std::ifstream in(entry.path() / "report.json");
+  for (const fs::path& result : ListResultFolders(session_dir)) {
+    std::ifstream in(result / "report.json");
     if (!in) continue;
     const nlohmann::json report = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
     if (report.is_discarded() || !report.is_object()) continue;
     const auto found = report.find("inputs_fingerprint");
     if (found == report.end() || !found->is_string() || found->get<std::string>() != fingerprint) continue;
-    if (!newest || entry.path().filename() > newest->filename()) newest = entry.path();
+    if (!newest || result.filename() > newest->filename()) newest = result;
   }
   return newest;
 }

@@ -813,8 +813,8 @@ void SolveController::Run() {
 
   // The folder appears complete or not at all. Reserved before the solve:
   // the maps stream into its staging folder band by band as they are solved.
-  StagedFolder staged = StagedFolder::OntoReserved(CreateResultFolder(
-      session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label));
+  StagedFolder staged = ReserveResultFolder(
+      session_dir_, options_.run_label.empty() ? PhotometricMethodName(options_.solver.method) : options_.run_label);
   SolveRouting routing(RouteOf(options_, *lighting.light_field), summary_.width, summary_.height, staged.staging(),
                        threads, [&] {
                          return OpenResults(options_, session_dir_, session, summary_, staged.staging(), &times);

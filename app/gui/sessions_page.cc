@@ -35,16 +35,6 @@ namespace {
 enum Column { kName, kSample, kFrames, kState, kResults, kColumnCount };
 constexpr int kPathRole = Qt::UserRole;
 
-std::vector<fs::path> ResultFolders(const fs::path& session_dir) {
-  std::vector<fs::path> folders;
-  std::error_code error;
-  for (const auto& entry : fs::directory_iterator(session_dir / "results", error)) {
-    if (entry.is_directory()) folders.push_back(entry.path());
-  }
-  std::sort(folders.begin(), folders.end());  // run ids start with a UTC timestamp
-  return folders;
-}
-
 }  // namespace
 
 SessionsPage::SessionsPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
@@ -254,7 +244,7 @@ void SessionsPage::Refresh() {
       item->setText(kState, tr("unreadable"));
       item->setToolTip(kState, QString::fromStdString(load_error.what()));
     }
-    item->setText(kResults, QString::number(ResultFolders(dir).size()));
+    item->setText(kResults, QString::number(ListResultFolders(dir).size()));
   }
   SetStatus(tr("%1 session(s) in %2").arg(dirs.size()).arg(root_->text()));
 }
@@ -280,7 +270,7 @@ void SessionsPage::ShowResults() {
   results_->clear();
   const fs::path session = SelectedSession();
   if (session.empty()) return;
-  for (const fs::path& folder : ResultFolders(session)) {
+  for (const fs::path& folder : ListResultFolders(session)) {
     auto* item = new QListWidgetItem(QString::fromStdString(folder.filename().string()), results_);
     item->setData(kPathRole, QString::fromStdString(folder.string()));
   }

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -72,6 +73,26 @@ void RenameDurably(const fs::path& from, const fs::path& to) {
   std::error_code ec;
   fs::rename(from, to, ec);
   if (ec) throw PathError(to, "cannot be renamed from " + from.string() + ": " + ec.message());
+  const fs::path to_folder = FolderOf(to), from_folder = FolderOf(from);
+  FsyncDirectory(to_folder);
+  std::error_code ignored;
+  if (!fs::equivalent(from_folder, to_folder, ignored)) FsyncDirectory(from_folder);
+}
+
+void RenameDurablyOntoAbsent(const fs::path& from, const fs::path& to) {
+  if (::renameat2(AT_FDCWD, from.c_str(), AT_FDCWD, to.c_str(), RENAME_NOREPLACE) != 0) {
+    const int error = errno;
+    if (error == EEXIST) throw PathError(to, "exists already; " + from.string() + " is not renamed onto it");
+    if (error != EINVAL && error != ENOSYS) {
+      throw PathError(to, "cannot be renamed from " + from.string() + ": " + std::strerror(error));
+    }
+    std::error_code ignored;
+    if (fs::exists(fs::symlink_status(to, ignored))) {
+      throw PathError(to, "exists already; " + from.string() + " is not renamed onto it");
+    }
+    RenameDurably(from, to);
+    return;
+  }
   const fs::path to_folder = FolderOf(to), from_folder = FolderOf(from);
   FsyncDirectory(to_folder);
   std::error_code ignored;

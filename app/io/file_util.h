@@ -35,11 +35,14 @@ std::filesystem::path TemporarySiblingPath(const std::filesystem::path& path);
 void CommitTemporaryFile(const std::filesystem::path& temporary, const std::filesystem::path& path,
                          OverwritePolicy policy);
 
-// Renames a file or folder (e.g. a staged result folder onto its empty
-// reservation) and fsyncs the folder(s) holding both names. Throws
+// Renames a file or folder and fsyncs the folder(s) holding both names. Throws
 // std::runtime_error naming `from`, `to` and the problem. The one way the
 // project renames anything.
 void RenameDurably(const std::filesystem::path& from, const std::filesystem::path& to);
+// The same, but `to` must not exist: an entry that has the name (even an
+// empty folder) is never replaced (renameat2's RENAME_NOREPLACE; on a file
+// system without it, a check before the rename).
+void RenameDurablyOntoAbsent(const std::filesystem::path& from, const std::filesystem::path& to);
 
 // Opens `folder` and fsyncs it, so that renames, links and unlinks in it are
 // on disk. Throws std::runtime_error naming the folder when it cannot be

@@ -2,6 +2,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstdio>
@@ -533,8 +534,8 @@ void AddFrame(const fs::path& root, Session& session, FrameRecord record, std::s
   session = std::move(updated);
 }
 
-fs::path CreateResultFolder(const fs::path& root, const std::string& run_label,
-                            std::chrono::system_clock::time_point now) {
+StagedFolder ReserveResultFolder(const fs::path& root, const std::string& run_label,
+                                 std::chrono::system_clock::time_point now) {
   const fs::path manifest = root / kManifestName;
   std::error_code error;
   if (!fs::is_regular_file(manifest, error)) {
@@ -546,17 +547,25 @@ fs::path CreateResultFolder(const fs::path& root, const std::string& run_label,
                        std::to_string(kMaxRunLabelLength) + " characters of [A-Za-z0-9._-]");
   }
   RethrowAsSessionError([&] { fs::create_directories(results); });
-  const std::string base_name = CompactUtcTimestamp(now) + "-" + run_label;
-  // mkdir() fails with EEXIST on any existing entry, so even two runs started in
-  // the same second by different processes get different folders.
-  constexpr int kMaxAttempts = 10000;
-  for (int attempt = 1; attempt <= kMaxAttempts; ++attempt) {
-    const fs::path folder = results / (attempt == 1 ? base_name : base_name + "-" + std::to_string(attempt));
-    if (::mkdir(folder.c_str(), 0777) == 0) return folder;
-    if (errno != EEXIST) throw SessionError(folder.string() + ": cannot be created: " + std::strerror(errno));
+  // Even two runs started in the same second by different processes get
+  // different names: the reservation is an exclusive link.
+  try {
+    return StagedFolder::ReserveNumbered(results, CompactUtcTimestamp(now) + "-" + run_label);
+  } catch (const std::runtime_error& e) {
+    throw SessionError(e.what());
   }
-  throw SessionError(results.string() + ": " + std::to_string(kMaxAttempts) + " folders named " + base_name +
-                     "* exist already");
+}
+
+std::vector<fs::path> ListResultFolders(const fs::path& root) {
+  std::vector<fs::path> folders;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(root / kResultsFolder, error)) {
+    if (entry.is_directory(error) && !entry.path().filename().string().starts_with(".")) {
+      folders.push_back(entry.path());
+    }
+  }
+  std::sort(folders.begin(), folders.end());
+  return folders;
 }
 
 std::string FrameStem(std::optional<int> led_index) {

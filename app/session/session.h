@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "app/io/staged_folder.h"
 #include "app/session/rig_json.h"
 #include "app/session/session_error.h"
 #include "calibration/rig.h"
@@ -139,12 +140,19 @@ std::filesystem::path CreateSessionFolder(const std::filesystem::path& root);
 void AddFrame(const std::filesystem::path& root, Session& session, FrameRecord record,
               std::span<const uint8_t> bytes);
 
-// Makes and returns a new, empty <root>/results/<UTC timestamp>-<run_label>[-N]
-// (e.g. "20240501T123456Z-default"); an existing folder is never reused.
+// Reserves a new <root>/results/<UTC timestamp>-<run_label>[-N] (e.g.
+// "20240501T123456Z-default"): written into its staging folder, it appears
+// on Commit and never before, so a run killed outright leaves nothing under
+// the name, and its staging folder is removed by the next reservation
+// (StagedFolder::ReserveNumbered). An existing folder is never reused.
 // `run_label` is 1-64 characters of [A-Za-z0-9._-].
-std::filesystem::path CreateResultFolder(
-    const std::filesystem::path& root, const std::string& run_label,
-    std::chrono::system_clock::time_point now = std::chrono::system_clock::now());
+StagedFolder ReserveResultFolder(const std::filesystem::path& root, const std::string& run_label,
+                                 std::chrono::system_clock::time_point now = std::chrono::system_clock::now());
+
+// The complete result folders of the session at `root` (not the hidden
+// staging folders of runs under way or killed), oldest first (run ids start
+// with their UTC timestamp). Empty when there is no results folder.
+std::vector<std::filesystem::path> ListResultFolders(const std::filesystem::path& root);
 
 // nullptr if absent.
 // Frame file names inside the session: "dark" / "led_03" (also used in

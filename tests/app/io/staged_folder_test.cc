@@ -1,5 +1,9 @@
 #include "app/io/staged_folder.h"
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -28,17 +32,15 @@ std::string ReadText(const fs::path& path) {
   return std::string(bytes.begin(), bytes.end());
 }
 
-// The solve's way: the result folder reserved beforehand (CreateResultFolder),
-// the files written beside it in .<name>.partial, which replaces it on Commit.
-TEST(StagedFolderTest, OntoReservedReplacesTheReservationOnCommit) {
+// The files are written beside the final name in .<name>.partial, reserved
+// by .<name>.partial.lock; only Commit makes the final name.
+TEST(StagedFolderTest, NothingHasTheFinalNameBeforeCommit) {
   TemporaryFolder folder;
-  fs::create_directory(folder / "run");
-  StagedFolder staged = StagedFolder::OntoReserved(folder / "run");
+  StagedFolder staged = StagedFolder::ReserveNumbered(folder.path(), "run");
   EXPECT_EQ(staged.final_dir(), folder / "run");
   EXPECT_EQ(staged.staging(), folder / ".run.partial");
-  EXPECT_THAT(folder.List(), ElementsAre(".run.partial", "run"));
+  EXPECT_THAT(folder.List(), ElementsAre(".run.partial", ".run.partial.lock"));
   WriteText(staged.staging() / "report.json", "{}\n");
-  EXPECT_TRUE(fs::is_empty(folder / "run")) << "nothing appears before Commit";
   const uint64_t fsyncs = DirectoryFsyncCount();
   staged.Commit();
   EXPECT_GT(DirectoryFsyncCount(), fsyncs) << "the rename is made durable";
@@ -49,25 +51,90 @@ TEST(StagedFolderTest, OntoReservedReplacesTheReservationOnCommit) {
 
 TEST(StagedFolderTest, DiscardRemovesTheStagingFolderAndTheReservation) {
   TemporaryFolder folder;
-  fs::create_directory(folder / "run");
   {
-    StagedFolder staged = StagedFolder::OntoReserved(folder / "run");
+    StagedFolder staged = StagedFolder::ReserveNumbered(folder.path(), "run");
     fs::create_directory(staged.staging() / "sub");
     WriteText(staged.staging() / "sub" / "a.txt", "a");
   }
   EXPECT_THAT(folder.List(), IsEmpty());
 }
 
-// A staging folder a killed run left is not taken into the new result.
-TEST(StagedFolderTest, AStaleStagingFolderIsClearedFirst) {
+// A staging folder without a lock file (a killed run of a version before
+// the locks) is not taken into the new result, and is removed.
+TEST(StagedFolderTest, AStagingFolderWithoutItsLockIsCleared) {
   TemporaryFolder folder;
   fs::create_directories(folder / ".run.partial");
   WriteText(folder / ".run.partial" / "stale.txt", "old");
-  fs::create_directory(folder / "run");
-  StagedFolder staged = StagedFolder::OntoReserved(folder / "run");
+  StagedFolder staged = StagedFolder::ReserveNumbered(folder.path(), "run");
+  EXPECT_EQ(staged.final_dir(), folder / "run");
   EXPECT_TRUE(fs::is_empty(staged.staging()));
   staged.Commit();
   EXPECT_TRUE(fs::is_empty(folder / "run"));
+}
+
+// What a run in another process left or holds, by a child that reserves
+// "run" and then either dies by SIGKILL half-way through its files, or
+// stays alive until told.
+pid_t ChildReserving(const fs::path& parent, bool die, int* ready_fd) {
+  int pipe_fds[2];
+  if (::pipe(pipe_fds) != 0) return -1;
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::close(pipe_fds[0]);
+    StagedFolder staged = StagedFolder::ReserveNumbered(parent, "run");
+    WriteText(staged.staging() / "normal.exr", "half of it");
+    if (die) ::raise(SIGKILL);
+    const char ready = 1;
+    [[maybe_unused]] const ssize_t written = ::write(pipe_fds[1], &ready, 1);
+    ::pause();  // until killed
+    ::_exit(0);
+  }
+  ::close(pipe_fds[1]);
+  *ready_fd = pipe_fds[0];
+  return pid;
+}
+
+TEST(StagedFolderTest, AKilledRunLeavesNoResultAndItsStagingGoesAtTheNextReservation) {
+  TemporaryFolder folder;
+  int ready = -1;
+  const pid_t pid = ChildReserving(folder.path(), /*die=*/true, &ready);
+  ASSERT_GT(pid, 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
+  ::close(ready);
+  EXPECT_THAT(folder.List(), ElementsAre(".run.partial", ".run.partial.lock")) << "no folder under the final name";
+
+  StagedFolder next = StagedFolder::ReserveNumbered(folder.path(), "run");
+  EXPECT_EQ(next.final_dir(), folder / "run") << "the dead run's name is free again";
+  EXPECT_TRUE(fs::is_empty(next.staging())) << "none of the dead run's files";
+  next.Commit();
+  EXPECT_THAT(folder.List(), ElementsAre("run"));
+}
+
+TEST(StagedFolderTest, ALiveRunInAnotherProcessKeepsItsNameAndItsFiles) {
+  TemporaryFolder folder;
+  int ready = -1;
+  const pid_t pid = ChildReserving(folder.path(), /*die=*/false, &ready);
+  ASSERT_GT(pid, 0);
+  char byte = 0;
+  ASSERT_EQ(::read(ready, &byte, 1), 1);
+  ::close(ready);
+
+  EXPECT_EQ(StagedFolder::RemoveStale(folder.path()), 0);
+  {
+    StagedFolder beside = StagedFolder::ReserveNumbered(folder.path(), "run");
+    EXPECT_EQ(beside.final_dir(), folder / "run-2");
+    EXPECT_THAT([&] { StagedFolder::OntoAbsent(folder / "run"); },
+                ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("is being written by another run")));
+  }
+  EXPECT_EQ(ReadText(folder / ".run.partial" / "normal.exr"), "half of it");
+
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  EXPECT_EQ(StagedFolder::RemoveStale(folder.path()), 1);
+  EXPECT_THAT(folder.List(), IsEmpty());
 }
 
 // The export's way: <parent>/<base>[-N] reserved here, never an existing entry.
@@ -80,7 +147,7 @@ TEST(StagedFolderTest, ReserveNumberedTakesTheNextFreeName) {
   WriteText(exports / "run-png16-2", "a file takes the name too");
   StagedFolder second = StagedFolder::ReserveNumbered(exports, "run-png16");
   EXPECT_EQ(second.final_dir(), exports / "run-png16-3");
-  EXPECT_TRUE(fs::is_directory(second.final_dir())) << "reserved at once";
+  EXPECT_FALSE(fs::exists(second.final_dir())) << "reserved by its lock, not by the name";
   first.Commit();
   second.Commit();
   std::vector<std::string> names;
@@ -133,13 +200,12 @@ TEST(StagedFolderTest, OntoAbsentAppearsOnlyOnCommit) {
 // A moved-from object discards nothing: the new owner commits.
 TEST(StagedFolderTest, MovedFromDiscardsNothing) {
   TemporaryFolder folder;
-  fs::create_directory(folder / "run");
   std::optional<StagedFolder> owner;
   {
-    StagedFolder staged = StagedFolder::OntoReserved(folder / "run");
+    StagedFolder staged = StagedFolder::ReserveNumbered(folder.path(), "run");
     owner.emplace(std::move(staged));
   }
-  EXPECT_THAT(folder.List(), ElementsAre(".run.partial", "run"));
+  EXPECT_THAT(folder.List(), ElementsAre(".run.partial", ".run.partial.lock"));
   owner->Commit();
   EXPECT_THAT(folder.List(), ElementsAre("run"));
 }

@@ -28,7 +28,9 @@ using testing_util::MakeTestSession;
 using testing_util::ReadText;
 using testing_util::TemporaryFolder;
 using testing_util::WriteText;
+using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+using ::testing::IsEmpty;
 using ::testing::StartsWith;
 using Json = nlohmann::ordered_json;
 
@@ -540,26 +542,29 @@ TEST(SessionCaptureTest, CreateSessionFolderMakesLayoutAndRefusesExistingSession
               StartsWith((root / "session.json").string() + ": already exists"));
 }
 
-TEST_F(SessionFolderTest, CreateResultFolderNeverReusesAFolder) {
+TEST_F(SessionFolderTest, ReserveResultFolderNeverReusesAFolder) {
   const auto now = std::chrono::system_clock::time_point(std::chrono::seconds(1714566896));
-  const fs::path first = CreateResultFolder(root_, "default", now);
-  EXPECT_EQ(first, root_ / "results" / "20240501T123456Z-default");
-  const fs::path second = CreateResultFolder(root_, "default", now);
-  EXPECT_EQ(second, root_ / "results" / "20240501T123456Z-default-2");
+  StagedFolder first = ReserveResultFolder(root_, "default", now);
+  EXPECT_EQ(first.final_dir(), root_ / "results" / "20240501T123456Z-default");
+  StagedFolder second = ReserveResultFolder(root_, "default", now);
+  EXPECT_EQ(second.final_dir(), root_ / "results" / "20240501T123456Z-default-2");
   WriteText(root_ / "results" / "20240501T123456Z-default-3", "a file in the way");
-  const fs::path fourth = CreateResultFolder(root_, "default", now);
-  EXPECT_EQ(fourth, root_ / "results" / "20240501T123456Z-default-4");
-  EXPECT_TRUE(fs::is_directory(first) && fs::is_directory(second) && fs::is_directory(fourth));
-  EXPECT_TRUE(fs::is_empty(first));
+  StagedFolder fourth = ReserveResultFolder(root_, "default", now);
+  EXPECT_EQ(fourth.final_dir(), root_ / "results" / "20240501T123456Z-default-4");
+  EXPECT_THAT(ListResultFolders(root_), IsEmpty()) << "reserved, not yet results";
+  first.Commit();
+  fourth.Commit();
+  EXPECT_THAT(ListResultFolders(root_), ElementsAre(first.final_dir(), fourth.final_dir()));
   // The real clock works too.
-  EXPECT_TRUE(fs::is_directory(CreateResultFolder(root_, "default")));
+  StagedFolder now_folder = ReserveResultFolder(root_, "default");
+  EXPECT_EQ(now_folder.final_dir().parent_path(), root_ / "results");
 }
 
-TEST_F(SessionFolderTest, CreateResultFolderRejectsBadLabelAndNonSession) {
-  EXPECT_THAT(ErrorMessageOf([&] { CreateResultFolder(root_, "../escape"); }),
+TEST_F(SessionFolderTest, ReserveResultFolderRejectsBadLabelAndNonSession) {
+  EXPECT_THAT(ErrorMessageOf([&] { ReserveResultFolder(root_, "../escape"); }),
               HasSubstr("run label \"../escape\" must be 1-64 characters of [A-Za-z0-9._-]"));
-  EXPECT_THAT(ErrorMessageOf([&] { CreateResultFolder(root_, ""); }), HasSubstr("run label \"\""));
-  EXPECT_THAT(ErrorMessageOf([&] { CreateResultFolder(folder_.path(), "default"); }),
+  EXPECT_THAT(ErrorMessageOf([&] { ReserveResultFolder(root_, ""); }), HasSubstr("run label \"\""));
+  EXPECT_THAT(ErrorMessageOf([&] { ReserveResultFolder(folder_.path(), "default"); }),
               StartsWith((folder_.path() / "session.json").string() + ": does not exist"));
 }
 
