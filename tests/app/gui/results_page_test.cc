@@ -15,6 +15,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 
 #include "app/controllers/export_controller.h"
 #include "app/controllers/simulate_controller.h"
@@ -43,6 +44,16 @@ class ResultsPageTest : public QObject {
 
   QString Dir(const fs::path& path) const { return QString::fromStdString(path.string()); }
 
+  // A page as the window holds it, 1200 x 800 and shown (the runner outlives it).
+  std::unique_ptr<ResultsPage> ShownPage() {
+    auto page = std::make_unique<ResultsPage>(&runner_);
+    page->resize(1200, 800);
+    page->show();
+    if (!QTest::qWaitForWindowExposed(page.get())) qWarning("the page was not exposed");
+    return page;
+  }
+  ControllerRunner runner_;
+
  private slots:
   void initTestCase() {
     session_ = folder_ / "satin";
@@ -68,10 +79,8 @@ class ResultsPageTest : public QObject {
   // A result solved everywhere, mostly without a specular lobe, reads as
   // solved: green in the map, "100 % solved" in its key, every code named.
   void StatusMapReadsSolvedWithAKey() {
-    ControllerRunner runner;
-    ResultsPage page(&runner);
-    page.resize(1200, 800);
-    page.show();
+    const std::unique_ptr<ResultsPage> shown = ShownPage();
+    ResultsPage& page = *shown;
     const fs::path dir = folder_ / "all7" / "results" / "run";
     fs::create_directories(dir);
     ImageU8 status(20, 10, 1, kStatusSolvedSpecularUnsupported);
@@ -88,8 +97,8 @@ class ResultsPageTest : public QObject {
       QVERIFY2(entries[info.code].startsWith(QString::fromUtf8(info.name) + ':'), qPrintable(entries[info.code]));
     }
     QCOMPARE(entries[kStatusSolvedSpecularUnsupported], QStringLiteral("solved, no specular lobe: 199 px (99.5 %)"));
-    const QColor shown(page.view()->image().pixel(0, 0));
-    QVERIFY2(shown.green() > shown.red() + 40 && shown.green() > shown.blue() + 40, qPrintable(shown.name()));
+    const QColor colour(page.view()->image().pixel(0, 0));
+    QVERIFY2(colour.green() > colour.red() + 40 && colour.green() > colour.blue() + 40, qPrintable(colour.name()));
     // A failure is named in the headline.
     status(0, 0) = 2;
     WritePng(dir / "status.png", status, OverwritePolicy::kReplace);
@@ -100,11 +109,8 @@ class ResultsPageTest : public QObject {
   }
 
   void ANewResultOpensFitted() {
-    ControllerRunner runner;
-    ResultsPage page(&runner);
-    page.resize(1200, 800);
-    page.show();
-    QVERIFY(QTest::qWaitForWindowExposed(&page));
+    const std::unique_ptr<ResultsPage> shown = ShownPage();
+    ResultsPage& page = *shown;
     QVERIFY(page.OpenResult(Dir(result_)));
     page.view()->FitToWidget();
     const double fit = page.view()->zoom();
@@ -118,11 +124,8 @@ class ResultsPageTest : public QObject {
   // Zoomed and panned, every map of the result sits where the first did, and
   // the view keeps its size (the key's place does not come and go).
   void SwitchingMapsDoesNotMoveThePicture() {
-    ControllerRunner runner;
-    ResultsPage page(&runner);
-    page.resize(1200, 800);
-    page.show();
-    QVERIFY(QTest::qWaitForWindowExposed(&page));
+    const std::unique_ptr<ResultsPage> shown = ShownPage();
+    ResultsPage& page = *shown;
     QVERIFY(page.OpenResult(Dir(result_)));
     QVERIFY(page.ShowLayer(ResultLayer::kAlbedo));
     QApplication::processEvents();
@@ -161,11 +164,8 @@ class ResultsPageTest : public QObject {
   }
 
   void PixelReadoutUnderTheCursor() {
-    ControllerRunner runner;
-    ResultsPage page(&runner);
-    page.resize(1200, 800);
-    page.show();
-    QVERIFY(QTest::qWaitForWindowExposed(&page));
+    const std::unique_ptr<ResultsPage> shown = ShownPage();
+    ResultsPage& page = *shown;
     QVERIFY(page.OpenResult(Dir(result_)));
     QVERIFY(page.ShowLayer(ResultLayer::kAngularError));
     QVERIFY(page.WaitForPixelProbe(30000));
@@ -192,11 +192,8 @@ class ResultsPageTest : public QObject {
     load.verify_checksums = false;
     const Session session = LoadSession(session_, load);
     QVERIFY(std::abs(*pitch / session.ground_truth->mm_per_pixel - 1) < 1e-6);
-    ControllerRunner runner;
-    ResultsPage page(&runner);
-    page.resize(1200, 800);
-    page.show();
-    QVERIFY(QTest::qWaitForWindowExposed(&page));
+    const std::unique_ptr<ResultsPage> shown = ShownPage();
+    ResultsPage& page = *shown;
     QVERIFY(page.OpenResult(Dir(result_)));
     QCOMPARE(page.view()->pixel_pitch_mm(), *pitch);
     const double bar_mm = page.view()->ScaleBarMm();
@@ -220,9 +217,8 @@ class ResultsPageTest : public QObject {
   }
 
   void TypedPathOpens() {
-    ControllerRunner runner;
-    ResultsPage page(&runner);
-    page.show();
+    const std::unique_ptr<ResultsPage> shown = ShownPage();
+    ResultsPage& page = *shown;
     auto* field = page.findChild<QLineEdit*>("resultFolder");
     QVERIFY(field != nullptr);
     QVERIFY(!field->isReadOnly());
@@ -238,11 +234,8 @@ class ResultsPageTest : public QObject {
 
   // The report across the page, in label and value columns.
   void ReportGetsThePagesWidth() {
-    ControllerRunner runner;
-    ResultsPage page(&runner);
-    page.resize(1200, 800);
-    page.show();
-    QVERIFY(QTest::qWaitForWindowExposed(&page));
+    const std::unique_ptr<ResultsPage> shown = ShownPage();
+    ResultsPage& page = *shown;
     QVERIFY(page.OpenResult(Dir(result_)));
     QApplication::processEvents();
     QVERIFY2(page.report()->width() >= 0.9 * page.width(), qPrintable(QString::number(page.report()->width())));
