@@ -9,6 +9,7 @@
 #include "app/cli/commands.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/export_controller.h"
+#include "app/io/export_contents.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -32,10 +33,7 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
   command
       .add_option_function<std::string>(
           "--preset", [&options](const std::string& name) { options.preset = ExportPresetFromName(name); },
-          "File formats: png16 (16-bit PNG, default), tiff16 (16-bit TIFF) or exr (32-bit float OpenEXR); or an "
-          "engine's own names, packing and normals: unreal (T_<material>_BC/_N/_ORM/_H, DirectX normals), unity-hdrp "
-          "(_BaseMap/_Normal/_MaskMap/_HeightMap) or gltf (a .gltf tile with its maps); height is always also float "
-          "EXR, and every export writes a MaterialX <material>.mtlx")
+          ExportPresetHelp())  // app/io/export_contents.h: the table the GUI's dialog and docs/export.md show
       ->check(NameCheck(ExportPresetFromName));
   command
       .add_option_function<std::string>(
@@ -64,7 +62,7 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
       ->capture_default_str();
   command.add_flag("--tileable", options.tileable, "Also write a seamless tileable crop of every map");
   command.add_flag("--no-preview", [&options](std::int64_t) { options.preview_page = false; },
-                   "Do not write preview.html (the material on a tile and a sphere, for a browser)");
+                   "Do not write preview.html (the sample on a tile and a dome, for a browser)");
   command.add_flag("--gltf-displaced-mesh", options.gltf_displaced_mesh,
                    "With --preset gltf: also a mesh displaced by the height map, beside the flat tile");
   command.add_option("--gltf-mesh-vertices", options.gltf_mesh_max_vertices,

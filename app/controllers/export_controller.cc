@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/io/engine_presets.h"
+#include "app/io/export_contents.h"
 #include "app/io/export_files.h"
 #include "app/io/file_util.h"
 #include "app/io/gltf_document.h"
@@ -337,12 +338,21 @@ class FilePlanner {
                     double pixel_mm) {
     const bool calibrated = color.color_space == "linear_rec709";
     const bool acescg = calibrated && options_.basecolor_space == ExportOptions::BasecolorSpace::kAcesCg;
-    const IntegerEncoding srgb{1, 0, "uint16 = srgb_transfer(value) * 65535, value in [0, 1]", true};
+    // What the file holds is the preset table's (app/io/export_contents.h),
+    // which the dialog and the help show: its transfer curve decides the integers.
+    const ExportPresetContents& contents = ExportPresetContentsOf(ExportPresetName(options_.preset));
+    if (exr_ && contents.basecolor_srgb) {
+      throw std::logic_error(std::string("export preset ") + contents.name +
+                             ": app/io/export_contents.cc gives an sRGB base colour, but EXR stores floats as they are");
+    }
+    const IntegerEncoding srgb = contents.basecolor_srgb
+                                     ? IntegerEncoding{1, 0, "uint16 = srgb_transfer(value) * 65535, value in [0, 1]", true}
+                                     : IntegerEncoding{1, 0, "uint16 = value * 65535, value in [0, 1]", false};
     const std::string space = !calibrated ? "white-balanced camera RGB (not colour calibrated)"
                               : acescg    ? "linear ACEScg (AP1 primaries, ACES white)"
                                           : "linear Rec.709 primaries, D65 white";
     const std::string description = "diffuse albedo, " + space + ", " + color.scale + " reflectance";
-    const std::string file_space = exr_ ? "Linear" : "sRGB";
+    const std::string file_space = BasecolorColorSpace(contents);
     ExportFile* file = acescg ? AddMap(kind, ToAcescg(albedo_linear_rec709), file_space, srgb, description, pixel_mm)
                               : AddMap(kind, albedo_linear_rec709, file_space, srgb, description, pixel_mm);
     file->metadata.attributes["scanbench:albedo_color_space"] = acescg ? "acescg" : color.color_space;
@@ -725,7 +735,8 @@ void RecordWrittenFiles(const fs::path& staging, std::vector<ExportFile>* files,
 
 // preview.html beside material.json: the base colour, flattened normals
 // (tangent frame, whatever the files' convention), mip 0's roughness, the
-// occlusion and height on a tile and a sphere, listing the files written.
+// occlusion and height of the sample (the tileable crop when there is one)
+// on a tile and a dome, listing the files written.
 // Its textures need only the maps, so they are made while the files are
 // written (PreviewTexturesOf); the page itself needs the files' sizes.
 PreviewPageOptions PreviewOptionsOf(const ExportInputs& inputs, const ExportSummary& summary) {
@@ -748,6 +759,14 @@ PreviewPageTextures PreviewTexturesOf(const fs::path& staging, const ExportInput
   views.occlusion = &maps.occlusion;
   views.height_mm = &maps.height_mm;
   views.valid = &inputs.valid;
+  if (!maps.tiles.empty()) {
+    // The tileable crop is the sample the page shows (TileMapsOf's order: albedo, normals, height, occlusion,
+    // cavity, roughness).
+    views.tile_basecolor_linear_rec709 = &maps.tiles[0];
+    views.tile_normal_in_tangent = &maps.tiles[1];
+    views.tile_occlusion = &maps.tiles[3];
+    views.tile_roughness_alpha = &maps.tiles[5];
+  }
   return MakePreviewTextures(PreviewOptionsOf(inputs, summary), views, summary.mm_per_pixel, staging / kPreviewPath,
                              progress);
 }
@@ -866,7 +885,7 @@ nlohmann::json ManifestJson(const ExportOptions& options, const ExportSummary& s
                                  ? "acescg"
                                  : "linear_rec709")
                           : "camera_rgb"},
-      {"encoding", options.preset == ExportOptions::Preset::kLinearExr ? "linear" : "srgb_transfer"},
+      {"encoding", BasecolorEncodingName(ExportPresetContentsOf(ExportPresetName(options.preset)))},
       {"color_calibration", inputs.albedo_color.description},
       {"scale", inputs.albedo_color.scale},
       {"scale_source", inputs.albedo_color.scale_source}};

@@ -6,6 +6,7 @@
 #include <QWidget>
 
 #include "app/gui/result_images.h"
+#include "app/io/status_codes.h"
 
 namespace scanbench {
 
@@ -29,6 +30,28 @@ class ColourLegend : public QWidget {
  private:
   QString WithUnit(double value) const;
   HeatmapScale scale_;
+};
+
+// The key of the status map: a headline ("100 % solved (…)") and a swatch
+// for every code of app/io/status_codes.h with its name and pixel count, in
+// the colours the map is drawn in.
+class StatusLegend : public QWidget {
+  Q_OBJECT
+
+ public:
+  explicit StatusLegend(QWidget* parent = nullptr);
+  void SetCounts(const StatusCounts& counts);
+  const StatusCounts& counts() const { return counts_; }
+  QString Headline() const;
+  // One per code, in code order: "solved, no specular lobe: 76 000 px (99 %)".
+  QStringList EntryTexts() const;
+  QSize sizeHint() const override { return {600, 76}; }
+
+ protected:
+  void paintEvent(QPaintEvent* event) override;
+
+ private:
+  StatusCounts counts_;
 };
 
 }  // namespace scanbench

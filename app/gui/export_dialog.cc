@@ -17,6 +17,7 @@
 #include <QVBoxLayout>
 
 #include "app/gui/controller_runner.h"
+#include "app/io/export_contents.h"
 
 namespace scanbench {
 
@@ -51,16 +52,21 @@ QFormLayout* ExportDialog::MakeOptionsForm() {
   auto* form = new QFormLayout;
   preset_ = new QComboBox(this);
   preset_->setObjectName("exportPreset");
-  preset_->addItem(tr("exr — linear 32-bit float OpenEXR"), int(ExportOptions::Preset::kLinearExr));
-  preset_->addItem(tr("png16 — 16-bit PNG (linear; plus an sRGB albedo preview)"), int(ExportOptions::Preset::kPng16));
-  preset_->addItem(tr("tiff16 — 16-bit TIFF (linear; plus an sRGB albedo preview)"), int(ExportOptions::Preset::kTiff16));
-  preset_->addItem(tr("unreal — Unreal Engine: T_*_BC / _N (DirectX) / _ORM / _H"), int(ExportOptions::Preset::kUnreal));
-  preset_->addItem(tr("unity-hdrp — Unity HDRP Lit: _BaseMap / _Normal / _MaskMap / _HeightMap"),
-                   int(ExportOptions::Preset::kUnityHdrp));
-  preset_->addItem(tr("gltf — glTF 2.0 tile (.gltf + .bin) with its metallicRoughness maps"),
-                   int(ExportOptions::Preset::kGltf));
+  // Each preset's title, and what its files hold under the choice: app/io/export_contents.h,
+  // the table the CLI's help and docs/export.md show too.
+  for (const ExportPresetContents& contents : ExportPresetContentsTable()) {
+    const QString holds = QString::fromStdString(ExportPresetHolds(contents));
+    preset_->addItem(QString::fromStdString(ExportPresetTitle(contents)),
+                     int(ExportPresetFromName(contents.name)));
+    preset_->setItemData(preset_->count() - 1, holds, Qt::ToolTipRole);
+  }
   preset_->setCurrentIndex(preset_->findData(int(defaults.preset)));
   form->addRow(tr("Preset"), preset_);
+  preset_contents_ = new QLabel(this);
+  preset_contents_->setObjectName("exportPresetContents");
+  preset_contents_->setWordWrap(true);
+  preset_contents_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  form->addRow(tr("Files hold"), preset_contents_);
   convention_ = new QComboBox(this);
   convention_->setObjectName("normalConvention");
   convention_->addItem(tr("OpenGL (+Y up: Blender, Substance, Unity)"), int(ExportOptions::NormalConvention::kOpenGl));
@@ -75,7 +81,7 @@ QFormLayout* ExportDialog::MakeOptionsForm() {
   tileable_->setObjectName("tileable");
   tileable_->setChecked(defaults.tileable);
   form->addRow(QString(), tileable_);
-  preview_page_ = new QCheckBox(tr("Write preview.html: the material on a tile and a sphere, for a browser"), this);
+  preview_page_ = new QCheckBox(tr("Write preview.html: the sample on a tile and a dome, for a browser"), this);
   preview_page_->setObjectName("previewPage");
   preview_page_->setChecked(defaults.preview_page);
   form->addRow(QString(), preview_page_);
@@ -144,7 +150,9 @@ void ExportDialog::RestoreSettings() {
 void ExportDialog::Connect(QPushButton* close) {
   // An engine preset writes its engine's normal convention whatever is chosen here.
   const auto follow_preset = [this] {
-    convention_->setEnabled(!IsEnginePreset(ExportOptions::Preset(preset_->currentData().toInt())));
+    const auto preset = ExportOptions::Preset(preset_->currentData().toInt());
+    convention_->setEnabled(!IsEnginePreset(preset));
+    preset_contents_->setText(QString::fromStdString(ExportPresetHolds(ExportPresetContentsOf(ExportPresetName(preset)))));
   };
   connect(preset_, &QComboBox::currentIndexChanged, this, follow_preset);
   follow_preset();
@@ -165,6 +173,8 @@ void ExportDialog::Connect(QPushButton* close) {
     stage_->setText(ProgressText(stage, detail));
   });
 }
+
+QString ExportDialog::PresetContentsText() const { return preset_contents_->text(); }
 
 ExportOptions ExportDialog::OptionsFromWidgets() const {
   ExportOptions options;

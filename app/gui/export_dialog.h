@@ -1,5 +1,6 @@
 // Export of one result folder (issue #7's ExportController): the preset
-// (linear EXR, 16-bit PNG or TIFF), the normal map's convention (OpenGL +Y up
+// (linear EXR, 16-bit PNG or TIFF, an engine's; under it what its files hold,
+// from app/io/export_contents.h), the normal map's convention (OpenGL +Y up
 // or DirectX +Y down), an optional tileable crop and the material name; runs
 // through the window's ControllerRunner with progress and Cancel, then shows
 // the new export folder and the export's summary (the height error against
@@ -34,6 +35,9 @@ class ExportDialog : public QDialog {
   ExportDialog(ControllerRunner* runner, std::filesystem::path result_dir, QWidget* parent = nullptr);
 
   const std::filesystem::path& result_dir() const { return result_dir_; }
+  QComboBox* preset() const { return preset_; }
+  // What the chosen preset's files hold, as shown under the choice.
+  QString PresetContentsText() const;
   ExportOptions OptionsFromWidgets() const;
   // The folder the last export wrote; empty before one succeeded.
   const std::filesystem::path& export_dir() const { return export_dir_; }
@@ -61,6 +65,7 @@ class ExportDialog : public QDialog {
   std::filesystem::path export_dir_;
   std::filesystem::path preview_path_;  // empty unless the last export wrote preview.html
   QComboBox* preset_;
+  QLabel* preset_contents_;  // what the chosen preset's files hold (app/io/export_contents.h)
   QComboBox* convention_;
   QCheckBox* tileable_;
   QCheckBox* flatten_;

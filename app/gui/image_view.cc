@@ -11,7 +11,7 @@ namespace scanbench {
 
 ImageView::ImageView(QWidget* parent) : QWidget(parent) {
   setMinimumSize(200, 150);
-  setMouseTracking(false);
+  setMouseTracking(true);  // the pixel readout follows the cursor
   setCursor(Qt::OpenHandCursor);
 }
 
@@ -40,6 +40,32 @@ void ImageView::ZoomBy(double factor, QPointF about) {
   update();
 }
 
+void ImageView::SetPixelPitchMm(double mm_per_pixel) {
+  pixel_pitch_mm_ = std::isfinite(mm_per_pixel) && mm_per_pixel > 0 ? mm_per_pixel : 0;
+  update();
+}
+
+double ImageView::NiceScaleBarMm(double mm_per_widget_px, double target_px) {
+  if (!(mm_per_widget_px > 0) || !std::isfinite(mm_per_widget_px)) return 0;
+  const double most = mm_per_widget_px * target_px;
+  const double decade = std::pow(10.0, std::floor(std::log10(most)));
+  for (double step : {5.0, 2.0, 1.0}) {
+    if (step * decade <= most * (1 + 1e-9)) return step * decade;
+  }
+  return decade;
+}
+
+double ImageView::ScaleBarMm() const {
+  if (image_.isNull() || pixel_pitch_mm_ <= 0 || zoom_ <= 0) return 0;
+  return NiceScaleBarMm(pixel_pitch_mm_ / zoom_);
+}
+
+QString ImageView::ScaleBarText() const {
+  const double mm = ScaleBarMm();
+  if (mm <= 0) return {};
+  return mm >= 1000 ? QStringLiteral("%1 m").arg(mm / 1000, 0, 'g', 3) : QStringLiteral("%1 mm").arg(mm, 0, 'g', 3);
+}
+
 void ImageView::paintEvent(QPaintEvent*) {
   QPainter painter(this);
   painter.fillRect(rect(), QColor(40, 40, 40));
@@ -51,6 +77,38 @@ void ImageView::paintEvent(QPaintEvent*) {
   // Magnified pixels stay sharp squares; reduced ones are smoothed.
   painter.setRenderHint(QPainter::SmoothPixmapTransform, zoom_ < 1);
   painter.drawImage(QRectF(offset_, QSizeF(image_.width() * zoom_, image_.height() * zoom_)), image_);
+  const double bar_mm = ScaleBarMm();
+  if (bar_mm > 0) {
+    // Bottom-left, white on a dark band so it reads on every map.
+    const double length = bar_mm * zoom_ / pixel_pitch_mm_;
+    const QString text = ScaleBarText();
+    const int text_width = painter.fontMetrics().horizontalAdvance(text);
+    const QRectF band(8, height() - 34, std::max(length, double(text_width)) + 12, 26);
+    painter.setRenderHint(QPainter::SmoothPixmapTransform, false);
+    painter.fillRect(band, QColor(0, 0, 0, 150));
+    painter.fillRect(QRectF(band.left() + 6, band.bottom() - 9, length, 4), Qt::white);
+    painter.setPen(Qt::white);
+    painter.drawText(QRectF(band.left() + 6, band.top() + 1, band.width() - 12, 14), Qt::AlignLeft | Qt::AlignVCenter,
+                     text);
+  }
+}
+
+void ImageView::ReportHover(QPointF widget_point) {
+  QPoint pixel(-1, -1);
+  if (!image_.isNull() && zoom_ > 0) {
+    const QPointF at = WidgetToImage(widget_point);
+    const int x = int(std::floor(at.x())), y = int(std::floor(at.y()));
+    if (x >= 0 && y >= 0 && x < image_.width() && y < image_.height()) pixel = QPoint(x, y);
+  }
+  if (pixel == hovered_) return;
+  hovered_ = pixel;
+  emit PixelHovered(pixel.x(), pixel.y());
+}
+
+void ImageView::leaveEvent(QEvent*) {
+  if (hovered_ == QPoint(-1, -1)) return;
+  hovered_ = QPoint(-1, -1);
+  emit PixelHovered(-1, -1);
 }
 
 void ImageView::wheelEvent(QWheelEvent* event) {
@@ -61,6 +119,7 @@ void ImageView::wheelEvent(QWheelEvent* event) {
 void ImageView::mousePressEvent(QMouseEvent* event) { drag_from_ = event->position(); }
 
 void ImageView::mouseMoveEvent(QMouseEvent* event) {
+  ReportHover(event->position());
   if (!(event->buttons() & Qt::LeftButton)) return;
   offset_ += event->position() - drag_from_;
   drag_from_ = event->position();

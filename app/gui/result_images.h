@@ -11,10 +11,12 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <vector>
 
 #include "app/gui/relight_shading.h"
+#include "app/io/status_codes.h"
 #include "core/image.h"
 
 namespace scanbench {
@@ -29,11 +31,31 @@ enum class ResultLayer {
   kLightsUsed,       // confidence.exr: samples in the solve
   kAngularError,     // angular_error_deg.exr (ground truth only)
   kRelight,
+  kSpecularF0,       // specular.exr: specular_f0 (a solve with a specular lobe)
+  kSpecularRoughness,  // specular.exr: roughness_alpha
+  kHeight,           // the newest export of the result: <material>_height.exr, mm
+  kOcclusion,        // the newest export of the result: <material>_ao.*, 1 = open
 };
 QString ResultLayerName(ResultLayer layer);
 
-// The layers present in `result_dir` (angular error only with ground truth).
+// The layers present in `result_dir`, in the order the page lists them
+// (angular error only with ground truth, specular with specular.exr, height
+// and occlusion once the result was exported into <session>/exports/).
 QList<ResultLayer> AvailableLayers(const std::filesystem::path& result_dir);
+
+// The newest export of `result_dir` (<session>/exports/<run-id>-<preset>[-N]/
+// with a material.json naming it) and the files it lists by kind ("height",
+// "ao"), as absolute paths; empty when the result was not exported there.
+struct ResultExport {
+  std::filesystem::path dir;
+  std::filesystem::path height_file, occlusion_file;  // empty if the export has none
+};
+std::optional<ResultExport> LatestExportOf(const std::filesystem::path& result_dir);
+
+// The pixel pitch on the sample, mm: the session rig's footprint of the
+// centre pixel on the table (as the export takes it); nullopt when the
+// result's session cannot be read. `why` (optional) receives the reason.
+std::optional<double> ResultPixelPitchMm(const std::filesystem::path& result_dir, std::string* why = nullptr);
 
 // How a heatmap's colours map to values, for its legend.
 struct HeatmapScale {
@@ -47,11 +69,18 @@ struct HeatmapScale {
 struct LayerImage {
   QImage image;
   std::optional<HeatmapScale> scale;  // heatmaps only
+  std::optional<StatusCounts> status;  // the status map only: pixels per code
+  // The values behind a heatmap (channel `channel`), for the pixel readout.
+  std::shared_ptr<const ImageF> values;
+  int channel = 0;
 };
 
 // Loads one layer (not kRelight). Throws std::runtime_error naming the file.
 LayerImage LoadResultLayerImage(const std::filesystem::path& result_dir, ResultLayer layer);
 QImage LoadResultLayer(const std::filesystem::path& result_dir, ResultLayer layer);
+
+// status.png's colours (app/io/status_codes.h), one per code.
+QRgb StatusColour(int code);
 
 // t in [0, 1] -> dark blue -> magenta -> orange -> yellow (ordered in lightness).
 QRgb HeatmapColour(double t);
@@ -74,6 +103,23 @@ RelightMaps LoadRelightMaps(const std::filesystem::path& result_dir);
 // and returns a null image.
 QImage Relight(const RelightMaps& maps, double lx, double ly, double lz, const RelightShading& shading = {},
                const std::atomic<bool>* stop = nullptr);
+
+// What the pixel readout under the cursor reads: the result's maps, each
+// empty when the result has no such file. Loaded off the UI thread.
+struct PixelProbeMaps {
+  int width = 0, height = 0;
+  ImageF normal;     // normal.exr, 3 channels
+  ImageF albedo;     // albedo.exr, 3 channels, linear
+  ImageU8 status;    // status.png codes
+  ImageF error_deg;  // angular_error_deg.exr (ground truth only)
+  ImageF residual;   // confidence.exr's residual
+};
+// Throws std::runtime_error naming a file that exists but cannot be read.
+PixelProbeMaps LoadPixelProbeMaps(const std::filesystem::path& result_dir);
+// One line for pixel (x, y): "x 12, y 40 · residual 0.0031 · normal (0.012, -0.034, 0.999), 2.0° from flat ·
+// albedo 0.41 0.40 0.38 · solved · error 0.42°"; `shown` (optional) adds the
+// shown heatmap's value first. "" outside the maps.
+QString DescribePixel(const PixelProbeMaps& maps, int x, int y, const LayerImage* shown = nullptr);
 
 // A small preview of a RAW frame: 2x2 Bayer tiles to one RGB pixel, black
 // subtracted, gamma for display, at most `max_width` wide. Throws naming the file.

@@ -1,6 +1,8 @@
 #include "app/gui/results_page.h"
 
 #include <QCheckBox>
+#include <QCoreApplication>
+#include <QElapsedTimer>
 #include <QComboBox>
 #include <QDoubleSpinBox>
 #include <QFile>
@@ -9,16 +11,20 @@
 #include <QHBoxLayout>
 #include <QLabel>
 #include <QLineEdit>
-#include <QPlainTextEdit>
 #include <QPushButton>
 #include <QSettings>
+#include <QSplitter>
+#include <QStackedWidget>
+#include <QTextBrowser>
 #include <QVBoxLayout>
+#include <QtConcurrent/QtConcurrentRun>
 
 #include "app/gui/colour_legend.h"
 #include "app/gui/export_dialog.h"
 #include "app/gui/image_view.h"
 #include "app/gui/page_widgets.h"
 #include "app/gui/relight_renderer.h"
+#include "app/gui/report_text.h"
 #include "app/io/result_maps.h"
 
 namespace scanbench {
@@ -26,7 +32,32 @@ namespace scanbench {
 ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(parent), runner_(runner) {
   auto* layout = new QVBoxLayout(this);
   layout->addLayout(MakeTopRow());
-  layout->addLayout(MakeMiddle(), 1);
+  // The maps above, the solve's report across the whole width below (its
+  // lines run to 400 characters: a side column would squeeze them).
+  summary_ = new QTextBrowser(this);
+  summary_->setObjectName("resultSummary");
+  summary_->setOpenLinks(false);
+  summary_->setLineWrapMode(QTextEdit::WidgetWidth);
+  auto* upper = new QWidget(this);
+  auto* middle = MakeMiddle();
+  middle->setContentsMargins(0, 0, 0, 0);
+  upper->setLayout(middle);
+  auto* splitter = new QSplitter(Qt::Vertical, this);
+  splitter->setObjectName("resultSplitter");
+  splitter->addWidget(upper);
+  splitter->addWidget(summary_);
+  splitter->setStretchFactor(0, 3);
+  splitter->setStretchFactor(1, 1);
+  splitter->setChildrenCollapsible(false);
+  layout->addWidget(splitter, 1);
+  probe_loader_ = new QFutureWatcher<std::shared_ptr<const PixelProbeMaps>>(this);
+  connect(probe_loader_, &QFutureWatcherBase::finished, this, [this] {
+    // A result opened since is loading its own maps: this one's are dropped.
+    if (probe_loader_->property("generation").toInt() != probe_generation_) return;
+    probe_ = probe_loader_->result();
+    const QPoint at = view_->hovered_pixel();
+    UpdateReadout(at.x(), at.y());
+  });
   status_ = new QLabel(tr("Wheel: zoom, drag: pan, double-click: fit."), this);
   status_->setObjectName("resultStatus");
   status_->setWordWrap(true);
@@ -36,15 +67,18 @@ ResultsPage::ResultsPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   pad_->setVisible(false);
   pad_label_->setVisible(false);
   specular_box_->setVisible(false);
-  legend_->setVisible(false);
 }
 
 // The folder shown, the map chosen, export.
 QLayout* ResultsPage::MakeTopRow() {
   folder_ = new QLineEdit(this);
   folder_->setObjectName("resultFolder");
-  folder_->setReadOnly(true);
-  folder_->setPlaceholderText(tr("a result folder: <session>/results/<run-id>"));
+  folder_->setPlaceholderText(tr("a result folder: <session>/results/<run-id> (type one and press Enter)"));
+  folder_->setToolTip(tr("The result shown; type or paste another result folder and press Enter to open it"));
+  connect(folder_, &QLineEdit::returnPressed, this, [this] {
+    const QString typed = folder_->text().trimmed();
+    if (!typed.isEmpty()) OpenResult(typed);
+  });
   auto* open = new QPushButton(tr("Open result folder…"), this);
   layer_ = new QComboBox(this);
   layer_->setObjectName("resultLayer");
@@ -71,23 +105,40 @@ QLayout* ResultsPage::MakeTopRow() {
   return top;
 }
 
-// The map view with its legend below, the side panel beside them.
+// The map view with its key and the pixel readout below, the side panel
+// beside them. The key's place and the side panel keep their size whatever
+// is shown, so switching maps never moves the picture.
 QLayout* ResultsPage::MakeMiddle() {
   view_ = new ImageView(this);
   view_->setObjectName("resultView");
+  connect(view_, &ImageView::PixelHovered, this, &ResultsPage::UpdateReadout);
   QWidget* side_widget = MakeSidePanel();
   legend_ = new ColourLegend(this);
   legend_->setObjectName("heatmapLegend");
+  status_legend_ = new StatusLegend(this);
+  status_legend_->setObjectName("statusLegend");
+  keys_ = new QStackedWidget(this);
+  keys_->setObjectName("mapKey");
+  keys_->addWidget(new QWidget(keys_));  // albedo, normal, relight: no key
+  keys_->addWidget(legend_);
+  keys_->addWidget(status_legend_);
+  keys_->setFixedHeight(std::max(legend_->sizeHint().height(), status_legend_->sizeHint().height()));
+  readout_ = new QLabel(tr("Point at the map to read a pixel."), this);
+  readout_->setObjectName("pixelReadout");
+  readout_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  readout_->setFixedHeight(readout_->sizeHint().height());
+  readout_->setSizePolicy(QSizePolicy::Ignored, QSizePolicy::Fixed);
   auto* map_column = new QVBoxLayout;
   map_column->addWidget(view_, 1);
-  map_column->addWidget(legend_);
+  map_column->addWidget(keys_);
+  map_column->addWidget(readout_);
   auto* middle = new QHBoxLayout;
   middle->addLayout(map_column, 1);
   middle->addWidget(side_widget);
   return middle;
 }
 
-// The light pad, the specular controls and the solver's summary.
+// The light pad, the specular controls and the albedo's colour, in a column of a fixed width.
 QWidget* ResultsPage::MakeSidePanel() {
   pad_ = new LightPad(this);
   pad_->setObjectName("lightPad");
@@ -99,23 +150,18 @@ QWidget* ResultsPage::MakeSidePanel() {
   albedo_color_->setObjectName("resultAlbedoColor");
   albedo_color_->setWordWrap(true);
   albedo_color_->setTextInteractionFlags(Qt::TextSelectableByMouse);
-  summary_ = new QPlainTextEdit(this);
-  summary_->setObjectName("resultSummary");
-  summary_->setReadOnly(true);
-  summary_->setLineWrapMode(QPlainTextEdit::WidgetWidth);
-  QFont mono("monospace");
-  mono.setStyleHint(QFont::Monospace);
-  mono.setPointSize(8);
-  summary_->setFont(mono);
+  albedo_color_->setAlignment(Qt::AlignTop | Qt::AlignLeft);
   auto* side = new QVBoxLayout;
+  side->setContentsMargins(0, 0, 0, 0);
   side->addWidget(pad_, 0, Qt::AlignHCenter);
   side->addWidget(pad_label_);
   side->addWidget(specular_box_);
   side->addWidget(albedo_color_);
-  side->addWidget(summary_, 1);
+  side->addStretch(1);
   auto* side_widget = new QWidget(this);
+  side_widget->setObjectName("resultSidePanel");
   side_widget->setLayout(side);
-  side_widget->setMaximumWidth(360);
+  side_widget->setFixedWidth(280);
   return side_widget;
 }
 
@@ -217,6 +263,17 @@ bool ResultsPage::OpenResult(const QString& dir) {
   folder_->setText(dir);
   relight_.reset();
   renderer_->SetMaps(nullptr);
+  fit_next_ = true;
+  shown_.reset();
+  probe_.reset();
+  ++probe_generation_;
+  readout_->setText(tr("Point at the map to read a pixel."));
+  std::string no_scale;
+  const std::optional<double> pitch = ResultPixelPitchMm(result_dir_, &no_scale);
+  view_->SetPixelPitchMm(pitch.value_or(0));
+  view_->setToolTip(pitch ? tr("%1 mm per pixel on the sample (the session rig at the image centre)")
+                                .arg(*pitch, 0, 'g', 4)
+                          : tr("No scale bar: %1").arg(QString::fromStdString(no_scale)));
   const QList<ResultLayer> layers = AvailableLayers(result_dir_);
   {
     const QSignalBlocker block(layer_);
@@ -224,19 +281,52 @@ bool ResultsPage::OpenResult(const QString& dir) {
     for (ResultLayer layer : layers) layer_->addItem(ResultLayerName(layer), int(layer));
   }
   QFile summary(dir + "/summary.txt");
-  summary_->setPlainText(summary.open(QIODevice::ReadOnly) ? QString::fromUtf8(summary.readAll())
-                                                           : tr("(no summary.txt in this folder)"));
+  summary_->setHtml(ReportHtml(summary.open(QIODevice::ReadOnly) ? QString::fromUtf8(summary.readAll())
+                                                                 : tr("(no summary.txt in this folder)")));
   ShowAlbedoColor();
   export_->setEnabled(!layers.isEmpty());
   if (layers.isEmpty()) {
-    legend_->setVisible(false);
+    keys_->setCurrentIndex(0);
     view_->SetImage(QImage());
     status_->setText(tr("%1 holds no maps: open a folder under <session>/results/, or solve the session first.")
                          .arg(dir));
     return false;
   }
+  // The readout's maps, off the UI thread (four full-size maps at 16 MP).
+  probe_loader_->setProperty("generation", probe_generation_);
+  probe_loader_->setFuture(QtConcurrent::run([dir = result_dir_]() -> std::shared_ptr<const PixelProbeMaps> {
+    try {
+      return std::make_shared<const PixelProbeMaps>(LoadPixelProbeMaps(dir));
+    } catch (const std::exception&) {
+      return nullptr;  // the readout then says the maps cannot be read
+    }
+  }));
   ShowSelectedLayer();
   return true;
+}
+
+bool ResultsPage::WaitForPixelProbe(int timeout_ms) {
+  QElapsedTimer timer;
+  timer.start();
+  while (!(probe_loader_->isFinished() && probe_loader_->property("generation").toInt() == probe_generation_ &&
+           probe_)) {
+    if (timer.elapsed() > timeout_ms) return false;
+    QCoreApplication::processEvents(QEventLoop::AllEvents, 20);
+  }
+  return true;
+}
+
+void ResultsPage::UpdateReadout(int x, int y) {
+  if (x < 0 || y < 0) {
+    readout_->setText(tr("Point at the map to read a pixel."));
+    return;
+  }
+  if (!probe_) {
+    readout_->setText(probe_loader_->isRunning() ? tr("x %1, y %2 · reading the maps…").arg(x).arg(y)
+                                                 : tr("x %1, y %2 · the result's maps cannot be read").arg(x).arg(y));
+    return;
+  }
+  readout_->setText(DescribePixel(*probe_, x, y, shown_ ? &*shown_ : nullptr));
 }
 
 void ResultsPage::ShowAlbedoColor() {
@@ -273,23 +363,35 @@ void ResultsPage::ShowSelectedLayer() {
   pad_->setVisible(relight);
   pad_label_->setVisible(relight);
   specular_box_->setVisible(relight);
-  legend_->setVisible(false);
+  keys_->setCurrentIndex(0);
+  shown_.reset();
+  // A new result's first map fits the view; switching maps keeps zoom and pan.
+  const bool keep_view = !fit_next_;
+  fit_next_ = false;
   try {
     if (relight) {
       if (!relight_) {
         relight_ = std::make_shared<const RelightMaps>(LoadRelightMaps(result_dir_));
         renderer_->SetMaps(relight_);
       }
+      if (!keep_view) view_->FitToWidget();
       const QPointF xy = pad_->direction_xy();
       pad_->SetDirectionXY(xy);  // requests a render through UpdateRelight
     } else {
-      const LayerImage shown = LoadResultLayerImage(result_dir_, layer);
-      view_->SetImage(shown.image, true);
+      LayerImage shown = LoadResultLayerImage(result_dir_, layer);
+      view_->SetImage(shown.image, keep_view);
       if (shown.scale) {
         legend_->SetScale(*shown.scale);
-        legend_->setVisible(true);
+        keys_->setCurrentWidget(legend_);
+      } else if (shown.status) {
+        status_legend_->SetCounts(*shown.status);
+        keys_->setCurrentWidget(status_legend_);
       }
+      shown.image = QImage();  // the view holds it; the readout needs the values only
+      shown_ = std::move(shown);
     }
+    const QPoint at = view_->hovered_pixel();
+    UpdateReadout(at.x(), at.y());
     status_->setText(tr("%1 — wheel: zoom, drag: pan, double-click: fit.").arg(ResultLayerName(layer)));
   } catch (const std::exception& error) {
     status_->setText(tr("Cannot show %1: %2").arg(ResultLayerName(layer), error.what()));

@@ -1,10 +1,14 @@
 // Results: one result folder's maps (albedo, normal, status, confidence,
-// angular error when the session had ground truth) in a zoom-and-pan view,
-// the solver's summary beside them with the albedo's colour space and scale
-// (report.json's "color"), and a relight preview driven by a light the
-// operator drags over a pad.
+// angular error when the session had ground truth, specular F0 and roughness
+// with specular.exr, height and occlusion from the result's newest export)
+// in a zoom-and-pan view with a mm scale bar, a key under the map (the
+// heatmap's scale or the status map's colours), the pixel under the cursor
+// read out below it, the albedo's colour space and scale (report.json's
+// "color"), a relight preview driven by a light the operator drags over a
+// pad, and the solve's report across the page's width below.
 #pragma once
 
+#include <QFutureWatcher>
 #include <QWidget>
 
 #include <filesystem>
@@ -19,7 +23,8 @@ class QLabel;
 class QLayout;
 class QPushButton;
 class QLineEdit;
-class QPlainTextEdit;
+class QStackedWidget;
+class QTextBrowser;
 
 namespace scanbench {
 
@@ -29,6 +34,7 @@ class ExportDialog;
 class ImageView;
 class LightPad;
 class RelightRenderer;
+class StatusLegend;
 
 class ResultsPage : public QWidget {
   Q_OBJECT
@@ -36,7 +42,8 @@ class ResultsPage : public QWidget {
  public:
   ResultsPage(ControllerRunner* runner, QWidget* parent = nullptr);
 
-  // Shows `result_dir`; false (and the reason on the page) if it holds no maps.
+  // Shows `result_dir`, fitted to the view; false (and the reason on the
+  // page) if it holds no maps. Typing a folder into the path field and Enter does the same.
   bool OpenResult(const QString& result_dir);
   // Selects a layer by its ResultLayerName; false if absent.
   bool ShowLayer(ResultLayer layer);
@@ -45,6 +52,15 @@ class ResultsPage : public QWidget {
   LightPad* light_pad() const { return pad_; }
   // Shown under heatmaps only.
   ColourLegend* legend() const { return legend_; }
+  // Shown under the status map only.
+  StatusLegend* status_legend() const { return status_legend_; }
+  // The line under the map: the pixel under the cursor (DescribePixel).
+  QLabel* readout() const { return readout_; }
+  // The readout's maps are loaded off the UI thread when a result opens:
+  // processes events until they are (tests). True if they are.
+  bool WaitForPixelProbe(int timeout_ms);
+  // The solve's report (summary.txt) as laid out on the page.
+  QTextBrowser* report() const { return summary_; }
   // The relight's shading as the controls set it.
   RelightShading relight_shading() const;
   void SetRelightShading(const RelightShading& shading);
@@ -66,6 +82,7 @@ class ResultsPage : public QWidget {
   void MakeRenderer();
 
   void ShowSelectedLayer();
+  void UpdateReadout(int x, int y);
   // The albedo's colour line from the result's report.json.
   void ShowAlbedoColor();
   void UpdateRelight(double x, double y, double z);
@@ -79,13 +96,21 @@ class ResultsPage : public QWidget {
   QLabel* pad_label_;
   QWidget* specular_box_;
   QCheckBox* specular_;
+  QStackedWidget* keys_;  // under the map, a fixed height: nothing, the heatmap's scale or the status key
   QDoubleSpinBox* roughness_;
   QDoubleSpinBox* f0_;
   ColourLegend* legend_;
+  StatusLegend* status_legend_;
+  QLabel* readout_;
   QPushButton* export_;
   QLabel* albedo_color_;  // report.json's "color": colour space, scale, description
-  QPlainTextEdit* summary_;
+  QTextBrowser* summary_;
   QLabel* status_;
+  bool fit_next_ = true;  // a new result opens fitted, not at the last one's zoom
+  std::optional<LayerImage> shown_;  // the map shown (not the relight), for the readout
+  std::shared_ptr<const PixelProbeMaps> probe_;
+  QFutureWatcher<std::shared_ptr<const PixelProbeMaps>>* probe_loader_;
+  int probe_generation_ = 0;
   std::shared_ptr<const RelightMaps> relight_;  // loaded when the relight is first shown
   RelightRenderer* renderer_;
 };

@@ -181,14 +181,28 @@ struct PreviewMaps {
   const ImageF& occlusion;
   const ImageF& height_mm;
   const ImageU8& valid;
+  // The tileable crop; empty maps without one.
+  const ImageF& tile_basecolor_linear_rec709;
+  const ImageF& tile_normal_in_tangent;
+  const ImageF& tile_roughness_alpha;
+  const ImageF& tile_occlusion;
+  bool has_tile() const { return !tile_basecolor_linear_rec709.empty(); }
 };
 
 PreviewMaps MapsOf(const PreviewPageMapViews& views) {
   static const ImageF kNoMap;
   static const ImageU8 kNoMask;
   auto map_of = [](const ImageF* map) -> const ImageF& { return map ? *map : kNoMap; };
-  return {map_of(views.basecolor_linear_rec709), map_of(views.normal_in_tangent), map_of(views.roughness_alpha),
-          map_of(views.occlusion),               map_of(views.height_mm),         views.valid ? *views.valid : kNoMask};
+  return {map_of(views.basecolor_linear_rec709),
+          map_of(views.normal_in_tangent),
+          map_of(views.roughness_alpha),
+          map_of(views.occlusion),
+          map_of(views.height_mm),
+          views.valid ? *views.valid : kNoMask,
+          map_of(views.tile_basecolor_linear_rec709),
+          map_of(views.tile_normal_in_tangent),
+          map_of(views.tile_roughness_alpha),
+          map_of(views.tile_occlusion)};
 }
 
 // Maps that do not fit together are the caller's mistake: thrown (naming the
@@ -214,26 +228,45 @@ void CheckMaps(const PreviewMaps& maps, double mm_per_pixel, const fs::path& htm
   if (!std::isfinite(mm_per_pixel) || !(mm_per_pixel > 0)) {
     throw fail("mm_per_pixel = " + std::to_string(mm_per_pixel) + " must be finite and > 0");
   }
+  const ImageF& tile = maps.tile_basecolor_linear_rec709;
+  const bool any_tile = !tile.empty() || !maps.tile_normal_in_tangent.empty() ||
+                        !maps.tile_roughness_alpha.empty() || !maps.tile_occlusion.empty();
+  if (!any_tile) return;
+  if (tile.empty() || tile.channels() != 3) throw fail("tile_basecolor_linear_rec709 must have 3 channels and pixels");
+  if (!maps.tile_normal_in_tangent.SameSize(tile) || maps.tile_normal_in_tangent.channels() != 3) {
+    throw fail("tile_normal_in_tangent is " + ShapeText(maps.tile_normal_in_tangent) + ", " +
+               SizeText(tile.width(), tile.height()) + "x3 expected");
+  }
+  for (const auto& [name, map] : {std::pair{"tile_roughness_alpha", &maps.tile_roughness_alpha},
+                                  std::pair{"tile_occlusion", &maps.tile_occlusion}}) {
+    if (!map->empty() && (!map->SameSize(tile) || map->channels() != 1)) {
+      throw fail(std::string(name) + " is " + ShapeText(*map) + ", " + SizeText(tile.width(), tile.height()) +
+                 "x1 expected");
+    }
+  }
 }
 
-// The tile's textures cover the whole map; the sphere's a centred crop,
-// sphere_crop of each side, in its own smaller textures.
+// The whole frame's textures cover the whole map; the sample's the tileable
+// crop (its own maps) or else a centred crop, sphere_crop of each side, in
+// their own smaller textures.
 struct TextureLayout {
   int width = 0, height = 0;             // of the maps
-  int tile_width = 0, tile_height = 0;   // of the tile's textures
-  int crop_x = 0, crop_y = 0, crop_width = 0, crop_height = 0;
-  int sphere_width = 0, sphere_height = 0;  // of the sphere's textures
+  int tile_width = 0, tile_height = 0;   // of the whole frame's textures
+  int crop_x = 0, crop_y = 0, crop_width = 0, crop_height = 0;  // the centred crop, or the tileable crop's size
+  int sphere_width = 0, sphere_height = 0;  // of the sample's textures
+  bool tileable = false;
 };
 
-TextureLayout LayoutOf(const PreviewPageOptions& options, int width, int height) {
+TextureLayout LayoutOf(const PreviewPageOptions& options, int width, int height, const ImageF& tile) {
   TextureLayout layout;
   layout.width = width;
   layout.height = height;
   std::tie(layout.tile_width, layout.tile_height) = TextureSize(width, height, options.max_texture_px);
-  layout.crop_width = std::max(1, int(std::lround(width * options.sphere_crop)));
-  layout.crop_height = std::max(1, int(std::lround(height * options.sphere_crop)));
-  layout.crop_x = (width - layout.crop_width) / 2;
-  layout.crop_y = (height - layout.crop_height) / 2;
+  layout.tileable = !tile.empty();
+  layout.crop_width = layout.tileable ? tile.width() : std::max(1, int(std::lround(width * options.sphere_crop)));
+  layout.crop_height = layout.tileable ? tile.height() : std::max(1, int(std::lround(height * options.sphere_crop)));
+  layout.crop_x = layout.tileable ? 0 : (width - layout.crop_width) / 2;
+  layout.crop_y = layout.tileable ? 0 : (height - layout.crop_height) / 2;
   std::tie(layout.sphere_width, layout.sphere_height) =
       TextureSize(layout.crop_width, layout.crop_height, options.max_sphere_texture_px);
   return layout;
@@ -250,8 +283,9 @@ struct Texture {
   std::string label, note;
   const ImageF* image;
   bool solved_only;        // average the solved pixels only (the mask itself: all)
-  bool on_sphere;
+  bool on_sphere;          // also a texture of the sample
   Encoder encode;
+  const ImageF* tile = nullptr;  // the tileable crop's map, the sample's source when there is one
 };
 
 // The page's textures in order: the base colour and the normals always, then
@@ -259,33 +293,40 @@ struct Texture {
 std::vector<Texture> TexturesOf(const PreviewPageOptions& options, const PreviewMaps& maps, const ImageF& solved,
                                 double height_min, double height_max) {
   const double height_range = height_max - height_min;
+  const bool tileable = maps.has_tile();
+  // With a tileable crop, a map it lacks has no sample texture (the frame's crop would not match the rest).
+  auto tile_of = [tileable](const ImageF& map) { return tileable ? &map : nullptr; };
   std::vector<Texture> textures;
   textures.push_back({"map", "base colour",
                       (options.basecolor_note.empty() ? "linear RGB" : options.basecolor_note) +
                           ", shown through the sRGB curve",
-                      &maps.basecolor_linear_rec709, true, true, PerValue([](float v) { return SrgbEncode(v); })});
+                      &maps.basecolor_linear_rec709, true, true, PerValue([](float v) { return SrgbEncode(v); }),
+                      tile_of(maps.tile_basecolor_linear_rec709)});
   textures.push_back({"normalMap", "normal", "tangent frame, OpenGL (+Y up), (n + 1) / 2", &maps.normal_in_tangent,
-                      true, true, EncodeNormals8});
+                      true, true, EncodeNormals8, tile_of(maps.tile_normal_in_tangent)});
   if (!maps.roughness_alpha.empty()) {
     // Averaged as GGX alpha, then stored as three.js's perceptual roughness.
     textures.push_back({"roughnessMap", "roughness", "perceptual roughness sqrt(GGX alpha)", &maps.roughness_alpha,
-                        true, true, PerValue([](float alpha) { return std::sqrt(std::max(0.0f, alpha)); })});
+                        true, !tileable || !maps.tile_roughness_alpha.empty(),
+                        PerValue([](float alpha) { return std::sqrt(std::max(0.0f, alpha)); }),
+                        tile_of(maps.tile_roughness_alpha)});
   }
   if (!maps.occlusion.empty()) {
     textures.push_back({"aoMap", "ambient occlusion", "1 = open; darkens the ambient light", &maps.occlusion, true,
-                        true, PerValue([](float v) { return v; })});
+                        !tileable || !maps.tile_occlusion.empty(), PerValue([](float v) { return v; }),
+                        tile_of(maps.tile_occlusion)});
   }
   if (!maps.height_mm.empty()) {
     textures.push_back({"", "height", "mm, " + Fixed(height_min, 3) + " .. " + Fixed(height_max, 3) +
                                           " (listed, not displaced)",
                         &maps.height_mm, true, false, PerValue([height_min, height_range](float h) {
                           return height_range > 0 ? (h - height_min) / height_range : 0.5;
-                        })});
+                        }), nullptr});
   }
   if (!solved.empty()) {
     // Unweighted, so that a texel is kept when at least half its pixels were solved.
     textures.push_back({"alphaMap", "solved mask", "texels with under half their pixels solved are not drawn", &solved,
-                        false, false, PerValue([](float v) { return v >= 0.5f ? 1.0 : 0.0; })});
+                        false, false, PerValue([](float v) { return v >= 0.5f ? 1.0 : 0.0; }), nullptr});
   }
   return textures;
 }
@@ -303,7 +344,11 @@ bool EncodeTextures(const std::vector<Texture>& textures, const ImageU8& valid, 
       const ImageU8& mask = texture.solved_only ? valid : no_mask;
       const ImageF small = Downsample(*texture.image, mask, 0, 0, l.width, l.height, l.tile_width, l.tile_height);
       std::string sphere_uri;
-      if (texture.on_sphere) {
+      if (texture.on_sphere && texture.tile != nullptr) {
+        // The tileable crop is solved everywhere it was cut (maps/tileable_crop.h): no mask.
+        sphere_uri = PngDataUri(texture.encode(
+            Downsample(*texture.tile, no_mask, 0, 0, l.crop_width, l.crop_height, l.sphere_width, l.sphere_height)));
+      } else if (texture.on_sphere) {
         sphere_uri = PngDataUri(texture.encode(Downsample(*texture.image, mask, l.crop_x, l.crop_y, l.crop_width,
                                                           l.crop_height, l.sphere_width, l.sphere_height)));
       }
@@ -339,11 +384,13 @@ std::string PreviewPageSummary::BriefReport() const {
          ", " + Fixed(seconds, 2) + " s";
 }
 
-std::string PreviewPageFragment(bool normal_map, double light_azimuth_deg, double light_elevation_deg, bool panel) {
+std::string PreviewPageFragment(bool normal_map, double light_azimuth_deg, double light_elevation_deg, bool panel,
+                                bool whole_frame) {
   std::string fragment = "#";
   if (!normal_map) fragment += "normal=off&";
   fragment += "light=" + Fixed(light_azimuth_deg, 0) + "," + Fixed(light_elevation_deg, 0);
   if (!panel) fragment += "&panel=off";
+  if (whole_frame) fragment += "&frame=on";
   return fragment;
 }
 
@@ -354,8 +401,14 @@ PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const
 }
 
 PreviewPageMapViews PreviewPageMapViews::Of(const PreviewPageMaps& maps) {
-  return {&maps.basecolor_linear_rec709, &maps.normal_in_tangent, &maps.roughness_alpha, &maps.occlusion,
-          &maps.height_mm, &maps.valid};
+  PreviewPageMapViews views;
+  views.basecolor_linear_rec709 = &maps.basecolor_linear_rec709;
+  views.normal_in_tangent = &maps.normal_in_tangent;
+  views.roughness_alpha = &maps.roughness_alpha;
+  views.occlusion = &maps.occlusion;
+  views.height_mm = &maps.height_mm;
+  views.valid = &maps.valid;
+  return views;
 }
 
 PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const PreviewPageMapViews& views,
@@ -369,7 +422,7 @@ PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const
   const auto start = std::chrono::steady_clock::now();
   PreviewPageTextures made;
   const ImageF& base = maps.basecolor_linear_rec709;
-  const TextureLayout layout = LayoutOf(options, base.width(), base.height());
+  const TextureLayout layout = LayoutOf(options, base.width(), base.height(), maps.tile_basecolor_linear_rec709);
   made.summary.texture_width = layout.tile_width;
   made.summary.texture_height = layout.tile_height;
   double height_min = 0, height_max = 0;
@@ -394,6 +447,7 @@ PreviewPageTextures MakePreviewTextures(const PreviewPageOptions& options, const
   made.image_height = base.height();
   made.crop_width = layout.crop_width;
   made.crop_height = layout.crop_height;
+  made.tileable = layout.tileable;
   made.height_min_mm = height_min;
   made.height_max_mm = height_max;
   made.summary.termination = Termination::kSuccess;
@@ -430,9 +484,12 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
                                {"height_mm", textures.image_height * mm_per_pixel},
                                {"image", {{"width", textures.image_width}, {"height", textures.image_height}}},
                                {"texture", {{"width", summary.texture_width}, {"height", summary.texture_height}}},
-                               {"sphere_crop", {{"fraction", options.sphere_crop},
-                                                {"width_mm", textures.crop_width * mm_per_pixel},
-                                                {"height_mm", textures.crop_height * mm_per_pixel}}},
+                               {"sample", {{"tileable", textures.tileable},
+                                           {"fraction", textures.tileable ? 0.0 : options.sphere_crop},
+                                           {"width_px", textures.crop_width},
+                                           {"height_px", textures.crop_height},
+                                           {"width_mm", textures.crop_width * mm_per_pixel},
+                                           {"height_mm", textures.crop_height * mm_per_pixel}}},
                                {"height_range_mm", {textures.height_min_mm, textures.height_max_mm}},
                                {"maps", map_entries},
                                {"files", file_entries}};

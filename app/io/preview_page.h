@@ -1,18 +1,25 @@
 // The material preview page of an export (issue #16): one self-contained
-// preview.html that shows the maps on a flat tile of the sample's physical
-// aspect and on a sphere under a light the mouse drags, and lists the maps and
-// the export's files. It opens from file:// with no network and no server:
-// three.js (third_party/three, compiled in) rides along as a data: module URL
-// and every texture as a data: PNG (8-bit, at most max_texture_px on the long
-// side; the sphere repeats a centred crop in smaller textures), because Chrome
-// refuses file:// textures in WebGL and file:// modules.
+// preview.html that shows the sample on a flat tile of its physical aspect
+// and on a dome under a light the mouse drags, and lists the maps and the
+// export's files. The sample is the export's tileable crop where there is
+// one, else a centred crop of the frame (the border of a scan is often the
+// table or the sample's lifted edge); the whole frame is shown on the tile
+// only on request (issue #36). The dome is a spherical cap seen from above
+// whose UVs are the plane's (u right, v up), so the texture lies on it once,
+// with no seam and the tile's tangent frame. It opens from file:// with no
+// network and no server: three.js (third_party/three, compiled in) rides
+// along as a data: module URL and every texture as a data: PNG (8-bit, the
+// frame's at most max_texture_px on the long side, the sample's at most
+// max_sphere_texture_px), because Chrome refuses file:// textures in WebGL
+// and file:// modules.
 //
 // Options after '#' in the URL: normal=off (render without the normal map),
 // light=AZ,EL (degrees; azimuth from the image's +x towards +y, elevation above
-// the sample plane; default 120,40), panel=off (the render alone).
+// the sample plane; default 120,40), frame=on (the whole frame on the tile,
+// also a checkbox on the panel), panel=off (the render alone).
 // Layout with panel=off, which the tests rely on: the tile is centred in the
 // left half of the window, fitted into 85 % of that half's width and of the
-// height; the sphere is centred in the right half, radius 40 % of
+// height; the dome is centred in the right half, its outline's radius 40 % of
 // min(half width, height). Orthographic view down the sample's normal.
 #pragma once
 
@@ -44,10 +51,10 @@ struct PreviewPageFile {
 };
 
 struct PreviewPageOptions {
-  int max_texture_px = 1024;   // long side of the tile's textures, px, [16, 8192]; smaller maps stay as they are
-  // The sphere repeats a centred crop (the border of a scan is often the table
-  // or the sample's edge): this fraction of each side, (0, 1], in textures of
-  // at most max_sphere_texture_px, [16, 8192].
+  int max_texture_px = 1024;   // long side of the whole frame's textures, px, [16, 8192]; smaller maps stay as they are
+  // Without a tileable crop the sample shown is a centred crop: this fraction
+  // of each side, (0, 1]. The sample's textures (the crop's or the tileable
+  // crop's) have at most max_sphere_texture_px on the long side, [16, 8192].
   double sphere_crop = 0.6;
   int max_sphere_texture_px = 512;
   std::string title;           // the page's heading, e.g. the material name; "" = "scanbench material"
@@ -79,14 +86,15 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
 // the files' sizes.
 struct PreviewPageTexture {
   std::string use, label, note;  // three.js slot ("" = listed only), what the map is
-  std::string uri, sphere_uri;   // data: PNGs of the tile's and the sphere's texture ("" = not on the sphere)
+  std::string uri, sphere_uri;   // data: PNGs of the whole frame's and the sample's texture ("" = not on the sample)
 };
 struct PreviewPageTextures {
   PreviewPageSummary summary;    // success, cancelled (no textures), the texture size and the seconds so far
   std::vector<PreviewPageTexture> textures;
   double mm_per_pixel = 0;
   int image_width = 0, image_height = 0;  // of the maps, px
-  int crop_width = 0, crop_height = 0;    // of the sphere's crop, px
+  int crop_width = 0, crop_height = 0;    // of the sample (the tileable or the centred crop), px
+  bool tileable = false;                  // the sample is the export's tileable crop
   double height_min_mm = 0, height_max_mm = 0;
 };
 // The maps borrowed (null = an empty map), e.g. while they are also being
@@ -98,6 +106,14 @@ struct PreviewPageMapViews {
   const ImageF* occlusion = nullptr;
   const ImageF* height_mm = nullptr;
   const ImageU8* valid = nullptr;
+  // The export's tileable crop (maps/tileable_crop.h), shown as the sample
+  // instead of the centred crop: null, or at least its base colour and
+  // normals (3 channels each, one size), its roughness and occlusion (1
+  // channel) optional.
+  const ImageF* tile_basecolor_linear_rec709 = nullptr;
+  const ImageF* tile_normal_in_tangent = nullptr;
+  const ImageF* tile_roughness_alpha = nullptr;
+  const ImageF* tile_occlusion = nullptr;
   static PreviewPageMapViews Of(const PreviewPageMaps& maps);
 };
 // The textures of the maps: throws like WritePreviewPage (naming `html_path`,
@@ -117,8 +133,8 @@ PreviewPageSummary WritePreviewPage(const PreviewPageOptions& options, const Pre
                                     const std::filesystem::path& html_path, const ProgressCallback& progress = {});
 
 // The URL fragment for the options above, e.g. PreviewPageFragment(false, 90, 30, false)
-// = "#normal=off&light=90,30&panel=off".
+// = "#normal=off&light=90,30&panel=off"; whole_frame adds "&frame=on".
 std::string PreviewPageFragment(bool normal_map, double light_azimuth_deg, double light_elevation_deg,
-                                bool panel);
+                                bool panel, bool whole_frame = false);
 
 }  // namespace scanbench

@@ -54,6 +54,7 @@ class ResultLayersTest : public QObject {
 
   // Issue #13: status.png's code 7 (solved, specular map unsupported) has its
   // own colour; solved stays green, unknown codes read as invalid input.
+  // Issue #36: the colours are app/io/status_codes.h's, code 7 a green too.
   void StatusShowsSpecularUnsupportedApart() {
     const std::filesystem::path dir = folder_ / "status_result";
     std::filesystem::create_directories(dir);
@@ -65,9 +66,14 @@ class ResultLayersTest : public QObject {
     WritePng(dir / "status.png", status, OverwritePolicy::kRefuse);
     const QImage image = LoadResultLayerImage(dir, ResultLayer::kStatus).image;
     QCOMPARE(image.pixel(0, 0), qRgb(40, 170, 70));
-    QCOMPARE(image.pixel(1, 0), qRgb(150, 225, 235));
+    QCOMPARE(image.pixel(1, 0), qRgb(130, 205, 110));
+    QVERIFY(image.pixel(1, 0) != image.pixel(0, 0));
     QCOMPARE(image.pixel(2, 0), qRgb(255, 255, 255));
     QCOMPARE(image.pixel(3, 0), qRgb(255, 255, 255));
+    for (int code = 0; code < kNumStatusPngCodes; ++code) {
+      const StatusCodeInfo& info = StatusCodes()[code];
+      QCOMPARE(StatusColour(code), qRgb(info.r, info.g, info.b));
+    }
   }
 
   void AngularErrorScaleStatesTheMapsRange() {

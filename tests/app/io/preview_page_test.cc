@@ -8,6 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -230,6 +231,53 @@ TEST(PreviewPageTest, TwoStepsFromBorrowedMapsWriteTheSamePage) {
 TEST(PreviewPageTest, FragmentNamesTheOptions) {
   EXPECT_EQ(PreviewPageFragment(false, 90, 30, false), "#normal=off&light=90,30&panel=off");
   EXPECT_EQ(PreviewPageFragment(true, 120, 40, true), "#light=120,40");
+  EXPECT_EQ(PreviewPageFragment(true, 90, 60, false, true), "#light=90,60&panel=off&frame=on");
+}
+
+// Issue #36: the sample shown is the tileable crop where the export has one
+// (its own maps, not a crop of the frame), else the centred crop.
+TEST(PreviewPageTest, SampleIsTheTileableCropWhenThereIsOne) {
+  TemporaryFolder dir;
+  const PreviewPageMaps maps = RidgedMaps();
+  const PreviewPageOptions options;
+  PreviewPageTextures centred = MakePreviewTextures(options, maps, 0.1, dir / "a.html");
+  ASSERT_TRUE(WritePreviewPage(options, centred, {}, dir / "a.html").IsUsable());
+  nlohmann::json data = PageData(ReadText(dir / "a.html"));
+  EXPECT_EQ(data["sample"]["tileable"], false);
+  EXPECT_EQ(data["sample"]["width_px"], 154);  // 0.6 * 256
+  EXPECT_EQ(data["sample"]["height_px"], 115);
+  EXPECT_NEAR(data["sample"]["width_mm"].get<double>(), 15.4, 1e-9);
+
+  const ImageF tile_albedo(64, 64, 3, 0.2f), tile_normal(64, 64, 3, 0.0f);
+  ImageF tile_up = tile_normal;
+  for (size_t i = 0; i < tile_up.num_pixels(); ++i) tile_up.data()[3 * i + 2] = 1;
+  const ImageF tile_roughness(64, 64, 1, 0.25f);
+  PreviewPageMapViews views = PreviewPageMapViews::Of(maps);
+  views.tile_basecolor_linear_rec709 = &tile_albedo;
+  views.tile_normal_in_tangent = &tile_up;
+  views.tile_roughness_alpha = &tile_roughness;
+  const PreviewPageTextures tiled = MakePreviewTextures(options, views, 0.1, dir / "b.html");
+  ASSERT_TRUE(WritePreviewPage(options, tiled, {}, dir / "b.html").IsUsable());
+  data = PageData(ReadText(dir / "b.html"));
+  EXPECT_EQ(data["sample"]["tileable"], true);
+  EXPECT_EQ(data["sample"]["width_px"], 64);
+  const nlohmann::json& textures = data["maps"];
+  const ImageU8 base = DecodeDataUri(textures[0]["sphere_uri"], dir / "base.png");
+  ASSERT_TRUE(base.SameSize(64, 64));
+  EXPECT_EQ(base(30, 30, 0), 124);  // srgb(0.2), the tile's, not the frame's 0.4
+  const ImageU8 roughness = DecodeDataUri(textures[2]["sphere_uri"], dir / "roughness.png");
+  EXPECT_EQ(roughness(3, 3, 0), 128);  // sqrt(0.25) * 255
+  EXPECT_FALSE(textures[3].contains("sphere_uri")) << "the tile has no occlusion: not the frame's crop instead";
+  // The whole frame stays on the page, for #frame=on.
+  EXPECT_TRUE(DecodeDataUri(textures[0]["uri"], dir / "frame.png").SameSize(kWidth, kHeight));
+
+  views.tile_normal_in_tangent = &tile_roughness;  // one channel
+  try {
+    MakePreviewTextures(options, views, 0.1, dir / "c.html");
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_THAT(error.what(), HasSubstr("c.html: tile_normal_in_tangent is 64x64x1, 64x64x3 expected"));
+  }
 }
 
 // --- In headless Chromium -----------------------------------------------------
@@ -360,6 +408,70 @@ TEST(PreviewPageBrowserTest, RendersLitSphereAndNormalDetail) {
   EXPECT_GT(tile_on, tile_off + 10);
 }
 
+// Issue #36: the sample on the dome has no seam. The frame's albedo runs from
+// dark at the top to light at the bottom inside a red border (the table), so
+// a crop repeated on a sphere would show a hard edge where its bottom meets
+// its top; the dome shows the centred crop once. The tile shows that crop
+// too (no red); with #frame=on it shows the whole frame, border and all.
+TEST(PreviewPageBrowserTest, DomeShowsTheSampleWithoutSeamsAndTheFrameOnlyOnRequest) {
+  const std::string chromium = FindChromium();
+  if (chromium.empty()) GTEST_SKIP() << "chromium is not installed (Debian package `chromium`)";
+  TemporaryFolder dir;
+  PreviewPageMaps maps = RidgedMaps();
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const bool border = x < kWidth / 10 || x >= kWidth - kWidth / 10 || y < kHeight / 10 || y >= kHeight - kHeight / 10;
+      const float grey = 0.03f + 0.6f * float(y) / (kHeight - 1);
+      for (int c = 0; c < 3; ++c) maps.basecolor_linear_rec709(x, y, c) = border ? (c == 0 ? 0.6f : 0.02f) : grey;
+      maps.normal_in_tangent(x, y, 0) = maps.normal_in_tangent(x, y, 1) = 0;
+      maps.normal_in_tangent(x, y, 2) = 1;
+    }
+  }
+  const fs::path page = dir / "preview.html";
+  ASSERT_TRUE(WriteRidgedPage(page, maps).IsUsable());
+  const ImageU8 sample = Screenshot(chromium, page, PreviewPageFragment(true, 90, 70, false), dir / "s.png", dir / "p");
+  const ImageU8 frame =
+      Screenshot(chromium, page, PreviewPageFragment(true, 90, 70, false, true), dir / "f.png", dir / "p");
+  ASSERT_TRUE(sample.SameSize(kWindowWidth, kWindowHeight) && frame.SameSize(kWindowWidth, kWindowHeight));
+  if (const char* keep = std::getenv("SCANBENCH_KEEP_SCREENSHOTS")) {
+    for (const char* name : {"s.png", "f.png"}) {
+      fs::copy_file(dir / name, fs::path(keep) / (std::string("preview_page_test_seams_") + name),
+                    fs::copy_options::overwrite_existing);
+    }
+  }
+  // The dome: the largest step in luminance between neighbouring pixels inside 90 % of its outline.
+  const double cx = 0.75 * kWindowWidth, cy = kWindowHeight / 2.0;
+  const double radius = 0.4 * std::min(kWindowWidth / 2.0, double(kWindowHeight));
+  double worst_step = 0, dome_sum = 0;
+  int dome_pixels = 0;
+  for (int y = 1; y < kWindowHeight; ++y) {
+    for (int x = kWindowWidth / 2 + 1; x < kWindowWidth; ++x) {
+      if (std::hypot(x - cx, y - cy) > 0.9 * radius) continue;
+      worst_step = std::max({worst_step, std::abs(Luminance(sample, x, y) - Luminance(sample, x, y - 1)),
+                             std::abs(Luminance(sample, x, y) - Luminance(sample, x - 1, y))});
+      dome_sum += Luminance(sample, x, y);
+      ++dome_pixels;
+    }
+  }
+  // Red: the border's colour, red well above green.
+  auto red_pixels = [](const ImageU8& image, int x0, int x1) {
+    int count = 0;
+    for (int y = 0; y < kWindowHeight; ++y)
+      for (int x = x0; x < x1; ++x) count += image(x, y, 0) > image(x, y, 1) + 60;
+    return count;
+  };
+  const int tile_red = red_pixels(sample, 0, kWindowWidth / 2), frame_red = red_pixels(frame, 0, kWindowWidth / 2);
+  const int dome_red = red_pixels(sample, kWindowWidth / 2, kWindowWidth);
+  std::cout << "dome: mean luminance " << dome_sum / std::max(1, dome_pixels) << ", largest neighbour step "
+            << worst_step << "; red pixels: tile " << tile_red << " (frame=on " << frame_red << "), dome " << dome_red
+            << "\n";
+  EXPECT_GT(dome_sum / std::max(1, dome_pixels), Luminance(sample, 5, 5) + 20) << "the dome is drawn";
+  EXPECT_LT(worst_step, 12) << "a seam on the dome";
+  EXPECT_EQ(tile_red, 0) << "the tile shows the sample, not the table around it";
+  EXPECT_EQ(dome_red, 0);
+  EXPECT_GT(frame_red, 1000) << "#frame=on shows the whole frame";
+}
+
 // Any export's page, e.g. the demo's: SCANBENCH_PREVIEW_PAGE=/path/preview.html.
 // The same measures as above, printed; only not blank and brighter on the lit
 // side are asserted (a real material's albedo has high frequencies of its own).
@@ -377,7 +489,7 @@ TEST(PreviewPageBrowserTest, RendersAGivenPage) {
   const ImageU8 without =
       Screenshot(chromium, page, PreviewPageFragment(false, 90, 30, false), dir / "off.png", dir / "profile");
   ASSERT_TRUE(with_normals.SameSize(kWindowWidth, kWindowHeight) && without.SameSize(kWindowWidth, kWindowHeight));
-  const Box tile = TileInterior(data["width_mm"].get<double>() / data["height_mm"].get<double>());
+  const Box tile = TileInterior(data["sample"]["width_mm"].get<double>() / data["sample"]["height_mm"].get<double>());
   const double background = Luminance(with_normals, 5, 5);
   const double upper = SphereHalfLuminance(with_normals, true), lower = SphereHalfLuminance(with_normals, false);
   std::cout << page.string() << ": background " << background << ", tile mean with normal map "
