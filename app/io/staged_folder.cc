@@ -130,7 +130,8 @@ int StagedFolder::RemoveStale(const fs::path& parent) {
   return removed;
 }
 
-StagedFolder StagedFolder::ReserveNumbered(const fs::path& parent, const std::string& base_name) {
+StagedFolder StagedFolder::ReserveNumbered(const fs::path& given_parent, const std::string& base_name) {
+  const fs::path parent = given_parent.empty() ? fs::path(".") : given_parent;
   std::error_code error;
   bool made_parent = false;
   if (!fs::is_directory(parent, error)) {
@@ -166,8 +167,9 @@ StagedFolder StagedFolder::ReserveNumbered(const fs::path& parent, const std::st
 
 StagedFolder StagedFolder::OntoAbsent(fs::path final_dir) {
   std::error_code error;
-  fs::create_directories(final_dir.parent_path(), error);
-  if (error) throw std::runtime_error(final_dir.parent_path().string() + ": cannot be created: " + error.message());
+  const fs::path parent = final_dir.parent_path();  // empty for a bare name: the working folder
+  if (!parent.empty()) fs::create_directories(parent, error);
+  if (error) throw std::runtime_error(parent.string() + ": cannot be created: " + error.message());
   int fd = TryReserve(final_dir);
   if (fd < 0 && RemoveIfDead(HiddenSibling(final_dir, kLockSuffix), HiddenSibling(final_dir, kStagingSuffix))) {
     fd = TryReserve(final_dir);  // a killed run's, cleared

@@ -197,6 +197,21 @@ TEST(StagedFolderTest, OntoAbsentAppearsOnlyOnCommit) {
   EXPECT_THAT(names, ElementsAre("out"));
 }
 
+// A bare name (`scanbench simulate-dataset out`) is in the working folder.
+TEST(StagedFolderTest, OntoAbsentTakesABareNameInTheWorkingFolder) {
+  TemporaryFolder folder;
+  const fs::path before = fs::current_path();
+  fs::current_path(folder.path());
+  {
+    StagedFolder staged = StagedFolder::OntoAbsent("out");
+    WriteText(staged.staging() / "normal.png", "png");
+    staged.Commit();
+  }
+  fs::current_path(before);
+  EXPECT_EQ(ReadText(folder / "out" / "normal.png"), "png");
+  EXPECT_THAT(folder.List(), ElementsAre("out"));
+}
+
 // A moved-from object discards nothing: the new owner commits.
 TEST(StagedFolderTest, MovedFromDiscardsNothing) {
   TemporaryFolder folder;
