@@ -42,6 +42,7 @@
 #include "app/session/calibration_set.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
+#include "app/session/color_staleness.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -991,6 +992,7 @@ void CalibrationPage::ShowFigures(Step step, const std::vector<QualityFigure>& f
 void CalibrationPage::ReloadSet() {
   const fs::path dir = SetDir();
   done_ = {};
+  color_stale_.clear();
   std::error_code error;
   if (dir.empty()) {
     set_state_->setText(tr("Choose a folder for the calibration set: a new one for a new set."));
@@ -1009,8 +1011,19 @@ void CalibrationPage::ReloadSet() {
           SetStepStatus(Step(step), tr("In the set since %1.").arg(QString::fromStdString(stored->date)));
         }
       }
+      // Issue #36 item 14: a colour section measured through an older light field.
+      if (const auto stale = StaleColorReason(set, dir)) {
+        color_stale_ = QString::fromStdString(*stale);
+        SetStepStatus(kColorStep, tr("In the set since %1, but STALE: %2")
+                                      .arg(QString::fromStdString(set.color->date), color_stale_),
+                      true);
+      }
       QStringList parts;
       for (int step = 0; step < kStepCount; ++step) {
+        if (step == kColorStep && !color_stale_.isEmpty()) {
+          parts << tr("%1 stale (run it again)").arg(Tr(kSteps[step].title));
+          continue;
+        }
         parts << tr("%1 %2").arg(Tr(kSteps[step].title), done_[step]             ? tr("done")
                                                          : kSteps[step].optional ? tr("not done (optional)")
                                                                                  : tr("missing"));
@@ -1041,6 +1054,10 @@ void CalibrationPage::UpdateStepList() {
               : mark == Mark::kPass               ? tr("done: all figures pass")
               : mark == Mark::kWarn               ? tr("done: see the warnings")
                                                   : tr("done: figures fail");
+    }
+    if (step == kColorStep && !color_stale_.isEmpty()) {
+      mark = Mark::kWarn;
+      state = tr("stale: the lights or white balance changed since; run it again");
     }
     QListWidgetItem* item = step_list_->item(step);
     item->setText(tr("%1. %2\n      %3").arg(step + 1).arg(Tr(kSteps[step].title), state));

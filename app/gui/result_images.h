@@ -75,8 +75,9 @@ RelightMaps LoadRelightMaps(const std::filesystem::path& result_dir);
 QImage Relight(const RelightMaps& maps, double lx, double ly, double lz, const RelightShading& shading = {},
                const std::atomic<bool>* stop = nullptr);
 
-// A small preview of a RAW frame: 2x2 Bayer tiles to one RGB pixel, black
-// subtracted, gamma for display, at most `max_width` wide. Throws naming the file.
+// A small preview of a RAW frame, developed as the live view develops
+// (DevelopRawPreview: white-balanced, box-filtered, clipped samples red), at
+// most `max_width` wide. Throws naming the file.
 QImage RawThumbnail(const std::filesystem::path& raw_file, int max_width);
 
 
