@@ -16,6 +16,7 @@
 #include "app/devices/serial_port_list.h"
 #include "app/devices/simulated_led_board.h"
 #include "app/io/file_util.h"
+#include "app/session/capture_folder.h"
 #include "app/session/rig_json.h"
 
 namespace scanbench {
@@ -161,6 +162,8 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
                   state->solve_options);
   command->callback([state, exit_code] {
     try {
+      // The controller checks again under its lock; this refuses before a board or camera is opened.
+      CheckCaptureFolder(state->session_dir, state->options.resume);
       *exit_code = state->rig_kind == "sim" ? CaptureSimulated(*state) : CaptureHardware(*state);
     } catch (const std::exception& error) {
       std::cerr << "scanbench: error: " << error.what() << "\n";
