@@ -21,6 +21,7 @@
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
 #include "app/gui/main_window.h"
+#include "tests/app/gui/widget_test_util.h"
 #include "app/session/session.h"
 
 namespace scanbench {
@@ -32,18 +33,10 @@ class CapturePageTest : public QObject {
  private:
   template <typename T>
   T* Find(const char* name) {
-    T* widget = window_->findChild<T*>(QString::fromLatin1(name));
-    if (!widget) qFatal("no widget %s", name);
-    return widget;
+    return testing::FindWidget<T>(*window_, name);
   }
   ControllerRunner::Outcome ClickAndWait(const char* button, int timeout_ms = 120000) {
-    ControllerRunner::Outcome outcome = ControllerRunner::Outcome::kFailed;
-    auto connection = connect(window_->runner(), &ControllerRunner::Finished, this,
-                              [&outcome](ControllerRunner::Outcome result, const QString&) { outcome = result; });
-    QTest::mouseClick(Find<QPushButton>(button), Qt::LeftButton);
-    if (!window_->runner()->Wait(timeout_ms)) qWarning("%s: job still running", button);
-    disconnect(connection);
-    return outcome;
+    return testing::ClickAndWait(*window_, button, timeout_ms);
   }
   void TypeFolder(const QString& folder) {
     auto* field = Find<QLineEdit>("sessionFolder");
