@@ -393,6 +393,7 @@ QLayout* CalibrationPage::MakeProgressRow() {
   progress_->setRange(0, 1000);
   progress_->setTextVisible(false);
   stage_ = new QLabel(this);
+  stage_->setObjectName("calibrationStage");
   cancel_ = new QPushButton(tr("Cancel"), this);
   cancel_->setObjectName("cancelCalibration");
   auto* progress_row = new QHBoxLayout;
@@ -406,11 +407,11 @@ QLayout* CalibrationPage::MakeProgressRow() {
 }
 
 void CalibrationPage::ConnectRunner() {
-  connect(runner_, &ControllerRunner::Progress, this,
-          [this](const QString& stage, double fraction, const QString& detail) {
+  // The job's one bar (issue #36 item 8): forward only across its stages.
+  connect(runner_, &ControllerRunner::JobProgressChanged, this, [this](double fraction, const QString& text) {
     if (running_ == kNoJob) return;
     progress_->setValue(int(fraction * 1000));
-    stage_->setText(ProgressText(stage, detail, fraction));
+    stage_->setText(text);
   });
   connect(runner_, &ControllerRunner::Started, this, &CalibrationPage::UpdateButtons);
   connect(runner_, &ControllerRunner::Finished, this, &CalibrationPage::UpdateButtons);
@@ -783,6 +784,16 @@ bool CalibrationPage::StartJob(int job, std::shared_ptr<BaseController> controll
       std::move(controller), name,
       [this, done = std::move(done)](ControllerRunner::Outcome outcome, const QString& message) {
         running_ = kNoJob;
+        // The end, not the last stage's "100 %".
+        const QString seconds = QString::number(runner_->job_seconds(), 'f', 1);
+        const QString job = runner_->job_name();
+        if (outcome == ControllerRunner::Outcome::kSucceeded) {
+          progress_->setValue(progress_->maximum());
+          stage_->setText(tr("%1 finished in %2 s").arg(job, seconds));
+        } else {
+          stage_->setText(outcome == ControllerRunner::Outcome::kCancelled ? tr("%1 cancelled").arg(job)
+                                                                            : tr("%1 failed").arg(job));
+        }
         done(outcome == ControllerRunner::Outcome::kSucceeded, outcome == ControllerRunner::Outcome::kCancelled,
              message);
         UpdateButtons();

@@ -12,6 +12,7 @@
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
+#include <QProgressBar>
 #include <QPushButton>
 #include <QSettings>
 #include <QSpinBox>
@@ -234,6 +235,11 @@ class CalibrationPageTest : public QObject {
     QCOMPARE(table->rowCount(), 0);
 
     QCOMPARE(ClickAndWait("colorRun"), ControllerRunner::Outcome::kSucceeded);
+    // Issue #36 item 8: the job's end, with a full bar, not its last stage's "100 %".
+    QVERIFY2(Find<QLabel>("calibrationStage")->text().endsWith(" s") &&
+                 Find<QLabel>("calibrationStage")->text().contains("finished in"),
+             qPrintable(Find<QLabel>("calibrationStage")->text()));
+    QCOMPARE(Find<QProgressBar>("calibrationProgress")->value(), 1000);
     const CalibrationSet set = LoadCalibrationSet(CalibrationDir().toStdString());
     QVERIFY(set.color.has_value());
     QCOMPARE(set.color->white_reference, std::string("light_field"));
