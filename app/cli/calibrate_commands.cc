@@ -20,6 +20,7 @@
 #include "app/controllers/solve_controller.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
+#include "app/session/color_staleness.h"
 #include "calibration/camera_model.h"
 
 namespace scanbench {
@@ -79,12 +80,24 @@ struct WhiteState {
   WhiteBalanceJobOptions options;
 };
 
+// Issue #36 item 14: a colour section measured through the light field that
+// this run replaced is marked stale, not refitted; say so where it happened.
+void PrintColorStaleness(const fs::path& calibration) {
+  try {
+    const CalibrationSet set = LoadCalibrationSet(calibration, CalibrationLoadOptions{.verify_checksums = false});
+    if (const auto stale = StaleColorReason(set, calibration)) std::cout << "warning: " << *stale << "\n";
+  } catch (const std::exception& error) {
+    std::cout << "warning: " << error.what() << "\n";
+  }
+}
+
 int CalibrateWhiteCommand(const WhiteState& state) {
   WhiteBalanceController controller(state.session, state.calibration, state.options);
   const int code = RunController(controller);
   if (code == kExitSuccess) {
     std::cout << controller.summary().BriefReport() << "\nWhite balance written into the calibration set "
               << fs::absolute(state.calibration).string() << "\n";
+    PrintColorStaleness(state.calibration);
   }
   return code;
 }
@@ -98,7 +111,10 @@ struct LightsState {
 int CalibrateLightsCommand(const LightsState& state) {
   LightCalibrationController controller(state.sessions, state.calibration, state.options);
   const int code = RunController(controller);
-  if (code == kExitSuccess) PrintLights(controller.summary(), state.calibration);
+  if (code == kExitSuccess) {
+    PrintLights(controller.summary(), state.calibration);
+    PrintColorStaleness(state.calibration);
+  }
   return code;
 }
 

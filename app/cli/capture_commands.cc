@@ -16,6 +16,7 @@
 #include "app/devices/serial_port_list.h"
 #include "app/devices/simulated_led_board.h"
 #include "app/io/file_util.h"
+#include "app/session/capture_folder.h"
 #include "app/session/rig_json.h"
 
 namespace scanbench {
@@ -115,8 +116,13 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
   CLI::App* command = app.add_subcommand(
       "capture",
       "Capture a session: exposure check, dark frame, one RAW frame per LED, verified against the LED board. "
-      "An interrupted capture resumes when started again on the same folder.");
-  command->add_option("session", state->session_dir, "Session folder to write or resume")->required();
+      "A new capture needs a new, empty folder; --resume completes an interrupted one.");
+  command->add_option("session", state->session_dir,
+                      "Session folder: a new, empty one (or, with --resume, an interrupted capture's)")
+      ->required();
+  command->add_flag("--resume", state->options.resume,
+                    "Resume the interrupted capture in the session folder (same camera, LEDs and scene); the frames "
+                    "it journalled are kept");
   command->add_option("--rig", state->rig_kind, "sim: simulated camera + LED firmware in simavr; hardware: the bench")
       ->check(CLI::IsMember({"sim", "hardware"}))
       ->capture_default_str();
@@ -156,6 +162,8 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
                   state->solve_options);
   command->callback([state, exit_code] {
     try {
+      // The controller checks again under its lock; this refuses before a board or camera is opened.
+      CheckCaptureFolder(state->session_dir, state->options.resume);
       *exit_code = state->rig_kind == "sim" ? CaptureSimulated(*state) : CaptureHardware(*state);
     } catch (const std::exception& error) {
       std::cerr << "scanbench: error: " << error.what() << "\n";

@@ -6,7 +6,9 @@
 
 namespace scanbench {
 
-ProgressBar::ProgressBar(std::FILE* stream) : stream_(stream), interactive_(::isatty(::fileno(stream)) != 0) {}
+ProgressBar::ProgressBar(std::FILE* stream) : ProgressBar(stream, ::isatty(::fileno(stream)) != 0) {}
+
+ProgressBar::ProgressBar(std::FILE* stream, bool interactive) : stream_(stream), interactive_(interactive) {}
 
 ProgressBar::~ProgressBar() { Finish(); }
 
@@ -16,18 +18,20 @@ void ProgressBar::Update(const ProgressReport& report) {
   std::lock_guard<std::mutex> lock(mutex_);
   const double fraction = std::clamp(report.fraction, 0.0, 1.0);
   const auto now = std::chrono::steady_clock::now();
-  const bool new_stage = stage != stage_;
-  if (new_stage) {
-    if (line_open_ && interactive_) std::fputc('\n', stream_);
-    line_open_ = false;
-    stage_ = stage;
-    last_quarter_ = -1;
-    stage_start_ = now;
+  if (!started_) {
+    started_ = true;
+    job_start_ = now;
   }
-  const double elapsed = std::chrono::duration<double>(now - stage_start_).count();
+  const auto [seen, first_report] = quarters_.try_emplace(stage, -1);
+  const bool switched = stage != stage_;
+  stage_ = stage;
+  const double elapsed = std::chrono::duration<double>(now - job_start_).count();
   if (interactive_) {
+    // A stage not seen before keeps the previous stage's last line; one that
+    // comes back (another thread's) redraws the line in place.
+    if (first_report && line_open_) std::fputc('\n', stream_);
     // Redrawing faster than 10 Hz only costs time.
-    if (!new_stage && fraction < 1.0 && now - last_draw_ < std::chrono::milliseconds(100)) return;
+    if (!first_report && !switched && fraction < 1.0 && now - last_draw_ < std::chrono::milliseconds(100)) return;
     last_draw_ = now;
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth + 0.5);
@@ -37,9 +41,10 @@ void ProgressBar::Update(const ProgressReport& report) {
                  detail.c_str());
     line_open_ = true;
   } else {
+    // Each stage's quarters once, in order, whatever else reports between them.
     const int quarter = static_cast<int>(fraction * 4);
-    if (quarter == last_quarter_) return;
-    last_quarter_ = quarter;
+    if (quarter <= seen->second) return;
+    seen->second = quarter;
     std::fprintf(stream_, "%-16s %3d%% %6.1fs%s\n", stage.c_str(), quarter * 25, elapsed, detail.c_str());
   }
   std::fflush(stream_);
@@ -50,6 +55,8 @@ void ProgressBar::Finish() {
   if (line_open_ && interactive_) std::fputc('\n', stream_);
   line_open_ = false;
   stage_.clear();
+  quarters_.clear();
+  started_ = false;
   std::fflush(stream_);
 }
 

@@ -6,6 +6,7 @@
 
 #include "app/io/file_util.h"
 #include "app/io/raw_decoder.h"
+#include "app/session/capture_folder.h"
 #include "app/session/session.h"
 #include "core/field_error.h"
 #include "core/format.h"
@@ -304,9 +305,16 @@ void CaptureController::Run() {
   const auto start = std::chrono::steady_clock::now();
   summary_ = CaptureSummary();
   summary_.session_dir = session_dir_;
+  // A resume of a folder that is not there is refused before the lock would
+  // make it.
+  std::error_code missing;
+  if (options_.resume && !fs::exists(session_dir_, missing)) CheckCaptureFolder(session_dir_, true);
   // Refused up front, not at the first colliding frame, while another capture
   // (or simulate) holds the session; the kernel drops the lock if we crash.
   const FolderLock session_lock(session_dir_);
+  // A new capture never lands beside other files, a resume never starts a
+  // new session (the lock file does not count).
+  CheckCaptureFolder(session_dir_, options_.resume);
   CheckLedChannels(rig_, *lights_);
   const CameraDeviceInfo info = camera_->Info();
   std::optional<Session> session = LoadInterruptedSession(session_dir_, *camera_, info, rig_, options_.simulation);

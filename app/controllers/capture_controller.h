@@ -3,7 +3,8 @@
 // every exposure the LED state the firmware reports is verified, and again
 // after it (a watchdog or a board reset during the exposure spoils the frame);
 // all LEDs go off at the end and on any failure; a frame that fails is
-// retried; an interrupted capture resumes from the session's journal.
+// retried; an interrupted capture resumes from the session's journal when
+// asked to (CaptureOptions::resume); a new one needs a new, empty folder.
 #pragma once
 
 #include <chrono>
@@ -24,6 +25,10 @@ namespace scanbench {
 struct CaptureOptions {
   std::string sample_name;                   // required; recorded in session.json
   std::string notes;
+  // false: a new capture, into a missing or empty folder only; true: the
+  // resume of the interrupted capture in the folder, which must be there
+  // (app/session/capture_folder.h decides; the refusal names what is there).
+  bool resume = false;
   // Applied before the run; 0 leaves the camera's own value.
   ExposureSettings exposure;
   bool check_exposure = true;                // one test frame per LED before a new capture (not kept)

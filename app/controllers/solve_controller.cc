@@ -18,6 +18,7 @@
 #include "app/session/albedo_color_choice.h"
 #include "app/session/calibrated_lighting.h"  // issue #4
 #include "app/session/calibration_set.h"
+#include "app/session/color_staleness.h"
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
 #include "calibration/rig_light_field.h"
@@ -690,6 +691,13 @@ Lighting PrepareLighting(const SolveOptions& options, const fs::path& session_di
                                             frames.camera_from_xyz, frames.first_led_file);
   summary->light_model = lighting.light_model;
   summary->warnings = lighting.warnings;
+  // Issue #36 item 14: a colour correction measured through an older light field.
+  if (lighting.set && summary->albedo_color.source == AlbedoColorOptions::Source::kChart) {
+    if (const auto stale = StaleColorReason(*lighting.set, options.calibration_dir)) {
+      summary->warnings.push_back(*stale);
+      summary->albedo_color.description += " [STALE: fitted before the set's latest lights / white balance]";
+    }
+  }
   summary->warnings.insert(summary->warnings.end(), frames.exposure_notes.begin(), frames.exposure_notes.end());
   return lighting;
 }

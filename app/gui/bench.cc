@@ -16,7 +16,8 @@
 
 namespace scanbench {
 
-Bench::Bench(const BenchOptions& options) : options_(options) {
+BenchLights::BenchLights(const BenchOptions& options)
+    : simulated_(options.simulated_lights), serial_port_(options.serial_port) {
   if (options.simulated_lights) {
     board_ = std::make_unique<SimulatedLedBoard>();
     lights_ = std::make_unique<SerialLightController>(board_->port_path());
@@ -25,6 +26,30 @@ Bench::Bench(const BenchOptions& options) : options_(options) {
                                                                                   : options.serial_port);
   }
   firmware_ = lights_->Version();
+}
+
+// The controller goes before the board it talks to.
+BenchLights::~BenchLights() { lights_.reset(); }
+
+bool BenchLights::Serves(const BenchOptions& options) const {
+  return options.simulated_lights == simulated_ && (simulated_ || options.serial_port == serial_port_);
+}
+
+std::optional<RigDescription> CheckBenchOptions(const BenchOptions& options) {
+  if (options.simulated_camera) return std::nullopt;
+  if (options.rig_file.empty()) {
+    throw std::invalid_argument(
+        "a real camera needs the bench's rig description: choose its JSON file (LED positions, camera) "
+        "in the Rig file field");
+  }
+  const std::vector<uint8_t> bytes = ReadFileBytes(options.rig_file);
+  return RigDescriptionFromJson(std::string(bytes.begin(), bytes.end()), options.rig_file.string());
+}
+
+Bench::Bench(const BenchOptions& options, std::shared_ptr<BenchLights> lights)
+    : options_(options), lights_(std::move(lights)) {
+  const std::optional<RigDescription> real_rig = CheckBenchOptions(options);  // before any device
+  if (!lights_) lights_ = std::make_shared<BenchLights>(options);
 
   if (options.simulated_camera) {
     SimulatedRigOptions rig_options;
@@ -37,22 +62,16 @@ Bench::Bench(const BenchOptions& options) : options_(options) {
     // board's pins when there is one, else what the real board reports
     // (asked on the capture thread, the lights' one owner during a run).
     SimulatedCamera::LitLedCallback lit;
-    if (board_) {
-      lit = [board = board_.get()]() { return board->SingleLitLed(); };
+    if (SimulatedLedBoard* board = lights_->board()) {
+      lit = [board]() { return board->SingleLitLed(); };
     } else {
-      lit = [lights = lights_.get()]() { return lights->Status().lit_led; };
+      lit = [lights = &lights_->lights()]() { return lights->Status().lit_led; };
     }
     auto camera = std::make_unique<SimulatedCamera>(sim_rig_, lit);
     sim_camera_ = camera.get();
     camera_ = std::move(camera);
   } else {
-    if (options.rig_file.empty()) {
-      throw std::invalid_argument(
-          "a real camera needs the bench's rig description: choose its JSON file (LED positions, camera) "
-          "on the Devices page");
-    }
-    const std::vector<uint8_t> bytes = ReadFileBytes(options.rig_file);
-    rig_ = RigDescriptionFromJson(std::string(bytes.begin(), bytes.end()), options.rig_file.string());
+    rig_ = *real_rig;
     GPhotoCameraOptions camera_options;
     camera_options.model = options.camera_model;
     camera_options.port = options.camera_port;
@@ -66,7 +85,7 @@ RawImage Bench::PreviewRaw() {
   return sim_camera_->PreviewRaw();
 }
 
-// Lights and camera go before the board and rig they talk to.
+// The camera goes before the lights and rig it asks.
 Bench::~Bench() {
   camera_.reset();
   lights_.reset();

@@ -42,6 +42,7 @@
 #include "app/session/calibration_set.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
+#include "app/session/color_staleness.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -392,6 +393,7 @@ QLayout* CalibrationPage::MakeProgressRow() {
   progress_->setRange(0, 1000);
   progress_->setTextVisible(false);
   stage_ = new QLabel(this);
+  stage_->setObjectName("calibrationStage");
   cancel_ = new QPushButton(tr("Cancel"), this);
   cancel_->setObjectName("cancelCalibration");
   auto* progress_row = new QHBoxLayout;
@@ -405,11 +407,11 @@ QLayout* CalibrationPage::MakeProgressRow() {
 }
 
 void CalibrationPage::ConnectRunner() {
-  connect(runner_, &ControllerRunner::Progress, this,
-          [this](const QString& stage, double fraction, const QString& detail) {
+  // The job's one bar (issue #36 item 8): forward only across its stages.
+  connect(runner_, &ControllerRunner::JobProgressChanged, this, [this](double fraction, const QString& text) {
     if (running_ == kNoJob) return;
     progress_->setValue(int(fraction * 1000));
-    stage_->setText(ProgressText(stage, detail, fraction));
+    stage_->setText(text);
   });
   connect(runner_, &ControllerRunner::Started, this, &CalibrationPage::UpdateButtons);
   connect(runner_, &ControllerRunner::Finished, this, &CalibrationPage::UpdateButtons);
@@ -782,6 +784,16 @@ bool CalibrationPage::StartJob(int job, std::shared_ptr<BaseController> controll
       std::move(controller), name,
       [this, done = std::move(done)](ControllerRunner::Outcome outcome, const QString& message) {
         running_ = kNoJob;
+        // The end, not the last stage's "100 %".
+        const QString seconds = QString::number(runner_->job_seconds(), 'f', 1);
+        const QString job = runner_->job_name();
+        if (outcome == ControllerRunner::Outcome::kSucceeded) {
+          progress_->setValue(progress_->maximum());
+          stage_->setText(tr("%1 finished in %2 s").arg(job, seconds));
+        } else {
+          stage_->setText(outcome == ControllerRunner::Outcome::kCancelled ? tr("%1 cancelled").arg(job)
+                                                                            : tr("%1 failed").arg(job));
+        }
         done(outcome == ControllerRunner::Outcome::kSucceeded, outcome == ControllerRunner::Outcome::kCancelled,
              message);
         UpdateButtons();
@@ -991,6 +1003,7 @@ void CalibrationPage::ShowFigures(Step step, const std::vector<QualityFigure>& f
 void CalibrationPage::ReloadSet() {
   const fs::path dir = SetDir();
   done_ = {};
+  color_stale_.clear();
   std::error_code error;
   if (dir.empty()) {
     set_state_->setText(tr("Choose a folder for the calibration set: a new one for a new set."));
@@ -1009,8 +1022,19 @@ void CalibrationPage::ReloadSet() {
           SetStepStatus(Step(step), tr("In the set since %1.").arg(QString::fromStdString(stored->date)));
         }
       }
+      // Issue #36 item 14: a colour section measured through an older light field.
+      if (const auto stale = StaleColorReason(set, dir)) {
+        color_stale_ = QString::fromStdString(*stale);
+        SetStepStatus(kColorStep, tr("In the set since %1, but STALE: %2")
+                                      .arg(QString::fromStdString(set.color->date), color_stale_),
+                      true);
+      }
       QStringList parts;
       for (int step = 0; step < kStepCount; ++step) {
+        if (step == kColorStep && !color_stale_.isEmpty()) {
+          parts << tr("%1 stale (run it again)").arg(Tr(kSteps[step].title));
+          continue;
+        }
         parts << tr("%1 %2").arg(Tr(kSteps[step].title), done_[step]             ? tr("done")
                                                          : kSteps[step].optional ? tr("not done (optional)")
                                                                                  : tr("missing"));
@@ -1041,6 +1065,10 @@ void CalibrationPage::UpdateStepList() {
               : mark == Mark::kPass               ? tr("done: all figures pass")
               : mark == Mark::kWarn               ? tr("done: see the warnings")
                                                   : tr("done: figures fail");
+    }
+    if (step == kColorStep && !color_stale_.isEmpty()) {
+      mark = Mark::kWarn;
+      state = tr("stale: the lights or white balance changed since; run it again");
     }
     QListWidgetItem* item = step_list_->item(step);
     item->setText(tr("%1. %2\n      %3").arg(step + 1).arg(Tr(kSteps[step].title), state));

@@ -158,6 +158,8 @@ class CalibrationPage : public QWidget {
   // (-1: none shown).
   std::array<bool, kStepCount> done_{};
   std::array<int, kStepCount> worst_;
+  // Why the set's colour section is stale (StaleColorReason); empty when it is not.
+  QString color_stale_;
   // The step whose job runs, or kTargetsJob, or kNoJob (none of this page's).
   static constexpr int kTargetsJob = -1;
   static constexpr int kNoJob = -2;

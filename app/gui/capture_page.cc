@@ -26,12 +26,14 @@
 
 #include "app/controllers/capture_controller.h"
 #include "app/controllers/live_solve.h"
+#include "app/controllers/progress_plans.h"
 #include "app/controllers/solve_controller.h"
 #include "app/gui/bench.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
 #include "app/gui/page_widgets.h"
 #include "app/gui/result_images.h"
+#include "app/session/capture_folder.h"
 #include "app/session/session.h"
 
 namespace scanbench {
@@ -93,6 +95,11 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   progress_->setRange(0, 1000);
   progress_->setTextVisible(false);
   stage_ = new QLabel(this);
+  stage_->setObjectName("captureStage");
+  blocked_ = new QLabel(this);
+  blocked_->setObjectName("captureBlocked");
+  blocked_->setWordWrap(true);
+  blocked_->setStyleSheet(QStringLiteral("color: #9a7d0a"));
   status_ = new QLabel(this);
   status_->setObjectName("captureStatus");
   status_->setWordWrap(true);
@@ -107,6 +114,7 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   auto* layout = new QVBoxLayout(this);
   layout->addWidget(session_box);
   layout->addLayout(buttons);
+  layout->addWidget(blocked_);
   layout->addWidget(progress_);
   layout->addWidget(stage_);
   layout->addWidget(status_);
@@ -123,13 +131,14 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   connect(resume_, &QPushButton::clicked, this, &CapturePage::Resume);
   connect(cancel_, &QPushButton::clicked, runner_, &ControllerRunner::Cancel);
   connect(solve_, &QPushButton::clicked, this, &CapturePage::Solve);
-  connect(folder_, &QLineEdit::textChanged, this, &CapturePage::UpdateButtons);
+  connect(folder_, &QLineEdit::textChanged, this, &CapturePage::FolderChanged);
   connect(devices_, &DevicesPage::BenchChanged, this, &CapturePage::UpdateButtons);
-  connect(runner_, &ControllerRunner::Progress, this,
-          [this](const QString& stage, double fraction, const QString& detail) {
+  // One bar for the whole job: with solve-while-capturing the capture's
+  // stages and then the solve's, never moving back.
+  connect(runner_, &ControllerRunner::JobProgressChanged, this, [this](double fraction, const QString& text) {
     if (!capturing_ && !solving_) return;
     progress_->setValue(int(fraction * 1000));
-    stage_->setText(ProgressText(stage, detail, fraction));
+    stage_->setText(text);
   });
   connect(runner_, &ControllerRunner::Started, this, &CapturePage::UpdateButtons);
   connect(runner_, &ControllerRunner::Finished, this, &CapturePage::UpdateButtons);
@@ -139,9 +148,37 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
 fs::path CapturePage::SessionDir() const { return fs::path(folder_->text().trimmed().toStdString()); }
 
 void CapturePage::SetSessionFolder(const QString& folder) {
-  folder_->setText(folder);
+  if (folder_->text() == folder) {
+    FolderChanged();  // the same folder again: shown afresh
+  } else {
+    folder_->setText(folder);  // FolderChanged
+  }
+}
+
+void CapturePage::FolderChanged() {
+  if (capturing_ || solving_) return;  // the field is read-only meanwhile
   ResetThumbnails();
+  SetStatus(QString());
+  stage_->clear();
+  progress_->setValue(0);
   PollFrames();  // show what an interrupted session already has
+  UpdateButtons();
+}
+
+void CapturePage::ShowJobEnd(const QString& job, int outcome) {
+  const QString seconds = QString::number(runner_->job_seconds(), 'f', 1);
+  switch (ControllerRunner::Outcome(outcome)) {
+    case ControllerRunner::Outcome::kSucceeded:
+      progress_->setValue(progress_->maximum());
+      stage_->setText(tr("%1 finished in %2 s").arg(job, seconds));
+      break;
+    case ControllerRunner::Outcome::kCancelled:
+      stage_->setText(tr("%1 cancelled after %2 s").arg(job, seconds));
+      break;
+    case ControllerRunner::Outcome::kFailed:
+      stage_->setText(tr("%1 failed after %2 s").arg(job, seconds));
+      break;
+  }
 }
 
 void CapturePage::SetStatus(const QString& text, bool error) {
@@ -153,13 +190,31 @@ void CapturePage::UpdateButtons() {
   const bool busy = runner_->busy();
   const bool has_bench = devices_->bench() != nullptr;
   const fs::path dir = SessionDir();
-  std::error_code ignored;
-  const bool has_manifest = !dir.empty() && fs::exists(dir / "session.json", ignored);
-  const std::optional<Session> session = has_manifest ? ReadManifest(dir) : std::nullopt;
-  start_->setEnabled(!busy && has_bench && !dir.empty() && !has_manifest);
-  resume_->setEnabled(!busy && has_bench && session && !session->capture_complete);
+  const CaptureFolderState state = dir.empty() ? CaptureFolderState() : InspectCaptureFolder(dir);
+  const std::string new_refusal = dir.empty() ? "" : CaptureFolderRefusal(dir, state, false);
+  const bool interrupted = state.kind == CaptureFolderState::Kind::kInterrupted;
+  start_->setEnabled(!busy && has_bench && !dir.empty() && new_refusal.empty());
+  resume_->setEnabled(!busy && has_bench && !dir.empty() && interrupted);
   cancel_->setEnabled(busy && (capturing_ || solving_));
-  solve_->setEnabled(!busy && session && session->capture_complete);
+  solve_->setEnabled(!busy && state.kind == CaptureFolderState::Kind::kComplete);
+  folder_->setReadOnly(capturing_ || solving_);
+  // Why Start capture (or Resume) is off: the operator should not guess.
+  QString why;
+  if (capturing_ || solving_) {
+    why.clear();
+  } else if (busy) {
+    why = tr("%1 is running: start when it has finished.").arg(runner_->job_name());
+  } else if (!has_bench) {
+    why = tr("No bench connected: connect the LED board and the camera on the Devices page to capture.");
+  } else if (dir.empty()) {
+    why = tr("Type or choose a session folder: a new, empty one.");
+  } else if (interrupted) {
+    why = tr("%1 Resume completes it.").arg(QString::fromStdString(new_refusal));
+  } else if (!new_refusal.empty()) {
+    why = QString::fromStdString(new_refusal) + QStringLiteral(".");
+  }
+  blocked_->setText(why);
+  blocked_->setVisible(!why.isEmpty());
 }
 
 void CapturePage::ResetThumbnails() {
@@ -188,6 +243,7 @@ void CapturePage::StartCapture(bool resume) {
   options.sample_name = sample_name_->text().trimmed().toStdString();
   options.notes = notes_->toPlainText().toStdString();
   options.check_exposure = check_exposure_->isChecked() && !resume;
+  options.resume = resume;
   if (!resume && options.sample_name.empty()) {
     SetStatus(tr("Enter the sample name: it is recorded in session.json."), true);
     return;
@@ -207,7 +263,10 @@ void CapturePage::StartCapture(bool resume) {
   // journalled and the solve follows the last one.
   std::shared_ptr<BaseController> controller;
   std::function<void()> report_success;
+  const int num_leds = static_cast<int>(bench->rig().leds.size());
+  std::vector<ProgressStagePlan> plan;
   if (solve_while_capturing_->isChecked()) {
+    plan = LiveSolveProgressPlan(options, num_leds);
     LiveSolveOptions live_options;
     live_options.capture = options;
     auto live = std::make_shared<LiveSolveController>(dir, bench->rig(), &bench->camera(), &bench->lights(),
@@ -222,6 +281,7 @@ void CapturePage::StartCapture(bool resume) {
     };
     controller = live;
   } else {
+    plan = CaptureProgressPlan(options, num_leds);
     auto capture =
         std::make_shared<CaptureController>(dir, bench->rig(), &bench->camera(), &bench->lights(), options);
     report_success = [this, capture] {
@@ -238,6 +298,7 @@ void CapturePage::StartCapture(bool resume) {
         capturing_ = false;
         poll_->stop();
         PollFrames();
+        ShowJobEnd(tr("Capture"), int(outcome));
         switch (outcome) {
           case ControllerRunner::Outcome::kSucceeded:
             report_success();
@@ -253,7 +314,8 @@ void CapturePage::StartCapture(bool resume) {
             break;
         }
         UpdateButtons();
-      });
+      },
+      plan);
   if (!started) {
     capturing_ = false;
     SetStatus(tr("%1 is running; start when it has finished").arg(runner_->job_name()), true);
@@ -338,6 +400,7 @@ void CapturePage::Solve() {
   const bool started = runner_->Start(
       controller, tr("Solve"), [this, controller](ControllerRunner::Outcome outcome, const QString& message) {
         solving_ = false;
+        ShowJobEnd(tr("Solve"), int(outcome));
         if (outcome == ControllerRunner::Outcome::kSucceeded) {
           const QString result = QString::fromStdString(controller->summary().result_dir.string());
           SetStatus(tr("Solved into %1").arg(result));
@@ -348,7 +411,8 @@ void CapturePage::Solve() {
           SetStatus(tr("Solve failed: %1").arg(message), true);
         }
         UpdateButtons();
-      });
+      },
+      SolveProgressPlan());
   if (!started) {
     solving_ = false;
     SetStatus(tr("%1 is running; solve when it has finished").arg(runner_->job_name()), true);

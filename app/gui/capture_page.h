@@ -2,7 +2,9 @@
 // interrupted one, run by CaptureController on the bench the Devices page
 // connected; a thumbnail per light appears as its frame is journalled, and
 // a finished session can be solved from here, or is solved while it is
-// captured ("Solve while capturing", LiveSolveController).
+// captured ("Solve while capturing", LiveSolveController). Whether the folder
+// takes a new capture or a resume is app/session/capture_folder.h's rule, the
+// CLI's; the page says why a button is off.
 #pragma once
 
 #include <QWidget>
@@ -51,6 +53,11 @@ class CapturePage : public QWidget {
   void PollFrames();
   void ResetThumbnails();
   void UpdateButtons();
+  // A new folder typed or chosen: the previous session's thumbnails, summary
+  // and progress go; the frames the new one already has are shown.
+  void FolderChanged();
+  // The end of a job in the stage line: "Capture finished in 3.2 s".
+  void ShowJobEnd(const QString& job, int outcome);
   void SetStatus(const QString& text, bool error = false);
   std::filesystem::path SessionDir() const;
 
@@ -67,6 +74,7 @@ class CapturePage : public QWidget {
   QPushButton* solve_;
   QProgressBar* progress_;
   QLabel* stage_;
+  QLabel* blocked_;  // why Start capture / Resume cannot run now; hidden when both can
   QLabel* status_;
   QGridLayout* thumbnails_;
   QTimer* poll_;

@@ -7,6 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <mutex>
+
+#include "core/job_progress.h"
 
 namespace scanbench {
 
@@ -27,7 +30,7 @@ ControllerRunner::~ControllerRunner() {
 }
 
 bool ControllerRunner::Start(std::shared_ptr<BaseController> controller, const QString& job_name,
-                             DoneCallback done) {
+                             DoneCallback done, std::vector<ProgressStagePlan> plan) {
   if (busy() || !controller) return false;
   controller_ = std::move(controller);
   job_name_ = job_name;
@@ -39,16 +42,33 @@ bool ControllerRunner::Start(std::shared_ptr<BaseController> controller, const Q
   // stage: only a new stage or detail or a visible step (half a percent) is
   // sent, so the UI thread's queue never floods (a detail changes per item
   // done, as the batch's "3/20 done", not per pixel).
-  auto last = std::make_shared<ProgressReport>(ProgressReport{{}, {}, -1});
-  controller_->SetProgressCallback([this, last, hook = worker_hook_](const ProgressReport& report) {
-    if (report.stage == last->stage && report.detail == last->detail &&
-        std::abs(report.fraction - last->fraction) < 0.005 && report.fraction < 1) {
-      return;
-    }
-    *last = report;
-    // Emitted on the worker: Qt queues it to the runner's (UI) thread.
+  // Reports may come from more than one of the job's threads: the job's
+  // bar and the throttle's state are shared under one mutex.
+  struct Shared {
+    std::mutex mutex;
+    ProgressReport last{{}, {}, -1};
+    JobProgress job;
+  };
+  auto shared = std::make_shared<Shared>();
+  shared->job = JobProgress(std::move(plan));
+  job_start_ = std::chrono::steady_clock::now();
+  job_end_ = {};
+  controller_->SetProgressCallback([this, shared, hook = worker_hook_](const ProgressReport& report) {
     const QString stage = QString::fromStdString(report.stage);
-    emit Progress(stage, report.fraction, QString::fromStdString(report.detail));
+    {
+      // Sent under the lock, so that the UI gets them in the order the job's bar moved.
+      const std::lock_guard lock(shared->mutex);
+      shared->job.Update(report);
+      const ProgressReport& last = shared->last;
+      if (report.stage == last.stage && report.detail == last.detail &&
+          std::abs(report.fraction - last.fraction) < 0.005 && report.fraction < 1) {
+        return;
+      }
+      shared->last = report;
+      // Emitted on the worker: Qt queues them to the runner's (UI) thread.
+      emit Progress(stage, report.fraction, QString::fromStdString(report.detail));
+      emit JobProgressChanged(shared->job.fraction(), QString::fromStdString(shared->job.Text()));
+    }
     if (hook) hook(stage, report.fraction);
   });
 
@@ -84,6 +104,7 @@ void ControllerRunner::OnThreadFinished() {
   thread_->wait();
   thread_->deleteLater();
   thread_ = nullptr;
+  job_end_ = std::chrono::steady_clock::now();
   // Drop the callback before the controller: it captures `this`.
   controller_->SetProgressCallback({});
   controller_.reset();
@@ -93,6 +114,13 @@ void ControllerRunner::OnThreadFinished() {
   done_ = {};
   if (done) done(outcome, message);
   emit Finished(outcome, message);
+}
+
+double ControllerRunner::job_seconds() const {
+  if (job_start_ == std::chrono::steady_clock::time_point{}) return 0;
+  const auto end = busy() || job_end_ == std::chrono::steady_clock::time_point{} ? std::chrono::steady_clock::now()
+                                                                                 : job_end_;
+  return std::chrono::duration<double>(end - job_start_).count();
 }
 
 bool ControllerRunner::Wait(int timeout_ms) {

@@ -7,12 +7,15 @@
 #include <QObject>
 #include <QString>
 
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "app/controllers/base_controller.h"
+#include "core/job_progress.h"
 
 class QThread;
 
@@ -45,10 +48,15 @@ class ControllerRunner : public QObject {
   ~ControllerRunner() override;  // cancels a running job and waits for it
 
   // Starts `controller` under `job_name` ("Capture", "Solve"); false (and
-  // nothing started) while another job runs.
-  bool Start(std::shared_ptr<BaseController> controller, const QString& job_name, DoneCallback done = {});
+  // nothing started) while another job runs. `plan`: the stages it reports
+  // (app/controllers/progress_plans.h), for the job's one bar; empty = each
+  // stage takes half of what is left.
+  bool Start(std::shared_ptr<BaseController> controller, const QString& job_name, DoneCallback done = {},
+             std::vector<ProgressStagePlan> plan = {});
   bool busy() const { return thread_ != nullptr; }
   const QString& job_name() const { return job_name_; }
+  // The wall time of the running job, or of the last one once it has ended.
+  double job_seconds() const;
   void Cancel();
   // Held by every job for its whole run, on its worker thread. Work that must
   // not overlap a job (the live view's preview fetch: the camera has one
@@ -72,6 +80,10 @@ class ControllerRunner : public QObject {
   // SplitStageText (a slot may take the first two arguments only). Sent for
   // a new stage or detail and for each visible step (half a percent).
   void Progress(const QString& stage, double fraction, const QString& detail);
+  // The same report as one bar for the whole job (JobProgress over the
+  // plan given to Start): `fraction` of the job, never decreasing, and
+  // its text ("solve (stage 4 of 7): 12 %"). Sent with each Progress.
+  void JobProgressChanged(double fraction, const QString& text);
   void Finished(scanbench::ControllerRunner::Outcome outcome, const QString& message);
 
  private:
@@ -80,6 +92,8 @@ class ControllerRunner : public QObject {
   QThread* thread_ = nullptr;
   std::shared_ptr<BaseController> controller_;
   QString job_name_;
+  std::chrono::steady_clock::time_point job_start_{};
+  std::chrono::steady_clock::time_point job_end_{};
   DoneCallback done_;
   std::shared_ptr<std::mutex> device_mutex_ = std::make_shared<std::mutex>();
   WorkerProgressHook worker_hook_;  // copied into each job at Start

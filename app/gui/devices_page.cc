@@ -17,6 +17,8 @@
 #include <QVBoxLayout>
 #include <QtConcurrent/QtConcurrentRun>
 
+#include <mutex>
+
 #include "app/devices/camera/device_discovery.h"
 #include "app/devices/serial_port_list.h"
 #include "app/gui/controller_runner.h"
@@ -39,6 +41,9 @@ DevicesPage::DevicesPage(ControllerRunner* runner, QWidget* parent) : QWidget(pa
   layout->addLayout(left, 1);
   layout->addWidget(MakeLiveBox(), 1);
   RefreshPorts();
+  // Any job may have switched the LEDs (a capture ends with all off): the
+  // buttons show what the board reports afterwards.
+  connect(runner_, &ControllerRunner::Finished, this, [this] { RefreshLedState(runner_->job_name()); });
 }
 
 // Which LED board and camera, and Connect.
@@ -56,12 +61,15 @@ QWidget* DevicesPage::MakeBenchBox() {
   auto* detect = NamedButton(tr("Detect cameras"), "detectCameras", choose);
   form->addRow(tr("Camera"), FieldWithButton(camera_choice_, detect));
   camera_model_ = new QLineEdit(choose);
+  camera_model_->setObjectName("cameraModel");
   camera_model_->setPlaceholderText(tr("autodetect, or e.g. Nikon DSC D5100 (PTP mode)"));
   form->addRow(tr("Camera model"), camera_model_);
   camera_port_ = new QLineEdit(choose);
+  camera_port_->setObjectName("cameraPort");
   camera_port_->setPlaceholderText(tr("autodetect, or e.g. usb:001,004"));
   form->addRow(tr("Camera port"), camera_port_);
   rig_file_ = new QLineEdit(choose);
+  rig_file_->setObjectName("rigFile");
   rig_file_->setPlaceholderText(tr("real camera: the bench's rig description (JSON)"));
   auto* rig_browse = new QPushButton(tr("Browse…"), choose);
   form->addRow(tr("Rig file"), FieldWithButton(rig_file_, rig_browse));
@@ -145,6 +153,7 @@ QWidget* DevicesPage::MakeLiveBox() {
   live_image_->setObjectName("liveImage");
   live_image_->setMinimumSize(320, 240);
   live_image_->setAlignment(Qt::AlignCenter);
+  live_image_->setText(tr("No camera connected."));
   live_layout->addWidget(live_view_);
   live_info_ = new QLabel(live_box);
   live_info_->setObjectName("liveInfo");
@@ -161,6 +170,7 @@ QWidget* DevicesPage::MakeLiveBox() {
       live_timer_->start();
     } else {
       live_timer_->stop();
+      ClearLiveView(tr("Live view off."));
     }
   });
   connect(live_timer_, &QTimer::timeout, this, &DevicesPage::UpdateLiveView);
@@ -235,39 +245,91 @@ void DevicesPage::SetStatus(const QString& text, bool error) {
   status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
 }
 
+void DevicesPage::ClearLiveView(const QString& why) {
+  live_image_->clear();
+  live_image_->setText(why);
+  live_info_->clear();
+}
+
+void DevicesPage::ShowBoardInfo() {
+  BenchLights* board = lights();
+  if (!board) {
+    lights_info_->setText(tr("LED board: not connected"));
+    return;
+  }
+  const LightFirmwareInfo& firmware = board->firmware();
+  lights_info_->setText(tr("LED board: %1 — firmware %2 %3, %4 LEDs")
+                            .arg(QString::fromStdString(board->lights().description()),
+                                 QString::fromStdString(firmware.name), QString::fromStdString(firmware.version))
+                            .arg(firmware.led_count));
+}
+
 void DevicesPage::Connect() {
   if (runner_->busy()) {
     SetStatus(tr("%1 is running; connect when it has finished").arg(runner_->job_name()), true);
     return;
   }
+  const BenchOptions options = OptionsFromWidgets();
+  // What the fields say is checked before any device is let go: a missing
+  // or unreadable rig file changes nothing that is connected.
+  try {
+    CheckBenchOptions(options);
+  } catch (const std::exception& error) {
+    SetStatus(tr("Not connected: %1. What was connected stays connected.").arg(error.what()), true);
+    return;
+  }
   // The old devices go first: a real board's port can be opened only once.
+  // The same board stays open: only the camera is connected again.
+  std::shared_ptr<BenchLights> keep = lights() && lights()->Serves(options) ? (bench_ ? bench_->lights_part()
+                                                                                      : lights_only_)
+                                                                           : nullptr;
   live_view_->setChecked(false);
   live_watcher_->waitForFinished();
   bench_.reset();
+  lights_only_.reset();
+  ClearLiveView(tr("No camera connected."));
+  camera_info_->setText(tr("Camera: not connected"));
+  if (!keep) lit_led_.reset();
   emit BenchChanged();
   RebuildLedButtons();
-  const BenchOptions options = OptionsFromWidgets();
-  auto made = std::make_shared<std::unique_ptr<Bench>>();
+  struct Made {
+    std::shared_ptr<BenchLights> lights;
+    std::unique_ptr<Bench> bench;
+    bool camera_failed = false;  // the board connected (or was kept), the camera did not
+  };
+  auto made = std::make_shared<Made>();
+  made->lights = keep;
   connect_button_->setEnabled(false);
-  SetStatus(tr("Connecting…"));
-  runner_->Start(std::make_shared<FunctionController>([made, options] { *made = std::make_unique<Bench>(options); }),
+  SetStatus(keep ? tr("Connecting the camera (the LED board stays connected)…") : tr("Connecting…"));
+  led_message_shown_ = false;
+  runner_->Start(std::make_shared<FunctionController>([made, options] {
+                   if (!made->lights) made->lights = std::make_shared<BenchLights>(options);
+                   made->camera_failed = true;
+                   made->bench = std::make_unique<Bench>(options, made->lights);
+                   made->camera_failed = false;
+                 }),
                  tr("Connect"), [this, made](ControllerRunner::Outcome outcome, const QString& message) {
                    connect_button_->setEnabled(true);
                    connect_button_->setText(tr("Reconnect"));
                    if (outcome != ControllerRunner::Outcome::kSucceeded) {
-                     SetStatus(tr("Connect failed: %1. Check the cable and the port, then Reconnect.").arg(message),
-                               true);
-                     lights_info_->setText(tr("LED board: not connected"));
                      camera_info_->setText(tr("Camera: not connected"));
+                     if (made->camera_failed) {
+                       lights_only_ = made->lights;
+                       SetStatus(tr("Camera connect failed: %1. The LED board stays connected; check that the "
+                                    "camera is on, in PTP mode and not held by another program, then Reconnect.")
+                                     .arg(message),
+                                 true);
+                     } else {
+                       SetStatus(tr("LED board connect failed: %1. Check the cable and the port, then Reconnect.")
+                                     .arg(message),
+                                 true);
+                     }
+                     ShowBoardInfo();
+                     RebuildLedButtons();
                      return;
                    }
-                   bench_ = std::move(*made);
-                   const LightFirmwareInfo& firmware = bench_->firmware();
-                   lights_info_->setText(tr("LED board: %1 — firmware %2 %3, %4 LEDs")
-                                             .arg(QString::fromStdString(bench_->lights().description()),
-                                                  QString::fromStdString(firmware.name),
-                                                  QString::fromStdString(firmware.version))
-                                             .arg(firmware.led_count));
+                   bench_ = std::move(made->bench);
+                   ShowBoardInfo();
                    const CameraDeviceInfo& camera = bench_->camera_info();
                    camera_info_->setText(tr("Camera: %1 (%2 %3, serial %4)")
                                              .arg(QString::fromStdString(bench_->camera().description()),
@@ -275,6 +337,7 @@ void DevicesPage::Connect() {
                                                   QString::fromStdString(camera.model),
                                                   QString::fromStdString(camera.serial)));
                    SetStatus(tr("Connected."));
+                   ClearLiveView(tr("Live view off."));
                    RebuildLedButtons();
                    emit BenchChanged();
                  });
@@ -285,35 +348,81 @@ void DevicesPage::RebuildLedButtons() {
     delete item->widget();
     delete item;
   }
-  led_box_->setEnabled(bench_ != nullptr);
-  if (!bench_) return;
-  const int count = bench_->lights().led_count();
+  BenchLights* board = lights();
+  led_box_->setEnabled(board != nullptr);
+  if (!board) return;
+  const int count = board->lights().led_count();
   for (int k = 0; k < count; ++k) {
     auto* button = new QPushButton(tr("LED %1").arg(k), led_box_);
     button->setObjectName(QStringLiteral("led%1").arg(k));
+    button->setCheckable(true);  // checked: the LED the board reports lit
     connect(button, &QPushButton::clicked, this, [this, k] {
-      RunDeviceJob(tr("LED %1 on").arg(k), [bench = bench_.get(), k] { bench->lights().LightOnly(k); });
+      ShowLitLed();  // a click toggles the button; the board's answer decides it
+      RunDeviceJob(tr("LED %1 on").arg(k), [board = lights(), k] { board->lights().LightOnly(k); }, k);
     });
     led_grid_->addWidget(button, k / 5, k % 5);
   }
   auto* off = new QPushButton(tr("All off"), led_box_);
   off->setObjectName("allOff");
-  connect(off, &QPushButton::clicked, this,
-          [this] { RunDeviceJob(tr("All LEDs off"), [bench = bench_.get()] { bench->lights().AllOff(); }); });
+  connect(off, &QPushButton::clicked, this, [this] {
+    RunDeviceJob(tr("All LEDs off"), [board = lights()] { board->lights().AllOff(); }, std::nullopt);
+  });
   led_grid_->addWidget(off, (count + 4) / 5, 0, 1, 2);
+  ShowLitLed();
 }
 
-void DevicesPage::RunDeviceJob(const QString& name, std::function<void()> work) {
-  if (!bench_) return;
+void DevicesPage::ShowLitLed() {
+  BenchLights* board = lights();
+  if (!board) return;
+  for (int k = 0; k < board->lights().led_count(); ++k) {
+    if (auto* button = led_box_->findChild<QPushButton*>(QStringLiteral("led%1").arg(k))) {
+      button->setChecked(lit_led_ == k);
+    }
+  }
+}
+
+void DevicesPage::RunDeviceJob(const QString& name, std::function<void()> work, std::optional<int> lit_after) {
+  if (!lights()) return;
   if (!runner_->Start(std::make_shared<FunctionController>(std::move(work)), name,
-                      [this, name](ControllerRunner::Outcome outcome, const QString& message) {
+                      [this, name, lit_after](ControllerRunner::Outcome outcome, const QString& message) {
                         if (outcome == ControllerRunner::Outcome::kSucceeded) {
-                          SetStatus(tr("%1: done.").arg(name));
+                          lit_after_job_ = true;
+                          lit_led_ = lit_after;
+                          SetStatus(lit_after ? tr("LED %1 lit, the others off.").arg(*lit_after)
+                                              : tr("All LEDs off."));
+                          led_message_shown_ = true;
                         } else {
                           SetStatus(tr("%1 failed: %2. Reconnect the board if it persists.").arg(name, message), true);
                         }
+                        ShowLitLed();
                       })) {
     SetStatus(tr("%1 is running; try again when it has finished").arg(runner_->job_name()), true);
+  }
+}
+
+void DevicesPage::RefreshLedState(const QString& after_job) {
+  if (lit_after_job_) {  // this page's own LED job: its answer is in
+    lit_after_job_ = false;
+    return;
+  }
+  BenchLights* board = lights();
+  if (!board || runner_->busy()) return;
+  // The board is free: no job runs, and a live-view fetch (which may ask it
+  // which LED is lit) holds the device lock.
+  const std::unique_lock lock(*runner_->device_mutex(), std::try_to_lock);
+  if (!lock.owns_lock()) return;
+  const std::optional<int> before = lit_led_;
+  try {
+    lit_led_ = board->lights().Status().lit_led;
+  } catch (const std::exception& error) {
+    if (led_message_shown_) SetStatus(tr("LED state unknown after %1: %2").arg(after_job, error.what()), true);
+    return;
+  }
+  ShowLitLed();
+  // An LED job's "LED 3 lit" no longer holds after a capture turned them off.
+  if (led_message_shown_ && lit_led_ != before) {
+    SetStatus(lit_led_ ? tr("LED %1 lit (after %2).").arg(*lit_led_).arg(after_job)
+                       : tr("All LEDs off (%1 turned them off).").arg(after_job));
   }
 }
 
@@ -354,6 +463,7 @@ void DevicesPage::ShowLiveFrame() {
   if (!live_view_->isChecked()) return;
   if (!frame.error.isEmpty()) {
     live_view_->setChecked(false);
+    ClearLiveView(tr("Live view stopped: %1").arg(frame.error));
     SetStatus(tr("Live view stopped: %1").arg(frame.error), true);
     return;
   }

@@ -7,6 +7,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 
 #include "app/gui/bench.h"
 #include "app/gui/live_view.h"
@@ -35,8 +36,11 @@ class DevicesPage : public QWidget {
   DevicesPage(ControllerRunner* runner, QWidget* parent = nullptr);
   ~DevicesPage() override;
 
-  // nullptr until connected.
+  // nullptr until both devices are connected.
   Bench* bench() { return bench_.get(); }
+  // The LED board, also while the camera is not connected (a failed camera
+  // connect keeps it); nullptr when none is.
+  BenchLights* lights() { return bench_ ? bench_->lights_part().get() : lights_only_.get(); }
   // What the live view shows, called on a worker thread while no job runs.
   // Default: FetchLiveFrame on the connected bench. Tests put a slow or
   // scripted camera here.
@@ -69,13 +73,24 @@ class DevicesPage : public QWidget {
 
   BenchOptions OptionsFromWidgets() const;
   void RebuildLedButtons();
-  void RunDeviceJob(const QString& name, std::function<void()> work);
+  void RunDeviceJob(const QString& name, std::function<void()> work, std::optional<int> lit_after);
+  // Asks the board which LED is lit (after any job: a capture turns them all
+  // off) and shows it on the LED buttons; `after_job` names the job.
+  void RefreshLedState(const QString& after_job);
+  void ShowLitLed();
+  void ShowBoardInfo();
+  // The live view shows nothing (with why) rather than an old frame.
+  void ClearLiveView(const QString& why);
   void UpdateLiveView();
   void ShowLiveFrame();
   void SetStatus(const QString& text, bool error = false);
 
   ControllerRunner* runner_;
   std::unique_ptr<Bench> bench_;
+  std::shared_ptr<BenchLights> lights_only_;  // the board a failed camera connect left connected
+  std::optional<int> lit_led_;                // as the board last reported (nullopt: all off)
+  bool led_message_shown_ = false;            // the status line is an LED job's
+  bool lit_after_job_ = false;                // the job that just ended was an LED job of this page
   QComboBox* lights_choice_;
   QComboBox* camera_choice_;
   QLineEdit* camera_model_;

@@ -47,21 +47,17 @@ std::array<double, 3> GreyWorldGains(const std::array<double, 3>& sums) {
 
 }  // namespace
 
-LiveFrame LiveFrameFromRaw(const RawImage& raw, double clip_fraction, int max_width) {
-  LiveFrame live;
-  live.from_raw = true;
+DevelopedRawPreview DevelopRawPreview(const RawImage& raw, double clip_fraction, int max_width, double min_signal) {
+  DevelopedRawPreview out;
   const int tiles_x = raw.width() / 2, tiles_y = raw.height() / 2;
-  if (tiles_x < 1 || tiles_y < 1) {
-    live.error = QStringLiteral("the RAW frame is empty");
-    return live;
-  }
+  if (tiles_x < 1 || tiles_y < 1) return out;
   const int step = std::max(1, (tiles_x + std::max(1, max_width) - 1) / std::max(1, max_width));
   const int width = std::max(1, tiles_x / step), height = std::max(1, tiles_y / step);
   // The rule RawDevelopOptions uses: at or above clip_fraction x white level.
   const int clip_level = static_cast<int>(clip_fraction * raw.white_level);
   constexpr int kBins = 256;
-  std::vector<int> bins(kBins, 0);
-  const int first_hot_bin = std::min(kBins - 1, int(int64_t(clip_level) * kBins / (raw.white_level + 1)));
+  out.bins.assign(kBins, 0);
+  out.first_hot_bin = std::min(kBins - 1, int(int64_t(clip_level) * kBins / (raw.white_level + 1)));
 
   std::vector<float> rgb(size_t(width) * height * 3, 0.0f);
   std::vector<uint8_t> clipped(size_t(width) * height, 0);
@@ -82,7 +78,7 @@ LiveFrame LiveFrameFromRaw(const RawImage& raw, double clip_fraction, int max_wi
       }
       const size_t i = size_t(y) * width + x;
       clipped[i] = brightest >= clip_level;
-      ++bins[std::min(kBins - 1, int(int64_t(brightest) * kBins / (raw.white_level + 1)))];
+      ++out.bins[std::min(kBins - 1, int(int64_t(brightest) * kBins / (raw.white_level + 1)))];
       for (int c = 0; c < 3; ++c) {
         rgb[i * 3 + c] = count[c] ? float(sum[c] / count[c]) : 0.0f;
         sums[c] += rgb[i * 3 + c];
@@ -95,7 +91,8 @@ LiveFrame LiveFrameFromRaw(const RawImage& raw, double clip_fraction, int max_wi
   for (size_t i = 1; i < rgb.size(); i += 3) green.push_back(rgb[i]);
   const size_t rank = green.size() * 99 / 100;
   std::nth_element(green.begin(), green.begin() + rank, green.end());
-  const double gain = 0.9 / std::max(1e-3f, green[rank]);
+  const double min_level = min_signal * std::max(1.0, double(raw.white_level) - raw.BlackAt(0, 0));
+  const double gain = 0.9 / std::max({1e-3, double(green[rank]), min_level});
 
   QImage frame(width, height, QImage::Format_RGB32);
   size_t num_clipped = 0;
@@ -112,8 +109,21 @@ LiveFrame LiveFrameFromRaw(const RawImage& raw, double clip_fraction, int max_wi
                      Encode(rgb[i * 3 + 2] * gains[2] * gain));
     }
   }
-  live.clipped_fraction = double(num_clipped) / (double(width) * height);
-  live.image = WithHistogram(frame, bins, first_hot_bin);
+  out.clipped_fraction = double(num_clipped) / (double(width) * height);
+  out.image = frame;
+  return out;
+}
+
+LiveFrame LiveFrameFromRaw(const RawImage& raw, double clip_fraction, int max_width) {
+  LiveFrame live;
+  live.from_raw = true;
+  const DevelopedRawPreview developed = DevelopRawPreview(raw, clip_fraction, max_width);
+  if (developed.image.isNull()) {
+    live.error = QStringLiteral("the RAW frame is empty");
+    return live;
+  }
+  live.clipped_fraction = developed.clipped_fraction;
+  live.image = WithHistogram(developed.image, developed.bins, developed.first_hot_bin);
   return live;
 }
 

@@ -23,7 +23,23 @@ struct LiveFrame {
   QString error;                // why there is no image (the camera's message)
 };
 
-// From a RAW frame: 2x2 Bayer tiles averaged to RGB and reduced to at most
+// The live view's development of a RAW frame, which the Capture page's
+// thumbnails use too (one helper): every 2x2 Bayer tile of a step x step
+// block averaged (a box filter: no aliasing on the weave), white-balanced
+// (grey world) and scaled so that the 99th percentile of green sits at 90 %;
+// a pixel with a raw sample at or above clip_fraction x white level red.
+// `min_signal` (fraction of the raw range above black, 0 = none) caps that
+// gain: a frame darker than it (the dark frame) is not brightened further.
+struct DevelopedRawPreview {
+  QImage image;                 // null for an empty frame
+  double clipped_fraction = 0;  // of the image's pixels
+  std::vector<int> bins;        // 256: each pixel's brightest raw sample over [0, white level]
+  int first_hot_bin = 0;        // the bin of the clip level
+};
+DevelopedRawPreview DevelopRawPreview(const RawImage& raw, double clip_fraction, int max_width,
+                                      double min_signal = 0);
+
+// From a RAW frame: DevelopRawPreview; 2x2 Bayer tiles averaged to RGB and reduced to at most
 // `max_width` pixels; a pixel is clipped when any raw sample it covers is at
 // or above clip_fraction x white level. Shown white-balanced (grey world) and
 // scaled so that the 99th percentile of green sits at 90 %. The histogram is

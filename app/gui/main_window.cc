@@ -37,28 +37,33 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent) {
   setCentralWidget(tabs_);
 
   job_label_ = new QLabel(tr("Idle"), this);
+  job_label_->setObjectName("jobStatus");
   job_progress_ = new QProgressBar(this);
+  job_progress_->setObjectName("jobProgress");
   job_progress_->setRange(0, 1000);
   job_progress_->setMaximumWidth(220);
   job_progress_->setTextVisible(false);
   statusBar()->addWidget(job_label_, 1);
   statusBar()->addPermanentWidget(job_progress_);
+  // One bar for the whole job (its stages named in the text), and an end
+  // that says how it ended.
   connect(runner_, &ControllerRunner::Started, this, [this](const QString& name) {
     job_label_->setText(tr("%1…").arg(name));
     job_progress_->setValue(0);
   });
-  connect(runner_, &ControllerRunner::Progress, this,
-          [this](const QString& stage, double fraction, const QString& detail) {
-    job_label_->setText(tr("%1: %2").arg(runner_->job_name(), ProgressText(stage, detail)));
+  connect(runner_, &ControllerRunner::JobProgressChanged, this, [this](double fraction, const QString& text) {
+    job_label_->setText(tr("%1: %2").arg(runner_->job_name(), text));
     job_progress_->setValue(int(fraction * 1000));
   });
   connect(runner_, &ControllerRunner::Finished, this,
           [this](ControllerRunner::Outcome outcome, const QString& message) {
+            const QString seconds = QString::number(runner_->job_seconds(), 'f', 1);
             job_progress_->setValue(outcome == ControllerRunner::Outcome::kSucceeded ? 1000 : 0);
-            job_label_->setText(outcome == ControllerRunner::Outcome::kSucceeded ? tr("Idle")
+            job_label_->setText(outcome == ControllerRunner::Outcome::kSucceeded
+                                    ? tr("%1 finished in %2 s").arg(runner_->job_name(), seconds)
                                 : outcome == ControllerRunner::Outcome::kCancelled
-                                    ? tr("Cancelled")
-                                    : tr("Failed: %1").arg(message));
+                                    ? tr("%1 cancelled after %2 s").arg(runner_->job_name(), seconds)
+                                    : tr("%1 failed: %2").arg(runner_->job_name(), message));
           });
 
   auto open_result = [this](const QString& result_dir) {

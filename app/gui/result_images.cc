@@ -12,12 +12,15 @@
 #include <stdexcept>
 #include <vector>
 
+#include "app/controllers/capture_controller.h"
+#include "app/gui/live_view.h"
 #include "app/io/image_io.h"
 #include "app/io/raw_decoder.h"
 #include "app/io/result_maps.h"
 #include "app/session/session.h"
 #include "calibration/camera_model.h"
 #include "calibration/color_science.h"
+#include "calibration/raw_develop.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -443,30 +446,12 @@ QString DescribePixel(const PixelProbeMaps& maps, int x, int y, const LayerImage
 }
 
 QImage RawThumbnail(const fs::path& raw_file, int max_width) {
-  const RawImage raw = DecodeRawFile(raw_file);
-  const int tiles_x = raw.width() / 2, tiles_y = raw.height() / 2;
-  const int step = std::max(1, (tiles_x + max_width - 1) / max_width);
-  const int w = tiles_x / step, h = tiles_y / step;
-  QImage image(w, h, QImage::Format_RGB32);
-  const double range = std::max(1, raw.white_level - raw.BlackAt(0, 0));
-  for (int ty = 0; ty < h; ++ty) {
-    auto* line = reinterpret_cast<QRgb*>(image.scanLine(ty));
-    for (int tx = 0; tx < w; ++tx) {
-      double rgb[3] = {0, 0, 0};
-      int count[3] = {0, 0, 0};
-      const int x0 = tx * step * 2, y0 = ty * step * 2;
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dx = 0; dx < 2; ++dx) {
-          const int colour = CfaColorAt(raw.cfa, x0 + dx, y0 + dy);
-          rgb[colour] += std::max(0, int(raw.mosaic(x0 + dx, y0 + dy)) - int(raw.BlackAt(x0 + dx, y0 + dy)));
-          ++count[colour];
-        }
-      // x4: a frame exposed for no clipping sits in the lower quarter of the range.
-      line[tx] = qRgb(ToSrgb8(4 * rgb[0] / count[0] / range), ToSrgb8(4 * rgb[1] / count[1] / range),
-                      ToSrgb8(4 * rgb[2] / count[2] / range));
-    }
-  }
-  return image;
+  // The live view's development (white-balanced, box-filtered, clipping in
+  // red); a frame under capture's default minimum signal (the dark frame) is
+  // not brightened into noise.
+  return DevelopRawPreview(DecodeRawFile(raw_file), RawDevelopOptions{}.clip_fraction, max_width,
+                           CaptureOptions{}.min_signal)
+      .image;
 }
 
 }  // namespace scanbench

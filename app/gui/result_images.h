@@ -121,8 +121,9 @@ PixelProbeMaps LoadPixelProbeMaps(const std::filesystem::path& result_dir);
 // shown heatmap's value first. "" outside the maps.
 QString DescribePixel(const PixelProbeMaps& maps, int x, int y, const LayerImage* shown = nullptr);
 
-// A small preview of a RAW frame: 2x2 Bayer tiles to one RGB pixel, black
-// subtracted, gamma for display, at most `max_width` wide. Throws naming the file.
+// A small preview of a RAW frame, developed as the live view develops
+// (DevelopRawPreview: white-balanced, box-filtered, clipped samples red), at
+// most `max_width` wide. Throws naming the file.
 QImage RawThumbnail(const std::filesystem::path& raw_file, int max_width);
 
 

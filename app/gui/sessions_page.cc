@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "app/controllers/import_controller.h"
+#include "app/controllers/progress_plans.h"
 #include "app/controllers/solve_controller.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/export_dialog.h"
@@ -198,7 +199,8 @@ QProgressBar* SessionsPage::MakeProgressBar() {
   progress_ = new QProgressBar(this);
   progress_->setRange(0, 1000);
   progress_->setTextVisible(false);
-  connect(runner_, &ControllerRunner::Progress, this, [this](const QString&, double fraction) {
+  // The job's one bar (issue #36 item 8): it does not start again at each stage.
+  connect(runner_, &ControllerRunner::JobProgressChanged, this, [this](double fraction) {
     if (solving_) progress_->setValue(int(fraction * 1000));
   });
   return progress_;
@@ -313,7 +315,8 @@ void SessionsPage::Resolve() {
         } else {
           SetStatus(tr("Solve failed: %1").arg(message), true);
         }
-      });
+      },
+      SolveProgressPlan());
   if (!started) {
     solving_ = false;
     SetStatus(tr("%1 is running; re-solve when it has finished").arg(runner_->job_name()), true);

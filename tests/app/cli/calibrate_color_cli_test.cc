@@ -77,5 +77,37 @@ TEST(CalibrateColorCliTest, APhotoOfTheChartStartsASetAndAPhotoWithoutOneFails) 
   EXPECT_THAT(other.output, HasSubstr("a colour calibration serves one camera"));
 }
 
+// Issue #36 item 14: a later `calibrate white` (or `lights`) into a set whose
+// colour section was measured through the light field marks it stale: the
+// command says so with the refit command, a solve with the set reports it, and
+// a refit clears it.
+TEST(CalibrateColorCliTest, ALaterWhiteBalanceMarksTheColourSectionStale) {
+  testing::TemporaryFolder folder;
+  const fs::path demo = folder / "demo";
+  const CommandResult made = RunScanbench("calibrate demo --output " + Quoted(demo) + " --width 308 --height 204");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const fs::path cal = demo / "calibration";
+  const fs::path targets = demo / "targets";
+  const std::string solve = "solve " + Quoted(demo / "colorchecker_scan") + " --calibration " + Quoted(cal);
+  const CommandResult fresh = RunScanbench(solve);
+  ASSERT_EQ(fresh.exit_code, 0) << fresh.output;
+  EXPECT_THAT(fresh.output, ::testing::Not(HasSubstr("stale")));
+
+  const CommandResult white = RunScanbench("calibrate white " + Quoted(targets / "gray_chart") + " -c " + Quoted(cal));
+  ASSERT_EQ(white.exit_code, 0) << white.output;
+  EXPECT_THAT(white.output, HasSubstr("warning: " + (cal / "calibration.json").string() + ": color: stale:"));
+  EXPECT_THAT(white.output, HasSubstr("refit it: scanbench calibrate color " + (targets / "color_chart").string()));
+  const CommandResult stale = RunScanbench(solve);
+  ASSERT_EQ(stale.exit_code, 0) << stale.output;
+  EXPECT_THAT(stale.output, HasSubstr("color: stale"));
+
+  const CommandResult refit =
+      RunScanbench("calibrate color " + Quoted(targets / "color_chart") + " -o " + Quoted(cal));
+  ASSERT_EQ(refit.exit_code, 0) << refit.output;
+  const CommandResult again = RunScanbench(solve);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_THAT(again.output, ::testing::Not(HasSubstr("stale")));
+}
+
 }  // namespace
 }  // namespace scanbench

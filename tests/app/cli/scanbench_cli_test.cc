@@ -5,6 +5,9 @@
 #include <csignal>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <regex>
+#include <sstream>
 
 #include <filesystem>
 #include <string>
@@ -139,6 +142,58 @@ TEST(ScanbenchCliTest, CaptureWithSolveWritesTheResult) {
   const CommandResult bad = RunScanbench("capture " + Quoted(folder / "x") + " --sample-name x --solve-queue 0");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_THAT(bad.output, HasSubstr("--solve-queue"));
+}
+
+// Issue #36 item 3: `capture` refuses a folder that holds anything, naming
+// what is there, and --resume refuses one without an interrupted capture;
+// item 8: without a terminal, each stage's progress lines come once, in
+// order, and their times (since the job started) never run backwards, also
+// when the capture and the live solve report from two threads.
+TEST(ScanbenchCliTest, CaptureRefusesAFolderThatIsNotEmptyAndResumeNeedsAnInterruptedOne) {
+  testing::TemporaryFolder folder;
+  const fs::path other = folder / "other";
+  fs::create_directories(other / "frames");
+  { std::ofstream(other / "notes.txt") << "x"; }
+  const std::string sim = " --sample-name s --width 320 --height 212 --no-exposure-check";
+  const CommandResult occupied = RunScanbench("capture " + Quoted(other) + sim);
+  EXPECT_EQ(occupied.exit_code, 1) << occupied.output;
+  EXPECT_THAT(occupied.output, HasSubstr(other.string() + " is not empty (it holds frames/ and notes.txt)"));
+  EXPECT_FALSE(fs::exists(other / "session.json"));
+  const CommandResult nothing = RunScanbench("capture " + Quoted(folder / "missing") + sim + " --resume");
+  EXPECT_EQ(nothing.exit_code, 1) << nothing.output;
+  EXPECT_THAT(nothing.output, HasSubstr("there is no interrupted capture to resume"));
+  EXPECT_FALSE(fs::exists(folder / "missing"));
+
+  const fs::path session_dir = folder / "s";
+  const CommandResult captured = RunScanbench("capture " + Quoted(session_dir) + sim + " --solve --label live");
+  ASSERT_EQ(captured.exit_code, 0) << captured.output;
+  std::map<std::string, int> last_percent;
+  double last_seconds = 0;
+  int lines = 0;
+  std::istringstream output(captured.output);
+  const std::regex progress_line(R"(^([a-z][a-z ]*?) +(\d{1,3})% +(\d+\.\d)s(  .*)?$)");
+  for (std::string line; std::getline(output, line);) {
+    std::smatch match;
+    if (!std::regex_match(line, match, progress_line)) continue;
+    ++lines;
+    const int percent = std::stoi(match[2]);
+    const double seconds = std::stod(match[3]);
+    const auto [at, first] = last_percent.try_emplace(match[1], percent);
+    if (!first) EXPECT_GT(percent, at->second) << "repeated or backwards: " << line;
+    at->second = percent;
+    EXPECT_GE(seconds, last_seconds) << "time runs backwards: " << line;
+    last_seconds = seconds;
+  }
+  EXPECT_GE(lines, 8) << captured.output;
+  EXPECT_TRUE(last_percent.count("capture")) << captured.output;
+
+  const CommandResult again = RunScanbench("capture " + Quoted(session_dir) + sim);
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_THAT(again.output, HasSubstr("holds a complete session of 's' (11 of 11 frames)"));
+  const CommandResult resume = RunScanbench("capture " + Quoted(session_dir) + sim + " --resume");
+  EXPECT_EQ(resume.exit_code, 1);
+  EXPECT_THAT(resume.output, HasSubstr("nothing to resume"));
+  EXPECT_THAT(RunScanbench("capture --help").output, HasSubstr("--resume"));
 }
 
 // Issue #13: the default writes a specular map from its lobe fit; --no-lobe

@@ -2,6 +2,7 @@
 // controller talking to it over a pty exactly as to a real Uno, and the
 // simulated camera rendering whichever LED the simulated pins light.
 #include "app/controllers/capture_controller.h"
+#include "app/controllers/progress_plans.h"
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -75,6 +76,10 @@ class CaptureControllerTest : public ::testing::Test {
     options.led_settle = std::chrono::milliseconds(0);
     return options;
   }
+  CaptureOptions Resume(CaptureOptions options) const {
+    options.resume = true;
+    return options;
+  }
 
   CaptureController Controller(Camera* camera, CaptureOptions options) {
     return CaptureController(session_dir(), bench_.rig->rig(), camera, bench_.lights.get(), std::move(options));
@@ -137,7 +142,23 @@ TEST_F(CaptureControllerTest, FullCaptureWithFirmwareInTheLoop) {
   CaptureOptions options = Options();
   options.check_exposure = true;
   CaptureController capture = Controller(bench_.camera.get(), options);
+  // Issue #36 item 8: the plan names every stage reported; one bar, forward only.
+  JobProgress job(CaptureProgressPlan(options, 10));
+  std::vector<std::string> unplanned;
+  int backwards = 0;
+  capture.SetProgressCallback([&](const ProgressReport& report) {
+    const double before = job.fraction();
+    job.Update(report);
+    backwards += job.fraction() < before;
+    if (job.stage_number() == 0) unplanned.push_back(report.stage);
+  });
   capture.Run();
+  EXPECT_THAT(unplanned, ::testing::IsEmpty());
+  EXPECT_EQ(backwards, 0);
+  EXPECT_NEAR(job.fraction(), 1.0, 1e-9);
+  EXPECT_EQ(CaptureProgressPlan(options, 10).size(), 2u);
+  options.resume = true;  // a resume checks no exposure
+  EXPECT_EQ(CaptureProgressPlan(options, 10).front().stage, "capture");
   EXPECT_EQ(capture.summary().frames_captured, 11);
   EXPECT_EQ(capture.summary().retries, 0);
   ASSERT_EQ(capture.summary().exposure_check.size(), 10u);
@@ -161,7 +182,7 @@ TEST_F(CaptureControllerTest, CameraErrorMidCaptureStopsDarkAndResumes) {
   EXPECT_FALSE(partial.capture_complete);
   EXPECT_EQ(partial.frames.size(), 5u);
 
-  CaptureController second = Controller(bench_.camera.get(), Options());
+  CaptureController second = Controller(bench_.camera.get(), Resume(Options()));
   second.Run();
   EXPECT_EQ(second.summary().frames_resumed, 5);
   EXPECT_EQ(second.summary().frames_captured, 6);
@@ -181,13 +202,13 @@ TEST_F(CaptureControllerTest, ResumingASimulatedCaptureWithAnotherMaterialIsRefu
   ASSERT_TRUE(LoadSession(session_dir()).simulation.has_value());
   EXPECT_EQ(LoadSession(session_dir()).simulation->material, "satin");
 
-  CaptureOptions cloth = satin;
+  CaptureOptions cloth = Resume(satin);
   cloth.simulation->material = "cloth";
   CaptureController refused = Controller(bench_.camera.get(), cloth);
   EXPECT_THAT([&] { refused.Run(); },
               ::testing::ThrowsMessage<SessionError>(AllOf(HasSubstr("simulation.material"), HasSubstr("'satin'"),
                                                            HasSubstr("'cloth'"))));
-  CaptureController second = Controller(bench_.camera.get(), satin);
+  CaptureController second = Controller(bench_.camera.get(), Resume(satin));
   second.Run();
   EXPECT_EQ(second.summary().frames_resumed, 5);
 }
@@ -263,7 +284,7 @@ TEST_F(CaptureControllerTest, DiskWriteFailureIsReportedAndNothingIsLost) {
     EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp"))) << "no temporary left";
   }
 
-  CaptureController second = Controller(bench_.camera.get(), Options());
+  CaptureController second = Controller(bench_.camera.get(), Resume(Options()));
   second.Run();
   EXPECT_EQ(second.summary().frames_resumed, 4);
   ExpectEveryFrameShowsItsLed();
@@ -295,7 +316,7 @@ TEST_F(CaptureControllerTest, CancelLeavesAResumableSessionAndLedsOff) {
   EXPECT_THROW(capture.Run(), Cancelled);
   EXPECT_EQ(bench_.board->lit_leds(), 0u);
   EXPECT_FALSE(LoadSession(session_dir()).capture_complete);
-  Controller(bench_.camera.get(), Options()).Run();
+  Controller(bench_.camera.get(), Resume(Options())).Run();
   ExpectEveryFrameShowsItsLed();
 }
 
@@ -337,6 +358,43 @@ TEST_F(CaptureControllerTest, CaptureIntoALockedFolderWritesNothing) {
   other.reset();
   Controller(bench_.camera.get(), Options()).Run();
   ExpectEveryFrameShowsItsLed();
+}
+
+// Issue #36 item 3: a new capture into a folder that holds anything (other
+// files, an interrupted or a complete session) is refused before any LED is
+// switched, naming what is there; the interrupted one resumes only when asked;
+// a resume of a folder without a session is refused and makes no folder.
+TEST_F(CaptureControllerTest, ANewCaptureNeedsAnEmptyFolderAndAResumeAnInterruptedSession) {
+  fs::create_directories(session_dir());
+  { std::ofstream(session_dir() / "notes.txt") << "someone's notes"; }
+  EXPECT_THAT([&] { Controller(bench_.camera.get(), Options()).Run(); },
+              ::testing::ThrowsMessage<SessionError>(
+                  AllOf(HasSubstr(session_dir().string() + " is not empty"), HasSubstr("notes.txt"))));
+  EXPECT_THAT([&] { Controller(bench_.camera.get(), Resume(Options())).Run(); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("has no session.json to resume")));
+  EXPECT_FALSE(fs::exists(session_dir() / "session.json"));
+  EXPECT_EQ(bench_.board->max_lit_at_once(), 0) << "no LED was switched";
+  fs::remove(session_dir() / "notes.txt");
+
+  // The lock file of the refused tries does not make the folder "not empty".
+  FaultyCamera unplugged(bench_.camera.get(), [](int capture) {
+    if (capture == 4) throw CameraError(CameraErrorKind::kClaimed, "camera", "USB interface claimed by gvfs");
+  });
+  EXPECT_THROW(Controller(&unplugged, Options()).Run(), CameraError);
+  EXPECT_THAT([&] { Controller(bench_.camera.get(), Options()).Run(); },
+              ::testing::ThrowsMessage<SessionError>(AllOf(HasSubstr("holds an interrupted capture of 'sim twill' (4 "
+                                                                     "of 11 frames)"),
+                                                           HasSubstr("--resume"))));
+  CaptureController resumed = Controller(bench_.camera.get(), Resume(Options()));
+  resumed.Run();
+  EXPECT_EQ(resumed.summary().frames_resumed, 4);
+  EXPECT_THAT([&] { Controller(bench_.camera.get(), Resume(Options())).Run(); },
+              ::testing::ThrowsMessage<SessionError>(HasSubstr("holds a complete session of 'sim twill' (11 of 11")));
+
+  const fs::path missing = session_dir().parent_path() / "never-made";
+  CaptureController nothing(missing, bench_.rig->rig(), bench_.camera.get(), bench_.lights.get(), Resume(Options()));
+  EXPECT_THAT([&] { nothing.Run(); }, ::testing::ThrowsMessage<SessionError>(HasSubstr("does not exist")));
+  EXPECT_FALSE(fs::exists(missing));
 }
 
 TEST(CaptureOptionsTest, CheckNamesTheField) {

@@ -4,6 +4,10 @@
 // interrupted capture that resumes.
 #include "app/controllers/live_solve.h"
 
+#include <mutex>
+
+#include "app/controllers/progress_plans.h"
+
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -87,7 +91,24 @@ TEST_F(LiveSolveTest, ResultIsBitEqualToASolveOfTheFinishedSession) {
   LiveSolveOptions options = Options();
   options.develop_ahead = true;  // off by default; the resume test below runs without it
   LiveSolveController live = Controller(options);
+  // Issue #36 item 8: every stage the run reports is one of its plan's, and
+  // the job's bar over them only moves forward (reports come from the
+  // capture's thread and the solve's writers: serialised here as the GUI does).
+  JobProgress job(LiveSolveProgressPlan(options.capture, static_cast<int>(bench_.rig->rig().leds.size())));
+  std::mutex job_mutex;
+  std::vector<std::string> unplanned;
+  int backwards = 0;
+  live.SetProgressCallback([&](const ProgressReport& report) {
+    const std::lock_guard lock(job_mutex);
+    const double before = job.fraction();
+    job.Update(report);
+    backwards += job.fraction() < before;
+    if (job.stage_number() == 0) unplanned.push_back(report.stage);
+  });
   live.Run();
+  EXPECT_THAT(unplanned, ::testing::IsEmpty());
+  EXPECT_EQ(backwards, 0);
+  EXPECT_NEAR(job.fraction(), 1.0, 1e-9) << "write maps 100 % is the plan's end";
   const LiveSolveSummary& summary = live.summary();
   EXPECT_EQ(summary.capture.frames_captured, 11);
   EXPECT_EQ(summary.frames_decoded_live, 11) << "every frame decoded while capturing";
@@ -121,7 +142,9 @@ TEST_F(LiveSolveTest, CancelLeavesNoResultAndTheResumeIsBitEqual) {
       << "a cancelled live solve leaves no result folder";
   EXPECT_EQ(bench_.board->lit_leds(), 0u) << "all LEDs off after a cancel";
 
-  LiveSolveController second = Controller(Options());
+  LiveSolveOptions resume = Options();
+  resume.capture.resume = true;
+  LiveSolveController second = Controller(resume);
   second.Run();
   const LiveSolveSummary& summary = second.summary();
   EXPECT_EQ(summary.capture.frames_resumed, 5);
@@ -149,7 +172,9 @@ TEST_F(LiveSolveTest, AResumedFrameThatChangedOnDiskIsRefused) {
     file.seekp(-1, std::ios::end);
     file.put(static_cast<char>(last ^ 0x5a));  // the last byte of the RAW's data, changed
   }
-  LiveSolveController second = Controller(Options());
+  LiveSolveOptions resume = Options();
+  resume.capture.resume = true;
+  LiveSolveController second = Controller(resume);
   EXPECT_THAT([&] { second.Run(); }, ::testing::ThrowsMessage<SessionError>(HasSubstr("mismatch")));
   EXPECT_EQ(LoadSession(session_dir(), SessionLoadOptions{.verify_checksums = false}).frames.size(), 3u);
   std::error_code ignored;

@@ -12,6 +12,7 @@
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
+#include <QProgressBar>
 #include <QPushButton>
 #include <QSettings>
 #include <QSpinBox>
@@ -234,6 +235,11 @@ class CalibrationPageTest : public QObject {
     QCOMPARE(table->rowCount(), 0);
 
     QCOMPARE(ClickAndWait("colorRun"), ControllerRunner::Outcome::kSucceeded);
+    // Issue #36 item 8: the job's end, with a full bar, not its last stage's "100 %".
+    QVERIFY2(Find<QLabel>("calibrationStage")->text().endsWith(" s") &&
+                 Find<QLabel>("calibrationStage")->text().contains("finished in"),
+             qPrintable(Find<QLabel>("calibrationStage")->text()));
+    QCOMPARE(Find<QProgressBar>("calibrationProgress")->value(), 1000);
     const CalibrationSet set = LoadCalibrationSet(CalibrationDir().toStdString());
     QVERIFY(set.color.has_value());
     QCOMPARE(set.color->white_reference, std::string("light_field"));
@@ -332,6 +338,15 @@ class CalibrationPageTest : public QObject {
     QCOMPARE(target.gray_chart.patches.size(), GrayChartTarget::MunsellNeutralScale().patches.size());
     QCOMPARE(ClickAndWait("whiteRun"), ControllerRunner::Outcome::kSucceeded);
     QCOMPARE(LoadCalibrationSet(CalibrationDir().toStdString()).white_balance->targets.at(0).session, scan.string());
+    // Issue #36 item 14: the colour section was measured through the old
+    // white balance: marked stale, with the command that refits it.
+    const QString colour = Find<QListWidget>("calibrationSteps")->item(CalibrationPage::kColorStep)->text();
+    QVERIFY2(colour.contains("stale"), qPrintable(colour));
+    const QString colour_status = Find<QLabel>("colorStatus")->text();
+    QVERIFY2(colour_status.contains("STALE") && colour_status.contains("scanbench calibrate color"),
+             qPrintable(colour_status));
+    QVERIFY2(Find<QLabel>("calibrationSetState")->text().contains("Colour stale"),
+             qPrintable(Find<QLabel>("calibrationSetState")->text()));
     // Described once: a second click keeps it.
     QTest::mouseClick(Find<QPushButton>("whiteDescribe"), Qt::LeftButton);
     QVERIFY(Find<QLabel>("whiteStatus")->text().contains("Kept the target.json"));

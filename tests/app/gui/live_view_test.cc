@@ -20,6 +20,9 @@
 #include "app/gui/devices_page.h"
 #include "app/gui/live_view.h"
 #include "app/gui/main_window.h"
+#include "app/gui/result_images.h"
+#include "app/io/dng_writer.h"
+#include "tests/util/temporary_folder.h"
 #include "calibration/raw_develop.h"
 
 namespace scanbench {
@@ -107,15 +110,78 @@ class LiveViewTest : public QObject {
 
   void cleanupTestCase() { window_.reset(); }
 
+  // Issue #36 item 4: a capture thumbnail is developed by the live view's
+  // helper: white-balanced (a sensor's green-heavy raw reads neutral) and box
+  // filtered (a weave finer than the thumbnail's step averages out instead of
+  // aliasing), and a dark frame stays dark.
+  void ThumbnailsAreDevelopedLikeTheLiveView() {
+    // 256x64 RGGB, the raw of a grey cloth: red at 45 % and blue at 70 % of
+    // green. The left half a weave of alternating bright and black tile
+    // columns (period 2 tiles), the right half even at the weave's mean.
+    RawImage raw;
+    raw.mosaic = ImageU16(256, 64, 1, uint16_t(600));
+    raw.black_level = {600, 600, 600, 600};
+    raw.white_level = 16383;
+    const double green = 3000;
+    for (int y = 0; y < 64; ++y) {
+      for (int x = 0; x < 256; ++x) {
+        const int colour = CfaColorAt(raw.cfa, x, y);
+        const double level = green * (colour == 0 ? 0.45 : colour == 2 ? 0.7 : 1.0);
+        const bool left = x < 128;
+        const double weave = left ? ((x / 2) % 2 == 0 ? 2.0 : 0.0) : 1.0;
+        raw.mosaic(x, y) = uint16_t(600 + level * weave);
+      }
+    }
+    testing::TemporaryFolder folder;
+    WriteDng(folder / "led_00.dng", raw);
+    const QImage thumbnail = RawThumbnail(folder / "led_00.dng", 32);  // a step of 4 tiles
+    QCOMPARE(thumbnail.width(), 32);
+    QCOMPARE(thumbnail, DevelopRawPreview(raw, RawDevelopOptions{}.clip_fraction, 32, 0.05).image);
+    double sums[2][3] = {{0, 0, 0}, {0, 0, 0}};
+    for (int y = 0; y < thumbnail.height(); ++y) {
+      for (int x = 0; x < thumbnail.width(); ++x) {
+        const QRgb p = thumbnail.pixel(x, y);
+        double* sum = sums[x < 16 ? 0 : 1];
+        sum[0] += qRed(p);
+        sum[1] += qGreen(p);
+        sum[2] += qBlue(p);
+      }
+    }
+    const double n = 16.0 * thumbnail.height();
+    for (int half = 0; half < 2; ++half) {
+      // Neutral: the raw's tint is balanced away.
+      QVERIFY2(std::abs(sums[half][0] - sums[half][1]) / n < 3 && std::abs(sums[half][2] - sums[half][1]) / n < 3,
+               qPrintable(QStringLiteral("RGB %1 %2 %3").arg(sums[half][0] / n).arg(sums[half][1] / n).arg(sums[half][2] / n)));
+    }
+    // Filtered: the weave reads as its mean, as bright as the even half
+    // (sampling one tile per step would show it at twice that, or black).
+    QVERIFY2(std::abs(sums[0][1] - sums[1][1]) / n < 3,
+             qPrintable(QStringLiteral("weave %1, even %2").arg(sums[0][1] / n).arg(sums[1][1] / n)));
+
+    // A dark frame (black plus a little noise) is not brightened into noise.
+    RawImage dark = raw;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 256; ++x) dark.mosaic(x, y) = uint16_t(600 + (x * 7 + y * 3) % 9);
+    WriteDng(folder / "dark.dng", dark);
+    const QImage dark_thumbnail = RawThumbnail(folder / "dark.dng", 32);
+    int brightest = 0;
+    for (int y = 0; y < dark_thumbnail.height(); ++y)
+      for (int x = 0; x < dark_thumbnail.width(); ++x) brightest = std::max(brightest, qGreen(dark_thumbnail.pixel(x, y)));
+    QVERIFY2(brightest < 40, qPrintable(QString::number(brightest)));
+  }
+
   void SimulatedBenchShowsRawClipping() {
     auto* live = window_->findChild<QCheckBox*>("liveView");
     auto* image = window_->findChild<QLabel*>("liveImage");
     live->setChecked(true);
     QTRY_VERIFY_WITH_TIMEOUT(!image->pixmap().isNull(), 10000);
-    live->setChecked(false);
     // The simulated camera's RAW data is behind the picture.
     QVERIFY2(window_->findChild<QLabel*>("liveInfo")->text().contains("RAW sample"),
              qPrintable(window_->findChild<QLabel*>("liveInfo")->text()));
+    live->setChecked(false);
+    // Off: no old frame, and no caption of it (issue #36 item 6).
+    QVERIFY(image->pixmap().isNull());
+    QVERIFY(window_->findChild<QLabel*>("liveInfo")->text().isEmpty());
   }
 
   void UiKeepsHandlingEventsWhileTheCameraIsSlow() {
