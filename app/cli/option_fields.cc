@@ -22,21 +22,6 @@ const CLI::App*& Root() {
   return root;
 }
 
-// The options of `commands` and of their option groups.
-std::vector<const CLI::Option*> OptionsOf(const std::vector<const CLI::App*>& commands) {
-  std::vector<const CLI::Option*> options;
-  std::vector<const CLI::App*> pending(commands.begin(), commands.end());
-  while (!pending.empty()) {
-    const CLI::App* app = pending.back();
-    pending.pop_back();
-    for (const CLI::Option* option : app->get_options()) options.push_back(option);
-    for (const CLI::App* group : app->get_subcommands([](const CLI::App* sub) { return sub->get_name().empty(); })) {
-      pending.push_back(group);
-    }
-  }
-  return options;
-}
-
 // The option of `commands` that sets where.field, or nullptr.
 const CLI::Option* OptionSetting(const std::vector<const CLI::Option*>& options, const std::string& where,
                                  const std::string& field) {
@@ -84,6 +69,20 @@ CLI::Option* SetsField(CLI::Option* option, std::initializer_list<std::string> f
 }
 
 void SetCommandLineRoot(const CLI::App* root) { Root() = root; }
+
+std::vector<const CLI::Option*> OptionsOf(const std::vector<const CLI::App*>& commands) {
+  std::vector<const CLI::Option*> options;
+  std::vector<const CLI::App*> pending(commands.begin(), commands.end());
+  while (!pending.empty()) {
+    const CLI::App* app = pending.back();
+    pending.pop_back();
+    for (const CLI::Option* option : app->get_options()) options.push_back(option);
+    for (const CLI::App* group : app->get_subcommands([](const CLI::App* sub) { return sub->get_name().empty(); })) {
+      pending.push_back(group);
+    }
+  }
+  return options;
+}
 
 std::vector<const CLI::App*> ParsedCommands(const CLI::App* root) {
   std::vector<const CLI::App*> chain;

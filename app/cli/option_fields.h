@@ -40,4 +40,7 @@ std::string CommandLineMessage(const std::exception& error, const std::vector<co
 // The root and the subcommands parsed below it, outermost first.
 std::vector<const CLI::App*> ParsedCommands(const CLI::App* root);
 
+// The options of `commands` and of their option groups (capture's "solve" options are capture's).
+std::vector<const CLI::Option*> OptionsOf(const std::vector<const CLI::App*>& commands);
+
 }  // namespace scanbench

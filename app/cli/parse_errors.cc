@@ -12,17 +12,9 @@ namespace {
 // Every name of the options of `command` and its option groups, as typed: "--width", "-j".
 std::vector<std::string> OptionNames(const CLI::App& command) {
   std::vector<std::string> names;
-  std::vector<const CLI::App*> pending{&command};
-  while (!pending.empty()) {
-    const CLI::App* app = pending.back();
-    pending.pop_back();
-    for (const CLI::Option* option : app->get_options()) {
-      for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
-      for (const std::string& name : option->get_snames()) names.push_back("-" + name);
-    }
-    for (const CLI::App* group : app->get_subcommands([](const CLI::App* sub) { return sub->get_name().empty(); })) {
-      pending.push_back(group);
-    }
+  for (const CLI::Option* option : OptionsOf({&command})) {
+    for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
+    for (const std::string& name : option->get_snames()) names.push_back("-" + name);
   }
   return names;
 }
@@ -33,6 +25,13 @@ std::vector<std::string> SubcommandNames(const CLI::App& command) {
     names.push_back(sub->get_name());
   }
   return names;
+}
+
+// "scanbench calibrate lights": the commands as typed.
+std::string CommandPath(const std::vector<const CLI::App*>& commands) {
+  std::string path = "scanbench";
+  for (size_t i = 1; i < commands.size(); ++i) path += " " + commands[i]->get_name();
+  return path;
 }
 
 std::string JoinedAlternatives(const std::vector<std::string>& names) {
@@ -94,8 +93,7 @@ std::vector<std::string> Suggestions(const CLI::App& root) {
   const CLI::App& command = *commands.back();
   const std::vector<std::string> options = OptionNames(command);
   const std::vector<std::string> subcommands = SubcommandNames(command);
-  std::string path = "scanbench";
-  for (size_t i = 1; i < commands.size(); ++i) path += " " + commands[i]->get_name();
+  const std::string path = CommandPath(commands);
   std::vector<std::string> lines;
   for (const std::string& argument : root.remaining(true)) {
     if (argument.size() > 1 && argument[0] == '-') {
@@ -125,8 +123,7 @@ int ExitOnParseError(const CLI::App& root, const CLI::ParseError& error, std::os
   }
   if (error.get_name() == "RuntimeError") return error.get_exit_code();  // a command's own exit, not a parse error
   const std::vector<const CLI::App*> commands = ParsedCommands(&root);
-  std::string path = "scanbench";
-  for (size_t i = 1; i < commands.size(); ++i) path += " " + commands[i]->get_name();
+  const std::string path = CommandPath(commands);
   err << "scanbench: error: " << error.what() << "\n";
   for (const std::string& line : Suggestions(root)) err << "  " << line << "\n";
   err << "Run `" << path << " --help` for its options.\n";

@@ -5,7 +5,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -222,6 +225,39 @@ TEST(CliWordsTest, EveryHintNamesAnOptionOfItsCommand) {
     const CommandResult led = RunCli("led on 3");
     EXPECT_THAT(led.output, HasSubstr("--simulated"));
     EXPECT_THAT(led.output, Not(HasSubstr("--rig sim")));
+  }
+}
+
+// Item 12: report times to three significant digits ("0.0797 s", not "0.0797305 s"), in the printed
+// report and in summary.txt alike.
+TEST(CliWordsTest, ReportTimesHaveThreeSignificantDigits) {
+  testing::TemporaryFolder folder;
+  const fs::path session = folder / "s";
+  ASSERT_EQ(RunCli("simulate " + Quoted(session) + " --width 160 --height 106").exit_code, 0);
+  const CommandResult solve = RunCli("solve " + Quoted(session));
+  ASSERT_EQ(solve.exit_code, 0) << solve.output;
+  fs::path result;
+  for (const auto& entry : fs::directory_iterator(session / "results")) result = entry.path();
+  std::ifstream in(result / "summary.txt");
+  const std::string summary((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_THAT(summary, HasSubstr("time per stage (s):"));
+  for (const std::string* report : {&solve.output, &summary}) {
+    std::istringstream lines(*report);
+    int times = 0;
+    for (std::string line; std::getline(lines, line);) {
+      const bool stage_times = line.find("time per stage (s):") != std::string::npos;
+      // A time: a number before " s" (" s on", " s,", " s)"), or any number on the stage-time line.
+      static const std::regex kTime("([0-9]+\\.[0-9]+)( s\\b|;)");
+      for (std::sregex_iterator it(line.begin(), line.end(), kTime), end; it != end; ++it) {
+        if ((*it)[2] == ";" && !stage_times) continue;
+        std::string digits = (*it)[1];
+        digits.erase(std::remove(digits.begin(), digits.end(), '.'), digits.end());
+        digits.erase(0, digits.find_first_not_of('0'));
+        EXPECT_LE(digits.size(), 3u) << (*it)[1] << " in: " << line;
+        ++times;
+      }
+    }
+    EXPECT_GE(times, 5) << *report;
   }
 }
 
