@@ -5,15 +5,37 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace scanbench {
 
+// What FieldError throws: a std::invalid_argument whose what() is "where.field = value rule", with its parts
+// kept, so that a front end can name the field in its own words (the command line names the option the
+// user typed: "--width -5: must be > 0", app/cli/option_fields.h).
+class FieldValueError : public std::invalid_argument {
+ public:
+  FieldValueError(std::string where, std::string field, std::string value, std::string rule)
+      : std::invalid_argument(where + "." + field + " = " + value + " " + rule),
+        where_(std::move(where)),
+        field_(std::move(field)),
+        value_(std::move(value)),
+        rule_(std::move(rule)) {}
+
+  const std::string& where() const { return where_; }  // "SimulatedRigOptions"
+  const std::string& field() const { return field_; }  // "width"
+  const std::string& value() const { return value_; }  // "-5", as the message prints it
+  const std::string& rule() const { return rule_; }    // "must be > 0"
+
+ private:
+  std::string where_, field_, value_, rule_;
+};
+
 template <typename T>
-std::invalid_argument FieldError(const std::string& where, const std::string& field, const T& value,
-                                 const std::string& rule) {
+FieldValueError FieldError(const std::string& where, const std::string& field, const T& value,
+                           const std::string& rule) {
   std::ostringstream text;
-  text << where << "." << field << " = " << value << " " << rule;
-  return std::invalid_argument(text.str());
+  text << value;
+  return FieldValueError(where, field, text.str(), rule);
 }
 
 }  // namespace scanbench

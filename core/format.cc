@@ -13,6 +13,16 @@ std::string Fixed(double value, int digits) {
   return out.str();
 }
 
+std::string Significant(double value, int digits) {
+  if (!std::isfinite(value) || value == 0) return Fixed(value, 0);
+  const int magnitude = static_cast<int>(std::floor(std::log10(std::abs(value))));  // 0.0797 -> -2
+  int decimals = std::max(0, digits - 1 - magnitude);
+  // Rounding may carry into the next power of ten (0.09996 -> "0.100"): one decimal fewer then.
+  std::string text = Fixed(value, decimals);
+  if (decimals > 0 && std::abs(std::stod(text)) >= std::pow(10.0, magnitude + 1)) text = Fixed(value, decimals - 1);
+  return text;
+}
+
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

@@ -9,6 +9,11 @@ namespace scanbench {
 // `value` with `digits` digits after the point ("0.378").
 std::string Fixed(double value, int digits);
 
+// `value` to `digits` significant digits, never in exponent form, as reports
+// print times: 0.0797305 -> "0.0797", 12.345 -> "12.3", 1234.5 -> "1235"
+// (whole numbers keep all their digits).
+std::string Significant(double value, int digits = 3);
+
 // Seconds elapsed since `start` on the steady clock.
 double SecondsSince(std::chrono::steady_clock::time_point start);
 

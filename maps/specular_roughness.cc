@@ -38,7 +38,7 @@ void SpecularRoughnessOptions::Check() const {
 std::string SpecularRoughnessSummary::BriefReport() const {
   std::string report = "Specular roughness: " + std::string(TerminationName(termination)) + ", " +
                        std::to_string(from_specular) + " px from the specular map, " + std::to_string(blended) +
-                       " blended, " + std::to_string(from_fallback) + " from the fallback, " + Fixed(seconds, 2) +
+                       " blended, " + std::to_string(from_fallback) + " from the fallback, " + Significant(seconds) +
                        " s";
   if (termination != Termination::kSuccess && !message.empty()) report += " (" + message + ")";
   return report;

@@ -574,7 +574,7 @@ OcclusionSummary AmbientOcclusionFromHeight(const AmbientOcclusionOptions& optio
        << (options.around_pixel_normal ? "pixel" : "table") << " normal: " << options.num_directions
        << " directions x " << marches.steps << " steps out to " << options.radius_mm << " mm (" << marches.radius_px
        << " px); visibility mean " << summary.mean << ", min " << summary.min << ", max " << summary.max << "; "
-       << summary.seconds << " s";
+       << Significant(summary.seconds) << " s";
   summary.message = text.str();
   *visibility = std::move(map);
   return summary;
@@ -623,7 +623,7 @@ OcclusionSummary CavityFromHeight(const CavityOptions& options, const ImageF& he
   std::ostringstream text;
   text << "cavity of " << width << "x" << rows << " px: Gaussian sigma " << options.radius_mm << " mm ("
        << sigma_px << " px), 0 at " << options.depth_scale_mm << " mm deep; mean " << summary.mean << ", min "
-       << summary.min << ", max " << summary.max << "; " << summary.seconds << " s";
+       << summary.min << ", max " << summary.max << "; " << Significant(summary.seconds) << " s";
   summary.message = text.str();
   *cavity = std::move(map);
   if (progress) progress(1.0);

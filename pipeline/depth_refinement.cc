@@ -142,7 +142,7 @@ std::string DepthRefinementSummary::BriefReport() const {
   }
   out << "; stopped: " << stop_reason;
   if (!message.empty() && termination != Termination::kSuccess) out << " (" << message << ")";
-  out << ", " << std::setprecision(2) << seconds << " s";
+  out << ", " << Significant(seconds) << " s";
   return out.str();
 }
 

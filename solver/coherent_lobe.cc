@@ -1181,7 +1181,7 @@ std::string CoherentLobeSummary::BriefReport() const {
   const char* how = TerminationName(termination);
   out << "Coherent lobe: " << how << ", " << pixels_refined << " of " << pixels_supported
       << " lobe pixels refined by a shared lobe (" << pixels_kept << " kept their own) in " << groups_fitted
-      << " groups (" << groups_fresnel << " with the Fresnel-transmitted diffuse), mean anisotropy " << mean_anisotropy << ", " << seconds << " s";
+      << " groups (" << groups_fresnel << " with the Fresnel-transmitted diffuse), mean anisotropy " << mean_anisotropy << ", " << Significant(seconds) << " s";
   if (pixels_bayer > 0) out << ", " << pixels_bayer << " re-solved from their raw samples";
   if (!message.empty()) out << " (" << message << ")";
   return out.str();

@@ -829,7 +829,7 @@ std::string CoherentSheenSummary::BriefReport() const {
   std::ostringstream out;
   out << "Coherent sheen: " << TerminationName(termination) << ", " << pixels_refined << " of " << pixels_candidate
       << " candidate pixels re-solved under a shared velvet sheen in " << groups_taken << " of " << groups_tried
-      << " groups fitted in the " << blocks_passed << " of " << blocks_gated << " blocks past the gate (mean F0 " << Fixed(mean_f0, 4) << ", width " << Fixed(mean_width, 3) << "), " << Fixed(seconds, 2)
+      << " groups fitted in the " << blocks_passed << " of " << blocks_gated << " blocks past the gate (mean F0 " << Fixed(mean_f0, 4) << ", width " << Fixed(mean_width, 3) << "), " << Significant(seconds)
       << " s";
   if (!message.empty()) out << " (" << message << ")";
   return out.str();

@@ -481,7 +481,7 @@ std::string PhotometricSolverSummary::BriefReport() const {
   const char* how = TerminationName(termination);
   out << "Photometric solve (" << (method.empty() ? "?" : method) << (bayer_domain ? ", Bayer domain" : "")
       << "): " << how << ", " << num_solved() << " / " << num_pixels << " pixels solved from " << num_lights
-      << " lights in " << seconds << " s on " << num_threads << " threads ("
+      << " lights in " << Significant(seconds) << " s on " << num_threads << " threads ("
       << (kernel_isa.empty() ? "?" : kernel_isa) << " kernels)";
   for (int s = 1; s < kNumPixelStatuses; ++s) {
     if (pixels_by_status[s] > 0) {

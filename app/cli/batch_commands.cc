@@ -64,13 +64,16 @@ void RegisterBatchCommands(CLI::App& app, int* exit_code) {
       ->check(CLI::ExistingFile);
   AddSolveOptions(*command, state->options.solve);
   command->get_option("--threads")->description("Solver threads of each session (0 = hardware threads / jobs)");
-  command->add_option("--jobs,-j", state->options.jobs,
-                      "Sessions solved at the same time (a full-resolution solve holds about 2 GB)")
+  SetsField(command->add_option("--jobs,-j", state->options.jobs,
+                                "Sessions solved at the same time (a full-resolution solve holds about 2 GB)"),
+            "BatchOptions.jobs")
       ->capture_default_str();
   command->add_flag("--force", state->options.force,
                     "Solve again into a new result folder even when a result for the same inputs exists");
-  command->add_option("--shard", state->shard,
-                      "k/N: solve only shard k (1-based) of N of the sorted sessions, e.g. $SLURM_ARRAY_TASK_ID/8");
+  SetsField(
+      command->add_option("--shard", state->shard,
+                          "k/N: solve only shard k (1-based) of N of the sorted sessions, e.g. $SLURM_ARRAY_TASK_ID/8"),
+      {"BatchOptions.shard_index", "BatchOptions.shard_count", "shard.index", "shard.count"});
   command->add_option("--summary", state->options.summary_prefix,
                       "Write the summary to PREFIX.csv and PREFIX.json (default batch-reports/batch-<UTC time> in the "
                       "folder holding the sessions); never overwritten");

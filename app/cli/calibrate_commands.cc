@@ -28,16 +28,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-template <typename Function>
-void Guarded(int* exit_code, Function&& function) {
-  try {
-    *exit_code = function();
-  } catch (const std::exception& error) {
-    std::cerr << "scanbench: error: " << error.what() << "\n";
-    *exit_code = kExitFailure;
-  }
-}
-
 // ---------------------------------------------------------------------------
 // Reports
 
@@ -293,13 +283,15 @@ void AddCameraCommand(CLI::App& calibrate, int* exit_code) {
       ->check(CLI::ExistingDirectory);
   command->add_option("--output,-o", camera->output, "Calibration set folder to create")->required();
   command->add_flag("--replace", camera->options.replace, "Overwrite an existing calibration set there");
-  command->add_option("--radial-terms", camera->options.calibration.radial_terms,
-                      "Radial distortion terms to fit: 1 (k1), 2 (k1 k2) or 3")
+  SetsField(command->add_option("--radial-terms", camera->options.calibration.radial_terms,
+                                "Radial distortion terms to fit: 1 (k1), 2 (k1 k2) or 3"),
+            "CameraCalibrationOptions.radial_terms")
       ->capture_default_str();
   command->add_flag("--fix-tangential", camera->options.calibration.fix_tangential,
                     "Keep the tangential distortion p1, p2 at 0");
-  command->add_option("--max-edge-width", camera->options.calibration.detection.max_edge_width_px,
-                      "Reject views whose square edges rise over more pixels than this (blur)")
+  SetsField(command->add_option("--max-edge-width", camera->options.calibration.detection.max_edge_width_px,
+                                "Reject views whose square edges rise over more pixels than this (blur)"),
+            "CheckerboardDetectionOptions.max_edge_width_px")
       ->capture_default_str();
   AddVerifyFlag(*command, camera->options.verify_checksums);
   command->callback([camera, exit_code] { Guarded(exit_code, [&] { return CalibrateCameraCommand(*camera); }); });
@@ -313,8 +305,9 @@ void AddWhiteCommand(CLI::App& calibrate, int* exit_code) {
       ->required()
       ->check(CLI::ExistingDirectory);
   AddCalibrationOption(*command, white->calibration);
-  command->add_option("--linearity-tolerance", white->options.white_balance.linearity_tolerance,
-                      "Relative deviation from the linear fit that marks a patch non-linear")
+  SetsField(command->add_option("--linearity-tolerance", white->options.white_balance.linearity_tolerance,
+                                "Relative deviation from the linear fit that marks a patch non-linear"),
+            "WhiteBalanceOptions.linearity_tolerance")
       ->capture_default_str();
   AddVerifyFlag(*command, white->options.verify_checksums);
   command->callback([white, exit_code] { Guarded(exit_code, [&] { return CalibrateWhiteCommand(*white); }); });
@@ -329,11 +322,13 @@ void AddLightsCommand(CLI::App& calibrate, int* exit_code) {
       ->required()
       ->check(CLI::ExistingDirectory);
   AddCalibrationOption(*command, lights->calibration);
-  command->add_option("--cell-px", lights->options.lights.cell_px,
-                      "Side of the averaging cells in pixels, even (0 = width / 64)")
+  SetsField(command->add_option("--cell-px", lights->options.lights.cell_px,
+                                "Side of the averaging cells in pixels, even (0 = width / 64)"),
+            "LightCalibrationOptions.cell_px")
       ->capture_default_str();
-  command->add_option("--model-noise-factor", lights->options.lights.model_noise_factor,
-                      "Use the LED model when its residual is within this many times the noise")
+  SetsField(command->add_option("--model-noise-factor", lights->options.lights.model_noise_factor,
+                                "Use the LED model when its residual is within this many times the noise"),
+            "LightCalibrationOptions.model_noise_factor")
       ->capture_default_str();
   AddVerifyFlag(*command, lights->options.verify_checksums);
   command->callback([lights, exit_code] { Guarded(exit_code, [&] { return CalibrateLightsCommand(*lights); }); });
@@ -369,8 +364,9 @@ void AddColorCommand(CLI::App& calibrate, int* exit_code) {
 void AddDescribeCommand(CLI::App& calibrate, int* exit_code) {
   auto describe = std::make_shared<DescribeState>();
   CLI::App* command = calibrate.add_subcommand(
-      "describe", "Make captures of the standard targets taken on the real bench (sessions without target.json) "
-                  "target sessions: writes target.json into each, never replacing one");
+      "describe",
+      "Mark sessions captured of a standard target on the real bench as calibration target sessions: "
+      "writes a target.json (what the target is) into each that has none, never replacing one");
   command->add_option("sessions", describe->sessions,
                       "Captured sessions, in order: the first board / sheet without a target.json becomes the table "
                       "view unless one of them already is")
@@ -381,8 +377,9 @@ void AddDescribeCommand(CLI::App& calibrate, int* exit_code) {
                                               "(ColorChecker Classic, real size: 40 mm pitch)")
       ->required()
       ->check(CLI::IsMember({"checkerboard", "gray_chart", "white_sheet", "color_chart"}));
-  command->add_option("--spacer-mm", describe->options.spacer_mm,
-                      "white_sheet: height of the raised sheet above the table, (0, 200] mm")
+  SetsField(command->add_option("--spacer-mm", describe->options.spacer_mm,
+                                "white_sheet: height of the raised sheet above the table, (0, 200] mm"),
+            "DescribeTargetsOptions.spacer_mm")
       ->capture_default_str();
   command->callback([describe, exit_code] { Guarded(exit_code, [&] { return DescribeCommand(*describe); }); });
 }
@@ -393,19 +390,27 @@ void AddSimulateTargetsCommand(CLI::App& calibrate, int* exit_code) {
       "simulate-targets", "Render the calibration target sessions (checkerboards, gray chart, white sheets, colour "
                           "chart) on the simulated rig from its true parameters");
   command->add_option("output", targets->output, "Folder for the target sessions")->required();
-  command->add_option("--width", targets->options.rig.width, "Image width in pixels")->capture_default_str();
-  command->add_option("--height", targets->options.rig.height, "Image height in pixels")->capture_default_str();
+  SetsField(command->add_option("--width", targets->options.rig.width, "Image width in pixels"),
+            "SimulatedRigOptions.width")
+      ->capture_default_str();
+  SetsField(command->add_option("--height", targets->options.rig.height, "Image height in pixels"),
+            "SimulatedRigOptions.height")
+      ->capture_default_str();
   command->add_option("--seed", targets->options.rig.seed, "Sensor noise seed (also the camera serial)")
       ->capture_default_str();
-  command->add_option("--spacer-mm", targets->options.spacer_mm, "Height of the raised white sheet")
+  SetsField(command->add_option("--spacer-mm", targets->options.spacer_mm, "Height of the raised white sheet"),
+            "SimulateTargetsOptions.spacer_mm")
       ->capture_default_str();
   command->add_option("--led-error-mm", targets->options.measured.led_position_error_mm,
                       "rms error per axis of the measured LED positions written into the sessions")
       ->capture_default_str();
   AddCameraColorOption(*command, targets->options.rig.color);
-  command->add_option("--chart-patch-mm", targets->options.chart_patch_mm, "ColorChecker patch side of the colour chart")
+  SetsField(command->add_option("--chart-patch-mm", targets->options.chart_patch_mm,
+                                "ColorChecker patch side of the colour chart"),
+            "SimulateTargetsOptions.chart_patch_mm")
       ->capture_default_str();
-  command->add_option("--chart-pitch-mm", targets->options.chart_pitch_mm, "ColorChecker patch spacing")
+  SetsField(command->add_option("--chart-pitch-mm", targets->options.chart_pitch_mm, "ColorChecker patch spacing"),
+            "SimulateTargetsOptions.chart_pitch_mm")
       ->capture_default_str();
   command->add_flag("--no-color-chart", [targets](std::int64_t) { targets->options.color_chart = false; },
                     "Skip the colour chart session");
@@ -415,8 +420,9 @@ void AddSimulateTargetsCommand(CLI::App& calibrate, int* exit_code) {
 void AddEdgeErrorCommand(CLI::App& calibrate, int* exit_code) {
   auto edge = std::make_shared<EdgeState>();
   CLI::App* command = calibrate.add_subcommand(
-      "edge-error", "Measure the low-frequency normal tilt toward the borders (the seed's Figure 10) of a simulated "
-                    "session: distant uniform lights against a calibration set; writes figures and images");
+      "edge-error",
+      "Measure the low-frequency normal tilt toward the borders (the edge error) of a simulated "
+      "session: distant uniform lights against a calibration set; writes figures and images");
   command->add_option("session", edge->session, "Session with ground truth")
       ->required()
       ->check(CLI::ExistingDirectory);
@@ -425,9 +431,12 @@ void AddEdgeErrorCommand(CLI::App& calibrate, int* exit_code) {
       ->check(CLI::ExistingDirectory);
   command->add_option("--output,-o", edge->options.output_dir, "Folder for the images and edge_error.json")
       ->required();
-  command->add_option("--block-px", edge->options.block_px, "Averaging block side in pixels (0 = width / 40)")
+  SetsField(
+      command->add_option("--block-px", edge->options.block_px, "Averaging block side in pixels (0 = width / 40)"),
+      "EdgeErrorOptions.block_px")
       ->capture_default_str();
-  command->add_option("--threads", edge->options.solver.num_threads, "Solver threads (0 = all cores)")
+  SetsField(command->add_option("--threads", edge->options.solver.num_threads, "Solver threads (0 = all cores)"),
+            "PhotometricSolverOptions.num_threads")
       ->capture_default_str();
   command->callback([edge, exit_code] { Guarded(exit_code, [&] { return EdgeErrorCommand(*edge); }); });
 }
@@ -439,11 +448,17 @@ void AddDemoCommand(CLI::App& calibrate, int* exit_code) {
               "and a ColorChecker whose sessions hold only the measured rig, solve them with the calibration and "
               "measure the edge error");
   command->add_option("--output", demo->output, "Folder for everything")->capture_default_str();
-  command->add_option("--width", demo->width, "Image width in pixels")->capture_default_str();
-  command->add_option("--height", demo->height, "Image height in pixels")->capture_default_str();
+  SetsField(command->add_option("--width", demo->width, "Image width in pixels"),
+            {"SimulatedRigOptions.width", "MakeDefaultSimulatedRig.width"})
+      ->capture_default_str();
+  SetsField(command->add_option("--height", demo->height, "Image height in pixels"),
+            {"SimulatedRigOptions.height", "MakeDefaultSimulatedRig.height"})
+      ->capture_default_str();
   command->add_option("--seed", demo->seed, "Sensor noise seed")->capture_default_str();
   AddCameraColorOption(*command, demo->color);
-  command->add_option("--threads", demo->threads, "Solver threads (0 = all cores)")->capture_default_str();
+  SetsField(command->add_option("--threads", demo->threads, "Solver threads (0 = all cores)"),
+            "PhotometricSolverOptions.num_threads")
+      ->capture_default_str();
   command->callback([demo, exit_code] { Guarded(exit_code, [&] { return CalibrationDemo(*demo); }); });
 }
 

@@ -18,6 +18,7 @@
 #include "app/io/file_util.h"
 #include "app/session/capture_folder.h"
 #include "app/session/rig_json.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -48,7 +49,7 @@ struct CaptureState {
 void PrintCaptureSummary(const fs::path& session_dir, const CaptureSummary& summary) {
   std::cout << "Session " << fs::absolute(session_dir).string() << ": " << summary.frames_captured
             << " frames captured, " << summary.frames_resumed << " already there, " << summary.retries
-            << " retried, in " << summary.seconds << " s\n";
+            << " retried, in " << Significant(summary.seconds) << " s\n";
   for (const std::string& reason : summary.retry_reasons) std::cout << "  retried " << reason << "\n";
 }
 
@@ -100,7 +101,8 @@ int CaptureHardware(CaptureState& state) {
     throw std::invalid_argument("capture --rig hardware needs --rig-file: the bench's rig description (JSON)");
   }
   const RigDescription rig = LoadRigDescriptionFile(state.rig_file.string());
-  SerialLightController lights(state.port.empty() ? FindArduinoPort() : state.port);
+  SerialLightController lights(state.port.empty() ? FindArduinoPort({"name its port with --port", "use --rig sim"})
+                                                  : state.port);
   GPhotoCameraOptions camera_options;
   camera_options.model = state.camera_model;
   camera_options.port = state.camera_port;
@@ -126,32 +128,45 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
   command->add_option("--rig", state->rig_kind, "sim: simulated camera + LED firmware in simavr; hardware: the bench")
       ->check(CLI::IsMember({"sim", "hardware"}))
       ->capture_default_str();
-  command->add_option("--sample-name", state->options.sample_name, "Sample name recorded in session.json")
+  SetsField(command->add_option("--sample-name", state->options.sample_name, "Sample name recorded in session.json"),
+            "CaptureOptions.sample_name")
       ->required();
   command->add_option("--notes", state->options.notes, "Free text recorded in session.json");
-  command->add_option("--width", state->width, "sim: image width in pixels")->capture_default_str();
-  command->add_option("--height", state->height, "sim: image height in pixels")->capture_default_str();
+  SetsField(command->add_option("--width", state->width, "sim: image width in pixels"),
+            {"SimulatedRigOptions.width", "MakeDefaultSimulatedRig.width"})
+      ->capture_default_str();
+  SetsField(command->add_option("--height", state->height, "sim: image height in pixels"),
+            {"SimulatedRigOptions.height", "MakeDefaultSimulatedRig.height"})
+      ->capture_default_str();
   AddMaterialOption(*command, state->material);
-  command->add_option("--fold-amplitude", state->fold_amplitude_mm,
-                      "--rig sim: fold amplitude, mm (folds lift the cloth by 0 .. 2x this)")
+  SetsField(command->add_option("--fold-amplitude", state->fold_amplitude_mm,
+                                "--rig sim: fold amplitude, mm (folds lift the cloth by 0 .. 2x this)"),
+            "TextileSceneOptions.fold_amplitude_mm")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   command->add_option("--port", state->port, "hardware: LED board serial port (default: the one Arduino found)");
   command->add_option("--rig-file", state->rig_file, "hardware: rig description JSON (LED positions, camera)");
   command->add_option("--camera-model", state->camera_model, "hardware: camera model as libgphoto2 names it");
   command->add_option("--camera-port", state->camera_port, "hardware: camera port, e.g. usb:001,004");
-  command->add_option("--iso", state->options.exposure.iso, "ISO to set (default: leave the camera's)");
-  command->add_option("--exposure-time", state->options.exposure.exposure_time_s,
-                      "Exposure time in seconds to set (default: leave the camera's)");
-  command->add_option("--f-number", state->options.exposure.f_number, "Aperture to set (default: leave the camera's)");
+  SetsField(command->add_option("--iso", state->options.exposure.iso, "ISO to set (default: leave the camera's)"),
+            "CaptureOptions.exposure.iso");
+  SetsField(command->add_option("--exposure-time", state->options.exposure.exposure_time_s,
+                                "Exposure time in seconds to set (default: leave the camera's)"),
+            "CaptureOptions.exposure.exposure_time_s");
+  SetsField(command->add_option("--f-number", state->options.exposure.f_number,
+                                "Aperture to set (default: leave the camera's)"),
+            "CaptureOptions.exposure.f_number");
   command->add_flag("--no-exposure-check", [state](std::int64_t) { state->options.check_exposure = false; },
                     "Skip the test frame per LED before a new capture");
-  command->add_option("--attempts", state->options.max_attempts, "Attempts per frame")->capture_default_str();
+  SetsField(command->add_option("--attempts", state->options.max_attempts, "Attempts per frame"),
+            "CaptureOptions.max_attempts")
+      ->capture_default_str();
   command->add_flag("--solve", state->solve,
                     "Solve while capturing: each frame is decoded as it is journalled, the result (bit-equal to "
                     "`scanbench solve` of the finished session) follows the last frame into results/");
-  command->add_option("--solve-queue", state->solve_queue,
-                      "--solve: journalled frames waiting for the decoder before the capture waits for it")
+  SetsField(command->add_option("--solve-queue", state->solve_queue,
+                                "--solve: journalled frames waiting for the decoder before the capture waits for it"),
+            "LiveSolveOptions.queue_frames")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
   command->add_flag("--solve-develop-ahead", state->solve_develop_ahead,
@@ -161,14 +176,11 @@ void RegisterCaptureCommands(CLI::App& app, int* exit_code) {
   AddSolveOptions(*command->add_option_group("solve", "With --solve: the solve's options, as scanbench solve's"),
                   state->solve_options);
   command->callback([state, exit_code] {
-    try {
+    Guarded(exit_code, [&] {
       // The controller checks again under its lock; this refuses before a board or camera is opened.
       CheckCaptureFolder(state->session_dir, state->options.resume);
-      *exit_code = state->rig_kind == "sim" ? CaptureSimulated(*state) : CaptureHardware(*state);
-    } catch (const std::exception& error) {
-      std::cerr << "scanbench: error: " << error.what() << "\n";
-      *exit_code = kExitFailure;
-    }
+      return state->rig_kind == "sim" ? CaptureSimulated(*state) : CaptureHardware(*state);
+    });
   });
 }
 

@@ -1,11 +1,11 @@
 // Pieces every command group shares.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <exception>
 #include <iostream>
 
-#include <CLI/CLI.hpp>
-
+#include "app/cli/option_fields.h"
 #include "app/cli/run_controller.h"
 #include "app/controllers/solve_controller.h"
 #include "app/sim/simulated_rig.h"
@@ -13,14 +13,14 @@
 
 namespace scanbench {
 
-// Runs a command; an error becomes a message and an exit code, never an
-// uncaught exception.
+// Runs a command; an error becomes a message (in the command line's words:
+// option_fields.h) and an exit code, never an uncaught exception.
 template <typename Function>
 void Guarded(int* exit_code, Function&& function) {
   try {
     *exit_code = function();
   } catch (const std::exception& error) {
-    std::cerr << "scanbench: error: " << error.what() << "\n";
+    std::cerr << "scanbench: error: " << CommandLineMessage(error) << "\n";
     *exit_code = kExitFailure;
   }
 }

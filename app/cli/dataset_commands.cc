@@ -87,8 +87,9 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
   command->add_flag("--overwrite", state->options.overwrite, "Replace an existing output folder");
   command->add_flag("--lsq-baseline", state->lsq_baseline,
                     "The benchmark's least-squares baseline (jacobi_svd, every sample kept)");
-  command->add_option("--ring-lights", state->options.ring_lights,
-                      "Solve with only this many lights, chosen like the scanner's two LED rings (0 = all)")
+  SetsField(command->add_option("--ring-lights", state->options.ring_lights,
+                                "Solve with only this many lights, chosen like the scanner's two LED rings (0 = all)"),
+            "DatasetSolveOptions.ring_lights")
       ->capture_default_str();
   AddPhotometricSolverOptions(*command, state->options.solver);
   AddDepthRefinementOptions(*command, state->options.depth);  // near-field folders (issue #33)
@@ -107,18 +108,25 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
   simulate_command->add_option("folder", simulate->folder, "Folder to write (must not exist unless --overwrite)")
       ->required();
   SimulateDatasetOptions& options = simulate->options;
-  simulate_command->add_option("--width", options.rig.width, "Image width in pixels")->capture_default_str();
-  simulate_command->add_option("--height", options.rig.height, "Image height in pixels")->capture_default_str();
+  SetsField(simulate_command->add_option("--width", options.rig.width, "Image width in pixels"),
+            "SimulatedRigOptions.width")
+      ->capture_default_str();
+  SetsField(simulate_command->add_option("--height", options.rig.height, "Image height in pixels"),
+            "SimulatedRigOptions.height")
+      ->capture_default_str();
   simulate_command->add_option("--seed", options.rig.seed, "Sensor noise seed")->capture_default_str();
   simulate_command->add_option("--scene-seed", options.scene.seed, "Textile variation and folds seed")
       ->capture_default_str();
-  simulate_command->add_option("--warp-pitch", options.scene.warp_pitch_mm, "Warp thread spacing, mm")
+  SetsField(simulate_command->add_option("--warp-pitch", options.scene.warp_pitch_mm, "Warp thread spacing, mm"),
+            "TextileSceneOptions.warp_pitch_mm")
       ->capture_default_str();
-  simulate_command->add_option("--weft-pitch", options.scene.weft_pitch_mm, "Weft thread spacing, mm")
+  SetsField(simulate_command->add_option("--weft-pitch", options.scene.weft_pitch_mm, "Weft thread spacing, mm"),
+            "TextileSceneOptions.weft_pitch_mm")
       ->capture_default_str();
-  simulate_command
-      ->add_option("--fold-amplitude", options.scene.fold_amplitude_mm,
-                   "Fold amplitude, mm: the folds lift the cloth by 0 .. 2x this (+-this about their mean)")
+  SetsField(simulate_command->add_option(
+                "--fold-amplitude", options.scene.fold_amplitude_mm,
+                "Fold amplitude, mm: the folds lift the cloth by 0 .. 2x this (+-this about their mean)"),
+            "TextileSceneOptions.fold_amplitude_mm")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   simulate_command->add_flag("--no-noise", [&options](std::int64_t) { options.rig.add_noise = false; },
@@ -128,7 +136,8 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
   simulate_command->add_flag("--linear", [&options](std::int64_t) { options.raw_path = false; },
                              "Noise-free linear renders of every colour at every pixel instead of developed RAW "
                              "frames (no noise, no demosaicing)");
-  simulate_command->add_option("--render-threads", options.rig.num_threads, "Render threads (0 = all cores)")
+  SetsField(simulate_command->add_option("--render-threads", options.rig.num_threads, "Render threads (0 = all cores)"),
+            "SimulatedRigOptions.num_threads")
       ->capture_default_str();
   simulate_command->add_flag("--overwrite", options.overwrite, "Replace an existing folder");
   AddCameraColorOption(*simulate_command, options.rig.color);
@@ -152,8 +161,12 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
   report_command->add_option("--diligent-crop8", report->diligent_crop8_dir,
                              "Folder holding the 8-bit crops buddhaPNG, gobletPNG and pot1PNG")
       ->capture_default_str();
-  report_command->add_option("--threads", report->num_threads, "Solver threads (0 = all cores)")->capture_default_str();
-  report_command->add_option("--analytic-size", report->analytic_size, "Side of the analytic sphere scenes, pixels")
+  SetsField(report_command->add_option("--threads", report->num_threads, "Solver threads (0 = all cores)"),
+            "SolverReportOptions.num_threads")
+      ->capture_default_str();
+  SetsField(report_command->add_option("--analytic-size", report->analytic_size,
+                                       "Side of the analytic sphere scenes, pixels"),
+            "SolverReportOptions.analytic_size")
       ->capture_default_str();
   report_command->add_flag("--no-16mp", [report](std::int64_t) { report->include_16mp = false; },
                            "Leave out the 16 MP scene (minutes, about 2 GB)");
@@ -167,15 +180,22 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
   training_command->add_option("output", training->output, "Observation file to write")->required();
   training_command->add_option("--seed", training->options.seed, "Seed: every set is a function of it and its index")
       ->capture_default_str();
-  training_command->add_option("--sets", training->options.num_sets, "Number of sets")->capture_default_str();
-  training_command->add_option("--min-lights", training->options.min_lights, "Fewest lights of a distant set")
+  SetsField(training_command->add_option("--sets", training->options.num_sets, "Number of sets"),
+            "ObservationSetOptions.num_sets")
       ->capture_default_str();
-  training_command->add_option("--max-lights", training->options.max_lights, "Most lights of a distant set")
+  SetsField(
+      training_command->add_option("--min-lights", training->options.min_lights, "Fewest lights of a distant set"),
+      "ObservationSetOptions.min_lights")
       ->capture_default_str();
-  training_command->add_option("--near-field-share", training->options.near_field_share,
-                               "Share of sets lit by the scanner's near-field LEDs")
+  SetsField(training_command->add_option("--max-lights", training->options.max_lights, "Most lights of a distant set"),
+            "ObservationSetOptions.max_lights")
       ->capture_default_str();
-  training_command->add_option("--threads", training->options.num_threads, "Threads (0 = all cores)")
+  SetsField(training_command->add_option("--near-field-share", training->options.near_field_share,
+                                         "Share of sets lit by the scanner's near-field LEDs"),
+            "ObservationSetOptions.near_field_share")
+      ->capture_default_str();
+  SetsField(training_command->add_option("--threads", training->options.num_threads, "Threads (0 = all cores)"),
+            "ObservationSetOptions.num_threads")
       ->capture_default_str();
   training_command->callback(
       [training, exit_code] { Guarded(exit_code, [&] { return TrainingSetCommand(*training); }); });

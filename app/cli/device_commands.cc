@@ -61,7 +61,7 @@ Connection Connect(const LedCommandState& state, bool all_off_on_close) {
     port = connection.simulated_board->port_path();
     std::cout << "Simulated LED board (firmware in simavr) on " << port << "\n";
   } else if (port.empty()) {
-    port = FindArduinoPort();
+    port = FindArduinoPort({"name its port with --port", "use --simulated"});  // led's own options
   }
   SerialLightControllerOptions options;
   options.all_off_on_close = all_off_on_close;
@@ -206,7 +206,8 @@ void AddConnectionOptions(CLI::App& command, LedCommandState& state) {
 }  // namespace
 
 void RegisterDeviceCommands(CLI::App& app, int* exit_code) {
-  CLI::App* devices = app.add_subcommand("devices", "List serial ports and recognised boards (cameras: later)");
+  CLI::App* devices =
+      app.add_subcommand("devices", "List serial ports (Arduino boards recognised) and the cameras libgphoto2 finds");
   devices->callback([exit_code] { Guarded(exit_code, [] { return ListDevices(); }); });
 
   auto state = std::make_shared<LedCommandState>();

@@ -49,47 +49,63 @@ void AddExportOptions(CLI::App& command, ExportOptions& options) {
           "Primaries of the linear EXR base colour: rec709 (default) or acescg; PNG / TIFF base colour is always "
           "sRGB")
       ->check(NameCheck(BasecolorSpaceFromName));
-  command.add_option("--material", options.material_name,
-                     "Material name, the file-name prefix ([A-Za-z0-9._-]; default: from the sample name)");
+  SetsField(command.add_option("--material", options.material_name,
+                               "Material name, the file-name prefix ([A-Za-z0-9._-]; default: from the sample name)"),
+            "ExportOptions.material_name");
   command.add_option("--output", options.output_root, "Folder for the export folders (default: <session>/exports)");
-  command.add_option("--mm-per-pixel", options.mm_per_pixel,
-                     "Physical pixel size on the sample, mm (default: from the session's rig at the image centre)")
+  SetsField(
+      command.add_option("--mm-per-pixel", options.mm_per_pixel,
+                         "Physical pixel size on the sample, mm (default: from the session's rig at the image centre)"),
+      "ExportOptions.mm_per_pixel")
       ->check(CLI::NonNegativeNumber);
   command.add_flag("--no-flatten", [&options](std::int64_t) { options.flatten_normals = false; },
                    "Keep the low-frequency slope (folds, calibration tilt) in the normals and height");
-  command.add_option("--flatten-sigma", options.flattening.low_pass_sigma_px,
-                     "Gaussian sigma of the slope low-pass that flattening removes, px")
+  SetsField(command.add_option("--flatten-sigma", options.flattening.low_pass_sigma_px,
+                               "Gaussian sigma of the slope low-pass that flattening removes, px"),
+            "NormalFlatteningOptions.low_pass_sigma_px")
       ->capture_default_str();
-  command.add_flag("--tileable", options.tileable, "Also write a seamless tileable crop of every map");
+  CLI::Option* tileable =
+      command.add_flag("--tileable", options.tileable, "Also write a seamless tileable crop of every map");
   command.add_flag("--no-preview", [&options](std::int64_t) { options.preview_page = false; },
                    "Do not write preview.html (the sample on a tile and a dome, for a browser)");
-  command.add_flag("--gltf-displaced-mesh", options.gltf_displaced_mesh,
-                   "With --preset gltf: also a mesh displaced by the height map, beside the flat tile");
-  command.add_option("--gltf-mesh-vertices", options.gltf_mesh_max_vertices,
-                     "Vertex budget of the displaced mesh (4 .. 65536; the grid step is the coarsest that fits)")
+  SetsField(command.add_flag("--gltf-displaced-mesh", options.gltf_displaced_mesh,
+                             "With --preset gltf: also a mesh displaced by the height map, beside the flat tile"),
+            "ExportOptions.gltf_displaced_mesh");
+  SetsField(
+      command.add_option("--gltf-mesh-vertices", options.gltf_mesh_max_vertices,
+                         "Vertex budget of the displaced mesh (4 .. 65536; the grid step is the coarsest that fits)"),
+      "ExportOptions.gltf_mesh_max_vertices")
       ->capture_default_str();
-  command.add_option("--tile-size", options.tile.tile_width,
-                     "Tile width and height, px (0 = the largest power of two that fits)")
-      ->capture_default_str();
-  command.add_option("--tile-blend", options.tile.blend_width_px,
-                     "Width of the cross-fade band at each seam of the tile, px (at most the tile size)")
-      ->capture_default_str();
+  SetsField(command.add_option("--tile-size", options.tile.tile_width,
+                               "Tile width and height, px (0 = the largest power of two that fits)"),
+            {"TileableCropOptions.tile_width", "TileableCropOptions.tile_height"})
+      ->capture_default_str()
+      ->needs(tileable);
+  SetsField(command.add_option("--tile-blend", options.tile.blend_width_px,
+                               "Width of the cross-fade band at each seam of the tile, px (at most the tile size)"),
+            "TileableCropOptions.blend_width_px")
+      ->capture_default_str()
+      ->needs(tileable);
   command
       .add_option_function<std::string>(
           "--height-method",
           [&options](const std::string& name) { options.height.method = HeightMethodFromName(name); },
-          "Height from normals: dct (Poisson, default) or relaxation (multi-resolution, seed 004; slower, same answer)")
+          "Height from normals: dct (Poisson, default) or relaxation (multi-resolution; slower, same answer)")
       ->check(NameCheck(HeightMethodFromName));
   command
       .add_option_function<std::string>(
           "--gloss-model", [&options](const std::string& name) { options.gloss.model = GlossModelFromName(name); },
           "Roughness mip model: vmf (default) or ggx (shortened normals)")
       ->check(NameCheck(GlossModelFromName));
-  command.add_option("--base-roughness", options.gloss.base_roughness, "GGX alpha of the finest roughness mip")
+  SetsField(
+      command.add_option("--base-roughness", options.gloss.base_roughness, "GGX alpha of the finest roughness mip"),
+      "GlossMipOptions.base_roughness")
       ->capture_default_str();
-  command.add_option("--ao-radius", options.occlusion.radius_mm, "Ambient occlusion search radius, mm")
+  SetsField(command.add_option("--ao-radius", options.occlusion.radius_mm, "Ambient occlusion search radius, mm"),
+            "AmbientOcclusionOptions.radius_mm")
       ->capture_default_str();
-  command.add_option("--cavity-radius", options.cavity.radius_mm, "Cavity neighbourhood sigma, mm")
+  SetsField(command.add_option("--cavity-radius", options.cavity.radius_mm, "Cavity neighbourhood sigma, mm"),
+            "CavityOptions.radius_mm")
       ->capture_default_str();
 }
 

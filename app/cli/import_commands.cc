@@ -11,6 +11,7 @@
 #include "app/io/file_util.h"
 #include "app/session/rig_json.h"
 #include "app/sim/bench_template.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -35,7 +36,7 @@ int RunImport(ImportState& state) {
   const ImportSummary& summary = import.summary();
   std::cout << "Session " << fs::absolute(state.session_dir).string() << ": " << summary.frames_copied
             << " frames copied, " << summary.frames_resumed << " already there (" << summary.camera << ", matched by "
-            << summary.match << ") in " << summary.seconds << " s\n";
+            << summary.match << ") in " << Significant(summary.seconds) << " s\n";
   for (const ImportedFrame& frame : summary.frames) std::cout << "  " << frame.frame << " <- " << frame.source << "\n";
   for (const std::string& name : summary.ignored) std::cout << "  not used: " << name << "\n";
   for (const std::string& warning : summary.warnings) std::cout << "  warning: " << warning << "\n";
@@ -95,21 +96,35 @@ void RegisterBenchInit(CLI::App& app, int* exit_code) {
       "init", "Write a rig description (as capture --rig-file and import --rig read it) for a bench of LEDs on rings "
               "aimed at the sample centre and a camera looking straight down; prints the fields to measure");
   command->add_option("output", state->output, "Rig description JSON to write")->required();
-  command->add_option("--name", o.name, "Bench name recorded in the rig")->capture_default_str();
-  command->add_option("--leds", o.num_leds, "Number of LEDs, 1..10 (LED k on firmware channel k, pin D(2+k))")
+  SetsField(command->add_option("--name", o.name, "Bench name recorded in the rig"), "BenchTemplateOptions.name")
       ->capture_default_str();
-  command->add_option("--ring-radii-mm", o.ring_radii_mm,
-                      "Horizontal distance of each ring from the sample centre, mm; LEDs dealt round-robin")
+  SetsField(
+      command->add_option("--leds", o.num_leds, "Number of LEDs, 1..10 (LED k on firmware channel k, pin D(2+k))"),
+      "BenchTemplateOptions.num_leds")
+      ->capture_default_str();
+  SetsField(command->add_option("--ring-radii-mm", o.ring_radii_mm,
+                                "Horizontal distance of each ring from the sample centre, mm; LEDs dealt round-robin"),
+            {"BenchTemplateOptions.ring_radii_mm", "BenchTemplateOptions.ring_radii_mm[0]",
+             "BenchTemplateOptions.ring_radii_mm[1]", "BenchTemplateOptions.ring_radii_mm[2]",
+             "BenchTemplateOptions.ring_radii_mm[3]"})
       ->delimiter(',')
       ->capture_default_str();
-  command->add_option("--ring-heights-mm", o.ring_heights_mm, "Height of each ring above the table, mm")
+  SetsField(command->add_option("--ring-heights-mm", o.ring_heights_mm, "Height of each ring above the table, mm"),
+            {"BenchTemplateOptions.ring_heights_mm", "BenchTemplateOptions.ring_heights_mm[0]",
+             "BenchTemplateOptions.ring_heights_mm[1]", "BenchTemplateOptions.ring_heights_mm[2]",
+             "BenchTemplateOptions.ring_heights_mm[3]"})
       ->delimiter(',')
       ->capture_default_str();
   command->add_option("--camera", o.camera, "Camera preset")->check(CLI::IsMember({"d5100"}))->capture_default_str();
-  command->add_option("--lens-mm", o.lens_focal_mm, "Lens focal length, mm")->capture_default_str();
-  command->add_option("--camera-height-mm", o.camera_height_mm, "Camera (lens) height above the table, mm")
+  SetsField(command->add_option("--lens-mm", o.lens_focal_mm, "Lens focal length, mm"),
+            "BenchTemplateOptions.lens_focal_mm")
       ->capture_default_str();
-  command->add_option("--mu", o.mu, "LED angular falloff exponent, cos^mu (Lambertian: 1)")->capture_default_str();
+  SetsField(command->add_option("--camera-height-mm", o.camera_height_mm, "Camera (lens) height above the table, mm"),
+            "BenchTemplateOptions.camera_height_mm")
+      ->capture_default_str();
+  SetsField(command->add_option("--mu", o.mu, "LED angular falloff exponent, cos^mu (Lambertian: 1)"),
+            "BenchTemplateOptions.mu")
+      ->capture_default_str();
   command->add_flag("--force", state->force, "Replace an existing output file");
   command->callback([state, exit_code] { Guarded(exit_code, [&] { return RunBenchInit(*state); }); });
 }

@@ -1,14 +1,22 @@
 // scanbench: the command line. Every command drives the same controllers the
 // GUI uses.
 #include <CLI/CLI.hpp>
+#include <iostream>
+#include <memory>
 
 #include "app/cli/commands.h"
+#include "app/cli/help_format.h"
+#include "app/cli/option_fields.h"
+#include "app/cli/parse_errors.h"
 #include "app/cli/run_controller.h"
 #include "core/memory.h"
 
 int main(int argc, char** argv) {
   scanbench::ReturnFreedImagesToTheSystem();
-  CLI::App app{"scanbench: photometric-stereo textile scanner (albedo and normal maps)"};
+  // Named, not argv[0]: usage lines read "scanbench solve [OPTIONS] session" wherever the binary lies.
+  CLI::App app{"scanbench: photometric-stereo textile scanner (albedo and normal maps)", "scanbench"};
+  // Before the commands: each subcommand takes its parent's formatter.
+  app.formatter(std::make_shared<scanbench::WrappingFormatter>(scanbench::HelpColumns()));
   app.require_subcommand(1);
   app.set_version_flag("--version", "scanbench " SCANBENCH_VERSION);
   int exit_code = scanbench::kExitSuccess;
@@ -21,6 +29,11 @@ int main(int argc, char** argv) {
   scanbench::RegisterExportCommands(app, &exit_code);
   scanbench::RegisterCameraCommands(app, &exit_code);
   scanbench::RegisterCalibrateCommands(app, &exit_code);
-  CLI11_PARSE(app, argc, argv);
+  scanbench::SetCommandLineRoot(&app);  // option errors name the options of the command run
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return scanbench::ExitOnParseError(app, error, std::cout, std::cerr);
+  }
   return exit_code;
 }

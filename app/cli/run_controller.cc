@@ -7,6 +7,7 @@
 #include <iostream>
 #include <thread>
 
+#include "app/cli/option_fields.h"
 #include "app/cli/progress_bar.h"
 
 namespace scanbench {
@@ -53,7 +54,7 @@ int RunController(BaseController& controller, const ProgressReportCallback& obse
     std::cerr << "scanbench: " << cancelled.what() << "; nothing was lost (frames and earlier results are intact)\n";
     return kExitCancelled;
   } catch (const std::exception& error) {
-    std::cerr << "scanbench: error: " << error.what() << "\n";
+    std::cerr << "scanbench: error: " << CommandLineMessage(error) << "\n";
     return kExitFailure;
   }
 }

@@ -17,29 +17,38 @@ namespace fs = std::filesystem;
 namespace {
 
 void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
-  command.add_option("--width", options.rig.width, "Image width in pixels (4928 = full Nikon D5100)")
+  SetsField(command.add_option("--width", options.rig.width, "Image width in pixels (4928 = full Nikon D5100)"),
+            {"SimulatedRigOptions.width", "MakeDefaultSimulatedRig.width"})
       ->capture_default_str();
-  command.add_option("--height", options.rig.height, "Image height in pixels (3264 = full Nikon D5100)")
+  SetsField(command.add_option("--height", options.rig.height, "Image height in pixels (3264 = full Nikon D5100)"),
+            {"SimulatedRigOptions.height", "MakeDefaultSimulatedRig.height"})
       ->capture_default_str();
   command.add_option("--seed", options.rig.seed, "Sensor noise seed")->capture_default_str();
   command.add_option("--scene-seed", options.scene.seed, "Textile variation seed")->capture_default_str();
-  command.add_option("--warp-pitch", options.scene.warp_pitch_mm, "Warp thread spacing, mm")->capture_default_str();
-  command.add_option("--weft-pitch", options.scene.weft_pitch_mm, "Weft thread spacing, mm")->capture_default_str();
-  command  // issue #15: draped samples
-      .add_option("--fold-amplitude", options.scene.fold_amplitude_mm,
-                  "Fold amplitude, mm: the folds lift the cloth by 0 .. 2x this (the default 2.5 = +-2.5 mm about "
-                  "their mean; 25 = a draped sample, +-25 mm)")
+  SetsField(command.add_option("--warp-pitch", options.scene.warp_pitch_mm, "Warp thread spacing, mm"),
+            "TextileSceneOptions.warp_pitch_mm")
+      ->capture_default_str();
+  SetsField(command.add_option("--weft-pitch", options.scene.weft_pitch_mm, "Weft thread spacing, mm"),
+            "TextileSceneOptions.weft_pitch_mm")
+      ->capture_default_str();
+  SetsField(command.add_option(
+                "--fold-amplitude", options.scene.fold_amplitude_mm,
+                "Fold amplitude, mm: the folds lift the cloth by 0 .. 2x this (the default 2.5 = +-2.5 mm about "
+                "their mean; 25 = a draped sample, +-25 mm)"),
+            "TextileSceneOptions.fold_amplitude_mm")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  command.add_option("--sample-name", options.sample_name, "Sample name recorded in session.json")
+  SetsField(command.add_option("--sample-name", options.sample_name, "Sample name recorded in session.json"),
+            "SimulateOptions.sample_name")
       ->capture_default_str();
   command.add_flag("--no-noise", [&options](std::int64_t) { options.rig.add_noise = false; },
                    "Render without sensor noise");
   command.add_flag("--no-shadows", [&options](std::int64_t) { options.rig.cast_shadows = false; },
                    "Render without cast shadows");
-  command.add_option("--render-threads", options.rig.num_threads, "Render threads (0 = all cores)")
+  SetsField(command.add_option("--render-threads", options.rig.num_threads, "Render threads (0 = all cores)"),
+            "SimulatedRigOptions.num_threads")
       ->capture_default_str();
-  command  // issue #4
+  command
       .add_option_function<std::string>(
           "--rig-description",
           [&options](const std::string& kind) {
@@ -49,7 +58,7 @@ void AddSimulateOptions(CLI::App& command, SimulateOptions& options) {
           "Rig description written into session.json: true (the simulator's, default) or measured (LED positions "
           "a few mm off, nominal LEDs and camera: solve it with --calibration)")
       ->check(CLI::IsMember({"true", "measured"}));
-  command  // issue #12
+  command
       .add_option_function<std::string>(
           "--sample",
           [&options](const std::string& kind) {
@@ -99,6 +108,10 @@ struct DemoState {
 };
 
 int Demo(const DemoState& state) {
+  // Every option is checked before anything is written: a rejected demo leaves no folder behind.
+  WithSampleName(state.simulate).Check();
+  state.solve.Check();
+  if (state.export_maps) state.export_options.Check();
   const fs::path session_dir = state.output / "session";
   if (fs::exists(session_dir / "session.json") && LoadSession(session_dir).capture_complete) {
     std::cout << "Re-solving the existing demo session " << fs::absolute(session_dir).string()
@@ -130,7 +143,8 @@ void RegisterScanCommands(CLI::App& app, int* exit_code) {
               "Run again to re-solve the same session into a new result and export folder.");
   demo_command->add_option("--output", demo->output, "Folder for the demo session")->capture_default_str();
   AddSimulateOptions(*demo_command, demo->simulate);
-  demo_command->add_option("--threads", demo->solve.solver.num_threads, "Solver threads (0 = all cores)")
+  SetsField(demo_command->add_option("--threads", demo->solve.solver.num_threads, "Solver threads (0 = all cores)"),
+            "PhotometricSolverOptions.num_threads")
       ->capture_default_str();
   demo_command->add_option("--calibration", demo->solve.calibration_dir,  // issue #4
                            "Calibration set to solve with (scanbench calibrate demo makes one)")

@@ -231,8 +231,8 @@ std::string DatasetSolveSummary::FullReport() const {
   }
   if (specular) out << "  " << specular->BriefReport() << "\n";
   if (kind == KindName(PhotometricDataset::Kind::kNearField)) out << "  " << depth.BriefReport() << "\n";
-  out << "  time (s): load " << load_seconds << "; solve " << solve_seconds << "; depth refine " << depth_seconds
-      << "; write " << write_seconds << "\n";
+  out << "  time (s): load " << Significant(load_seconds) << "; solve " << Significant(solve_seconds)
+      << "; depth refine " << Significant(depth_seconds) << "; write " << Significant(write_seconds) << "\n";
   if (!output_dir.empty()) out << "  written to:   " << output_dir.string() << "\n";
   return out.str();
 }

@@ -175,6 +175,12 @@ std::string TangentFrameText(ExportOptions::NormalConvention convention) {
              : "unit normal, tangent frame x right, y up (OpenGL), z out of the sample";
 }
 
+// "roughness_mip03": the kind (and file name part) of a mip level, two digits so
+// that the files sort in level order (mip10 after mip09; 16 MP has 13 levels).
+std::string MipKind(const std::string& map, size_t level) {
+  return map + "_mip" + (level < 10 ? "0" : "") + std::to_string(level);
+}
+
 // The maps the tileable crop cuts, in the order of ExportMaps::tiles.
 std::vector<TileableMapInput> TileInputs(const ExportInputs& inputs, const ExportMaps& maps) {
   return {{&inputs.albedo, TileMapKind::kLinear},   {&maps.normals, TileMapKind::kNormal},
@@ -505,11 +511,11 @@ void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, E
               "cavity, 1 = at or above the neighbourhood, 0 = deep", mm);
   for (size_t k = 0; k < maps.mips.size(); ++k) {
     const double pixel_mm = mm * std::ldexp(1.0, static_cast<int>(k));
-    plan.AddMap("roughness_mip" + std::to_string(k), maps.mips[k].roughness, "Raw", unit_interval,
+    plan.AddMap(MipKind("roughness", k), maps.mips[k].roughness, "Raw", unit_interval,
                 "GGX alpha (" + summary.gloss.model + " mip chain; normal variance below this level folded in" +
                     (summary.specular_roughness ? "; mip 0 from specular.exr where estimated)" : ")"),
                 pixel_mm);
-    if (k > 0) plan.AddNormal("normal_mip" + std::to_string(k), maps.mips[k].normal_in_tangent, pixel_mm);
+    if (k > 0) plan.AddNormal(MipKind("normal", k), maps.mips[k].normal_in_tangent, pixel_mm);
   }
   if (!maps.tiles.empty()) {
     plan.AddBasecolor("tile_basecolor", maps.tiles[0], inputs.albedo_color, mm);
@@ -517,7 +523,7 @@ void PlanGenericMaps(const ExportSummary& summary, const ExportInputs& inputs, E
     plan.AddHeight("tile_height", maps.tiles[2], mm);
     plan.AddMap("tile_ao", maps.tiles[3], "Raw", unit_interval, "tileable crop of ao", mm);
     plan.AddMap("tile_cavity", maps.tiles[4], "Raw", unit_interval, "tileable crop of cavity", mm);
-    plan.AddMap("tile_roughness", maps.tiles[5], "Raw", unit_interval, "tileable crop of roughness_mip0", mm);
+    plan.AddMap("tile_roughness", maps.tiles[5], "Raw", unit_interval, "tileable crop of roughness_mip00", mm);
   }
 }
 
@@ -591,7 +597,7 @@ std::string MaterialXOf(const ExportOptions& options, const ExportSummary& summa
   mtlx.height_scale = 0.001;  // mm -> metres
   const std::optional<EngineTarget> engine = EngineTargetOf(options.preset);
   if (!engine) {
-    mtlx.roughness_file = FileName(plan.Find("roughness_mip0"));
+    mtlx.roughness_file = FileName(plan.Find(MipKind("roughness", 0)));
     mtlx.roughness = MaterialXMaterialOptions::Roughness::kGgxAlpha;
   } else if (*engine == EngineTarget::kUnityHdrp) {
     mtlx.roughness_file = FileName(plan.Find("mask_map"));
@@ -941,7 +947,7 @@ void ExportOptions::Check() const {
   cavity_scaled.Check();
   gloss.Check();
   specular_roughness.Check();
-  tile.Check();
+  if (tileable) tile.Check();  // the crop's options matter only when there is a crop (issue #36)
 }
 
 const char* ExportPresetName(ExportOptions::Preset preset) {
@@ -1032,8 +1038,8 @@ std::string ExportSummary::FullReport() const {
   }
   for (const std::string& warning : warnings) out << "  warning: " << warning << "\n";
   out << std::setprecision(3) << "  files:        " << files.size() << "\n  time per stage (s):";
-  for (const auto& [stage, stage_time] : stage_seconds) out << " " << stage << " " << stage_time << ";";
-  out << " total " << seconds << "\n";
+  for (const auto& [stage, stage_time] : stage_seconds) out << " " << stage << " " << Significant(stage_time) << ";";
+  out << " total " << Significant(seconds) << "\n";
   return out.str();
 }
 

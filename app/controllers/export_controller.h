@@ -62,7 +62,7 @@ struct ExportOptions {
   // With the result's specular.exr (issue #13): its roughness where estimated,
   // feathered into the normal-variance estimate (maps/specular_roughness.h).
   SpecularRoughnessOptions specular_roughness;
-  TileableCropOptions tile;
+  TileableCropOptions tile;  // with tileable only: checked and used only then
   void Check() const;
 };
 // "exr", "png16", "tiff16", "unreal", "unity-hdrp", "gltf".

@@ -112,7 +112,7 @@ std::string LiveSolveSummary::BriefReport() const {
   std::ostringstream out;
   out << "Live solve: " << capture.frames_captured << " frames captured, " << capture.frames_resumed
       << " already there; " << frames_decoded_live << " decoded while capturing (" << frames_developed_live << " developed); result "
-      << solve.result_dir.string() << " " << Fixed(seconds_after_last_frame, 2) << " s after the last frame (" << Fixed(cpu_seconds_after_last_frame, 2) << " s of CPU)";
+      << solve.result_dir.string() << " " << Significant(seconds_after_last_frame) << " s after the last frame (" << Significant(cpu_seconds_after_last_frame) << " s of CPU)";
   return out.str();
 }
 

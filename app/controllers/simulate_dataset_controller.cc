@@ -12,6 +12,7 @@
 #include "app/io/image_io.h"
 #include "app/io/staged_folder.h"
 #include "core/field_error.h"
+#include "core/format.h"
 
 namespace scanbench {
 namespace fs = std::filesystem;
@@ -58,7 +59,7 @@ std::string SimulateDatasetSummary::BriefReport() const {
   out << std::fixed << std::setprecision(2) << "near-field folder " << folder.string() << ": " << width << "x"
       << height << ", " << num_lights << " LEDs, " << mask_pixels << " mask pixels, mean distance "
       << mean_distance_mm << " mm (table " << table_distance_mm << " mm, highest point " << max_height_mm
-      << " mm above it), " << seconds << " s";
+      << " mm above it), " << Significant(seconds) << " s";
   return out.str();
 }
 

@@ -514,8 +514,8 @@ std::string SolveSummary::FullReport() const {
         << " MB)\n" << std::setprecision(3);
   }
   out << "  time per stage (s):";
-  for (const StageTiming& timing : timings) out << " " << timing.stage << " " << timing.seconds << ";";
-  out << " total " << TotalSeconds() << "\n";
+  for (const StageTiming& timing : timings) out << " " << timing.stage << " " << Significant(timing.seconds) << ";";
+  out << " total " << Significant(TotalSeconds()) << "\n";
   return out.str();
 }
 

@@ -8,7 +8,6 @@
 #include <memory>
 #include <sstream>
 
-#include "core/format.h"
 #include "app/io/dataset_io.h"
 #include "app/io/file_util.h"
 #include "app/sim/simulated_rig.h"
@@ -17,6 +16,8 @@
 #include "calibration/raw_develop.h"
 #include "calibration/rig.h"
 #include "calibration/rig_light_field.h"
+#include "core/field_error.h"
+#include "core/format.h"
 #include "solver/angular_error.h"
 #include "solver/light_subset.h"
 #include "solver/photometric_methods.h"
@@ -322,14 +323,8 @@ std::vector<std::string> SolverReportSceneNames(const SolverReportOptions& optio
 
 void SolverReportOptions::Check() const {
   if (output_dir.empty()) throw std::invalid_argument("SolverReportOptions.output_dir is empty; a folder is required");
-  if (num_threads < 0 || num_threads > 256) {
-    throw std::invalid_argument("SolverReportOptions.num_threads = " + std::to_string(num_threads) +
-                                " must lie in [0, 256]");
-  }
-  if (analytic_size < 64 || analytic_size > 4096) {
-    throw std::invalid_argument("SolverReportOptions.analytic_size = " + std::to_string(analytic_size) +
-                                " must lie in [64, 4096]");
-  }
+  SCANBENCH_REQUIRE_GE_LE("SolverReportOptions", "num_threads", num_threads, 0, 256);
+  SCANBENCH_REQUIRE_GE_LE("SolverReportOptions", "analytic_size", analytic_size, 64, 4096);
 }
 
 std::string SolverReportSummary::MarkdownTable() const {

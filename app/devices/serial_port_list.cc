@@ -104,7 +104,7 @@ std::vector<SerialPortInfo> ListSerialPorts() {
   return ports;
 }
 
-std::string FindArduinoPort() {
+std::string FindArduinoPort(const BoardChoiceHints& hints) {
   std::vector<SerialPortInfo> boards;
   for (const SerialPortInfo& port : ListSerialPorts()) {
     if (!port.board.empty()) boards.push_back(port);
@@ -114,11 +114,12 @@ std::string FindArduinoPort() {
     throw std::runtime_error(
         "no LED board found: no Arduino among the serial ports (`scanbench devices` lists them). Connect the LED "
         "board, an Arduino Uno flashed with firmware/ (docs/bench.md), to this computer by USB, with its LED "
-        "drivers on pins D2..D11 and their supply on; or name its port with --port, or use --rig sim");
+        "drivers on pins D2..D11 and their supply on; or " +
+        hints.name_port + ", or " + hints.use_simulated);
   }
   std::string list;
   for (const SerialPortInfo& port : boards) list += " " + port.path + " (" + port.board + ")";
-  throw std::runtime_error("several Arduino-like boards found:" + list + "; choose one with --port");
+  throw std::runtime_error("several Arduino-like boards found:" + list + "; " + hints.name_port);
 }
 
 }  // namespace scanbench

@@ -27,10 +27,18 @@ struct SerialPortInfo {
 // std::runtime_error with libserialport's message if listing fails.
 std::vector<SerialPortInfo> ListSerialPorts();
 
+// What the operator can do when FindArduinoPort finds no board or several, in
+// the words of the front end that asks: the command line names its options
+// (`led` has --simulated, `capture` --rig sim), the GUI its controls.
+struct BoardChoiceHints {
+  std::string name_port = "choose its serial port";           // "name its port with --port"
+  std::string use_simulated = "use the simulated LED board";  // "use --simulated"
+};
+
 // The one serial port that looks like an Arduino board; throws
 // std::runtime_error listing the candidates when there is none or more than
-// one (the user then names the port).
-std::string FindArduinoPort();
+// one (the user then names the port, as `hints` say).
+std::string FindArduinoPort(const BoardChoiceHints& hints = {});
 
 // "Arduino Uno" for 2341:0043 etc.; clones' USB-serial chips (CH340, FTDI,
 // CP210x) are named as such ("USB-serial CH340 (Arduino clone?)"); "" when

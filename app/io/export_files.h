@@ -24,7 +24,7 @@ struct IntegerEncoding {
 };
 
 struct ExportFile {
-  std::string kind;                       // manifest key, e.g. "normal", "roughness_mip2"
+  std::string kind;                       // manifest key, e.g. "normal", "roughness_mip02"
   std::string relative_path;              // inside the export folder
   std::string format;                     // "exr", "png", "tiff"
   int bits_per_sample = 0;

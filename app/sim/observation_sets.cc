@@ -11,6 +11,7 @@
 #include "app/sim/shading_models.h"
 #include "app/sim/split_mix.h"
 #include "core/field_error.h"
+#include "core/format.h"
 #include "core/parallel_for.h"
 
 namespace scanbench {
@@ -342,7 +343,7 @@ void ObservationSetOptions::Check() const {
 std::string ObservationSetSummary::BriefReport() const {
   std::ostringstream text;
   text << "observation sets: " << TerminationName(termination) << ", " << num_sets << " sets, " << num_samples
-       << " samples (" << num_clipped << " clipped left out), " << seconds << " s";
+       << " samples (" << num_clipped << " clipped left out), " << Significant(seconds) << " s";
   if (!message.empty()) text << ": " << message;
   return text.str();
 }

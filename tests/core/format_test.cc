@@ -16,6 +16,20 @@ TEST(FormatTest, FixedDigits) {
   EXPECT_EQ(Fixed(-1.25, 0), "-1");
 }
 
+// Report times (issue #36): three significant digits, never "0.0797305 s" nor "7.97e-02 s".
+TEST(FormatTest, SignificantDigits) {
+  EXPECT_EQ(Significant(0.0797305), "0.0797");
+  EXPECT_EQ(Significant(12.345), "12.3");
+  EXPECT_EQ(Significant(1.5), "1.50");
+  EXPECT_EQ(Significant(1234.6), "1235");
+  EXPECT_EQ(Significant(0.000123456), "0.000123");
+  EXPECT_EQ(Significant(0.09996), "0.100");
+  EXPECT_EQ(Significant(9.996), "10.0");
+  EXPECT_EQ(Significant(-0.0797305), "-0.0797");
+  EXPECT_EQ(Significant(0), "0");
+  EXPECT_EQ(Significant(3.14159, 2), "3.1");
+}
+
 TEST(FormatTest, DurationOnAClockFace) {
   EXPECT_EQ(FormatDuration(0), "0:00");
   EXPECT_EQ(FormatDuration(42.4), "0:42");

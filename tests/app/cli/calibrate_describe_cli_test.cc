@@ -75,7 +75,7 @@ TEST(CalibrateDescribeCliTest, ErrorsNameTheSessionOrOptionAndTheRule) {
   const CommandResult spacer =
       RunScanbench("calibrate describe " + Quoted(capture) + " --as white_sheet --spacer-mm 0");
   EXPECT_EQ(spacer.exit_code, 1);
-  EXPECT_THAT(spacer.output, HasSubstr("spacer_mm = 0 must lie in (0, 200] mm"));
+  EXPECT_THAT(spacer.output, HasSubstr("--spacer-mm 0: must lie in (0, 200] mm"));  // the option as typed (issue #36)
   EXPECT_FALSE(fs::exists(capture / kCalibrationTargetFileName));
 
   const CommandResult kind = RunScanbench("calibrate describe " + Quoted(capture) + " --as tablecloth");

@@ -48,7 +48,7 @@ TEST(ExportCliTest, ExportsASolvedSessionWithTheChosenPresetAndConvention) {
   ASSERT_EQ(exports.size(), 1u);
   EXPECT_EQ(exports[0].filename().string(), results[0].filename().string() + "-tiff16");
   for (const char* name : {"denim_basecolor.tif", "denim_normal.tif", "denim_height.exr", "denim_height_normalized.tif",
-                           "denim_ao.tif", "denim_cavity.tif", "denim_roughness_mip0.tif",
+                           "denim_ao.tif", "denim_cavity.tif", "denim_roughness_mip00.tif",
                            "denim_basecolor_srgb_preview.png", "denim_mask.png", "denim_tile_normal.tif"}) {
     EXPECT_TRUE(fs::is_regular_file(exports[0] / "denim" / name)) << name;
   }

@@ -78,7 +78,7 @@ TEST(ImportCliTest, BenchInitWritesTheTemplateAndRefusesToOverwrite) {
   const CommandResult bad = RunScanbench("bench init " + Quoted(folder / "bad.json") +
                                          " --ring-radii-mm 300,200 --ring-heights-mm 300");
   EXPECT_EQ(bad.exit_code, 1);
-  EXPECT_THAT(bad.output, HasSubstr("ring_heights_mm"));
+  EXPECT_THAT(bad.output, HasSubstr("--ring-heights-mm 1 values: must have one height per ring radius (2)"));
 }
 
 // The first step on the real bench with the template: everything up to the

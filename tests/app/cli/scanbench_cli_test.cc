@@ -48,10 +48,11 @@ TEST(ScanbenchCliTest, HelpListsTheCommands) {
 
 // --method's help is the method table: every method on a line of its own with
 // its description, in every command that takes the solver's options; an
-// unknown name is refused with the table's names.
+// unknown name is refused with the table's names. (Wide enough that no
+// description wraps: cli_words_test.cc checks the wrapping.)
 TEST(ScanbenchCliTest, MethodHelpListsEveryMethodWithItsDescription) {
   for (const std::string command : {"solve", "solve-dataset", "batch", "capture"}) {
-    const CommandResult help = RunScanbench(command + " --help");
+    const CommandResult help = RunShell("COLUMNS=400 " + CliCommand(command + " --help"));
     ASSERT_EQ(help.exit_code, 0) << command;
     EXPECT_THAT(help.output, HasSubstr("Solver method (default adaptive):")) << command;
     for (const PhotometricMethodRow& method : PhotometricMethods()) {

@@ -311,11 +311,14 @@ TEST_F(ExportControllerTest, ManifestListsEveryFileWithItsChecksumAndLayout) {
   EXPECT_EQ(sizes.size(), 10u);  // 400x264 -> ... -> 1x1
   for (size_t k = 0; k < sizes.size(); ++k) {
     SCOPED_TRACE(k);
-    const nlohmann::json& entry = manifest["files"]["roughness_mip" + std::to_string(k)];
+    // Two digits (issue #36): the files sort in level order, mip10 after mip09.
+    const nlohmann::json& entry =
+        manifest["files"]["roughness_mip" + std::string(k < 10 ? "0" : "") + std::to_string(k)];
     EXPECT_EQ(entry["width"], sizes[k].first);
     EXPECT_EQ(entry["height"], sizes[k].second);
     EXPECT_NEAR(entry["mm_per_pixel"].get<double>(), summary.mm_per_pixel * std::pow(2.0, k), 1e-9);
   }
+  EXPECT_THAT(summary.files.at("roughness_mip09"), ::testing::EndsWith("_roughness_mip09.png"));
   // Normal variance makes coarser mips rougher than the base.
   EXPECT_GT(summary.gloss.mean_roughness[4], summary.gloss.mean_roughness[0]);
 }
@@ -374,7 +377,7 @@ TEST_F(ExportControllerTest, FilesAreEncodedAsMeasuredAndLossless) {
   for (const auto& [kind, compression] :
        {std::pair{"height", "none"}, std::pair{"cavity", "zip"}, std::pair{"normal", "piz"},
         std::pair{"basecolor", "piz"}, std::pair{"ao", "piz"}, std::pair{"confidence", "piz"},
-        std::pair{"roughness_mip1", "piz"}, std::pair{"normal_mip1", "piz"}}) {
+        std::pair{"roughness_mip01", "piz"}, std::pair{"normal_mip01", "piz"}}) {
     SCOPED_TRACE(kind);
     const ImageFileInfo info = ReadImageFileInfo(summary.export_dir / summary.files.at(kind));
     EXPECT_EQ(info.compression, compression);
@@ -578,7 +581,7 @@ TEST_F(ExportControllerTest, UnsolvedPixelsAreHolesAndMarkedInTheMask) {
   const ImageU8 mask = ReadImageU8(summary.export_dir / summary.files.at("mask"));
   EXPECT_EQ(mask(160, 120), 0);
   EXPECT_EQ(mask(100, 120), 255);
-  for (const char* kind : {"height", "ao", "cavity", "normal", "roughness_mip0"}) {
+  for (const char* kind : {"height", "ao", "cavity", "normal", "roughness_mip00"}) {
     const ImageF map = ReadImageFloat(summary.export_dir / summary.files.at(kind));
     EXPECT_TRUE(std::all_of(map.data(), map.data() + map.size(), [](float v) { return std::isfinite(v); })) << kind;
   }
@@ -615,7 +618,7 @@ TEST_F(ExportControllerTest, RoughnessUsesTheSpecularMapWhereEstimated) {
   options.preset = ExportOptions::Preset::kLinearExr;
   const ExportSummary summary = Export(options, result);
   EXPECT_EQ(summary.roughness_source, "specular_map+normal_variance");
-  const ImageF roughness = ReadImageFloat(summary.export_dir / summary.files.at("roughness_mip0"));
+  const ImageF roughness = ReadImageFloat(summary.export_dir / summary.files.at("roughness_mip00"));
   const int w = options.specular_roughness.blend_width_px;
   const double base = options.gloss.base_roughness;
   size_t checked_specular = 0, checked_fallback = 0;
@@ -669,7 +672,7 @@ TEST_F(ExportControllerTest, RoughnessUsesTheSpecularMapWhereEstimated) {
   const ExportSummary plain = Export(options, plain_result);
   EXPECT_EQ(plain.roughness_source, "normal_variance");
   EXPECT_FALSE(ReadJson(plain.export_dir / "material.json").contains("roughness"));
-  const ImageF plain_roughness = ReadImageFloat(plain.export_dir / plain.files.at("roughness_mip0"));
+  const ImageF plain_roughness = ReadImageFloat(plain.export_dir / plain.files.at("roughness_mip00"));
   EXPECT_NEAR(plain_roughness(10, row), base, 1e-6);
 }
 
@@ -725,7 +728,7 @@ TEST_F(ExportControllerTest, PreviewPageIsWrittenListedAndOptional) {
   const fs::path page = summary.export_dir / "preview.html";
   ASSERT_TRUE(fs::is_regular_file(page));
   const std::string text = ReadText(page);
-  EXPECT_THAT(text, HasSubstr("test_twill/test_twill_roughness_mip0.png"));
+  EXPECT_THAT(text, HasSubstr("test_twill/test_twill_roughness_mip00.png"));
   EXPECT_THAT(text, HasSubstr("\"title\":\"test_twill\""));
   const nlohmann::json manifest = ReadJson(summary.export_dir / "material.json");
   EXPECT_EQ(manifest["files"]["preview"]["bytes"].get<uintmax_t>(), fs::file_size(page));

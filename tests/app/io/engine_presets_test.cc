@@ -144,7 +144,7 @@ TEST_F(EnginePresetExportTest, EveryEngineFileIsListedWithItsLayoutAndColourSpac
     EXPECT_EQ(manifest["normal_convention"], preset == "unreal" ? "directx" : "opengl");
     EXPECT_THAT(manifest["engine"]["roughness"].get<std::string>(), HasSubstr("sqrt(GGX alpha)"));
     EXPECT_EQ(manifest["files"].count("basecolor_srgb_preview"), 0u) << "the base colour is 8-bit sRGB itself";
-    EXPECT_EQ(manifest["files"].count("roughness_mip1"), 0u) << "engines make their own mips";
+    EXPECT_EQ(manifest["files"].count("roughness_mip01"), 0u) << "engines make their own mips";
     for (const auto& [kind, entry] : manifest["files"].items()) {
       SCOPED_TRACE(kind);
       const fs::path path = summary.export_dir / entry["path"].get<std::string>();
@@ -229,7 +229,7 @@ TEST_F(EnginePresetExportTest, UnrealNormalsAreDirectXAndTheOthersOpenGl) {
 
 TEST_F(EnginePresetExportTest, PackedMapsHoldOcclusionAndPerceptualRoughness) {
   const ImageF ao = ReadImageFloat(FileOf("exr", "ao"));
-  const ImageF alpha = ReadImageFloat(FileOf("exr", "roughness_mip0"));
+  const ImageF alpha = ReadImageFloat(FileOf("exr", "roughness_mip00"));
   const ImageU16 orm = ReadImageU16(FileOf("unreal", "orm"));
   const ImageU16 gltf = ReadImageU16(FileOf("gltf", "occlusion_roughness_metallic"));
   const ImageU16 mask = ReadImageU16(FileOf("unity-hdrp", "mask_map"));
