@@ -128,6 +128,8 @@ class ScreenshotTourSteps {
     Find<QPlainTextEdit>(window_, "notes")->setPlainText("screenshot tour on the simulated bench");
     if (!ClickAndWait(window_, "startCapture", 300000)) return false;
     QThreadPool::globalInstance()->waitForDone();  // the thumbnails decode there
+    // A capture that solved while capturing has opened its result: the shot is of the Capture page.
+    window_.ShowPage(MainWindow::kCapturePage);
     Shot(window_, "capture");
     return ClickAndWait(window_, "solveCaptured", 300000);
   }
