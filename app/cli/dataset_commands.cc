@@ -93,6 +93,19 @@ void RegisterDatasetCommands(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   AddPhotometricSolverOptions(*command, state->options.solver);
   AddDepthRefinementOptions(*command, state->options.depth);  // near-field folders (issue #33)
+  // Issue #34: the cloth material and its relighting check.
+  command->add_flag("--material", state->options.material,
+                    "Fit the cloth material (base colour, sheen, specular) at the solved normals, write its maps and "
+                    "predict each light from the others (leave one light out)");
+  SetsField(command->add_option("--fit-lights", state->options.fit_lights,
+                                "Solve and fit from these lights only (numbers, 1 = the first image, e.g. 1,5,9,...; "
+                                "at least 6) and score the prediction of every other light against its photo")
+                ->delimiter(','),
+            "DatasetSolveOptions.fit_lights");
+  SetsField(command->add_option("--predict-dir", state->options.predict_dir,
+                                "With --fit-lights: write the predicted photo of every other light here, under its "
+                                "file name and bit depth (a new folder)"),
+            "DatasetSolveOptions.predict_dir");
   command->add_flag(
       "--no-depth-anchor-fit", [state](std::int64_t) { state->options.depth.anchor_by_residual = false; },
       "Depth refinement: put the --depth-anchor-percentile of the integrated height on the plane at "

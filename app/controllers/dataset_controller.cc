@@ -1,7 +1,10 @@
 #include "app/controllers/dataset_controller.h"
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -92,8 +95,95 @@ nlohmann::json DatasetReportJson(const fs::path& dataset_dir, const PhotometricD
                          {"depth_refine", summary.depth_seconds}, {"write_maps", summary.write_seconds}};
   if (summary.specular) report["specular"] = nlohmann::json::parse(summary.specular->ReportJson());  // issue #13
   report["depth_refinement"] = nlohmann::json::parse(result.depth.ReportJson(depth));  // as `solve` reports it
+  if (summary.material) {
+    const ClothMaterialFitSummary& fit = *summary.material;
+    report["material"] = {{"message", fit.BriefReport()},
+                          {"model", "glTF 2.0 metallic-roughness (metallic 0) + KHR_materials_sheen (Charlie, "
+                                    "Neubelt visibility) + KHR_materials_specular (white); solver/cloth_material.h"},
+                          {"pixels_fitted", fit.pixels_fitted},
+                          {"pixels_sheen", fit.pixels_sheen},
+                          {"pixels_specular", fit.pixels_specular},
+                          {"pixels_too_few_samples", fit.pixels_too_few_samples},
+                          {"seconds", summary.material_seconds}};
+  }
+  if (summary.relighting) {
+    const RelightingCheckSummary& check = *summary.relighting;
+    nlohmann::json lights = nlohmann::json::array();
+    for (size_t i = 0; i < check.lights.size(); ++i) {
+      lights.push_back({{"file", i < summary.predicted_files.size() ? summary.predicted_files[i] : ""},
+                        {"material", check.lights[i].material},
+                        {"lambertian", check.lights[i].lambertian},
+                        {"pixels", check.lights[i].samples}});
+    }
+    report["relighting"] = {
+        {"mode", summary.relighting_mode},
+        {"error", "sum |predicted - photo| / sum photo over the mask's fitted pixels, RGB"},
+        {"material_error", check.material_error},
+        {"lambertian_error", check.lambertian_error},
+        {"ratio", check.Ratio()},
+        {"pixels_scored", check.pixels_scored},
+        {"lights", lights}};
+  }
   report["outputs"] = outputs;
   return report;
+}
+
+// The material maps into `folder`; their names and files.
+std::map<std::string, std::string> WriteMaterialMaps(const fs::path& folder, const ClothMaterialMaps& maps) {
+  WriteExr(folder / "base_color.exr", maps.base_color, OverwritePolicy::kRefuse);
+  WriteExr(folder / "sheen_color.exr", maps.sheen_color, OverwritePolicy::kRefuse);
+  WriteExr(folder / "sheen_roughness.exr", maps.sheen_roughness, OverwritePolicy::kRefuse);
+  WriteExr(folder / "material_specular.exr", maps.specular, OverwritePolicy::kRefuse, {"f0", "roughness"});
+  WriteExr(folder / "material_confidence.exr", maps.confidence, OverwritePolicy::kRefuse,
+           {"sheen_color_stderr", "sheen_roughness_stderr", "specular_f0_stderr", "specular_roughness_stderr"});
+  WritePng(folder / "material_terms.png", maps.terms, OverwritePolicy::kRefuse);
+  return {{"base_color", "base_color.exr"},           {"sheen_color", "sheen_color.exr"},
+          {"sheen_roughness", "sheen_roughness.exr"}, {"material_specular", "material_specular.exr"},
+          {"material_confidence", "material_confidence.exr"}, {"material_terms", "material_terms.png"}};
+}
+
+// The 0-based indices of the 1-based light numbers `numbers` of a folder of `count` lights.
+std::vector<int> LightIndices(const std::vector<int>& numbers, int count, const std::string& folder) {
+  std::vector<int> indices;
+  for (int number : numbers) {
+    if (number < 1 || number > count) {
+      throw FieldError("DatasetSolveOptions", "fit_lights", number,
+                       "must name lights 1 to " + std::to_string(count) + " of " + folder);
+    }
+    if (std::find(indices.begin(), indices.end(), number - 1) != indices.end()) {
+      throw FieldError("DatasetSolveOptions", "fit_lights", number, "is given twice");
+    }
+    indices.push_back(number - 1);
+  }
+  std::sort(indices.begin(), indices.end());
+  return indices;
+}
+
+// `image` (values 0..1 of the file's range) rounded to T's whole range.
+template <typename T>
+Image<T> Quantised(const ImageF& image) {
+  constexpr double kMax = std::numeric_limits<T>::max();
+  Image<T> out(image.width(), image.height(), image.channels());
+  for (size_t i = 0; i < image.size(); ++i) {
+    out.data()[i] = static_cast<T>(std::lround(std::clamp(static_cast<double>(image.data()[i]), 0.0, 1.0) * kMax));
+  }
+  return out;
+}
+
+// A prediction as the photograph would be: the file's format and bit depth.
+void WritePredictedPhoto(const fs::path& path, const fs::path& like, const ImageF& predicted) {
+  const ImageFileInfo info = ReadImageFileInfo(like);
+  std::string extension = like.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (extension != ".png" || info.is_float) {
+    WriteExr(fs::path(path).replace_extension(".exr"), predicted, OverwritePolicy::kRefuse);
+    return;
+  }
+  if (info.bits_per_sample > 8) {
+    WritePng(path, Quantised<uint16_t>(predicted), OverwritePolicy::kRefuse);
+  } else {
+    WritePng(path, Quantised<uint8_t>(predicted), OverwritePolicy::kRefuse);
+  }
 }
 
 }  // namespace
@@ -108,6 +198,18 @@ DepthRefinementOptions DatasetDepthRefinementOptions() {
 void DatasetSolveOptions::Check() const {
   solver.Check();
   depth.Check();
+  relighting.Check();
+  if (!fit_lights.empty() && fit_lights.size() < 6) {
+    throw FieldError("DatasetSolveOptions", "fit_lights", fit_lights.size(), "lights: give at least 6");
+  }
+  if (!predict_dir.empty() && fit_lights.empty()) {
+    throw std::invalid_argument("DatasetSolveOptions.predict_dir = " + predict_dir.string() +
+                                " needs fit_lights: the lights to predict are those not fitted");
+  }
+  if (!predict_dir.empty() && fs::exists(predict_dir)) {
+    throw std::invalid_argument("DatasetSolveOptions.predict_dir = " + predict_dir.string() +
+                                " already exists; choose a new folder");
+  }
   if (ring_lights != 0 && ring_lights < 3) {
     throw FieldError("DatasetSolveOptions", "ring_lights", ring_lights, "must be 0 (every light) or at least 3");
   }
@@ -230,9 +332,20 @@ std::string DatasetSolveSummary::FullReport() const {
     out << "  no Normal_gt.mat: no error report\n";
   }
   if (specular) out << "  " << specular->BriefReport() << "\n";
+  if (material) out << "  " << material->BriefReport() << "\n";
+  if (relighting) {
+    out << "  " << relighting->BriefReport() << " (" << relighting_mode << ")\n";
+    // Per light where they fit on a screen; report.json has them all.
+    for (size_t i = 0; i < relighting->lights.size() && relighting->lights.size() <= 16; ++i) {
+      out << "    " << (i < predicted_files.size() ? predicted_files[i] : std::to_string(i + 1)) << ": material "
+          << Significant(100 * relighting->lights[i].material, 3) << " %, Lambertian "
+          << Significant(100 * relighting->lights[i].lambertian, 3) << " %\n";
+    }
+  }
   if (kind == KindName(PhotometricDataset::Kind::kNearField)) out << "  " << depth.BriefReport() << "\n";
   out << "  time (s): load " << Significant(load_seconds) << "; solve " << Significant(solve_seconds)
-      << "; depth refine " << Significant(depth_seconds) << "; write " << Significant(write_seconds) << "\n";
+      << "; depth refine " << Significant(depth_seconds) << "; material " << Significant(material_seconds)
+      << "; write " << Significant(write_seconds) << "\n";
   if (!output_dir.empty()) out << "  written to:   " << output_dir.string() << "\n";
   return out.str();
 }
@@ -243,9 +356,19 @@ DatasetController::DatasetController(fs::path dataset_dir, DatasetSolveOptions o
 void DatasetController::Run() {
   options_.Check();
   summary_ = DatasetSolveSummary();
-  const PhotometricDataset dataset = LoadDataset();
+  PhotometricDataset dataset = LoadDataset();
+  // --fit-lights: the solve and the material from those lights, the folder's every light kept to score against.
+  std::optional<PhotometricDataset> all_lights;
+  if (!options_.fit_lights.empty()) {
+    all_lights = dataset;
+    dataset.KeepLights(LightIndices(options_.fit_lights, dataset.num_lights(), dataset.folder.string()));
+    summary_.num_lights = dataset.num_lights();
+  }
   const DatasetSolveResult result = Solve(dataset);
-  if (!options_.output_dir.empty()) WriteOutputs(dataset, result);
+  std::optional<ClothMaterialMaps> material;
+  if (options_.material || all_lights) material = FitMaterial(dataset, all_lights ? &*all_lights : nullptr, result);
+  if (!options_.output_dir.empty()) WriteOutputs(dataset, result, material ? &*material : nullptr);
+  if (!options_.predict_dir.empty()) WritePredictions(*all_lights, result, *material);
 }
 
 PhotometricDataset DatasetController::LoadDataset() {
@@ -291,9 +414,97 @@ DatasetSolveResult DatasetController::Solve(const PhotometricDataset& dataset) {
   return result;
 }
 
+ClothMaterialMaps DatasetController::FitMaterial(const PhotometricDataset& dataset,
+                                                const PhotometricDataset* all_lights,
+                                                const DatasetSolveResult& result) {
+  const auto start = Clock::now();
+  const std::unique_ptr<LightField> field = dataset.MakeLightField();
+  PhotometricSolverInput input;
+  input.images = dataset.ImagePointers();
+  input.light_field = field.get();
+  const ImageF& normals = result.solution.normal_in_table;
+  // Only what the solve solved: its placeholders are not normals.
+  ImageU8 pixels(dataset.width, dataset.height, 1);
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    pixels.data()[i] = dataset.mask.data()[i] != 0 &&
+                       result.solution.status.data()[i] == static_cast<uint8_t>(PixelStatus::kSolved);
+  }
+  ClothMaterialFitOptions fit = options_.relighting.fit;
+  fit.num_threads = options_.solver.num_threads;
+  ClothMaterialMaps maps;
+  const ClothMaterialFitSummary fitted = FitClothMaterial(fit, input, normals, pixels, &maps, StageCallback("material"));
+  RequireSuccess(fitted, "material");
+  summary_.material = fitted;
+
+  RelightingCheckSummary check;
+  if (all_lights == nullptr) {
+    RelightingCheckOptions relighting = options_.relighting;
+    relighting.fit.num_threads = fit.num_threads;
+    check = CheckRelighting(relighting, input, normals, pixels, StageCallback("relighting check"));
+    RequireSuccess(check, "relighting check");
+    summary_.predicted_files = dataset.image_files;
+    summary_.relighting_mode = "leave_one_light_out";
+  } else {
+    // The other lights, predicted by the material and by albedo x n.l from the fitted lights.
+    BeginStage("predict lights");
+    ClothMaterialFitOptions albedo_only = fit;
+    albedo_only.fit_sheen = albedo_only.fit_specular = false;
+    ClothMaterialMaps lambertian;
+    RequireSuccess(FitClothMaterial(albedo_only, input, normals, pixels, &lambertian), "material");
+    ImageU8 both(dataset.width, dataset.height, 1);
+    for (size_t i = 0; i < both.size(); ++i) {
+      both.data()[i] = (maps.terms.data()[i] & kMaterialFitted) && (lambertian.terms.data()[i] & kMaterialFitted);
+      check.pixels_scored += both.data()[i];
+    }
+    const std::unique_ptr<LightField> all_field = all_lights->MakeLightField();
+    const std::vector<int> fitted_indices = LightIndices(options_.fit_lights, all_lights->num_lights(), "");
+    double material_sum = 0, lambertian_sum = 0;
+    int scored = 0;
+    for (int light = 0; light < all_lights->num_lights(); ++light) {
+      if (std::binary_search(fitted_indices.begin(), fitted_indices.end(), light)) continue;
+      ThrowIfStopRequested("predict lights");
+      const RelightingLightError error = ScoreLightPrediction(
+          PredictLightImage(maps, normals, *all_field, light, fit.num_threads),
+          PredictLightImage(lambertian, normals, *all_field, light, fit.num_threads), all_lights->images[light], both);
+      check.lights.push_back(error);
+      summary_.predicted_files.push_back(all_lights->image_files[light]);
+      if (error.samples > 0) material_sum += error.material, lambertian_sum += error.lambertian, ++scored;
+      ReportProgress("predict lights", static_cast<double>(light + 1) / all_lights->num_lights());
+    }
+    if (scored > 0) {
+      check.material_error = material_sum / scored;
+      check.lambertian_error = lambertian_sum / scored;
+    }
+    check.termination = Termination::kSuccess;
+    summary_.relighting_mode = "fit_lights";
+  }
+  summary_.relighting = check;
+  summary_.material_seconds = SecondsSince(start);
+  return maps;
+}
+
+void DatasetController::WritePredictions(const PhotometricDataset& all_lights, const DatasetSolveResult& result,
+                                         const ClothMaterialMaps& material) {
+  BeginStage("write predictions");
+  StagedFolder staged = StagedFolder::OntoAbsent(options_.predict_dir);
+  const std::unique_ptr<LightField> field = all_lights.MakeLightField();
+  const std::vector<int> fitted = LightIndices(options_.fit_lights, all_lights.num_lights(), "");
+  for (int light = 0; light < all_lights.num_lights(); ++light) {
+    if (std::binary_search(fitted.begin(), fitted.end(), light)) continue;
+    ThrowIfStopRequested("write predictions");
+    const fs::path file = fs::path(all_lights.image_files[light]).filename();
+    WritePredictedPhoto(staged.staging() / file, all_lights.folder / all_lights.image_files[light],
+                        PredictLightImage(material, result.solution.normal_in_table, *field, light,
+                                          options_.solver.num_threads));
+    ReportProgress("write predictions", static_cast<double>(light + 1) / all_lights.num_lights());
+  }
+  staged.Commit();
+}
+
 // Maps and report into a staging folder renamed into place at the end: the
 // output folder appears complete or not at all.
-void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const DatasetSolveResult& result) {
+void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const DatasetSolveResult& result,
+                                     const ClothMaterialMaps* material) {
   const auto start = Clock::now();
   BeginStage("write maps");
   const fs::path out = options_.output_dir;
@@ -301,6 +512,7 @@ void DatasetController::WriteOutputs(const PhotometricDataset& dataset, const Da
   StagedFolder staged = StagedFolder::OntoAbsent(out);
   std::map<std::string, std::string> outputs =
       WriteSolutionMaps(staged.staging(), result.solution, {}, ResultMapExrEncoding(), result.error_map_deg);
+  if (material) outputs.merge(WriteMaterialMaps(staged.staging(), *material));
   summary_.output_dir = out;
   summary_.write_seconds = SecondsSince(start);
   outputs["report"] = "report.json";

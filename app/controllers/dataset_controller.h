@@ -12,6 +12,7 @@
 #include "app/io/dataset_io.h"
 #include "app/io/result_maps.h"
 #include "pipeline/depth_refinement.h"
+#include "pipeline/relighting_check.h"
 #include "solver/angular_error.h"
 #include "solver/photometric_solver.h"
 
@@ -41,6 +42,20 @@ struct DatasetSolveOptions {
   // 0 = every light; else only this many, chosen like the scanner's two LED
   // rings (SelectRingLights, solver/light_subset.h), in [3, the dataset's lights].
   int ring_lights = 0;
+  // Issue #34: fit the cloth material (solver/cloth_material.h) at the solved
+  // normals, write its maps and check it by relighting: without fit_lights,
+  // each light predicted from the others (CheckRelighting).
+  bool material = false;
+  RelightingCheckOptions relighting;  // the fit's options are relighting.fit
+  // Light numbers (1 = the folder's first image, after ring_lights), each in
+  // [1, lights], at least 6, distinct: the solve and the material use only
+  // these, and every other light is predicted from them and scored against
+  // its photograph. Implies material. Empty = every light.
+  std::vector<int> fit_lights;
+  // With fit_lights: the predicted photograph of every other light, under its
+  // file name and in its format (PNG of its bit depth), into this folder
+  // (created; must not exist). Empty = none written.
+  std::filesystem::path predict_dir;
 
   void Check() const;
 };
@@ -95,6 +110,14 @@ struct DatasetSolveSummary {
   std::optional<ErrorStatistics> normal_error_deg;
   size_t unsolved_in_mask = 0;
   std::optional<SpecularMapStatistics> specular;  // when the method made a specular map (specular.exr)
+  // With material: the fit, and its check (leave one light out, or with
+  // fit_lights the other lights' predictions, one entry each in
+  // predicted_files' order).
+  std::optional<ClothMaterialFitSummary> material;
+  std::optional<RelightingCheckSummary> relighting;
+  std::vector<std::string> predicted_files;
+  std::string relighting_mode;  // "leave_one_light_out" or "fit_lights"
+  double material_seconds = 0;
   DepthRefinementSummary depth;                   // the depth-aware re-solves (near field)
   double load_seconds = 0, solve_seconds = 0, depth_seconds = 0, write_seconds = 0;
   std::filesystem::path output_dir;
@@ -111,7 +134,14 @@ class DatasetController : public BaseController {
  private:
   PhotometricDataset LoadDataset();
   DatasetSolveResult Solve(const PhotometricDataset& dataset);
-  void WriteOutputs(const PhotometricDataset& dataset, const DatasetSolveResult& result);
+  // The material at the solve's normals and its check; `all_lights` is the
+  // folder's every light when fit_lights chose `dataset`'s, else null.
+  ClothMaterialMaps FitMaterial(const PhotometricDataset& dataset, const PhotometricDataset* all_lights,
+                                const DatasetSolveResult& result);
+  void WriteOutputs(const PhotometricDataset& dataset, const DatasetSolveResult& result,
+                    const ClothMaterialMaps* material);
+  void WritePredictions(const PhotometricDataset& all_lights, const DatasetSolveResult& result,
+                        const ClothMaterialMaps& material);
 
   std::filesystem::path dataset_dir_;
   DatasetSolveOptions options_;

@@ -22,12 +22,6 @@ double GgxLambda(const Eigen::Vector3d& w, double alpha_t2, double alpha_b2) {
   return 0.5 * (std::sqrt(1.0 + a2_tan2) - 1.0);
 }
 
-double SchlickFresnel(double f0, double cos_theta) {
-  const double m = 1.0 - std::clamp(cos_theta, 0.0, 1.0);
-  const double m2 = m * m;
-  return f0 + (1.0 - f0) * m2 * m2 * m;
-}
-
 const char* SurfaceMaterialName(SurfaceMaterial material) {
   switch (material) {
     case SurfaceMaterial::kLambert: return "lambert";

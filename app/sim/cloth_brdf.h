@@ -27,6 +27,8 @@
 
 #include <Eigen/Core>
 
+#include "solver/engine_shading.h"  // SchlickFresnel
+
 namespace scanbench {
 
 enum class SurfaceMaterial {
@@ -52,8 +54,6 @@ struct MaterialResponse {
   double specular = 0;
 };
 
-// Schlick's Fresnel: f0 + (1 - f0) (1 - cos)^5, cos clamped to [0, 1].
-double SchlickFresnel(double f0, double cos_theta);
 // Smith's Lambda of anisotropic GGX for direction w in the (t, b, n) frame,
 // given the squared alphas (Heitz 2014, eq. 86).
 double GgxLambda(const Eigen::Vector3d& w, double alpha_t2, double alpha_b2);

@@ -1,13 +1,13 @@
 #include "app/sim/shading_models.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <numbers>
 
 #include <Eigen/Geometry>
 
 #include "app/sim/cloth_brdf.h"
+#include "solver/engine_shading.h"
 
 namespace scanbench {
 namespace {
@@ -27,12 +27,7 @@ double BurleyFactor(double roughness, double nl, double nv, double lh) {
 
 // pi D V F (n.l) of isotropic GGX with the height-correlated Smith visibility.
 double IsotropicGgx(double alpha, double f0, double nl, double nv, double nh, double vh) {
-  const double a2 = alpha * alpha;
-  const double denom = nh * nh * (a2 - 1.0) + 1.0;
-  const double d = a2 / (kPi * denom * denom);
-  const double visibility =
-      0.5 / (nl * std::sqrt(nv * nv * (1.0 - a2) + a2) + nv * std::sqrt(nl * nl * (1.0 - a2) + a2));
-  return kPi * d * visibility * SchlickFresnel(f0, vh) * nl;
+  return kPi * GgxDistribution(alpha, nh) * GgxVisibility(alpha, nl, nv) * SchlickFresnel(f0, vh) * nl;
 }
 
 // pi F D G / (4 n.l n.v) (n.l) of anisotropic GGX (as the satin of cloth_brdf.cc).
@@ -53,59 +48,7 @@ double AnisotropicGgx(const ShadingModel& model, const Eigen::Vector3d& n, const
   return kPi * SchlickFresnel(model.specular_f0, v.dot(h)) * d * g / (4.0 * nv);
 }
 
-// Charlie's distribution (2 + 1/a) sin(th_h)^(1/a) / (2 pi), a = r^2 as glTF's spec.
-double CharlieDistribution(double roughness, double nh) {
-  const double alpha = std::max(roughness * roughness, 1e-3);
-  const double inv_alpha = 1.0 / alpha;
-  const double sin2 = std::max(0.0, 1.0 - nh * nh);
-  return (2.0 + inv_alpha) * std::pow(sin2, 0.5 * inv_alpha) / (2.0 * kPi);
-}
-
-// The sheen visibility of Neubelt and Pettineo, 1 / (4 (n.l + n.v - n.l n.v)).
-double SheenVisibility(double nl, double nv) { return 1.0 / (4.0 * (nl + nv - nl * nv)); }
-
-// The table behind CharlieSheenAlbedo: E(mu, r) = integral of D V (n.l) over
-// the hemisphere of lights, on a kTableSize^2 grid, by the midpoint rule.
-constexpr int kTableSize = 24;
-using AlbedoTable = std::array<double, kTableSize * kTableSize>;
-
-AlbedoTable IntegrateCharlieAlbedo() {
-  AlbedoTable table{};
-  constexpr int kTheta = 64, kPhi = 64;
-  for (int ir = 0; ir < kTableSize; ++ir) {
-    const double roughness = 0.05 + 0.95 * ir / (kTableSize - 1);
-    for (int im = 0; im < kTableSize; ++im) {
-      const double mu = std::max(0.02, static_cast<double>(im) / (kTableSize - 1));
-      const Eigen::Vector3d v(std::sqrt(1.0 - mu * mu), 0.0, mu);
-      double sum = 0;
-      for (int it = 0; it < kTheta; ++it) {
-        // Uniform in cos(theta): the quadrature weight is d(cos) d(phi).
-        const double cos_t = (it + 0.5) / kTheta, sin_t = std::sqrt(1.0 - cos_t * cos_t);
-        for (int ip = 0; ip < kPhi; ++ip) {
-          const double phi = 2.0 * kPi * (ip + 0.5) / kPhi;
-          const Eigen::Vector3d l(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t);
-          const Eigen::Vector3d h = (l + v).normalized();
-          sum += CharlieDistribution(roughness, h.z()) * SheenVisibility(cos_t, mu) * cos_t;
-        }
-      }
-      table[ir * kTableSize + im] = std::clamp(sum * (2.0 * kPi) / (kTheta * kPhi), 0.0, 1.0);
-    }
-  }
-  return table;
-}
-
 }  // namespace
-
-double CharlieSheenAlbedo(double mu, double roughness) {
-  static const AlbedoTable table = IntegrateCharlieAlbedo();
-  const double fm = std::clamp(mu, 0.0, 1.0) * (kTableSize - 1);
-  const double fr = std::clamp((roughness - 0.05) / 0.95, 0.0, 1.0) * (kTableSize - 1);
-  const int im = std::min(static_cast<int>(fm), kTableSize - 2), ir = std::min(static_cast<int>(fr), kTableSize - 2);
-  const double wm = fm - im, wr = fr - ir;
-  auto at = [&](int r, int m) { return table[r * kTableSize + m]; };
-  return (1 - wr) * ((1 - wm) * at(ir, im) + wm * at(ir, im + 1)) +
-         wr * ((1 - wm) * at(ir + 1, im) + wm * at(ir + 1, im + 1));
-}
 
 double ShadedValue(const ShadingModel& model, const Eigen::Vector3d& n, const Eigen::Vector3d& l,
                    const Eigen::Vector3d& v) {

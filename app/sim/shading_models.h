@@ -19,6 +19,8 @@
 
 #include <Eigen/Core>
 
+#include "solver/engine_shading.h"  // CharlieSheenAlbedo and the other lobes
+
 namespace scanbench {
 
 enum class DiffuseModel { kLambert, kBurley };
@@ -47,9 +49,5 @@ struct ShadingModel {
 double ShadedValue(const ShadingModel& model, const Eigen::Vector3d& n, const Eigen::Vector3d& l,
                    const Eigen::Vector3d& v);
 
-// Directional albedo of Charlie sheen of colour 1 at roughness r and cos of
-// the direction to the normal mu (the E of KHR_materials_sheen's albedo
-// scaling), from a table integrated numerically once. In [0, 1].
-double CharlieSheenAlbedo(double mu, double roughness);
 
 }  // namespace scanbench

@@ -14,6 +14,7 @@
 #include "app/io/dataset_io.h"
 #include "app/io/file_util.h"
 #include "app/io/image_io.h"
+#include "solver/cloth_material.h"
 #include "solver/synthetic_scene.h"
 #include "tests/util/temporary_folder.h"
 
@@ -273,6 +274,84 @@ TEST(DatasetControllerTest, RingLightsKeepsASubsetAndSaysWhichFiles) {
   DatasetController too_many(folder / "sphere", options);
   EXPECT_THAT([&] { too_many.Run(); },
               ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("ring_lights = 13")));
+}
+
+// Issue #34: the material and its leave-one-light-out check on a Lambertian
+// sphere: maps written, no sheen or specular term, both predictions equal.
+TEST(DatasetControllerTest, MaterialWritesItsMapsAndTheRelightingCheck) {
+  TemporaryFolder folder;
+  std::vector<Eigen::Vector3d> dirs, intensities;
+  const SyntheticScene scene = DistantSphere(&dirs, &intensities);
+  WriteDiligentFolder(folder / "sphere", scene, dirs, intensities);
+  DatasetSolveOptions options;
+  options.output_dir = folder / "out";
+  options.material = true;
+  DatasetController controller(folder / "sphere", options);
+  controller.Run();
+  for (const char* name : {"base_color.exr", "sheen_color.exr", "sheen_roughness.exr", "material_specular.exr",
+                           "material_confidence.exr", "material_terms.png"}) {
+    EXPECT_TRUE(fs::is_regular_file(folder / "out" / name)) << name;
+  }
+  std::ifstream in(folder / "out" / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_GT(report["material"]["pixels_fitted"].get<size_t>(), 1000u);
+  EXPECT_EQ(report["material"]["pixels_sheen"].get<size_t>(), 0u);
+  EXPECT_EQ(report["relighting"]["mode"], "leave_one_light_out");
+  EXPECT_EQ(report["relighting"]["lights"].size(), 12u);
+  EXPECT_EQ(report["relighting"]["lights"][0]["file"], "001.png");
+  // The sphere is Lambertian: the material is albedo x n.l, whose prediction
+  // is off by the 16-bit rounding and the sphere's rim alone.
+  EXPECT_NEAR(report["relighting"]["ratio"].get<double>(), 1.0, 1e-6);
+  EXPECT_LT(report["relighting"]["lambertian_error"].get<double>(), 0.01);
+  EXPECT_THAT(controller.summary().FullReport(), HasSubstr("(leave_one_light_out)"));
+}
+
+// --fit-lights and --predict-dir: the photos of the other lights predicted,
+// in the photos' format and bit depth, close to them.
+TEST(DatasetControllerTest, FitLightsPredictsTheOtherLightsAsPhotos) {
+  TemporaryFolder folder;
+  std::vector<Eigen::Vector3d> dirs, intensities;
+  const SyntheticScene scene = DistantSphere(&dirs, &intensities);
+  WriteDiligentFolder(folder / "sphere", scene, dirs, intensities);
+  DatasetSolveOptions options;
+  options.output_dir = folder / "out";
+  options.fit_lights = {1, 2, 3, 5, 7, 9, 11, 12};
+  options.predict_dir = folder / "predicted";
+  DatasetController controller(folder / "sphere", options);
+  controller.Run();
+  EXPECT_EQ(controller.summary().num_lights, 8);
+  EXPECT_EQ(controller.summary().predicted_files, (std::vector<std::string>{"004.png", "006.png", "008.png", "010.png"}));
+  for (const char* name : {"004.png", "006.png", "008.png", "010.png"}) {
+    const fs::path predicted = folder / "predicted" / name;
+    ASSERT_TRUE(fs::is_regular_file(predicted)) << name;
+    EXPECT_EQ(ReadImageFileInfo(predicted).bits_per_sample, 16);
+    // On the pixels that have a material (the sphere; the scene's background is not fitted).
+    const ImageF photo = ReadImageFloat(folder / "sphere" / name), guess = ReadImageFloat(predicted);
+    const ImageU8 terms = ReadImageU8(folder / "out" / "material_terms.png");
+    double error = 0, sum = 0;
+    for (size_t i = 0; i < photo.size(); ++i) {
+      if ((terms.data()[i / 3] & kMaterialFitted) == 0) continue;
+      error += std::abs(photo.data()[i] - guess.data()[i]), sum += photo.data()[i];
+    }
+    EXPECT_GT(sum, 0);
+    EXPECT_LT(error / sum, 0.001) << name;
+  }
+  EXPECT_FALSE(fs::exists(folder / "predicted" / "001.png"));  // a fitted light is not predicted
+  std::ifstream in(folder / "out" / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["relighting"]["mode"], "fit_lights");
+  EXPECT_EQ(report["relighting"]["lights"].size(), 4u);
+  // Bad light numbers name the option's field and the rule.
+  options.output_dir = folder / "out2";
+  options.predict_dir.clear();
+  options.fit_lights = {1, 2, 3, 4, 5, 13};
+  DatasetController out_of_range(folder / "sphere", options);
+  EXPECT_THAT([&] { out_of_range.Run(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("fit_lights = 13")));
+  options.fit_lights = {1, 2, 3};
+  EXPECT_THAT([&] { options.Check(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("at least 6")));
+  options.fit_lights = {};
+  options.predict_dir = folder / "predicted2";
+  EXPECT_THAT([&] { options.Check(); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("needs fit_lights")));
 }
 
 // The DiLiGenT benchmark itself (ball and bear), when the data are there.
