@@ -161,9 +161,11 @@ int ShowInfo(const CameraCommandState& state) {
   line("firmware", info.firmware);
   line("port", info.port);
   for (const CameraSetting setting : {CameraSetting::kIso, CameraSetting::kShutter, CameraSetting::kAperture}) {
-    std::string text;
-    try {
-      const CameraSettingState value = camera->GetSetting(setting);
+    // The GUI's Capture page offers the same (ExposureChoicesOf).
+    const ExposureChoices choices = ExposureChoicesOf(*camera, setting);
+    std::string text = "(not available: " + choices.unavailable + ")";
+    if (choices.state) {
+      const CameraSettingState& value = *choices.state;
       text = value.current.empty() ? "?" : value.current;
       if (value.read_only) text += " (read-only)";
       if (!value.choices.empty()) {
@@ -171,9 +173,6 @@ int ShowInfo(const CameraCommandState& state) {
         for (size_t i = 0; i < value.choices.size(); ++i) text += (i ? ", " : "") + value.choices[i];
         text += "]";
       }
-    } catch (const CameraError& error) {
-      if (error.kind() != CameraErrorKind::kNotSupported) throw;
-      text = "(not available)";
     }
     line(CameraSettingName(setting), text);
   }

@@ -78,6 +78,9 @@ Bench::Bench(const BenchOptions& options, std::shared_ptr<BenchLights> lights)
     camera_ = std::make_unique<GPhotoCamera>(camera_options);
   }
   camera_info_ = camera_->Info();
+  for (const CameraSetting setting : {CameraSetting::kIso, CameraSetting::kShutter, CameraSetting::kAperture}) {
+    exposure_choices_.push_back(ExposureChoicesOf(*camera_, setting));
+  }
 }
 
 RawImage Bench::PreviewRaw() {

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "app/devices/camera/camera.h"
 #include "app/devices/light_controller.h"
@@ -80,6 +81,9 @@ class Bench {
   // Read once at connect (the pages show it; asking again needs the link).
   const LightFirmwareInfo& firmware() const { return lights_->firmware(); }
   const CameraDeviceInfo& camera_info() const { return camera_info_; }
+  // ISO, shutter speed and aperture as the camera allowed them at connect
+  // (ExposureChoicesOf), in that order: what the Capture page offers.
+  const std::vector<ExposureChoices>& exposure_choices() const { return exposure_choices_; }
 
   // Whether PreviewRaw() can give the RAW data behind a live-view frame: the
   // simulated camera only (a DSLR's live view is a JPEG).
@@ -98,6 +102,7 @@ class Bench {
   SimulatedCamera* sim_camera_ = nullptr;  // camera_ when simulated
   RigDescription rig_;
   CameraDeviceInfo camera_info_;
+  std::vector<ExposureChoices> exposure_choices_;
 };
 
 }  // namespace scanbench

@@ -39,6 +39,7 @@
 #include "app/gui/calibration_quality.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
+#include "app/gui/page_widgets.h"
 #include "app/session/calibration_set.h"
 #include "app/session/calibration_target.h"
 #include "app/session/session.h"
@@ -620,13 +621,11 @@ void CalibrationPage::FitHints(Step step) {
 }
 
 void CalibrationPage::SetStepStatus(Step step, const QString& text, bool error) {
-  steps_[step].status->setText(text);
-  steps_[step].status->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+  ShowStatusText(steps_[step].status, text, error);
 }
 
 void CalibrationPage::SetTargetsStatus(const QString& text, bool error) {
-  targets_status_->setText(text);
-  targets_status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+  ShowStatusText(targets_status_, text, error);
 }
 
 // ---------------------------------------------------------------------------

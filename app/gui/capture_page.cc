@@ -2,6 +2,7 @@
 
 #include <QApplication>
 #include <QCheckBox>
+#include <QComboBox>
 #include <QDir>
 #include <QFileDialog>
 #include <QFormLayout>
@@ -16,6 +17,7 @@
 #include <QPushButton>
 #include <QScrollArea>
 #include <QSettings>
+#include <QStringList>
 #include <QThreadPool>
 #include <QTimer>
 #include <QVBoxLayout>
@@ -82,6 +84,26 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   solve_while_capturing_->setChecked(true);
   form->addRow(QString(), solve_while_capturing_);
 
+  // The exposure: the connected camera's values (Bench::exposure_choices).
+  auto* exposure_box = new QGroupBox(tr("Exposure"), this);
+  auto* exposure_form = new QFormLayout(exposure_box);
+  const char* names[] = {"isoChoice", "shutterChoice", "apertureChoice"};
+  const QString labels[] = {tr("ISO"), tr("Shutter speed"), tr("Aperture")};
+  for (int i = 0; i < 3; ++i) {
+    exposure_[i] = new QComboBox(exposure_box);
+    exposure_[i]->setObjectName(names[i]);
+    exposure_[i]->setSizeAdjustPolicy(QComboBox::AdjustToContents);
+    exposure_form->addRow(labels[i], exposure_[i]);
+    connect(exposure_[i], &QComboBox::currentIndexChanged, this, [this, i] {
+      if (!filling_exposure_) chosen_[i] = exposure_[i]->currentData().toString();
+    });
+  }
+  exposure_note_ = new QLabel(exposure_box);
+  exposure_note_->setObjectName("exposureNote");
+  exposure_note_->setWordWrap(true);
+  exposure_note_->setStyleSheet(QStringLiteral("color: #9a7d0a"));
+  exposure_form->addRow(exposure_note_);
+
   start_ = NamedButton(tr("Start capture"), "startCapture", this);
   resume_ = NamedButton(tr("Resume"), "resumeCapture", this);
   cancel_ = NamedButton(tr("Cancel"), "cancelCapture", this);
@@ -112,7 +134,10 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   scroll->setWidgetResizable(true);
 
   auto* layout = new QVBoxLayout(this);
-  layout->addWidget(session_box);
+  auto* boxes = new QHBoxLayout;
+  boxes->addWidget(session_box, 3);
+  boxes->addWidget(exposure_box, 1);
+  layout->addLayout(boxes);
   layout->addLayout(buttons);
   layout->addWidget(blocked_);
   layout->addWidget(progress_);
@@ -132,6 +157,7 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   connect(cancel_, &QPushButton::clicked, runner_, &ControllerRunner::Cancel);
   connect(solve_, &QPushButton::clicked, this, &CapturePage::Solve);
   connect(folder_, &QLineEdit::textChanged, this, &CapturePage::FolderChanged);
+  connect(devices_, &DevicesPage::BenchChanged, this, &CapturePage::ShowExposureChoices);
   connect(devices_, &DevicesPage::BenchChanged, this, &CapturePage::UpdateButtons);
   // One bar for the whole job: with solve-while-capturing the capture's
   // stages and then the solve's, never moving back.
@@ -142,6 +168,7 @@ CapturePage::CapturePage(ControllerRunner* runner, DevicesPage* devices, QWidget
   });
   connect(runner_, &ControllerRunner::Started, this, &CapturePage::UpdateButtons);
   connect(runner_, &ControllerRunner::Finished, this, &CapturePage::UpdateButtons);
+  ShowExposureChoices();
   UpdateButtons();
 }
 
@@ -182,8 +209,49 @@ void CapturePage::ShowJobEnd(const QString& job, int outcome) {
 }
 
 void CapturePage::SetStatus(const QString& text, bool error) {
-  status_->setText(text);
-  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+  ShowStatusText(status_, text, error);
+}
+
+void CapturePage::ShowExposureChoices() {
+  Bench* bench = devices_->bench();
+  QStringList reasons;
+  filling_exposure_ = true;
+  for (size_t i = 0; i < exposure_.size(); ++i) {
+    QComboBox* box = exposure_[i];
+    box->clear();
+    box->addItem(tr("leave the camera's"), QString());
+    box->setToolTip(QString());
+    if (!bench) continue;
+    const ExposureChoices& choices = bench->exposure_choices()[i];
+    for (const std::string& value : choices.values) {
+      box->addItem(QString::fromStdString(value), QString::fromStdString(value));
+    }
+    box->setCurrentIndex(std::max(0, box->findData(chosen_[i])));
+    if (!choices.unavailable.empty()) {
+      const QString why = QString::fromStdString(choices.unavailable);
+      box->setToolTip(why);
+      reasons << why.left(1).toUpper() + why.mid(1) + QStringLiteral(".");
+    }
+  }
+  filling_exposure_ = false;
+  exposure_note_->setText(bench ? reasons.join(' ')
+                                : tr("No camera connected: connect one on the Devices page to choose its ISO, "
+                                     "shutter speed and aperture."));
+  exposure_note_->setVisible(!exposure_note_->text().isEmpty());
+}
+
+bool CapturePage::ExposureFromWidgets(const Bench& bench, ExposureSettings* exposure) {
+  for (size_t i = 0; i < exposure_.size(); ++i) {
+    const ExposureChoices& choices = bench.exposure_choices()[i];
+    try {
+      SetExposureValue(exposure, choices.setting,
+                       ExposureChoiceNumber(choices, exposure_[i]->currentData().toString().toStdString()));
+    } catch (const std::exception& error) {
+      SetStatus(tr("Exposure: %1").arg(error.what()), true);
+      return false;
+    }
+  }
+  return true;
 }
 
 void CapturePage::UpdateButtons() {
@@ -198,6 +266,7 @@ void CapturePage::UpdateButtons() {
   cancel_->setEnabled(busy && (capturing_ || solving_));
   solve_->setEnabled(!busy && state.kind == CaptureFolderState::Kind::kComplete);
   folder_->setReadOnly(capturing_ || solving_);
+  for (QComboBox* box : exposure_) box->setEnabled(has_bench && !capturing_ && !solving_ && box->count() > 1);
   // Why Start capture (or Resume) is off: the operator should not guess.
   QString why;
   if (capturing_ || solving_) {
@@ -244,6 +313,7 @@ void CapturePage::StartCapture(bool resume) {
   options.notes = notes_->toPlainText().toStdString();
   options.check_exposure = check_exposure_->isChecked() && !resume;
   options.resume = resume;
+  if (!ExposureFromWidgets(*bench, &options.exposure)) return;
   if (!resume && options.sample_name.empty()) {
     SetStatus(tr("Enter the sample name: it is recorded in session.json."), true);
     return;

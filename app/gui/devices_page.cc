@@ -241,8 +241,7 @@ BenchOptions DevicesPage::OptionsFromWidgets() const {
 }
 
 void DevicesPage::SetStatus(const QString& text, bool error) {
-  status_->setText(text);
-  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+  ShowStatusText(status_, text, error);
 }
 
 void DevicesPage::ClearLiveView(const QString& why) {

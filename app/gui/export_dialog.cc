@@ -17,6 +17,7 @@
 #include <QVBoxLayout>
 
 #include "app/gui/controller_runner.h"
+#include "app/gui/page_widgets.h"
 #include "app/io/export_contents.h"
 
 namespace scanbench {
@@ -118,9 +119,11 @@ QHBoxLayout* ExportDialog::MakeButtons(QPushButton** close) {
 // The progress bar, the stage and status lines and the summary's text.
 void ExportDialog::MakeProgressWidgets() {
   progress_ = new QProgressBar(this);
+  progress_->setObjectName("exportProgress");
   progress_->setRange(0, 1000);
   progress_->setTextVisible(false);
   stage_ = new QLabel(this);
+  stage_->setObjectName("exportStage");
   status_ = new QLabel(this);
   status_->setObjectName("exportStatus");
   status_->setWordWrap(true);
@@ -192,8 +195,7 @@ QUrl ExportDialog::PreviewUrl() const {
 }
 
 void ExportDialog::SetStatus(const QString& text, bool error) {
-  status_->setText(text);
-  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+  ShowStatusText(status_, text, error);
 }
 
 void ExportDialog::StartExport() {
@@ -228,6 +230,11 @@ void ExportDialog::StartExport() {
         exporting_ = false;
         start_->setEnabled(true);
         cancel_->setEnabled(false);
+        // The end in the stage line, not the last stage's progress.
+        const QString seconds = QString::number(runner_->job_seconds(), 'f', 1);
+        stage_->setText(outcome == ControllerRunner::Outcome::kSucceeded   ? tr("Export finished in %1 s").arg(seconds)
+                        : outcome == ControllerRunner::Outcome::kCancelled ? tr("Export cancelled after %1 s").arg(seconds)
+                                                                           : tr("Export failed after %1 s").arg(seconds));
         if (outcome == ControllerRunner::Outcome::kSucceeded) {
           const ExportSummary& summary = controller->summary();
           export_dir_ = summary.export_dir;

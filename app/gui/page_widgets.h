@@ -2,6 +2,7 @@
 #pragma once
 
 #include <QHBoxLayout>
+#include <QLabel>
 #include <QPushButton>
 #include <QString>
 #include <QWidget>
@@ -22,6 +23,14 @@ inline QHBoxLayout* FieldWithButton(QWidget* field, QWidget* button) {
   row->addWidget(field, 1);
   row->addWidget(button);
   return row;
+}
+
+// A page's status line: `text`, in the error colour when `error`, and the
+// line's "error" property saying so (the walkthrough test looks for it).
+inline void ShowStatusText(QLabel* label, const QString& text, bool error) {
+  label->setText(text);
+  label->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+  label->setProperty("error", error && !text.isEmpty());
 }
 
 }  // namespace scanbench

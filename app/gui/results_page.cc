@@ -218,7 +218,7 @@ void ResultsPage::MakeRenderer() {
     }
   });
   connect(renderer_, &RelightRenderer::Failed, this,
-          [this](const QString& message) { status_->setText(tr("Cannot relight: %1").arg(message)); });
+          [this](const QString& message) { ShowStatusText(status_, tr("Cannot relight: %1").arg(message), true); });
 }
 
 RelightShading ResultsPage::relight_shading() const {
@@ -288,8 +288,10 @@ bool ResultsPage::OpenResult(const QString& dir) {
   if (layers.isEmpty()) {
     keys_->setCurrentIndex(0);
     view_->SetImage(QImage());
-    status_->setText(tr("%1 holds no maps: open a folder under <session>/results/, or solve the session first.")
-                         .arg(dir));
+    ShowStatusText(status_,
+                   tr("%1 holds no maps: open a folder under <session>/results/, or solve the session first.")
+                       .arg(dir),
+                   true);
     return false;
   }
   // The readout's maps, off the UI thread (four full-size maps at 16 MP).
@@ -332,18 +334,20 @@ void ResultsPage::UpdateReadout(int x, int y) {
 void ResultsPage::ShowAlbedoColor() {
   QFile report(QString::fromStdString((result_dir_ / "report.json").string()));
   if (!report.open(QIODevice::ReadOnly)) {
-    albedo_color_->setText(tr("Albedo colour: unknown (no report.json in this folder)"));
+    ShowStatusText(albedo_color_, tr("Albedo colour: unknown (no report.json in this folder)"), true);
     albedo_color_->setToolTip(QString());
     return;
   }
   try {
     const ResultAlbedoColor color = AlbedoColorOfReport(report.readAll().toStdString());
-    albedo_color_->setText(tr("Albedo: %1, %2 — %3")
-                               .arg(QString::fromStdString(color.color_space), QString::fromStdString(color.scale),
-                                    QString::fromStdString(color.description)));
+    ShowStatusText(albedo_color_,
+                   tr("Albedo: %1, %2 — %3")
+                       .arg(QString::fromStdString(color.color_space), QString::fromStdString(color.scale),
+                            QString::fromStdString(color.description)),
+                   false);
     albedo_color_->setToolTip(QString::fromStdString(color.scale_source));
   } catch (const std::exception& error) {
-    albedo_color_->setText(tr("Albedo colour: unknown (%1: %2)").arg(report.fileName(), error.what()));
+    ShowStatusText(albedo_color_, tr("Albedo colour: unknown (%1: %2)").arg(report.fileName(), error.what()), true);
     albedo_color_->setToolTip(QString());
   }
 }
@@ -392,9 +396,10 @@ void ResultsPage::ShowSelectedLayer() {
     }
     const QPoint at = view_->hovered_pixel();
     UpdateReadout(at.x(), at.y());
-    status_->setText(tr("%1 — wheel: zoom, drag: pan, double-click: fit.").arg(ResultLayerName(layer)));
+    ShowStatusText(status_, tr("%1 — wheel: zoom, drag: pan, double-click: fit.").arg(ResultLayerName(layer)),
+                   false);
   } catch (const std::exception& error) {
-    status_->setText(tr("Cannot show %1: %2").arg(ResultLayerName(layer), error.what()));
+    ShowStatusText(status_, tr("Cannot show %1: %2").arg(ResultLayerName(layer), error.what()), true);
   }
 }
 
@@ -405,7 +410,7 @@ void ResultsPage::UpdateRelight(double x, double y, double z) {
   try {
     renderer_->Request(x, y, z, relight_shading());
   } catch (const std::exception& error) {  // an exception must not leave a Qt slot
-    status_->setText(tr("Cannot relight: %1").arg(error.what()));
+    ShowStatusText(status_, tr("Cannot relight: %1").arg(error.what()), true);
   }
 }
 

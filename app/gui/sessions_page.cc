@@ -207,8 +207,7 @@ QProgressBar* SessionsPage::MakeProgressBar() {
 }
 
 void SessionsPage::SetStatus(const QString& text, bool error) {
-  status_->setText(text);
-  status_->setStyleSheet(error ? QStringLiteral("color: #c0392b") : QString());
+  ShowStatusText(status_, text, error);
 }
 
 void SessionsPage::SetRoot(const QString& folder) {

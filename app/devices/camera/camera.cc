@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 #include <string_view>
 
 namespace scanbench {
@@ -241,6 +242,65 @@ std::string MatchSettingValue(const CameraSettingState& state, const std::string
     return FormatNumber(*number);
   }
   return wanted;
+}
+
+ExposureChoices ExposureChoicesOf(Camera& camera, CameraSetting setting) {
+  ExposureChoices choices;
+  choices.setting = setting;
+  const std::string name = CameraSettingName(setting);
+  try {
+    choices.state = camera.GetSetting(setting);
+  } catch (const CameraError& error) {
+    choices.unavailable = error.kind() == CameraErrorKind::kNotSupported
+                              ? "this camera has no " + name + " setting"
+                              : "the camera did not say its " + name + " (" + error.what() + ")";
+    return choices;
+  }
+  const CameraSettingState& state = *choices.state;
+  if (state.read_only) {
+    choices.unavailable = name + " is read-only on this camera" +
+                          (setting == CameraSetting::kAperture ? " (a lens without CPU contacts is set on its ring)"
+                                                               : "");
+    return choices;
+  }
+  for (const std::string& value : state.choices) {
+    if (ParseSettingValue(setting, value)) choices.values.push_back(value);
+  }
+  if (!choices.values.empty()) return choices;
+  if (state.choices.empty()) {
+    choices.unavailable = "this camera takes its " + name + " as a number from " +
+                          FormatNumber(state.range_min.value_or(0)) + " to " +
+                          (state.range_max ? FormatNumber(*state.range_max) : std::string("any")) +
+                          ", not from a list: set it on the camera";
+  } else {
+    choices.unavailable = "none of this camera's " + name + " values is a number (" + JoinChoices(state.choices) + ")";
+  }
+  return choices;
+}
+
+double ExposureChoiceNumber(const ExposureChoices& choices, const std::string& value) {
+  if (value.empty()) return 0;
+  const std::string name = CameraSettingName(choices.setting);
+  if (std::find(choices.values.begin(), choices.values.end(), value) == choices.values.end()) {
+    throw std::invalid_argument(
+        name + " '" + value + "' is not one of the camera's values" +
+        (choices.values.empty() ? " (" + choices.unavailable + ")" : ": " + JoinChoices(choices.values)));
+  }
+  return *ParseSettingValue(choices.setting, value);
+}
+
+void SetExposureValue(ExposureSettings* settings, CameraSetting setting, double value) {
+  switch (setting) {
+    case CameraSetting::kIso:
+      settings->iso = value;
+      return;
+    case CameraSetting::kShutter:
+      settings->exposure_time_s = value;
+      return;
+    case CameraSetting::kAperture:
+      settings->f_number = value;
+      return;
+  }
 }
 
 ExposureSettings Camera::CurrentExposure() {

@@ -115,6 +115,33 @@ std::optional<double> ParseSettingValue(CameraSetting setting, const std::string
 std::string MatchSettingValue(const CameraSettingState& state, const std::string& requested,
                               const std::string& camera);
 
+class Camera;
+
+// One exposure setting as an operator chooses it (the GUI's Capture page;
+// `camera info` lists the same state): the camera's allowed values that name
+// a number, because a capture carries each setting as a number
+// (CaptureOptions.exposure, `capture --iso / --exposure-time / --f-number`)
+// that the camera matches back to its own value; "Auto" or "Bulb" cannot be.
+struct ExposureChoices {
+  CameraSetting setting = CameraSetting::kIso;
+  std::optional<CameraSettingState> state;  // as the camera stated it; nullopt = not read (see unavailable)
+  std::vector<std::string> values;          // the values that may be chosen, in the camera's order
+  std::string unavailable;                  // why none may be chosen; "" when values has some
+};
+
+// Asks `camera` for `setting`. A camera without the setting, or one that
+// fails to answer (CameraError), gives no values and says why.
+ExposureChoices ExposureChoicesOf(Camera& camera, CameraSetting setting);
+
+// The number CaptureOptions.exposure takes for `value`, one of
+// `choices.values` ("1/125" -> 0.008); 0, which leaves the camera's own
+// value, for "". Throws std::invalid_argument naming the setting, the value
+// and the values allowed for anything else.
+double ExposureChoiceNumber(const ExposureChoices& choices, const std::string& value);
+
+// Sets the field of `settings` that `setting` names.
+void SetExposureValue(ExposureSettings* settings, CameraSetting setting, double value);
+
 // The RAW file as the camera wrote it, in memory.
 struct CapturedFrame {
   std::vector<uint8_t> bytes;

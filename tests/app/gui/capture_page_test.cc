@@ -3,8 +3,12 @@
 // folder clears the previous session's thumbnails and summary; one bar per
 // job that never moves back (solve while capturing: the capture's stages,
 // then the solve's) and an end that says finished, on the page and in the
-// status bar; the Devices page's LED buttons after the capture turned them off.
+// status bar; the Devices page's LED buttons after the capture turned them off;
+// the exposure (issue #36 item 13): the simulated camera's own values, off
+// with the reason without a camera, and the values chosen reach the camera
+// and session.json.
 #include <QCheckBox>
+#include <QComboBox>
 #include <QLabel>
 #include <QLineEdit>
 #include <QProgressBar>
@@ -18,6 +22,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "app/devices/camera/simulated_camera.h"
+#include "app/gui/bench.h"
 #include "app/gui/controller_runner.h"
 #include "app/gui/devices_page.h"
 #include "app/gui/main_window.h"
@@ -69,6 +75,14 @@ class CapturePageTest : public QObject {
     TypeFolder(work_.filePath("first"));
     QVERIFY(!Find<QPushButton>("startCapture")->isEnabled());
     QVERIFY2(Blocked().contains("No bench connected"), qPrintable(Blocked()));
+    // No camera, no exposure to choose: the boxes are off and say why.
+    for (const char* name : {"isoChoice", "shutterChoice", "apertureChoice"}) {
+      QVERIFY(!Find<QComboBox>(name)->isEnabled());
+      QCOMPARE(Find<QComboBox>(name)->count(), 1);
+    }
+    const QString no_camera = Find<QLabel>("exposureNote")->text();
+    QVERIFY2(!Find<QLabel>("exposureNote")->isHidden() && no_camera.contains("No camera connected"),
+             qPrintable(no_camera));
     window_->ShowPage(MainWindow::kDevicesPage);
     Find<QSpinBox>("simWidth")->setValue(160);
     Find<QSpinBox>("simHeight")->setValue(106);
@@ -76,6 +90,20 @@ class CapturePageTest : public QObject {
     window_->ShowPage(MainWindow::kCapturePage);
     QVERIFY(Find<QPushButton>("startCapture")->isEnabled());
     QVERIFY2(Blocked().isEmpty(), qPrintable(Blocked()));
+    // Connected: the simulated camera's own values, "leave the camera's" first and chosen.
+    const std::pair<const char*, CameraSetting> boxes[] = {{"isoChoice", CameraSetting::kIso},
+                                                           {"shutterChoice", CameraSetting::kShutter},
+                                                           {"apertureChoice", CameraSetting::kAperture}};
+    for (const auto& [name, setting] : boxes) {
+      auto* box = Find<QComboBox>(name);
+      QVERIFY(box->isEnabled());
+      QCOMPARE(box->currentIndex(), 0);
+      QCOMPARE(box->currentData().toString(), QString());
+      const std::vector<std::string>& values = SimulatedCameraChoices(setting);
+      QCOMPARE(box->count(), int(values.size()) + 1);
+      for (size_t k = 0; k < values.size(); ++k) QCOMPARE(box->itemText(int(k) + 1).toStdString(), values[k]);
+    }
+    QVERIFY(Find<QLabel>("exposureNote")->isHidden());
   }
 
   // A folder that holds other files is refused, naming them (the CLI's rule).
@@ -153,6 +181,44 @@ class CapturePageTest : public QObject {
     QVERIFY(!Find<QPushButton>("resumeCapture")->isEnabled());
     QVERIFY(Find<QPushButton>("solveCaptured")->isEnabled());
     QVERIFY2(Blocked().contains("holds a complete session of 'twill'"), qPrintable(Blocked()));
+  }
+
+  // The exposure chosen is the one the camera takes the frames with, as
+  // `capture --iso 200 --exposure-time 0.004 --f-number 5.6` would; the
+  // capture before it left the camera's own (ISO 100, 1/60 s, f/8).
+  void CarriesTheChosenExposure() {
+    const Session before = LoadSession(work_.filePath("first").toStdString());
+    QCOMPARE(before.camera.iso, 100.0);
+    QCOMPARE(before.camera.exposure_time_s, 1.0 / 60);
+    QCOMPARE(before.camera.f_number, 8.0);
+
+    TypeFolder(work_.filePath("exposed"));
+    Find<QCheckBox>("solveWhileCapturing")->setChecked(false);
+    for (auto [name, value] : {std::pair{"isoChoice", "200"}, std::pair{"shutterChoice", "1/250"},
+                               std::pair{"apertureChoice", "f/5.6"}}) {
+      auto* box = Find<QComboBox>(name);
+      const int index = box->findData(QString::fromLatin1(value));
+      QVERIFY2(index > 0, value);
+      box->setCurrentIndex(index);
+    }
+    QCOMPARE(ClickAndWait("startCapture"), ControllerRunner::Outcome::kSucceeded);
+    Find<QCheckBox>("solveWhileCapturing")->setChecked(true);
+    const Session session = LoadSession(work_.filePath("exposed").toStdString());
+    QCOMPARE(session.camera.iso, 200.0);
+    QCOMPARE(session.camera.exposure_time_s, 1.0 / 250);
+    QCOMPARE(session.camera.f_number, 5.6);
+    QCOMPARE(session.frames.size(), size_t(11));
+    for (const FrameRecord& frame : session.frames) QCOMPARE(frame.exposure_time_s, 1.0 / 250);
+    Camera& camera = window_->devices()->bench()->camera();
+    QCOMPARE(camera.GetSetting(CameraSetting::kIso).current, std::string("200"));
+    QCOMPARE(camera.GetSetting(CameraSetting::kShutter).current, std::string("1/250"));
+    QCOMPARE(camera.GetSetting(CameraSetting::kAperture).current, std::string("f/5.6"));
+    // The choice stays for the next capture, and over a reconnect.
+    QCOMPARE(Find<QComboBox>("isoChoice")->currentData().toString(), QStringLiteral("200"));
+    window_->ShowPage(MainWindow::kDevicesPage);
+    QCOMPARE(ClickAndWait("connectButton", 60000), ControllerRunner::Outcome::kSucceeded);
+    QCOMPARE(Find<QComboBox>("shutterChoice")->currentData().toString(), QStringLiteral("1/250"));
+    QVERIFY(Find<QComboBox>("shutterChoice")->isEnabled());
   }
 };
 

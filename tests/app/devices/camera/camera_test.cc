@@ -105,6 +105,81 @@ TEST(MatchSettingValue, ReadOnlyAndRangeAndFreeSettings) {
   EXPECT_EQ(MatchSettingValue(free_text, " 250 ", "cam"), "250");
 }
 
+// A camera that states fixed settings, or fails to: ExposureChoicesOf's inputs.
+class StatedCamera : public Camera {
+ public:
+  std::optional<CameraSettingState> states[3];
+  CameraErrorKind failure = CameraErrorKind::kNotSupported;
+
+  std::string description() const override { return "camera stated"; }
+  CameraDeviceInfo Info() override { return {}; }
+  CameraSettingState GetSetting(CameraSetting setting) override {
+    const std::optional<CameraSettingState>& state = states[int(setting)];
+    if (!state) throw CameraError(failure, description(), "no such setting");
+    return *state;
+  }
+  void SetSetting(CameraSetting, const std::string&) override {}
+  std::vector<std::string> CheckReady() override { return {}; }
+  CapturedFrame Capture() override { return {}; }
+  PreviewFrame CapturePreview() override { return {}; }
+  void StopPreview() override {}
+  std::vector<CameraEvent> DrainEvents(std::chrono::milliseconds) override { return {}; }
+  void Reconnect() override {}
+};
+
+TEST(ExposureChoices, TheAllowedValuesThatAreNumbersOrWhyNone) {
+  StatedCamera camera;
+  camera.states[int(CameraSetting::kIso)] = Radio(CameraSetting::kIso, {"Auto", "100", "200", "Hi 1"});
+  CameraSettingState shutter;
+  shutter.setting = CameraSetting::kShutter;
+  shutter.range_min = 0.001;
+  shutter.range_max = 30;
+  camera.states[int(CameraSetting::kShutter)] = shutter;
+  CameraSettingState aperture = Radio(CameraSetting::kAperture, {"f/8"});
+  aperture.read_only = true;
+  camera.states[int(CameraSetting::kAperture)] = aperture;
+
+  const ExposureChoices iso = ExposureChoicesOf(camera, CameraSetting::kIso);
+  EXPECT_EQ(iso.values, (std::vector<std::string>{"100", "200"}));
+  EXPECT_EQ(iso.unavailable, "");
+  ASSERT_TRUE(iso.state);
+  EXPECT_EQ(iso.state->choices.size(), 4u);  // the camera's whole list stays for `camera info`
+  EXPECT_EQ(ExposureChoiceNumber(iso, "200"), 200);
+  EXPECT_EQ(ExposureChoiceNumber(iso, ""), 0);  // leave the camera's
+  try {
+    ExposureChoiceNumber(iso, "Auto");
+    FAIL() << "expected invalid_argument";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()), "ISO 'Auto' is not one of the camera's values: 100, 200");
+  }
+
+  const ExposureChoices range = ExposureChoicesOf(camera, CameraSetting::kShutter);
+  EXPECT_TRUE(range.values.empty());
+  EXPECT_THAT(range.unavailable, HasSubstr("shutter speed as a number from 0.001 to 30"));
+  EXPECT_THROW(ExposureChoiceNumber(range, "1/125"), std::invalid_argument);
+
+  const ExposureChoices read_only = ExposureChoicesOf(camera, CameraSetting::kAperture);
+  EXPECT_TRUE(read_only.values.empty());
+  EXPECT_THAT(read_only.unavailable, StartsWith("aperture is read-only on this camera"));
+
+  camera.states[int(CameraSetting::kAperture)].reset();
+  EXPECT_EQ(ExposureChoicesOf(camera, CameraSetting::kAperture).unavailable, "this camera has no aperture setting");
+  camera.failure = CameraErrorKind::kBusy;
+  const ExposureChoices busy = ExposureChoicesOf(camera, CameraSetting::kAperture);
+  EXPECT_FALSE(busy.state);
+  EXPECT_THAT(busy.unavailable, StartsWith("the camera did not say its aperture (camera stated: no such setting)"));
+}
+
+TEST(ExposureChoices, NumbersGoToTheirField) {
+  ExposureSettings settings;
+  SetExposureValue(&settings, CameraSetting::kShutter, 0.008);
+  SetExposureValue(&settings, CameraSetting::kAperture, 5.6);
+  EXPECT_EQ(settings.iso, 0);
+  EXPECT_EQ(settings.exposure_time_s, 0.008);
+  EXPECT_EQ(settings.f_number, 5.6);
+  EXPECT_EQ(ExposureValue(settings, CameraSetting::kShutter), 0.008);
+}
+
 TEST(RawFileNames, ExtensionsAreCaseInsensitive) {
   EXPECT_TRUE(IsRawFileName("DSC_0001.NEF"));
   EXPECT_TRUE(IsRawFileName("frame.dng"));

@@ -137,6 +137,32 @@ TEST(SimulatedCamera, ExposureSettingsScaleTheSignalAndAreRecorded) {
   EXPECT_EQ(camera.GetSetting(CameraSetting::kIso).current, "160");
 }
 
+// What the GUI offers is the simulated camera's own list, and each value,
+// carried as the number a capture takes, sets that very value again.
+TEST(SimulatedCamera, EveryExposureChoiceRoundTripsThroughItsNumber) {
+  SimulatedCamera camera(FlatRig(), [] { return std::optional<int>(); });
+  for (const CameraSetting setting : {CameraSetting::kIso, CameraSetting::kShutter, CameraSetting::kAperture}) {
+    const ExposureChoices choices = ExposureChoicesOf(camera, setting);
+    EXPECT_EQ(choices.unavailable, "");
+    EXPECT_EQ(choices.values, SimulatedCameraChoices(setting));
+    for (const std::string& value : choices.values) {
+      const double number = ExposureChoiceNumber(choices, value);
+      switch (setting) {
+        case CameraSetting::kIso:
+          camera.SetIso(number);
+          break;
+        case CameraSetting::kShutter:
+          camera.SetExposureTime(number);
+          break;
+        case CameraSetting::kAperture:
+          camera.SetFNumber(number);
+          break;
+      }
+      EXPECT_EQ(camera.GetSetting(setting).current, value) << CameraSettingName(setting) << " " << number;
+    }
+  }
+}
+
 // Raw samples that differ between two frames of the same size.
 int DifferingSamples(const RawImage& a, const RawImage& b) {
   int differing = 0;
