@@ -16,12 +16,6 @@ void RelightShading::Check() const {
   if (!(f0 >= 0 && f0 <= 1)) throw FieldError("RelightShading", "f0", f0, "must be in [0, 1]");
 }
 
-double GgxDistribution(double n_dot_h, double roughness) {
-  const double alpha2 = std::pow(roughness, 4);
-  const double denominator = n_dot_h * n_dot_h * (alpha2 - 1) + 1;
-  return alpha2 / (std::numbers::pi * denominator * denominator);
-}
-
 double SchlickSmithG1(double n_dot_x, double roughness) {
   if (n_dot_x <= 0) return 0;
   const double k = (roughness + 1) * (roughness + 1) / 8;
@@ -41,7 +35,7 @@ double GgxSpecularBrdf(const Eigen::Vector3d& normal, const Eigen::Vector3d& lig
   const double n_dot_l = normal.dot(light), n_dot_v = normal.dot(view);
   if (n_dot_l <= 0 || n_dot_v <= 0) return 0;
   const Eigen::Vector3d half = (light + view).normalized();
-  const double d = GgxDistribution(std::max(0.0, normal.dot(half)), roughness);
+  const double d = GgxDistribution(roughness * roughness, std::max(0.0, normal.dot(half)));
   const double f = SphericalGaussianSchlickFresnel(f0, std::clamp(view.dot(half), 0.0, 1.0));
   const double g = SmithSchlickGeometry(n_dot_l, n_dot_v, roughness);
   return d * f * g / (4 * n_dot_l * n_dot_v);

@@ -8,6 +8,8 @@
 
 #include <Eigen/Core>
 
+#include "solver/engine_shading.h"
+
 namespace scanbench {
 
 struct RelightShading {
@@ -19,14 +21,13 @@ struct RelightShading {
   void Check() const;
 };
 
-// D(h) = alpha² / (pi ((n·h)² (alpha² - 1) + 1)²), per steradian.
-double GgxDistribution(double n_dot_h, double roughness);
+// D(h) of GGX: GgxDistribution(alpha = roughness², n·h) of solver/engine_shading.h.
 // G1(x) = (n·x) / ((n·x)(1 - k) + k), k = (roughness + 1)² / 8; 0 for n·x <= 0.
 double SchlickSmithG1(double n_dot_x, double roughness);
 // G = G1(l) G1(v).
 double SmithSchlickGeometry(double n_dot_l, double n_dot_v, double roughness);
 // F = F0 + (1 - F0) 2^((-5.55473 (v·h) - 6.98316) (v·h)): UE4's spherical-Gaussian
-// approximation of Schlick's (1 - v·h)^5 (the exact one: app/sim/cloth_brdf.h).
+// approximation of Schlick's (1 - v·h)^5 (the exact one: solver/engine_shading.h).
 double SphericalGaussianSchlickFresnel(double f0, double v_dot_h);
 // The specular BRDF D F G / (4 (n·l)(n·v)), per steradian; 0 when the light
 // or the viewer is below the surface.
