@@ -20,6 +20,7 @@
 #include <system_error>
 #if defined(__x86_64__)
 #include <immintrin.h>
+#include <cpuid.h>
 #endif
 
 namespace scanbench {
@@ -419,7 +420,11 @@ __attribute__((target("avx,f16c"))) size_t HalfSamplesF16c(const float* values, 
 }
 
 bool HasF16c() {
-  static const bool has = __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+  // F16C is CPUID leaf 1's ECX bit 29, read directly: clang 14's
+  // __builtin_cpu_supports does not know "f16c" (the fuzz build is clang's).
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+  static const bool has =
+      __builtin_cpu_supports("avx") && __get_cpuid(1, &eax, &ebx, &ecx, &edx) != 0 && (ecx & bit_F16C) != 0;
   return has;
 }
 #endif
