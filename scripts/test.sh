@@ -17,4 +17,7 @@ ctest --test-dir build -j2 --output-on-failure || status=$?
 # ctest prints no output of a skipped test: repeat the reasons that script tests give
 # on a "SKIPPED: " line (e.g. the Slurm batch test where Slurm cannot run).
 grep -h '^SKIPPED: ' build/Testing/Temporary/LastTest.log 2>/dev/null || true
+# The libFuzzer harnesses (tests/fuzz) in their clang build folder, build-fuzz: each
+# replays its committed corpus and runs a short fixed budget (docs/robustness.md).
+scripts/fuzz.sh ci || status=$?
 exit "$status"

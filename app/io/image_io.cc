@@ -20,6 +20,7 @@
 #include <system_error>
 #if defined(__x86_64__)
 #include <immintrin.h>
+#include <cpuid.h>
 #endif
 
 namespace scanbench {
@@ -263,11 +264,25 @@ OpenedInput OpenInput(const fs::path& path, bool openexr_core = false) {
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (openexr_core && extension == ".exr") opened.input = OpenExrCoreInput(path, config);
   if (!opened.input) {
-    const std::lock_guard<std::mutex> lock(ReaderChoiceMutex());
-    opened.input = OIIO::ImageInput::open(path.string(), &config);
-  }
-  if (!opened.input) {
-    throw PathError(path, "cannot be read as an image (" + OiioMessage(OIIO::geterror()) + ")");
+    // Only the reader the extension names: when it refuses the file,
+    // ImageInput::open would try every reader OpenImageIO has (DICOM, FITS,
+    // RAW, ...), seconds and gigabytes on a corrupt .exr (found by fuzzing the
+    // export's map reader). An extension no reader claims still gets them all.
+    std::string message;
+    {
+      const std::lock_guard<std::mutex> lock(ReaderChoiceMutex());
+      opened.input = OIIO::ImageInput::create(path.string(), /*do_open=*/false);
+    }
+    if (opened.input) {
+      OIIO::ImageSpec spec;
+      if (!opened.input->open(path.string(), spec, config)) {
+        message = opened.input->geterror();
+        opened.input.reset();
+      }
+    } else {
+      message = OIIO::geterror();
+    }
+    if (!opened.input) throw PathError(path, "cannot be read as an image (" + OiioMessage(message) + ")");
   }
   opened.spec = opened.input->spec();
   if (opened.spec.width <= 0 || opened.spec.height <= 0 || opened.spec.nchannels <= 0 ||
@@ -419,7 +434,11 @@ __attribute__((target("avx,f16c"))) size_t HalfSamplesF16c(const float* values, 
 }
 
 bool HasF16c() {
-  static const bool has = __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+  // F16C is CPUID leaf 1's ECX bit 29, read directly: clang 14's
+  // __builtin_cpu_supports does not know "f16c" (the fuzz build is clang's).
+  unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+  static const bool has =
+      __builtin_cpu_supports("avx") && __get_cpuid(1, &eax, &ebx, &ecx, &edx) != 0 && (ecx & bit_F16C) != 0;
   return has;
 }
 #endif

@@ -260,6 +260,14 @@ std::chrono::system_clock::time_point ParseIso8601Utc(const std::string& text, c
   }
   if (pos + 1 != text.size() || text[pos] != 'Z') fail(" (it must end in Z: UTC)");
   const int64_t seconds = DaysFromCivil(year, month, day) * 86400 + hour * 3600 + minute * 60 + second;
+  // system_clock counts nanoseconds in 64 bits: 1677-09-22 to 2262-04-11. A
+  // time outside would overflow the conversion below (found by fuzzing).
+  using ClockSeconds = std::chrono::duration<int64_t>;
+  constexpr int64_t kFirst =
+      std::chrono::duration_cast<ClockSeconds>(std::chrono::system_clock::duration::min()).count() + 1;
+  constexpr int64_t kLast =
+      std::chrono::duration_cast<ClockSeconds>(std::chrono::system_clock::duration::max()).count() - 1;
+  if (seconds < kFirst || seconds > kLast) fail(" (outside 1677-09-22 to 2262-04-11, the times the system clock holds)");
   return std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
       std::chrono::duration<double>(static_cast<double>(seconds) + fraction)));
 }

@@ -140,6 +140,20 @@ TEST(SessionJsonTest, CheckRejectsBadCreatedTime) {
                    "\"2024-05-01 12:34\" must be an ISO 8601 UTC time");
 }
 
+TEST(SessionJsonTest, CheckRejectsATimeTheClockCannotHold) {
+  // Found by fuzzing (tests/fuzz/corpus/session_json/regression-year-4048): a
+  // year past 2262 overflowed the conversion to system_clock's nanoseconds.
+  Session session = MakeTestSession();
+  session.created = "4048-05-01T12:34:56.789Z";
+  ExpectFieldError(ErrorMessageOf([&] { CheckSession(session, "mem"); }), "mem", "created",
+                   "\"4048-05-01T12:34:56.789Z\" must be an ISO 8601 UTC time like 2024-05-01T12:34:56Z (outside "
+                   "1677-09-22 to 2262-04-11, the times the system clock holds)");
+  session.created = "0001-01-01T00:00:00Z";
+  ExpectFieldError(ErrorMessageOf([&] { CheckSession(session, "mem"); }), "mem", "created", "outside 1677-09-22");
+  session.created = "2262-04-10T00:00:00Z";
+  EXPECT_NO_THROW(CheckSession(session, "mem"));
+}
+
 TEST(SessionJsonTest, CheckRejectsEmptySampleName) {
   Session session = MakeTestSession();
   session.sample_name.clear();
